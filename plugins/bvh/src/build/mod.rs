@@ -1,0 +1,178 @@
+//! Top-down reference builders. Each produces a [`BuiltTree`] over a slice of primitive boxes, with
+//! local ids, so that bBVHs can be built on worker threads and grafted into the global tree later.
+
+mod binned;
+mod median;
+mod sweep;
+
+pub use binned::build_binned;
+pub use median::build_median;
+pub use sweep::build_sweep_sah;
+
+use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
+use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
+use crate::triangle::validate_triangles;
+
+/// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
+/// index `nodes`.
+#[derive(Clone, Debug, Default)]
+pub struct BuiltTree {
+    /// Inner nodes; `parent` is local too.
+    pub nodes: Vec<InnerNode>,
+    /// The root (a leaf when there is one primitive, none when there are none).
+    pub root: NodeRef,
+}
+
+/// Which top-down builder to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TopDown {
+    /// Full sweep over all split positions on all axes (the paper's "SAH").
+    SweepSah,
+    /// 32 bins per axis.
+    BinnedSah,
+    /// Spatial median of the centroid bounds on the longest axis.
+    Median,
+}
+
+impl TopDown {
+    /// Builds a tree over `boxes`.
+    pub fn build(self, boxes: &[Aabb]) -> BuiltTree {
+        match self {
+            TopDown::SweepSah => build_sweep_sah(boxes),
+            TopDown::BinnedSah => build_binned(boxes),
+            TopDown::Median => build_median(boxes),
+        }
+    }
+}
+
+/// Assembles a [`BuiltTree`] from a split procedure: `split(start, range)` reorders `range`
+/// (which is `order[start..start + range.len()]`, at least two primitives) and returns the split
+/// position inside it, strictly between 0 and its length.
+pub(crate) fn assemble(
+    boxes: &[Aabb],
+    order: &mut [u32],
+    mut split: impl FnMut(usize, &mut [u32]) -> usize,
+) -> BuiltTree {
+    let n = order.len();
+    if n == 0 {
+        return BuiltTree { nodes: Vec::new(), root: NodeRef::NONE };
+    }
+    if n == 1 {
+        return BuiltTree { nodes: Vec::new(), root: NodeRef::leaf(order[0]) };
+    }
+    let mut nodes: Vec<InnerNode> = Vec::with_capacity(n - 1);
+    // (range start, range end, parent node, child slot)
+    let mut stack: Vec<(usize, usize, u32, usize)> = vec![(0, n, NONE, 0)];
+    while let Some((s, e, parent, slot)) = stack.pop() {
+        let me = if e - s == 1 {
+            NodeRef::leaf(order[s])
+        } else {
+            let mid = s + split(s, &mut order[s..e]);
+            debug_assert!(mid > s && mid < e);
+            let i = nodes.len() as u32;
+            let aabb = order[s..e].iter().fold(Aabb::EMPTY, |b, &p| b.union(&boxes[p as usize]));
+            nodes.push(InnerNode { aabb, children: [NodeRef::NONE; 2], parent });
+            stack.push((mid, e, i, 1));
+            stack.push((s, mid, i, 0));
+            NodeRef::inner(i)
+        };
+        if parent != NONE {
+            nodes[parent as usize].children[slot] = me;
+        }
+    }
+    BuiltTree { nodes, root: NodeRef::inner(0) }
+}
+
+impl BuiltTree {
+    /// Sum of inner node areas (the part of Eq. 1 a builder controls).
+    pub fn inner_area(&self) -> f32 {
+        self.nodes.iter().map(|n| n.aabb.area()).sum()
+    }
+}
+
+impl Bvh {
+    /// A tree over `tris` (world space, ids in input order) built by a top-down builder.
+    pub fn build_top_down(tris: &[Triangle], builder: TopDown, config: BvhConfig) -> Result<Bvh, BvhError> {
+        validate_triangles(tris)?;
+        let mut bvh = Bvh::new(config);
+        bvh.check_room(tris.len())?;
+        let ids: Vec<u32> = tris.iter().map(|t| bvh.alloc_triangle(*t, NONE)).collect();
+        let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+        let built = builder.build(&boxes);
+        let root = bvh.graft(&built, &ids);
+        if !root.is_none() {
+            bvh.root = root;
+            bvh.changes.root_changed = true;
+        }
+        Ok(bvh)
+    }
+
+    /// Copies `built` into the node arrays, mapping its leaf `k` to triangle `ids[k]`, and returns
+    /// its root, detached.
+    pub(crate) fn graft(&mut self, built: &BuiltTree, ids: &[u32]) -> NodeRef {
+        if built.root.is_none() {
+            return NodeRef::NONE;
+        }
+        let map_node = |r: NodeRef, base: &[u32]| match r.kind() {
+            NodeKind::Inner => NodeRef::inner(base[r.index() as usize]),
+            NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
+            _ => r,
+        };
+        let base: Vec<u32> = (0..built.nodes.len()).map(|_| self.alloc_inner()).collect();
+        for (k, n) in built.nodes.iter().enumerate() {
+            let me = base[k];
+            let children = n.children.map(|c| map_node(c, &base));
+            let parent = if n.parent == NONE { NONE } else { base[n.parent as usize] };
+            self.inner[me as usize] = InnerNode { aabb: n.aabb, children, parent };
+            self.changes.mark_inner(me);
+            for c in children {
+                if c.kind() == NodeKind::Leaf {
+                    self.tri_parent[c.index() as usize] = me;
+                }
+            }
+        }
+        let root = map_node(built.root, &base);
+        self.set_parent(root, NONE);
+        root
+    }
+}
+
+/// Primitives below which a subtree is built on one thread.
+const PARALLEL_THRESHOLD: usize = 1 << 14;
+
+/// Binned SAH, with the two halves of every large node built in parallel (rayon).
+pub fn build_binned_parallel(boxes: &[Aabb]) -> BuiltTree {
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    build_binned_range(boxes, &mut order)
+}
+
+fn build_binned_range(boxes: &[Aabb], order: &mut [u32]) -> BuiltTree {
+    if order.len() < PARALLEL_THRESHOLD {
+        return assemble(boxes, order, |_, r| binned::split_binned(boxes, r));
+    }
+    let mid = binned::split_binned(boxes, order);
+    let (l, r) = order.split_at_mut(mid);
+    let (a, b) = rayon::join(|| build_binned_range(boxes, l), || build_binned_range(boxes, r));
+    merge(a, b, boxes)
+}
+
+/// A tree whose root has `a` and `b` as children.
+fn merge(a: BuiltTree, b: BuiltTree, boxes: &[Aabb]) -> BuiltTree {
+    let mut nodes = Vec::with_capacity(1 + a.nodes.len() + b.nodes.len());
+    let aabb_of = |t: &BuiltTree| match t.root.kind() {
+        NodeKind::Inner => t.nodes[t.root.index() as usize].aabb,
+        NodeKind::Leaf => boxes[t.root.index() as usize],
+        _ => Aabb::EMPTY,
+    };
+    let shift = |r: NodeRef, by: u32| if r.is_inner() { NodeRef::inner(r.index() + by) } else { r };
+    let (oa, ob) = (1u32, 1 + a.nodes.len() as u32);
+    let root_box = aabb_of(&a).union(&aabb_of(&b));
+    nodes.push(InnerNode { aabb: root_box, children: [shift(a.root, oa), shift(b.root, ob)], parent: NONE });
+    for (tree, off) in [(&a, oa), (&b, ob)] {
+        for n in &tree.nodes {
+            let parent = if n.parent == NONE { 0 } else { n.parent + off };
+            nodes.push(InnerNode { aabb: n.aabb, children: n.children.map(|c| shift(c, off)), parent });
+        }
+    }
+    BuiltTree { nodes, root: NodeRef::inner(0) }
+}

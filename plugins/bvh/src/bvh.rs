@@ -1,0 +1,410 @@
+//! The tree: flat arrays indexed by `u32` with free lists, and the primitive edits every builder and
+//! editing operation is made of (link a node next to a sibling, unlink a node, refit upwards).
+
+use crate::change::ChangeLog;
+use crate::group::Group;
+use crate::node::{FREE, InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
+use crate::search::SearchScratch;
+use crate::{Aabb, BvhConfig, BvhError, Triangle};
+use glam::Affine3A;
+
+/// A transformed group's root in the global tree: a leaf-like node whose box is the world box of
+/// its object-space subtree; traversal carries the ray into object space here.
+#[derive(Clone, Copy, Debug)]
+pub struct Instance {
+    /// World-space bounds.
+    pub aabb: Aabb,
+    /// Parent inner node in the global tree, or [`NONE`].
+    pub parent: u32,
+    /// Root of the object-space subtree.
+    pub root: NodeRef,
+    /// Object to world.
+    pub transform: Affine3A,
+    /// World to object, applied to rays.
+    pub inverse: Affine3A,
+    /// Index of the owning group, or [`FREE`] for a freed slot.
+    pub group: u32,
+}
+
+/// A bounding volume hierarchy over triangles, built and edited incrementally.
+#[derive(Clone)]
+pub struct Bvh {
+    pub(crate) inner: Vec<InnerNode>,
+    pub(crate) inner_free: Vec<u32>,
+    pub(crate) tris: Vec<Triangle>,
+    pub(crate) tri_box: Vec<Aabb>,
+    /// Parent inner node of each triangle's leaf; [`FREE`] for a freed triangle slot.
+    pub(crate) tri_parent: Vec<u32>,
+    /// Group of each triangle, or [`NONE`].
+    pub(crate) tri_group: Vec<u32>,
+    pub(crate) tri_free: Vec<u32>,
+    pub(crate) instances: Vec<Instance>,
+    pub(crate) inst_free: Vec<u32>,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) group_free: Vec<u32>,
+    pub(crate) root: NodeRef,
+    pub(crate) config: BvhConfig,
+    /// Node update cache: inner nodes whose boxes insertions changed since the last update batch.
+    pub(crate) cache: Vec<u32>,
+    pub(crate) in_cache: Vec<bool>,
+    pub(crate) recording: bool,
+    pub(crate) changes: ChangeLog,
+    pub(crate) scratch: SearchScratch,
+    pub(crate) update_ops: u64,
+    pub(crate) live_tris: u32,
+}
+
+impl Default for Bvh {
+    fn default() -> Self {
+        Self::new(BvhConfig::default())
+    }
+}
+
+impl Bvh {
+    /// An empty tree.
+    pub fn new(config: BvhConfig) -> Self {
+        Self {
+            inner: Vec::new(),
+            inner_free: Vec::new(),
+            tris: Vec::new(),
+            tri_box: Vec::new(),
+            tri_parent: Vec::new(),
+            tri_group: Vec::new(),
+            tri_free: Vec::new(),
+            instances: Vec::new(),
+            inst_free: Vec::new(),
+            groups: Vec::new(),
+            group_free: Vec::new(),
+            root: NodeRef::NONE,
+            config,
+            cache: Vec::new(),
+            in_cache: Vec::new(),
+            recording: true,
+            changes: ChangeLog::default(),
+            scratch: SearchScratch::default(),
+            update_ops: 0,
+            live_tris: 0,
+        }
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &BvhConfig {
+        &self.config
+    }
+
+    /// Changes the configuration; takes effect from the next operation.
+    pub fn set_config(&mut self, config: BvhConfig) {
+        self.config = config;
+    }
+
+    /// Root of the global tree ([`NodeRef::NONE`] when empty).
+    pub fn root(&self) -> NodeRef {
+        self.root
+    }
+
+    /// Number of live triangles (leaves), baked and instanced.
+    pub fn triangle_count(&self) -> u32 {
+        self.live_tris
+    }
+
+    /// Length of the triangle array, free slots included: the bound of triangle ids.
+    pub fn triangle_capacity(&self) -> u32 {
+        self.tris.len() as u32
+    }
+
+    /// Number of live inner nodes.
+    pub fn inner_count(&self) -> u32 {
+        (self.inner.len() - self.inner_free.len()) as u32
+    }
+
+    /// Length of the inner node array, free slots included: the bound of inner node ids.
+    pub fn inner_capacity(&self) -> u32 {
+        self.inner.len() as u32
+    }
+
+    /// Number of instance slots, free ones included.
+    pub fn instance_capacity(&self) -> u32 {
+        self.instances.len() as u32
+    }
+
+    /// Global updates (re-insertions) performed so far.
+    pub fn update_ops(&self) -> u64 {
+        self.update_ops
+    }
+
+    /// Triangle `id` as stored: world space, or object space for an instanced group.
+    pub fn triangle(&self, id: u32) -> Option<&Triangle> {
+        self.is_live_triangle(id).then(|| &self.tris[id as usize])
+    }
+
+    /// Whether `id` names a live triangle.
+    pub fn is_live_triangle(&self, id: u32) -> bool {
+        (id as usize) < self.tris.len() && self.tri_parent[id as usize] != FREE
+    }
+
+    /// The inner node `i`, if it is live.
+    pub fn inner_node(&self, i: u32) -> Option<&InnerNode> {
+        self.inner.get(i as usize).filter(|n| n.parent != FREE)
+    }
+
+    /// Instance `i`, if it is live.
+    pub fn instance(&self, i: u32) -> Option<&Instance> {
+        self.instances.get(i as usize).filter(|n| n.group != FREE)
+    }
+
+    /// Bounds of the whole scene (world space).
+    pub fn bounds(&self) -> Aabb {
+        if self.root.is_none() { Aabb::EMPTY } else { self.aabb(self.root) }
+    }
+
+    // ---- node access -------------------------------------------------------------------------
+
+    /// Box of any node.
+    #[inline]
+    pub fn aabb(&self, r: NodeRef) -> Aabb {
+        match r.kind() {
+            NodeKind::Inner => self.inner[r.index() as usize].aabb,
+            NodeKind::Leaf => self.tri_box[r.index() as usize],
+            NodeKind::Instance => self.instances[r.index() as usize].aabb,
+            NodeKind::None => Aabb::EMPTY,
+        }
+    }
+
+    /// Parent inner node of any node, or [`NONE`].
+    #[inline]
+    pub fn parent(&self, r: NodeRef) -> u32 {
+        match r.kind() {
+            NodeKind::Inner => self.inner[r.index() as usize].parent,
+            NodeKind::Leaf => self.tri_parent[r.index() as usize],
+            NodeKind::Instance => self.instances[r.index() as usize].parent,
+            NodeKind::None => NONE,
+        }
+    }
+
+    #[inline]
+    pub(crate) fn set_parent(&mut self, r: NodeRef, p: u32) {
+        match r.kind() {
+            NodeKind::Inner => self.inner[r.index() as usize].parent = p,
+            NodeKind::Leaf => self.tri_parent[r.index() as usize] = p,
+            NodeKind::Instance => self.instances[r.index() as usize].parent = p,
+            NodeKind::None => {}
+        }
+    }
+
+    // ---- allocation ----------------------------------------------------------------------------
+
+    pub(crate) fn alloc_inner(&mut self) -> u32 {
+        let node = InnerNode { aabb: Aabb::EMPTY, children: [NodeRef::NONE; 2], parent: NONE };
+        if let Some(i) = self.inner_free.pop() {
+            self.inner[i as usize] = node;
+            i
+        } else {
+            let i = self.inner.len() as u32;
+            self.inner.push(node);
+            self.in_cache.push(false);
+            self.changes.grow_inner(self.inner.len());
+            i
+        }
+    }
+
+    pub(crate) fn free_inner(&mut self, i: u32) {
+        self.inner[i as usize].parent = FREE;
+        self.inner[i as usize].children = [NodeRef::NONE; 2];
+        self.inner_free.push(i);
+        self.changes.mark_inner(i);
+    }
+
+    /// Checks that `extra` more triangles fit in 30-bit ids.
+    pub(crate) fn check_room(&self, extra: usize) -> Result<(), BvhError> {
+        let tris = self.tris.len() - self.tri_free.len() + extra;
+        if tris > MAX_INDEX as usize / 2 {
+            return Err(BvhError::TooLarge { limit: MAX_INDEX / 2 });
+        }
+        Ok(())
+    }
+
+    /// Stores a triangle (not yet in the tree) and returns its id.
+    pub(crate) fn alloc_triangle(&mut self, t: Triangle, group: u32) -> u32 {
+        let id = if let Some(id) = self.tri_free.pop() {
+            self.tris[id as usize] = t;
+            self.tri_box[id as usize] = t.aabb();
+            self.tri_parent[id as usize] = NONE;
+            self.tri_group[id as usize] = group;
+            id
+        } else {
+            let id = self.tris.len() as u32;
+            self.tris.push(t);
+            self.tri_box.push(t.aabb());
+            self.tri_parent.push(NONE);
+            self.tri_group.push(group);
+            id
+        };
+        self.live_tris += 1;
+        self.changes.mark_triangle(id, self.tris.len());
+        id
+    }
+
+    pub(crate) fn free_triangle(&mut self, id: u32) {
+        self.tri_parent[id as usize] = FREE;
+        self.tri_group[id as usize] = NONE;
+        self.tri_free.push(id);
+        self.live_tris -= 1;
+        self.changes.mark_triangle(id, self.tris.len());
+    }
+
+    pub(crate) fn alloc_instance(&mut self, inst: Instance) -> u32 {
+        let i = if let Some(i) = self.inst_free.pop() {
+            self.instances[i as usize] = inst;
+            i
+        } else {
+            self.instances.push(inst);
+            self.instances.len() as u32 - 1
+        };
+        self.changes.mark_instance(i);
+        i
+    }
+
+    pub(crate) fn free_instance(&mut self, i: u32) {
+        self.instances[i as usize].group = FREE;
+        self.instances[i as usize].parent = FREE;
+        self.inst_free.push(i);
+        self.changes.mark_instance(i);
+    }
+
+    // ---- structural edits ----------------------------------------------------------------------
+
+    /// Makes `l` the sibling of `x` under the fresh inner node `p`, which takes `x`'s place, then
+    /// refits upwards. `l` must be detached.
+    pub(crate) fn link(&mut self, l: NodeRef, x: NodeRef, p: u32) {
+        let xp = self.parent(x);
+        let aabb = self.aabb(x).union(&self.aabb(l));
+        self.inner[p as usize] = InnerNode { aabb, children: [x, l], parent: xp };
+        self.set_parent(x, p);
+        self.set_parent(l, p);
+        self.changes.mark_inner(p);
+        self.record(p);
+        if xp == NONE {
+            self.root = NodeRef::inner(p);
+            self.changes.root_changed = true;
+        } else {
+            let node = &mut self.inner[xp as usize];
+            let slot = (node.children[1] == x) as usize;
+            node.children[slot] = NodeRef::inner(p);
+            self.changes.mark_inner(xp);
+            self.refit_from(xp);
+        }
+    }
+
+    /// Inserts the detached node `l` (a leaf, an instance or a subtree root) at the best position
+    /// found by the branch-and-bound search, using `p` as the new inner node.
+    pub(crate) fn insert_node_with(&mut self, l: NodeRef, p: u32) {
+        if self.root.is_none() {
+            self.free_inner(p);
+            self.root = l;
+            self.set_parent(l, NONE);
+            self.changes.root_changed = true;
+            return;
+        }
+        let bl = self.aabb(l);
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let x = self.find_best_sibling(&bl, &mut scratch);
+        self.scratch = scratch;
+        self.link(l, x, p);
+    }
+
+    /// Inserts the detached node `l` at the best position.
+    pub(crate) fn insert_node(&mut self, l: NodeRef) {
+        if self.root.is_none() {
+            self.root = l;
+            self.set_parent(l, NONE);
+            self.changes.root_changed = true;
+            return;
+        }
+        let p = self.alloc_inner();
+        self.insert_node_with(l, p);
+    }
+
+    /// Detaches `n` (with its subtree) from the global tree. Its sibling takes the parent's place;
+    /// the parent node is detached too and returned for reuse ([`NONE`] if `n` was the root).
+    pub(crate) fn unlink(&mut self, n: NodeRef) -> u32 {
+        let p = self.parent(n);
+        self.set_parent(n, NONE);
+        if p == NONE {
+            debug_assert_eq!(self.root, n);
+            self.root = NodeRef::NONE;
+            self.changes.root_changed = true;
+            return NONE;
+        }
+        let pn = self.inner[p as usize];
+        let s = if pn.children[0] == n { pn.children[1] } else { pn.children[0] };
+        let g = pn.parent;
+        self.set_parent(s, g);
+        self.inner[p as usize].parent = NONE;
+        self.inner[p as usize].children = [NodeRef::NONE; 2];
+        self.changes.mark_inner(p);
+        if g == NONE {
+            self.root = s;
+            self.changes.root_changed = true;
+        } else {
+            let gn = &mut self.inner[g as usize];
+            let slot = (gn.children[1] == NodeRef::inner(p)) as usize;
+            gn.children[slot] = s;
+            self.changes.mark_inner(g);
+            self.refit_from(g);
+        }
+        p
+    }
+
+    /// Recomputes boxes from inner node `i` upwards, stopping where a box no longer changes
+    /// (above that point every box already contains what lies below).
+    pub(crate) fn refit_from(&mut self, mut i: u32) {
+        while i != NONE {
+            let [a, b] = self.inner[i as usize].children;
+            let aabb = self.aabb(a).union(&self.aabb(b));
+            let node = &mut self.inner[i as usize];
+            if node.aabb == aabb {
+                break;
+            }
+            node.aabb = aabb;
+            let parent = node.parent;
+            self.changes.mark_inner(i);
+            self.record(i);
+            i = parent;
+        }
+    }
+
+    /// Adds an inner node to the node update cache while insertions are recorded.
+    #[inline]
+    pub(crate) fn record(&mut self, i: u32) {
+        if self.recording && self.config.global_updates && !self.in_cache[i as usize] {
+            self.in_cache[i as usize] = true;
+            self.cache.push(i);
+        }
+    }
+
+    /// Whether inner node `i` is reachable from the global root (not freed, not inside an instance).
+    pub(crate) fn in_global_tree(&self, i: u32) -> bool {
+        let mut n = NodeRef::inner(i);
+        loop {
+            let p = self.parent(n);
+            if p == FREE {
+                return false;
+            }
+            if p == NONE {
+                return n == self.root;
+            }
+            n = NodeRef::inner(p);
+        }
+    }
+
+    /// Inner node ids in the subtree under `r` (instances are not entered).
+    pub(crate) fn collect_inner(&self, r: NodeRef, out: &mut Vec<u32>) {
+        let mut stack = vec![r];
+        while let Some(n) = stack.pop() {
+            if n.is_inner() {
+                out.push(n.index());
+                stack.extend_from_slice(&self.inner[n.index() as usize].children);
+            }
+        }
+    }
+}

@@ -1,0 +1,157 @@
+//! What changed since the last export, so a renderer uploads only that.
+
+use std::ops::Range;
+
+/// Dirty flags and lists, cleared by [`crate::Bvh::take_changes`].
+#[derive(Clone, Default)]
+pub(crate) struct ChangeLog {
+    inner_dirty: Vec<bool>,
+    inner_list: Vec<u32>,
+    tri_dirty: Vec<bool>,
+    tri_list: Vec<u32>,
+    inst_dirty: Vec<bool>,
+    inst_list: Vec<u32>,
+    pub(crate) root_changed: bool,
+}
+
+impl ChangeLog {
+    pub(crate) fn grow_inner(&mut self, len: usize) {
+        self.inner_dirty.resize(len, false);
+    }
+
+    #[inline]
+    pub(crate) fn mark_inner(&mut self, i: u32) {
+        let i = i as usize;
+        if i >= self.inner_dirty.len() {
+            self.inner_dirty.resize(i + 1, false);
+        }
+        if !self.inner_dirty[i] {
+            self.inner_dirty[i] = true;
+            self.inner_list.push(i as u32);
+        }
+    }
+
+    #[inline]
+    pub(crate) fn mark_triangle(&mut self, id: u32, len: usize) {
+        if self.tri_dirty.len() < len {
+            self.tri_dirty.resize(len, false);
+        }
+        if !self.tri_dirty[id as usize] {
+            self.tri_dirty[id as usize] = true;
+            self.tri_list.push(id);
+        }
+    }
+
+    pub(crate) fn mark_instance(&mut self, i: u32) {
+        let i = i as usize;
+        if i >= self.inst_dirty.len() {
+            self.inst_dirty.resize(i + 1, false);
+        }
+        if !self.inst_dirty[i] {
+            self.inst_dirty[i] = true;
+            self.inst_list.push(i as u32);
+        }
+    }
+
+    /// Marks everything dirty, for a consumer that must start over.
+    pub(crate) fn mark_all(&mut self, inner: u32, tris: u32, instances: u32) {
+        for i in 0..inner {
+            self.mark_inner(i);
+        }
+        for t in 0..tris {
+            self.mark_triangle(t, tris as usize);
+        }
+        for i in 0..instances {
+            self.mark_instance(i);
+        }
+        self.root_changed = true;
+    }
+
+    pub(crate) fn take(&mut self, live_tri: impl Fn(u32) -> bool, sizes: (u32, u32, u32)) -> ChangeSet {
+        let mut inner = std::mem::take(&mut self.inner_list);
+        for &i in &inner {
+            self.inner_dirty[i as usize] = false;
+        }
+        inner.sort_unstable();
+        let mut tris = std::mem::take(&mut self.tri_list);
+        for &t in &tris {
+            self.tri_dirty[t as usize] = false;
+        }
+        tris.sort_unstable();
+        let (written, removed): (Vec<u32>, Vec<u32>) = tris.into_iter().partition(|&t| live_tri(t));
+        let mut instances = std::mem::take(&mut self.inst_list);
+        for &i in &instances {
+            self.inst_dirty[i as usize] = false;
+        }
+        instances.sort_unstable();
+        let root_changed = std::mem::replace(&mut self.root_changed, false);
+        ChangeSet {
+            inner_ranges: coalesce(&inner),
+            written_triangles: written,
+            removed_triangles: removed,
+            instances,
+            root_changed,
+            inner_capacity: sizes.0,
+            triangle_capacity: sizes.1,
+            instance_capacity: sizes.2,
+        }
+    }
+}
+
+/// Turns sorted ids into ranges of consecutive ids.
+fn coalesce(ids: &[u32]) -> Vec<Range<u32>> {
+    let mut out: Vec<Range<u32>> = Vec::new();
+    for &i in ids {
+        match out.last_mut() {
+            Some(r) if r.end == i => r.end += 1,
+            _ => out.push(i..i + 1),
+        }
+    }
+    out
+}
+
+/// Everything that changed since the previous [`crate::Bvh::take_changes`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ChangeSet {
+    /// Inner node ids whose GPU records must be rewritten, as sorted disjoint ranges.
+    pub inner_ranges: Vec<Range<u32>>,
+    /// Triangle ids added or moved: their vertex data must be uploaded.
+    pub written_triangles: Vec<u32>,
+    /// Triangle ids removed (their slots may be reused later).
+    pub removed_triangles: Vec<u32>,
+    /// Instance ids added, moved or removed.
+    pub instances: Vec<u32>,
+    /// Whether the root reference changed.
+    pub root_changed: bool,
+    /// Inner node array length now (the GPU buffer must hold this many).
+    pub inner_capacity: u32,
+    /// Triangle array length now.
+    pub triangle_capacity: u32,
+    /// Instance array length now.
+    pub instance_capacity: u32,
+}
+
+impl ChangeSet {
+    /// Number of inner node records to rewrite.
+    pub fn inner_count(&self) -> u32 {
+        self.inner_ranges.iter().map(|r| r.end - r.start).sum()
+    }
+
+    /// Whether nothing changed.
+    pub fn is_empty(&self) -> bool {
+        self.inner_ranges.is_empty()
+            && self.written_triangles.is_empty()
+            && self.removed_triangles.is_empty()
+            && self.instances.is_empty()
+            && !self.root_changed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn coalesce_ranges() {
+        assert_eq!(super::coalesce(&[1, 2, 3, 7, 9, 10]), vec![1..4, 7..8, 9..11]);
+        assert!(super::coalesce(&[]).is_empty());
+    }
+}

@@ -1,0 +1,68 @@
+//! Parameters of the cost model and of the incremental construction.
+
+/// Inefficiency measure used to pick nodes for global updates (Bittner et al. 2013).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Inefficiency {
+    /// `M_sum * M_min * M_area`, the paper's default.
+    #[default]
+    Comb,
+    /// The node's surface area.
+    Area,
+    /// Area over the mean of the children's areas.
+    Sum,
+    /// Area over the smaller child's area.
+    Min,
+}
+
+/// Everything the incremental builders and the cost model can be tuned by.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhConfig {
+    /// Cost of traversing an inner node (c_T in Eq. 1).
+    pub c_t: f32,
+    /// Cost of intersecting a triangle (c_I in Eq. 1).
+    pub c_i: f32,
+    /// Whether insertions are interleaved with global updates (IncrU rather than Incr).
+    pub global_updates: bool,
+    /// N_u: modified nodes collected before a batch of updates runs.
+    pub update_cache_size: u32,
+    /// k_u: fraction of the cached nodes that are updated in a batch.
+    pub update_fraction: f32,
+    /// Inefficiency measure ranking the cached nodes.
+    pub inefficiency: Inefficiency,
+    /// Pair consecutive coherent triangles before insertion.
+    pub clustering: bool,
+    /// R_max: pairs with R_coh below it are clustered, batches with R*_coh below it are not split further.
+    pub coherence_max: f32,
+    /// IncrUPB: the largest batch built into one bBVH, so that coherent streams still give parallel work.
+    pub block_max_batch: u32,
+    /// IncrUP: items searched in parallel before they are linked one by one.
+    pub parallel_search_batch: u32,
+}
+
+impl Default for BvhConfig {
+    fn default() -> Self {
+        Self {
+            c_t: 1.0,
+            c_i: 1.0,
+            global_updates: true,
+            update_cache_size: 8000,
+            update_fraction: 0.01,
+            inefficiency: Inefficiency::Comb,
+            clustering: true,
+            coherence_max: 1.5,
+            block_max_batch: 1024,
+            parallel_search_batch: 16,
+        }
+    }
+}
+
+impl BvhConfig {
+    /// The paper's Incr: insertion only, with clustering.
+    pub fn incr() -> Self {
+        Self { global_updates: false, ..Self::default() }
+    }
+    /// The paper's IncrU: insertion with global updates through the node update cache.
+    pub fn incr_u() -> Self {
+        Self::default()
+    }
+}

@@ -1,0 +1,95 @@
+//! Sequential incremental construction: Incr and IncrU (section 4 of the paper).
+
+use crate::node::{InnerNode, NONE, NodeRef};
+use crate::triangle::validate_triangles;
+use crate::{Aabb, Bvh, BvhError, Triangle};
+
+/// R_coh(x, y) = S(x ∪ y) / (S(x) + S(y)): below R_max two primitives are worth inserting as a pair.
+#[inline]
+pub fn coherence(a: &Aabb, b: &Aabb) -> f32 {
+    let sum = a.area() + b.area();
+    if sum <= 0.0 {
+        // Two degenerate (zero-area) boxes: coherent only if they coincide.
+        return if a.union_area(b) <= 0.0 { 0.0 } else { f32::INFINITY };
+    }
+    a.union_area(b) / sum
+}
+
+impl Bvh {
+    /// Inserts world-space triangles one by one (Incr, or IncrU when global updates are enabled),
+    /// pairing coherent consecutive triangles when clustering is on. Returns the new triangle ids, in
+    /// input order (`0..n` for a fresh tree).
+    /// Rejects the whole batch, inserting nothing, if any vertex is NaN, infinite or absurdly large.
+    pub fn insert_triangles(&mut self, tris: &[Triangle]) -> Result<Vec<u32>, BvhError> {
+        validate_triangles(tris)?;
+        self.check_room(tris.len())?;
+        let mut ids = Vec::with_capacity(tris.len());
+        let mut pending: Option<u32> = None;
+        for t in tris {
+            let id = self.alloc_triangle(*t, NONE);
+            ids.push(id);
+            pending = self.insert_clustered(pending, id);
+        }
+        if let Some(p) = pending {
+            self.insert_item(NodeRef::leaf(p));
+        }
+        Ok(ids)
+    }
+
+    /// One step of the clustering state machine: pairs `id` with the pending triangle if coherent,
+    /// else inserts the pending one and keeps `id` pending. Returns the new pending triangle.
+    pub(crate) fn insert_clustered(&mut self, pending: Option<u32>, id: u32) -> Option<u32> {
+        if !self.config.clustering {
+            self.insert_item(NodeRef::leaf(id));
+            return None;
+        }
+        match pending {
+            None => Some(id),
+            Some(p) => {
+                let (bp, bi) = (self.tri_box[p as usize], self.tri_box[id as usize]);
+                if coherence(&bp, &bi) < self.config.coherence_max {
+                    let pair = self.make_pair(NodeRef::leaf(p), NodeRef::leaf(id));
+                    self.insert_item(pair);
+                    None
+                } else {
+                    self.insert_item(NodeRef::leaf(p));
+                    Some(id)
+                }
+            }
+        }
+    }
+
+    /// A detached inner node over two detached nodes.
+    pub(crate) fn make_pair(&mut self, a: NodeRef, b: NodeRef) -> NodeRef {
+        let n = self.alloc_inner();
+        let aabb = self.aabb(a).union(&self.aabb(b));
+        self.inner[n as usize] = InnerNode { aabb, children: [a, b], parent: NONE };
+        self.set_parent(a, n);
+        self.set_parent(b, n);
+        self.changes.mark_inner(n);
+        NodeRef::inner(n)
+    }
+
+    /// Inserts one detached item and runs a batch of global updates when the cache is full.
+    pub(crate) fn insert_item(&mut self, item: NodeRef) {
+        if item.is_inner() {
+            self.record(item.index());
+        }
+        self.insert_node(item);
+        self.maybe_update();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coherence_of_neighbours_and_strangers() {
+        let a = Aabb::new(glam::Vec3::ZERO, glam::Vec3::ONE);
+        let b = Aabb::new(glam::Vec3::new(1.0, 0.0, 0.0), glam::Vec3::new(2.0, 1.0, 1.0));
+        let far = Aabb::new(glam::Vec3::splat(10.0), glam::Vec3::splat(11.0));
+        assert!(coherence(&a, &b) < 1.5);
+        assert!(coherence(&a, &far) > 1.5);
+    }
+}

@@ -1,0 +1,109 @@
+//! Best-first branch-and-bound search for the sibling that minimises the SAH cost increase
+//! (Bittner et al. 2013, as summarised in the paper's section 4.2).
+
+use crate::node::{NodeKind, NodeRef};
+use crate::{Aabb, Bvh};
+
+/// Reusable priority queue, so a search allocates nothing once warmed up.
+#[derive(Clone, Default)]
+pub struct SearchScratch {
+    heap: Vec<(f32, NodeRef)>,
+}
+
+impl SearchScratch {
+    #[inline]
+    fn push(&mut self, cost: f32, node: NodeRef) {
+        self.heap.push((cost, node));
+        let mut i = self.heap.len() - 1;
+        while i > 0 {
+            let p = (i - 1) / 2;
+            if self.heap[p].0 <= self.heap[i].0 {
+                break;
+            }
+            self.heap.swap(p, i);
+            i = p;
+        }
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(f32, NodeRef)> {
+        let last = self.heap.pop()?;
+        if self.heap.is_empty() {
+            return Some(last);
+        }
+        let top = std::mem::replace(&mut self.heap[0], last);
+        let n = self.heap.len();
+        let mut i = 0;
+        loop {
+            let l = 2 * i + 1;
+            if l >= n {
+                break;
+            }
+            let r = l + 1;
+            let c = if r < n && self.heap[r].0 < self.heap[l].0 { r } else { l };
+            if self.heap[i].0 <= self.heap[c].0 {
+                break;
+            }
+            self.heap.swap(i, c);
+            i = c;
+        }
+        Some(top)
+    }
+}
+
+impl Bvh {
+    /// The node whose becoming the sibling of a node with box `l` increases the tree's total inner
+    /// surface area the least. Exact with respect to the current tree. The tree must not be empty.
+    pub fn find_best_sibling(&self, l: &Aabb, scratch: &mut SearchScratch) -> NodeRef {
+        let s_l = l.area();
+        let root = self.root;
+        let mut best = root;
+        let mut c_best = self.aabb(root).union_area(l);
+        scratch.heap.clear();
+        scratch.push(0.0, root);
+        while let Some((c_i, x)) = scratch.pop() {
+            if c_i + s_l >= c_best {
+                break;
+            }
+            let (bx, children) = match x.kind() {
+                NodeKind::Inner => {
+                    let n = &self.inner[x.index() as usize];
+                    (n.aabb, Some(n.children))
+                }
+                _ => (self.aabb(x), None),
+            };
+            let s_union = bx.union_area(l);
+            let c = c_i + s_union;
+            if c < c_best {
+                best = x;
+                c_best = c;
+            }
+            if let Some([a, b]) = children {
+                let c_child = c - bx.area();
+                if c_child + s_l < c_best {
+                    scratch.push(c_child, a);
+                    scratch.push(c_child, b);
+                }
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heap_pops_in_order() {
+        let mut s = SearchScratch::default();
+        for (i, c) in [5.0, 1.0, 3.0, 0.5, 9.0, 2.0].into_iter().enumerate() {
+            s.push(c, NodeRef::inner(i as u32));
+        }
+        let mut out = vec![];
+        while let Some((c, _)) = s.pop() {
+            out.push(c);
+        }
+        assert_eq!(out, vec![0.5, 1.0, 2.0, 3.0, 5.0, 9.0]);
+    }
+}

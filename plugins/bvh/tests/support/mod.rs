@@ -1,0 +1,94 @@
+//! Shared helpers for the engine's integration tests: scenes, rays, brute-force checks.
+#![allow(dead_code)]
+
+use treelight_bvh::glam::Vec3;
+use treelight_bvh::{Bvh, Ray, Triangle};
+
+/// Small deterministic PRNG (xorshift64*), so tests need no extra crates and repeat exactly.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    pub fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+    pub fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+}
+
+/// Random small triangles scattered in a cube, with some shared edges and some big ones.
+pub fn soup(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut r = Rng(seed | 1);
+    (0..n)
+        .map(|_| {
+            let c = r.vec3(-10.0, 10.0);
+            let s = if r.f32() < 0.1 { 5.0 } else { 0.6 };
+            Triangle::new(c + r.vec3(-s, s), c + r.vec3(-s, s), c + r.vec3(-s, s))
+        })
+        .collect()
+}
+
+/// Rays from points around the scene towards points inside it.
+pub fn rays(n: usize, seed: u64, extent: f32) -> Vec<Ray> {
+    let mut r = Rng(seed | 1);
+    (0..n)
+        .map(|_| {
+            let o = r.vec3(-extent * 1.5, extent * 1.5);
+            let target = r.vec3(-extent, extent);
+            Ray::new(o, target - o)
+        })
+        .collect()
+}
+
+/// Asserts that the tree's closest hits equal brute force over its triangles for every ray.
+pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
+    for (k, ray) in rays.iter().enumerate() {
+        let a = bvh.closest_hit(ray);
+        let b = bvh.brute_force_closest_hit(ray);
+        match (a, b) {
+            (None, None) => {}
+            (Some(a), Some(b)) => {
+                // Equal distance; the triangle may differ only where two are hit at the same t.
+                assert!(
+                    (a.t - b.t).abs() <= 1e-4 * b.t.abs().max(1.0),
+                    "ray {k}: bvh t={} tri {} vs brute t={} tri {}",
+                    a.t,
+                    a.triangle,
+                    b.t,
+                    b.triangle
+                );
+            }
+            (a, b) => panic!("ray {k}: bvh {a:?} vs brute force {b:?}"),
+        }
+        if let Some(b) = b {
+            assert!(bvh.any_hit(&ray.with_range(ray.t_min, b.t * 1.0001 + 1e-6)).is_some(), "ray {k}: any_hit missed");
+        }
+    }
+}
+
+/// Loads an OBJ from ../shared/scenes/obj, fan-triangulated in file order.
+pub fn load_obj(name: &str) -> Vec<Triangle> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj").join(name);
+    let (models, _) = tobj::load_obj(
+        &path,
+        &tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() },
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut tris = Vec::new();
+    for m in models {
+        let p = &m.mesh.positions;
+        let v = |i: u32| Vec3::new(p[3 * i as usize], p[3 * i as usize + 1], p[3 * i as usize + 2]);
+        for f in m.mesh.indices.chunks_exact(3) {
+            tris.push(Triangle::new(v(f[0]), v(f[1]), v(f[2])));
+        }
+    }
+    tris
+}
