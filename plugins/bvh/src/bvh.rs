@@ -52,6 +52,9 @@ pub struct Bvh {
     pub(crate) scratch: SearchScratch,
     pub(crate) update_ops: u64,
     pub(crate) live_tris: u32,
+    /// Running sum of changes to the global tree's inner node areas, so a move's effect on Eq. 1 is
+    /// known exactly without recosting the tree.
+    pub(crate) area_acc: f64,
 }
 
 impl Default for Bvh {
@@ -84,6 +87,7 @@ impl Bvh {
             scratch: SearchScratch::default(),
             update_ops: 0,
             live_tris: 0,
+            area_acc: 0.0,
         }
     }
 
@@ -279,6 +283,7 @@ impl Bvh {
         let xp = self.parent(x);
         let aabb = self.aabb(x).union(&self.aabb(l));
         self.inner[p as usize] = InnerNode { aabb, children: [x, l], parent: xp };
+        self.area_acc += aabb.area() as f64;
         self.set_parent(x, p);
         self.set_parent(l, p);
         self.changes.mark_inner(p);
@@ -339,6 +344,7 @@ impl Bvh {
         let s = if pn.children[0] == n { pn.children[1] } else { pn.children[0] };
         let g = pn.parent;
         self.set_parent(s, g);
+        self.area_acc -= pn.aabb.area() as f64;
         self.inner[p as usize].parent = NONE;
         self.inner[p as usize].children = [NodeRef::NONE; 2];
         self.changes.mark_inner(p);
@@ -356,18 +362,20 @@ impl Bvh {
     }
 
     /// Recomputes boxes from inner node `i` upwards, stopping where a box no longer changes
-    /// (above that point every box already contains what lies below).
+    /// (above that point every box already contains what lies below). A node's GPU record holds its
+    /// children's boxes, so every node reached is marked changed: its child's box just changed.
     pub(crate) fn refit_from(&mut self, mut i: u32) {
         while i != NONE {
+            self.changes.mark_inner(i);
             let [a, b] = self.inner[i as usize].children;
             let aabb = self.aabb(a).union(&self.aabb(b));
             let node = &mut self.inner[i as usize];
             if node.aabb == aabb {
                 break;
             }
+            self.area_acc += aabb.area() as f64 - node.aabb.area() as f64;
             node.aabb = aabb;
             let parent = node.parent;
-            self.changes.mark_inner(i);
             self.record(i);
             i = parent;
         }

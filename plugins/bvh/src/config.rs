@@ -37,6 +37,8 @@ pub struct BvhConfig {
     pub block_max_batch: u32,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,
+    /// Undo an update that would raise the cost (the paper notes keeping every move works too).
+    pub keep_only_improving: bool,
 }
 
 impl Default for BvhConfig {
@@ -52,6 +54,7 @@ impl Default for BvhConfig {
             coherence_max: 1.5,
             block_max_batch: 1024,
             parallel_search_batch: 16,
+            keep_only_improving: false,
         }
     }
 }

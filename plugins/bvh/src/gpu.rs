@@ -22,12 +22,12 @@ pub struct GpuNode {
     pub b_ref: u32,
     /// Right child's box minimum.
     pub b_min: [f32; 3],
-    /// Parent inner node, or `u32::MAX`.
-    pub parent: u32,
+    /// Padding (the GPU traverses with a stack and needs no parent links).
+    pub pad0: u32,
     /// Right child's box maximum.
     pub b_max: [f32; 3],
     /// Padding to 64 bytes.
-    pub pad: u32,
+    pub pad1: u32,
 }
 
 /// One triangle for the GPU: three padded vertices, 48 bytes.
@@ -77,7 +77,7 @@ impl Bvh {
     pub fn gpu_node(&self, i: u32) -> GpuNode {
         let n = &self.inner[i as usize];
         if n.parent == FREE {
-            return GpuNode { a_ref: NodeRef::NONE.0, b_ref: NodeRef::NONE.0, parent: u32::MAX, ..Default::default() };
+            return GpuNode { a_ref: NodeRef::NONE.0, b_ref: NodeRef::NONE.0, ..Default::default() };
         }
         let (a, b) = (self.aabb(n.children[0]), self.aabb(n.children[1]));
         GpuNode {
@@ -86,9 +86,9 @@ impl Bvh {
             a_max: a.max.to_array(),
             b_ref: n.children[1].0,
             b_min: b.min.to_array(),
-            parent: n.parent,
+            pad0: 0,
             b_max: b.max.to_array(),
-            pad: 0,
+            pad1: 0,
         }
     }
 

@@ -440,9 +440,10 @@ impl Bvh {
         if root.is_none() {
             return;
         }
-        // Iterative post-order: (node, children visited).
+        // Iterative post-order: (node, children visited). Results carry whether the node's box changed,
+        // because the parent's GPU record holds its children's boxes.
         let mut stack: Vec<(NodeRef, bool)> = vec![(root, false)];
-        let mut results: Vec<NodeRef> = Vec::new();
+        let mut results: Vec<(NodeRef, bool)> = Vec::new();
         while let Some((n, visited)) = stack.pop() {
             match n.kind() {
                 NodeKind::Inner if !visited => {
@@ -452,38 +453,38 @@ impl Bvh {
                     stack.push((a, false));
                 }
                 NodeKind::Inner => {
-                    let b = results.pop().unwrap_or(NodeRef::NONE);
-                    let a = results.pop().unwrap_or(NodeRef::NONE);
+                    let (b, b_changed) = results.pop().unwrap_or((NodeRef::NONE, false));
+                    let (a, a_changed) = results.pop().unwrap_or((NodeRef::NONE, false));
                     let i = n.index();
                     let kept = match (a.is_none(), b.is_none()) {
                         (true, true) => {
                             self.free_inner(i);
-                            NodeRef::NONE
+                            (NodeRef::NONE, true)
                         }
                         (false, true) | (true, false) => {
                             self.free_inner(i);
-                            if a.is_none() { b } else { a }
+                            (if a.is_none() { b } else { a }, true)
                         }
                         (false, false) => {
                             let old = self.inner[i as usize];
                             let aabb = self.aabb(a).union(&self.aabb(b));
-                            if old.children != [a, b] || old.aabb != aabb {
+                            if old.children != [a, b] || a_changed || b_changed {
                                 self.inner[i as usize].children = [a, b];
                                 self.inner[i as usize].aabb = aabb;
                                 self.changes.mark_inner(i);
                             }
                             self.set_parent(a, i);
                             self.set_parent(b, i);
-                            n
+                            (n, old.aabb != aabb)
                         }
                     };
                     results.push(kept);
                 }
-                NodeKind::Leaf if doomed[n.index() as usize] => results.push(NodeRef::NONE),
-                _ => results.push(n),
+                NodeKind::Leaf if doomed[n.index() as usize] => results.push((NodeRef::NONE, true)),
+                _ => results.push((n, false)),
             }
         }
-        let new_root = results.pop().unwrap_or(NodeRef::NONE);
+        let new_root = results.pop().map_or(NodeRef::NONE, |r| r.0);
         if new_root != self.root {
             self.root = new_root;
             self.changes.root_changed = true;

@@ -49,4 +49,5 @@ pub use ray::{Hit, Ray, RayData};
 pub use search::SearchScratch;
 pub use traverse::TraversalStats;
 pub use triangle::{MAX_COORDINATE, Triangle, validate_triangles};
+pub use update::{PostPass, PostPassReport};
 pub use glam;

@@ -132,19 +132,27 @@ impl Bvh {
         best.is_some()
     }
 
-    /// Ids of live triangles whose (world-space) bounding boxes overlap `query`, appended to `out`.
+    /// Ids of live triangles whose world-space bounding boxes overlap `query`, appended to `out`.
     pub fn overlapping_triangles(&self, query: &Aabb, out: &mut Vec<u32>) {
-        self.overlap_in(self.root, query, out);
+        self.overlap_in(self.root, None, query, out);
     }
 
-    fn overlap_in(&self, root: NodeRef, query: &Aabb, out: &mut Vec<u32>) {
+    /// Inside an instance (`xf` = object to world) every node box is tested after transforming it to
+    /// world space: that box contains the world boxes of all triangles below, so nothing is missed.
+    fn overlap_in(&self, root: NodeRef, xf: Option<&glam::Affine3A>, query: &Aabb, out: &mut Vec<u32>) {
         if root.is_none() {
             return;
         }
         let mut stack = NodeStack::new();
         stack.push(root);
         while let Some(n) = stack.pop() {
-            if !self.aabb(n).overlaps(query) {
+            let b = self.aabb(n);
+            let world = match (xf, n.kind()) {
+                (Some(t), NodeKind::Leaf) => self.tris[n.index() as usize].transformed(t).aabb(),
+                (Some(t), _) => b.transformed(t),
+                (None, _) => b,
+            };
+            if !world.overlaps(query) {
                 continue;
             }
             match n.kind() {
@@ -156,19 +164,7 @@ impl Bvh {
                 NodeKind::Leaf => out.push(n.index()),
                 NodeKind::Instance => {
                     let inst = &self.instances[n.index() as usize];
-                    // Candidates from the conservative object-space box, then the exact world box test.
-                    let local = query.transformed(&inst.inverse);
-                    let start = out.len();
-                    self.overlap_in(inst.root, &local, out);
-                    let mut k = start;
-                    while k < out.len() {
-                        let world = self.tris[out[k] as usize].transformed(&inst.transform).aabb();
-                        if world.overlaps(query) {
-                            k += 1;
-                        } else {
-                            out.swap_remove(k);
-                        }
-                    }
+                    self.overlap_in(inst.root, Some(&inst.transform), query, out);
                 }
                 NodeKind::None => {}
             }

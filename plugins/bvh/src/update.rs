@@ -1,7 +1,7 @@
 //! Global updates: remove an inefficient node and re-insert its two children at better places,
 //! driven by the node update cache (paper section 4.3), plus the optional post-pass.
 
-use crate::node::{NONE, NodeKind, NodeRef};
+use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::{Bvh, Inefficiency};
 
 impl Bvh {
@@ -66,9 +66,13 @@ impl Bvh {
     }
 
     /// Removes inner node `n` and its parent, then inserts `n`'s two children separately with the
-    /// search, reusing the two freed inner nodes for them.
-    pub(crate) fn reinsert_children(&mut self, n: u32) {
+    /// search, reusing the two freed inner nodes for them. With `keep_only_improving`, a move that
+    /// raises the total inner area is undone. Returns whether the move was kept.
+    pub(crate) fn reinsert_children(&mut self, n: u32) -> bool {
         let [a, b] = self.inner[n as usize].children;
+        let old_area = self.inner[n as usize].aabb.area() as f64;
+        let sibling = self.sibling(NodeRef::inner(n));
+        let before = self.area_acc;
         let p = self.unlink(NodeRef::inner(n));
         debug_assert_ne!(p, NONE);
         self.set_parent(a, NONE);
@@ -78,14 +82,61 @@ impl Bvh {
         self.insert_node_with(first, n);
         self.insert_node_with(second, p);
         self.update_ops += 1;
+        let delta = self.area_acc - before - old_area;
+        if !self.config.keep_only_improving || delta <= 0.0 {
+            return true;
+        }
+        // Undo: take both out again (the later one first, so each comes back with its own parent
+        // node) and put `n` back over them next to its old sibling.
+        let p = self.unlink(second);
+        let n2 = self.unlink(first);
+        let (n, p) = if n2 == n { (n, p) } else { (p, n) };
+        let aabb = self.aabb(a).union(&self.aabb(b));
+        self.inner[n as usize] = InnerNode { aabb, children: [a, b], parent: NONE };
+        self.set_parent(a, n);
+        self.set_parent(b, n);
+        self.changes.mark_inner(n);
+        self.link(NodeRef::inner(n), sibling, p);
+        false
     }
 
-    /// The post-pass ("BVH postprocessing", [9]): `rounds` rounds, each re-inserting the children of
-    /// the `fraction` of all inner nodes with the highest inefficiency. Returns the updates done.
-    pub fn optimize(&mut self, rounds: u32, fraction: f32) -> u64 {
+    /// Moves the subtree under `n` to its best position (Meister and Bittner's re-insertion): a
+    /// different move from [`Bvh::reinsert_children`], and one that escapes its local minima.
+    /// Undone like it when it raises the cost. Returns whether the move was kept.
+    pub(crate) fn reinsert_subtree(&mut self, n: u32) -> bool {
+        let sibling = self.sibling(NodeRef::inner(n));
+        let before = self.area_acc;
+        let p = self.unlink(NodeRef::inner(n));
+        debug_assert_ne!(p, NONE);
+        self.insert_node_with(NodeRef::inner(n), p);
+        self.update_ops += 1;
+        if !self.config.keep_only_improving || self.area_acc - before <= 0.0 {
+            return true;
+        }
+        let p = self.unlink(NodeRef::inner(n));
+        self.link(NodeRef::inner(n), sibling, p);
+        false
+    }
+
+    /// The other child of `n`'s parent. `n` must not be the root.
+    fn sibling(&self, n: NodeRef) -> NodeRef {
+        let [a, b] = self.inner[self.parent(n) as usize].children;
+        if a == n { b } else { a }
+    }
+
+    /// The post-pass ("BVH postprocessing", [9]): rounds of updates after construction. Each round
+    /// ranks the chosen fraction of inner nodes by inefficiency and moves each (children re-insertion
+    /// in even rounds, subtree re-insertion in odd ones), keeping only moves that lower the cost; it
+    /// stops early once a round gains less than `min_relative_gain`.
+    pub fn optimize(&mut self, pass: PostPass) -> PostPassReport {
         let before = self.update_ops;
+        let cost_before = self.sah_cost();
+        let saved = self.config.keep_only_improving;
+        self.config.keep_only_improving = true;
         let mut nodes = Vec::new();
-        for _ in 0..rounds {
+        let mut rounds = 0;
+        let mut cost = cost_before;
+        for round in 0..pass.max_rounds {
             nodes.clear();
             if self.root.kind() == NodeKind::Inner {
                 self.collect_inner(self.root, &mut nodes);
@@ -95,9 +146,62 @@ impl Bvh {
                 .filter(|&&i| self.inner[i as usize].parent != NONE)
                 .map(|&i| (self.inefficiency(i), i))
                 .collect();
-            let k = ((fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
-            self.update_top(&mut candidates, k);
+            let k = ((pass.fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
+            if k < candidates.len() {
+                candidates.select_nth_unstable_by(k.saturating_sub(1), |a, b| b.0.total_cmp(&a.0));
+            }
+            candidates[..k].sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+            let recording = std::mem::replace(&mut self.recording, false);
+            for &(_, i) in &candidates[..k] {
+                if self.updatable(i) {
+                    if round % 2 == 0 {
+                        self.reinsert_children(i);
+                    } else {
+                        self.reinsert_subtree(i);
+                    }
+                }
+            }
+            self.recording = recording;
+            rounds += 1;
+            let new_cost = self.sah_cost();
+            let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
+            cost = new_cost;
+            // Both move kinds must have had their turn before convergence is judged.
+            if round >= 1 && gain < pass.min_relative_gain {
+                break;
+            }
         }
-        self.update_ops - before
+        self.config.keep_only_improving = saved;
+        PostPassReport { rounds, updates: self.update_ops - before, cost_before, cost_after: cost }
     }
+}
+
+/// Settings of the post-pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PostPass {
+    /// Most rounds to run.
+    pub max_rounds: u32,
+    /// Fraction of inner nodes (the most inefficient) tried per round.
+    pub fraction: f32,
+    /// Stop when a round lowers the cost by less than this fraction.
+    pub min_relative_gain: f32,
+}
+
+impl Default for PostPass {
+    fn default() -> Self {
+        Self { max_rounds: 8, fraction: 1.0, min_relative_gain: 1e-3 }
+    }
+}
+
+/// What a post-pass did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PostPassReport {
+    /// Rounds run.
+    pub rounds: u32,
+    /// Moves tried.
+    pub updates: u64,
+    /// SAH cost before.
+    pub cost_before: f32,
+    /// SAH cost after.
+    pub cost_after: f32,
 }

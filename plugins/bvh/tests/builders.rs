@@ -25,7 +25,7 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     out.push(("incrupb", upb));
     let mut post = Bvh::new(small);
     post.insert_triangles(tris).unwrap();
-    post.optimize(3, 0.05);
+    post.optimize(treelight_bvh::PostPass::default());
     out.push(("incru-post", post));
     out
 }
