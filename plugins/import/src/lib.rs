@@ -1,0 +1,139 @@
+//! # treelight_import
+//!
+//! Reads scene files into plain meshes with world transforms, for the editor (which turns them into
+//! Bevy entities) and for the benchmark (which turns them into triangles). Every failure names the
+//! file and the problem; nothing outside the opened file and the buffers beside it is read.
+
+mod gltf_scene;
+mod obj_scene;
+
+use glam::{Mat4, Vec3};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+pub use gltf_scene::load_gltf;
+pub use obj_scene::load_obj;
+
+/// Most vertices or indices accepted in one file, so a hostile header cannot exhaust memory.
+pub const MAX_ELEMENTS: usize = 1 << 28;
+
+/// A file that could not be imported.
+#[derive(Debug, Error, PartialEq)]
+#[error("{}: {problem}", file.display())]
+pub struct ImportError {
+    /// The file opened.
+    pub file: PathBuf,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+impl ImportError {
+    pub(crate) fn new(file: &Path, problem: impl Into<String>) -> Self {
+        Self { file: file.to_owned(), problem: problem.into() }
+    }
+}
+
+/// Surface parameters, a subset of glTF's metallic-roughness model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportedMaterial {
+    /// Material name, or a generated one.
+    pub name: String,
+    /// Linear RGBA base colour factor.
+    pub base_color: [f32; 4],
+    /// Metalness factor.
+    pub metallic: f32,
+    /// Perceptual roughness factor.
+    pub roughness: f32,
+    /// Linear emitted radiance (factor times strength).
+    pub emissive: [f32; 3],
+}
+
+impl Default for ImportedMaterial {
+    fn default() -> Self {
+        Self { name: "default".into(), base_color: [0.8, 0.8, 0.8, 1.0], metallic: 0.0, roughness: 0.6, emissive: [0.0; 3] }
+    }
+}
+
+/// One triangle mesh placed in the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportedMesh {
+    /// Node (or object) name.
+    pub name: String,
+    /// Object to world.
+    pub transform: Mat4,
+    /// Vertex positions, object space.
+    pub positions: Vec<[f32; 3]>,
+    /// Vertex normals, if the file has them.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Texture coordinates, if the file has them.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Triangle list indices into the vertex arrays, all in range.
+    pub indices: Vec<u32>,
+    /// Index into [`ImportedScene::materials`].
+    pub material: Option<usize>,
+}
+
+impl ImportedMesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Triangles in world space, in index order.
+    pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
+        let m = self.transform;
+        self.indices.chunks_exact(3).map(move |f| f.map(|i| m.transform_point3(Vec3::from(self.positions[i as usize]))))
+    }
+}
+
+/// What a file held.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImportedScene {
+    /// Meshes in file order.
+    pub meshes: Vec<ImportedMesh>,
+    /// Materials referenced by the meshes.
+    pub materials: Vec<ImportedMaterial>,
+    /// Things skipped, each naming what and why (non-triangle primitives, say).
+    pub warnings: Vec<String>,
+}
+
+impl ImportedScene {
+    /// All triangles in world space, mesh by mesh in file order.
+    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        self.meshes.iter().flat_map(|m| m.world_triangles()).collect()
+    }
+
+    /// Total triangle count.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.triangle_count()).sum()
+    }
+}
+
+/// Loads a scene by its extension: `.gltf`, `.glb` or `.obj`.
+pub fn load_scene(path: &Path) -> Result<ImportedScene, ImportError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("gltf") | Some("glb") => load_gltf(path),
+        Some("obj") => load_obj(path),
+        _ => Err(ImportError::new(path, "unsupported file type (expected .gltf, .glb or .obj)")),
+    }
+}
+
+/// Rejects non-finite positions, naming the mesh.
+pub(crate) fn check_positions(file: &Path, mesh: &str, positions: &[[f32; 3]]) -> Result<(), ImportError> {
+    if let Some(i) = positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        return Err(ImportError::new(file, format!("mesh '{mesh}' has a NaN or infinite position at vertex {i}")));
+    }
+    Ok(())
+}
+
+/// Rejects indices past the vertex arrays, naming the mesh.
+pub(crate) fn check_indices(file: &Path, mesh: &str, indices: &[u32], vertices: usize) -> Result<(), ImportError> {
+    if let Some(&i) = indices.iter().find(|&&i| i as usize >= vertices) {
+        return Err(ImportError::new(
+            file,
+            format!("mesh '{mesh}' has index {i}, past its {vertices} vertices"),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! `--screenshot PATH --frames N`: render N frames, save the whole window, exit.
+
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use std::path::PathBuf;
+
+/// What the command line asked for.
+#[derive(Resource, Debug, Clone)]
+pub struct CaptureRequest {
+    /// Where to save; `None` exits after `frames` frames without a screenshot.
+    pub path: Option<PathBuf>,
+    /// Frames to render first.
+    pub frames: u32,
+    /// Frames rendered so far.
+    pub rendered: u32,
+    /// Whether the screenshot was requested.
+    pub requested: bool,
+}
+
+/// Counts frames; at the chosen one, asks for a screenshot (or exits).
+pub fn count_frames_and_capture(mut commands: Commands, mut request: ResMut<CaptureRequest>, mut exit: MessageWriter<AppExit>) {
+    request.rendered += 1;
+    if request.requested || request.rendered < request.frames {
+        return;
+    }
+    request.requested = true;
+    match request.path.clone() {
+        None => {
+            exit.write(AppExit::Success);
+        }
+        Some(path) => {
+            commands.spawn(Screenshot::primary_window()).observe(save_and_exit(path));
+        }
+    }
+}
+
+fn save_and_exit(path: PathBuf) -> impl FnMut(On<ScreenshotCaptured>, MessageWriter<AppExit>) {
+    move |captured, mut exit| {
+        let result = captured
+            .image
+            .clone()
+            .try_into_dynamic()
+            .map_err(|e| e.to_string())
+            .and_then(|img| img.to_rgb8().save(&path).map_err(|e| e.to_string()));
+        match result {
+            Ok(()) => {
+                info!("screenshot saved to {}", path.display());
+                exit.write(AppExit::Success);
+            }
+            Err(e) => {
+                error!("cannot save the screenshot to {}: {e}", path.display());
+                exit.write(AppExit::error());
+            }
+        }
+    }
+}

@@ -1,0 +1,70 @@
+//! Treelight, the editor: a Bevy scene editor whose viewport is a live path-traced preview.
+//! The binary `treelight` parses the command line and runs [`build_app`].
+
+pub mod camera;
+pub mod capture;
+pub mod cli;
+pub mod default_scene;
+pub mod selection;
+pub mod ui;
+
+use bevy::camera::visibility::RenderLayers;
+use bevy::camera::{CameraOutputMode, ClearColorConfig};
+use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
+use bevy::prelude::*;
+use bevy::render::render_resource::BlendState;
+use bevy_egui::{EguiGlobalSettings, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext};
+
+/// The editor as a Bevy app, configured from the command line.
+pub fn build_app(cli: &cli::Cli) -> App {
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window {
+            title: "Treelight".into(),
+            resolution: bevy::window::WindowResolution::new(cli.width, cli.height),
+            ..default()
+        }),
+        ..default()
+    }))
+    .add_plugins((EguiPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
+    .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
+    .init_resource::<selection::Selection>()
+    .init_resource::<ui::EditorDock>()
+    .init_resource::<ui::ViewportRect>()
+    .add_systems(Startup, (setup_cameras, default_scene::spawn_default_scene))
+    .add_systems(EguiPrimaryContextPass, ui::editor_ui)
+    .add_systems(Update, (selection::drop_stale_selection, camera::apply_orbit, ui::fit_camera_viewport));
+    if cli.screenshot.is_some() || cli.frames.is_some() {
+        app.insert_resource(capture::CaptureRequest {
+            path: cli.screenshot.clone(),
+            frames: cli.frames.unwrap_or(10).max(1),
+            rendered: 0,
+            requested: false,
+        })
+        .add_systems(Last, capture::count_frames_and_capture);
+    }
+    app
+}
+
+fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGlobalSettings>) {
+    let orbit = camera::OrbitCamera::default();
+    commands.spawn((Name::new("Editor camera"), Camera3d::default(), orbit.transform(), orbit));
+    // egui gets its own camera drawn over the 3D view, so the 3D camera's viewport can shrink to the
+    // viewport panel without clipping the panels.
+    egui_settings.auto_create_primary_context = false;
+    commands.spawn((
+        Name::new("Editor UI camera"),
+        PrimaryEguiContext,
+        Camera2d,
+        RenderLayers::none(),
+        Camera {
+            order: 1,
+            output_mode: CameraOutputMode::Write {
+                blend_state: Some(BlendState::ALPHA_BLENDING),
+                clear_color: ClearColorConfig::None,
+            },
+            clear_color: ClearColorConfig::Custom(Color::NONE),
+            ..default()
+        },
+    ));
+}

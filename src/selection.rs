@@ -1,0 +1,21 @@
+//! What belongs to the edited scene, and what is selected.
+
+use bevy::prelude::*;
+
+/// Marks entities that are part of the edited scene (listed in the outliner), as opposed to the
+/// editor's own camera and UI.
+#[derive(Component, Debug, Default, Clone, Copy)]
+pub struct SceneObject;
+
+/// The selected scene entity, if any.
+#[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
+pub struct Selection(pub Option<Entity>);
+
+/// Clears the selection when its entity is gone.
+pub fn drop_stale_selection(mut selection: ResMut<Selection>, objects: Query<(), With<SceneObject>>) {
+    if let Some(e) = selection.0
+        && objects.get(e).is_err()
+    {
+        selection.0 = None;
+    }
+}

@@ -1,0 +1,311 @@
+//! The docked editor panels: viewport, outliner, inspector, and a status bar.
+
+use crate::camera::OrbitCamera;
+use crate::selection::{SceneObject, Selection};
+use bevy::camera::Viewport;
+use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::prelude::*;
+use bevy::window::PrimaryWindow;
+use bevy_egui::{EguiContexts, egui};
+use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
+
+/// The panels that can be docked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EditorTab {
+    /// The 3D view.
+    Viewport,
+    /// The list of scene entities.
+    Outliner,
+    /// The selected entity's properties.
+    Inspector,
+}
+
+/// The dock layout, kept between frames so the user's rearrangements persist.
+#[derive(Resource)]
+pub struct EditorDock(pub DockState<EditorTab>);
+
+impl Default for EditorDock {
+    fn default() -> Self {
+        let mut state = DockState::new(vec![EditorTab::Viewport]);
+        let tree = state.main_surface_mut();
+        let [viewport, _outliner] = tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
+        tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
+        Self(state)
+    }
+}
+
+/// Where the viewport panel is, in physical pixels, for the 3D camera.
+#[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
+pub struct ViewportRect {
+    /// Top-left corner.
+    pub position: UVec2,
+    /// Size; zero while the panel is hidden.
+    pub size: UVec2,
+}
+
+/// One row of the outliner.
+struct OutlinerRow {
+    entity: Entity,
+    name: String,
+    kind: &'static str,
+}
+
+/// Editable copy of the selected entity's properties; written back only when changed, so an
+/// untouched inspector never marks the transform as changed.
+#[derive(Clone, PartialEq)]
+struct InspectorState {
+    name: String,
+    translation: Vec3,
+    rotation_deg: Vec3,
+    scale: Vec3,
+}
+
+struct EditorTabs<'a> {
+    rows: &'a [OutlinerRow],
+    selection: &'a mut Selection,
+    inspected: Option<&'a mut InspectorState>,
+    orbit: Option<&'a mut OrbitCamera>,
+    viewport: &'a mut egui::Rect,
+}
+
+impl TabViewer for EditorTabs<'_> {
+    type Tab = EditorTab;
+
+    fn id(&mut self, tab: &mut EditorTab) -> egui::Id {
+        egui::Id::new(("treelight-tab", *tab))
+    }
+
+    fn title(&mut self, tab: &mut EditorTab) -> egui::WidgetText {
+        match tab {
+            EditorTab::Viewport => "Viewport".into(),
+            EditorTab::Outliner => "Outliner".into(),
+            EditorTab::Inspector => "Inspector".into(),
+        }
+    }
+
+    fn clear_background(&self, tab: &EditorTab) -> bool {
+        // The 3D camera draws underneath the viewport panel.
+        *tab != EditorTab::Viewport
+    }
+
+    fn closeable(&mut self, _tab: &mut EditorTab) -> bool {
+        false
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, tab: &mut EditorTab) {
+        match tab {
+            EditorTab::Viewport => self.viewport_ui(ui),
+            EditorTab::Outliner => self.outliner_ui(ui),
+            EditorTab::Inspector => self.inspector_ui(ui),
+        }
+    }
+}
+
+impl EditorTabs<'_> {
+    fn viewport_ui(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        *self.viewport = rect;
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let Some(orbit) = self.orbit.as_deref_mut() else { return };
+        let delta = response.drag_delta();
+        let delta = Vec2::new(delta.x, delta.y);
+        let pan = ui.input(|i| i.modifiers.shift);
+        if response.dragged_by(egui::PointerButton::Primary) && !pan {
+            orbit.rotate(delta);
+        } else if response.dragged_by(egui::PointerButton::Secondary)
+            || response.dragged_by(egui::PointerButton::Middle)
+            || (response.dragged_by(egui::PointerButton::Primary) && pan)
+        {
+            orbit.pan(delta, rect.height());
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                orbit.zoom(scroll / 50.0);
+            }
+        }
+    }
+
+    fn outliner_ui(&mut self, ui: &mut egui::Ui) {
+        egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| {
+            for row in self.rows {
+                let selected = self.selection.0 == Some(row.entity);
+                let label = format!("{}  {}", row.kind, row.name);
+                if ui.selectable_label(selected, label).clicked() {
+                    self.selection.0 = Some(row.entity);
+                }
+            }
+            if self.rows.is_empty() {
+                ui.weak("The scene is empty.");
+            }
+        });
+    }
+
+    fn inspector_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(state) = self.inspected.as_deref_mut() else {
+            ui.weak("Select an entity in the outliner.");
+            return;
+        };
+        egui::Grid::new("inspector").num_columns(2).spacing([8.0, 6.0]).show(ui, |ui| {
+            ui.label("Name");
+            ui.text_edit_singleline(&mut state.name);
+            ui.end_row();
+            vec3_row(ui, "Translation", &mut state.translation, 0.05);
+            vec3_row(ui, "Rotation (°)", &mut state.rotation_deg, 1.0);
+            vec3_row(ui, "Scale", &mut state.scale, 0.01);
+        });
+    }
+}
+
+fn vec3_row(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f32) {
+    ui.label(label);
+    ui.horizontal(|ui| {
+        for (axis, c) in ["x", "y", "z"].into_iter().zip([&mut v.x, &mut v.y, &mut v.z]) {
+            ui.label(axis);
+            ui.add(egui::DragValue::new(c).speed(speed).max_decimals(3));
+        }
+    });
+    ui.end_row();
+}
+
+fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
+    if mesh {
+        "▣"
+    } else if point {
+        "●"
+    } else if directional {
+        "☀"
+    } else {
+        "•"
+    }
+}
+
+/// Draws the editor UI and applies what the user changed.
+#[allow(clippy::too_many_arguments)]
+pub fn editor_ui(
+    mut contexts: EguiContexts,
+    mut dock: ResMut<EditorDock>,
+    mut selection: ResMut<Selection>,
+    mut viewport_rect: ResMut<ViewportRect>,
+    mut objects: Query<
+        (Entity, &mut Name, &mut Transform, Has<Mesh3d>, Has<PointLight>, Has<DirectionalLight>),
+        With<SceneObject>,
+    >,
+    mut orbit: Query<&mut OrbitCamera>,
+    diagnostics: Res<DiagnosticsStore>,
+    window: Single<&Window, With<PrimaryWindow>>,
+    all_entities: Query<()>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?.clone();
+    let mut rows: Vec<OutlinerRow> = objects
+        .iter()
+        .map(|(entity, name, _, mesh, point, dir)| OutlinerRow {
+            entity,
+            name: name.as_str().to_owned(),
+            kind: kind_of(mesh, point, dir),
+        })
+        .collect();
+    rows.sort_by_key(|r| r.entity.index());
+    let original = selection.0.and_then(|e| objects.get(e).ok()).map(|(_, name, t, ..)| {
+        let (y, x, z) = t.rotation.to_euler(EulerRot::YXZ);
+        InspectorState {
+            name: name.as_str().to_owned(),
+            translation: t.translation,
+            rotation_deg: Vec3::new(x, y, z) * (180.0 / std::f32::consts::PI),
+            scale: t.scale,
+        }
+    });
+    let mut edited = original.clone();
+    let mut orbit_copy = orbit.single().ok().copied();
+    let mut viewport = egui::Rect::NOTHING;
+
+    let mut root = egui::Ui::new(
+        ctx.clone(),
+        "treelight-root".into(),
+        egui::UiBuilder::new().layer_id(egui::LayerId::background()).max_rect(ctx.viewport_rect()),
+    );
+    egui::Panel::bottom("status-bar").show(&mut root, |ui| {
+        ui.horizontal(|ui| {
+            let fps = diagnostics
+                .get(&FrameTimeDiagnosticsPlugin::FPS)
+                .and_then(|d| d.smoothed())
+                .map_or("–".to_owned(), |f| format!("{f:.0}"));
+            ui.label(format!("{fps} FPS"));
+            ui.separator();
+            ui.label(format!("{} scene entities", rows.len()));
+            ui.separator();
+            ui.label(format!("{} entities in the world", all_entities.iter().count()));
+            if let Some(state) = &original {
+                ui.separator();
+                ui.label(format!("Selected: {}", state.name));
+            }
+        });
+    });
+    egui::CentralPanel::default().frame(egui::Frame::NONE).show(&mut root, |ui| {
+        let mut tabs = EditorTabs {
+            rows: &rows,
+            selection: &mut selection,
+            inspected: edited.as_mut(),
+            orbit: orbit_copy.as_mut(),
+            viewport: &mut viewport,
+        };
+        DockArea::new(&mut dock.0)
+            .style(Style::from_egui(ui.style().as_ref()))
+            .show_close_buttons(false)
+            .show_leaf_close_all_buttons(false)
+            .show_leaf_collapse_buttons(false)
+            .show_inside(ui, &mut tabs);
+    });
+
+    if let (Some(e), Some(before), Some(after)) = (selection.0, &original, &edited)
+        && before != after
+        && let Ok((_, mut name, mut transform, ..)) = objects.get_mut(e)
+    {
+        if before.name != after.name {
+            name.set(after.name.clone());
+        }
+        let r = after.rotation_deg * (std::f32::consts::PI / 180.0);
+        *transform = Transform {
+            translation: after.translation,
+            rotation: Quat::from_euler(EulerRot::YXZ, r.y, r.x, r.z),
+            scale: after.scale,
+        };
+    }
+    if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy)
+        && (o.focus != copy.focus || o.radius != copy.radius || o.yaw != copy.yaw || o.pitch != copy.pitch)
+    {
+        *o = copy;
+    }
+    let scale = window.scale_factor();
+    let rect = if viewport.is_positive() {
+        ViewportRect {
+            position: UVec2::new((viewport.min.x * scale) as u32, (viewport.min.y * scale) as u32),
+            size: UVec2::new((viewport.width() * scale) as u32, (viewport.height() * scale) as u32),
+        }
+    } else {
+        ViewportRect::default()
+    };
+    if *viewport_rect != rect {
+        *viewport_rect = rect;
+    }
+    Ok(())
+}
+
+/// Fits the 3D camera's viewport to the viewport panel.
+pub fn fit_camera_viewport(
+    rect: Res<ViewportRect>,
+    window: Single<&Window, With<PrimaryWindow>>,
+    mut cameras: Query<&mut Camera, With<OrbitCamera>>,
+) {
+    let max = UVec2::new(window.physical_width(), window.physical_height());
+    for mut camera in &mut cameras {
+        let pos = rect.position.min(max);
+        let size = rect.size.min(max.saturating_sub(pos));
+        camera.is_active = size.x > 0 && size.y > 0;
+        let size = size.max(UVec2::ONE);
+        let same = camera.viewport.as_ref().is_some_and(|v| v.physical_position == pos && v.physical_size == size);
+        if !same {
+            camera.viewport = Some(Viewport { physical_position: pos, physical_size: size, ..default() });
+        }
+    }
+}

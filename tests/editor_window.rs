@@ -1,0 +1,36 @@
+//! The editor opens on its default scene, renders it and draws its panels (software Vulkan under Xvfb).
+
+mod support;
+use support::*;
+
+#[test]
+fn screenshot_shows_the_scene_and_the_panels() {
+    if skip_gpu_tests("screenshot_shows_the_scene_and_the_panels") {
+        return;
+    }
+    let dir = temp_dir("window");
+    let shot = dir.join("shot.png");
+    run_editor(&["--screenshot", shot.to_str().unwrap(), "--frames", "20", "--width", "1280", "--height", "800"]);
+    let img = load_rgb(&shot);
+    assert_eq!((img.width(), img.height()), (1280, 800));
+    // The default layout: outliner on the left fifth, inspector on the right quarter, status bar below.
+    let viewport = distinct_colours(&img, 300, 60, 1000, 740);
+    assert!(viewport > 500, "the viewport looks blank: {viewport} colours");
+    // Panels are drawn: text in the outliner and the status bar gives them many shades, and their
+    // background differs from the 3D clear colour.
+    let outliner = distinct_colours(&img, 0, 30, 250, 260);
+    assert!(outliner > 20, "the outliner looks empty: {outliner} colours");
+    let status = distinct_colours(&img, 0, 780, 600, 800);
+    assert!(status > 10, "the status bar looks empty: {status} colours");
+    let inspector = distinct_colours(&img, 1040, 30, 1280, 60);
+    assert!(inspector > 5, "the inspector looks empty: {inspector} colours");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn frames_without_screenshot_exits_cleanly() {
+    if skip_gpu_tests("frames_without_screenshot_exits_cleanly") {
+        return;
+    }
+    run_editor(&["--frames", "3"]);
+}

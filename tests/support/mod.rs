@@ -1,0 +1,62 @@
+//! Running the editor binary headless under xvfb-run with software Vulkan.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Whether GPU tests were explicitly turned into skips (`TREELIGHT_SKIP_GPU_TESTS=1`; CI never sets it).
+pub fn skip_gpu_tests(test: &str) -> bool {
+    if std::env::var("TREELIGHT_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        eprintln!("SKIPPED {test}: TREELIGHT_SKIP_GPU_TESTS=1");
+        return true;
+    }
+    false
+}
+
+/// A fresh temporary folder for one test.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("treelight-test-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs the editor with `args` under xvfb-run and returns its combined output. Panics with an
+/// explanation when the display server or the GPU adapter is missing.
+pub fn run_editor(args: &[&str]) -> String {
+    let bin = env!("CARGO_BIN_EXE_treelight");
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1600x1000x24", bin])
+        .args(args)
+        .env("WGPU_BACKEND", "vulkan")
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot run xvfb-run ({e}). Install the headless GPU test packages: apt-get install -y mesa-vulkan-drivers libvulkan1 xvfb xauth")
+        });
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    if !out.status.success() {
+        if text.contains("Unable to find a GPU") || text.contains("No suitable adapter") || text.contains("adapter") && text.contains("panicked") {
+            panic!(
+                "no GPU adapter was found. Install Mesa's software Vulkan (apt-get install -y mesa-vulkan-drivers libvulkan1), \
+                 or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests. Output:\n{text}"
+            );
+        }
+        panic!("the editor exited with {}:\n{text}", out.status);
+    }
+    text
+}
+
+/// Loads a PNG as RGB.
+pub fn load_rgb(path: &Path) -> image::RgbImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8()
+}
+
+/// Number of distinct colours in a region.
+pub fn distinct_colours(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u32) -> usize {
+    let mut set = std::collections::HashSet::new();
+    for y in y0..y1.min(img.height()) {
+        for x in x0..x1.min(img.width()) {
+            set.insert(img.get_pixel(x, y).0);
+        }
+    }
+    set.len()
+}
