@@ -5,6 +5,8 @@ pub mod camera;
 pub mod capture;
 pub mod cli;
 pub mod default_scene;
+pub mod import;
+pub mod notice;
 pub mod selection;
 pub mod ui;
 
@@ -31,9 +33,27 @@ pub fn build_app(cli: &cli::Cli) -> App {
     .init_resource::<selection::Selection>()
     .init_resource::<ui::EditorDock>()
     .init_resource::<ui::ViewportRect>()
-    .add_systems(Startup, (setup_cameras, default_scene::spawn_default_scene))
+    .init_resource::<notice::Notices>()
+    .init_resource::<import::PendingImports>()
+    .add_systems(Startup, setup_cameras)
     .add_systems(EguiPrimaryContextPass, ui::editor_ui)
-    .add_systems(Update, (selection::drop_stale_selection, camera::apply_orbit, ui::fit_camera_viewport));
+    .add_systems(
+        Update,
+        (
+            selection::drop_stale_selection,
+            camera::apply_orbit,
+            ui::fit_camera_viewport,
+            import::import_dropped_files,
+            import::finish_imports,
+            notice::expire_notices,
+        ),
+    );
+    match &cli.scene {
+        Some(path) => app.world_mut().resource_mut::<import::PendingImports>().start(path.clone()),
+        None => {
+            app.add_systems(Startup, default_scene::spawn_default_scene);
+        }
+    }
     if cli.screenshot.is_some() || cli.frames.is_some() {
         app.insert_resource(capture::CaptureRequest {
             path: cli.screenshot.clone(),

@@ -1,6 +1,8 @@
 //! The docked editor panels: viewport, outliner, inspector, and a status bar.
 
 use crate::camera::OrbitCamera;
+use crate::import::PendingImports;
+use crate::notice::{Level, Notices};
 use crate::selection::{SceneObject, Selection};
 use bevy::camera::Viewport;
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
@@ -195,6 +197,8 @@ pub fn editor_ui(
     diagnostics: Res<DiagnosticsStore>,
     window: Single<&Window, With<PrimaryWindow>>,
     all_entities: Query<()>,
+    mut notices: ResMut<Notices>,
+    pending: Res<PendingImports>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?.clone();
     let mut rows: Vec<OutlinerRow> = objects
@@ -239,6 +243,11 @@ pub fn editor_ui(
                 ui.separator();
                 ui.label(format!("Selected: {}", state.name));
             }
+            for (path, _) in &pending.0 {
+                ui.separator();
+                ui.spinner();
+                ui.label(format!("Opening {}…", path.display()));
+            }
         });
     });
     egui::CentralPanel::default().frame(egui::Frame::NONE).show(&mut root, |ui| {
@@ -256,6 +265,8 @@ pub fn editor_ui(
             .show_leaf_collapse_buttons(false)
             .show_inside(ui, &mut tabs);
     });
+
+    show_notices(&ctx, &mut notices);
 
     if let (Some(e), Some(before), Some(after)) = (selection.0, &original, &edited)
         && before != after
@@ -289,6 +300,35 @@ pub fn editor_ui(
         *viewport_rect = rect;
     }
     Ok(())
+}
+
+/// Shows notices stacked in the top-right corner; each can be dismissed.
+fn show_notices(ctx: &egui::Context, notices: &mut Notices) {
+    let mut dismissed = None;
+    for (k, n) in notices.0.iter().enumerate() {
+        let (colour, title) = match n.level {
+            Level::Info => (egui::Color32::from_rgb(140, 200, 255), "Info"),
+            Level::Warning => (egui::Color32::from_rgb(255, 200, 90), "Warning"),
+            Level::Error => (egui::Color32::from_rgb(255, 110, 100), "Error"),
+        };
+        egui::Area::new(egui::Id::new(("notice", k)))
+            .anchor(egui::Align2::RIGHT_TOP, egui::vec2(-16.0, 40.0 + 64.0 * k as f32))
+            .show(ctx, |ui| {
+                egui::Frame::popup(ui.style()).show(ui, |ui| {
+                    ui.set_max_width(420.0);
+                    ui.horizontal(|ui| {
+                        ui.colored_label(colour, title);
+                        if ui.small_button("✕").clicked() {
+                            dismissed = Some(k);
+                        }
+                    });
+                    ui.label(&n.text);
+                });
+            });
+    }
+    if let Some(k) = dismissed {
+        notices.0.remove(k);
+    }
 }
 
 /// Fits the 3D camera's viewport to the viewport panel.

@@ -34,3 +34,23 @@ fn frames_without_screenshot_exits_cleanly() {
     }
     run_editor(&["--frames", "3"]);
 }
+
+#[test]
+fn opening_a_file_spawns_its_meshes() {
+    if skip_gpu_tests("opening_a_file_spawns_its_meshes") {
+        return;
+    }
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
+    assert!(out.contains("opened") && out.contains("1 meshes, 12 triangles"), "{out}");
+}
+
+#[test]
+fn a_broken_file_is_reported_not_fatal() {
+    if skip_gpu_tests("a_broken_file_is_reported_not_fatal") {
+        return;
+    }
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/broken_gltf/MissingBin/BoxTextured.gltf");
+    let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
+    assert!(out.contains("MissingBin/BoxTextured.gltf") && out.contains("cannot read buffer"), "{out}");
+}

@@ -82,7 +82,9 @@ impl ImportedMesh {
     /// Triangles in world space, in index order.
     pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
         let m = self.transform;
-        self.indices.chunks_exact(3).map(move |f| f.map(|i| m.transform_point3(Vec3::from(self.positions[i as usize]))))
+        self.indices
+            .chunks_exact(3)
+            .map(move |f| [f[0], f[1], f[2]].map(|i| m.transform_point3(Vec3::from(self.positions[i as usize]))))
     }
 }
 

@@ -1,0 +1,138 @@
+//! Opening scene files (command line, drag and drop): parsed on a background task by
+//! `treelight_import`, then spawned as scene entities. Errors become notices; nothing already in the
+//! scene is touched by a failed import.
+
+use crate::camera::OrbitCamera;
+use crate::notice::Notices;
+use crate::selection::SceneObject;
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::prelude::*;
+use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, poll_once};
+use bevy::window::FileDragAndDrop;
+use std::path::PathBuf;
+use treelight_import::{ImportError, ImportedMaterial, ImportedMesh, ImportedScene};
+
+/// Files being parsed.
+#[derive(Resource, Default)]
+pub struct PendingImports(pub Vec<(PathBuf, Task<Result<ImportedScene, ImportError>>)>);
+
+impl PendingImports {
+    /// Starts parsing `path` in the background.
+    pub fn start(&mut self, path: PathBuf) {
+        let p = path.clone();
+        let task = AsyncComputeTaskPool::get().spawn(async move { treelight_import::load_scene(&p) });
+        self.0.push((path, task));
+    }
+}
+
+/// Starts an import for every file dropped on the window.
+pub fn import_dropped_files(mut drops: MessageReader<FileDragAndDrop>, mut pending: ResMut<PendingImports>) {
+    for drop in drops.read() {
+        if let FileDragAndDrop::DroppedFile { path_buf, .. } = drop {
+            pending.start(path_buf.clone());
+        }
+    }
+}
+
+/// Spawns the scenes whose parsing finished, and frames the camera on the first one.
+pub fn finish_imports(
+    mut commands: Commands,
+    mut pending: ResMut<PendingImports>,
+    mut notices: ResMut<Notices>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut orbit: Query<&mut OrbitCamera>,
+    lights: Query<(), Or<(With<DirectionalLight>, With<PointLight>)>>,
+) {
+    let mut i = 0;
+    while i < pending.0.len() {
+        let Some(result) = block_on(poll_once(&mut pending.0[i].1)) else {
+            i += 1;
+            continue;
+        };
+        let (path, _) = pending.0.swap_remove(i);
+        match result {
+            Err(e) => notices.error(e.to_string()),
+            Ok(scene) => {
+                for w in &scene.warnings {
+                    notices.warn(format!("{}: {w}", path.display()));
+                }
+                let bounds = spawn_scene(&mut commands, &scene, &mut meshes, &mut materials);
+                if lights.is_empty() {
+                    commands.spawn((
+                        Name::new("Sun"),
+                        SceneObject,
+                        DirectionalLight { illuminance: 8_000.0, ..default() },
+                        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
+                    ));
+                }
+                if let (Some((min, max)), Ok(mut o)) = (bounds, orbit.single_mut()) {
+                    o.focus = (min + max) * 0.5;
+                    o.radius = (max - min).length().max(1e-3) * 1.4;
+                }
+                notices.info(format!(
+                    "opened {} ({} meshes, {} triangles)",
+                    path.display(),
+                    scene.meshes.len(),
+                    scene.triangle_count()
+                ));
+            }
+        }
+    }
+}
+
+/// Spawns one entity per mesh; returns the scene's world bounds.
+pub fn spawn_scene(
+    commands: &mut Commands,
+    scene: &ImportedScene,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+) -> Option<(Vec3, Vec3)> {
+    let handles: Vec<Handle<StandardMaterial>> = scene.materials.iter().map(|m| materials.add(material(m))).collect();
+    let fallback = materials.add(material(&ImportedMaterial::default()));
+    let mut bounds: Option<(Vec3, Vec3)> = None;
+    for m in &scene.meshes {
+        for tri in m.world_triangles() {
+            for p in tri {
+                bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+        let mat = m.material.and_then(|k| handles.get(k)).cloned().unwrap_or_else(|| fallback.clone());
+        commands.spawn((
+            Name::new(m.name.clone()),
+            SceneObject,
+            Mesh3d(meshes.add(to_bevy_mesh(m))),
+            MeshMaterial3d(mat),
+            Transform::from_matrix(m.transform),
+        ));
+    }
+    bounds
+}
+
+/// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).
+pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
+    let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.positions.clone())
+        .with_inserted_indices(Indices::U32(m.indices.clone()));
+    if let Some(uvs) = &m.uvs {
+        mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
+    }
+    match &m.normals {
+        Some(n) => mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, n.clone()),
+        None => mesh.compute_smooth_normals(),
+    }
+    mesh
+}
+
+fn material(m: &ImportedMaterial) -> StandardMaterial {
+    let [r, g, b, a] = m.base_color;
+    StandardMaterial {
+        base_color: Color::LinearRgba(LinearRgba::new(r, g, b, a)),
+        metallic: m.metallic,
+        perceptual_roughness: m.roughness,
+        emissive: LinearRgba::rgb(m.emissive[0], m.emissive[1], m.emissive[2]),
+        alpha_mode: if a < 1.0 { AlphaMode::Blend } else { AlphaMode::Opaque },
+        ..default()
+    }
+}
