@@ -1,1 +1,313 @@
-//! placeholder during setup
+//! # treelight_scene
+//!
+//! [`SceneBvhPlugin`] keeps one global BVH of every mesh entity in a Bevy world, for ray picking and for
+//! path tracing. The main thread only turns world changes into commands; a background worker builds
+//! each mesh's bBVH in parallel and inserts it into the tree, so the main thread never waits.
+//!
+//! Watched: entities gaining [`Mesh3d`] (also when the asset finishes loading later), edits of mesh
+//! assets, [`GlobalTransform`] changes, visibility, removal and despawn. Published: the [`SceneBvh`]
+//! resource, with the tree, its version, stats and [`SceneBvh::cast_ray`].
+
+mod mesh;
+mod worker;
+
+pub use mesh::{MeshSkip, mesh_triangles};
+
+use bevy::asset::AssetEvent;
+use bevy::camera::visibility::InheritedVisibility;
+use bevy::math::Ray3d;
+use bevy::prelude::*;
+use bevy::transform::TransformSystems;
+use std::collections::{HashMap, HashSet};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
+use std::time::{Duration, Instant};
+use treelight_bvh::{Bvh, BvhConfig, GroupId, Ray};
+use worker::{Command, Shared, WorkerConfig};
+
+/// Settings of [`SceneBvhPlugin`].
+#[derive(Clone, Copy, Debug)]
+pub struct SceneBvhConfig {
+    /// How long a moved mesh must stay still before its group is baked back into the tree.
+    pub bake_after: Duration,
+    /// How often the idle worker wakes up to bake and run update rounds.
+    pub idle_tick: Duration,
+    /// The engine's settings.
+    pub bvh: BvhConfig,
+}
+
+impl Default for SceneBvhConfig {
+    fn default() -> Self {
+        Self { bake_after: Duration::from_millis(500), idle_tick: Duration::from_millis(50), bvh: BvhConfig::default() }
+    }
+}
+
+/// Keeps a global BVH of all mesh entities, built on a background worker.
+#[derive(Default)]
+pub struct SceneBvhPlugin {
+    /// Settings.
+    pub config: SceneBvhConfig,
+}
+
+impl Plugin for SceneBvhPlugin {
+    fn build(&self, app: &mut App) {
+        let shared = Arc::new(Shared {
+            tree: RwLock::new(SceneTree { bvh: Bvh::new(self.config.bvh), ..Default::default() }),
+            stats: Mutex::new(SceneStats::default()),
+            version: AtomicU64::new(0),
+            pending: AtomicUsize::new(0),
+        });
+        let (tx, rx) = std::sync::mpsc::channel();
+        let worker_shared = shared.clone();
+        let cfg = WorkerConfig { bake_after: self.config.bake_after, idle_tick: self.config.idle_tick };
+        std::thread::Builder::new()
+            .name("treelight-scene-bvh".into())
+            .spawn(move || worker::run(worker_shared, rx, cfg))
+            .expect("cannot start the scene BVH worker thread");
+        app.insert_resource(SceneBvh {
+            shared,
+            sender: Mutex::new(tx),
+            version: 0,
+            stats: SceneStats::default(),
+            waiting: HashMap::new(),
+            traced: HashSet::new(),
+        })
+        .add_systems(PostUpdate, (track_world, publish).chain().after(TransformSystems::Propagate));
+    }
+}
+
+/// Figures about the tree, refreshed every frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneStats {
+    /// Triangles in the tree.
+    pub triangles: u32,
+    /// Inner nodes.
+    pub inner_nodes: u32,
+    /// SAH cost (Eq. 1, c_T = c_I = 1 by default).
+    pub sah_cost: f32,
+    /// Commands sent but not yet applied.
+    pub pending: usize,
+    /// Triangles per second (millions) of the last batch of inserted meshes, build included.
+    pub insertion_mtris_per_s: f64,
+    /// From sending the last mesh to its appearance in the tree.
+    pub last_latency: Duration,
+}
+
+/// The tree and the entity each group belongs to.
+#[derive(Default)]
+pub struct SceneTree {
+    /// The global BVH.
+    pub bvh: Bvh,
+    /// Which entity each group is.
+    pub group_entity: HashMap<GroupId, Entity>,
+    /// Which group each traced entity is.
+    pub entity_group: HashMap<Entity, GroupId>,
+}
+
+impl SceneTree {
+    pub(crate) fn bind(&mut self, e: Entity, g: GroupId) {
+        self.group_entity.insert(g, e);
+        self.entity_group.insert(e, g);
+    }
+
+    pub(crate) fn remove_entity(&mut self, e: Entity) {
+        if let Some(g) = self.entity_group.remove(&e) {
+            self.group_entity.remove(&g);
+            // The handle came from this tree, so removal cannot fail.
+            let _ = self.bvh.remove_group(g);
+        }
+    }
+
+    /// The entity owning triangle `t`.
+    pub fn entity_of_triangle(&self, t: u32) -> Option<Entity> {
+        self.bvh.triangle_group(t).and_then(|g| self.group_entity.get(&g).copied())
+    }
+}
+
+/// A ray hit on the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneHit {
+    /// The entity hit.
+    pub entity: Entity,
+    /// The triangle hit (the tree's id).
+    pub triangle: u32,
+    /// Distance along the ray (the ray's direction is unit length).
+    pub distance: f32,
+    /// World-space hit point.
+    pub point: Vec3,
+    /// Unit geometric normal, facing the ray.
+    pub normal: Vec3,
+}
+
+/// The global BVH of the world's meshes, kept in sync by [`SceneBvhPlugin`].
+#[derive(Resource)]
+pub struct SceneBvh {
+    shared: Arc<Shared>,
+    sender: Mutex<Sender<Command>>,
+    version: u64,
+    stats: SceneStats,
+    /// Entities whose mesh asset has not loaded yet, by asset.
+    waiting: HashMap<AssetId<Mesh>, Vec<Entity>>,
+    /// Entities sent to the worker (so moves and removals of others are not sent).
+    traced: HashSet<Entity>,
+}
+
+impl SceneBvh {
+    /// Version of the tree, raised by every change the worker applies.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Figures about the tree as of this frame.
+    pub fn stats(&self) -> SceneStats {
+        self.stats
+    }
+
+    /// Whether every change sent so far has been applied.
+    pub fn is_idle(&self) -> bool {
+        self.shared.pending.load(Ordering::Acquire) == 0
+    }
+
+    /// Read access to the tree, unless the worker is writing to it right now (the main thread never
+    /// waits: try again next frame).
+    pub fn try_read(&self) -> Option<RwLockReadGuard<'_, SceneTree>> {
+        match self.shared.tree.try_read() {
+            Ok(g) => Some(g),
+            Err(std::sync::TryLockError::Poisoned(p)) => Some(p.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => None,
+        }
+    }
+
+    /// Read access, waiting for the worker if it is writing (for tests and tools, not for frames).
+    pub fn read_blocking(&self) -> RwLockReadGuard<'_, SceneTree> {
+        self.shared.tree.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The nearest hit of `ray` on the latest tree, or `None` if nothing is hit (or the worker holds
+    /// the tree this instant).
+    pub fn cast_ray(&self, ray: Ray3d) -> Option<SceneHit> {
+        let tree = self.try_read()?;
+        cast_on(&tree, ray)
+    }
+
+    fn send(&self, c: Command) {
+        self.shared.pending.fetch_add(1, Ordering::AcqRel);
+        if self.sender.lock().unwrap_or_else(|p| p.into_inner()).send(c).is_err() {
+            self.shared.pending.fetch_sub(1, Ordering::AcqRel);
+            error!("the scene BVH worker has stopped");
+        }
+    }
+}
+
+/// Closest hit on a tree, with entity and world-space geometry.
+pub fn cast_on(tree: &SceneTree, ray: Ray3d) -> Option<SceneHit> {
+    let dir = Vec3::from(ray.direction);
+    let hit = tree.bvh.closest_hit(&Ray::new(ray.origin, dir))?;
+    let entity = tree.entity_of_triangle(hit.triangle)?;
+    let tri = tree.bvh.world_triangle(hit.triangle)?;
+    let n = tri.normal().normalize_or_zero();
+    Some(SceneHit {
+        entity,
+        triangle: hit.triangle,
+        distance: hit.t,
+        point: ray.origin + dir * hit.t,
+        normal: if n.dot(dir) > 0.0 { -n } else { n },
+    })
+}
+
+type MeshEntity<'a> = (Entity, &'a Mesh3d, &'a GlobalTransform, Option<&'a InheritedVisibility>, Option<&'a Name>);
+
+/// Turns this frame's world changes into worker commands.
+#[allow(clippy::type_complexity)]
+fn track_world(
+    mut scene: ResMut<SceneBvh>,
+    meshes: Res<Assets<Mesh>>,
+    mut asset_events: MessageReader<AssetEvent<Mesh>>,
+    changed_mesh: Query<MeshEntity, Or<(Changed<Mesh3d>, Changed<InheritedVisibility>)>>,
+    moved: Query<(Entity, &GlobalTransform), (Changed<GlobalTransform>, With<Mesh3d>)>,
+    all: Query<MeshEntity>,
+    mut removed: RemovedComponents<Mesh3d>,
+) {
+    let scene = &mut *scene;
+    let mut sent_now: HashSet<Entity> = HashSet::new();
+    for e in removed.read() {
+        for list in scene.waiting.values_mut() {
+            list.retain(|&w| w != e);
+        }
+        if scene.traced.remove(&e) {
+            scene.send(Command::Remove { entity: e });
+        }
+        sent_now.insert(e);
+    }
+    // Meshes that finished loading, for entities that were waiting on them.
+    let mut ready: Vec<Entity> = Vec::new();
+    for ev in asset_events.read() {
+        if let AssetEvent::Added { id } | AssetEvent::LoadedWithDependencies { id } = ev
+            && let Some(list) = scene.waiting.remove(id)
+        {
+            ready.extend(list);
+        }
+    }
+    for item in &changed_mesh {
+        upsert(scene, &meshes, &mut sent_now, item);
+    }
+    for e in ready {
+        if let Ok(item) = all.get(e)
+            && !sent_now.contains(&e)
+        {
+            upsert(scene, &meshes, &mut sent_now, item);
+        }
+    }
+    for (e, gt) in &moved {
+        if !sent_now.contains(&e) && scene.traced.contains(&e) {
+            scene.send(Command::Move { entity: e, transform: gt.affine() });
+        }
+    }
+}
+
+/// Sends a mesh entity's current triangles, or a removal if it is hidden or untraceable, or parks it
+/// until its asset loads.
+fn upsert(scene: &mut SceneBvh, meshes: &Assets<Mesh>, sent_now: &mut HashSet<Entity>, (e, m, gt, vis, name): MeshEntity) {
+    sent_now.insert(e);
+    if vis.is_some_and(|v| !v.get()) {
+        if scene.traced.remove(&e) {
+            scene.send(Command::Remove { entity: e });
+        }
+        return;
+    }
+    let label = name.map_or_else(|| format!("{e}"), |n| n.as_str().to_owned());
+    let Some(mesh) = meshes.get(&m.0) else {
+        scene.waiting.entry(m.0.id()).or_default().push(e);
+        return;
+    };
+    match mesh_triangles(mesh) {
+        Ok(triangles) => {
+            scene.traced.insert(e);
+            scene.send(Command::Upsert {
+                entity: e,
+                name: label,
+                triangles: Arc::new(triangles),
+                transform: gt.affine(),
+                sent: Instant::now(),
+            });
+        }
+        Err(why) => {
+            warn!("entity {e} ('{label}') is not traced: {why}");
+            if scene.traced.remove(&e) {
+                scene.send(Command::Remove { entity: e });
+            }
+        }
+    }
+}
+
+/// Copies the worker's figures into the resource.
+fn publish(mut scene: ResMut<SceneBvh>) {
+    let version = scene.shared.version.load(Ordering::Acquire);
+    let mut stats = *scene.shared.stats.lock().unwrap_or_else(|p| p.into_inner());
+    stats.pending = scene.shared.pending.load(Ordering::Acquire);
+    if scene.version != version || scene.stats != stats {
+        scene.version = version;
+        scene.stats = stats;
+    }
+}

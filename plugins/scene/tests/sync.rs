@@ -1,0 +1,203 @@
+//! Headless (no GPU): after random spawns, despawns and moves over many frames, the published tree's
+//! hits equal brute force over the world's current meshes, and nothing remains of despawned entities.
+
+use bevy::asset::AssetPlugin;
+use bevy::math::Ray3d;
+use bevy::mesh::{Mesh, MeshBuilder, MeshPlugin, Meshable};
+use bevy::prelude::*;
+use std::time::{Duration, Instant};
+use treelight_bvh::RayData;
+use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhPlugin, mesh_triangles};
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn f(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, a: f32, b: f32) -> f32 {
+        a + (b - a) * self.f()
+    }
+}
+
+fn app(bake_after: Duration) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, AssetPlugin::default(), MeshPlugin, TransformPlugin))
+        .add_plugins(SceneBvhPlugin { config: SceneBvhConfig { bake_after, ..default() } });
+    app
+}
+
+/// Runs frames until the worker has applied everything.
+fn settle(app: &mut App) {
+    let start = Instant::now();
+    // Asset edits reach `Changed<Mesh3d>` a frame later; give them time to become commands.
+    for _ in 0..3 {
+        app.update();
+    }
+    loop {
+        app.update();
+        if app.world().resource::<SceneBvh>().is_idle() {
+            app.update();
+            return;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "the worker did not catch up");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// Closest hit by brute force over every mesh entity in the world, from the ECS directly.
+fn brute_force(world: &mut World, ray: Ray3d) -> Option<(Entity, f32)> {
+    let mut q = world.query::<(Entity, &Mesh3d, &GlobalTransform)>();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let rd = RayData::new(&treelight_bvh::Ray::new(ray.origin, ray.direction.into()));
+    let mut best: Option<(Entity, f32)> = None;
+    for (e, m, gt) in q.iter(world) {
+        let Some(mesh) = meshes.get(&m.0) else { continue };
+        let xf = gt.affine();
+        for t in mesh_triangles(mesh).unwrap() {
+            let w = t.transformed(&xf);
+            if let Some((t, _, _)) = rd.hit_triangle(&w, 0.0, best.map_or(f32::INFINITY, |b| b.1)) {
+                best = Some((e, t));
+            }
+        }
+    }
+    best
+}
+
+fn cast(app: &App, ray: Ray3d) -> Option<treelight_scene::SceneHit> {
+    treelight_scene::cast_on(&app.world().resource::<SceneBvh>().read_blocking(), ray)
+}
+
+fn rays(n: usize, seed: u64) -> Vec<Ray3d> {
+    let mut r = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let o = Vec3::new(r.range(-30.0, 30.0), r.range(-30.0, 30.0), 40.0);
+            let target = Vec3::new(r.range(-15.0, 15.0), r.range(-15.0, 15.0), r.range(-15.0, 15.0));
+            Ray3d::new(o, Dir3::new(target - o).unwrap())
+        })
+        .collect()
+}
+
+fn check(app: &mut App, rays: &[Ray3d]) {
+    for ray in rays {
+        let expected = brute_force(app.world_mut(), *ray);
+        let scene = app.world().resource::<SceneBvh>();
+        let got = treelight_scene::cast_on(&scene.read_blocking(), *ray).map(|h| (h.entity, h.distance));
+        match (got, expected) {
+            (None, None) => {}
+            (Some((ge, gt)), Some((ee, et))) => {
+                assert!((gt - et).abs() < 1e-3 * et.max(1.0), "distance {gt} vs {et}");
+                if (gt - et).abs() > 1e-5 {
+                    assert_eq!(ge, ee);
+                }
+            }
+            (g, e) => panic!("scene hit {g:?} vs brute force {e:?} for {ray:?}"),
+        }
+    }
+}
+
+#[test]
+fn random_spawns_despawns_and_moves_match_brute_force() {
+    let mut app = app(Duration::from_millis(30));
+    let mut r = Rng(0x9e3779b97f4a7c15);
+    let shapes: Vec<Handle<Mesh>> = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        vec![
+            meshes.add(Cuboid::new(2.0, 1.0, 3.0).mesh().build()),
+            meshes.add(Sphere::new(1.5).mesh().ico(2).unwrap()),
+            meshes.add(Torus::new(0.5, 1.5).mesh().build()),
+        ]
+    };
+    let mut live: Vec<Entity> = Vec::new();
+    let test_rays = rays(150, 7);
+    for round in 0..25 {
+        // Spawns, including some that despawn in the same frame.
+        for _ in 0..(r.next() % 6) {
+            let t = Transform::from_xyz(r.range(-12.0, 12.0), r.range(-12.0, 12.0), r.range(-12.0, 12.0))
+                .with_rotation(Quat::from_rotation_y(r.range(0.0, 6.0)))
+                .with_scale(Vec3::splat(r.range(0.5, 2.0)));
+            let shape = shapes[(r.next() % 3) as usize].clone();
+            let e = app.world_mut().spawn((Mesh3d(shape), t)).id();
+            if r.next() % 7 == 0 {
+                app.world_mut().despawn(e);
+            } else {
+                live.push(e);
+            }
+        }
+        if !live.is_empty() && r.next() % 2 == 0 {
+            let e = live.swap_remove((r.next() % live.len() as u64) as usize);
+            app.world_mut().despawn(e);
+        }
+        // Moves over a few frames, as a drag would.
+        for _ in 0..3 {
+            app.update();
+            for &e in live.iter().take(3) {
+                let mut t = app.world_mut().get_mut::<Transform>(e).unwrap();
+                t.translation.x += 0.7;
+                t.rotate_x(0.2);
+            }
+        }
+        if round % 5 == 4 {
+            // Let some groups be baked, others not.
+            std::thread::sleep(Duration::from_millis(40));
+        }
+        settle(&mut app);
+        check(&mut app, &test_rays);
+    }
+    // Despawn everything: nothing may remain.
+    for e in live.drain(..) {
+        app.world_mut().despawn(e);
+    }
+    settle(&mut app);
+    let scene = app.world().resource::<SceneBvh>();
+    let tree = scene.read_blocking();
+    assert_eq!(tree.bvh.triangle_count(), 0);
+    assert!(tree.entity_group.is_empty());
+    tree.bvh.validate().unwrap();
+}
+
+#[test]
+fn meshes_loaded_later_and_edited_meshes_are_traced() {
+    let mut app = app(Duration::from_millis(20));
+    // A handle whose asset appears only a few frames later, like a glTF still loading.
+    let handle: Handle<Mesh> = app.world_mut().resource_mut::<Assets<Mesh>>().reserve_handle();
+    let e = app.world_mut().spawn((Mesh3d(handle.clone()), Transform::default())).id();
+    settle(&mut app);
+    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 0);
+    app.world_mut().resource_mut::<Assets<Mesh>>().insert(handle.id(), Cuboid::new(1.0, 1.0, 1.0).mesh().build()).unwrap();
+    settle(&mut app);
+    let down = Ray3d::new(Vec3::new(0.0, 10.0, 0.0), Dir3::NEG_Y);
+    let hit = cast(&app, down).expect("the loaded mesh is hit");
+    assert_eq!(hit.entity, e);
+    assert!((hit.point.y - 0.5).abs() < 1e-4 && hit.normal.y > 0.99);
+    // Editing the asset replaces the triangles.
+    app.world_mut().resource_mut::<Assets<Mesh>>().insert(handle.id(), Cuboid::new(1.0, 4.0, 1.0).mesh().build()).unwrap();
+    settle(&mut app);
+    let hit = cast(&app, down).unwrap();
+    assert!((hit.point.y - 2.0).abs() < 1e-4, "{hit:?}");
+    // One asset shared by two entities appears twice.
+    app.world_mut().spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)));
+    settle(&mut app);
+    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 24);
+    let stats = app.world().resource::<SceneBvh>().stats();
+    assert_eq!(stats.triangles, 24);
+    assert!(stats.sah_cost > 0.0);
+}
+
+#[test]
+fn meshes_that_are_not_triangle_lists_are_skipped() {
+    let mut app = app(Duration::from_millis(20));
+    let lines = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Mesh::new(bevy::mesh::PrimitiveTopology::LineList, Default::default()));
+    app.world_mut().spawn((Mesh3d(lines), Transform::default(), Name::new("wireframe")));
+    settle(&mut app);
+    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 0);
+}
