@@ -18,7 +18,12 @@ pub struct OrbitCamera {
 
 impl Default for OrbitCamera {
     fn default() -> Self {
-        Self { focus: Vec3::new(0.0, 2.5, 0.0), radius: 9.5, yaw: 0.0, pitch: 0.0 }
+        Self {
+            focus: Vec3::new(0.0, 2.5, 0.0),
+            radius: 9.5,
+            yaw: 0.0,
+            pitch: 0.0,
+        }
     }
 }
 
@@ -49,7 +54,11 @@ impl OrbitCamera {
     /// The camera transform these parameters describe.
     pub fn transform(&self) -> Transform {
         let rot = self.rotation();
-        Transform { translation: self.focus + rot * Vec3::Z * self.radius, rotation: rot, ..default() }
+        Transform {
+            translation: self.focus + rot * Vec3::Z * self.radius,
+            rotation: rot,
+            ..default()
+        }
     }
 }
 

@@ -18,7 +18,11 @@ pub struct CaptureRequest {
 }
 
 /// Counts frames; at the chosen one, asks for a screenshot (or exits).
-pub fn count_frames_and_capture(mut commands: Commands, mut request: ResMut<CaptureRequest>, mut exit: MessageWriter<AppExit>) {
+pub fn count_frames_and_capture(
+    mut commands: Commands,
+    mut request: ResMut<CaptureRequest>,
+    mut exit: MessageWriter<AppExit>,
+) {
     request.rendered += 1;
     if request.requested || request.rendered < request.frames {
         return;
@@ -29,7 +33,9 @@ pub fn count_frames_and_capture(mut commands: Commands, mut request: ResMut<Capt
             exit.write(AppExit::Success);
         }
         Some(path) => {
-            commands.spawn(Screenshot::primary_window()).observe(save_and_exit(path));
+            commands
+                .spawn(Screenshot::primary_window())
+                .observe(save_and_exit(path));
         }
     }
 }

@@ -13,9 +13,21 @@ pub fn spawn_default_scene(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    let white = materials.add(StandardMaterial { base_color: Color::srgb(0.73, 0.73, 0.73), perceptual_roughness: 0.9, ..default() });
-    let red = materials.add(StandardMaterial { base_color: Color::srgb(0.65, 0.05, 0.05), perceptual_roughness: 0.9, ..default() });
-    let green = materials.add(StandardMaterial { base_color: Color::srgb(0.12, 0.45, 0.15), perceptual_roughness: 0.9, ..default() });
+    let white = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.73, 0.73, 0.73),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
+    let red = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.65, 0.05, 0.05),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
+    let green = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.12, 0.45, 0.15),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
     let metal = materials.add(StandardMaterial {
         base_color: Color::srgb(0.95, 0.8, 0.5),
         metallic: 1.0,
@@ -31,11 +43,36 @@ pub fn spawn_default_scene(
     let t = 0.1;
     let wall = |size: Vec3| Mesh::from(Cuboid::from_size(size));
     let walls = [
-        ("Floor", wall(Vec3::new(ROOM, t, ROOM)), Vec3::new(0.0, -t / 2.0, 0.0), white.clone()),
-        ("Ceiling", wall(Vec3::new(ROOM, t, ROOM)), Vec3::new(0.0, ROOM + t / 2.0, 0.0), white.clone()),
-        ("Back wall", wall(Vec3::new(ROOM, ROOM, t)), Vec3::new(0.0, h, -h - t / 2.0), white.clone()),
-        ("Left wall", wall(Vec3::new(t, ROOM, ROOM)), Vec3::new(-h - t / 2.0, h, 0.0), red),
-        ("Right wall", wall(Vec3::new(t, ROOM, ROOM)), Vec3::new(h + t / 2.0, h, 0.0), green),
+        (
+            "Floor",
+            wall(Vec3::new(ROOM, t, ROOM)),
+            Vec3::new(0.0, -t / 2.0, 0.0),
+            white.clone(),
+        ),
+        (
+            "Ceiling",
+            wall(Vec3::new(ROOM, t, ROOM)),
+            Vec3::new(0.0, ROOM + t / 2.0, 0.0),
+            white.clone(),
+        ),
+        (
+            "Back wall",
+            wall(Vec3::new(ROOM, ROOM, t)),
+            Vec3::new(0.0, h, -h - t / 2.0),
+            white.clone(),
+        ),
+        (
+            "Left wall",
+            wall(Vec3::new(t, ROOM, ROOM)),
+            Vec3::new(-h - t / 2.0, h, 0.0),
+            red,
+        ),
+        (
+            "Right wall",
+            wall(Vec3::new(t, ROOM, ROOM)),
+            Vec3::new(h + t / 2.0, h, 0.0),
+            green,
+        ),
     ];
     for (name, mesh, pos, mat) in walls {
         commands.spawn((
@@ -63,7 +100,14 @@ pub fn spawn_default_scene(
     commands.spawn((
         Name::new("Sphere"),
         SceneObject,
-        Mesh3d(meshes.add(Sphere::new(0.6).mesh().ico(4).expect("a valid subdivision count"))),
+        Mesh3d(
+            meshes.add(
+                Sphere::new(0.6)
+                    .mesh()
+                    .ico(4)
+                    .expect("a valid subdivision count"),
+            ),
+        ),
         MeshMaterial3d(metal),
         Transform::from_xyz(1.0, 2.0, 0.7),
     ));
@@ -77,13 +121,22 @@ pub fn spawn_default_scene(
     commands.spawn((
         Name::new("Lamp light"),
         SceneObject,
-        PointLight { intensity: 600_000.0, range: 20.0, shadow_maps_enabled: true, ..default() },
+        PointLight {
+            intensity: 600_000.0,
+            range: 20.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
         Transform::from_xyz(0.0, ROOM - 0.3, 0.0),
     ));
     commands.spawn((
         Name::new("Sun"),
         SceneObject,
-        DirectionalLight { illuminance: 1_500.0, shadow_maps_enabled: false, ..default() },
+        DirectionalLight {
+            illuminance: 1_500.0,
+            shadow_maps_enabled: false,
+            ..default()
+        },
         Transform::from_xyz(2.0, 8.0, 6.0).looking_at(Vec3::new(0.0, h, 0.0), Vec3::Y),
     ));
 }

@@ -21,19 +21,26 @@ impl PendingImports {
     /// Starts parsing `path` in the background.
     pub fn start(&mut self, path: PathBuf) {
         let p = path.clone();
-        let task = AsyncComputeTaskPool::get().spawn(async move { treelight_import::load_scene(&p) });
+        let task =
+            AsyncComputeTaskPool::get().spawn(async move { treelight_import::load_scene(&p) });
         self.0.push((path, task));
     }
 }
 
 /// Starts an import for every file dropped on the window.
-pub fn import_dropped_files(mut drops: MessageReader<FileDragAndDrop>, mut pending: ResMut<PendingImports>) {
+pub fn import_dropped_files(
+    mut drops: MessageReader<FileDragAndDrop>,
+    mut pending: ResMut<PendingImports>,
+) {
     for drop in drops.read() {
         if let FileDragAndDrop::DroppedFile { path_buf, .. } = drop {
             pending.start(path_buf.clone());
         }
     }
 }
+
+/// Filter for entities that light the scene.
+type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
 
 /// Spawns the scenes whose parsing finished, and frames the camera on the first one.
 pub fn finish_imports(
@@ -43,7 +50,7 @@ pub fn finish_imports(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut orbit: Query<&mut OrbitCamera>,
-    lights: Query<(), Or<(With<DirectionalLight>, With<PointLight>)>>,
+    lights: Query<(), AnyLight>,
 ) {
     let mut i = 0;
     while i < pending.0.len() {
@@ -63,7 +70,10 @@ pub fn finish_imports(
                     commands.spawn((
                         Name::new("Sun"),
                         SceneObject,
-                        DirectionalLight { illuminance: 8_000.0, ..default() },
+                        DirectionalLight {
+                            illuminance: 8_000.0,
+                            ..default()
+                        },
                         Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
                     ));
                 }
@@ -89,7 +99,11 @@ pub fn spawn_scene(
     meshes: &mut Assets<Mesh>,
     materials: &mut Assets<StandardMaterial>,
 ) -> Option<(Vec3, Vec3)> {
-    let handles: Vec<Handle<StandardMaterial>> = scene.materials.iter().map(|m| materials.add(material(m))).collect();
+    let handles: Vec<Handle<StandardMaterial>> = scene
+        .materials
+        .iter()
+        .map(|m| materials.add(material(m)))
+        .collect();
     let fallback = materials.add(material(&ImportedMaterial::default()));
     let mut bounds: Option<(Vec3, Vec3)> = None;
     for m in &scene.meshes {
@@ -98,7 +112,11 @@ pub fn spawn_scene(
                 bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
             }
         }
-        let mat = m.material.and_then(|k| handles.get(k)).cloned().unwrap_or_else(|| fallback.clone());
+        let mat = m
+            .material
+            .and_then(|k| handles.get(k))
+            .cloned()
+            .unwrap_or_else(|| fallback.clone());
         commands.spawn((
             Name::new(m.name.clone()),
             SceneObject,
@@ -112,9 +130,12 @@ pub fn spawn_scene(
 
 /// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).
 pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
-    let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.positions.clone())
-        .with_inserted_indices(Indices::U32(m.indices.clone()));
+    let mut mesh = Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.positions.clone())
+    .with_inserted_indices(Indices::U32(m.indices.clone()));
     if let Some(uvs) = &m.uvs {
         mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
     }
@@ -132,7 +153,11 @@ fn material(m: &ImportedMaterial) -> StandardMaterial {
         metallic: m.metallic,
         perceptual_roughness: m.roughness,
         emissive: LinearRgba::rgb(m.emissive[0], m.emissive[1], m.emissive[2]),
-        alpha_mode: if a < 1.0 { AlphaMode::Blend } else { AlphaMode::Opaque },
+        alpha_mode: if a < 1.0 {
+            AlphaMode::Blend
+        } else {
+            AlphaMode::Opaque
+        },
         ..default()
     }
 }

@@ -28,7 +28,11 @@ pub fn build_app(cli: &cli::Cli) -> App {
         }),
         ..default()
     }))
-    .add_plugins((EguiPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
+    .add_plugins((
+        EguiPlugin::default(),
+        FrameTimeDiagnosticsPlugin::default(),
+        treelight_scene::SceneBvhPlugin::default(),
+    ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<selection::Selection>()
     .init_resource::<ui::EditorDock>()
@@ -49,7 +53,10 @@ pub fn build_app(cli: &cli::Cli) -> App {
         ),
     );
     match &cli.scene {
-        Some(path) => app.world_mut().resource_mut::<import::PendingImports>().start(path.clone()),
+        Some(path) => app
+            .world_mut()
+            .resource_mut::<import::PendingImports>()
+            .start(path.clone()),
         None => {
             app.add_systems(Startup, default_scene::spawn_default_scene);
         }
@@ -68,7 +75,12 @@ pub fn build_app(cli: &cli::Cli) -> App {
 
 fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGlobalSettings>) {
     let orbit = camera::OrbitCamera::default();
-    commands.spawn((Name::new("Editor camera"), Camera3d::default(), orbit.transform(), orbit));
+    commands.spawn((
+        Name::new("Editor camera"),
+        Camera3d::default(),
+        orbit.transform(),
+        orbit,
+    ));
     // egui gets its own camera drawn over the 3D view, so the 3D camera's viewport can shrink to the
     // viewport panel without clipping the panels.
     egui_settings.auto_create_primary_context = false;

@@ -33,19 +33,31 @@ impl Notices {
     pub fn info(&mut self, text: impl Into<String>) {
         let text = text.into();
         info!("{text}");
-        self.0.push(Notice { level: Level::Info, text, ttl: Some(6.0) });
+        self.0.push(Notice {
+            level: Level::Info,
+            text,
+            ttl: Some(6.0),
+        });
     }
     /// Adds a warning that fades after a while.
     pub fn warn(&mut self, text: impl Into<String>) {
         let text = text.into();
         warn!("{text}");
-        self.0.push(Notice { level: Level::Warning, text, ttl: Some(15.0) });
+        self.0.push(Notice {
+            level: Level::Warning,
+            text,
+            ttl: Some(15.0),
+        });
     }
     /// Adds an error that stays until dismissed.
     pub fn error(&mut self, text: impl Into<String>) {
         let text = text.into();
         error!("{text}");
-        self.0.push(Notice { level: Level::Error, text, ttl: None });
+        self.0.push(Notice {
+            level: Level::Error,
+            text,
+            ttl: None,
+        });
     }
 }
 

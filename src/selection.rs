@@ -12,7 +12,10 @@ pub struct SceneObject;
 pub struct Selection(pub Option<Entity>);
 
 /// Clears the selection when its entity is gone.
-pub fn drop_stale_selection(mut selection: ResMut<Selection>, objects: Query<(), With<SceneObject>>) {
+pub fn drop_stale_selection(
+    mut selection: ResMut<Selection>,
+    objects: Query<(), With<SceneObject>>,
+) {
     if let Some(e) = selection.0
         && objects.get(e).is_err()
     {

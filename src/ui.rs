@@ -10,6 +10,7 @@ use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::{EguiContexts, egui};
 use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
+use treelight_scene::SceneBvh;
 
 /// The panels that can be docked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -30,7 +31,8 @@ impl Default for EditorDock {
     fn default() -> Self {
         let mut state = DockState::new(vec![EditorTab::Viewport]);
         let tree = state.main_surface_mut();
-        let [viewport, _outliner] = tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
+        let [viewport, _outliner] =
+            tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
         tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
         Self(state)
     }
@@ -68,6 +70,7 @@ struct EditorTabs<'a> {
     inspected: Option<&'a mut InspectorState>,
     orbit: Option<&'a mut OrbitCamera>,
     viewport: &'a mut egui::Rect,
+    clicked_at: &'a mut Option<egui::Pos2>,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -108,7 +111,12 @@ impl EditorTabs<'_> {
         let rect = ui.available_rect_before_wrap();
         *self.viewport = rect;
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
-        let Some(orbit) = self.orbit.as_deref_mut() else { return };
+        if response.clicked() {
+            *self.clicked_at = response.interact_pointer_pos();
+        }
+        let Some(orbit) = self.orbit.as_deref_mut() else {
+            return;
+        };
         let delta = response.drag_delta();
         let delta = Vec2::new(delta.x, delta.y);
         let pan = ui.input(|i| i.modifiers.shift);
@@ -129,18 +137,20 @@ impl EditorTabs<'_> {
     }
 
     fn outliner_ui(&mut self, ui: &mut egui::Ui) {
-        egui::ScrollArea::vertical().auto_shrink([false; 2]).show(ui, |ui| {
-            for row in self.rows {
-                let selected = self.selection.0 == Some(row.entity);
-                let label = format!("{}  {}", row.kind, row.name);
-                if ui.selectable_label(selected, label).clicked() {
-                    self.selection.0 = Some(row.entity);
+        egui::ScrollArea::vertical()
+            .auto_shrink([false; 2])
+            .show(ui, |ui| {
+                for row in self.rows {
+                    let selected = self.selection.0 == Some(row.entity);
+                    let label = format!("{}  {}", row.kind, row.name);
+                    if ui.selectable_label(selected, label).clicked() {
+                        self.selection.0 = Some(row.entity);
+                    }
                 }
-            }
-            if self.rows.is_empty() {
-                ui.weak("The scene is empty.");
-            }
-        });
+                if self.rows.is_empty() {
+                    ui.weak("The scene is empty.");
+                }
+            });
     }
 
     fn inspector_ui(&mut self, ui: &mut egui::Ui) {
@@ -148,21 +158,27 @@ impl EditorTabs<'_> {
             ui.weak("Select an entity in the outliner.");
             return;
         };
-        egui::Grid::new("inspector").num_columns(2).spacing([8.0, 6.0]).show(ui, |ui| {
-            ui.label("Name");
-            ui.text_edit_singleline(&mut state.name);
-            ui.end_row();
-            vec3_row(ui, "Translation", &mut state.translation, 0.05);
-            vec3_row(ui, "Rotation (°)", &mut state.rotation_deg, 1.0);
-            vec3_row(ui, "Scale", &mut state.scale, 0.01);
-        });
+        egui::Grid::new("inspector")
+            .num_columns(2)
+            .spacing([8.0, 6.0])
+            .show(ui, |ui| {
+                ui.label("Name");
+                ui.text_edit_singleline(&mut state.name);
+                ui.end_row();
+                vec3_row(ui, "Translation", &mut state.translation, 0.05);
+                vec3_row(ui, "Rotation (°)", &mut state.rotation_deg, 1.0);
+                vec3_row(ui, "Scale", &mut state.scale, 0.01);
+            });
     }
 }
 
 fn vec3_row(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f32) {
     ui.label(label);
     ui.horizontal(|ui| {
-        for (axis, c) in ["x", "y", "z"].into_iter().zip([&mut v.x, &mut v.y, &mut v.z]) {
+        for (axis, c) in ["x", "y", "z"]
+            .into_iter()
+            .zip([&mut v.x, &mut v.y, &mut v.z])
+        {
             ui.label(axis);
             ui.add(egui::DragValue::new(c).speed(speed).max_decimals(3));
         }
@@ -182,6 +198,16 @@ fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
     }
 }
 
+/// What the outliner and inspector read and edit of each scene entity.
+type ObjectItem = (
+    Entity,
+    &'static mut Name,
+    &'static mut Transform,
+    Has<Mesh3d>,
+    Has<PointLight>,
+    Has<DirectionalLight>,
+);
+
 /// Draws the editor UI and applies what the user changed.
 #[allow(clippy::too_many_arguments)]
 pub fn editor_ui(
@@ -189,16 +215,15 @@ pub fn editor_ui(
     mut dock: ResMut<EditorDock>,
     mut selection: ResMut<Selection>,
     mut viewport_rect: ResMut<ViewportRect>,
-    mut objects: Query<
-        (Entity, &mut Name, &mut Transform, Has<Mesh3d>, Has<PointLight>, Has<DirectionalLight>),
-        With<SceneObject>,
-    >,
+    mut objects: Query<ObjectItem, With<SceneObject>>,
     mut orbit: Query<&mut OrbitCamera>,
     diagnostics: Res<DiagnosticsStore>,
     window: Single<&Window, With<PrimaryWindow>>,
     all_entities: Query<()>,
     mut notices: ResMut<Notices>,
     pending: Res<PendingImports>,
+    scene: Res<SceneBvh>,
+    cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?.clone();
     let mut rows: Vec<OutlinerRow> = objects
@@ -210,23 +235,29 @@ pub fn editor_ui(
         })
         .collect();
     rows.sort_by_key(|r| r.entity.index());
-    let original = selection.0.and_then(|e| objects.get(e).ok()).map(|(_, name, t, ..)| {
-        let (y, x, z) = t.rotation.to_euler(EulerRot::YXZ);
-        InspectorState {
-            name: name.as_str().to_owned(),
-            translation: t.translation,
-            rotation_deg: Vec3::new(x, y, z) * (180.0 / std::f32::consts::PI),
-            scale: t.scale,
-        }
-    });
+    let original = selection
+        .0
+        .and_then(|e| objects.get(e).ok())
+        .map(|(_, name, t, ..)| {
+            let (y, x, z) = t.rotation.to_euler(EulerRot::YXZ);
+            InspectorState {
+                name: name.as_str().to_owned(),
+                translation: t.translation,
+                rotation_deg: Vec3::new(x, y, z) * (180.0 / std::f32::consts::PI),
+                scale: t.scale,
+            }
+        });
     let mut edited = original.clone();
     let mut orbit_copy = orbit.single().ok().copied();
     let mut viewport = egui::Rect::NOTHING;
+    let mut clicked_at = None;
 
     let mut root = egui::Ui::new(
         ctx.clone(),
         "treelight-root".into(),
-        egui::UiBuilder::new().layer_id(egui::LayerId::background()).max_rect(ctx.viewport_rect()),
+        egui::UiBuilder::new()
+            .layer_id(egui::LayerId::background())
+            .max_rect(ctx.viewport_rect()),
     );
     egui::Panel::bottom("status-bar").show(&mut root, |ui| {
         ui.horizontal(|ui| {
@@ -239,6 +270,19 @@ pub fn editor_ui(
             ui.label(format!("{} scene entities", rows.len()));
             ui.separator();
             ui.label(format!("{} entities in the world", all_entities.iter().count()));
+            let stats = scene.stats();
+            ui.separator();
+            ui.label(format!("BVH: {} triangles, SAH cost {:.1}", stats.triangles, stats.sah_cost))
+                .on_hover_text(format!(
+                    "{} inner nodes; last insertion {:.2} MTris/s; last mesh ready {:.1} ms after it was sent",
+                    stats.inner_nodes,
+                    stats.insertion_mtris_per_s,
+                    stats.last_latency.as_secs_f64() * 1e3
+                ));
+            if stats.pending > 0 {
+                ui.spinner();
+                ui.label(format!("{} changes pending", stats.pending));
+            }
             if let Some(state) = &original {
                 ui.separator();
                 ui.label(format!("Selected: {}", state.name));
@@ -250,23 +294,36 @@ pub fn editor_ui(
             }
         });
     });
-    egui::CentralPanel::default().frame(egui::Frame::NONE).show(&mut root, |ui| {
-        let mut tabs = EditorTabs {
-            rows: &rows,
-            selection: &mut selection,
-            inspected: edited.as_mut(),
-            orbit: orbit_copy.as_mut(),
-            viewport: &mut viewport,
-        };
-        DockArea::new(&mut dock.0)
-            .style(Style::from_egui(ui.style().as_ref()))
-            .show_close_buttons(false)
-            .show_leaf_close_all_buttons(false)
-            .show_leaf_collapse_buttons(false)
-            .show_inside(ui, &mut tabs);
-    });
+    egui::CentralPanel::default()
+        .frame(egui::Frame::NONE)
+        .show(&mut root, |ui| {
+            let mut tabs = EditorTabs {
+                rows: &rows,
+                selection: &mut selection,
+                inspected: edited.as_mut(),
+                orbit: orbit_copy.as_mut(),
+                viewport: &mut viewport,
+                clicked_at: &mut clicked_at,
+            };
+            DockArea::new(&mut dock.0)
+                .style(Style::from_egui(ui.style().as_ref()))
+                .show_close_buttons(false)
+                .show_leaf_close_all_buttons(false)
+                .show_leaf_collapse_buttons(false)
+                .show_inside(ui, &mut tabs);
+        });
 
     show_notices(&ctx, &mut notices);
+
+    // A click (not a drag) in the viewport selects what is under the pointer, through the scene BVH.
+    if let (Some(pos), Ok((camera, cam_transform))) = (clicked_at, cameras.single())
+        && let Ok(ray) = camera.viewport_to_world(cam_transform, Vec2::new(pos.x, pos.y))
+    {
+        selection.0 = scene
+            .cast_ray(ray)
+            .map(|hit| hit.entity)
+            .filter(|e| objects.contains(*e));
+    }
 
     if let (Some(e), Some(before), Some(after)) = (selection.0, &original, &edited)
         && before != after
@@ -283,15 +340,24 @@ pub fn editor_ui(
         };
     }
     if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy)
-        && (o.focus != copy.focus || o.radius != copy.radius || o.yaw != copy.yaw || o.pitch != copy.pitch)
+        && (o.focus != copy.focus
+            || o.radius != copy.radius
+            || o.yaw != copy.yaw
+            || o.pitch != copy.pitch)
     {
         *o = copy;
     }
     let scale = window.scale_factor();
     let rect = if viewport.is_positive() {
         ViewportRect {
-            position: UVec2::new((viewport.min.x * scale) as u32, (viewport.min.y * scale) as u32),
-            size: UVec2::new((viewport.width() * scale) as u32, (viewport.height() * scale) as u32),
+            position: UVec2::new(
+                (viewport.min.x * scale) as u32,
+                (viewport.min.y * scale) as u32,
+            ),
+            size: UVec2::new(
+                (viewport.width() * scale) as u32,
+                (viewport.height() * scale) as u32,
+            ),
         }
     } else {
         ViewportRect::default()
@@ -312,7 +378,10 @@ fn show_notices(ctx: &egui::Context, notices: &mut Notices) {
             Level::Error => (egui::Color32::from_rgb(255, 110, 100), "Error"),
         };
         egui::Area::new(egui::Id::new(("notice", k)))
-            .anchor(egui::Align2::RIGHT_TOP, egui::vec2(-16.0, 40.0 + 64.0 * k as f32))
+            .anchor(
+                egui::Align2::RIGHT_TOP,
+                egui::vec2(-16.0, 40.0 + 64.0 * k as f32),
+            )
             .show(ctx, |ui| {
                 egui::Frame::popup(ui.style()).show(ui, |ui| {
                     ui.set_max_width(420.0);
@@ -343,9 +412,16 @@ pub fn fit_camera_viewport(
         let size = rect.size.min(max.saturating_sub(pos));
         camera.is_active = size.x > 0 && size.y > 0;
         let size = size.max(UVec2::ONE);
-        let same = camera.viewport.as_ref().is_some_and(|v| v.physical_position == pos && v.physical_size == size);
+        let same = camera
+            .viewport
+            .as_ref()
+            .is_some_and(|v| v.physical_position == pos && v.physical_size == size);
         if !same {
-            camera.viewport = Some(Viewport { physical_position: pos, physical_size: size, ..default() });
+            camera.viewport = Some(Viewport {
+                physical_position: pos,
+                physical_size: size,
+                ..default()
+            });
         }
     }
 }

@@ -10,20 +10,38 @@ fn screenshot_shows_the_scene_and_the_panels() {
     }
     let dir = temp_dir("window");
     let shot = dir.join("shot.png");
-    run_editor(&["--screenshot", shot.to_str().unwrap(), "--frames", "20", "--width", "1280", "--height", "800"]);
+    run_editor(&[
+        "--screenshot",
+        shot.to_str().unwrap(),
+        "--frames",
+        "20",
+        "--width",
+        "1280",
+        "--height",
+        "800",
+    ]);
     let img = load_rgb(&shot);
     assert_eq!((img.width(), img.height()), (1280, 800));
     // The default layout: outliner on the left fifth, inspector on the right quarter, status bar below.
     let viewport = distinct_colours(&img, 300, 60, 1000, 740);
-    assert!(viewport > 500, "the viewport looks blank: {viewport} colours");
+    assert!(
+        viewport > 500,
+        "the viewport looks blank: {viewport} colours"
+    );
     // Panels are drawn: text in the outliner and the status bar gives them many shades, and their
     // background differs from the 3D clear colour.
     let outliner = distinct_colours(&img, 0, 30, 250, 260);
-    assert!(outliner > 20, "the outliner looks empty: {outliner} colours");
+    assert!(
+        outliner > 20,
+        "the outliner looks empty: {outliner} colours"
+    );
     let status = distinct_colours(&img, 0, 780, 600, 800);
     assert!(status > 10, "the status bar looks empty: {status} colours");
     let inspector = distinct_colours(&img, 1040, 30, 1280, 60);
-    assert!(inspector > 5, "the inspector looks empty: {inspector} colours");
+    assert!(
+        inspector > 5,
+        "the inspector looks empty: {inspector} colours"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -40,9 +58,13 @@ fn opening_a_file_spawns_its_meshes() {
     if skip_gpu_tests("opening_a_file_spawns_its_meshes") {
         return;
     }
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
-    assert!(out.contains("opened") && out.contains("1 meshes, 12 triangles"), "{out}");
+    assert!(
+        out.contains("opened") && out.contains("1 meshes, 12 triangles"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -50,7 +72,11 @@ fn a_broken_file_is_reported_not_fatal() {
     if skip_gpu_tests("a_broken_file_is_reported_not_fatal") {
         return;
     }
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/broken_gltf/MissingBin/BoxTextured.gltf");
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/broken_gltf/MissingBin/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
-    assert!(out.contains("MissingBin/BoxTextured.gltf") && out.contains("cannot read buffer"), "{out}");
+    assert!(
+        out.contains("MissingBin/BoxTextured.gltf") && out.contains("cannot read buffer"),
+        "{out}"
+    );
 }

@@ -32,9 +32,16 @@ pub fn run_editor(args: &[&str]) -> String {
         .unwrap_or_else(|e| {
             panic!("cannot run xvfb-run ({e}). Install the headless GPU test packages: apt-get install -y mesa-vulkan-drivers libvulkan1 xvfb xauth")
         });
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     if !out.status.success() {
-        if text.contains("Unable to find a GPU") || text.contains("No suitable adapter") || text.contains("adapter") && text.contains("panicked") {
+        if text.contains("Unable to find a GPU")
+            || text.contains("No suitable adapter")
+            || text.contains("adapter") && text.contains("panicked")
+        {
             panic!(
                 "no GPU adapter was found. Install Mesa's software Vulkan (apt-get install -y mesa-vulkan-drivers libvulkan1), \
                  or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests. Output:\n{text}"
@@ -47,7 +54,9 @@ pub fn run_editor(args: &[&str]) -> String {
 
 /// Loads a PNG as RGB.
 pub fn load_rgb(path: &Path) -> image::RgbImage {
-    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8()
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgb8()
 }
 
 /// Number of distinct colours in a region.

@@ -106,7 +106,13 @@ impl Aabb {
         if o.is_empty() {
             return true;
         }
-        let slack = eps * (1.0 + self.extent().max_element().max(self.min.abs().max_element()).max(self.max.abs().max_element()));
+        let slack = eps
+            * (1.0
+                + self
+                    .extent()
+                    .max_element()
+                    .max(self.min.abs().max_element())
+                    .max(self.max.abs().max_element()));
         (o.min - self.min).min_element() >= -slack && (self.max - o.max).min_element() >= -slack
     }
 

@@ -24,7 +24,12 @@ pub fn batch_coherence(bounds: &Aabb, sum_area: f32, count: usize) -> f32 {
 /// Splits `order` (indices into `boxes`) into coherent batches: a batch is split at the spatial median
 /// of its bounds on a cycling axis until R*_coh < `r_max` and it has at most `max_batch` primitives.
 /// Returns ranges of the reordered `order`.
-pub fn coherent_batches(boxes: &[Aabb], order: &mut [u32], r_max: f32, max_batch: usize) -> Vec<Range<usize>> {
+pub fn coherent_batches(
+    boxes: &[Aabb],
+    order: &mut [u32],
+    r_max: f32,
+    max_batch: usize,
+) -> Vec<Range<usize>> {
     let mut out = Vec::new();
     let mut stack = vec![(0usize, order.len(), 0usize)];
     while let Some((s, e, axis)) = stack.pop() {
@@ -68,11 +73,17 @@ impl Bvh {
     /// Inserts world-space triangles block-parallel (IncrUPB). The input is cut into buffers; while the
     /// owner inserts the bBVHs of one buffer, the other threads build the bBVHs of the next.
     /// Rejects the whole input, inserting nothing, if any vertex is invalid. Returns the new ids.
-    pub fn insert_triangles_block_parallel(&mut self, tris: &[Triangle]) -> Result<Vec<u32>, BvhError> {
+    pub fn insert_triangles_block_parallel(
+        &mut self,
+        tris: &[Triangle],
+    ) -> Result<Vec<u32>, BvhError> {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
         let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
-        let (r_max, max_batch) = (self.config.coherence_max, self.config.block_max_batch.max(1) as usize);
+        let (r_max, max_batch) = (
+            self.config.coherence_max,
+            self.config.block_max_batch.max(1) as usize,
+        );
         let build = |buf: Range<usize>| -> Vec<(Vec<u32>, BuiltTree)> {
             let boxes: Vec<Aabb> = tris[buf.clone()].iter().map(|t| t.aabb()).collect();
             let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
@@ -80,14 +91,26 @@ impl Bvh {
             batches
                 .into_par_iter()
                 .map(|r| {
-                    let local: Vec<Aabb> = order[r.clone()].iter().map(|&k| boxes[k as usize]).collect();
-                    let batch_ids = order[r].iter().map(|&k| ids[buf.start + k as usize]).collect();
+                    let local: Vec<Aabb> = order[r.clone()]
+                        .iter()
+                        .map(|&k| boxes[k as usize])
+                        .collect();
+                    let batch_ids = order[r]
+                        .iter()
+                        .map(|&k| ids[buf.start + k as usize])
+                        .collect();
                     (batch_ids, build_binned(&local))
                 })
                 .collect()
         };
-        let buffers: Vec<Range<usize>> = (0..tris.len()).step_by(BUFFER).map(|s| s..(s + BUFFER).min(tris.len())).collect();
-        let mut ready = buffers.first().map(|b| build(b.clone())).unwrap_or_default();
+        let buffers: Vec<Range<usize>> = (0..tris.len())
+            .step_by(BUFFER)
+            .map(|s| s..(s + BUFFER).min(tris.len()))
+            .collect();
+        let mut ready = buffers
+            .first()
+            .map(|b| build(b.clone()))
+            .unwrap_or_default();
         for k in 0..buffers.len() {
             let next = buffers.get(k + 1).cloned();
             let current = std::mem::take(&mut ready);
@@ -117,7 +140,10 @@ pub struct BlockStream {
 impl BlockStream {
     /// A stream that inserts every `capacity` triangles.
     pub fn new(capacity: usize) -> Self {
-        Self { buffer: Vec::with_capacity(capacity), capacity: capacity.max(1) }
+        Self {
+            buffer: Vec::with_capacity(capacity),
+            capacity: capacity.max(1),
+        }
     }
 
     /// Triangles received but not inserted yet.
@@ -130,7 +156,11 @@ impl BlockStream {
     pub fn push(&mut self, bvh: &mut Bvh, chunk: &[Triangle]) -> Result<Vec<u32>, BvhError> {
         validate_triangles(chunk)?;
         self.buffer.extend_from_slice(chunk);
-        if self.buffer.len() >= self.capacity { self.flush(bvh) } else { Ok(Vec::new()) }
+        if self.buffer.len() >= self.capacity {
+            self.flush(bvh)
+        } else {
+            Ok(Vec::new())
+        }
     }
 
     /// Inserts whatever is buffered.

@@ -158,7 +158,11 @@ impl Bvh {
 
     /// Bounds of the whole scene (world space).
     pub fn bounds(&self) -> Aabb {
-        if self.root.is_none() { Aabb::EMPTY } else { self.aabb(self.root) }
+        if self.root.is_none() {
+            Aabb::EMPTY
+        } else {
+            self.aabb(self.root)
+        }
     }
 
     // ---- node access -------------------------------------------------------------------------
@@ -198,7 +202,11 @@ impl Bvh {
     // ---- allocation ----------------------------------------------------------------------------
 
     pub(crate) fn alloc_inner(&mut self) -> u32 {
-        let node = InnerNode { aabb: Aabb::EMPTY, children: [NodeRef::NONE; 2], parent: NONE };
+        let node = InnerNode {
+            aabb: Aabb::EMPTY,
+            children: [NodeRef::NONE; 2],
+            parent: NONE,
+        };
         if let Some(i) = self.inner_free.pop() {
             self.inner[i as usize] = node;
             i
@@ -222,7 +230,9 @@ impl Bvh {
     pub(crate) fn check_room(&self, extra: usize) -> Result<(), BvhError> {
         let tris = self.tris.len() - self.tri_free.len() + extra;
         if tris > MAX_INDEX as usize / 2 {
-            return Err(BvhError::TooLarge { limit: MAX_INDEX / 2 });
+            return Err(BvhError::TooLarge {
+                limit: MAX_INDEX / 2,
+            });
         }
         Ok(())
     }
@@ -282,7 +292,11 @@ impl Bvh {
     pub(crate) fn link(&mut self, l: NodeRef, x: NodeRef, p: u32) {
         let xp = self.parent(x);
         let aabb = self.aabb(x).union(&self.aabb(l));
-        self.inner[p as usize] = InnerNode { aabb, children: [x, l], parent: xp };
+        self.inner[p as usize] = InnerNode {
+            aabb,
+            children: [x, l],
+            parent: xp,
+        };
         self.area_acc += aabb.area() as f64;
         self.set_parent(x, p);
         self.set_parent(l, p);
@@ -341,7 +355,11 @@ impl Bvh {
             return NONE;
         }
         let pn = self.inner[p as usize];
-        let s = if pn.children[0] == n { pn.children[1] } else { pn.children[0] };
+        let s = if pn.children[0] == n {
+            pn.children[1]
+        } else {
+            pn.children[0]
+        };
         let g = pn.parent;
         self.set_parent(s, g);
         self.area_acc -= pn.aabb.area() as f64;

@@ -67,7 +67,11 @@ impl ChangeLog {
         self.root_changed = true;
     }
 
-    pub(crate) fn take(&mut self, live_tri: impl Fn(u32) -> bool, sizes: (u32, u32, u32)) -> ChangeSet {
+    pub(crate) fn take(
+        &mut self,
+        live_tri: impl Fn(u32) -> bool,
+        sizes: (u32, u32, u32),
+    ) -> ChangeSet {
         let mut inner = std::mem::take(&mut self.inner_list);
         for &i in &inner {
             self.inner_dirty[i as usize] = false;
@@ -151,7 +155,10 @@ impl ChangeSet {
 mod tests {
     #[test]
     fn coalesce_ranges() {
-        assert_eq!(super::coalesce(&[1, 2, 3, 7, 9, 10]), vec![1..4, 7..8, 9..11]);
+        assert_eq!(
+            super::coalesce(&[1, 2, 3, 7, 9, 10]),
+            vec![1..4, 7..8, 9..11]
+        );
         assert!(super::coalesce(&[]).is_empty());
     }
 }

@@ -62,7 +62,10 @@ impl Default for BvhConfig {
 impl BvhConfig {
     /// The paper's Incr: insertion only, with clustering.
     pub fn incr() -> Self {
-        Self { global_updates: false, ..Self::default() }
+        Self {
+            global_updates: false,
+            ..Self::default()
+        }
     }
     /// The paper's IncrU: insertion with global updates through the node update cache.
     pub fn incr_u() -> Self {

@@ -51,7 +51,12 @@ impl Bvh {
         let me = out.len();
         match n.kind() {
             NodeKind::Inner => {
-                out.push(FileNode { aabb: Aabb::EMPTY, left: -1, right: -1, triangle: -1 });
+                out.push(FileNode {
+                    aabb: Aabb::EMPTY,
+                    left: -1,
+                    right: -1,
+                    triangle: -1,
+                });
                 let [a, b] = self.inner[n.index() as usize].children;
                 let l = self.emit(a, xf, out);
                 let r = self.emit(b, xf, out);
@@ -62,7 +67,12 @@ impl Bvh {
             NodeKind::Leaf => {
                 let t = self.tris[n.index() as usize];
                 let t = xf.map_or(t, |x| t.transformed(x));
-                out.push(FileNode { aabb: t.aabb(), left: -1, right: -1, triangle: n.index() as i32 });
+                out.push(FileNode {
+                    aabb: t.aabb(),
+                    left: -1,
+                    right: -1,
+                    triangle: n.index() as i32,
+                });
             }
             NodeKind::Instance => {
                 let inst = &self.instances[n.index() as usize];
@@ -82,7 +92,13 @@ impl Bvh {
         w.write_all(&self.triangle_capacity().to_le_bytes())?;
         let mut buf = Vec::with_capacity(nodes.len() * 36);
         for n in &nodes {
-            for f in n.aabb.min.to_array().into_iter().chain(n.aabb.max.to_array()) {
+            for f in n
+                .aabb
+                .min
+                .to_array()
+                .into_iter()
+                .chain(n.aabb.max.to_array())
+            {
                 buf.extend_from_slice(&f.to_le_bytes());
             }
             for i in [n.left, n.right, n.triangle] {
@@ -97,7 +113,8 @@ impl Bvh {
 pub fn read_tlbvh(r: &mut impl Read) -> Result<FileBvh, BvhError> {
     let bad = |m: &str| BvhError::BadFile(m.to_string());
     let mut head = [0u8; 20];
-    r.read_exact(&mut head).map_err(|_| bad("shorter than its header"))?;
+    r.read_exact(&mut head)
+        .map_err(|_| bad("shorter than its header"))?;
     if &head[..8] != MAGIC {
         return Err(bad("wrong magic"));
     }
@@ -107,11 +124,15 @@ pub fn read_tlbvh(r: &mut impl Read) -> Result<FileBvh, BvhError> {
     let mut nodes = Vec::new();
     let mut rec = [0u8; 36];
     for _ in 0..count {
-        r.read_exact(&mut rec).map_err(|_| bad("shorter than its node count says"))?;
+        r.read_exact(&mut rec)
+            .map_err(|_| bad("shorter than its node count says"))?;
         let f = |k: usize| f32::from_le_bytes(rec[4 * k..4 * k + 4].try_into().unwrap());
         let i = |k: usize| i32::from_le_bytes(rec[4 * k..4 * k + 4].try_into().unwrap());
         nodes.push(FileNode {
-            aabb: Aabb::new(glam::Vec3::new(f(0), f(1), f(2)), glam::Vec3::new(f(3), f(4), f(5))),
+            aabb: Aabb::new(
+                glam::Vec3::new(f(0), f(1), f(2)),
+                glam::Vec3::new(f(3), f(4), f(5)),
+            ),
             left: i(6),
             right: i(7),
             triangle: i(8),
@@ -131,5 +152,9 @@ pub fn read_tlbvh(r: &mut impl Read) -> Result<FileBvh, BvhError> {
             return Err(bad(&format!("node {k} has bad links")));
         }
     }
-    Ok(FileBvh { nodes, root, triangle_count })
+    Ok(FileBvh {
+        nodes,
+        root,
+        triangle_count,
+    })
 }

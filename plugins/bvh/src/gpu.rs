@@ -77,7 +77,11 @@ impl Bvh {
     pub fn gpu_node(&self, i: u32) -> GpuNode {
         let n = &self.inner[i as usize];
         if n.parent == FREE {
-            return GpuNode { a_ref: NodeRef::NONE.0, b_ref: NodeRef::NONE.0, ..Default::default() };
+            return GpuNode {
+                a_ref: NodeRef::NONE.0,
+                b_ref: NodeRef::NONE.0,
+                ..Default::default()
+            };
         }
         let (a, b) = (self.aabb(n.children[0]), self.aabb(n.children[1]));
         GpuNode {
@@ -114,7 +118,10 @@ impl Bvh {
                 root: inst.root.0,
                 pad: [0; 3],
             },
-            None => GpuInstance { root: NodeRef::NONE.0, ..Default::default() },
+            None => GpuInstance {
+                root: NodeRef::NONE.0,
+                ..Default::default()
+            },
         }
     }
 
@@ -125,19 +132,29 @@ impl Bvh {
 
     /// All node records, for a first full upload.
     pub fn gpu_nodes(&self) -> Vec<GpuNode> {
-        (0..self.inner.len() as u32).map(|i| self.gpu_node(i)).collect()
+        (0..self.inner.len() as u32)
+            .map(|i| self.gpu_node(i))
+            .collect()
     }
 
     /// What changed since the last call (or since construction): node ranges to rewrite, triangles
     /// written and removed, instances changed. Clears the log.
     pub fn take_changes(&mut self) -> ChangeSet {
-        let sizes = (self.inner.len() as u32, self.tris.len() as u32, self.instances.len() as u32);
+        let sizes = (
+            self.inner.len() as u32,
+            self.tris.len() as u32,
+            self.instances.len() as u32,
+        );
         let parents = &self.tri_parent;
         self.changes.take(|t| parents[t as usize] != FREE, sizes)
     }
 
     /// Marks everything as changed, for a consumer that lost its copy and must start over.
     pub fn mark_all_changed(&mut self) {
-        self.changes.mark_all(self.inner.len() as u32, self.tris.len() as u32, self.instances.len() as u32);
+        self.changes.mark_all(
+            self.inner.len() as u32,
+            self.tris.len() as u32,
+            self.instances.len() as u32,
+        );
     }
 }

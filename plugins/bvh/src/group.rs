@@ -41,7 +41,11 @@ pub struct PreparedGroup {
 impl PreparedGroup {
     /// Validates and builds (binned SAH, parallel for large meshes). `keep_whole` keeps the triangles in
     /// object space under `transform`; otherwise they are moved to world space and baked.
-    pub fn build(object: Vec<Triangle>, transform: Affine3A, keep_whole: bool) -> Result<Self, BvhError> {
+    pub fn build(
+        object: Vec<Triangle>,
+        transform: Affine3A,
+        keep_whole: bool,
+    ) -> Result<Self, BvhError> {
         validate_triangles(&object)?;
         check_transform(&transform)?;
         let stored: Vec<Triangle> = if keep_whole {
@@ -52,7 +56,13 @@ impl PreparedGroup {
         validate_triangles(&stored)?;
         let boxes: Vec<Aabb> = stored.iter().map(|t| t.aabb()).collect();
         let tree = build_binned_parallel(&boxes);
-        Ok(Self { object, transform, whole: keep_whole, stored, tree })
+        Ok(Self {
+            object,
+            transform,
+            whole: keep_whole,
+            stored,
+            tree,
+        })
     }
 
     /// Number of triangles.
@@ -83,7 +93,12 @@ impl Bvh {
     }
 
     /// Builds and inserts a group in one call. See [`PreparedGroup::build`].
-    pub fn insert_group(&mut self, object: &[Triangle], transform: Affine3A, keep_whole: bool) -> Result<GroupId, BvhError> {
+    pub fn insert_group(
+        &mut self,
+        object: &[Triangle],
+        transform: Affine3A,
+        keep_whole: bool,
+    ) -> Result<GroupId, BvhError> {
         let prepared = PreparedGroup::build(object.to_vec(), transform, keep_whole)?;
         self.insert_prepared(prepared)
     }
@@ -105,7 +120,11 @@ impl Bvh {
                 self.groups.len() as u32 - 1
             }
         };
-        let ids: Vec<u32> = g.stored.iter().map(|t| self.alloc_triangle(*t, index)).collect();
+        let ids: Vec<u32> = g
+            .stored
+            .iter()
+            .map(|t| self.alloc_triangle(*t, index))
+            .collect();
         let root = self.graft(&g.tree, &ids);
         let mut instance = NONE;
         if !root.is_none() {
@@ -123,12 +142,22 @@ impl Bvh {
         slot.object = g.object;
         slot.transform = g.transform;
         slot.instance = instance;
-        Ok(GroupId { index, generation: slot.generation })
+        Ok(GroupId {
+            index,
+            generation: slot.generation,
+        })
     }
 
     fn make_instance(&mut self, root: NodeRef, transform: Affine3A, group: u32) -> u32 {
         let aabb = self.aabb(root).transformed(&transform);
-        self.alloc_instance(Instance { aabb, parent: NONE, root, transform, inverse: transform.inverse(), group })
+        self.alloc_instance(Instance {
+            aabb,
+            parent: NONE,
+            root,
+            transform,
+            inverse: transform.inverse(),
+            group,
+        })
     }
 
     /// Puts a baked subtree's inner nodes in the node update cache, opening them to global updates.
@@ -181,7 +210,11 @@ impl Bvh {
 
     /// Moves a group. A baked group is first opened into an instance (its triangles go back to object
     /// space, once); from then on each move is one O(log n) re-insertion of the instance node.
-    pub fn set_group_transform(&mut self, id: GroupId, transform: Affine3A) -> Result<(), BvhError> {
+    pub fn set_group_transform(
+        &mut self,
+        id: GroupId,
+        transform: Affine3A,
+    ) -> Result<(), BvhError> {
         check_transform(&transform)?;
         let g = self.group(id)?;
         if g.triangles.is_empty() {
@@ -194,8 +227,13 @@ impl Bvh {
         let index = id.index as usize;
         let instance = self.groups[index].instance;
         self.groups[index].transform = transform;
-        let attached = self.instances[instance as usize].parent != NONE || self.root == NodeRef::instance(instance);
-        let p = if attached { self.unlink(NodeRef::instance(instance)) } else { NONE };
+        let attached = self.instances[instance as usize].parent != NONE
+            || self.root == NodeRef::instance(instance);
+        let p = if attached {
+            self.unlink(NodeRef::instance(instance))
+        } else {
+            NONE
+        };
         let inst = &mut self.instances[instance as usize];
         inst.transform = transform;
         inst.inverse = transform.inverse();
@@ -267,10 +305,17 @@ impl Bvh {
     }
 
     /// Replaces a group's vertices (same triangle count, object space) and refits.
-    pub fn update_group_vertices(&mut self, id: GroupId, object: &[Triangle]) -> Result<(), BvhError> {
+    pub fn update_group_vertices(
+        &mut self,
+        id: GroupId,
+        object: &[Triangle],
+    ) -> Result<(), BvhError> {
         let g = self.group(id)?;
         if g.object.len() != object.len() {
-            return Err(BvhError::TriangleCountMismatch { expected: g.object.len(), got: object.len() });
+            return Err(BvhError::TriangleCountMismatch {
+                expected: g.object.len(),
+                got: object.len(),
+            });
         }
         validate_triangles(object)?;
         let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
@@ -327,7 +372,10 @@ impl Bvh {
             return None;
         }
         let g = self.tri_group[t as usize];
-        (g != NONE).then(|| GroupId { index: g, generation: self.groups[g as usize].generation })
+        (g != NONE).then(|| GroupId {
+            index: g,
+            generation: self.groups[g as usize].generation,
+        })
     }
 
     /// Triangle `t` in world space, whatever its group's state.
@@ -349,12 +397,19 @@ impl Bvh {
         let mut ids = ids.to_vec();
         ids.sort_unstable();
         ids.dedup();
-        let mut touched_groups: Vec<u32> = ids.iter().map(|&t| self.tri_group[t as usize]).filter(|&g| g != NONE).collect();
+        let mut touched_groups: Vec<u32> = ids
+            .iter()
+            .map(|&t| self.tri_group[t as usize])
+            .filter(|&g| g != NONE)
+            .collect();
         touched_groups.sort_unstable();
         touched_groups.dedup();
         for &g in &touched_groups {
             if self.groups[g as usize].instance != NONE {
-                let id = GroupId { index: g, generation: self.groups[g as usize].generation };
+                let id = GroupId {
+                    index: g,
+                    generation: self.groups[g as usize].generation,
+                };
                 self.bake_group(id)?;
             }
         }

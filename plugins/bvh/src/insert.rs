@@ -10,7 +10,11 @@ pub fn coherence(a: &Aabb, b: &Aabb) -> f32 {
     let sum = a.area() + b.area();
     if sum <= 0.0 {
         // Two degenerate (zero-area) boxes: coherent only if they coincide.
-        return if a.union_area(b) <= 0.0 { 0.0 } else { f32::INFINITY };
+        return if a.union_area(b) <= 0.0 {
+            0.0
+        } else {
+            f32::INFINITY
+        };
     }
     a.union_area(b) / sum
 }
@@ -63,7 +67,11 @@ impl Bvh {
     pub(crate) fn make_pair(&mut self, a: NodeRef, b: NodeRef) -> NodeRef {
         let n = self.alloc_inner();
         let aabb = self.aabb(a).union(&self.aabb(b));
-        self.inner[n as usize] = InnerNode { aabb, children: [a, b], parent: NONE };
+        self.inner[n as usize] = InnerNode {
+            aabb,
+            children: [a, b],
+            parent: NONE,
+        };
         self.set_parent(a, n);
         self.set_parent(b, n);
         self.changes.mark_inner(n);
@@ -87,7 +95,10 @@ mod tests {
     #[test]
     fn coherence_of_neighbours_and_strangers() {
         let a = Aabb::new(glam::Vec3::ZERO, glam::Vec3::ONE);
-        let b = Aabb::new(glam::Vec3::new(1.0, 0.0, 0.0), glam::Vec3::new(2.0, 1.0, 1.0));
+        let b = Aabb::new(
+            glam::Vec3::new(1.0, 0.0, 0.0),
+            glam::Vec3::new(2.0, 1.0, 1.0),
+        );
         let far = Aabb::new(glam::Vec3::splat(10.0), glam::Vec3::splat(11.0));
         assert!(coherence(&a, &b) < 1.5);
         assert!(coherence(&a, &far) > 1.5);

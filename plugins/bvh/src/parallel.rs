@@ -15,7 +15,10 @@ thread_local! {
 impl Bvh {
     /// Inserts world-space triangles with parallel search (IncrUP). Same result contract as
     /// [`Bvh::insert_triangles`]; the tree differs only where searches of one batch interact.
-    pub fn insert_triangles_parallel_search(&mut self, tris: &[Triangle]) -> Result<Vec<u32>, BvhError> {
+    pub fn insert_triangles_parallel_search(
+        &mut self,
+        tris: &[Triangle],
+    ) -> Result<Vec<u32>, BvhError> {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
         let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
@@ -35,7 +38,9 @@ impl Bvh {
             let this = &*self;
             chunk
                 .par_iter()
-                .map(|&item| SCRATCH.with(|s| this.find_best_sibling(&this.aabb(item), &mut s.borrow_mut())))
+                .map(|&item| {
+                    SCRATCH.with(|s| this.find_best_sibling(&this.aabb(item), &mut s.borrow_mut()))
+                })
                 .collect_into_vec(&mut targets);
             linked.clear();
             for (&item, &x) in chunk.iter().zip(&targets) {
@@ -69,7 +74,8 @@ impl Bvh {
             let a = ids[i];
             if self.config.clustering && i + 1 < ids.len() {
                 let b = ids[i + 1];
-                let c = crate::insert::coherence(&self.tri_box[a as usize], &self.tri_box[b as usize]);
+                let c =
+                    crate::insert::coherence(&self.tri_box[a as usize], &self.tri_box[b as usize]);
                 if c < self.config.coherence_max {
                     items.push(self.make_pair(NodeRef::leaf(a), NodeRef::leaf(b)));
                     i += 2;

@@ -104,7 +104,13 @@ impl Bvh {
             if self.parent(self.root) != NONE {
                 return Err(format!("root {:?} has a parent", self.root));
             }
-            self.validate_subtree(self.root, &mut seen_tri, &mut seen_inner, &mut seen_inst, false)?;
+            self.validate_subtree(
+                self.root,
+                &mut seen_tri,
+                &mut seen_inner,
+                &mut seen_inst,
+                false,
+            )?;
         }
         for (t, &count) in seen_tri.iter().enumerate() {
             let live = self.tri_parent[t] != FREE;
@@ -116,12 +122,20 @@ impl Bvh {
         }
         for (i, n) in self.inner.iter().enumerate() {
             if (n.parent != FREE) != seen_inner[i] {
-                return Err(format!("inner node {i} is live={} but reachable={}", n.parent != FREE, seen_inner[i]));
+                return Err(format!(
+                    "inner node {i} is live={} but reachable={}",
+                    n.parent != FREE,
+                    seen_inner[i]
+                ));
             }
         }
         for (i, inst) in self.instances.iter().enumerate() {
             if (inst.group != FREE) != seen_inst[i] {
-                return Err(format!("instance {i} is live={} but reachable={}", inst.group != FREE, seen_inst[i]));
+                return Err(format!(
+                    "instance {i} is live={} but reachable={}",
+                    inst.group != FREE,
+                    seen_inst[i]
+                ));
             }
         }
         if self.live_tris as usize != seen_tri.iter().filter(|&&c| c == 1).count() {
@@ -150,7 +164,10 @@ impl Bvh {
             let i = n.index() as usize;
             match n.kind() {
                 NodeKind::Inner => {
-                    let node = self.inner.get(i).ok_or(format!("inner node {i} out of range"))?;
+                    let node = self
+                        .inner
+                        .get(i)
+                        .ok_or(format!("inner node {i} out of range"))?;
                     if node.parent == FREE {
                         return Err(format!("freed inner node {i} is in the tree"));
                     }
@@ -163,7 +180,10 @@ impl Bvh {
                             return Err(format!("inner node {i} lacks a child"));
                         }
                         if self.parent(c) != i as u32 {
-                            return Err(format!("child {c:?} of {i} names parent {}", self.parent(c)));
+                            return Err(format!(
+                                "child {c:?} of {i} names parent {}",
+                                self.parent(c)
+                            ));
                         }
                         if !node.aabb.contains_box(&self.aabb(c), 1e-6) {
                             return Err(format!("inner node {i} does not contain child {c:?}"));
@@ -185,7 +205,10 @@ impl Bvh {
                     if in_instance {
                         return Err("instance inside an instance".into());
                     }
-                    let inst = self.instances.get(i).ok_or(format!("instance {i} out of range"))?;
+                    let inst = self
+                        .instances
+                        .get(i)
+                        .ok_or(format!("instance {i} out of range"))?;
                     if inst.group == FREE {
                         return Err(format!("freed instance {i} is in the tree"));
                     }

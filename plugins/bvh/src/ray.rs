@@ -19,7 +19,12 @@ pub struct Ray {
 impl Ray {
     /// A ray over `[0, inf)`.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Self { origin, dir, t_min: 0.0, t_max: f32::INFINITY }
+        Self {
+            origin,
+            dir,
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        }
     }
 
     /// The same ray with a different range.
@@ -132,7 +137,9 @@ impl RayData {
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
             // Fall back to double precision on edges so that the edge test is exact.
-            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+            let (ax, ay, bx, by, cx, cy) = (
+                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+            );
             u = (cx * by - cy * bx) as f32;
             v = (ax * cy - ay * cx) as f32;
             w = (bx * ay - by * ax) as f32;
@@ -164,12 +171,22 @@ mod tests {
 
     #[test]
     fn hits_inside_misses_outside() {
-        let tri = Triangle::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let tri = Triangle::new(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
         let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.0, 0.0, -1.0));
-        let (t, u, v) = RayData::new(&r).hit_triangle(&tri, 0.0, f32::INFINITY).unwrap();
+        let (t, u, v) = RayData::new(&r)
+            .hit_triangle(&tri, 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - 1.0).abs() < 1e-6 && (u - 0.25).abs() < 1e-6 && (v - 0.25).abs() < 1e-6);
         let r = Ray::new(Vec3::new(0.75, 0.75, 1.0), Vec3::new(0.0, 0.0, -1.0));
-        assert!(RayData::new(&r).hit_triangle(&tri, 0.0, f32::INFINITY).is_none());
+        assert!(
+            RayData::new(&r)
+                .hit_triangle(&tri, 0.0, f32::INFINITY)
+                .is_none()
+        );
     }
 
     #[test]
@@ -181,7 +198,8 @@ mod tests {
             let s = i as f32 / 100.0;
             let r = Ray::new(Vec3::new(s, s, 1.0), Vec3::new(0.0, 0.0, -1.0));
             let d = RayData::new(&r);
-            let hits = d.hit_triangle(&t1, 0.0, 10.0).is_some() as u32 + d.hit_triangle(&t2, 0.0, 10.0).is_some() as u32;
+            let hits = d.hit_triangle(&t1, 0.0, 10.0).is_some() as u32
+                + d.hit_triangle(&t2, 0.0, 10.0).is_some() as u32;
             assert!(hits >= 1, "ray through the shared edge leaked at {s}");
         }
     }

@@ -40,7 +40,11 @@ impl SearchScratch {
                 break;
             }
             let r = l + 1;
-            let c = if r < n && self.heap[r].0 < self.heap[l].0 { r } else { l };
+            let c = if r < n && self.heap[r].0 < self.heap[l].0 {
+                r
+            } else {
+                l
+            };
             if self.heap[i].0 <= self.heap[c].0 {
                 break;
             }

@@ -25,7 +25,11 @@ struct NodeStack {
 impl NodeStack {
     #[inline]
     fn new() -> Self {
-        Self { inline: [NodeRef::NONE; 64], len: 0, spill: Vec::new() }
+        Self {
+            inline: [NodeRef::NONE; 64],
+            len: 0,
+            spill: Vec::new(),
+        }
     }
     #[inline]
     fn push(&mut self, n: NodeRef) {
@@ -71,7 +75,13 @@ impl Bvh {
     }
 
     /// Returns true when something was found and `ANY` asks to stop.
-    fn traverse<const ANY: bool>(&self, root: NodeRef, ray: &Ray, best: &mut Option<Hit>, stats: &mut TraversalStats) -> bool {
+    fn traverse<const ANY: bool>(
+        &self,
+        root: NodeRef,
+        ray: &Ray,
+        best: &mut Option<Hit>,
+        stats: &mut TraversalStats,
+    ) -> bool {
         if root.is_none() {
             return false;
         }
@@ -112,8 +122,15 @@ impl Bvh {
                 NodeKind::Leaf => {
                     stats.triangles_tested += 1;
                     let id = n.index();
-                    if let Some((t, u, v)) = rd.hit_triangle(&self.tris[id as usize], ray.t_min, t_max(best)) {
-                        *best = Some(Hit { triangle: id, t, u, v });
+                    if let Some((t, u, v)) =
+                        rd.hit_triangle(&self.tris[id as usize], ray.t_min, t_max(best))
+                    {
+                        *best = Some(Hit {
+                            triangle: id,
+                            t,
+                            u,
+                            v,
+                        });
                         if ANY {
                             return true;
                         }
@@ -121,7 +138,9 @@ impl Bvh {
                 }
                 NodeKind::Instance => {
                     let inst = &self.instances[n.index() as usize];
-                    let local = ray.transformed(&inst.inverse).with_range(ray.t_min, t_max(best));
+                    let local = ray
+                        .transformed(&inst.inverse)
+                        .with_range(ray.t_min, t_max(best));
                     if self.traverse::<ANY>(inst.root, &local, best, stats) && ANY {
                         return true;
                     }
@@ -139,7 +158,13 @@ impl Bvh {
 
     /// Inside an instance (`xf` = object to world) every node box is tested after transforming it to
     /// world space: that box contains the world boxes of all triangles below, so nothing is missed.
-    fn overlap_in(&self, root: NodeRef, xf: Option<&glam::Affine3A>, query: &Aabb, out: &mut Vec<u32>) {
+    fn overlap_in(
+        &self,
+        root: NodeRef,
+        xf: Option<&glam::Affine3A>,
+        query: &Aabb,
+        out: &mut Vec<u32>,
+    ) {
         if root.is_none() {
             return;
         }
@@ -177,10 +202,17 @@ impl Bvh {
         let rd = RayData::new(ray);
         let mut best: Option<Hit> = None;
         for id in 0..self.tris.len() as u32 {
-            let Some(tri) = self.world_triangle(id) else { continue };
+            let Some(tri) = self.world_triangle(id) else {
+                continue;
+            };
             let t_max = best.map_or(ray.t_max, |h| h.t);
             if let Some((t, u, v)) = rd.hit_triangle(&tri, ray.t_min, t_max) {
-                best = Some(Hit { triangle: id, t, u, v });
+                best = Some(Hit {
+                    triangle: id,
+                    t,
+                    u,
+                    v,
+                });
             }
         }
         best
@@ -189,7 +221,10 @@ impl Bvh {
     /// Ids of live triangles whose world boxes overlap `query`, by testing every one.
     pub fn brute_force_overlapping(&self, query: &Aabb) -> Vec<u32> {
         (0..self.tris.len() as u32)
-            .filter(|&id| self.world_triangle(id).is_some_and(|t| t.aabb().overlaps(query)))
+            .filter(|&id| {
+                self.world_triangle(id)
+                    .is_some_and(|t| t.aabb().overlaps(query))
+            })
             .collect()
     }
 }

@@ -64,7 +64,10 @@ pub fn validate_triangles(tris: &[Triangle]) -> Result<(), BvhError> {
             return Err(BvhError::NonFiniteVertex { index });
         }
         if t.v.iter().any(|p| p.abs().max_element() > MAX_COORDINATE) {
-            return Err(BvhError::CoordinateTooLarge { index, limit: MAX_COORDINATE });
+            return Err(BvhError::CoordinateTooLarge {
+                index,
+                limit: MAX_COORDINATE,
+            });
         }
     }
     Ok(())

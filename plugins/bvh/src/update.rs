@@ -23,7 +23,8 @@ impl Bvh {
 
     /// Runs a batch of updates if the node update cache holds N_u nodes.
     pub(crate) fn maybe_update(&mut self) {
-        if self.config.global_updates && self.cache.len() >= self.config.update_cache_size as usize {
+        if self.config.global_updates && self.cache.len() >= self.config.update_cache_size as usize
+        {
             self.run_update_batch();
         }
     }
@@ -37,7 +38,8 @@ impl Bvh {
                 self.updatable(i).then(|| (self.inefficiency(i), i))
             })
             .collect();
-        let k = ((self.config.update_fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
+        let k = ((self.config.update_fraction * candidates.len() as f32).ceil() as usize)
+            .min(candidates.len());
         self.update_top(&mut candidates, k);
     }
 
@@ -78,7 +80,11 @@ impl Bvh {
         self.set_parent(a, NONE);
         self.set_parent(b, NONE);
         // The larger child first: it constrains the best position of the smaller one.
-        let (first, second) = if self.aabb(a).area() >= self.aabb(b).area() { (a, b) } else { (b, a) };
+        let (first, second) = if self.aabb(a).area() >= self.aabb(b).area() {
+            (a, b)
+        } else {
+            (b, a)
+        };
         self.insert_node_with(first, n);
         self.insert_node_with(second, p);
         self.update_ops += 1;
@@ -92,7 +98,11 @@ impl Bvh {
         let n2 = self.unlink(first);
         let (n, p) = if n2 == n { (n, p) } else { (p, n) };
         let aabb = self.aabb(a).union(&self.aabb(b));
-        self.inner[n as usize] = InnerNode { aabb, children: [a, b], parent: NONE };
+        self.inner[n as usize] = InnerNode {
+            aabb,
+            children: [a, b],
+            parent: NONE,
+        };
         self.set_parent(a, n);
         self.set_parent(b, n);
         self.changes.mark_inner(n);
@@ -146,7 +156,8 @@ impl Bvh {
                 .filter(|&&i| self.inner[i as usize].parent != NONE)
                 .map(|&i| (self.inefficiency(i), i))
                 .collect();
-            let k = ((pass.fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
+            let k =
+                ((pass.fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
             if k < candidates.len() {
                 candidates.select_nth_unstable_by(k.saturating_sub(1), |a, b| b.0.total_cmp(&a.0));
             }
@@ -172,7 +183,12 @@ impl Bvh {
             }
         }
         self.config.keep_only_improving = saved;
-        PostPassReport { rounds, updates: self.update_ops - before, cost_before, cost_after: cost }
+        PostPassReport {
+            rounds,
+            updates: self.update_ops - before,
+            cost_before,
+            cost_after: cost,
+        }
     }
 }
 
@@ -189,7 +205,11 @@ pub struct PostPass {
 
 impl Default for PostPass {
     fn default() -> Self {
-        Self { max_rounds: 8, fraction: 1.0, min_relative_gain: 1e-3 }
+        Self {
+            max_rounds: 8,
+            fraction: 1.0,
+            min_relative_gain: 1e-3,
+        }
     }
 }
 

@@ -2,13 +2,20 @@
 
 mod support;
 use support::*;
-use treelight_bvh::{BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle};
 use treelight_bvh::glam::Vec3;
+use treelight_bvh::{BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle};
 
 fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     let mut out = Vec::new();
-    for (name, b) in [("sah", TopDown::SweepSah), ("binned", TopDown::BinnedSah), ("median", TopDown::Median)] {
-        out.push((name, Bvh::build_top_down(tris, b, BvhConfig::default()).unwrap()));
+    for (name, b) in [
+        ("sah", TopDown::SweepSah),
+        ("binned", TopDown::BinnedSah),
+        ("median", TopDown::Median),
+    ] {
+        out.push((
+            name,
+            Bvh::build_top_down(tris, b, BvhConfig::default()).unwrap(),
+        ));
     }
     let mut small = BvhConfig::incr_u();
     small.update_cache_size = 64; // small enough that updates run many times on small inputs
@@ -45,8 +52,17 @@ fn builders_match_brute_force_on_soup() {
 #[test]
 fn every_inefficiency_measure_builds_a_valid_tree() {
     let tris = soup(1500, 3);
-    for m in [Inefficiency::Comb, Inefficiency::Area, Inefficiency::Sum, Inefficiency::Min] {
-        let cfg = BvhConfig { inefficiency: m, update_cache_size: 50, ..BvhConfig::default() };
+    for m in [
+        Inefficiency::Comb,
+        Inefficiency::Area,
+        Inefficiency::Sum,
+        Inefficiency::Min,
+    ] {
+        let cfg = BvhConfig {
+            inefficiency: m,
+            update_cache_size: 50,
+            ..BvhConfig::default()
+        };
         let mut bvh = Bvh::new(cfg);
         bvh.insert_triangles(&tris).unwrap();
         bvh.validate().unwrap();
@@ -60,7 +76,8 @@ fn tiny_inputs() {
     for n in 0..4 {
         let tris = vec![t; n];
         for (name, bvh) in all_builds(&tris) {
-            bvh.validate().unwrap_or_else(|e| panic!("{name} with {n}: {e}"));
+            bvh.validate()
+                .unwrap_or_else(|e| panic!("{name} with {n}: {e}"));
             assert_eq!(bvh.triangle_count() as usize, n);
             let hit = bvh.closest_hit(&treelight_bvh::Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z));
             assert_eq!(hit.is_some(), n > 0, "{name} with {n}");
@@ -71,8 +88,16 @@ fn tiny_inputs() {
 #[test]
 fn duplicates_and_zero_area_triangles() {
     let mut tris = vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y); 200];
-    tris.extend((0..100).map(|i| Triangle::new(Vec3::splat(i as f32), Vec3::splat(i as f32), Vec3::splat(i as f32))));
-    tris.extend((0..100).map(|i| Triangle::new(Vec3::ZERO, Vec3::X * i as f32, Vec3::X * 2.0 * i as f32)));
+    tris.extend((0..100).map(|i| {
+        Triangle::new(
+            Vec3::splat(i as f32),
+            Vec3::splat(i as f32),
+            Vec3::splat(i as f32),
+        )
+    }));
+    tris.extend(
+        (0..100).map(|i| Triangle::new(Vec3::ZERO, Vec3::X * i as f32, Vec3::X * 2.0 * i as f32)),
+    );
     tris.extend(soup(300, 5));
     let rays = rays(200, 2, 10.0);
     for (name, bvh) in all_builds(&tris) {
@@ -88,13 +113,25 @@ fn non_finite_vertices_are_rejected_and_nothing_is_inserted() {
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(5, 2)).unwrap();
     let before = bvh.sah_cost();
-    assert_eq!(bvh.insert_triangles(&tris), Err(BvhError::NonFiniteVertex { index: 7 }));
-    assert_eq!(bvh.insert_triangles_block_parallel(&tris), Err(BvhError::NonFiniteVertex { index: 7 }));
-    assert_eq!(bvh.insert_triangles_parallel_search(&tris), Err(BvhError::NonFiniteVertex { index: 7 }));
+    assert_eq!(
+        bvh.insert_triangles(&tris),
+        Err(BvhError::NonFiniteVertex { index: 7 })
+    );
+    assert_eq!(
+        bvh.insert_triangles_block_parallel(&tris),
+        Err(BvhError::NonFiniteVertex { index: 7 })
+    );
+    assert_eq!(
+        bvh.insert_triangles_parallel_search(&tris),
+        Err(BvhError::NonFiniteVertex { index: 7 })
+    );
     tris[7].v[1].y = f32::INFINITY;
     assert!(bvh.insert_group(&tris, Default::default(), true).is_err());
     tris[7].v[1].y = 1e30;
-    assert!(matches!(bvh.insert_triangles(&tris), Err(BvhError::CoordinateTooLarge { index: 7, .. })));
+    assert!(matches!(
+        bvh.insert_triangles(&tris),
+        Err(BvhError::CoordinateTooLarge { index: 7, .. })
+    ));
     assert!(Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default()).is_err());
     assert_eq!(bvh.triangle_count(), 5);
     assert_eq!(bvh.sah_cost(), before);
@@ -112,7 +149,10 @@ fn block_stream_keeps_the_tree_valid_between_chunks() {
         inserted += stream.push(&mut bvh, chunk).unwrap().len();
         bvh.validate().unwrap();
         assert_eq!(bvh.triangle_count() as usize, inserted);
-        assert_eq!(inserted + stream.pending(), tris.len().min(inserted + stream.pending()));
+        assert_eq!(
+            inserted + stream.pending(),
+            tris.len().min(inserted + stream.pending())
+        );
         assert_hits_match(&bvh, &rays[..20]);
     }
     stream.flush(&mut bvh).unwrap();
@@ -124,8 +164,12 @@ fn block_stream_keeps_the_tree_valid_between_chunks() {
 fn incremental_cost_is_competitive_with_sah_on_soup() {
     // A sanity bound, not a target: IncrU within 30% of full-sweep SAH on an incoherent soup.
     let tris = soup(4000, 21);
-    let sah = Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default()).unwrap().sah_cost();
-    let median = Bvh::build_top_down(&tris, TopDown::Median, BvhConfig::default()).unwrap().sah_cost();
+    let sah = Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default())
+        .unwrap()
+        .sah_cost();
+    let median = Bvh::build_top_down(&tris, TopDown::Median, BvhConfig::default())
+        .unwrap()
+        .sah_cost();
     let mut incru = Bvh::default();
     incru.insert_triangles(&tris).unwrap();
     let c = incru.sah_cost();

@@ -9,16 +9,49 @@ use treelight_bvh::{Aabb, Bvh, BvhConfig, GpuInstance, GpuNode, GpuTriangle, Gro
 
 #[derive(Clone, Debug)]
 enum Op {
-    Insert { n: usize, seed: u64 },
-    InsertBlock { n: usize, seed: u64 },
-    InsertParallel { n: usize, seed: u64 },
-    InsertGroup { n: usize, seed: u64, whole: bool, angle: f32, offset: f32 },
-    RemoveGroup { pick: usize },
-    MoveGroup { pick: usize, angle: f32, offset: f32, scale: f32 },
-    BakeGroup { pick: usize },
-    EditGroupVertices { pick: usize, seed: u64 },
-    RemoveTriangles { seed: u64, count: usize },
-    MoveTriangles { seed: u64, count: usize },
+    Insert {
+        n: usize,
+        seed: u64,
+    },
+    InsertBlock {
+        n: usize,
+        seed: u64,
+    },
+    InsertParallel {
+        n: usize,
+        seed: u64,
+    },
+    InsertGroup {
+        n: usize,
+        seed: u64,
+        whole: bool,
+        angle: f32,
+        offset: f32,
+    },
+    RemoveGroup {
+        pick: usize,
+    },
+    MoveGroup {
+        pick: usize,
+        angle: f32,
+        offset: f32,
+        scale: f32,
+    },
+    BakeGroup {
+        pick: usize,
+    },
+    EditGroupVertices {
+        pick: usize,
+        seed: u64,
+    },
+    RemoveTriangles {
+        seed: u64,
+        count: usize,
+    },
+    MoveTriangles {
+        seed: u64,
+        count: usize,
+    },
     Optimize,
 }
 
@@ -27,13 +60,32 @@ fn op() -> impl Strategy<Value = Op> {
         (1..60usize, any::<u64>()).prop_map(|(n, seed)| Op::Insert { n, seed }),
         (1..200usize, any::<u64>()).prop_map(|(n, seed)| Op::InsertBlock { n, seed }),
         (1..60usize, any::<u64>()).prop_map(|(n, seed)| Op::InsertParallel { n, seed }),
-        (0..120usize, any::<u64>(), any::<bool>(), -3.0f32..3.0, -8.0f32..8.0)
-            .prop_map(|(n, seed, whole, angle, offset)| Op::InsertGroup { n, seed, whole, angle, offset }),
+        (
+            0..120usize,
+            any::<u64>(),
+            any::<bool>(),
+            -3.0f32..3.0,
+            -8.0f32..8.0
+        )
+            .prop_map(|(n, seed, whole, angle, offset)| Op::InsertGroup {
+                n,
+                seed,
+                whole,
+                angle,
+                offset
+            }),
         any::<usize>().prop_map(|pick| Op::RemoveGroup { pick }),
-        (any::<usize>(), -3.0f32..3.0, -8.0f32..8.0, 0.3f32..2.0)
-            .prop_map(|(pick, angle, offset, scale)| Op::MoveGroup { pick, angle, offset, scale }),
+        (any::<usize>(), -3.0f32..3.0, -8.0f32..8.0, 0.3f32..2.0).prop_map(
+            |(pick, angle, offset, scale)| Op::MoveGroup {
+                pick,
+                angle,
+                offset,
+                scale
+            }
+        ),
         any::<usize>().prop_map(|pick| Op::BakeGroup { pick }),
-        (any::<usize>(), any::<u64>()).prop_map(|(pick, seed)| Op::EditGroupVertices { pick, seed }),
+        (any::<usize>(), any::<u64>())
+            .prop_map(|(pick, seed)| Op::EditGroupVertices { pick, seed }),
         (any::<u64>(), 1..40usize).prop_map(|(seed, count)| Op::RemoveTriangles { seed, count }),
         (any::<u64>(), 1..20usize).prop_map(|(seed, count)| Op::MoveTriangles { seed, count }),
         Just(Op::Optimize),
@@ -60,9 +112,12 @@ struct Mirror {
 impl Mirror {
     fn apply(&mut self, bvh: &mut Bvh) {
         let c = bvh.take_changes();
-        self.nodes.resize(c.inner_capacity as usize, GpuNode::default());
-        self.tris.resize(c.triangle_capacity as usize, GpuTriangle::default());
-        self.instances.resize(c.instance_capacity as usize, GpuInstance::default());
+        self.nodes
+            .resize(c.inner_capacity as usize, GpuNode::default());
+        self.tris
+            .resize(c.triangle_capacity as usize, GpuTriangle::default());
+        self.instances
+            .resize(c.instance_capacity as usize, GpuInstance::default());
         for r in &c.inner_ranges {
             for i in r.clone() {
                 self.nodes[i as usize] = bvh.gpu_node(i);
@@ -82,16 +137,27 @@ impl Mirror {
         let full = bvh.gpu_nodes();
         assert_eq!(self.nodes.len(), full.len());
         if let Some(i) = (0..full.len()).find(|&i| self.nodes[i] != full[i]) {
-            panic!("node record {i} drifted from the change log: {:?} vs {:?}", self.nodes[i], full[i]);
+            panic!(
+                "node record {i} drifted from the change log: {:?} vs {:?}",
+                self.nodes[i], full[i]
+            );
         }
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
-                assert_eq!(self.tris[t as usize], bvh.gpu_triangle(t), "triangle {t} drifted");
+                assert_eq!(
+                    self.tris[t as usize],
+                    bvh.gpu_triangle(t),
+                    "triangle {t} drifted"
+                );
             }
         }
         for i in 0..bvh.instance_capacity() {
             if bvh.instance(i).is_some() {
-                assert_eq!(self.instances[i as usize], bvh.gpu_instance(i), "instance {i} drifted");
+                assert_eq!(
+                    self.instances[i as usize],
+                    bvh.gpu_instance(i),
+                    "instance {i} drifted"
+                );
             }
         }
     }
@@ -111,21 +177,39 @@ fn run(ops: &[Op], config: BvhConfig) {
                 bvh.insert_triangles_block_parallel(&soup(n, seed)).unwrap();
             }
             Op::InsertParallel { n, seed } => {
-                bvh.insert_triangles_parallel_search(&soup(n, seed)).unwrap();
+                bvh.insert_triangles_parallel_search(&soup(n, seed))
+                    .unwrap();
             }
-            Op::InsertGroup { n, seed, whole, angle, offset } => {
-                let g = bvh.insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole).unwrap();
+            Op::InsertGroup {
+                n,
+                seed,
+                whole,
+                angle,
+                offset,
+            } => {
+                let g = bvh
+                    .insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole)
+                    .unwrap();
                 assert_eq!(bvh.is_group_whole(g).unwrap(), whole && n > 0);
                 groups.push((g, n));
             }
             Op::RemoveGroup { pick } if !groups.is_empty() => {
                 let (g, _) = groups.swap_remove(pick % groups.len());
                 bvh.remove_group(g).unwrap();
-                assert!(bvh.remove_group(g).is_err(), "a stale handle must be rejected");
+                assert!(
+                    bvh.remove_group(g).is_err(),
+                    "a stale handle must be rejected"
+                );
             }
-            Op::MoveGroup { pick, angle, offset, scale } if !groups.is_empty() => {
+            Op::MoveGroup {
+                pick,
+                angle,
+                offset,
+                scale,
+            } if !groups.is_empty() => {
                 let (g, _) = groups[pick % groups.len()];
-                bvh.set_group_transform(g, xf(angle, offset, scale)).unwrap();
+                bvh.set_group_transform(g, xf(angle, offset, scale))
+                    .unwrap();
             }
             Op::BakeGroup { pick } if !groups.is_empty() => {
                 let (g, _) = groups[pick % groups.len()];
@@ -138,10 +222,14 @@ fn run(ops: &[Op], config: BvhConfig) {
                 bvh.update_group_vertices(g, &soup(n, seed)).unwrap();
             }
             Op::RemoveTriangles { seed, count } => {
-                let live: Vec<u32> = (0..bvh.triangle_capacity()).filter(|&t| bvh.is_live_triangle(t)).collect();
+                let live: Vec<u32> = (0..bvh.triangle_capacity())
+                    .filter(|&t| bvh.is_live_triangle(t))
+                    .collect();
                 if !live.is_empty() {
                     let mut r = Rng(seed | 1);
-                    let ids: Vec<u32> = (0..count).map(|_| live[(r.next_u64() % live.len() as u64) as usize]).collect();
+                    let ids: Vec<u32> = (0..count)
+                        .map(|_| live[(r.next_u64() % live.len() as u64) as usize])
+                        .collect();
                     bvh.remove_triangles(&ids).unwrap();
                     for (g, n) in groups.iter_mut() {
                         *n = bvh.group_triangles(*g).unwrap().len();
@@ -155,18 +243,25 @@ fn run(ops: &[Op], config: BvhConfig) {
                 if !movable.is_empty() {
                     let mut r = Rng(seed | 1);
                     let new = soup(count, seed);
-                    let updates: Vec<_> =
-                        new.into_iter().map(|t| (movable[(r.next_u64() % movable.len() as u64) as usize], t)).collect();
+                    let updates: Vec<_> = new
+                        .into_iter()
+                        .map(|t| (movable[(r.next_u64() % movable.len() as u64) as usize], t))
+                        .collect();
                     // Duplicated ids: the last write wins, like any sequence of writes.
                     bvh.set_triangles(&updates).unwrap();
                 }
             }
             Op::Optimize => {
-                bvh.optimize(treelight_bvh::PostPass { max_rounds: 2, fraction: 0.3, min_relative_gain: 0.0 });
+                bvh.optimize(treelight_bvh::PostPass {
+                    max_rounds: 2,
+                    fraction: 0.3,
+                    min_relative_gain: 0.0,
+                });
             }
             _ => {}
         }
-        bvh.validate().unwrap_or_else(|e| panic!("after step {step} {op:?}: {e}"));
+        bvh.validate()
+            .unwrap_or_else(|e| panic!("after step {step} {op:?}: {e}"));
         mirror.apply(&mut bvh);
         mirror.check(&bvh);
     }
@@ -176,7 +271,10 @@ fn run(ops: &[Op], config: BvhConfig) {
     bvh.overlapping_triangles(&q, &mut found);
     found.sort_unstable();
     assert_eq!(found, bvh.brute_force_overlapping(&q));
-    let total: usize = groups.iter().map(|(g, _)| bvh.group_triangles(*g).unwrap().len()).sum();
+    let total: usize = groups
+        .iter()
+        .map(|(g, _)| bvh.group_triangles(*g).unwrap().len())
+        .sum();
     assert!(total <= bvh.triangle_count() as usize);
 }
 
@@ -200,15 +298,22 @@ proptest! {
 fn moving_a_whole_group_touches_no_triangles() {
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(500, 1)).unwrap();
-    let g = bvh.insert_group(&soup(2000, 2), Affine3A::IDENTITY, true).unwrap();
+    let g = bvh
+        .insert_group(&soup(2000, 2), Affine3A::IDENTITY, true)
+        .unwrap();
     bvh.take_changes();
     for k in 0..10 {
-        bvh.set_group_transform(g, xf(k as f32 * 0.1, k as f32, 1.0)).unwrap();
+        bvh.set_group_transform(g, xf(k as f32 * 0.1, k as f32, 1.0))
+            .unwrap();
         let c = bvh.take_changes();
         assert!(c.written_triangles.is_empty() && c.removed_triangles.is_empty());
         assert_eq!(c.instances.len(), 1);
         // One re-insertion: a handful of node records, not the group's 2000.
-        assert!(c.inner_count() < 100, "a move rewrote {} nodes", c.inner_count());
+        assert!(
+            c.inner_count() < 100,
+            "a move rewrote {} nodes",
+            c.inner_count()
+        );
     }
     bvh.validate().unwrap();
     assert_hits_match(&bvh, &rays(200, 5, 12.0));
@@ -218,7 +323,9 @@ fn moving_a_whole_group_touches_no_triangles() {
 fn bake_then_move_round_trips_without_drift() {
     let object = soup(300, 8);
     let mut bvh = Bvh::default();
-    let g = bvh.insert_group(&object, Affine3A::IDENTITY, false).unwrap();
+    let g = bvh
+        .insert_group(&object, Affine3A::IDENTITY, false)
+        .unwrap();
     let ids = bvh.group_triangles(g).unwrap().to_vec();
     for k in 0..20 {
         bvh.set_group_transform(g, xf(k as f32, 3.0, 1.5)).unwrap();
@@ -227,7 +334,11 @@ fn bake_then_move_round_trips_without_drift() {
     bvh.set_group_transform(g, Affine3A::IDENTITY).unwrap();
     bvh.bake_group(g).unwrap();
     for (t, o) in ids.iter().zip(&object) {
-        assert_eq!(bvh.triangle(*t).unwrap(), o, "baking must start from the object-space copy");
+        assert_eq!(
+            bvh.triangle(*t).unwrap(),
+            o,
+            "baking must start from the object-space copy"
+        );
     }
 }
 
@@ -235,13 +346,20 @@ fn bake_then_move_round_trips_without_drift() {
 fn export_round_trips_and_bakes_groups() {
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(400, 3)).unwrap();
-    let g = bvh.insert_group(&soup(100, 4), xf(0.7, 2.0, 1.3), true).unwrap();
+    let g = bvh
+        .insert_group(&soup(100, 4), xf(0.7, 2.0, 1.3), true)
+        .unwrap();
     let mut bytes = Vec::new();
     bvh.write_tlbvh(&mut bytes).unwrap();
     let file = treelight_bvh::read_tlbvh(&mut bytes.as_slice()).unwrap();
     assert_eq!(file.nodes.len(), 2 * 500 - 1);
     assert_eq!(file.root, 0);
-    let mut leaves: Vec<i32> = file.nodes.iter().filter(|n| n.triangle >= 0).map(|n| n.triangle).collect();
+    let mut leaves: Vec<i32> = file
+        .nodes
+        .iter()
+        .filter(|n| n.triangle >= 0)
+        .map(|n| n.triangle)
+        .collect();
     leaves.sort_unstable();
     assert_eq!(leaves, (0..500).collect::<Vec<_>>());
     for n in &file.nodes {

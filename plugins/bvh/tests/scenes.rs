@@ -7,7 +7,9 @@ use treelight_bvh::{Bvh, BvhConfig, TopDown};
 fn check_scene(name: &str) {
     let tris = load_obj(name);
     assert!(tris.len() > 60_000, "{name}: {} triangles", tris.len());
-    let b = Bvh::build_top_down(&tris, TopDown::BinnedSah, BvhConfig::default()).unwrap().bounds();
+    let b = Bvh::build_top_down(&tris, TopDown::BinnedSah, BvhConfig::default())
+        .unwrap()
+        .bounds();
     let extent = (b.max - b.min).max_element() * 0.5;
     let center = b.center();
     let rays: Vec<_> = rays(120, 17, extent)
@@ -18,8 +20,14 @@ fn check_scene(name: &str) {
         })
         .collect();
     let mut builds: Vec<(&str, Bvh)> = vec![
-        ("sah", Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default()).unwrap()),
-        ("median", Bvh::build_top_down(&tris, TopDown::Median, BvhConfig::default()).unwrap()),
+        (
+            "sah",
+            Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default()).unwrap(),
+        ),
+        (
+            "median",
+            Bvh::build_top_down(&tris, TopDown::Median, BvhConfig::default()).unwrap(),
+        ),
     ];
     let mut incru = Bvh::new(BvhConfig::incr_u());
     incru.insert_triangles(&tris).unwrap();
@@ -31,7 +39,8 @@ fn check_scene(name: &str) {
     incrupb.insert_triangles_block_parallel(&tris).unwrap();
     builds.push(("incrupb", incrupb));
     for (method, bvh) in &builds {
-        bvh.validate().unwrap_or_else(|e| panic!("{name} {method}: {e}"));
+        bvh.validate()
+            .unwrap_or_else(|e| panic!("{name} {method}: {e}"));
         assert_eq!(bvh.triangle_count() as usize, tris.len());
         assert_hits_match(bvh, &rays);
         eprintln!("{name} {method}: cost {:.2}", bvh.sah_cost());

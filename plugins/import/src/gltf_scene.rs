@@ -1,6 +1,9 @@
 //! glTF 2.0 (.gltf with external or embedded buffers, and .glb).
 
-use crate::{ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices, check_positions};
+use crate::{
+    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices,
+    check_positions,
+};
 use base64::Engine;
 use glam::Mat4;
 use gltf::mesh::Mode;
@@ -10,7 +13,8 @@ use std::path::{Component, Path};
 /// transforms applied down the hierarchy.
 pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, e.to_string()))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| ImportError::new(path, describe(&e, &bytes)))?;
+    let gltf =
+        gltf::Gltf::from_slice(&bytes).map_err(|e| ImportError::new(path, describe(&e, &bytes)))?;
     let buffers = load_buffers(path, &gltf)?;
     let mut scene = ImportedScene::default();
     for m in gltf.document.materials() {
@@ -18,7 +22,10 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
         let e = m.emissive_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         scene.materials.push(ImportedMaterial {
-            name: m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), str::to_owned),
+            name: m.name().map_or_else(
+                || format!("material {}", m.index().unwrap_or(0)),
+                str::to_owned,
+            ),
             base_color: pbr.base_color_factor(),
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
@@ -27,25 +34,45 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     }
     let default_material = scene.materials.len();
     let mut used_default = false;
-    let root_scene = gltf.document.default_scene().or_else(|| gltf.document.scenes().next());
+    let root_scene = gltf
+        .document
+        .default_scene()
+        .or_else(|| gltf.document.scenes().next());
     let Some(root_scene) = root_scene else {
         return Err(ImportError::new(path, "the file has no scene"));
     };
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> = root_scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+        root_scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
-            return Err(ImportError::new(path, "the node hierarchy is deeper than 256 levels (a cycle?)"));
+            return Err(ImportError::new(
+                path,
+                "the node hierarchy is deeper than 256 levels (a cycle?)",
+            ));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if !world.is_finite() {
-            return Err(ImportError::new(path, format!("node {} has a non-finite transform", node.index())));
+            return Err(ImportError::new(
+                path,
+                format!("node {} has a non-finite transform", node.index()),
+            ));
         }
         if let Some(mesh) = node.mesh() {
-            let base = node.name().or(mesh.name()).map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
+            let base = node
+                .name()
+                .or(mesh.name())
+                .map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
             for prim in mesh.primitives() {
-                let name = if mesh.primitives().len() > 1 { format!("{base} #{}", prim.index()) } else { base.clone() };
+                let name = if mesh.primitives().len() > 1 {
+                    format!("{base} #{}", prim.index())
+                } else {
+                    base.clone()
+                };
                 if prim.mode() != Mode::Triangles {
-                    scene.warnings.push(format!("'{name}': {:?} primitives are not triangles, skipped", prim.mode()));
+                    scene.warnings.push(format!(
+                        "'{name}': {:?} primitives are not triangles, skipped",
+                        prim.mode()
+                    ));
                     continue;
                 }
                 match read_primitive(path, &prim, &name, &buffers)? {
@@ -57,7 +84,9 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                         }));
                         scene.meshes.push(m);
                     }
-                    None => scene.warnings.push(format!("'{name}' has no positions, skipped")),
+                    None => scene
+                        .warnings
+                        .push(format!("'{name}' has no positions, skipped")),
                 }
             }
         }
@@ -74,7 +103,8 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
 fn describe(e: &gltf::Error, bytes: &[u8]) -> String {
     if let gltf::Error::Validation(errors) = e {
         // Name the extension the file requires, which is the usual reason for refusal.
-        if let Ok(json) = gltf::json::deserialize::from_slice::<gltf::json::Root>(json_chunk(bytes)) {
+        if let Ok(json) = gltf::json::deserialize::from_slice::<gltf::json::Root>(json_chunk(bytes))
+        {
             let unsupported: Vec<&str> = json
                 .extensions_required
                 .iter()
@@ -82,10 +112,17 @@ fn describe(e: &gltf::Error, bytes: &[u8]) -> String {
                 .filter(|x| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(x))
                 .collect();
             if !unsupported.is_empty() {
-                return format!("requires unsupported glTF extension(s): {}", unsupported.join(", "));
+                return format!(
+                    "requires unsupported glTF extension(s): {}",
+                    unsupported.join(", ")
+                );
             }
         }
-        let list: Vec<String> = errors.iter().take(3).map(|(p, err)| format!("{}: {err}", p.as_str())).collect();
+        let list: Vec<String> = errors
+            .iter()
+            .take(3)
+            .map(|(p, err)| format!("{}: {err}", p.as_str()))
+            .collect();
         return format!("invalid glTF: {}", list.join("; "));
     }
     format!("not a readable glTF file: {e}")
@@ -107,16 +144,23 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => gltf
-                .blob
-                .clone()
-                .ok_or_else(|| ImportError::new(path, "a buffer refers to the GLB binary chunk, which is missing"))?,
+            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+                ImportError::new(
+                    path,
+                    "a buffer refers to the GLB binary chunk, which is missing",
+                )
+            })?,
             gltf::buffer::Source::Uri(uri) => read_uri(path, dir, uri)?,
         };
         if data.len() < buffer.length() {
             return Err(ImportError::new(
                 path,
-                format!("buffer {} holds {} bytes, the file declares {}", buffer.index(), data.len(), buffer.length()),
+                format!(
+                    "buffer {} holds {} bytes, the file declares {}",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                ),
             ));
         }
         out.push(data);
@@ -133,18 +177,36 @@ fn read_uri(path: &Path, dir: &Path, uri: &str) -> Result<Vec<u8>, ImportError> 
             .ok_or_else(|| ImportError::new(path, "a data URI buffer is not base64-encoded"))?;
         return base64::engine::general_purpose::STANDARD
             .decode(payload)
-            .map_err(|e| ImportError::new(path, format!("a data URI buffer is not valid base64: {e}")));
+            .map_err(|e| {
+                ImportError::new(path, format!("a data URI buffer is not valid base64: {e}"))
+            });
     }
     if uri.contains(':') {
-        return Err(ImportError::new(path, format!("buffer URI '{uri}' is not a relative file path")));
+        return Err(ImportError::new(
+            path,
+            format!("buffer URI '{uri}' is not a relative file path"),
+        ));
     }
-    let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().into_owned();
+    let decoded = percent_encoding::percent_decode_str(uri)
+        .decode_utf8_lossy()
+        .into_owned();
     let rel = Path::new(&decoded);
-    if rel.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir)) {
-        return Err(ImportError::new(path, format!("buffer URI '{uri}' points outside the file's folder")));
+    if rel
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(ImportError::new(
+            path,
+            format!("buffer URI '{uri}' points outside the file's folder"),
+        ));
     }
     let full = dir.join(rel);
-    std::fs::read(&full).map_err(|e| ImportError::new(path, format!("cannot read buffer '{}': {e}", full.display())))
+    std::fs::read(&full).map_err(|e| {
+        ImportError::new(
+            path,
+            format!("cannot read buffer '{}': {e}", full.display()),
+        )
+    })
 }
 
 /// Reads one triangle primitive, validating sizes before the reader touches them.
@@ -161,19 +223,32 @@ fn read_primitive(
         check_accessor(path, name, &acc, buffers)?;
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-    let Some(positions) = reader.read_positions() else { return Ok(None) };
+    let Some(positions) = reader.read_positions() else {
+        return Ok(None);
+    };
     let positions: Vec<[f32; 3]> = positions.collect();
     check_positions(path, name, &positions)?;
     let n = positions.len();
-    let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|r| r.collect()).filter(|v: &Vec<_>| v.len() == n);
-    let uvs: Option<Vec<[f32; 2]>> =
-        reader.read_tex_coords(0).map(|r| r.into_f32().collect()).filter(|v: &Vec<_>| v.len() == n);
+    let normals: Option<Vec<[f32; 3]>> = reader
+        .read_normals()
+        .map(|r| r.collect())
+        .filter(|v: &Vec<_>| v.len() == n);
+    let uvs: Option<Vec<[f32; 2]>> = reader
+        .read_tex_coords(0)
+        .map(|r| r.into_f32().collect())
+        .filter(|v: &Vec<_>| v.len() == n);
     let indices: Vec<u32> = match reader.read_indices() {
         Some(r) => r.into_u32().collect(),
         None => (0..n as u32).collect(),
     };
-    if indices.len() % 3 != 0 {
-        return Err(ImportError::new(path, format!("mesh '{name}' has {} indices, not a multiple of 3", indices.len())));
+    if !indices.len().is_multiple_of(3) {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "mesh '{name}' has {} indices, not a multiple of 3",
+                indices.len()
+            ),
+        ));
     }
     check_indices(path, name, &indices, n)?;
     Ok(Some(ImportedMesh {
@@ -187,25 +262,43 @@ fn read_primitive(
     }))
 }
 
-fn check_accessor(path: &Path, name: &str, acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), ImportError> {
+fn check_accessor(
+    path: &Path,
+    name: &str,
+    acc: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+) -> Result<(), ImportError> {
     let count = acc.count();
     if count == 0 || count > MAX_ELEMENTS {
-        return Err(ImportError::new(path, format!("mesh '{name}' has an accessor of {count} elements")));
+        return Err(ImportError::new(
+            path,
+            format!("mesh '{name}' has an accessor of {count} elements"),
+        ));
     }
     if acc.sparse().is_some() {
-        return Err(ImportError::new(path, format!("mesh '{name}' uses sparse accessors, which are not supported")));
+        return Err(ImportError::new(
+            path,
+            format!("mesh '{name}' uses sparse accessors, which are not supported"),
+        ));
     }
     let Some(view) = acc.view() else {
-        return Err(ImportError::new(path, format!("mesh '{name}' has an accessor without a buffer view")));
+        return Err(ImportError::new(
+            path,
+            format!("mesh '{name}' has an accessor without a buffer view"),
+        ));
     };
     let size = acc.size();
     let stride = view.stride().unwrap_or(size);
     let needed = acc.offset() as u128 + stride as u128 * (count as u128 - 1) + size as u128;
     let buffer_len = buffers.get(view.buffer().index()).map_or(0, Vec::len) as u128;
-    if needed > view.length() as u128 || view.offset() as u128 + view.length() as u128 > buffer_len {
+    if needed > view.length() as u128 || view.offset() as u128 + view.length() as u128 > buffer_len
+    {
         return Err(ImportError::new(
             path,
-            format!("mesh '{name}': accessor {} reads past the end of its buffer", acc.index()),
+            format!(
+                "mesh '{name}': accessor {} reads past the end of its buffer",
+                acc.index()
+            ),
         ));
     }
     Ok(())

@@ -29,7 +29,10 @@ pub struct ImportError {
 
 impl ImportError {
     pub(crate) fn new(file: &Path, problem: impl Into<String>) -> Self {
-        Self { file: file.to_owned(), problem: problem.into() }
+        Self {
+            file: file.to_owned(),
+            problem: problem.into(),
+        }
     }
 }
 
@@ -50,7 +53,13 @@ pub struct ImportedMaterial {
 
 impl Default for ImportedMaterial {
     fn default() -> Self {
-        Self { name: "default".into(), base_color: [0.8, 0.8, 0.8, 1.0], metallic: 0.0, roughness: 0.6, emissive: [0.0; 3] }
+        Self {
+            name: "default".into(),
+            base_color: [0.8, 0.8, 0.8, 1.0],
+            metallic: 0.0,
+            roughness: 0.6,
+            emissive: [0.0; 3],
+        }
     }
 }
 
@@ -82,9 +91,9 @@ impl ImportedMesh {
     /// Triangles in world space, in index order.
     pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
         let m = self.transform;
-        self.indices
-            .chunks_exact(3)
-            .map(move |f| [f[0], f[1], f[2]].map(|i| m.transform_point3(Vec3::from(self.positions[i as usize]))))
+        self.indices.chunks_exact(3).map(move |f| {
+            [f[0], f[1], f[2]].map(|i| m.transform_point3(Vec3::from(self.positions[i as usize])))
+        })
     }
 }
 
@@ -102,7 +111,10 @@ pub struct ImportedScene {
 impl ImportedScene {
     /// All triangles in world space, mesh by mesh in file order.
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
-        self.meshes.iter().flat_map(|m| m.world_triangles()).collect()
+        self.meshes
+            .iter()
+            .flat_map(|m| m.world_triangles())
+            .collect()
     }
 
     /// Total triangle count.
@@ -113,24 +125,45 @@ impl ImportedScene {
 
 /// Loads a scene by its extension: `.gltf`, `.glb` or `.obj`.
 pub fn load_scene(path: &Path) -> Result<ImportedScene, ImportError> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("gltf") | Some("glb") => load_gltf(path),
         Some("obj") => load_obj(path),
-        _ => Err(ImportError::new(path, "unsupported file type (expected .gltf, .glb or .obj)")),
+        _ => Err(ImportError::new(
+            path,
+            "unsupported file type (expected .gltf, .glb or .obj)",
+        )),
     }
 }
 
 /// Rejects non-finite positions, naming the mesh.
-pub(crate) fn check_positions(file: &Path, mesh: &str, positions: &[[f32; 3]]) -> Result<(), ImportError> {
-    if let Some(i) = positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
-        return Err(ImportError::new(file, format!("mesh '{mesh}' has a NaN or infinite position at vertex {i}")));
+pub(crate) fn check_positions(
+    file: &Path,
+    mesh: &str,
+    positions: &[[f32; 3]],
+) -> Result<(), ImportError> {
+    if let Some(i) = positions
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite()))
+    {
+        return Err(ImportError::new(
+            file,
+            format!("mesh '{mesh}' has a NaN or infinite position at vertex {i}"),
+        ));
     }
     Ok(())
 }
 
 /// Rejects indices past the vertex arrays, naming the mesh.
-pub(crate) fn check_indices(file: &Path, mesh: &str, indices: &[u32], vertices: usize) -> Result<(), ImportError> {
+pub(crate) fn check_indices(
+    file: &Path,
+    mesh: &str,
+    indices: &[u32],
+    vertices: usize,
+) -> Result<(), ImportError> {
     if let Some(&i) = indices.iter().find(|&&i| i as usize >= vertices) {
         return Err(ImportError::new(
             file,

@@ -4,7 +4,9 @@ use std::path::PathBuf;
 use treelight_import::load_scene;
 
 fn scene(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes").join(rel)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes")
+        .join(rel)
 }
 
 #[test]
@@ -60,8 +62,18 @@ fn broken_files_give_clear_errors() {
 
 #[test]
 fn obj_scenes_fan_triangulate_in_file_order() {
-    assert_eq!(load_scene(&scene("obj/sibenik.obj")).unwrap().triangle_count(), 73_564);
-    assert_eq!(load_scene(&scene("obj/stanford-bunny.obj")).unwrap().triangle_count(), 69_451);
+    assert_eq!(
+        load_scene(&scene("obj/sibenik.obj"))
+            .unwrap()
+            .triangle_count(),
+        73_564
+    );
+    assert_eq!(
+        load_scene(&scene("obj/stanford-bunny.obj"))
+            .unwrap()
+            .triangle_count(),
+        69_451
+    );
 }
 
 #[test]
@@ -90,7 +102,12 @@ fn hostile_inputs_are_refused() {
     let empty = dir.join("empty.gltf");
     std::fs::write(&empty, b"").unwrap();
     assert!(load_scene(&empty).is_err());
-    assert!(load_scene(&dir.join("scene.fbx")).unwrap_err().problem.contains("unsupported file type"));
+    assert!(
+        load_scene(&dir.join("scene.fbx"))
+            .unwrap_err()
+            .problem
+            .contains("unsupported file type")
+    );
     // A NaN position.
     let nan = dir.join("nan.obj");
     std::fs::write(&nan, "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n").unwrap();
@@ -108,6 +125,11 @@ fn hostile_inputs_are_refused() {
             "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
     )
     .unwrap();
-    assert!(load_scene(&huge).unwrap_err().problem.contains("past the end"));
+    assert!(
+        load_scene(&huge)
+            .unwrap_err()
+            .problem
+            .contains("past the end")
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -39,7 +39,11 @@ pub struct SceneBvhConfig {
 
 impl Default for SceneBvhConfig {
     fn default() -> Self {
-        Self { bake_after: Duration::from_millis(500), idle_tick: Duration::from_millis(50), bvh: BvhConfig::default() }
+        Self {
+            bake_after: Duration::from_millis(500),
+            idle_tick: Duration::from_millis(50),
+            bvh: BvhConfig::default(),
+        }
     }
 }
 
@@ -53,14 +57,20 @@ pub struct SceneBvhPlugin {
 impl Plugin for SceneBvhPlugin {
     fn build(&self, app: &mut App) {
         let shared = Arc::new(Shared {
-            tree: RwLock::new(SceneTree { bvh: Bvh::new(self.config.bvh), ..Default::default() }),
+            tree: RwLock::new(SceneTree {
+                bvh: Bvh::new(self.config.bvh),
+                ..Default::default()
+            }),
             stats: Mutex::new(SceneStats::default()),
             version: AtomicU64::new(0),
             pending: AtomicUsize::new(0),
         });
         let (tx, rx) = std::sync::mpsc::channel();
         let worker_shared = shared.clone();
-        let cfg = WorkerConfig { bake_after: self.config.bake_after, idle_tick: self.config.idle_tick };
+        let cfg = WorkerConfig {
+            bake_after: self.config.bake_after,
+            idle_tick: self.config.idle_tick,
+        };
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())
             .spawn(move || worker::run(worker_shared, rx, cfg))
@@ -73,7 +83,12 @@ impl Plugin for SceneBvhPlugin {
             waiting: HashMap::new(),
             traced: HashSet::new(),
         })
-        .add_systems(PostUpdate, (track_world, publish).chain().after(TransformSystems::Propagate));
+        .add_systems(
+            PostUpdate,
+            (track_world, publish)
+                .chain()
+                .after(TransformSystems::Propagate),
+        );
     }
 }
 
@@ -121,7 +136,9 @@ impl SceneTree {
 
     /// The entity owning triangle `t`.
     pub fn entity_of_triangle(&self, t: u32) -> Option<Entity> {
-        self.bvh.triangle_group(t).and_then(|g| self.group_entity.get(&g).copied())
+        self.bvh
+            .triangle_group(t)
+            .and_then(|g| self.group_entity.get(&g).copied())
     }
 }
 
@@ -193,7 +210,13 @@ impl SceneBvh {
 
     fn send(&self, c: Command) {
         self.shared.pending.fetch_add(1, Ordering::AcqRel);
-        if self.sender.lock().unwrap_or_else(|p| p.into_inner()).send(c).is_err() {
+        if self
+            .sender
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .send(c)
+            .is_err()
+        {
             self.shared.pending.fetch_sub(1, Ordering::AcqRel);
             error!("the scene BVH worker has stopped");
         }
@@ -216,7 +239,13 @@ pub fn cast_on(tree: &SceneTree, ray: Ray3d) -> Option<SceneHit> {
     })
 }
 
-type MeshEntity<'a> = (Entity, &'a Mesh3d, &'a GlobalTransform, Option<&'a InheritedVisibility>, Option<&'a Name>);
+type MeshEntity<'a> = (
+    Entity,
+    &'a Mesh3d,
+    &'a GlobalTransform,
+    Option<&'a InheritedVisibility>,
+    Option<&'a Name>,
+);
 
 /// Turns this frame's world changes into worker commands.
 #[allow(clippy::type_complexity)]
@@ -261,14 +290,22 @@ fn track_world(
     }
     for (e, gt) in &moved {
         if !sent_now.contains(&e) && scene.traced.contains(&e) {
-            scene.send(Command::Move { entity: e, transform: gt.affine() });
+            scene.send(Command::Move {
+                entity: e,
+                transform: gt.affine(),
+            });
         }
     }
 }
 
 /// Sends a mesh entity's current triangles, or a removal if it is hidden or untraceable, or parks it
 /// until its asset loads.
-fn upsert(scene: &mut SceneBvh, meshes: &Assets<Mesh>, sent_now: &mut HashSet<Entity>, (e, m, gt, vis, name): MeshEntity) {
+fn upsert(
+    scene: &mut SceneBvh,
+    meshes: &Assets<Mesh>,
+    sent_now: &mut HashSet<Entity>,
+    (e, m, gt, vis, name): MeshEntity,
+) {
     sent_now.insert(e);
     if vis.is_some_and(|v| !v.get()) {
         if scene.traced.remove(&e) {

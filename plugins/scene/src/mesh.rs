@@ -32,7 +32,9 @@ impl fmt::Display for MeshSkip {
             MeshSkip::NoPositions => write!(f, "it has no vertex positions"),
             MeshSkip::PositionFormat => write!(f, "its positions are not Float32x3"),
             MeshSkip::RenderWorldOnly => write!(f, "its vertex data was moved to the render world"),
-            MeshSkip::IndexOutOfRange { index, vertices } => write!(f, "index {index} is past its {vertices} vertices"),
+            MeshSkip::IndexOutOfRange { index, vertices } => {
+                write!(f, "index {index} is past its {vertices} vertices")
+            }
         }
     }
 }
@@ -50,14 +52,27 @@ pub fn mesh_triangles(mesh: &Mesh) -> Result<Vec<Triangle>, MeshSkip> {
     };
     let n = positions.len();
     let v = |i: u32| -> Result<Vec3, MeshSkip> {
-        positions.get(i as usize).map(|p| Vec3::from_array(*p)).ok_or(MeshSkip::IndexOutOfRange { index: i, vertices: n })
+        positions
+            .get(i as usize)
+            .map(|p| Vec3::from_array(*p))
+            .ok_or(MeshSkip::IndexOutOfRange {
+                index: i,
+                vertices: n,
+            })
     };
-    let indices = mesh.try_indices_option().map_err(|_| MeshSkip::RenderWorldOnly)?;
+    let indices = mesh
+        .try_indices_option()
+        .map_err(|_| MeshSkip::RenderWorldOnly)?;
     let tri = |a: u32, b: u32, c: u32| Ok(Triangle::new(v(a)?, v(b)?, v(c)?));
     match indices {
-        Some(Indices::U16(ix)) => ix.chunks_exact(3).map(|f| tri(f[0] as u32, f[1] as u32, f[2] as u32)).collect(),
+        Some(Indices::U16(ix)) => ix
+            .chunks_exact(3)
+            .map(|f| tri(f[0] as u32, f[1] as u32, f[2] as u32))
+            .collect(),
         Some(Indices::U32(ix)) => ix.chunks_exact(3).map(|f| tri(f[0], f[1], f[2])).collect(),
-        None => (0..(n / 3) as u32).map(|k| tri(3 * k, 3 * k + 1, 3 * k + 2)).collect(),
+        None => (0..(n / 3) as u32)
+            .map(|k| tri(3 * k, 3 * k + 1, 3 * k + 2))
+            .collect(),
     }
 }
 
@@ -82,15 +97,36 @@ mod tests {
     #[test]
     fn unusable_meshes_say_why() {
         let lines = Mesh::new(PrimitiveTopology::LineList, RenderAssetUsages::default());
-        assert_eq!(mesh_triangles(&lines), Err(MeshSkip::Topology(PrimitiveTopology::LineList)));
-        let empty = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default());
+        assert_eq!(
+            mesh_triangles(&lines),
+            Err(MeshSkip::Topology(PrimitiveTopology::LineList))
+        );
+        let empty = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        );
         assert_eq!(mesh_triangles(&empty), Err(MeshSkip::NoPositions));
-        let bad = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
-            .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3])
-            .with_inserted_indices(Indices::U16(vec![0, 1, 7]));
-        assert_eq!(mesh_triangles(&bad), Err(MeshSkip::IndexOutOfRange { index: 7, vertices: 3 }));
-        let unindexed = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
-            .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let bad = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3])
+        .with_inserted_indices(Indices::U16(vec![0, 1, 7]));
+        assert_eq!(
+            mesh_triangles(&bad),
+            Err(MeshSkip::IndexOutOfRange {
+                index: 7,
+                vertices: 3
+            })
+        );
+        let unindexed = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_POSITION,
+            vec![[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        );
         assert_eq!(mesh_triangles(&unindexed).unwrap().len(), 1);
     }
 }

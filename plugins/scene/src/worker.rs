@@ -16,7 +16,13 @@ use treelight_bvh::{PostPass, PreparedGroup, Triangle};
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
     /// A new or edited mesh (object-space triangles) under a transform.
-    Upsert { entity: Entity, name: String, triangles: Arc<Vec<Triangle>>, transform: Affine3A, sent: Instant },
+    Upsert {
+        entity: Entity,
+        name: String,
+        triangles: Arc<Vec<Triangle>>,
+        transform: Affine3A,
+        sent: Instant,
+    },
     /// A moved entity.
     Move { entity: Entity, transform: Affine3A },
     /// A despawned or hidden entity, or one whose mesh was removed.
@@ -26,7 +32,9 @@ pub(crate) enum Command {
 impl Command {
     fn entity(&self) -> Entity {
         match self {
-            Command::Upsert { entity, .. } | Command::Move { entity, .. } | Command::Remove { entity } => *entity,
+            Command::Upsert { entity, .. }
+            | Command::Move { entity, .. }
+            | Command::Remove { entity } => *entity,
         }
     }
 }
@@ -54,9 +62,22 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
     for c in batch {
         let e = c.entity();
         let merged = match (last.remove(&e), c) {
-            (Some(Command::Upsert { entity, name, triangles, sent, .. }), Command::Move { transform, .. }) => {
-                Command::Upsert { entity, name, triangles, transform, sent }
-            }
+            (
+                Some(Command::Upsert {
+                    entity,
+                    name,
+                    triangles,
+                    sent,
+                    ..
+                }),
+                Command::Move { transform, .. },
+            ) => Command::Upsert {
+                entity,
+                name,
+                triangles,
+                transform,
+                sent,
+            },
             (None, c) => {
                 order.push(e);
                 c
@@ -90,15 +111,19 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let prepared: Vec<Option<PreparedGroup>> = commands
             .par_iter()
             .map(|c| match c {
-                Command::Upsert { name, triangles, transform, entity, .. } => {
-                    match PreparedGroup::build(triangles.to_vec(), *transform, false) {
-                        Ok(p) => Some(p),
-                        Err(e) => {
-                            warn!("entity {entity} ('{name}') is not traced: {e}");
-                            None
-                        }
+                Command::Upsert {
+                    name,
+                    triangles,
+                    transform,
+                    entity,
+                    ..
+                } => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
+                    Ok(p) => Some(p),
+                    Err(e) => {
+                        warn!("entity {entity} ('{name}') is not traced: {e}");
+                        None
                     }
-                }
+                },
                 _ => None,
             })
             .collect();
@@ -142,7 +167,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         shared.version.fetch_add(1, Ordering::Release);
         publish_stats(&shared, |s| {
             if inserted_tris > 0 {
-                s.insertion_mtris_per_s = inserted_tris as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
+                s.insertion_mtris_per_s =
+                    inserted_tris as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
             }
             if let Some(sent) = latest_sent {
                 s.last_latency = sent.elapsed();
@@ -153,8 +179,17 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
 }
 
 /// Between commands: bake groups that stopped moving, then spend a few rounds on global updates.
-fn idle_work(shared: &Shared, last_move: &mut HashMap<Entity, Instant>, config: WorkerConfig, rounds_left: &mut u32) {
-    let still: Vec<Entity> = last_move.iter().filter(|(_, t)| t.elapsed() >= config.bake_after).map(|(e, _)| *e).collect();
+fn idle_work(
+    shared: &Shared,
+    last_move: &mut HashMap<Entity, Instant>,
+    config: WorkerConfig,
+    rounds_left: &mut u32,
+) {
+    let still: Vec<Entity> = last_move
+        .iter()
+        .filter(|(_, t)| t.elapsed() >= config.bake_after)
+        .map(|(e, _)| *e)
+        .collect();
     if still.is_empty() && *rounds_left == 0 {
         return;
     }
@@ -171,7 +206,11 @@ fn idle_work(shared: &Shared, last_move: &mut HashMap<Entity, Instant>, config: 
         }
         if *rounds_left > 0 {
             *rounds_left -= 1;
-            tree.bvh.optimize(PostPass { max_rounds: 1, fraction: 0.05, min_relative_gain: 0.0 });
+            tree.bvh.optimize(PostPass {
+                max_rounds: 1,
+                fraction: 0.05,
+                min_relative_gain: 0.0,
+            });
         }
     }
     shared.version.fetch_add(1, Ordering::Release);
@@ -181,7 +220,11 @@ fn idle_work(shared: &Shared, last_move: &mut HashMap<Entity, Instant>, config: 
 fn publish_stats(shared: &Shared, edit: impl FnOnce(&mut SceneStats)) {
     let (triangles, nodes, cost) = {
         let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
-        (tree.bvh.triangle_count(), tree.bvh.inner_count(), tree.bvh.sah_cost())
+        (
+            tree.bvh.triangle_count(),
+            tree.bvh.inner_count(),
+            tree.bvh.sah_cost(),
+        )
     };
     let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
     s.triangles = triangles;

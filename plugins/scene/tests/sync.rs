@@ -27,8 +27,18 @@ impl Rng {
 
 fn app(bake_after: Duration) -> App {
     let mut app = App::new();
-    app.add_plugins((MinimalPlugins, AssetPlugin::default(), MeshPlugin, TransformPlugin))
-        .add_plugins(SceneBvhPlugin { config: SceneBvhConfig { bake_after, ..default() } });
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+    ))
+    .add_plugins(SceneBvhPlugin {
+        config: SceneBvhConfig {
+            bake_after,
+            ..default()
+        },
+    });
     app
 }
 
@@ -45,7 +55,10 @@ fn settle(app: &mut App) {
             app.update();
             return;
         }
-        assert!(start.elapsed() < Duration::from_secs(30), "the worker did not catch up");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "the worker did not catch up"
+        );
         std::thread::sleep(Duration::from_millis(2));
     }
 }
@@ -57,7 +70,9 @@ fn brute_force(world: &mut World, ray: Ray3d) -> Option<(Entity, f32)> {
     let rd = RayData::new(&treelight_bvh::Ray::new(ray.origin, ray.direction.into()));
     let mut best: Option<(Entity, f32)> = None;
     for (e, m, gt) in q.iter(world) {
-        let Some(mesh) = meshes.get(&m.0) else { continue };
+        let Some(mesh) = meshes.get(&m.0) else {
+            continue;
+        };
         let xf = gt.affine();
         for t in mesh_triangles(mesh).unwrap() {
             let w = t.transformed(&xf);
@@ -78,7 +93,11 @@ fn rays(n: usize, seed: u64) -> Vec<Ray3d> {
     (0..n)
         .map(|_| {
             let o = Vec3::new(r.range(-30.0, 30.0), r.range(-30.0, 30.0), 40.0);
-            let target = Vec3::new(r.range(-15.0, 15.0), r.range(-15.0, 15.0), r.range(-15.0, 15.0));
+            let target = Vec3::new(
+                r.range(-15.0, 15.0),
+                r.range(-15.0, 15.0),
+                r.range(-15.0, 15.0),
+            );
             Ray3d::new(o, Dir3::new(target - o).unwrap())
         })
         .collect()
@@ -88,11 +107,15 @@ fn check(app: &mut App, rays: &[Ray3d]) {
     for ray in rays {
         let expected = brute_force(app.world_mut(), *ray);
         let scene = app.world().resource::<SceneBvh>();
-        let got = treelight_scene::cast_on(&scene.read_blocking(), *ray).map(|h| (h.entity, h.distance));
+        let got =
+            treelight_scene::cast_on(&scene.read_blocking(), *ray).map(|h| (h.entity, h.distance));
         match (got, expected) {
             (None, None) => {}
             (Some((ge, gt)), Some((ee, et))) => {
-                assert!((gt - et).abs() < 1e-3 * et.max(1.0), "distance {gt} vs {et}");
+                assert!(
+                    (gt - et).abs() < 1e-3 * et.max(1.0),
+                    "distance {gt} vs {et}"
+                );
                 if (gt - et).abs() > 1e-5 {
                     assert_eq!(ge, ee);
                 }
@@ -119,18 +142,22 @@ fn random_spawns_despawns_and_moves_match_brute_force() {
     for round in 0..25 {
         // Spawns, including some that despawn in the same frame.
         for _ in 0..(r.next() % 6) {
-            let t = Transform::from_xyz(r.range(-12.0, 12.0), r.range(-12.0, 12.0), r.range(-12.0, 12.0))
-                .with_rotation(Quat::from_rotation_y(r.range(0.0, 6.0)))
-                .with_scale(Vec3::splat(r.range(0.5, 2.0)));
+            let t = Transform::from_xyz(
+                r.range(-12.0, 12.0),
+                r.range(-12.0, 12.0),
+                r.range(-12.0, 12.0),
+            )
+            .with_rotation(Quat::from_rotation_y(r.range(0.0, 6.0)))
+            .with_scale(Vec3::splat(r.range(0.5, 2.0)));
             let shape = shapes[(r.next() % 3) as usize].clone();
             let e = app.world_mut().spawn((Mesh3d(shape), t)).id();
-            if r.next() % 7 == 0 {
+            if r.next().is_multiple_of(7) {
                 app.world_mut().despawn(e);
             } else {
                 live.push(e);
             }
         }
-        if !live.is_empty() && r.next() % 2 == 0 {
+        if !live.is_empty() && r.next().is_multiple_of(2) {
             let e = live.swap_remove((r.next() % live.len() as u64) as usize);
             app.world_mut().despawn(e);
         }
@@ -166,25 +193,52 @@ fn random_spawns_despawns_and_moves_match_brute_force() {
 fn meshes_loaded_later_and_edited_meshes_are_traced() {
     let mut app = app(Duration::from_millis(20));
     // A handle whose asset appears only a few frames later, like a glTF still loading.
-    let handle: Handle<Mesh> = app.world_mut().resource_mut::<Assets<Mesh>>().reserve_handle();
-    let e = app.world_mut().spawn((Mesh3d(handle.clone()), Transform::default())).id();
+    let handle: Handle<Mesh> = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .reserve_handle();
+    let e = app
+        .world_mut()
+        .spawn((Mesh3d(handle.clone()), Transform::default()))
+        .id();
     settle(&mut app);
-    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 0);
-    app.world_mut().resource_mut::<Assets<Mesh>>().insert(handle.id(), Cuboid::new(1.0, 1.0, 1.0).mesh().build()).unwrap();
+    assert_eq!(
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count(),
+        0
+    );
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .insert(handle.id(), Cuboid::new(1.0, 1.0, 1.0).mesh().build())
+        .unwrap();
     settle(&mut app);
     let down = Ray3d::new(Vec3::new(0.0, 10.0, 0.0), Dir3::NEG_Y);
     let hit = cast(&app, down).expect("the loaded mesh is hit");
     assert_eq!(hit.entity, e);
     assert!((hit.point.y - 0.5).abs() < 1e-4 && hit.normal.y > 0.99);
     // Editing the asset replaces the triangles.
-    app.world_mut().resource_mut::<Assets<Mesh>>().insert(handle.id(), Cuboid::new(1.0, 4.0, 1.0).mesh().build()).unwrap();
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .insert(handle.id(), Cuboid::new(1.0, 4.0, 1.0).mesh().build())
+        .unwrap();
     settle(&mut app);
     let hit = cast(&app, down).unwrap();
     assert!((hit.point.y - 2.0).abs() < 1e-4, "{hit:?}");
     // One asset shared by two entities appears twice.
-    app.world_mut().spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)));
+    app.world_mut()
+        .spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)));
     settle(&mut app);
-    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 24);
+    assert_eq!(
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count(),
+        24
+    );
     let stats = app.world().resource::<SceneBvh>().stats();
     assert_eq!(stats.triangles, 24);
     assert!(stats.sah_cost > 0.0);
@@ -196,8 +250,19 @@ fn meshes_that_are_not_triangle_lists_are_skipped() {
     let lines = app
         .world_mut()
         .resource_mut::<Assets<Mesh>>()
-        .add(Mesh::new(bevy::mesh::PrimitiveTopology::LineList, Default::default()));
-    app.world_mut().spawn((Mesh3d(lines), Transform::default(), Name::new("wireframe")));
+        .add(Mesh::new(
+            bevy::mesh::PrimitiveTopology::LineList,
+            Default::default(),
+        ));
+    app.world_mut()
+        .spawn((Mesh3d(lines), Transform::default(), Name::new("wireframe")));
     settle(&mut app);
-    assert_eq!(app.world().resource::<SceneBvh>().read_blocking().bvh.triangle_count(), 0);
+    assert_eq!(
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count(),
+        0
+    );
 }

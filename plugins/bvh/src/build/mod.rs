@@ -10,8 +10,8 @@ pub use median::build_median;
 pub use sweep::build_sweep_sah;
 
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
-use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
 use crate::triangle::validate_triangles;
+use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
 /// index `nodes`.
@@ -55,10 +55,16 @@ pub(crate) fn assemble(
 ) -> BuiltTree {
     let n = order.len();
     if n == 0 {
-        return BuiltTree { nodes: Vec::new(), root: NodeRef::NONE };
+        return BuiltTree {
+            nodes: Vec::new(),
+            root: NodeRef::NONE,
+        };
     }
     if n == 1 {
-        return BuiltTree { nodes: Vec::new(), root: NodeRef::leaf(order[0]) };
+        return BuiltTree {
+            nodes: Vec::new(),
+            root: NodeRef::leaf(order[0]),
+        };
     }
     let mut nodes: Vec<InnerNode> = Vec::with_capacity(n - 1);
     // (range start, range end, parent node, child slot)
@@ -70,8 +76,14 @@ pub(crate) fn assemble(
             let mid = s + split(s, &mut order[s..e]);
             debug_assert!(mid > s && mid < e);
             let i = nodes.len() as u32;
-            let aabb = order[s..e].iter().fold(Aabb::EMPTY, |b, &p| b.union(&boxes[p as usize]));
-            nodes.push(InnerNode { aabb, children: [NodeRef::NONE; 2], parent });
+            let aabb = order[s..e]
+                .iter()
+                .fold(Aabb::EMPTY, |b, &p| b.union(&boxes[p as usize]));
+            nodes.push(InnerNode {
+                aabb,
+                children: [NodeRef::NONE; 2],
+                parent,
+            });
             stack.push((mid, e, i, 1));
             stack.push((s, mid, i, 0));
             NodeRef::inner(i)
@@ -80,7 +92,10 @@ pub(crate) fn assemble(
             nodes[parent as usize].children[slot] = me;
         }
     }
-    BuiltTree { nodes, root: NodeRef::inner(0) }
+    BuiltTree {
+        nodes,
+        root: NodeRef::inner(0),
+    }
 }
 
 impl BuiltTree {
@@ -92,7 +107,11 @@ impl BuiltTree {
 
 impl Bvh {
     /// A tree over `tris` (world space, ids in input order) built by a top-down builder.
-    pub fn build_top_down(tris: &[Triangle], builder: TopDown, config: BvhConfig) -> Result<Bvh, BvhError> {
+    pub fn build_top_down(
+        tris: &[Triangle],
+        builder: TopDown,
+        config: BvhConfig,
+    ) -> Result<Bvh, BvhError> {
         validate_triangles(tris)?;
         let mut bvh = Bvh::new(config);
         bvh.check_room(tris.len())?;
@@ -122,8 +141,16 @@ impl Bvh {
         for (k, n) in built.nodes.iter().enumerate() {
             let me = base[k];
             let children = n.children.map(|c| map_node(c, &base));
-            let parent = if n.parent == NONE { NONE } else { base[n.parent as usize] };
-            self.inner[me as usize] = InnerNode { aabb: n.aabb, children, parent };
+            let parent = if n.parent == NONE {
+                NONE
+            } else {
+                base[n.parent as usize]
+            };
+            self.inner[me as usize] = InnerNode {
+                aabb: n.aabb,
+                children,
+                parent,
+            };
             self.changes.mark_inner(me);
             for c in children {
                 if c.kind() == NodeKind::Leaf {
@@ -152,7 +179,10 @@ fn build_binned_range(boxes: &[Aabb], order: &mut [u32]) -> BuiltTree {
     }
     let mid = binned::split_binned(boxes, order);
     let (l, r) = order.split_at_mut(mid);
-    let (a, b) = rayon::join(|| build_binned_range(boxes, l), || build_binned_range(boxes, r));
+    let (a, b) = rayon::join(
+        || build_binned_range(boxes, l),
+        || build_binned_range(boxes, r),
+    );
     merge(a, b, boxes)
 }
 
@@ -164,15 +194,32 @@ fn merge(a: BuiltTree, b: BuiltTree, boxes: &[Aabb]) -> BuiltTree {
         NodeKind::Leaf => boxes[t.root.index() as usize],
         _ => Aabb::EMPTY,
     };
-    let shift = |r: NodeRef, by: u32| if r.is_inner() { NodeRef::inner(r.index() + by) } else { r };
+    let shift = |r: NodeRef, by: u32| {
+        if r.is_inner() {
+            NodeRef::inner(r.index() + by)
+        } else {
+            r
+        }
+    };
     let (oa, ob) = (1u32, 1 + a.nodes.len() as u32);
     let root_box = aabb_of(&a).union(&aabb_of(&b));
-    nodes.push(InnerNode { aabb: root_box, children: [shift(a.root, oa), shift(b.root, ob)], parent: NONE });
+    nodes.push(InnerNode {
+        aabb: root_box,
+        children: [shift(a.root, oa), shift(b.root, ob)],
+        parent: NONE,
+    });
     for (tree, off) in [(&a, oa), (&b, ob)] {
         for n in &tree.nodes {
             let parent = if n.parent == NONE { 0 } else { n.parent + off };
-            nodes.push(InnerNode { aabb: n.aabb, children: n.children.map(|c| shift(c, off)), parent });
+            nodes.push(InnerNode {
+                aabb: n.aabb,
+                children: n.children.map(|c| shift(c, off)),
+                parent,
+            });
         }
     }
-    BuiltTree { nodes, root: NodeRef::inner(0) }
+    BuiltTree {
+        nodes,
+        root: NodeRef::inner(0),
+    }
 }

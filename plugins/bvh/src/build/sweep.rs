@@ -10,7 +10,11 @@ pub fn build_sweep_sah(boxes: &[Aabb]) -> BuiltTree {
     let centers: Vec<[f32; 3]> = boxes.iter().map(|b| b.center().to_array()).collect();
     let mut sorted: [Vec<u32>; 3] = std::array::from_fn(|axis| {
         let mut v: Vec<u32> = (0..n as u32).collect();
-        v.sort_unstable_by(|&a, &b| centers[a as usize][axis].total_cmp(&centers[b as usize][axis]).then(a.cmp(&b)));
+        v.sort_unstable_by(|&a, &b| {
+            centers[a as usize][axis]
+                .total_cmp(&centers[b as usize][axis])
+                .then(a.cmp(&b))
+        });
         v
     });
     // Every range `assemble` asks about holds the same set of primitives in all three lists.

@@ -69,23 +69,39 @@ pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
             (a, b) => panic!("ray {k}: bvh {a:?} vs brute force {b:?}"),
         }
         if let Some(b) = b {
-            assert!(bvh.any_hit(&ray.with_range(ray.t_min, b.t * 1.0001 + 1e-6)).is_some(), "ray {k}: any_hit missed");
+            assert!(
+                bvh.any_hit(&ray.with_range(ray.t_min, b.t * 1.0001 + 1e-6))
+                    .is_some(),
+                "ray {k}: any_hit missed"
+            );
         }
     }
 }
 
 /// Loads an OBJ from ../shared/scenes/obj, fan-triangulated in file order.
 pub fn load_obj(name: &str) -> Vec<Triangle> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj").join(name);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/obj")
+        .join(name);
     let (models, _) = tobj::load_obj(
         &path,
-        &tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() },
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ..Default::default()
+        },
     )
     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut tris = Vec::new();
     for m in models {
         let p = &m.mesh.positions;
-        let v = |i: u32| Vec3::new(p[3 * i as usize], p[3 * i as usize + 1], p[3 * i as usize + 2]);
+        let v = |i: u32| {
+            Vec3::new(
+                p[3 * i as usize],
+                p[3 * i as usize + 1],
+                p[3 * i as usize + 2],
+            )
+        };
         for f in m.mesh.indices.chunks_exact(3) {
             tris.push(Triangle::new(v(f[0]), v(f[1]), v(f[2])));
         }
