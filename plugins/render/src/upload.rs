@@ -1,0 +1,181 @@
+//! From a [`ChangeSet`] to the buffer writes a renderer issues: only changed records, buffers grown by
+//! doubling (the old contents copied on the GPU), and a byte count for the figure the UI shows.
+
+use treelight_bvh::{Bvh, ChangeSet, GpuInstance, GpuNode, GpuTriangle};
+
+/// Bytes of one node record.
+pub const NODE_BYTES: u64 = 64;
+/// Bytes of one triangle record.
+pub const TRIANGLE_BYTES: u64 = 48;
+/// Bytes of one instance record.
+pub const INSTANCE_BYTES: u64 = 112;
+
+/// The GPU buffers of the scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BufferKind {
+    /// Inner node records.
+    Nodes,
+    /// Triangle records.
+    Triangles,
+    /// Instance records.
+    Instances,
+}
+
+/// One `write_buffer` call.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BufferWrite {
+    /// Target buffer.
+    pub buffer: BufferKind,
+    /// Byte offset.
+    pub offset: u64,
+    /// Little-endian record bytes.
+    pub bytes: Vec<u8>,
+}
+
+/// What to do to bring the GPU copy up to date with one change set.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct UploadPlan {
+    /// Buffers that must grow first, with their new capacity in records (old contents are kept).
+    pub grow: Vec<(BufferKind, u64)>,
+    /// Writes, after growth.
+    pub writes: Vec<BufferWrite>,
+    /// The root reference.
+    pub root: u32,
+}
+
+/// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).
+pub fn grown_capacity(current: u64, needed: u64) -> u64 {
+    let mut cap = current.max(1024);
+    while cap < needed {
+        cap *= 2;
+    }
+    cap
+}
+
+fn words(ws: &[u32]) -> Vec<u8> {
+    ws.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+fn f(x: f32) -> u32 {
+    x.to_bits()
+}
+
+/// The 64 bytes of a node record.
+pub fn node_bytes(n: &GpuNode) -> Vec<u8> {
+    let [a0, a1, a2] = n.a_min.map(f);
+    let [a3, a4, a5] = n.a_max.map(f);
+    let [b0, b1, b2] = n.b_min.map(f);
+    let [b3, b4, b5] = n.b_max.map(f);
+    words(&[
+        a0, a1, a2, n.a_ref, a3, a4, a5, n.b_ref, b0, b1, b2, n.pad0, b3, b4, b5, n.pad1,
+    ])
+}
+
+/// The 48 bytes of a triangle record.
+pub fn triangle_bytes(t: &GpuTriangle) -> Vec<u8> {
+    let [x0, y0, z0] = t.v0.map(f);
+    let [x1, y1, z1] = t.v1.map(f);
+    let [x2, y2, z2] = t.v2.map(f);
+    words(&[x0, y0, z0, t.pad0, x1, y1, z1, t.pad1, x2, y2, z2, t.pad2])
+}
+
+/// The 112 bytes of an instance record.
+pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
+    let mut w: Vec<u32> = Vec::with_capacity(28);
+    for row in i.world_to_object.iter().chain(&i.object_to_world) {
+        w.extend(row.map(f));
+    }
+    w.push(i.root);
+    w.extend(i.pad);
+    words(&w)
+}
+
+impl UploadPlan {
+    /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
+    /// Consecutive changed records become one write each.
+    pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
+        let mut plan = UploadPlan {
+            root: bvh.gpu_root(),
+            ..Default::default()
+        };
+        let needed = [
+            (BufferKind::Nodes, changes.inner_capacity as u64),
+            (BufferKind::Triangles, changes.triangle_capacity as u64),
+            (BufferKind::Instances, changes.instance_capacity as u64),
+        ];
+        for ((kind, need), cap) in needed.into_iter().zip(capacities) {
+            if need > cap {
+                plan.grow.push((kind, grown_capacity(cap, need)));
+            }
+        }
+        for r in &changes.inner_ranges {
+            let bytes = r
+                .clone()
+                .flat_map(|i| node_bytes(&bvh.gpu_node(i)))
+                .collect();
+            plan.writes.push(BufferWrite {
+                buffer: BufferKind::Nodes,
+                offset: r.start as u64 * NODE_BYTES,
+                bytes,
+            });
+        }
+        let mut tris: Vec<u32> = changes
+            .written_triangles
+            .iter()
+            .chain(&changes.removed_triangles)
+            .copied()
+            .collect();
+        tris.sort_unstable();
+        push_runs(
+            &mut plan.writes,
+            &tris,
+            BufferKind::Triangles,
+            TRIANGLE_BYTES,
+            |t| triangle_bytes(&bvh.gpu_triangle(t)),
+        );
+        push_runs(
+            &mut plan.writes,
+            &changes.instances,
+            BufferKind::Instances,
+            INSTANCE_BYTES,
+            |i| instance_bytes(&bvh.gpu_instance(i)),
+        );
+        plan
+    }
+
+    /// Bytes this plan uploads (growth copies stay on the GPU and are not counted).
+    pub fn upload_bytes(&self) -> u64 {
+        self.writes
+            .iter()
+            .map(|w| w.bytes.len() as u64)
+            .sum::<u64>()
+            + 4
+    }
+}
+
+/// One write per run of consecutive ids.
+fn push_runs(
+    out: &mut Vec<BufferWrite>,
+    ids: &[u32],
+    buffer: BufferKind,
+    size: u64,
+    rec: impl Fn(u32) -> Vec<u8>,
+) {
+    let mut k = 0;
+    while k < ids.len() {
+        let start = ids[k];
+        let mut bytes = rec(start);
+        let mut end = start + 1;
+        k += 1;
+        while k < ids.len() && ids[k] == end {
+            bytes.extend(rec(end));
+            end += 1;
+            k += 1;
+        }
+        out.push(BufferWrite {
+            buffer,
+            offset: start as u64 * size,
+            bytes,
+        });
+    }
+}

@@ -1,0 +1,138 @@
+//! Buffers patched only through upload plans equal a full export, and a small edit uploads little.
+
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_bvh::{Bvh, Triangle};
+use treelight_render::{BufferKind, UploadPlan, instance_bytes, node_bytes, triangle_bytes};
+
+fn grid(n: usize, offset: f32) -> Vec<Triangle> {
+    (0..n)
+        .map(|i| {
+            let x = (i % 100) as f32 + offset;
+            let z = (i / 100) as f32;
+            Triangle::new(
+                Vec3::new(x, 0.0, z),
+                Vec3::new(x + 0.9, 0.0, z),
+                Vec3::new(x, 0.5, z + 0.9),
+            )
+        })
+        .collect()
+}
+
+#[derive(Default)]
+struct FakeGpu {
+    buffers: [Vec<u8>; 3],
+    caps: [u64; 3],
+    uploaded: u64,
+}
+
+impl FakeGpu {
+    fn apply(&mut self, plan: &UploadPlan) {
+        for &(kind, cap) in &plan.grow {
+            let k = kind as usize;
+            let size = [64, 48, 112][k];
+            self.caps[k] = cap;
+            self.buffers[k].resize((cap * size) as usize, 0);
+        }
+        for w in &plan.writes {
+            let buf = &mut self.buffers[w.buffer as usize];
+            let end = w.offset as usize + w.bytes.len();
+            assert!(end <= buf.len(), "write past the buffer: grow first");
+            buf[w.offset as usize..end].copy_from_slice(&w.bytes);
+        }
+        self.uploaded += plan.upload_bytes();
+    }
+
+    fn check(&self, bvh: &Bvh) {
+        for i in 0..bvh.inner_capacity() {
+            let at = i as usize * 64;
+            assert_eq!(
+                &self.buffers[0][at..at + 64],
+                node_bytes(&bvh.gpu_node(i)).as_slice(),
+                "node {i}"
+            );
+        }
+        for t in 0..bvh.triangle_capacity() {
+            if bvh.is_live_triangle(t) {
+                let at = t as usize * 48;
+                assert_eq!(
+                    &self.buffers[1][at..at + 48],
+                    triangle_bytes(&bvh.gpu_triangle(t)).as_slice()
+                );
+            }
+        }
+        for i in 0..bvh.instance_capacity() {
+            if bvh.instance(i).is_some() {
+                let at = i as usize * 112;
+                assert_eq!(
+                    &self.buffers[2][at..at + 112],
+                    instance_bytes(&bvh.gpu_instance(i)).as_slice()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
+    let mut bvh = Bvh::default();
+    let mut gpu = FakeGpu::default();
+    bvh.insert_triangles_block_parallel(&grid(20_000, 0.0))
+        .unwrap();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    gpu.check(&bvh);
+    let full = gpu.uploaded;
+
+    // A small mesh added incrementally: the upload is proportional to it, not to the scene.
+    let before = gpu.uploaded;
+    let g = bvh
+        .insert_group(&grid(100, 200.0), Affine3A::IDENTITY, false)
+        .unwrap();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    gpu.check(&bvh);
+    let small = gpu.uploaded - before;
+    assert!(
+        small < full / 20,
+        "adding 100 triangles uploaded {small} bytes of a {full}-byte scene"
+    );
+
+    // Moving it as a whole: an instance and a few nodes.
+    let before = gpu.uploaded;
+    bvh.set_group_transform(g, Affine3A::from_translation(Vec3::new(0.0, 3.0, 0.0)))
+        .unwrap();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    bvh.set_group_transform(g, Affine3A::from_translation(Vec3::new(0.0, 4.0, 0.0)))
+        .unwrap();
+    let before_second = gpu.uploaded;
+    let c = bvh.take_changes();
+    let plan = UploadPlan::new(&bvh, &c, gpu.caps);
+    assert!(
+        plan.writes
+            .iter()
+            .all(|w| w.buffer != BufferKind::Triangles),
+        "a move re-uploaded triangles"
+    );
+    gpu.apply(&plan);
+    gpu.check(&bvh);
+    assert!(
+        gpu.uploaded - before_second < 4096,
+        "a move uploaded {} bytes",
+        gpu.uploaded - before_second
+    );
+    assert!(gpu.uploaded > before);
+
+    // Removal.
+    bvh.remove_group(g).unwrap();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    gpu.check(&bvh);
+}
+
+#[test]
+fn growth_doubles() {
+    assert_eq!(treelight_render::grown_capacity(0, 10), 1024);
+    assert_eq!(treelight_render::grown_capacity(1024, 1025), 2048);
+    assert_eq!(treelight_render::grown_capacity(1024, 5000), 8192);
+}
