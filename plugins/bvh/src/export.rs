@@ -85,11 +85,23 @@ impl Bvh {
 
     /// Writes the TLBVH1 file.
     pub fn write_tlbvh(&self, w: &mut impl Write) -> std::io::Result<()> {
-        let nodes = self.to_file_nodes();
+        self.write_tlbvh_mapped(w, None)
+    }
+
+    /// Writes the TLBVH1 file with triangle ids mapped through `input_index` (triangle id → index in
+    /// the caller's input), for trees built from a reordered input. The count field is then its length.
+    pub fn write_tlbvh_mapped(&self, w: &mut impl Write, input_index: Option<&[u32]>) -> std::io::Result<()> {
+        let mut nodes = self.to_file_nodes();
+        if let Some(map) = input_index {
+            for n in nodes.iter_mut().filter(|n| n.triangle >= 0) {
+                n.triangle = map.get(n.triangle as usize).map_or(-1, |&i| i as i32);
+            }
+        }
+        let count = input_index.map_or(self.triangle_capacity(), |m| m.len() as u32);
         w.write_all(MAGIC)?;
         w.write_all(&(nodes.len() as u32).to_le_bytes())?;
         w.write_all(&0u32.to_le_bytes())?;
-        w.write_all(&self.triangle_capacity().to_le_bytes())?;
+        w.write_all(&count.to_le_bytes())?;
         let mut buf = Vec::with_capacity(nodes.len() * 36);
         for n in &nodes {
             for f in n

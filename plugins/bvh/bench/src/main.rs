@@ -1,0 +1,331 @@
+//! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
+//! traced by the same traversal, so only the tree differs between rows.
+
+mod rng;
+mod scenes;
+
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use rng::Rng;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+use treelight_bvh::glam::Vec3;
+use treelight_bvh::{Aabb, Bvh, BvhConfig, PostPass, Ray, TopDown, Triangle};
+
+const METHODS: &[&str] = &["sah", "binned", "median", "incr", "incru", "incrup", "incrupb", "incru-post"];
+const ORDERS: &[&str] = &["as-is", "random", "view"];
+
+/// Table 1 of "Incremental BVH construction for ray tracing" for our scenes and methods.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Args {
+    /// Scene: an .obj/.gltf/.glb file, `hairball:N`, `scatter:N:FILE` or `subdivide:K:FILE`. Repeatable.
+    #[arg(long, required = true)]
+    scene: Vec<String>,
+    /// Triangle orders (comma list): as-is, random, view.
+    #[arg(long, default_value = "as-is", value_delimiter = ',')]
+    order: Vec<String>,
+    /// Methods (comma list): sah, binned, median, incr, incru, incrup, incrupb, incru-post.
+    #[arg(long, default_value = "sah,median,incr,incru,incrup,incrupb", value_delimiter = ',')]
+    method: Vec<String>,
+    /// Thread counts (comma list); every row is measured with each.
+    #[arg(long, default_value = "1", value_delimiter = ',')]
+    threads: Vec<usize>,
+    /// Seed of generated scenes and of the random order.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Camera for primary rays and the view order: `ex,ey,ez,tx,ty,tz` (eye, target). Derived from
+    /// the scene bounds when absent.
+    #[arg(long)]
+    camera: Option<String>,
+    /// Primary-ray image size.
+    #[arg(long, default_value = "512x384")]
+    resolution: String,
+    /// Ambient-occlusion rays per primary hit.
+    #[arg(long, default_value_t = 8)]
+    ao_rays: u32,
+    /// AO ray length as a fraction of the scene's diagonal.
+    #[arg(long, default_value_t = 0.05)]
+    ao_length: f32,
+    /// Write one CSV row per scene, order, method and thread count.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// With one scene, order and method: write the built tree as a TLBVH1 file.
+    #[arg(long)]
+    export_bvh: Option<PathBuf>,
+}
+
+struct Row {
+    scene: String,
+    triangles: usize,
+    order: String,
+    method: String,
+    threads: usize,
+    build_s: f64,
+    sah_cost: f32,
+    mtris_s: Option<f64>,
+    primary_mrays_s: f64,
+    ao_mrays_s: f64,
+    update_ops_pct: f64,
+}
+
+struct Camera {
+    eye: Vec3,
+    target: Vec3,
+}
+
+fn main() {
+    let args = Args::parse();
+    if let Err(e) = run(&args) {
+        eprintln!("treelight-bench: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    for m in &args.method {
+        if !METHODS.contains(&m.as_str()) {
+            return Err(format!("unknown method '{m}' (expected one of {})", METHODS.join(", ")));
+        }
+    }
+    for o in &args.order {
+        if !ORDERS.contains(&o.as_str()) {
+            return Err(format!("unknown order '{o}' (expected one of {})", ORDERS.join(", ")));
+        }
+    }
+    let (w, h) = args
+        .resolution
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .ok_or("--resolution must look like 512x384")?;
+    if args.export_bvh.is_some() && (args.scene.len() != 1 || args.method.len() != 1 || args.order.len() != 1) {
+        return Err("--export-bvh needs exactly one scene, one method and one order".into());
+    }
+    let jobs = (args.scene.len() * args.order.len() * args.method.len() * args.threads.len()) as u64;
+    let bar = ProgressBar::new(jobs);
+    bar.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap());
+    let mut rows = Vec::new();
+    for spec in &args.scene {
+        bar.set_message(format!("loading {spec}"));
+        let scene = scenes::load(spec, args.seed)?;
+        if scene.triangles.is_empty() {
+            return Err(format!("{spec}: no triangles"));
+        }
+        let bounds = scene.triangles.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.aabb()));
+        let camera = match &args.camera {
+            Some(c) => parse_camera(c)?,
+            None => default_camera(&bounds),
+        };
+        for order in &args.order {
+            let (tris, input_index) = reorder(&scene.triangles, order, &camera, args.seed);
+            for method in &args.method {
+                for &threads in &args.threads {
+                    bar.set_message(format!("{} {order} {method} ×{threads}", scene.name));
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| e.to_string())?;
+                    let start = Instant::now();
+                    let bvh = pool.install(|| build(&tris, method))?;
+                    let build_s = start.elapsed().as_secs_f64();
+                    let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
+                    let incremental = method.starts_with("incr");
+                    rows.push(Row {
+                        scene: scene.name.clone(),
+                        triangles: tris.len(),
+                        order: order.clone(),
+                        method: method.clone(),
+                        threads,
+                        build_s,
+                        sah_cost: bvh.sah_cost_with(1.0, 1.0),
+                        mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
+                        primary_mrays_s: primary,
+                        ao_mrays_s: ao,
+                        update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
+                    });
+                    if let Some(path) = &args.export_bvh {
+                        let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?);
+                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index)).map_err(|e| format!("{}: {e}", path.display()))?;
+                    }
+                    bar.inc(1);
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    print_markdown(&rows);
+    if let Some(path) = &args.csv {
+        write_csv(path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
+    let cfg = BvhConfig::incr_u();
+    let e = |e: treelight_bvh::BvhError| e.to_string();
+    Ok(match method {
+        "sah" => Bvh::build_top_down(tris, TopDown::SweepSah, cfg).map_err(e)?,
+        "binned" => Bvh::build_top_down(tris, TopDown::BinnedSah, cfg).map_err(e)?,
+        "median" => Bvh::build_top_down(tris, TopDown::Median, cfg).map_err(e)?,
+        "incr" | "incru" | "incru-post" => {
+            let mut bvh = Bvh::new(if method == "incr" { BvhConfig::incr() } else { cfg });
+            bvh.insert_triangles(tris).map_err(e)?;
+            if method == "incru-post" {
+                bvh.optimize(PostPass::default());
+            }
+            bvh
+        }
+        "incrup" => {
+            let mut bvh = Bvh::new(cfg);
+            bvh.insert_triangles_parallel_search(tris).map_err(e)?;
+            bvh
+        }
+        "incrupb" => {
+            let mut bvh = Bvh::new(cfg);
+            bvh.insert_triangles_block_parallel(tris).map_err(e)?;
+            bvh
+        }
+        _ => unreachable!("methods are checked up front"),
+    })
+}
+
+/// The triangles in the requested order, and for each the index it had in the input.
+fn reorder(tris: &[Triangle], order: &str, camera: &Camera, seed: u64) -> (Vec<Triangle>, Vec<u32>) {
+    let mut index: Vec<u32> = (0..tris.len() as u32).collect();
+    match order {
+        "random" => {
+            let mut r = Rng::new(seed);
+            for i in (1..index.len()).rev() {
+                index.swap(i, r.below(i + 1));
+            }
+        }
+        "view" => {
+            // The paper's view-direction priority: the dot product of the view direction and the
+            // direction from the camera to the triangle; highest first.
+            let view = (camera.target - camera.eye).normalize();
+            let priority: Vec<f32> =
+                tris.iter().map(|t| view.dot((t.center() - camera.eye).normalize_or_zero())).collect();
+            index.sort_by(|&a, &b| priority[b as usize].total_cmp(&priority[a as usize]));
+        }
+        _ => {}
+    }
+    (index.iter().map(|&i| tris[i as usize]).collect(), index)
+}
+
+fn parse_camera(s: &str) -> Result<Camera, String> {
+    let v: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|_| "--camera needs six numbers")?;
+    if v.len() != 6 {
+        return Err("--camera needs six numbers: ex,ey,ez,tx,ty,tz".into());
+    }
+    Ok(Camera { eye: Vec3::new(v[0], v[1], v[2]), target: Vec3::new(v[3], v[4], v[5]) })
+}
+
+fn default_camera(bounds: &Aabb) -> Camera {
+    let c = bounds.center();
+    let diag = (bounds.max - bounds.min).length();
+    Camera { eye: c + Vec3::new(0.3, 0.35, 1.0).normalize() * diag * 0.9, target: c }
+}
+
+/// Primary rays through every pixel, then `ao_rays` hemisphere rays per hit; returns MRays/s of each.
+fn trace(bvh: &Bvh, cam: &Camera, bounds: &Aabb, w: u32, h: u32, args: &Args) -> (f64, f64) {
+    let forward = (cam.target - cam.eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+    let up = right.cross(forward);
+    let tan = (50f32.to_radians() * 0.5).tan();
+    let aspect = w as f32 / h as f32;
+    let ray_of = |x: u32, y: u32| {
+        let sx = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0) * tan * aspect;
+        let sy = (1.0 - (y as f32 + 0.5) / h as f32 * 2.0) * tan;
+        Ray::new(cam.eye, (forward + right * sx + up * sy).normalize())
+    };
+    let start = Instant::now();
+    let hits: Vec<Option<(Vec3, Vec3)>> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let ray = ray_of(p % w, p / w);
+            bvh.closest_hit(&ray).map(|hit| {
+                let n = bvh.world_triangle(hit.triangle).map_or(Vec3::Y, |t| t.normal().normalize_or(Vec3::Y));
+                let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
+                (ray.at(hit.t), n)
+            })
+        })
+        .collect();
+    let primary = (w * h) as f64 / start.elapsed().as_secs_f64() / 1e6;
+    let len = (bounds.max - bounds.min).length() * args.ao_length;
+    let start = Instant::now();
+    let ao_count: u64 = hits
+        .par_iter()
+        .enumerate()
+        .map(|(p, hit)| {
+            let Some((point, n)) = hit else { return 0 };
+            let mut r = Rng::new(p as u64);
+            let mut blocked = 0u32;
+            for _ in 0..args.ao_rays {
+                // Cosine-weighted direction around the normal.
+                let (u1, u2) = (r.f32(), r.f32());
+                let (rad, phi) = (u1.sqrt(), std::f32::consts::TAU * u2);
+                let t = n.any_orthonormal_vector();
+                let b = n.cross(t);
+                let d = t * rad * phi.cos() + b * rad * phi.sin() + n * (1.0 - u1).sqrt();
+                let ray = Ray::new(point + n * len * 1e-4, d).with_range(0.0, len);
+                blocked += bvh.any_hit(&ray).is_some() as u32;
+            }
+            std::hint::black_box(blocked);
+            args.ao_rays as u64
+        })
+        .sum();
+    let ao = ao_count as f64 / start.elapsed().as_secs_f64().max(1e-9) / 1e6;
+    (primary, ao)
+}
+
+fn print_markdown(rows: &[Row]) {
+    let mut scene = "";
+    for r in rows {
+        if r.scene != scene {
+            scene = &r.scene;
+            println!("\n### {} ({} triangles)\n", r.scene, r.triangles);
+            println!("| order | method | threads | build [s] | SAH cost | cost / SAH | stream [MTris/s] | primary [MRays/s] | AO [MRays/s] | updates [%] |");
+            println!("|---|---|---|---|---|---|---|---|---|---|");
+        }
+        let sah = rows
+            .iter()
+            .find(|s| s.scene == r.scene && s.method == "sah" && s.threads == r.threads)
+            .or_else(|| rows.iter().find(|s| s.scene == r.scene && s.method == "sah"))
+            .map(|s| s.sah_cost);
+        println!(
+            "| {} | {} | {} | {:.3} | {:.2} | {} | {} | {:.2} | {:.2} | {:.2} |",
+            r.order,
+            r.method,
+            r.threads,
+            r.build_s,
+            r.sah_cost,
+            sah.map_or("–".into(), |s| format!("{:.3}", r.sah_cost / s)),
+            r.mtris_s.map_or("–".into(), |m| format!("{m:.2}")),
+            r.primary_mrays_s,
+            r.ao_mrays_s,
+            r.update_ops_pct
+        );
+    }
+}
+
+fn write_csv(path: &PathBuf, rows: &[Row]) -> std::io::Result<()> {
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(f, "scene,triangles,order,method,threads,build_s,sah_cost,mtris_s,primary_mrays_s,ao_mrays_s,update_ops_pct")?;
+    for r in rows {
+        writeln!(
+            f,
+            "\"{}\",{},{},{},{},{:.6},{:.4},{},{:.4},{:.4},{:.4}",
+            r.scene.replace('"', "'"),
+            r.triangles,
+            r.order,
+            r.method,
+            r.threads,
+            r.build_s,
+            r.sah_cost,
+            r.mtris_s.map_or(String::new(), |m| format!("{m:.4}")),
+            r.primary_mrays_s,
+            r.ao_mrays_s,
+            r.update_ops_pct
+        )?;
+    }
+    Ok(())
+}
