@@ -22,12 +22,14 @@ pub fn batch_coherence(bounds: &Aabb, sum_area: f32, count: usize) -> f32 {
 }
 
 /// Splits `order` (indices into `boxes`) into coherent batches: a batch is split at the spatial median
-/// of its bounds on a cycling axis until R*_coh < `r_max` and it has at most `max_batch` primitives.
+/// of its bounds on a cycling axis until R*_coh < `r_max` and it has at most `max_batch` primitives,
+/// or until it has at most `min_batch` (below which a bBVH is not worth its insertion).
 /// Returns ranges of the reordered `order`.
 pub fn coherent_batches(
     boxes: &[Aabb],
     order: &mut [u32],
     r_max: f32,
+    min_batch: usize,
     max_batch: usize,
 ) -> Vec<Range<usize>> {
     let mut out = Vec::new();
@@ -44,7 +46,7 @@ pub fn coherent_batches(
             sum += boxes[p as usize].area();
         }
         let n = range.len();
-        if n == 1 || (n <= max_batch && batch_coherence(&bounds, sum, n) < r_max) {
+        if n <= min_batch.max(1) || (n <= max_batch && batch_coherence(&bounds, sum, n) < r_max) {
             out.push(s..e);
             continue;
         }
@@ -80,14 +82,15 @@ impl Bvh {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
         let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
-        let (r_max, max_batch) = (
+        let (r_max, min_batch, max_batch) = (
             self.config.coherence_max,
+            self.config.block_min_batch as usize,
             self.config.block_max_batch.max(1) as usize,
         );
         let build = |buf: Range<usize>| -> Vec<(Vec<u32>, BuiltTree)> {
             let boxes: Vec<Aabb> = tris[buf.clone()].iter().map(|t| t.aabb()).collect();
             let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-            let batches = coherent_batches(&boxes, &mut order, r_max, max_batch);
+            let batches = coherent_batches(&boxes, &mut order, r_max, min_batch, max_batch);
             batches
                 .into_par_iter()
                 .map(|r| {

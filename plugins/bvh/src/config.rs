@@ -35,6 +35,8 @@ pub struct BvhConfig {
     pub coherence_max: f32,
     /// IncrUPB: the largest batch built into one bBVH, so that coherent streams still give parallel work.
     pub block_max_batch: u32,
+    /// IncrUPB: batches this small are not split further, whatever their coherence (1 = the paper's rule).
+    pub block_min_batch: u32,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,
     /// Undo an update that would raise the cost (the paper notes keeping every move works too).
@@ -53,6 +55,7 @@ impl Default for BvhConfig {
             clustering: true,
             coherence_max: 1.5,
             block_max_batch: 1024,
+            block_min_batch: 1,
             parallel_search_batch: 16,
             keep_only_improving: false,
         }

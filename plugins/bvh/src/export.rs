@@ -90,7 +90,11 @@ impl Bvh {
 
     /// Writes the TLBVH1 file with triangle ids mapped through `input_index` (triangle id → index in
     /// the caller's input), for trees built from a reordered input. The count field is then its length.
-    pub fn write_tlbvh_mapped(&self, w: &mut impl Write, input_index: Option<&[u32]>) -> std::io::Result<()> {
+    pub fn write_tlbvh_mapped(
+        &self,
+        w: &mut impl Write,
+        input_index: Option<&[u32]>,
+    ) -> std::io::Result<()> {
         let mut nodes = self.to_file_nodes();
         if let Some(map) = input_index {
             for n in nodes.iter_mut().filter(|n| n.triangle >= 0) {

@@ -14,7 +14,16 @@ use std::time::Instant;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Aabb, Bvh, BvhConfig, PostPass, Ray, TopDown, Triangle};
 
-const METHODS: &[&str] = &["sah", "binned", "median", "incr", "incru", "incrup", "incrupb", "incru-post"];
+const METHODS: &[&str] = &[
+    "sah",
+    "binned",
+    "median",
+    "incr",
+    "incru",
+    "incrup",
+    "incrupb",
+    "incru-post",
+];
 const ORDERS: &[&str] = &["as-is", "random", "view"];
 
 /// Table 1 of "Incremental BVH construction for ray tracing" for our scenes and methods.
@@ -28,7 +37,11 @@ struct Args {
     #[arg(long, default_value = "as-is", value_delimiter = ',')]
     order: Vec<String>,
     /// Methods (comma list): sah, binned, median, incr, incru, incrup, incrupb, incru-post.
-    #[arg(long, default_value = "sah,median,incr,incru,incrup,incrupb", value_delimiter = ',')]
+    #[arg(
+        long,
+        default_value = "sah,median,incr,incru,incrup,incrupb",
+        value_delimiter = ','
+    )]
     method: Vec<String>,
     /// Thread counts (comma list); every row is measured with each.
     #[arg(long, default_value = "1", value_delimiter = ',')]
@@ -87,12 +100,18 @@ fn main() {
 fn run(args: &Args) -> Result<(), String> {
     for m in &args.method {
         if !METHODS.contains(&m.as_str()) {
-            return Err(format!("unknown method '{m}' (expected one of {})", METHODS.join(", ")));
+            return Err(format!(
+                "unknown method '{m}' (expected one of {})",
+                METHODS.join(", ")
+            ));
         }
     }
     for o in &args.order {
         if !ORDERS.contains(&o.as_str()) {
-            return Err(format!("unknown order '{o}' (expected one of {})", ORDERS.join(", ")));
+            return Err(format!(
+                "unknown order '{o}' (expected one of {})",
+                ORDERS.join(", ")
+            ));
         }
     }
     let (w, h) = args
@@ -100,12 +119,17 @@ fn run(args: &Args) -> Result<(), String> {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .ok_or("--resolution must look like 512x384")?;
-    if args.export_bvh.is_some() && (args.scene.len() != 1 || args.method.len() != 1 || args.order.len() != 1) {
+    if args.export_bvh.is_some()
+        && (args.scene.len() != 1 || args.method.len() != 1 || args.order.len() != 1)
+    {
         return Err("--export-bvh needs exactly one scene, one method and one order".into());
     }
-    let jobs = (args.scene.len() * args.order.len() * args.method.len() * args.threads.len()) as u64;
+    let jobs =
+        (args.scene.len() * args.order.len() * args.method.len() * args.threads.len()) as u64;
     let bar = ProgressBar::new(jobs);
-    bar.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap());
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap(),
+    );
     let mut rows = Vec::new();
     for spec in &args.scene {
         bar.set_message(format!("loading {spec}"));
@@ -113,7 +137,10 @@ fn run(args: &Args) -> Result<(), String> {
         if scene.triangles.is_empty() {
             return Err(format!("{spec}: no triangles"));
         }
-        let bounds = scene.triangles.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.aabb()));
+        let bounds = scene
+            .triangles
+            .iter()
+            .fold(Aabb::EMPTY, |b, t| b.union(&t.aabb()));
         let camera = match &args.camera {
             Some(c) => parse_camera(c)?,
             None => default_camera(&bounds),
@@ -123,7 +150,10 @@ fn run(args: &Args) -> Result<(), String> {
             for method in &args.method {
                 for &threads in &args.threads {
                     bar.set_message(format!("{} {order} {method} ×{threads}", scene.name));
-                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| e.to_string())?;
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .map_err(|e| e.to_string())?;
                     let start = Instant::now();
                     let bvh = pool.install(|| build(&tris, method))?;
                     let build_s = start.elapsed().as_secs_f64();
@@ -143,8 +173,12 @@ fn run(args: &Args) -> Result<(), String> {
                         update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
                     });
                     if let Some(path) = &args.export_bvh {
-                        let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?);
-                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index)).map_err(|e| format!("{}: {e}", path.display()))?;
+                        let mut f = std::io::BufWriter::new(
+                            std::fs::File::create(path)
+                                .map_err(|e| format!("{}: {e}", path.display()))?,
+                        );
+                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
+                            .map_err(|e| format!("{}: {e}", path.display()))?;
                     }
                     bar.inc(1);
                 }
@@ -167,7 +201,11 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
         "binned" => Bvh::build_top_down(tris, TopDown::BinnedSah, cfg).map_err(e)?,
         "median" => Bvh::build_top_down(tris, TopDown::Median, cfg).map_err(e)?,
         "incr" | "incru" | "incru-post" => {
-            let mut bvh = Bvh::new(if method == "incr" { BvhConfig::incr() } else { cfg });
+            let mut bvh = Bvh::new(if method == "incr" {
+                BvhConfig::incr()
+            } else {
+                cfg
+            });
             bvh.insert_triangles(tris).map_err(e)?;
             if method == "incru-post" {
                 bvh.optimize(PostPass::default());
@@ -189,7 +227,12 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
 }
 
 /// The triangles in the requested order, and for each the index it had in the input.
-fn reorder(tris: &[Triangle], order: &str, camera: &Camera, seed: u64) -> (Vec<Triangle>, Vec<u32>) {
+fn reorder(
+    tris: &[Triangle],
+    order: &str,
+    camera: &Camera,
+    seed: u64,
+) -> (Vec<Triangle>, Vec<u32>) {
     let mut index: Vec<u32> = (0..tris.len() as u32).collect();
     match order {
         "random" => {
@@ -202,8 +245,10 @@ fn reorder(tris: &[Triangle], order: &str, camera: &Camera, seed: u64) -> (Vec<T
             // The paper's view-direction priority: the dot product of the view direction and the
             // direction from the camera to the triangle; highest first.
             let view = (camera.target - camera.eye).normalize();
-            let priority: Vec<f32> =
-                tris.iter().map(|t| view.dot((t.center() - camera.eye).normalize_or_zero())).collect();
+            let priority: Vec<f32> = tris
+                .iter()
+                .map(|t| view.dot((t.center() - camera.eye).normalize_or_zero()))
+                .collect();
             index.sort_by(|&a, &b| priority[b as usize].total_cmp(&priority[a as usize]));
         }
         _ => {}
@@ -212,17 +257,27 @@ fn reorder(tris: &[Triangle], order: &str, camera: &Camera, seed: u64) -> (Vec<T
 }
 
 fn parse_camera(s: &str) -> Result<Camera, String> {
-    let v: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|_| "--camera needs six numbers")?;
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| "--camera needs six numbers")?;
     if v.len() != 6 {
         return Err("--camera needs six numbers: ex,ey,ez,tx,ty,tz".into());
     }
-    Ok(Camera { eye: Vec3::new(v[0], v[1], v[2]), target: Vec3::new(v[3], v[4], v[5]) })
+    Ok(Camera {
+        eye: Vec3::new(v[0], v[1], v[2]),
+        target: Vec3::new(v[3], v[4], v[5]),
+    })
 }
 
 fn default_camera(bounds: &Aabb) -> Camera {
     let c = bounds.center();
     let diag = (bounds.max - bounds.min).length();
-    Camera { eye: c + Vec3::new(0.3, 0.35, 1.0).normalize() * diag * 0.9, target: c }
+    Camera {
+        eye: c + Vec3::new(0.3, 0.35, 1.0).normalize() * diag * 0.9,
+        target: c,
+    }
 }
 
 /// Primary rays through every pixel, then `ao_rays` hemisphere rays per hit; returns MRays/s of each.
@@ -243,7 +298,9 @@ fn trace(bvh: &Bvh, cam: &Camera, bounds: &Aabb, w: u32, h: u32, args: &Args) ->
         .map(|p| {
             let ray = ray_of(p % w, p / w);
             bvh.closest_hit(&ray).map(|hit| {
-                let n = bvh.world_triangle(hit.triangle).map_or(Vec3::Y, |t| t.normal().normalize_or(Vec3::Y));
+                let n = bvh
+                    .world_triangle(hit.triangle)
+                    .map_or(Vec3::Y, |t| t.normal().normalize_or(Vec3::Y));
                 let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
                 (ray.at(hit.t), n)
             })
@@ -283,13 +340,18 @@ fn print_markdown(rows: &[Row]) {
         if r.scene != scene {
             scene = &r.scene;
             println!("\n### {} ({} triangles)\n", r.scene, r.triangles);
-            println!("| order | method | threads | build [s] | SAH cost | cost / SAH | stream [MTris/s] | primary [MRays/s] | AO [MRays/s] | updates [%] |");
+            println!(
+                "| order | method | threads | build [s] | SAH cost | cost / SAH | stream [MTris/s] | primary [MRays/s] | AO [MRays/s] | updates [%] |"
+            );
             println!("|---|---|---|---|---|---|---|---|---|---|");
         }
         let sah = rows
             .iter()
             .find(|s| s.scene == r.scene && s.method == "sah" && s.threads == r.threads)
-            .or_else(|| rows.iter().find(|s| s.scene == r.scene && s.method == "sah"))
+            .or_else(|| {
+                rows.iter()
+                    .find(|s| s.scene == r.scene && s.method == "sah")
+            })
             .map(|s| s.sah_cost);
         println!(
             "| {} | {} | {} | {:.3} | {:.2} | {} | {} | {:.2} | {:.2} | {:.2} |",
@@ -309,7 +371,10 @@ fn print_markdown(rows: &[Row]) {
 
 fn write_csv(path: &PathBuf, rows: &[Row]) -> std::io::Result<()> {
     let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    writeln!(f, "scene,triangles,order,method,threads,build_s,sah_cost,mtris_s,primary_mrays_s,ao_mrays_s,update_ops_pct")?;
+    writeln!(
+        f,
+        "scene,triangles,order,method,threads,build_s,sah_cost,mtris_s,primary_mrays_s,ao_mrays_s,update_ops_pct"
+    )?;
     for r in rows {
         writeln!(
             f,

@@ -29,7 +29,11 @@ impl Rng {
     /// Uniform in the unit ball.
     pub fn in_unit_sphere(&mut self) -> Vec3 {
         loop {
-            let p = Vec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let p = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
             if p.length_squared() <= 1.0 {
                 return p;
             }

@@ -18,32 +18,56 @@ pub fn load(spec: &str, seed: u64) -> Result<Scene, String> {
     let parts: Vec<&str> = spec.splitn(3, ':').collect();
     match parts.as_slice() {
         ["hairball", n] => {
-            let n: usize = n.parse().map_err(|_| format!("{spec}: N must be a number"))?;
-            Ok(Scene { name: format!("hairball:{n} (synthetic)"), triangles: hairball(n, seed) })
+            let n: usize = n
+                .parse()
+                .map_err(|_| format!("{spec}: N must be a number"))?;
+            Ok(Scene {
+                name: format!("hairball:{n} (synthetic)"),
+                triangles: hairball(n, seed),
+            })
         }
         ["scatter", n, file] => {
-            let n: usize = n.parse().map_err(|_| format!("{spec}: N must be a number"))?;
+            let n: usize = n
+                .parse()
+                .map_err(|_| format!("{spec}: N must be a number"))?;
             let base = load_file(Path::new(file))?;
-            Ok(Scene { name: format!("scatter:{n}:{file} (synthetic)"), triangles: scatter(&base, n, seed) })
+            Ok(Scene {
+                name: format!("scatter:{n}:{file} (synthetic)"),
+                triangles: scatter(&base, n, seed),
+            })
         }
         ["subdivide", k, file] => {
-            let k: u32 = k.parse().map_err(|_| format!("{spec}: K must be a number"))?;
+            let k: u32 = k
+                .parse()
+                .map_err(|_| format!("{spec}: K must be a number"))?;
             if k > 8 {
-                return Err(format!("{spec}: K above 8 gives more than 65536 triangles per input triangle"));
+                return Err(format!(
+                    "{spec}: K above 8 gives more than 65536 triangles per input triangle"
+                ));
             }
             let mut tris = load_file(Path::new(file))?;
             for _ in 0..k {
                 tris = subdivide(&tris);
             }
-            Ok(Scene { name: format!("subdivide:{k}:{file} (synthetic)"), triangles: tris })
+            Ok(Scene {
+                name: format!("subdivide:{k}:{file} (synthetic)"),
+                triangles: tris,
+            })
         }
-        _ => Ok(Scene { name: spec.to_owned(), triangles: load_file(Path::new(spec))? }),
+        _ => Ok(Scene {
+            name: spec.to_owned(),
+            triangles: load_file(Path::new(spec))?,
+        }),
     }
 }
 
 fn load_file(path: &Path) -> Result<Vec<Triangle>, String> {
     let scene = treelight_import::load_scene(path).map_err(|e| e.to_string())?;
-    Ok(scene.world_triangles().into_iter().map(|[a, b, c]| Triangle::new(a, b, c)).collect())
+    Ok(scene
+        .world_triangles()
+        .into_iter()
+        .map(|[a, b, c]| Triangle::new(a, b, c))
+        .collect())
 }
 
 /// Random-walk tubes inside the unit sphere, like the paper's Hairball: each step adds a three-sided
@@ -105,9 +129,15 @@ pub fn scatter(base: &[Triangle], n: usize, seed: u64) -> Vec<Triangle> {
     for _ in 0..copies {
         let scale = 10f32.powf(r.range(-1.5, 1.5)) / size;
         let rot = Quat::from_axis_angle(r.unit_vector(), r.range(0.0, std::f32::consts::TAU));
-        let pos = Vec3::new(r.range(-world, world), r.range(-world, world), r.range(-world, world));
+        let pos = Vec3::new(
+            r.range(-world, world),
+            r.range(-world, world),
+            r.range(-world, world),
+        );
         for t in base {
-            out.push(Triangle { v: t.v.map(|v| pos + rot * ((v - center) * scale)) });
+            out.push(Triangle {
+                v: t.v.map(|v| pos + rot * ((v - center) * scale)),
+            });
         }
     }
     out.truncate(n.max(base.len()));
@@ -120,7 +150,12 @@ pub fn subdivide(tris: &[Triangle]) -> Vec<Triangle> {
     for t in tris {
         let [a, b, c] = t.v;
         let (ab, bc, ca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
-        out.extend([Triangle::new(a, ab, ca), Triangle::new(ab, b, bc), Triangle::new(ca, bc, c), Triangle::new(ab, bc, ca)]);
+        out.extend([
+            Triangle::new(a, ab, ca),
+            Triangle::new(ab, b, bc),
+            Triangle::new(ca, bc, c),
+            Triangle::new(ab, bc, ca),
+        ]);
     }
     out
 }
