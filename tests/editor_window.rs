@@ -80,3 +80,36 @@ fn a_broken_file_is_reported_not_fatal() {
         "{out}"
     );
 }
+
+#[test]
+fn bvh_picking_example_runs_and_hits() {
+    if skip_gpu_tests("bvh_picking_example_runs_and_hits") {
+        return;
+    }
+    // The example is built by `cargo test` (examples are test targets' dependencies of the package).
+    let exe = std::path::Path::new(env!("CARGO_BIN_EXE_treelight"))
+        .parent()
+        .unwrap()
+        .join("examples/bvh_picking");
+    if !exe.exists() {
+        let status = std::process::Command::new(env!("CARGO"))
+            .args(["build", "--example", "bvh_picking"])
+            .status()
+            .expect("cargo runs");
+        assert!(status.success());
+    }
+    let out = std::process::Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .arg(&exe)
+        .args(["--frames", "40"])
+        .output()
+        .expect("xvfb-run runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("scripted ray hits object"), "{text}");
+    assert!(text.contains("exiting after 40 frames"), "{text}");
+}
