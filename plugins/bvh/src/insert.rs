@@ -66,6 +66,12 @@ impl Bvh {
     /// A detached inner node over two detached nodes.
     pub(crate) fn make_pair(&mut self, a: NodeRef, b: NodeRef) -> NodeRef {
         let n = self.alloc_inner();
+        self.set_pair(n, a, b);
+        NodeRef::inner(n)
+    }
+
+    /// Makes inner node `n` the detached parent of `a` and `b`.
+    pub(crate) fn set_pair(&mut self, n: u32, a: NodeRef, b: NodeRef) {
         let aabb = self.aabb(a).union(&self.aabb(b));
         self.inner[n as usize] = InnerNode {
             aabb,
@@ -75,7 +81,6 @@ impl Bvh {
         self.set_parent(a, n);
         self.set_parent(b, n);
         self.changes.mark_inner(n);
-        NodeRef::inner(n)
     }
 
     /// Inserts one detached item and runs a batch of global updates when the cache is full.

@@ -1,7 +1,7 @@
 //! Global updates: remove an inefficient node and re-insert its two children at better places,
 //! driven by the node update cache (paper section 4.3), plus the optional post-pass.
 
-use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
+use crate::node::{NONE, NodeKind, NodeRef};
 use crate::{Bvh, Inefficiency};
 
 impl Bvh {
@@ -97,15 +97,7 @@ impl Bvh {
         let p = self.unlink(second);
         let n2 = self.unlink(first);
         let (n, p) = if n2 == n { (n, p) } else { (p, n) };
-        let aabb = self.aabb(a).union(&self.aabb(b));
-        self.inner[n as usize] = InnerNode {
-            aabb,
-            children: [a, b],
-            parent: NONE,
-        };
-        self.set_parent(a, n);
-        self.set_parent(b, n);
-        self.changes.mark_inner(n);
+        self.set_pair(n, a, b);
         self.link(NodeRef::inner(n), sibling, p);
         false
     }

@@ -83,28 +83,10 @@ pub fn load_obj(name: &str) -> Vec<Triangle> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/scenes/obj")
         .join(name);
-    let (models, _) = tobj::load_obj(
-        &path,
-        &tobj::LoadOptions {
-            triangulate: true,
-            single_index: false,
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut tris = Vec::new();
-    for m in models {
-        let p = &m.mesh.positions;
-        let v = |i: u32| {
-            Vec3::new(
-                p[3 * i as usize],
-                p[3 * i as usize + 1],
-                p[3 * i as usize + 2],
-            )
-        };
-        for f in m.mesh.indices.chunks_exact(3) {
-            tris.push(Triangle::new(v(f[0]), v(f[1]), v(f[2])));
-        }
-    }
-    tris
+    let scene = treelight_import::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    scene
+        .world_triangles()
+        .into_iter()
+        .map(|[a, b, c]| Triangle::new(a, b, c))
+        .collect()
 }
