@@ -190,7 +190,7 @@ fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
     if mesh {
         "▣"
     } else if point {
-        "●"
+        "💡"
     } else if directional {
         "☀"
     } else {
