@@ -433,13 +433,8 @@ impl Bvh {
     /// rejected before anything changes. Triangles of groups kept whole must use
     /// [`Bvh::update_group_vertices`].
     pub fn set_triangles(&mut self, updates: &[(u32, Triangle)]) -> Result<(), BvhError> {
-        for (k, (t, tri)) in updates.iter().enumerate() {
-            if !self.is_live_triangle(*t) {
-                return Err(BvhError::UnknownTriangle(*t));
-            }
-            if !tri.is_finite() {
-                return Err(BvhError::NonFiniteVertex { index: k });
-            }
+        if let Some(&(t, _)) = updates.iter().find(|(t, _)| !self.is_live_triangle(*t)) {
+            return Err(BvhError::UnknownTriangle(t));
         }
         validate_triangles(&updates.iter().map(|u| u.1).collect::<Vec<_>>())?;
         for &(t, _) in updates {

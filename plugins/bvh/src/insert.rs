@@ -27,40 +27,11 @@ impl Bvh {
     pub fn insert_triangles(&mut self, tris: &[Triangle]) -> Result<Vec<u32>, BvhError> {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
-        let mut ids = Vec::with_capacity(tris.len());
-        let mut pending: Option<u32> = None;
-        for t in tris {
-            let id = self.alloc_triangle(*t, NONE);
-            ids.push(id);
-            pending = self.insert_clustered(pending, id);
-        }
-        if let Some(p) = pending {
-            self.insert_item(NodeRef::leaf(p));
+        let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
+        for item in self.cluster_items(&ids) {
+            self.insert_item(item);
         }
         Ok(ids)
-    }
-
-    /// One step of the clustering state machine: pairs `id` with the pending triangle if coherent,
-    /// else inserts the pending one and keeps `id` pending. Returns the new pending triangle.
-    pub(crate) fn insert_clustered(&mut self, pending: Option<u32>, id: u32) -> Option<u32> {
-        if !self.config.clustering {
-            self.insert_item(NodeRef::leaf(id));
-            return None;
-        }
-        match pending {
-            None => Some(id),
-            Some(p) => {
-                let (bp, bi) = (self.tri_box[p as usize], self.tri_box[id as usize]);
-                if coherence(&bp, &bi) < self.config.coherence_max {
-                    let pair = self.make_pair(NodeRef::leaf(p), NodeRef::leaf(id));
-                    self.insert_item(pair);
-                    None
-                } else {
-                    self.insert_item(NodeRef::leaf(p));
-                    Some(id)
-                }
-            }
-        }
     }
 
     /// A detached inner node over two detached nodes.

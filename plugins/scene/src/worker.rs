@@ -92,6 +92,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
 pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConfig) {
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
     let mut idle_rounds_left = 0u32;
+    let mut clock = CostClock::default();
     loop {
         let first = match rx.recv_timeout(config.idle_tick) {
             Ok(c) => Some(c),
@@ -99,7 +100,13 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             Err(RecvTimeoutError::Disconnected) => return,
         };
         let Some(first) = first else {
-            idle_work(&shared, &mut last_move, config, &mut idle_rounds_left);
+            idle_work(
+                &shared,
+                &mut last_move,
+                config,
+                &mut idle_rounds_left,
+                &mut clock,
+            );
             continue;
         };
         let mut batch = vec![first];
@@ -165,7 +172,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         idle_rounds_left = 4;
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(&shared, |s| {
+        publish_stats(&shared, &mut clock, |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =
                     inserted_tris as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
@@ -184,6 +191,7 @@ fn idle_work(
     last_move: &mut HashMap<Entity, Instant>,
     config: WorkerConfig,
     rounds_left: &mut u32,
+    clock: &mut CostClock,
 ) {
     let still: Vec<Entity> = last_move
         .iter()
@@ -214,21 +222,36 @@ fn idle_work(
         }
     }
     shared.version.fetch_add(1, Ordering::Release);
-    publish_stats(shared, |_| {});
+    // Baking and update rounds change the cost without changing the triangle count.
+    clock.0 = None;
+    publish_stats(shared, clock, |_| {});
 }
 
-fn publish_stats(shared: &Shared, edit: impl FnOnce(&mut SceneStats)) {
+/// When the SAH cost was last computed, and at what triangle count. The cost is O(n), and moves arrive
+/// every frame while a mesh is dragged, so it is refreshed when the triangle count changes or at most
+/// four times a second.
+#[derive(Default)]
+pub(crate) struct CostClock(Option<(Instant, u32)>);
+
+fn publish_stats(shared: &Shared, clock: &mut CostClock, edit: impl FnOnce(&mut SceneStats)) {
     let (triangles, nodes, cost) = {
         let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
+        let triangles = tree.bvh.triangle_count();
+        let stale = clock
+            .0
+            .is_none_or(|(at, n)| n != triangles || at.elapsed() >= Duration::from_millis(250));
         (
-            tree.bvh.triangle_count(),
+            triangles,
             tree.bvh.inner_count(),
-            tree.bvh.sah_cost(),
+            stale.then(|| tree.bvh.sah_cost()),
         )
     };
     let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
     s.triangles = triangles;
     s.inner_nodes = nodes;
-    s.sah_cost = cost;
+    if let Some(cost) = cost {
+        s.sah_cost = cost;
+        clock.0 = Some((Instant::now(), triangles));
+    }
     edit(&mut s);
 }

@@ -84,6 +84,15 @@ fn brute_force(world: &mut World, ray: Ray3d) -> Option<(Entity, f32)> {
     best
 }
 
+/// Triangles in the published tree.
+fn tree_triangles(app: &App) -> u32 {
+    app.world()
+        .resource::<SceneBvh>()
+        .read_blocking()
+        .bvh
+        .triangle_count()
+}
+
 fn cast(app: &App, ray: Ray3d) -> Option<treelight_scene::SceneHit> {
     treelight_scene::cast_on(&app.world().resource::<SceneBvh>().read_blocking(), ray)
 }
@@ -202,14 +211,7 @@ fn meshes_loaded_later_and_edited_meshes_are_traced() {
         .spawn((Mesh3d(handle.clone()), Transform::default()))
         .id();
     settle(&mut app);
-    assert_eq!(
-        app.world()
-            .resource::<SceneBvh>()
-            .read_blocking()
-            .bvh
-            .triangle_count(),
-        0
-    );
+    assert_eq!(tree_triangles(&app), 0);
     app.world_mut()
         .resource_mut::<Assets<Mesh>>()
         .insert(handle.id(), Cuboid::new(1.0, 1.0, 1.0).mesh().build())
@@ -231,14 +233,7 @@ fn meshes_loaded_later_and_edited_meshes_are_traced() {
     app.world_mut()
         .spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)));
     settle(&mut app);
-    assert_eq!(
-        app.world()
-            .resource::<SceneBvh>()
-            .read_blocking()
-            .bvh
-            .triangle_count(),
-        24
-    );
+    assert_eq!(tree_triangles(&app), 24);
     let stats = app.world().resource::<SceneBvh>().stats();
     assert_eq!(stats.triangles, 24);
     assert!(stats.sah_cost > 0.0);
@@ -257,12 +252,5 @@ fn meshes_that_are_not_triangle_lists_are_skipped() {
     app.world_mut()
         .spawn((Mesh3d(lines), Transform::default(), Name::new("wireframe")));
     settle(&mut app);
-    assert_eq!(
-        app.world()
-            .resource::<SceneBvh>()
-            .read_blocking()
-            .bvh
-            .triangle_count(),
-        0
-    );
+    assert_eq!(tree_triangles(&app), 0);
 }
