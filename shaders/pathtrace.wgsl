@@ -1,234 +1,402 @@
-// BVH traversal over treelight_bvh's GPU layout, and the primary-hit kernel.
-//
-// Node records hold both children's boxes; a child reference carries its kind in its two high bits:
-// 0 inner node, 1 leaf (the value is a triangle id), 2 instance (a group kept whole under a transform,
-// traversed in its object space). Instances do not nest, so one saved world-space ray suffices.
+// The path tracer: one compute invocation per pixel adds `view.samples` samples to an accumulation
+// buffer (or restarts it when `view.frame` is 0). Bevy's StandardMaterial is approximated by a
+// Lambert lobe plus a GGX lobe; punctual lights are sampled directly (next-event estimation), emissive
+// surfaces and the sky are found by the BSDF samples. The crate appends traverse.wgsl.
 
-struct Node {
-    a_min: vec3<f32>,
-    a_ref: u32,
-    a_max: vec3<f32>,
-    b_ref: u32,
-    b_min: vec3<f32>,
-    pad0: u32,
-    b_max: vec3<f32>,
-    pad1: u32,
+struct Attr {
+    // Object-space corner normals, octahedral, snorm16x2 each.
+    normals: vec3<u32>,
+    // The group's slot; bit 31 set when the normals are present.
+    group: u32,
+    uv01: vec4<f32>,
+    uv2: vec2<f32>,
+    pad: vec2<u32>,
 }
 
-struct Tri {
-    v0: vec3<f32>,
-    pad0: u32,
-    v1: vec3<f32>,
-    pad1: u32,
-    v2: vec3<f32>,
-    pad2: u32,
+struct Object {
+    // Rows of the object-to-world normal matrix (the inverse transpose of the linear part).
+    normal_rows: array<vec4<f32>, 3>,
+    base_color: vec4<f32>,
+    // Emitted radiance (rgb), before the camera's exposure.
+    emissive: vec4<f32>,
+    // Metallic, perceptual roughness, reflectance, unused.
+    params: vec4<f32>,
+    // Reserved for the texture atlas rectangle; zero width means untextured.
+    texture: vec4<f32>,
 }
 
-struct Instance {
-    world_to_object: array<vec4<f32>, 3>,
-    object_to_world: array<vec4<f32>, 3>,
-    root: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+struct Light {
+    // A point light's position, or the unit direction towards a directional light.
+    position: vec3<f32>,
+    // 0 point, 1 directional.
+    kind: u32,
+    // Point: intensity (luminous power / 4π). Directional: illuminance.
+    radiance: vec3<f32>,
+    // A point light's radius (soft shadows).
+    radius: f32,
 }
 
-// A pinhole camera: pixel (x, y) looks along lower_left + (x+0.5)/width * horizontal + (y+0.5)/height * vertical.
-struct PrimaryCamera {
-    origin: vec3<f32>,
+struct View {
+    world_from_clip: mat4x4<f32>,
+    // Sky radiance (rgb) and the camera's exposure (w).
+    sky: vec4<f32>,
     width: u32,
-    lower_left: vec3<f32>,
     height: u32,
-    horizontal: vec3<f32>,
+    // Samples accumulated so far; 0 restarts the accumulation.
+    frame: u32,
     root: u32,
-    vertical: vec3<f32>,
-    pad: u32,
+    max_bounces: u32,
+    samples: u32,
+    mode: u32,
+    light_count: u32,
+    // Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
+    indirect_clamp: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<storage, read> nodes: array<Node>;
 @group(0) @binding(1) var<storage, read> tris: array<Tri>;
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
-@group(0) @binding(3) var<uniform> camera: PrimaryCamera;
-@group(0) @binding(4) var<storage, read_write> hit_ids: array<u32>;
+@group(0) @binding(3) var<storage, read> attrs: array<Attr>;
+@group(0) @binding(4) var<storage, read> objects: array<Object>;
+@group(0) @binding(5) var<storage, read> lights: array<Light>;
+@group(0) @binding(6) var<uniform> view: View;
+@group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
 
-const NONE: u32 = 0xffffffffu;
-const END_INSTANCE: u32 = 0xfffffffeu;
-const KIND_SHIFT: u32 = 30u;
-const INDEX_MASK: u32 = 0x3fffffffu;
-const KIND_INNER: u32 = 0u;
-const KIND_LEAF: u32 = 1u;
-const KIND_INSTANCE: u32 = 2u;
-const STACK_SIZE: u32 = 96u;
-const FAR: f32 = 3.0e38;
+const MODE_PATH: u32 = 0u;
+const MODE_ALBEDO: u32 = 1u;
+const MODE_NORMALS: u32 = 2u;
+const MODE_TRIANGLE_ID: u32 = 3u;
+const MODE_HEATMAP: u32 = 4u;
+const HAS_NORMALS: u32 = 0x80000000u;
+const PI: f32 = 3.14159265358979;
+// Nodes visited that the heatmap shows as its hottest colour.
+const HEATMAP_MAX: f32 = 160.0;
 
-struct Hit {
-    t: f32,
-    triangle: u32,
-    u: f32,
-    v: f32,
-    visited: u32,
+var<private> rng_state: u32;
+
+fn pcg(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
 }
 
-// Entry parameter of the ray into the box, or FAR when it misses within [0, t_max].
-fn hit_box(o: vec3<f32>, inv: vec3<f32>, bmin: vec3<f32>, bmax: vec3<f32>, t_max: f32) -> f32 {
-    let t0 = (bmin - o) * inv;
-    let t1 = (bmax - o) * inv;
-    let tn = min(t0, t1);
-    let tf = max(t0, t1);
-    let enter = max(max(tn.x, tn.y), max(tn.z, 0.0));
-    let exit = min(min(tf.x, tf.y), min(tf.z, t_max));
-    if enter <= exit * 1.0000004 {
-        return enter;
-    }
-    return FAR;
+fn rand() -> f32 {
+    rng_state = pcg(rng_state);
+    return f32(rng_state >> 8u) / 16777216.0;
 }
 
-// Watertight ray/triangle test (Woop, Benthin, Wald 2013), as in treelight_bvh.
-// Returns (t, u, v) with t < 0 for a miss.
-fn hit_triangle(o: vec3<f32>, d: vec3<f32>, tri: Tri, t_max: f32) -> vec3<f32> {
-    let ad = abs(d);
-    var kz = 2u;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0u;
-    } else if ad.y >= ad.z {
-        kz = 1u;
-    }
-    var kx = (kz + 1u) % 3u;
-    var ky = (kx + 1u) % 3u;
-    if d[kz] < 0.0 {
-        let tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    let sz = 1.0 / d[kz];
-    let sx = d[kx] * sz;
-    let sy = d[ky] * sz;
-    let a = tri.v0 - o;
-    let b = tri.v1 - o;
-    let c = tri.v2 - o;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    let t = (u * sz * a[kz] + v * sz * b[kz] + w * sz * c[kz]) / det;
-    if t < 0.0 || t > t_max {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    return vec3<f32>(t, v / det, w / det);
+fn decode_normal(w: u32) -> vec3<f32> {
+    let e = unpack2x16snorm(w);
+    var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
+    let t = max(-n.z, 0.0);
+    n.x += select(t, -t, n.x >= 0.0);
+    n.y += select(t, -t, n.y >= 0.0);
+    return normalize(n);
 }
 
-fn xform_point(m: array<vec4<f32>, 3>, p: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(dot(m[0].xyz, p) + m[0].w, dot(m[1].xyz, p) + m[1].w, dot(m[2].xyz, p) + m[2].w);
+fn normal_to_world(o: Object, n: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(o.normal_rows[0].xyz, n), dot(o.normal_rows[1].xyz, n), dot(o.normal_rows[2].xyz, n));
 }
 
-fn xform_vector(m: array<vec4<f32>, 3>, v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(dot(m[0].xyz, v), dot(m[1].xyz, v), dot(m[2].xyz, v));
+struct Surface {
+    p: vec3<f32>,
+    // Geometric normal, facing the incoming ray.
+    ng: vec3<f32>,
+    // Shading normal, on the same side as ng.
+    ns: vec3<f32>,
+    albedo: vec3<f32>,
+    emissive: vec3<f32>,
+    metallic: f32,
+    alpha: f32,
+    reflectance: f32,
 }
 
-fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(1.0) / select(d, vec3<f32>(1e-30), d == vec3<f32>(0.0));
-}
-
-// Closest hit from `root` (a node reference) along o + t d, t in [0, t_max].
-fn closest_hit(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32) -> Hit {
-    var hit = Hit(t_max, NONE, 0.0, 0.0, 0u);
-    if root == NONE {
-        return hit;
+fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
+    let tri = tris[hit.triangle];
+    let attr = attrs[hit.triangle];
+    let obj = objects[attr.group & ~HAS_NORMALS];
+    var s: Surface;
+    s.p = o + d * hit.t;
+    var ng = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);
+    if hit.instance != NONE {
+        // Triangles of groups kept whole are stored in object space.
+        ng = normal_to_world(obj, ng);
     }
-    var o = world_o;
-    var d = world_d;
-    var inv = safe_inverse(d);
-    var stack: array<u32, STACK_SIZE>;
-    var sp = 0u;
-    var current = root;
-    loop {
-        if current == END_INSTANCE {
-            o = world_o;
-            d = world_d;
-            inv = safe_inverse(d);
-        } else {
-            let kind = current >> KIND_SHIFT;
-            let index = current & INDEX_MASK;
-            if kind == KIND_INNER {
-                let n = nodes[index];
-                hit.visited += 1u;
-                let ta = hit_box(o, inv, n.a_min, n.a_max, hit.t);
-                let tb = hit_box(o, inv, n.b_min, n.b_max, hit.t);
-                if ta < FAR && tb < FAR {
-                    // Visit the nearer child next; the farther one waits on the stack.
-                    var near = n.a_ref;
-                    var far = n.b_ref;
-                    if tb < ta {
-                        near = n.b_ref;
-                        far = n.a_ref;
-                    }
-                    if sp < STACK_SIZE {
-                        stack[sp] = far;
-                        sp += 1u;
-                    }
-                    current = near;
-                    continue;
-                } else if ta < FAR {
-                    current = n.a_ref;
-                    continue;
-                } else if tb < FAR {
-                    current = n.b_ref;
-                    continue;
-                }
-            } else if kind == KIND_LEAF {
-                let r = hit_triangle(o, d, tris[index], hit.t);
-                if r.x >= 0.0 {
-                    hit.t = r.x;
-                    hit.triangle = index;
-                    hit.u = r.y;
-                    hit.v = r.z;
-                }
-            } else if kind == KIND_INSTANCE {
-                let inst = instances[index];
-                if sp < STACK_SIZE {
-                    stack[sp] = END_INSTANCE;
-                    sp += 1u;
-                    o = xform_point(inst.world_to_object, world_o);
-                    d = xform_vector(inst.world_to_object, world_d);
-                    inv = safe_inverse(d);
-                    current = inst.root;
-                    continue;
-                }
-            }
+    ng = normalize(ng);
+    if dot(ng, d) > 0.0 {
+        ng = -ng;
+    }
+    var ns = ng;
+    if (attr.group & HAS_NORMALS) != 0u {
+        let w = 1.0 - hit.u - hit.v;
+        let n = decode_normal(attr.normals.x) * w + decode_normal(attr.normals.y) * hit.u
+            + decode_normal(attr.normals.z) * hit.v;
+        ns = normalize(normal_to_world(obj, n));
+        if dot(ns, ng) < 0.0 {
+            ns = -ns;
         }
-        if sp == 0u {
+    }
+    s.ng = ng;
+    s.ns = ns;
+    s.albedo = obj.base_color.rgb;
+    s.emissive = obj.emissive.rgb;
+    s.metallic = clamp(obj.params.x, 0.0, 1.0);
+    // Bevy clamps perceptual roughness the same way, which also keeps point-light highlights finite.
+    let r = clamp(obj.params.y, 0.089, 1.0);
+    s.alpha = r * r;
+    s.reflectance = obj.params.z;
+    return s;
+}
+
+// Moves a ray origin off the surface it leaves, scaled to the coordinates' magnitude.
+fn offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let scale = max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    return p + n * (2e-4 * scale);
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+fn f0_of(s: Surface) -> vec3<f32> {
+    return mix(vec3<f32>(0.16 * s.reflectance * s.reflectance), s.albedo, s.metallic);
+}
+
+fn ggx_d(nh: f32, a2: f32) -> f32 {
+    let k = nh * nh * (a2 - 1.0) + 1.0;
+    return a2 / (PI * k * k);
+}
+
+fn smith_g1(nx: f32, a2: f32) -> f32 {
+    return 2.0 * nx / (nx + sqrt(a2 + (1.0 - a2) * nx * nx));
+}
+
+// The BRDF (without the cosine) for light arriving along wi and leaving along wo.
+fn brdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    let nl = dot(s.ns, wi);
+    let nv = dot(s.ns, wo);
+    if nl <= 0.0 || nv <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let h = normalize(wo + wi);
+    let nh = max(dot(s.ns, h), 0.0);
+    let vh = max(dot(wo, h), 0.0);
+    let a2 = s.alpha * s.alpha;
+    let f0 = f0_of(s);
+    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
+    let spec = f * (ggx_d(nh, a2) * smith_g1(nl, a2) * smith_g1(nv, a2) / (4.0 * nl * nv));
+    let diffuse = s.albedo * (1.0 - s.metallic) / PI;
+    return diffuse + spec;
+}
+
+// Probability of picking the GGX lobe, from the lobes' rough weights.
+fn specular_probability(s: Surface) -> f32 {
+    let ws = luminance(f0_of(s));
+    let wd = luminance(s.albedo) * (1.0 - s.metallic);
+    if wd <= 0.0 {
+        return 1.0;
+    }
+    return clamp(ws / (ws + wd), 0.1, 0.9);
+}
+
+fn pdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let nl = dot(s.ns, wi);
+    if nl <= 0.0 {
+        return 0.0;
+    }
+    let h = normalize(wo + wi);
+    let nh = max(dot(s.ns, h), 0.0);
+    let vh = max(dot(wo, h), 1e-6);
+    let ps = specular_probability(s);
+    let a2 = s.alpha * s.alpha;
+    return ps * ggx_d(nh, a2) * nh / (4.0 * vh) + (1.0 - ps) * nl / PI;
+}
+
+// An orthonormal basis around n (Duff et al. 2017).
+fn basis(n: vec3<f32>) -> mat3x3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+    return mat3x3<f32>(t, bt, n);
+}
+
+// A direction from the mixture of both lobes; the caller weights it by brdf * cos / pdf.
+fn sample_direction(s: Surface, wo: vec3<f32>) -> vec3<f32> {
+    let frame = basis(s.ns);
+    let u1 = rand();
+    let u2 = rand();
+    let phi = 2.0 * PI * u2;
+    if rand() < specular_probability(s) {
+        let a2 = s.alpha * s.alpha;
+        let cos_t = sqrt((1.0 - u1) / (1.0 + (a2 - 1.0) * u1));
+        let sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+        let h = frame * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+        return 2.0 * dot(wo, h) * h - wo;
+    }
+    let r = sqrt(u1);
+    return frame * vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u1)));
+}
+
+fn uniform_sphere() -> vec3<f32> {
+    let z = 1.0 - 2.0 * rand();
+    let r = sqrt(max(0.0, 1.0 - z * z));
+    let phi = 2.0 * PI * rand();
+    return vec3<f32>(r * cos(phi), r * sin(phi), z);
+}
+
+// Light arriving at s from every light, through shadow rays, reflected towards wo.
+fn direct_light(s: Surface, wo: vec3<f32>) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let origin = offset(s.p, s.ng);
+    for (var i = 0u; i < view.light_count; i += 1u) {
+        let light = lights[i];
+        var wi: vec3<f32>;
+        var li: vec3<f32>;
+        var t_max = FAR;
+        if light.kind == 0u {
+            let spot = light.position + uniform_sphere() * light.radius;
+            let to = spot - s.p;
+            let d2 = max(dot(to, to), 1e-8);
+            let dist = sqrt(d2);
+            wi = to / dist;
+            li = light.radiance / d2;
+            t_max = dist * 0.999;
+        } else {
+            wi = light.position;
+            li = light.radiance;
+        }
+        let cos_l = dot(s.ns, wi);
+        if cos_l <= 0.0 || dot(s.ng, wi) <= 0.0 {
+            continue;
+        }
+        if occluded(view.root, origin, wi, t_max) {
+            continue;
+        }
+        sum += brdf(s, wo, wi) * li * cos_l;
+    }
+    return sum;
+}
+
+// Caps what one indirect bounce adds: rare paths that find a light from up close otherwise show as
+// speckles for thousands of samples. Biased, so the reference test turns it off.
+fn indirect(c: vec3<f32>, bounce: u32) -> vec3<f32> {
+    let l = luminance(c) * view.sky.w;
+    if bounce == 0u || view.indirect_clamp <= 0.0 || l <= view.indirect_clamp {
+        return c;
+    }
+    return c * (view.indirect_clamp / l);
+}
+
+fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
+    var o = o0;
+    var d = d0;
+    var throughput = vec3<f32>(1.0);
+    var radiance = vec3<f32>(0.0);
+    for (var bounce = 0u; bounce <= view.max_bounces; bounce += 1u) {
+        let hit = closest_hit(view.root, o, d, FAR);
+        if hit.triangle == NONE {
+            radiance += indirect(throughput * view.sky.rgb, bounce);
             break;
         }
-        sp -= 1u;
-        current = stack[sp];
+        let s = surface_at(hit, o, d);
+        let wo = -d;
+        radiance += indirect(throughput * s.emissive, bounce);
+        if bounce == view.max_bounces {
+            break;
+        }
+        // Light found by a shadow ray from this hit reaches the eye after bounce + 1 reflections.
+        radiance += indirect(throughput * direct_light(s, wo), bounce + 1u);
+        let wi = sample_direction(s, wo);
+        let p = pdf(s, wo, wi);
+        if p <= 0.0 || dot(wi, s.ng) <= 0.0 {
+            break;
+        }
+        throughput *= brdf(s, wo, wi) * dot(s.ns, wi) / p;
+        // Russian roulette once the path has done most of its work.
+        if bounce >= 2u {
+            let q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            if rand() >= q {
+                break;
+            }
+            throughput /= q;
+        }
+        o = offset(s.p, s.ng);
+        d = wi;
     }
-    return hit;
+    return radiance * view.sky.w;
 }
 
-fn primary_ray_dir(x: u32, y: u32) -> vec3<f32> {
-    let s = (f32(x) + 0.5) / f32(camera.width);
-    let t = (f32(y) + 0.5) / f32(camera.height);
-    return camera.lower_left + s * camera.horizontal + t * camera.vertical;
+fn id_colour(id: u32) -> vec3<f32> {
+    let h = pcg(id + 1u);
+    return vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
 }
 
-// One primary ray per pixel; writes the closest triangle id (NONE for a miss).
+fn heat(x: f32) -> vec3<f32> {
+    let t = clamp(x, 0.0, 1.0);
+    return clamp(vec3<f32>(1.5 * t - 0.25, 1.5 - abs(3.0 * t - 1.5), 1.25 - 2.5 * t), vec3<f32>(0.0), vec3<f32>(1.0))
+        + vec3<f32>(max(t - 0.8, 0.0) * 5.0);
+}
+
+// What the debug views show at the primary hit.
+fn debug_value(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let hit = closest_hit(view.root, o, d, FAR);
+    if view.mode == MODE_HEATMAP {
+        return heat(f32(hit.visited) / HEATMAP_MAX);
+    }
+    if hit.triangle == NONE {
+        return vec3<f32>(0.0);
+    }
+    if view.mode == MODE_TRIANGLE_ID {
+        return id_colour(hit.triangle);
+    }
+    let s = surface_at(hit, o, d);
+    if view.mode == MODE_NORMALS {
+        return s.ns * 0.5 + vec3<f32>(0.5);
+    }
+    return s.albedo;
+}
+
+// The camera ray through `uv` (0..1 across the view, y down): from the near plane, through a point
+// further along, so perspective and orthographic projections both work.
+fn camera_ray(uv: vec2<f32>) -> array<vec3<f32>, 2> {
+    let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+    let near = view.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+    let mid = view.world_from_clip * vec4<f32>(ndc, 0.5, 1.0);
+    let o = near.xyz / near.w;
+    return array<vec3<f32>, 2>(o, normalize(mid.xyz / mid.w - o));
+}
+
 @compute @workgroup_size(8, 8, 1)
-fn primary_hits(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.height {
+fn path_trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= view.width || id.y >= view.height {
         return;
     }
-    let hit = closest_hit(camera.root, camera.origin, primary_ray_dir(id.x, id.y), FAR);
-    hit_ids[id.y * camera.width + id.x] = hit.triangle;
+    let pixel = id.y * view.width + id.x;
+    rng_state = pcg(pixel ^ pcg(view.frame * 0x9e3779b9u + 0x632be5abu));
+    let size = vec2<f32>(f32(view.width), f32(view.height));
+    // Ids and heat are per pixel centre: averaging them across edges would mean nothing.
+    let jitter = view.mode == MODE_PATH || view.mode == MODE_ALBEDO || view.mode == MODE_NORMALS;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < view.samples; k += 1u) {
+        var sub = vec2<f32>(0.5);
+        if jitter {
+            sub = vec2<f32>(rand(), rand());
+        }
+        let ray = camera_ray((vec2<f32>(id.xy) + sub) / size);
+        if view.mode == MODE_PATH {
+            sum += path_radiance(ray[0], ray[1]);
+        } else {
+            sum += debug_value(ray[0], ray[1]);
+        }
+    }
+    if view.frame == 0u {
+        accum[pixel] = vec4<f32>(sum, 0.0);
+    } else {
+        accum[pixel] += vec4<f32>(sum, 0.0);
+    }
 }

@@ -7,6 +7,7 @@ pub mod cli;
 pub mod default_scene;
 pub mod import;
 pub mod notice;
+pub mod render_mode;
 pub mod selection;
 pub mod ui;
 
@@ -32,6 +33,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
         EguiPlugin::default(),
         FrameTimeDiagnosticsPlugin::default(),
         treelight_scene::SceneBvhPlugin::default(),
+        treelight_render::PathTracerPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<selection::Selection>()
@@ -39,7 +41,8 @@ pub fn build_app(cli: &cli::Cli) -> App {
     .init_resource::<ui::ViewportRect>()
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
-    .add_systems(Startup, setup_cameras)
+    .init_resource::<render_mode::ViewportRender>()
+    .add_systems(Startup, (setup_cameras, render_mode::adapt_to_adapter))
     .add_systems(EguiPrimaryContextPass, ui::editor_ui)
     .add_systems(
         Update,
@@ -50,6 +53,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
             import::import_dropped_files,
             import::finish_imports,
             notice::expire_notices,
+            render_mode::apply_viewport_render,
         ),
     );
     match &cli.scene {

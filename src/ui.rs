@@ -3,6 +3,7 @@
 use crate::camera::OrbitCamera;
 use crate::import::PendingImports;
 use crate::notice::{Level, Notices};
+use crate::render_mode::ViewportRender;
 use crate::selection::{SceneObject, Selection};
 use bevy::camera::Viewport;
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
@@ -10,6 +11,7 @@ use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::{EguiContexts, egui};
 use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
+use treelight_render::PathTracerStats;
 use treelight_scene::SceneBvh;
 
 /// The panels that can be docked.
@@ -71,6 +73,7 @@ struct EditorTabs<'a> {
     orbit: Option<&'a mut OrbitCamera>,
     viewport: &'a mut egui::Rect,
     clicked_at: &'a mut Option<egui::Pos2>,
+    render: &'a mut ViewportRender,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -111,6 +114,21 @@ impl EditorTabs<'_> {
         let rect = ui.available_rect_before_wrap();
         *self.viewport = rect;
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        // The render-mode switch floats over the viewport's top-left corner.
+        let mut overlay = ui.new_child(
+            egui::UiBuilder::new()
+                .max_rect(rect.shrink(6.0))
+                .layout(egui::Layout::left_to_right(egui::Align::Min)),
+        );
+        egui::ComboBox::from_id_salt("render-mode")
+            .selected_text(ViewportRender::label(self.render.traced))
+            .show_ui(&mut overlay, |ui| {
+                for mode in ViewportRender::modes() {
+                    ui.selectable_value(&mut self.render.traced, mode, ViewportRender::label(mode));
+                }
+            })
+            .response
+            .on_hover_text("How the viewport is drawn: Bevy's rasteriser, the path tracer, or one of its debug views");
         if response.clicked() {
             *self.clicked_at = response.interact_pointer_pos();
         }
@@ -223,7 +241,9 @@ pub fn editor_ui(
     mut notices: ResMut<Notices>,
     pending: Res<PendingImports>,
     scene: Res<SceneBvh>,
-    cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
+    cameras: Query<(Entity, &Camera, &GlobalTransform), With<OrbitCamera>>,
+    mut render: ResMut<ViewportRender>,
+    tracer: Res<PathTracerStats>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?.clone();
     let mut rows: Vec<OutlinerRow> = objects
@@ -251,6 +271,7 @@ pub fn editor_ui(
     let mut orbit_copy = orbit.single().ok().copied();
     let mut viewport = egui::Rect::NOTHING;
     let mut clicked_at = None;
+    let mut render_copy = *render;
 
     let mut root = egui::Ui::new(
         ctx.clone(),
@@ -279,6 +300,15 @@ pub fn editor_ui(
                     stats.insertion_mtris_per_s,
                     stats.last_latency.as_secs_f64() * 1e3
                 ));
+            if let (Some(view), Ok((camera, ..))) = (render.traced, cameras.single()) {
+                let figures = tracer.figures();
+                ui.separator();
+                let spp = figures.samples.get(&camera).copied().unwrap_or(0);
+                ui.label(format!("{}: {spp} spp", view.label())).on_hover_text(format!(
+                    "Samples per pixel accumulated since the last change. Scene upload: {} bytes in the last upload, {} in all",
+                    figures.last_upload_bytes, figures.total_upload_bytes
+                ));
+            }
             if stats.pending > 0 {
                 ui.spinner();
                 ui.label(format!("{} changes pending", stats.pending));
@@ -304,6 +334,7 @@ pub fn editor_ui(
                 orbit: orbit_copy.as_mut(),
                 viewport: &mut viewport,
                 clicked_at: &mut clicked_at,
+                render: &mut render_copy,
             };
             DockArea::new(&mut dock.0)
                 .style(Style::from_egui(ui.style().as_ref()))
@@ -316,7 +347,10 @@ pub fn editor_ui(
     show_notices(&ctx, &mut notices);
 
     // A click (not a drag) in the viewport selects what is under the pointer, through the scene BVH.
-    if let (Some(pos), Ok((camera, cam_transform))) = (clicked_at, cameras.single())
+    if *render != render_copy {
+        *render = render_copy;
+    }
+    if let (Some(pos), Ok((_, camera, cam_transform))) = (clicked_at, cameras.single())
         && let Ok(ray) = camera.viewport_to_world(cam_transform, Vec2::new(pos.x, pos.y))
     {
         selection.0 = scene

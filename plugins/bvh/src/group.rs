@@ -14,6 +14,14 @@ pub struct GroupId {
     generation: u32,
 }
 
+impl GroupId {
+    /// The group's slot: dense, below the number of groups ever alive at once, and reused after
+    /// removal (with a new generation). Renderers index per-group tables (transforms, materials) by it.
+    pub fn index(self) -> u32 {
+        self.index
+    }
+}
+
 #[derive(Clone)]
 pub(crate) struct Group {
     generation: u32,
@@ -349,6 +357,11 @@ impl Bvh {
             self.inner[i as usize].aabb = self.aabb(a).union(&self.aabb(b));
             self.changes.mark_inner(i);
         }
+    }
+
+    /// Number of group slots (live or free): every [`GroupId::index`] is below it.
+    pub fn group_slots(&self) -> u32 {
+        self.groups.len() as u32
     }
 
     /// The group's triangle ids.

@@ -1,22 +1,54 @@
 //! # treelight_render
 //!
-//! The path-traced view of what `treelight_scene` tracks. This crate holds the camera settings
-//! ([`PathTraced`]), the incremental upload plan that turns the engine's change sets into buffer writes
-//! ([`UploadPlan`]), and the WGSL traversal kernel ([`PATHTRACE_WGSL`]).
+//! [`PathTracerPlugin`] and the camera component [`PathTraced`] turn any Bevy 3D camera into a live
+//! path-traced view of what `treelight_scene`'s [`SceneBvhPlugin`](treelight_scene::SceneBvhPlugin)
+//! tracks. Each frame the plugin takes the scene's change set, uploads only the changed records
+//! ([`UploadPlan`]), and a compute pass in the camera's `Core3d` schedule traces the tree and
+//! accumulates samples; a small render pass writes the average into the view target, in HDR, before
+//! Bevy's tonemapping.
 
+mod extract;
+mod gpu_scene;
+mod node;
+mod records;
 mod upload;
 
+pub use records::{
+    ATTRIBUTE_BYTES, LIGHT_BYTES, OBJECT_BYTES, SceneLight, SurfaceMaterial, VIEW_BYTES,
+    ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes, object_bytes,
+    resolve_bytes,
+};
 pub use upload::{
     BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
 
+use bevy::camera::{Camera, Hdr};
 use bevy::prelude::*;
+use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
-/// The WGSL source of the traversal and path-tracing kernels (shared with the workspace's `shaders/`).
-pub const PATHTRACE_WGSL: &str = include_str!("../../../shaders/pathtrace.wgsl");
+/// WGSL: BVH traversal, appended to each kernel (the kernels declare the buffers it reads).
+pub const TRAVERSE_WGSL: &str = include_str!("../../../shaders/traverse.wgsl");
+
+/// WGSL: the path-tracing kernel (`path_trace`) with the traversal.
+pub const PATHTRACE_WGSL: &str = concat!(
+    include_str!("../../../shaders/pathtrace.wgsl"),
+    include_str!("../../../shaders/traverse.wgsl")
+);
+
+/// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), with the traversal.
+/// The tests compare it with the engine's CPU traversal.
+pub const PRIMARY_HITS_WGSL: &str = concat!(
+    include_str!("../../../shaders/primary_hits.wgsl"),
+    include_str!("../../../shaders/traverse.wgsl")
+);
+
+/// WGSL: the pass that draws the accumulated average into the view target.
+pub const RESOLVE_WGSL: &str = include_str!("../../../shaders/resolve.wgsl");
 
 /// What a path-traced camera shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum DebugView {
     /// The converged path-traced image.
     #[default]
@@ -32,19 +64,54 @@ pub enum DebugView {
 }
 
 impl DebugView {
+    /// Every view, in menu order.
+    pub const ALL: [DebugView; 5] = [
+        DebugView::PathTraced,
+        DebugView::Albedo,
+        DebugView::Normals,
+        DebugView::TriangleId,
+        DebugView::Heatmap,
+    ];
+
     /// The view's index as the shader reads it.
     pub fn shader_index(self) -> u32 {
         self as u32
     }
+
+    /// A name for menus.
+    pub fn label(self) -> &'static str {
+        match self {
+            DebugView::PathTraced => "Path traced",
+            DebugView::Albedo => "Albedo",
+            DebugView::Normals => "Normals",
+            DebugView::TriangleId => "Triangle id",
+            DebugView::Heatmap => "Traversal heatmap",
+        }
+    }
 }
 
-/// Turns a Bevy 3D camera into a live path-traced view.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
+/// Turns a Bevy 3D camera into a live path-traced view. Requires [`Hdr`] so that Bevy's tonemapping
+/// applies to the traced radiance.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Reflect, ExtractComponent)]
+#[extract_component_filter(With<Camera>)]
+#[require(Hdr)]
 pub struct PathTraced {
     /// Bounces after the primary hit.
     pub max_bounces: u32,
     /// Samples per pixel added each frame.
     pub samples_per_frame: u32,
+    /// Stop accumulating after this many samples per pixel (0: never stop).
+    pub max_samples: u32,
+    /// Traced pixels per viewport pixel along each axis (below 1 trades sharpness for speed on slow
+    /// adapters; the image is upscaled).
+    pub resolution_scale: f32,
+    /// Radiance of the sky rays escape to, linear RGB in nits (scaled by the camera's exposure
+    /// like every light).
+    pub sky: LinearRgba,
+    /// Largest luminance (after exposure, where 1 is white) one indirect bounce may add to a sample.
+    /// Rare paths that find a light from up close otherwise show as speckles for thousands of
+    /// samples; the cap removes them at the cost of a little energy. 0 turns it off (unbiased).
+    pub indirect_clamp: f32,
     /// What to show.
     pub view: DebugView,
 }
@@ -54,7 +121,85 @@ impl Default for PathTraced {
         Self {
             max_bounces: 4,
             samples_per_frame: 1,
+            max_samples: 4096,
+            resolution_scale: 1.0,
+            sky: LinearRgba::rgb(110.0, 140.0, 200.0),
+            indirect_clamp: 4.0,
             view: DebugView::PathTraced,
         }
+    }
+}
+
+/// Figures the render world reports back for the UI.
+#[derive(Clone, Debug, Default)]
+pub struct PathTracerFigures {
+    /// Bytes written to the scene buffers in the last frame that uploaded anything.
+    pub last_upload_bytes: u64,
+    /// Bytes written to the scene buffers since start.
+    pub total_upload_bytes: u64,
+    /// Frames that uploaded anything.
+    pub uploads: u64,
+    /// Samples per pixel accumulated so far, per path-traced camera.
+    pub samples: HashMap<Entity, u32>,
+    /// Whether the GPU copy has caught up with the scene at least once.
+    pub scene_ready: bool,
+}
+
+/// Figures about the path tracer (bytes uploaded, samples per camera), readable from the main world.
+#[derive(Resource, Clone, Default)]
+pub struct PathTracerStats(Arc<Mutex<PathTracerFigures>>);
+
+impl PathTracerStats {
+    /// A copy of the current figures.
+    pub fn figures(&self) -> PathTracerFigures {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Samples per pixel the camera has accumulated.
+    pub fn samples(&self, camera: Entity) -> u32 {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .samples
+            .get(&camera)
+            .copied()
+            .unwrap_or(0)
+    }
+
+    pub(crate) fn update(&self, f: impl FnOnce(&mut PathTracerFigures)) {
+        f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
+    }
+}
+
+/// Path-traces every camera with [`PathTraced`], over the scene BVH kept by
+/// [`SceneBvhPlugin`](treelight_scene::SceneBvhPlugin) (add that plugin too).
+#[derive(Default)]
+pub struct PathTracerPlugin;
+
+impl Plugin for PathTracerPlugin {
+    fn build(&self, app: &mut App) {
+        let stats = PathTracerStats::default();
+        app.register_type::<PathTraced>()
+            .insert_resource(stats.clone())
+            .add_plugins(ExtractComponentPlugin::<PathTraced>::default());
+        let shaders = {
+            let mut assets = app.world_mut().resource_mut::<Assets<Shader>>();
+            node::PathTracerShaders {
+                trace: assets.add(Shader::from_wgsl(
+                    PATHTRACE_WGSL,
+                    "treelight/pathtrace.wgsl",
+                )),
+                resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
+            }
+        };
+        // The strong handles live in the main world so the shaders stay loaded.
+        app.insert_resource(shaders.clone());
+        let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) else {
+            return;
+        };
+        render_app.insert_resource(stats).insert_resource(shaders);
+        extract::build(render_app);
+        gpu_scene::build(render_app);
+        node::build(render_app);
     }
 }

@@ -19,6 +19,36 @@ pub enum BufferKind {
     Triangles,
     /// Instance records.
     Instances,
+    /// Per-triangle shading records (normals, UVs, group).
+    Attributes,
+    /// Per-group records (normal matrix, material).
+    Objects,
+    /// Light records.
+    Lights,
+}
+
+impl BufferKind {
+    /// Every buffer, in binding order.
+    pub const ALL: [BufferKind; 6] = [
+        BufferKind::Nodes,
+        BufferKind::Triangles,
+        BufferKind::Instances,
+        BufferKind::Attributes,
+        BufferKind::Objects,
+        BufferKind::Lights,
+    ];
+
+    /// Bytes of one record.
+    pub fn record_bytes(self) -> u64 {
+        match self {
+            BufferKind::Nodes => NODE_BYTES,
+            BufferKind::Triangles => TRIANGLE_BYTES,
+            BufferKind::Instances => INSTANCE_BYTES,
+            BufferKind::Attributes => crate::ATTRIBUTE_BYTES,
+            BufferKind::Objects => crate::OBJECT_BYTES,
+            BufferKind::Lights => crate::LIGHT_BYTES,
+        }
+    }
 }
 
 /// One `write_buffer` call.
@@ -153,13 +183,13 @@ impl UploadPlan {
     }
 }
 
-/// One write per run of consecutive ids.
-fn push_runs(
+/// One write per run of consecutive ids (sorted).
+pub(crate) fn push_runs(
     out: &mut Vec<BufferWrite>,
     ids: &[u32],
     buffer: BufferKind,
     size: u64,
-    rec: impl Fn(u32) -> Vec<u8>,
+    mut rec: impl FnMut(u32) -> Vec<u8>,
 ) {
     let mut k = 0;
     while k < ids.len() {

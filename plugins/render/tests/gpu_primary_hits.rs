@@ -4,7 +4,7 @@
 use std::path::Path;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Ray, Triangle};
-use treelight_render::{PATHTRACE_WGSL, instance_bytes, node_bytes, triangle_bytes};
+use treelight_render::{PRIMARY_HITS_WGSL, instance_bytes, node_bytes, triangle_bytes};
 use wgpu::util::DeviceExt;
 
 fn skip() -> bool {
@@ -125,8 +125,8 @@ fn gpu_hits(bvh: &Bvh, view: &View) -> Vec<u32> {
         mapped_at_creation: false,
     });
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("pathtrace.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(PATHTRACE_WGSL.into()),
+        label: Some("primary_hits.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(PRIMARY_HITS_WGSL.into()),
     });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some("primary_hits"),

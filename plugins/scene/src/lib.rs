@@ -11,7 +11,7 @@
 mod mesh;
 mod worker;
 
-pub use mesh::{MeshSkip, mesh_triangles};
+pub use mesh::{MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles};
 
 use bevy::asset::AssetEvent;
 use bevy::camera::visibility::InheritedVisibility;
@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
-use treelight_bvh::{Bvh, BvhConfig, GroupId, Ray};
+use treelight_bvh::{Bvh, BvhConfig, ChangeSet, GroupId, Ray};
 use worker::{Command, Shared, WorkerConfig};
 
 /// Settings of [`SceneBvhPlugin`].
@@ -118,17 +118,27 @@ pub struct SceneTree {
     pub group_entity: HashMap<GroupId, Entity>,
     /// Which group each traced entity is.
     pub entity_group: HashMap<Entity, GroupId>,
+    /// Each group's normals and texture coordinates, in the order of its triangles
+    /// ([`Bvh::group_triangles`]).
+    pub shading: HashMap<GroupId, Arc<TriangleShading>>,
+    /// Groups inserted since a renderer last took the changes (bounded by the live groups: removed
+    /// ones leave the set).
+    fresh_groups: HashSet<GroupId>,
 }
 
 impl SceneTree {
-    pub(crate) fn bind(&mut self, e: Entity, g: GroupId) {
+    pub(crate) fn bind(&mut self, e: Entity, g: GroupId, shading: Arc<TriangleShading>) {
         self.group_entity.insert(g, e);
         self.entity_group.insert(e, g);
+        self.shading.insert(g, shading);
+        self.fresh_groups.insert(g);
     }
 
     pub(crate) fn remove_entity(&mut self, e: Entity) {
         if let Some(g) = self.entity_group.remove(&e) {
             self.group_entity.remove(&g);
+            self.shading.remove(&g);
+            self.fresh_groups.remove(&g);
             // The handle came from this tree, so removal cannot fail.
             let _ = self.bvh.remove_group(g);
         }
@@ -140,6 +150,16 @@ impl SceneTree {
             .triangle_group(t)
             .and_then(|g| self.group_entity.get(&g).copied())
     }
+}
+
+/// What changed in the tree since a renderer last asked ([`SceneBvh::try_take_changes`]).
+#[derive(Clone, Debug, Default)]
+pub struct SceneChanges {
+    /// The engine's change set: node ranges, triangles written and removed, instances.
+    pub bvh: ChangeSet,
+    /// Groups inserted since then, still alive, by slot: their triangles' shading data must be
+    /// uploaded ([`SceneTree::shading`]).
+    pub fresh_groups: Vec<GroupId>,
 }
 
 /// A ray hit on the scene.
@@ -206,6 +226,36 @@ impl SceneBvh {
     pub fn cast_ray(&self, ray: Ray3d) -> Option<SceneHit> {
         let tree = self.try_read()?;
         cast_on(&tree, ray)
+    }
+
+    /// For a renderer that mirrors the tree on the GPU: takes what changed since its last call and
+    /// hands it over with read access to the tree, so the records it reads agree with the change set.
+    /// `everything` marks the whole tree changed first (a renderer's first call, or one that lost
+    /// its copy). Returns `None`, and takes nothing, when the worker holds the tree this instant.
+    ///
+    /// There is one change log: the scene has one GPU mirror.
+    pub fn try_take_changes<R>(
+        &self,
+        everything: bool,
+        f: impl FnOnce(&SceneTree, &SceneChanges) -> R,
+    ) -> Option<R> {
+        let mut tree = match self.shared.tree.try_write() {
+            Ok(g) => g,
+            Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner(),
+            Err(std::sync::TryLockError::WouldBlock) => return None,
+        };
+        if everything {
+            tree.bvh.mark_all_changed();
+            let all: Vec<GroupId> = tree.group_entity.keys().copied().collect();
+            tree.fresh_groups.extend(all);
+        }
+        let mut fresh: Vec<GroupId> = tree.fresh_groups.drain().collect();
+        fresh.sort_unstable_by_key(|g| g.index());
+        let changes = SceneChanges {
+            bvh: tree.bvh.take_changes(),
+            fresh_groups: fresh,
+        };
+        Some(f(&tree, &changes))
     }
 
     fn send(&self, c: Command) {
@@ -318,13 +368,14 @@ fn upsert(
         scene.waiting.entry(m.0.id()).or_default().push(e);
         return;
     };
-    match mesh_triangles(mesh) {
-        Ok(triangles) => {
+    match mesh_geometry(mesh) {
+        Ok(geometry) => {
             scene.traced.insert(e);
             scene.send(Command::Upsert {
                 entity: e,
                 name: label,
-                triangles: Arc::new(triangles),
+                triangles: Arc::new(geometry.triangles),
+                shading: Arc::new(geometry.shading),
                 transform: gt.affine(),
                 sent: Instant::now(),
             });

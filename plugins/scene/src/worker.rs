@@ -1,7 +1,7 @@
 //! The background worker that owns the write side of the global tree. Commands arrive over a
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
-use crate::{SceneStats, SceneTree};
+use crate::{SceneStats, SceneTree, TriangleShading};
 use bevy::log::warn;
 use bevy::prelude::Entity;
 use rayon::prelude::*;
@@ -20,6 +20,7 @@ pub(crate) enum Command {
         entity: Entity,
         name: String,
         triangles: Arc<Vec<Triangle>>,
+        shading: Arc<TriangleShading>,
         transform: Affine3A,
         sent: Instant,
     },
@@ -67,6 +68,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
                     entity,
                     name,
                     triangles,
+                    shading,
                     sent,
                     ..
                 }),
@@ -75,6 +77,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
                 entity,
                 name,
                 triangles,
+                shading,
                 transform,
                 sent,
             },
@@ -145,13 +148,18 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                         tree.remove_entity(entity);
                         last_move.remove(&entity);
                     }
-                    Command::Upsert { entity, sent, .. } => {
+                    Command::Upsert {
+                        entity,
+                        sent,
+                        shading,
+                        ..
+                    } => {
                         // A mesh that failed to build keeps its previous version, if any.
                         if let Some(p) = p {
                             inserted_tris += p.len();
                             tree.remove_entity(entity);
                             match tree.bvh.insert_prepared(p) {
-                                Ok(g) => tree.bind(entity, g),
+                                Ok(g) => tree.bind(entity, g, shading),
                                 Err(e) => warn!("entity {entity} is not traced: {e}"),
                             }
                             last_move.remove(&entity);

@@ -1,0 +1,209 @@
+//! Main world to render world: the scene's change set becomes record writes, materials and lights are
+//! compared with what was sent before. Runs on the main thread during extraction, so it never waits:
+//! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
+
+use crate::records::{SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes};
+use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
+use bevy::camera::visibility::InheritedVisibility;
+use bevy::light::{DirectionalLight, PointLight};
+use bevy::math::Mat3;
+use bevy::pbr::{MeshMaterial3d, StandardMaterial};
+use bevy::prelude::*;
+use bevy::render::{Extract, ExtractSchedule, RenderApp};
+use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
+
+pub(crate) fn build(render_app: &mut SubApp) {
+    render_app
+        .init_resource::<SceneSync>()
+        .add_systems(ExtractSchedule, extract_scene);
+    let _ = RenderApp;
+}
+
+/// What the render world must write before tracing this frame.
+#[derive(Default)]
+pub(crate) struct PendingUpload {
+    pub writes: Vec<BufferWrite>,
+    /// Records each buffer must hold, in [`BufferKind::ALL`] order.
+    pub needed: [u64; 6],
+    pub root: Option<u32>,
+    pub light_count: Option<u32>,
+}
+
+impl PendingUpload {
+    fn need(&mut self, kind: BufferKind, records: u64) {
+        let i = BufferKind::ALL.iter().position(|&k| k == kind).unwrap_or(0);
+        self.needed[i] = self.needed[i].max(records);
+    }
+}
+
+/// The render world's memory of what it has sent, so only differences are uploaded.
+#[derive(Resource, Default)]
+pub(crate) struct SceneSync {
+    /// Whether the first, complete change set has been taken.
+    synced: bool,
+    /// Object records as last written, by group slot.
+    objects: Vec<Option<Vec<u8>>>,
+    lights: Option<Vec<u8>>,
+    pub pending: PendingUpload,
+}
+
+type MaterialQuery<'w, 's> = Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>>;
+
+fn material_of(
+    e: Entity,
+    handles: &MaterialQuery,
+    materials: Option<&Assets<StandardMaterial>>,
+) -> SurfaceMaterial {
+    let Some(m) = handles
+        .get(e)
+        .ok()
+        .and_then(|h| materials.and_then(|a| a.get(&h.0)))
+    else {
+        return SurfaceMaterial::default();
+    };
+    let c = m.base_color.to_linear();
+    SurfaceMaterial {
+        base_color: [c.red, c.green, c.blue, c.alpha],
+        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
+        metallic: m.metallic,
+        perceptual_roughness: m.perceptual_roughness,
+        reflectance: m.reflectance,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn extract_scene(
+    mut sync: ResMut<SceneSync>,
+    scene: Extract<Option<Res<SceneBvh>>>,
+    handles: Extract<MaterialQuery>,
+    materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
+    points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
+    suns: Extract<
+        Query<(
+            &DirectionalLight,
+            &GlobalTransform,
+            Option<&InheritedVisibility>,
+        )>,
+    >,
+) {
+    let sync = &mut *sync;
+    let Some(scene) = scene.as_deref() else {
+        return;
+    };
+    let everything = !sync.synced;
+    let materials = materials.as_deref();
+    let taken = scene.try_take_changes(everything, |tree, changes| {
+        scene_writes(sync, tree, changes, &handles, materials);
+    });
+    if taken.is_some() {
+        sync.synced = true;
+    }
+    let mut lights: Vec<SceneLight> = Vec::new();
+    for (l, gt, vis) in &points {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Point {
+                position: gt.translation(),
+                power: Vec3::new(c.red, c.green, c.blue) * l.intensity,
+                radius: l.radius,
+            });
+        }
+    }
+    for (l, gt, vis) in &suns {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Directional {
+                direction: gt.forward().into(),
+                illuminance: Vec3::new(c.red, c.green, c.blue) * l.illuminance,
+            });
+        }
+    }
+    let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+    if sync.lights.as_ref() != Some(&bytes) {
+        let p = &mut sync.pending;
+        p.need(BufferKind::Lights, lights.len() as u64);
+        p.light_count = Some(lights.len() as u32);
+        if !bytes.is_empty() {
+            p.writes.push(BufferWrite {
+                buffer: BufferKind::Lights,
+                offset: 0,
+                bytes: bytes.clone(),
+            });
+        }
+        sync.lights = Some(bytes);
+    }
+}
+
+/// The writes for one change set, plus every object record whose transform or material changed.
+fn scene_writes(
+    sync: &mut SceneSync,
+    tree: &SceneTree,
+    changes: &SceneChanges,
+    handles: &MaterialQuery,
+    materials: Option<&Assets<StandardMaterial>>,
+) {
+    let bvh = &tree.bvh;
+    let p = &mut sync.pending;
+    let c = &changes.bvh;
+    // Capacities are settled by the render world when it applies the writes.
+    let plan = UploadPlan::new(bvh, c, [u64::MAX; 3]);
+    p.writes.extend(plan.writes);
+    p.root = Some(plan.root);
+    p.need(BufferKind::Nodes, c.inner_capacity as u64);
+    p.need(BufferKind::Triangles, c.triangle_capacity as u64);
+    p.need(BufferKind::Instances, c.instance_capacity as u64);
+    p.need(BufferKind::Attributes, c.triangle_capacity as u64);
+    p.need(BufferKind::Objects, bvh.group_slots() as u64);
+
+    // Shading records of new groups (triangles that only moved keep theirs).
+    let mut records: Vec<(u32, Vec<u8>)> = Vec::new();
+    for &g in &changes.fresh_groups {
+        let (Ok(ids), Some(shading)) = (bvh.group_triangles(g), tree.shading.get(&g)) else {
+            continue;
+        };
+        for (k, &t) in ids.iter().enumerate() {
+            records.push((
+                t,
+                attribute_bytes(
+                    shading.normals.get(k).copied(),
+                    shading.uvs.get(k).copied(),
+                    g.index(),
+                ),
+            ));
+        }
+    }
+    records.sort_unstable_by_key(|r| r.0);
+    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
+    let mut k = 0;
+    push_runs(
+        &mut p.writes,
+        &ids,
+        BufferKind::Attributes,
+        crate::ATTRIBUTE_BYTES,
+        |_| {
+            k += 1;
+            std::mem::take(&mut records[k - 1].1)
+        },
+    );
+
+    // Object records: compared with what was sent, so a material edit or a move uploads one record.
+    sync.objects.resize(bvh.group_slots() as usize, None);
+    for (&g, &e) in &tree.group_entity {
+        let Ok(transform) = bvh.group_transform(g) else {
+            continue;
+        };
+        let rec = object_bytes(
+            Mat3::from(transform.matrix3),
+            &material_of(e, handles, materials),
+        );
+        let slot = &mut sync.objects[g.index() as usize];
+        if slot.as_ref() != Some(&rec) {
+            p.writes.push(BufferWrite {
+                buffer: BufferKind::Objects,
+                offset: g.index() as u64 * crate::OBJECT_BYTES,
+                bytes: rec.clone(),
+            });
+            *slot = Some(rec);
+        }
+    }
+}

@@ -1,0 +1,306 @@
+//! The byte layouts of the path tracer's scene records, matching `shaders/pathtrace.wgsl`. Kept free of
+//! Bevy's render types so the GPU tests can feed the kernel the same bytes the plugin uploads.
+
+use bevy::math::{Mat3, Mat4, Vec2, Vec3};
+
+/// Bytes of one per-triangle shading record.
+pub const ATTRIBUTE_BYTES: u64 = 48;
+/// Bytes of one per-group record (normal matrix and material).
+pub const OBJECT_BYTES: u64 = 112;
+/// Bytes of one light record.
+pub const LIGHT_BYTES: u64 = 32;
+/// Bytes of the path tracer's view uniform.
+pub const VIEW_BYTES: u64 = 128;
+
+const HAS_NORMALS: u32 = 0x8000_0000;
+
+fn push_f32s(out: &mut Vec<u8>, v: &[f32]) {
+    for x in v {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+fn push_u32s(out: &mut Vec<u8>, v: &[u32]) {
+    for x in v {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+/// A unit vector in 32 bits: octahedral mapping, two snorm16 (x in the low half, as WGSL's
+/// `unpack2x16snorm` reads it). Precise to about 0.005°, a third of an f32 vector's size.
+pub fn encode_normal(n: Vec3) -> u32 {
+    let n = n.normalize_or(Vec3::Z);
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    let (mut x, mut y) = (n.x / l1, n.y / l1);
+    if n.z < 0.0 {
+        let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+        (x, y) = ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y));
+    }
+    let snorm = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
+    snorm(x) | (snorm(y) << 16)
+}
+
+/// The inverse of [`encode_normal`], as the shader computes it.
+pub fn decode_normal(w: u32) -> Vec3 {
+    let unorm = |h: u32| ((h as u16 as i16) as f32 / 32767.0).max(-1.0);
+    let (ex, ey) = (unorm(w & 0xffff), unorm(w >> 16));
+    let mut n = Vec3::new(ex, ey, 1.0 - ex.abs() - ey.abs());
+    let t = (-n.z).max(0.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
+}
+
+/// One triangle's shading record: its corners' object-space normals (or none: flat shading), UVs and
+/// the slot of the group whose object record holds its material.
+pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group: u32) -> Vec<u8> {
+    let mut out = Vec::with_capacity(ATTRIBUTE_BYTES as usize);
+    let n = normals.map_or([0; 3], |n| n.map(encode_normal));
+    let flag = if normals.is_some() { HAS_NORMALS } else { 0 };
+    push_u32s(&mut out, &[n[0], n[1], n[2], (group & !HAS_NORMALS) | flag]);
+    let uv = uvs.unwrap_or([Vec2::ZERO; 3]);
+    push_f32s(
+        &mut out,
+        &[uv[0].x, uv[0].y, uv[1].x, uv[1].y, uv[2].x, uv[2].y],
+    );
+    push_u32s(&mut out, &[0, 0]);
+    out
+}
+
+/// A surface as the path tracer shades it: Bevy's `StandardMaterial` reduced to what the kernel uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    /// Linear base colour (alpha unused).
+    pub base_color: [f32; 4],
+    /// Emitted radiance, linear RGB, before exposure.
+    pub emissive: [f32; 3],
+    /// 0 dielectric, 1 metal.
+    pub metallic: f32,
+    /// Perceptual roughness (squared for the GGX alpha).
+    pub perceptual_roughness: f32,
+    /// Dielectric specular reflectance (0.5 is 4%).
+    pub reflectance: f32,
+}
+
+impl Default for SurfaceMaterial {
+    fn default() -> Self {
+        Self {
+            base_color: [0.8, 0.8, 0.8, 1.0],
+            emissive: [0.0; 3],
+            metallic: 0.0,
+            perceptual_roughness: 0.5,
+            reflectance: 0.5,
+        }
+    }
+}
+
+/// One group's record: the normal matrix of its object-to-world transform, and its material.
+pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
+    let inv = object_to_world.inverse();
+    // The inverse transpose's rows are the inverse's columns.
+    let normal = if inv.is_finite() { inv } else { Mat3::IDENTITY };
+    let mut out = Vec::with_capacity(OBJECT_BYTES as usize);
+    for c in [normal.x_axis, normal.y_axis, normal.z_axis] {
+        push_f32s(&mut out, &[c.x, c.y, c.z, 0.0]);
+    }
+    push_f32s(&mut out, &m.base_color);
+    push_f32s(
+        &mut out,
+        &[m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
+    );
+    push_f32s(
+        &mut out,
+        &[m.metallic, m.perceptual_roughness, m.reflectance, 0.0],
+    );
+    push_f32s(&mut out, &[0.0; 4]);
+    out
+}
+
+/// A light the path tracer samples directly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SceneLight {
+    /// Bevy's `PointLight`.
+    Point {
+        /// World position.
+        position: Vec3,
+        /// Linear colour times luminous power (lumens).
+        power: Vec3,
+        /// Radius of the emitting sphere (soft shadows); 0 is a point.
+        radius: f32,
+    },
+    /// Bevy's `DirectionalLight`.
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Linear colour times illuminance (lux).
+        illuminance: Vec3,
+    },
+}
+
+/// One light's record.
+pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
+    let mut out = Vec::with_capacity(LIGHT_BYTES as usize);
+    match *l {
+        SceneLight::Point {
+            position,
+            power,
+            radius,
+        } => {
+            // Intensity: luminous power spread over the sphere, as Bevy's point lights do.
+            let i = power / (4.0 * std::f32::consts::PI);
+            push_f32s(&mut out, &position.to_array());
+            push_u32s(&mut out, &[0]);
+            push_f32s(&mut out, &[i.x, i.y, i.z, radius]);
+        }
+        SceneLight::Directional {
+            direction,
+            illuminance,
+        } => {
+            let towards = -direction.normalize_or(Vec3::NEG_Y);
+            push_f32s(&mut out, &towards.to_array());
+            push_u32s(&mut out, &[1]);
+            push_f32s(
+                &mut out,
+                &[illuminance.x, illuminance.y, illuminance.z, 0.0],
+            );
+        }
+    }
+    out
+}
+
+/// The path tracer's per-view uniform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewParams {
+    /// Clip space to world space (the inverse of the view-projection).
+    pub world_from_clip: Mat4,
+    /// Sky radiance, linear RGB, before exposure.
+    pub sky: Vec3,
+    /// The camera's exposure multiplier.
+    pub exposure: f32,
+    /// Accumulation buffer width in pixels.
+    pub width: u32,
+    /// Accumulation buffer height.
+    pub height: u32,
+    /// Samples accumulated so far; 0 restarts.
+    pub frame: u32,
+    /// The tree's root reference.
+    pub root: u32,
+    /// Bounces after the primary hit.
+    pub max_bounces: u32,
+    /// Samples this dispatch adds per pixel.
+    pub samples: u32,
+    /// What to show ([`crate::DebugView::shader_index`]).
+    pub mode: u32,
+    /// Lights in the light buffer.
+    pub light_count: u32,
+    /// Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
+    pub indirect_clamp: f32,
+}
+
+impl ViewParams {
+    /// The uniform's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(VIEW_BYTES as usize);
+        push_f32s(&mut out, &self.world_from_clip.to_cols_array());
+        push_f32s(
+            &mut out,
+            &[self.sky.x, self.sky.y, self.sky.z, self.exposure],
+        );
+        push_u32s(
+            &mut out,
+            &[
+                self.width,
+                self.height,
+                self.frame,
+                self.root,
+                self.max_bounces,
+                self.samples,
+                self.mode,
+                self.light_count,
+            ],
+        );
+        push_f32s(&mut out, &[self.indirect_clamp]);
+        push_u32s(&mut out, &[0, 0, 0]);
+        out
+    }
+}
+
+/// The resolve pass's uniform: where the view sits in its target and how many samples to divide by.
+pub fn resolve_bytes(origin: Vec2, viewport: Vec2, size: [u32; 2], samples: u32) -> Vec<u8> {
+    let mut out = Vec::with_capacity(32);
+    push_f32s(&mut out, &[origin.x, origin.y, viewport.x, viewport.y]);
+    push_u32s(&mut out, &[size[0], size[1], samples, 0]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normals_survive_the_octahedral_round_trip() {
+        let mut worst: f32 = 1.0;
+        for i in 0..2000 {
+            // A spiral over the sphere, poles and the z < 0 fold included.
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0;
+            let r = (1.0 - z * z).sqrt();
+            let phi = i as f32 * 2.399_963;
+            let n = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            worst = worst.min(decode_normal(encode_normal(n)).dot(n));
+        }
+        for n in [
+            Vec3::X,
+            Vec3::NEG_X,
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+        ] {
+            worst = worst.min(decode_normal(encode_normal(n)).dot(n));
+        }
+        assert!(worst > 0.99999, "worst cosine {worst}");
+    }
+
+    #[test]
+    fn records_have_the_shader_sizes() {
+        assert_eq!(attribute_bytes(None, None, 3).len() as u64, ATTRIBUTE_BYTES);
+        assert_eq!(
+            object_bytes(Mat3::IDENTITY, &SurfaceMaterial::default()).len() as u64,
+            OBJECT_BYTES
+        );
+        let l = SceneLight::Directional {
+            direction: Vec3::NEG_Y,
+            illuminance: Vec3::ONE,
+        };
+        assert_eq!(light_bytes(&l).len() as u64, LIGHT_BYTES);
+        let v = ViewParams {
+            world_from_clip: Mat4::IDENTITY,
+            sky: Vec3::ZERO,
+            exposure: 1.0,
+            width: 1,
+            height: 1,
+            frame: 0,
+            root: 0,
+            max_bounces: 1,
+            samples: 1,
+            mode: 0,
+            light_count: 0,
+            indirect_clamp: 0.0,
+        };
+        assert_eq!(v.to_bytes().len() as u64, VIEW_BYTES);
+    }
+
+    #[test]
+    fn normal_matrix_keeps_normals_perpendicular_under_non_uniform_scale() {
+        let m = Mat3::from_diagonal(Vec3::new(4.0, 1.0, 1.0)) * Mat3::from_rotation_z(0.3);
+        let bytes = object_bytes(m, &SurfaceMaterial::default());
+        let f = |k: usize| f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().unwrap());
+        let rows = [0, 4, 8].map(|o| Vec3::new(f(o), f(o + 1), f(o + 2)));
+        let apply = |v: Vec3| Vec3::new(rows[0].dot(v), rows[1].dot(v), rows[2].dot(v));
+        // A surface spanned by two tangents, and its normal.
+        let (t1, t2) = (Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.0, 0.3, 1.0));
+        let n = t1.cross(t2);
+        let nw = apply(n);
+        assert!(nw.dot(m * t1).abs() < 1e-4 && nw.dot(m * t2).abs() < 1e-4);
+    }
+}
