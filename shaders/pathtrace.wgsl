@@ -204,10 +204,12 @@ fn specular_probability(s: Surface) -> f32 {
 
 fn pdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     let nl = dot(s.ns, wi);
-    if nl <= 0.0 {
+    let half = wo + wi;
+    // wi = -wo (a grazing microfacet) has no half vector.
+    if nl <= 0.0 || dot(half, half) < 1e-12 {
         return 0.0;
     }
-    let h = normalize(wo + wi);
+    let h = normalize(half);
     let nh = max(dot(s.ns, h), 0.0);
     let vh = max(dot(wo, h), 1e-6);
     let ps = specular_probability(s);
@@ -313,7 +315,8 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         radiance += indirect(throughput * direct_light(s, wo), bounce + 1u);
         let wi = sample_direction(s, wo);
         let p = pdf(s, wo, wi);
-        if p <= 0.0 || dot(wi, s.ng) <= 0.0 {
+        // Written so that a NaN pdf also ends the path.
+        if !(p > 0.0) || dot(wi, s.ng) <= 0.0 {
             break;
         }
         throughput *= brdf(s, wo, wi) * dot(s.ns, wi) / p;
@@ -389,7 +392,12 @@ fn path_trace(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let ray = camera_ray((vec2<f32>(id.xy) + sub) / size);
         if view.mode == MODE_PATH {
-            sum += path_radiance(ray[0], ray[1]);
+            let l = path_radiance(ray[0], ray[1]);
+            // One bad sample (an inf or NaN from a degenerate triangle) would stain the pixel until
+            // the next reset; drop it instead.
+            if all(l == l) && all(abs(l) < vec3<f32>(FAR)) {
+                sum += l;
+            }
         } else {
             sum += debug_value(ray[0], ray[1]);
         }

@@ -1,0 +1,163 @@
+//! A mesh added to a tree already on the GPU, uploaded as an incremental plan (growth copied on the
+//! GPU, then only the changed records), traces exactly like a complete upload of the same tree.
+
+mod support;
+
+use std::path::Path;
+use support::{Gpu, PinholeView, gpu_hits, hits_on, skip, tree_bytes};
+use treelight_bvh::glam::{Affine3A, Quat, Vec3};
+use treelight_bvh::{Bvh, BvhConfig, Triangle};
+use treelight_render::{BufferKind, UploadPlan};
+
+fn sibenik() -> Vec<Triangle> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
+    treelight_import::load_scene(&path)
+        .unwrap()
+        .world_triangles()
+        .into_iter()
+        .map(|[a, b, c]| Triangle::new(a, b, c))
+        .collect()
+}
+
+/// A closed UV sphere.
+fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Vec<Triangle> {
+    let p = |r: u32, s: u32| {
+        let theta = std::f32::consts::PI * r as f32 / rings as f32;
+        let phi = std::f32::consts::TAU * s as f32 / segments as f32;
+        center
+            + radius
+                * Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                )
+    };
+    let mut out = Vec::new();
+    for r in 0..rings {
+        for s in 0..segments {
+            let (a, b, c, d) = (p(r, s), p(r + 1, s), p(r + 1, s + 1), p(r, s + 1));
+            if r > 0 {
+                out.push(Triangle::new(a, b, d));
+            }
+            if r + 1 < rings {
+                out.push(Triangle::new(b, c, d));
+            }
+        }
+    }
+    out
+}
+
+/// GPU buffers patched the way the render plugin patches them.
+struct Mirror {
+    buffers: [wgpu::Buffer; 3],
+    capacities: [u64; 3],
+}
+
+impl Mirror {
+    fn upload_all(gpu: &Gpu, bvh: &Bvh) -> Self {
+        let [n, t, i] = tree_bytes(bvh);
+        Self {
+            capacities: [
+                bvh.inner_capacity() as u64,
+                bvh.triangle_capacity() as u64,
+                bvh.instance_capacity() as u64,
+            ],
+            buffers: [
+                gpu.storage("nodes", &n),
+                gpu.storage("triangles", &t),
+                gpu.storage("instances", &i),
+            ],
+        }
+    }
+
+    /// Applies a plan; returns the bytes written.
+    fn apply(&mut self, gpu: &Gpu, plan: &UploadPlan) -> u64 {
+        let index = |k: BufferKind| match k {
+            BufferKind::Nodes => 0,
+            BufferKind::Triangles => 1,
+            BufferKind::Instances => 2,
+            other => panic!("a tree plan never writes {other:?}"),
+        };
+        for &(kind, records) in &plan.grow {
+            let i = index(kind);
+            let bigger = gpu.storage(
+                "grown",
+                &vec![0u8; (records * kind.record_bytes()) as usize],
+            );
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            encoder.copy_buffer_to_buffer(&self.buffers[i], 0, &bigger, 0, self.buffers[i].size());
+            gpu.queue.submit([encoder.finish()]);
+            self.buffers[i] = bigger;
+            self.capacities[i] = records;
+        }
+        let mut bytes = 0;
+        for w in &plan.writes {
+            gpu.queue
+                .write_buffer(&self.buffers[index(w.buffer)], w.offset, &w.bytes);
+            bytes += w.bytes.len() as u64;
+        }
+        gpu.wait();
+        bytes
+    }
+}
+
+#[test]
+fn incremental_upload_traces_like_a_full_one() {
+    if skip() {
+        return;
+    }
+    let gpu = Gpu::new();
+    let mut bvh = Bvh::new(BvhConfig::incr_u());
+    bvh.insert_triangles(&sibenik()).unwrap();
+    bvh.take_changes();
+    let mut mirror = Mirror::upload_all(&gpu, &bvh);
+    let full_bytes: u64 = mirror.buffers.iter().map(|b| b.size()).sum();
+
+    let b = bvh.bounds();
+    let c = b.center();
+    let eye = c + Vec3::new(-(b.max.x - b.min.x) * 0.35, -0.2 * (b.max.y - b.min.y), 0.0);
+    let view = PinholeView::looking_at(eye, c, 96, 96);
+
+    // A baked mesh in front of the camera, and one kept whole under a transform.
+    let ball = sphere(eye.lerp(c, 0.4), 1.5, 24, 48);
+    let baked = bvh.insert_group(&ball, Affine3A::IDENTITY, false).unwrap();
+    let whole = bvh
+        .insert_group(&sphere(Vec3::ZERO, 1.0, 12, 24), Affine3A::IDENTITY, true)
+        .unwrap();
+    bvh.set_group_transform(
+        whole,
+        Affine3A::from_rotation_translation(Quat::from_rotation_x(0.3), eye.lerp(c, 0.6) + Vec3::Y),
+    )
+    .unwrap();
+    let changes = bvh.take_changes();
+    let plan = UploadPlan::new(&bvh, &changes, mirror.capacities);
+    let written = mirror.apply(&gpu, &plan);
+
+    let patched = hits_on(
+        &gpu,
+        [&mirror.buffers[0], &mirror.buffers[1], &mirror.buffers[2]],
+        plan.root,
+        &view,
+    );
+    let fresh = gpu_hits(&bvh, &view);
+    let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
+    assert_eq!(
+        differ, 0,
+        "{differ} pixels differ between the patched and the fresh copy"
+    );
+
+    let new_ids: Vec<u32> = bvh
+        .group_triangles(baked)
+        .unwrap()
+        .iter()
+        .chain(bvh.group_triangles(whole).unwrap())
+        .copied()
+        .collect();
+    let on_new = patched.iter().filter(|id| new_ids.contains(id)).count();
+    assert!(on_new > 200, "the new meshes cover only {on_new} pixels");
+    // Proportional to the change: the new triangles, their nodes and the refitted paths.
+    assert!(
+        written * 10 < full_bytes,
+        "{written} bytes uploaded for a change to a {full_bytes}-byte scene"
+    );
+}

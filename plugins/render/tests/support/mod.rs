@@ -1,0 +1,268 @@
+//! A bare wgpu harness for the kernels: the adapter the machine has (llvmpipe in CI), buffers built
+//! from the crate's record functions, one dispatch, read back.
+
+#![allow(dead_code)]
+
+use treelight_bvh::glam::Vec3;
+use treelight_bvh::{Bvh, Ray};
+use treelight_render::{PRIMARY_HITS_WGSL, instance_bytes, node_bytes, triangle_bytes};
+use wgpu::util::DeviceExt;
+
+/// Whether GPU tests are switched off for this run.
+pub fn skip() -> bool {
+    if std::env::var("TREELIGHT_SKIP_GPU_TESTS").as_deref() == Ok("1") {
+        eprintln!("SKIPPED: TREELIGHT_SKIP_GPU_TESTS=1");
+        return true;
+    }
+    false
+}
+
+/// A device and its queue.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+}
+
+impl Gpu {
+    pub fn new() -> Self {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = bevy::tasks::block_on(
+            instance.request_adapter(&wgpu::RequestAdapterOptions::default()),
+        )
+        .unwrap_or_else(|e| {
+            panic!(
+                "no GPU adapter was found ({e}). Install Mesa's software Vulkan (apt-get install -y \
+                 mesa-vulkan-drivers libvulkan1), or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests."
+            )
+        });
+        eprintln!("adapter: {:?}", adapter.get_info().name);
+        let (device, queue) =
+            bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+                .expect("a device");
+        Self { device, queue }
+    }
+
+    /// A storage buffer holding `bytes` (at least 256 bytes: bindings may not be empty or shorter
+    /// than one record).
+    pub fn storage(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+        let mut contents = bytes.to_vec();
+        if contents.is_empty() {
+            contents.resize(256, 0);
+        }
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &contents,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            })
+    }
+
+    pub fn uniform(&self, bytes: &[u8]) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("uniform"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    pub fn zeroed(&self, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("output"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A compute pipeline for `entry` in `source`.
+    pub fn pipeline(&self, source: &str, entry: &str) -> wgpu::ComputePipeline {
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(entry),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
+    /// Dispatches `groups` workgroups with `buffers` bound in order to group 0, and waits.
+    pub fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        groups: (u32, u32),
+    ) {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        }
+        self.queue.submit([encoder.finish()]);
+        self.wait();
+    }
+
+    pub fn wait(&self) {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .expect("the GPU finishes");
+    }
+
+    /// The buffer's contents.
+    pub fn read(&self, buffer: &wgpu::Buffer) -> Vec<u8> {
+        let size = buffer.size();
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, size);
+        self.queue.submit([encoder.finish()]);
+        readback
+            .slice(..)
+            .map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
+        self.wait();
+        readback.slice(..).get_mapped_range().to_vec()
+    }
+}
+
+/// The tree's node, triangle and instance records, complete.
+pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
+    [
+        (0..bvh.inner_capacity())
+            .flat_map(|i| node_bytes(&bvh.gpu_node(i)))
+            .collect(),
+        (0..bvh.triangle_capacity())
+            .flat_map(|t| triangle_bytes(&bvh.gpu_triangle(t)))
+            .collect(),
+        (0..bvh.instance_capacity())
+            .flat_map(|i| instance_bytes(&bvh.gpu_instance(i)))
+            .collect(),
+    ]
+}
+
+pub fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+pub fn floats(bytes: &[u8]) -> Vec<f32> {
+    words(bytes).into_iter().map(f32::from_bits).collect()
+}
+
+/// A pinhole camera as `primary_hits` reads it.
+pub struct PinholeView {
+    pub origin: Vec3,
+    pub lower_left: Vec3,
+    pub horizontal: Vec3,
+    pub vertical: Vec3,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl PinholeView {
+    pub fn looking_at(eye: Vec3, target: Vec3, width: u32, height: u32) -> Self {
+        let f = (target - eye).normalize();
+        let r = f.cross(Vec3::Y).normalize();
+        let u = r.cross(f);
+        let half = (30f32).to_radians().tan();
+        let horizontal = r * 2.0 * half;
+        let vertical = -u * 2.0 * half;
+        Self {
+            origin: eye,
+            lower_left: f - horizontal * 0.5 - vertical * 0.5,
+            horizontal,
+            vertical,
+            width,
+            height,
+        }
+    }
+    pub fn ray(&self, x: u32, y: u32) -> Ray {
+        let s = (x as f32 + 0.5) / self.width as f32;
+        let t = (y as f32 + 0.5) / self.height as f32;
+        Ray::new(
+            self.origin,
+            self.lower_left + self.horizontal * s + self.vertical * t,
+        )
+    }
+    pub fn uniform(&self, root: u32) -> Vec<u8> {
+        let mut w: Vec<u32> = Vec::new();
+        for (v, extra) in [
+            (self.origin, self.width),
+            (self.lower_left, self.height),
+            (self.horizontal, root),
+            (self.vertical, 0),
+        ] {
+            w.extend(v.to_array().map(f32::to_bits));
+            w.push(extra);
+        }
+        w.iter().flat_map(|x| x.to_le_bytes()).collect()
+    }
+}
+
+/// Runs `primary_hits` on buffers holding a tree: one triangle id (or u32::MAX) per pixel.
+pub fn hits_on(
+    gpu: &Gpu,
+    [nodes, tris, insts]: [&wgpu::Buffer; 3],
+    root: u32,
+    view: &PinholeView,
+) -> Vec<u32> {
+    let camera = gpu.uniform(&view.uniform(root));
+    let out = gpu.zeroed((view.width * view.height * 4) as u64);
+    let pipeline = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");
+    gpu.dispatch(
+        &pipeline,
+        &[nodes, tris, insts, &camera, &out],
+        (view.width.div_ceil(8), view.height.div_ceil(8)),
+    );
+    words(&gpu.read(&out))
+}
+
+/// `primary_hits` on a complete upload of the tree.
+pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    let gpu = Gpu::new();
+    let [n, t, i] = tree_bytes(bvh);
+    let buffers = [
+        gpu.storage("nodes", &n),
+        gpu.storage("triangles", &t),
+        gpu.storage("instances", &i),
+    ];
+    hits_on(
+        &gpu,
+        [&buffers[0], &buffers[1], &buffers[2]],
+        bvh.gpu_root(),
+        view,
+    )
+}
