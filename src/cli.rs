@@ -1,4 +1,4 @@
-//! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N]`.
+//! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -21,4 +21,40 @@ pub struct Cli {
     /// Window height in logical pixels.
     #[arg(long, default_value_t = 800)]
     pub height: u32,
+    /// How the viewport starts: rasterised, path traced, or a debug view of the path tracer.
+    #[arg(long, value_enum, default_value_t = ViewArg::Path)]
+    pub view: ViewArg,
+}
+
+/// The viewport modes on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ViewArg {
+    /// Bevy's rasteriser.
+    Raster,
+    /// The path tracer.
+    #[default]
+    Path,
+    /// Base colour at the primary hit.
+    Albedo,
+    /// Shading normals.
+    Normals,
+    /// A colour per triangle.
+    TriangleId,
+    /// Nodes visited per primary ray.
+    Heatmap,
+}
+
+impl ViewArg {
+    /// The path tracer's view, or `None` for raster.
+    pub fn debug_view(self) -> Option<treelight_render::DebugView> {
+        use treelight_render::DebugView;
+        match self {
+            ViewArg::Raster => None,
+            ViewArg::Path => Some(DebugView::PathTraced),
+            ViewArg::Albedo => Some(DebugView::Albedo),
+            ViewArg::Normals => Some(DebugView::Normals),
+            ViewArg::TriangleId => Some(DebugView::TriangleId),
+            ViewArg::Heatmap => Some(DebugView::Heatmap),
+        }
+    }
 }

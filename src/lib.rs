@@ -41,7 +41,10 @@ pub fn build_app(cli: &cli::Cli) -> App {
     .init_resource::<ui::ViewportRect>()
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
-    .init_resource::<render_mode::ViewportRender>()
+    .insert_resource(render_mode::ViewportRender {
+        traced: cli.view.debug_view(),
+        ..default()
+    })
     .add_systems(Startup, (setup_cameras, render_mode::adapt_to_adapter))
     .add_systems(EguiPrimaryContextPass, ui::editor_ui)
     .add_systems(

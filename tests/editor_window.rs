@@ -113,3 +113,101 @@ fn bvh_picking_example_runs_and_hits() {
     assert!(text.contains("scripted ray hits object"), "{text}");
     assert!(text.contains("exiting after 40 frames"), "{text}");
 }
+
+/// Runs an example under Xvfb (building it first if `cargo test` has not) and returns its stdout.
+fn run_example(name: &str, args: &[&str]) -> String {
+    let exe = std::path::Path::new(env!("CARGO_BIN_EXE_treelight"))
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(name);
+    if !exe.exists() {
+        let status = std::process::Command::new(env!("CARGO"))
+            .args(["build", "--example", name])
+            .status()
+            .expect("cargo runs");
+        assert!(status.success());
+    }
+    let out = std::process::Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .arg(&exe)
+        .args(args)
+        .output()
+        .expect("xvfb-run runs");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+fn mean_rgb(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u32) -> [f32; 3] {
+    let mut sum = [0f32; 3];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = img.get_pixel(x, y);
+            for c in 0..3 {
+                sum[c] += p[c] as f32;
+            }
+        }
+    }
+    sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f32)
+}
+
+#[test]
+fn path_traced_example_draws_the_traced_scene() {
+    if skip_gpu_tests("path_traced_example_draws_the_traced_scene") {
+        return;
+    }
+    let dir = temp_dir("path_traced_app");
+    let traced = dir.join("traced.png");
+    let text = run_example(
+        "path_traced_app",
+        &[
+            "--still",
+            "--frames",
+            "12",
+            "--screenshot",
+            traced.to_str().unwrap(),
+        ],
+    );
+    assert!(text.contains("samples per pixel"), "{text}");
+    let img = load_rgb(&traced);
+    // The red sphere fills the middle of the view; the sky is above it.
+    let [r, g, b] = mean_rgb(&img, 300, 200, 340, 240);
+    assert!(
+        r > 100.0 && r > 2.0 * g && r > 2.0 * b,
+        "the sphere is not red: {r} {g} {b}"
+    );
+    let [r, g, b] = mean_rgb(&img, 20, 20, 620, 100);
+    assert!(b > r && b > 40.0, "the sky is not bluish: {r} {g} {b}");
+
+    // The triangle-id view: each of the sphere's many triangles gets its own colour.
+    let ids = dir.join("ids.png");
+    run_example(
+        "path_traced_app",
+        &[
+            "--still",
+            "--view",
+            "triangle-id",
+            "--frames",
+            "6",
+            "--screenshot",
+            ids.to_str().unwrap(),
+        ],
+    );
+    let ids = load_rgb(&ids);
+    let colours = distinct_colours(&ids, 260, 160, 380, 280);
+    assert!(
+        colours > 100,
+        "the sphere shows only {colours} triangle colours"
+    );
+    let [r, g, b] = mean_rgb(&ids, 20, 20, 620, 100);
+    assert!(
+        r + g + b < 30.0,
+        "misses are not black in the id view: {r} {g} {b}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
