@@ -18,6 +18,14 @@ struct PrimaryCamera {
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(3) var<uniform> camera: PrimaryCamera;
 @group(0) @binding(4) var<storage, read_write> hit_ids: array<u32>;
+// Ambient occlusion (the `ambient_occlusion` kernel only): rays per primary hit and their length.
+struct AoParams {
+    rays: u32,
+    length: f32,
+    pad0: u32,
+    pad1: u32,
+}
+@group(0) @binding(5) var<uniform> ao: AoParams;
 
 fn primary_ray_dir(x: u32, y: u32) -> vec3<f32> {
     let s = (f32(x) + 0.5) / f32(camera.width);
@@ -32,4 +40,59 @@ fn primary_hits(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let hit = closest_hit(camera.root, camera.origin, primary_ray_dir(id.x, id.y), FAR);
     hit_ids[id.y * camera.width + id.x] = hit.triangle;
+}
+
+fn hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// The paper's second quality measure: from each primary hit, `ao.rays` cosine-distributed shadow
+// rays of length `ao.length`. Writes the number of unoccluded rays per pixel (NONE for a miss).
+@compute @workgroup_size(8, 8, 1)
+fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let d = primary_ray_dir(id.x, id.y);
+    let hit = closest_hit(camera.root, camera.origin, d, FAR);
+    if hit.triangle == NONE {
+        hit_ids[pixel] = NONE;
+        return;
+    }
+    let p = camera.origin + d * hit.t;
+    let tri = tris[hit.triangle];
+    var n = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);
+    if hit.instance != NONE {
+        // Object-space normal to world space through the inverse's transpose.
+        let m = instances[hit.instance].world_to_object;
+        n = m[0].xyz * n.x + m[1].xyz * n.y + m[2].xyz * n.z;
+    }
+    n = normalize(n);
+    if dot(n, d) > 0.0 {
+        n = -n;
+    }
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t1 = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let t2 = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+    let o = p + n * (2e-4 * max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z)))));
+    var state = hash(pixel);
+    var open = 0u;
+    for (var k = 0u; k < ao.rays; k += 1u) {
+        state = hash(state);
+        let u1 = f32(state >> 8u) / 16777216.0;
+        state = hash(state);
+        let u2 = f32(state >> 8u) / 16777216.0;
+        let r = sqrt(u1);
+        let phi = 6.2831853 * u2;
+        let dir = t1 * (r * cos(phi)) + t2 * (r * sin(phi)) + n * sqrt(max(0.0, 1.0 - u1));
+        if !occluded(camera.root, o, dir, ao.length) {
+            open += 1u;
+        }
+    }
+    hit_ids[pixel] = open;
 }

@@ -1,8 +1,8 @@
 //! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
 //! traced by the same traversal, so only the tree differs between rows.
 
-mod rng;
-mod scenes;
+use treelight_bench::rng;
+use treelight_bench::scenes;
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -1,0 +1,5 @@
+//! The benchmark's scene sources (files and the paper-style generators), shared with other
+//! measurement tools in the workspace (the GPU ray benchmark of `treelight_render`).
+
+pub mod rng;
+pub mod scenes;

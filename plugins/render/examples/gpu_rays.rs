@@ -1,0 +1,147 @@
+//! Rays per second on the adapter in use, through the WGSL traversal: primary rays and ambient-
+//! occlusion rays from their hits, over a tree built by the engine (IncrU, baked). Then the bytes an
+//! incremental upload writes when a 10k-triangle mesh joins the largest scene, next to the scene's
+//! full size.
+//!
+//! `cargo run --release -p treelight_render --example gpu_rays -- [--resolution 512] [--ao-rays 8]
+//!  [--repeats 5] SCENE...` where SCENE is a file or a generator of `treelight-bench`
+//! (`hairball:N`, `scatter:N:FILE`, `subdivide:K:FILE`).
+
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use std::time::Instant;
+use support::{Gpu, PinholeView, tree_bytes};
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_bvh::{Bvh, BvhConfig, Triangle};
+use treelight_render::{PRIMARY_HITS_WGSL, UploadPlan};
+
+fn arg(name: &str, default: u32) -> u32 {
+    std::env::args()
+        .skip_while(|a| a != name)
+        .nth(1)
+        .map_or(default, |v| v.parse().expect("a number"))
+}
+
+fn main() {
+    let resolution = arg("--resolution", 512);
+    let ao_rays = arg("--ao-rays", 8);
+    let repeats = arg("--repeats", 5).max(1);
+    let mut specs: Vec<String> = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a.starts_with("--") {
+            args.next();
+        } else {
+            specs.push(a);
+        }
+    }
+    if specs.is_empty() {
+        eprintln!(
+            "give at least one scene (a file, or hairball:N, scatter:N:FILE, subdivide:K:FILE)"
+        );
+        std::process::exit(2);
+    }
+    let gpu = Gpu::new();
+    println!("| scene | triangles | primary Mrays/s | AO Mrays/s | AO rays per hit |");
+    println!("|---|---|---|---|---|");
+    let mut largest: Option<Bvh> = None;
+    for spec in &specs {
+        let scene = treelight_bench::scenes::load(spec, 1).unwrap_or_else(|e| {
+            eprintln!("{e}");
+            std::process::exit(1);
+        });
+        let mut bvh = Bvh::new(BvhConfig::incr_u());
+        bvh.insert_triangles(&scene.triangles)
+            .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+        let b = bvh.bounds();
+        let diag = b.max - b.min;
+        let view = PinholeView::looking_at(
+            b.center() + Vec3::new(0.35, 0.25, 0.6) * diag.length() * 0.9,
+            b.center(),
+            resolution,
+            resolution,
+        );
+        let [n, t, i] = tree_bytes(&bvh);
+        let buffers = [
+            gpu.storage("nodes", &n),
+            gpu.storage("triangles", &t),
+            gpu.storage("instances", &i),
+        ];
+        let camera = gpu.uniform(&view.uniform(bvh.gpu_root()));
+        let mut ao = Vec::new();
+        ao.extend(ao_rays.to_le_bytes());
+        ao.extend((diag.length() * 0.05).to_le_bytes());
+        ao.extend([0u8; 8]);
+        let ao = gpu.uniform(&ao);
+        let out = gpu.zeroed((resolution * resolution * 4) as u64);
+        let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
+        let primary = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");
+        let occlusion = gpu.pipeline(PRIMARY_HITS_WGSL, "ambient_occlusion");
+        let [nb, tb, ib] = &buffers;
+        // One warm-up dispatch each (shader compilation, first touch of the buffers), then the best
+        // of the timed repeats.
+        let time = |pipeline: &wgpu::ComputePipeline, bind: &[&wgpu::Buffer]| {
+            gpu.dispatch(pipeline, bind, groups);
+            (0..repeats)
+                .map(|_| {
+                    let t = Instant::now();
+                    gpu.dispatch(pipeline, bind, groups);
+                    t.elapsed().as_secs_f64()
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let t_primary = time(&primary, &[nb, tb, ib, &camera, &out]);
+        let hits = support::words(&gpu.read(&out))
+            .iter()
+            .filter(|&&h| h != u32::MAX)
+            .count();
+        let t_ao = time(&occlusion, &[nb, tb, ib, &camera, &out, &ao]);
+        let pixels = (resolution * resolution) as f64;
+        // AO time includes its primary rays; subtract them to rate the AO rays alone.
+        let ao_count = hits as f64 * ao_rays as f64;
+        let ao_secs = (t_ao - t_primary).max(1e-9);
+        println!(
+            "| {} | {} | {:.2} | {:.2} | {} |",
+            scene.name,
+            scene.triangles.len(),
+            pixels / t_primary / 1e6,
+            ao_count / ao_secs / 1e6,
+            ao_rays
+        );
+        if largest
+            .as_ref()
+            .is_none_or(|l| l.triangle_count() < bvh.triangle_count())
+        {
+            largest = Some(bvh);
+        }
+    }
+    if let Some(mut bvh) = largest {
+        // A 10k-triangle mesh joins the scene: what the incremental upload writes.
+        bvh.take_changes();
+        let full: u64 = tree_bytes(&bvh).iter().map(|b| b.len() as u64).sum();
+        let b = bvh.bounds();
+        let mesh: Vec<Triangle> = treelight_bench::scenes::hairball(10_000, 7)
+            .into_iter()
+            .map(|t| {
+                let s = (b.max - b.min).length() * 0.05;
+                let [a, bb, c] = t.v.map(|v| b.center() + v * s);
+                Triangle::new(a, bb, c)
+            })
+            .collect();
+        bvh.insert_group(&mesh, Affine3A::IDENTITY, false)
+            .expect("the mesh is valid");
+        let changes = bvh.take_changes();
+        let plan = UploadPlan::new(&bvh, &changes, [u64::MAX; 3]);
+        println!(
+            "\nAdding a 10000-triangle mesh to a {}-triangle scene uploads {} bytes \
+             ({:.2}% of the scene's {} bytes): {} node records, {} triangles.",
+            bvh.triangle_count() - 10_000,
+            plan.upload_bytes(),
+            plan.upload_bytes() as f64 / full as f64 * 100.0,
+            full,
+            changes.inner_count(),
+            changes.written_triangles.len()
+        );
+    }
+}
