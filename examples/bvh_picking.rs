@@ -5,7 +5,7 @@
 
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use treelight_scene::{SceneBvh, SceneBvhPlugin};
+use treelight_scene::{SceneBvh, SceneBvhPickingPlugin, SceneBvhPlugin};
 
 #[derive(Component)]
 struct Spinner(f32);
@@ -19,7 +19,18 @@ fn main() {
         .nth(1)
         .map(|n| n.parse::<u32>().expect("--frames takes a number"));
     App::new()
-        .add_plugins((DefaultPlugins, SceneBvhPlugin::default()))
+        // The picking backend turns pointer rays into hits through the same tree, so Bevy's pointer
+        // events (`Pointer<Over>`, `Pointer<Click>`, ...) fire on what the BVH finds.
+        .add_plugins((
+            DefaultPlugins,
+            SceneBvhPlugin::default(),
+            SceneBvhPickingPlugin,
+        ))
+        .add_observer(|click: On<Pointer<Click>>, names: Query<&Name>| {
+            if let Ok(name) = names.get(click.entity) {
+                println!("clicked {name}");
+            }
+        })
         .insert_resource(ExitAfter(frames))
         .add_systems(Startup, setup)
         .add_systems(Update, (spin, report_hits, exit_after))

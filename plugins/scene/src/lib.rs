@@ -9,9 +9,11 @@
 //! resource, with the tree, its version, stats and [`SceneBvh::cast_ray`].
 
 mod mesh;
+mod picking;
 mod worker;
 
 pub use mesh::{MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles};
+pub use picking::SceneBvhPickingPlugin;
 
 use bevy::asset::AssetEvent;
 use bevy::camera::visibility::InheritedVisibility;
@@ -226,6 +228,32 @@ impl SceneBvh {
     pub fn cast_ray(&self, ray: Ray3d) -> Option<SceneHit> {
         let tree = self.try_read()?;
         cast_on(&tree, ray)
+    }
+
+    /// The nearest hit on an entity that `accept` takes; others are seen through (up to
+    /// 16 of them along the ray).
+    pub fn cast_ray_filtered(
+        &self,
+        ray: Ray3d,
+        mut accept: impl FnMut(Entity) -> bool,
+    ) -> Option<SceneHit> {
+        let tree = self.try_read()?;
+        let dir = Vec3::from(ray.direction);
+        let mut skipped = 0.0f32;
+        let mut origin = ray.origin;
+        for _ in 0..16 {
+            let mut hit = cast_on(&tree, Ray3d::new(origin, ray.direction))?;
+            if accept(hit.entity) {
+                hit.distance += skipped;
+                hit.point = ray.origin + dir * hit.distance;
+                return Some(hit);
+            }
+            // Continue just past the rejected surface, in steps relative to the distance so far.
+            let step = hit.distance + 1e-4 * (skipped + hit.distance).max(1.0);
+            skipped += step;
+            origin += dir * step;
+        }
+        None
     }
 
     /// For a renderer that mirrors the tree on the GPU: takes what changed since its last call and

@@ -254,3 +254,33 @@ fn meshes_that_are_not_triangle_lists_are_skipped() {
     settle(&mut app);
     assert_eq!(tree_triangles(&app), 0);
 }
+
+#[test]
+fn filtered_rays_see_through_rejected_entities() {
+    let mut app = app(Duration::from_millis(20));
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0).mesh().build());
+    let front = app
+        .world_mut()
+        .spawn((Mesh3d(cube.clone()), Transform::from_xyz(0.0, 0.0, -3.0)))
+        .id();
+    let back = app
+        .world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(0.0, 0.0, -6.0)))
+        .id();
+    settle(&mut app);
+    let scene = app.world().resource::<SceneBvh>();
+    let ray = Ray3d::new(Vec3::ZERO, Dir3::NEG_Z);
+    let hit = scene.cast_ray(ray).expect("the front cube is hit");
+    assert_eq!(hit.entity, front);
+    assert!((hit.distance - 2.5).abs() < 1e-4, "{}", hit.distance);
+    let hit = scene
+        .cast_ray_filtered(ray, |e| e != front)
+        .expect("the back cube is hit through the front one");
+    assert_eq!(hit.entity, back);
+    assert!((hit.distance - 5.5).abs() < 1e-3, "{}", hit.distance);
+    assert!((hit.point - Vec3::new(0.0, 0.0, -5.5)).length() < 1e-3);
+    assert!(scene.cast_ray_filtered(ray, |_| false).is_none());
+}
