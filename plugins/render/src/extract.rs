@@ -9,14 +9,13 @@ use bevy::light::{DirectionalLight, PointLight};
 use bevy::math::Mat3;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
-use bevy::render::{Extract, ExtractSchedule, RenderApp};
+use bevy::render::{Extract, ExtractSchedule};
 use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
 
 pub(crate) fn build(render_app: &mut SubApp) {
     render_app
         .init_resource::<SceneSync>()
         .add_systems(ExtractSchedule, extract_scene);
-    let _ = RenderApp;
 }
 
 /// What the render world must write before tracing this frame.
