@@ -7,7 +7,7 @@
 //!  [--view raster|path|albedo|normals|triangle-id|heatmap] [--still]`
 
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::render::view::screenshot::Screenshot;
 use std::path::PathBuf;
 use treelight_render::{DebugView, PathTraced, PathTracerPlugin, PathTracerStats};
 use treelight_scene::SceneBvhPlugin;
@@ -207,26 +207,9 @@ fn finish(
             exit.write(AppExit::Success);
         }
         Some(path) => {
-            commands.spawn(Screenshot::primary_window()).observe(
-                move |captured: On<ScreenshotCaptured>, mut exit: MessageWriter<AppExit>| {
-                    let saved = captured
-                        .image
-                        .clone()
-                        .try_into_dynamic()
-                        .map_err(|e| e.to_string())
-                        .and_then(|i| i.to_rgb8().save(&path).map_err(|e| e.to_string()));
-                    match saved {
-                        Ok(()) => {
-                            println!("screenshot saved to {}", path.display());
-                            exit.write(AppExit::Success);
-                        }
-                        Err(e) => {
-                            eprintln!("cannot save {}: {e}", path.display());
-                            exit.write(AppExit::error());
-                        }
-                    }
-                },
-            );
+            commands
+                .spawn(Screenshot::primary_window())
+                .observe(treelight::capture::save_and_exit(path));
         }
     }
 }

@@ -1,7 +1,8 @@
 // The path tracer: one compute invocation per pixel adds `view.samples` samples to an accumulation
 // buffer (or restarts it when `view.frame` is 0). Bevy's StandardMaterial is approximated by a
 // Lambert lobe plus a GGX lobe; punctual lights are sampled directly (next-event estimation), emissive
-// surfaces and the sky are found by the BSDF samples. The crate appends traverse.wgsl.
+// surfaces and the sky are found by the BSDF samples. The crate appends traverse.wgsl and
+// sampling.wgsl.
 
 struct Attr {
     // Object-space corner normals, octahedral, snorm16x2 each.
@@ -71,17 +72,10 @@ const MODE_NORMALS: u32 = 2u;
 const MODE_TRIANGLE_ID: u32 = 3u;
 const MODE_HEATMAP: u32 = 4u;
 const HAS_NORMALS: u32 = 0x80000000u;
-const PI: f32 = 3.14159265358979;
 // Nodes visited that the heatmap shows as its hottest colour.
 const HEATMAP_MAX: f32 = 160.0;
 
 var<private> rng_state: u32;
-
-fn pcg(v: u32) -> u32 {
-    let state = v * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
 
 fn rand() -> f32 {
     rng_state = pcg(rng_state);
@@ -151,12 +145,6 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     return s;
 }
 
-// Moves a ray origin off the surface it leaves, scaled to the coordinates' magnitude.
-fn offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let scale = max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
-    return p + n * (2e-4 * scale);
-}
-
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
@@ -217,16 +205,6 @@ fn pdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     return ps * ggx_d(nh, a2) * nh / (4.0 * vh) + (1.0 - ps) * nl / PI;
 }
 
-// An orthonormal basis around n (Duff et al. 2017).
-fn basis(n: vec3<f32>) -> mat3x3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let bt = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
-    return mat3x3<f32>(t, bt, n);
-}
-
 // A direction from the mixture of both lobes; the caller weights it by brdf * cos / pdf.
 fn sample_direction(s: Surface, wo: vec3<f32>) -> vec3<f32> {
     let frame = basis(s.ns);
@@ -240,8 +218,7 @@ fn sample_direction(s: Surface, wo: vec3<f32>) -> vec3<f32> {
         let h = frame * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
         return 2.0 * dot(wo, h) * h - wo;
     }
-    let r = sqrt(u1);
-    return frame * vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u1)));
+    return cosine_direction(frame, u1, u2);
 }
 
 fn uniform_sphere() -> vec3<f32> {

@@ -1,5 +1,6 @@
 // One primary ray per pixel from a pinhole camera; writes the closest triangle id (NONE for a miss).
-// The crate appends traverse.wgsl. The tests compare it with the engine's CPU traversal.
+// The crate appends traverse.wgsl and sampling.wgsl. The tests compare it with the engine's CPU
+// traversal.
 
 // Pixel (x, y) looks along lower_left + (x+0.5)/width * horizontal + (y+0.5)/height * vertical.
 struct PrimaryCamera {
@@ -42,12 +43,6 @@ fn primary_hits(@builtin(global_invocation_id) id: vec3<u32>) {
     hit_ids[id.y * camera.width + id.x] = hit.triangle;
 }
 
-fn hash(v: u32) -> u32 {
-    let state = v * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
 // The paper's second quality measure: from each primary hit, `ao.rays` cosine-distributed shadow
 // rays of length `ao.length`. Writes the number of unoccluded rays per pixel (NONE for a miss).
 @compute @workgroup_size(8, 8, 1)
@@ -74,22 +69,16 @@ fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
     if dot(n, d) > 0.0 {
         n = -n;
     }
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t1 = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let t2 = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
-    let o = p + n * (2e-4 * max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z)))));
-    var state = hash(pixel);
+    let frame = basis(n);
+    let o = offset(p, n);
+    var state = pcg(pixel);
     var open = 0u;
     for (var k = 0u; k < ao.rays; k += 1u) {
-        state = hash(state);
+        state = pcg(state);
         let u1 = f32(state >> 8u) / 16777216.0;
-        state = hash(state);
+        state = pcg(state);
         let u2 = f32(state >> 8u) / 16777216.0;
-        let r = sqrt(u1);
-        let phi = 6.2831853 * u2;
-        let dir = t1 * (r * cos(phi)) + t2 * (r * sin(phi)) + n * sqrt(max(0.0, 1.0 - u1));
+        let dir = cosine_direction(frame, u1, u2);
         if !occluded(camera.root, o, dir, ao.length) {
             open += 1u;
         }

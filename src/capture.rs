@@ -40,7 +40,9 @@ pub fn count_frames_and_capture(
     }
 }
 
-fn save_and_exit(path: PathBuf) -> impl FnMut(On<ScreenshotCaptured>, MessageWriter<AppExit>) {
+/// An observer for a [`Screenshot`] entity: saves the image to `path` as PNG (RGB) and exits, with an
+/// error status if it cannot be saved.
+pub fn save_and_exit(path: PathBuf) -> impl FnMut(On<ScreenshotCaptured>, MessageWriter<AppExit>) {
     move |captured, mut exit| {
         let result = captured
             .image

@@ -86,74 +86,9 @@ fn bvh_picking_example_runs_and_hits() {
     if skip_gpu_tests("bvh_picking_example_runs_and_hits") {
         return;
     }
-    // The example is built by `cargo test` (examples are test targets' dependencies of the package).
-    let exe = std::path::Path::new(env!("CARGO_BIN_EXE_treelight"))
-        .parent()
-        .unwrap()
-        .join("examples/bvh_picking");
-    if !exe.exists() {
-        let status = std::process::Command::new(env!("CARGO"))
-            .args(["build", "--example", "bvh_picking"])
-            .status()
-            .expect("cargo runs");
-        assert!(status.success());
-    }
-    let out = std::process::Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x800x24"])
-        .arg(&exe)
-        .args(["--frames", "40"])
-        .output()
-        .expect("xvfb-run runs");
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = run_example("bvh_picking", &["--frames", "40"]);
     assert!(text.contains("scripted ray hits object"), "{text}");
     assert!(text.contains("exiting after 40 frames"), "{text}");
-}
-
-/// Runs an example under Xvfb (building it first if `cargo test` has not) and returns its stdout.
-fn run_example(name: &str, args: &[&str]) -> String {
-    let exe = std::path::Path::new(env!("CARGO_BIN_EXE_treelight"))
-        .parent()
-        .unwrap()
-        .join("examples")
-        .join(name);
-    if !exe.exists() {
-        let status = std::process::Command::new(env!("CARGO"))
-            .args(["build", "--example", name])
-            .status()
-            .expect("cargo runs");
-        assert!(status.success());
-    }
-    let out = std::process::Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x800x24"])
-        .arg(&exe)
-        .args(args)
-        .output()
-        .expect("xvfb-run runs");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
-}
-
-fn mean_rgb(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u32) -> [f32; 3] {
-    let mut sum = [0f32; 3];
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let p = img.get_pixel(x, y);
-            for c in 0..3 {
-                sum[c] += p[c] as f32;
-            }
-        }
-    }
-    sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f32)
 }
 
 #[test]

@@ -20,12 +20,17 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// Runs the editor with `args` under xvfb-run and returns its combined output. Panics with an
-/// explanation when the display server or the GPU adapter is missing.
+/// Runs the editor with `args` under xvfb-run and returns its combined output.
 pub fn run_editor(args: &[&str]) -> String {
-    let bin = env!("CARGO_BIN_EXE_treelight");
+    run_headless(Path::new(env!("CARGO_BIN_EXE_treelight")), args)
+}
+
+/// Runs a program with `args` under xvfb-run and returns its combined output. Panics with an
+/// explanation when the display server or the GPU adapter is missing, or when it fails.
+pub fn run_headless(exe: &Path, args: &[&str]) -> String {
     let out = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1600x1000x24", bin])
+        .args(["-a", "-s", "-screen 0 1600x1000x24"])
+        .arg(exe)
         .args(args)
         .env("WGPU_BACKEND", "vulkan")
         .output()
@@ -47,7 +52,7 @@ pub fn run_editor(args: &[&str]) -> String {
                  or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests. Output:\n{text}"
             );
         }
-        panic!("the editor exited with {}:\n{text}", out.status);
+        panic!("{} exited with {}:\n{text}", exe.display(), out.status);
     }
     text
 }
@@ -68,4 +73,36 @@ pub fn distinct_colours(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u3
         }
     }
     set.len()
+}
+
+/// Runs an example under Xvfb and returns its combined output. `cargo test` builds the package's examples;
+/// this builds one itself when run otherwise.
+pub fn run_example(name: &str, args: &[&str]) -> String {
+    let exe = Path::new(env!("CARGO_BIN_EXE_treelight"))
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(name);
+    if !exe.exists() {
+        let status = Command::new(env!("CARGO"))
+            .args(["build", "--example", name])
+            .status()
+            .expect("cargo runs");
+        assert!(status.success());
+    }
+    run_headless(&exe, args)
+}
+
+/// Mean colour of a rectangle.
+pub fn mean_rgb(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u32) -> [f32; 3] {
+    let mut sum = [0f32; 3];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = img.get_pixel(x, y);
+            for c in 0..3 {
+                sum[c] += p[c] as f32;
+            }
+        }
+    }
+    sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f32)
 }

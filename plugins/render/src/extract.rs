@@ -30,7 +30,7 @@ pub(crate) struct PendingUpload {
 
 impl PendingUpload {
     fn need(&mut self, kind: BufferKind, records: u64) {
-        let i = BufferKind::ALL.iter().position(|&k| k == kind).unwrap_or(0);
+        let i = kind.index();
         self.needed[i] = self.needed[i].max(records);
     }
 }
@@ -172,18 +172,7 @@ fn scene_writes(
         }
     }
     records.sort_unstable_by_key(|r| r.0);
-    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
-    let mut k = 0;
-    push_runs(
-        &mut p.writes,
-        &ids,
-        BufferKind::Attributes,
-        crate::ATTRIBUTE_BYTES,
-        |_| {
-            k += 1;
-            std::mem::take(&mut records[k - 1].1)
-        },
-    );
+    push_runs(&mut p.writes, BufferKind::Attributes, records);
 
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
     sync.objects.resize(bvh.group_slots() as usize, None);

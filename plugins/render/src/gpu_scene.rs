@@ -105,10 +105,7 @@ fn apply_scene_uploads(
     }
     let mut bytes = 0u64;
     for w in &pending.writes {
-        let i = BufferKind::ALL
-            .iter()
-            .position(|&k| k == w.buffer)
-            .unwrap_or(0);
+        let i = w.buffer.index();
         let end = w.offset + w.bytes.len() as u64;
         if end > scene.capacities[i] * w.buffer.record_bytes() {
             // Extraction sized every buffer for its writes; a write past the end is a bug, and

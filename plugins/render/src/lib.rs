@@ -28,20 +28,23 @@ use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-/// WGSL: BVH traversal, appended to each kernel (the kernels declare the buffers it reads).
-pub const TRAVERSE_WGSL: &str = include_str!("../../../shaders/traverse.wgsl");
+// Each kernel file declares the buffers; `traverse.wgsl` (BVH traversal) and `sampling.wgsl` (random
+// numbers, frames, offsets) are appended to it, as WGSL resolves module-scope names in any order.
 
 /// WGSL: the path-tracing kernel (`path_trace`) with the traversal.
 pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/pathtrace.wgsl"),
-    include_str!("../../../shaders/traverse.wgsl")
+    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
 );
 
-/// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), with the traversal.
-/// The tests compare it with the engine's CPU traversal.
+/// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), and ambient
+/// occlusion from those hits (`ambient_occlusion`), with the traversal. The tests compare
+/// `primary_hits` with the engine's CPU traversal.
 pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../../shaders/primary_hits.wgsl"),
-    include_str!("../../../shaders/traverse.wgsl")
+    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
 );
 
 /// WGSL: the pass that draws the accumulated average into the view target.

@@ -38,6 +38,11 @@ impl BufferKind {
         BufferKind::Lights,
     ];
 
+    /// The buffer's position in [`BufferKind::ALL`] (its declaration order).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     /// Bytes of one record.
     pub fn record_bytes(self) -> u64 {
         match self {
@@ -158,17 +163,17 @@ impl UploadPlan {
         tris.sort_unstable();
         push_runs(
             &mut plan.writes,
-            &tris,
             BufferKind::Triangles,
-            TRIANGLE_BYTES,
-            |t| triangle_bytes(&bvh.gpu_triangle(t)),
+            tris.iter()
+                .map(|&t| (t, triangle_bytes(&bvh.gpu_triangle(t)))),
         );
         push_runs(
             &mut plan.writes,
-            &changes.instances,
             BufferKind::Instances,
-            INSTANCE_BYTES,
-            |i| instance_bytes(&bvh.gpu_instance(i)),
+            changes
+                .instances
+                .iter()
+                .map(|&i| (i, instance_bytes(&bvh.gpu_instance(i)))),
         );
         plan
     }
@@ -183,28 +188,34 @@ impl UploadPlan {
     }
 }
 
-/// One write per run of consecutive ids (sorted).
+/// One write per run of consecutive ids, from records sorted by id.
 pub(crate) fn push_runs(
     out: &mut Vec<BufferWrite>,
-    ids: &[u32],
     buffer: BufferKind,
-    size: u64,
-    mut rec: impl FnMut(u32) -> Vec<u8>,
+    records: impl IntoIterator<Item = (u32, Vec<u8>)>,
 ) {
-    let mut k = 0;
-    while k < ids.len() {
-        let start = ids[k];
-        let mut bytes = rec(start);
-        let mut end = start + 1;
-        k += 1;
-        while k < ids.len() && ids[k] == end {
-            bytes.extend(rec(end));
-            end += 1;
-            k += 1;
+    let mut run: Option<(u32, u32, Vec<u8>)> = None;
+    for (id, bytes) in records {
+        match &mut run {
+            Some((_, end, acc)) if *end == id => {
+                acc.extend(bytes);
+                *end += 1;
+            }
+            _ => {
+                if let Some((start, _, acc)) = run.replace((id, id + 1, bytes)) {
+                    out.push(BufferWrite {
+                        buffer,
+                        offset: start as u64 * buffer.record_bytes(),
+                        bytes: acc,
+                    });
+                }
+            }
         }
+    }
+    if let Some((start, _, bytes)) = run {
         out.push(BufferWrite {
             buffer,
-            offset: start as u64 * size,
+            offset: start as u64 * buffer.record_bytes(),
             bytes,
         });
     }

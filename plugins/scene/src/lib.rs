@@ -226,8 +226,7 @@ impl SceneBvh {
     /// The nearest hit of `ray` on the latest tree, or `None` if nothing is hit (or the worker holds
     /// the tree this instant).
     pub fn cast_ray(&self, ray: Ray3d) -> Option<SceneHit> {
-        let tree = self.try_read()?;
-        cast_on(&tree, ray)
+        self.cast_ray_filtered(ray, |_| true)
     }
 
     /// The nearest hit on an entity that `accept` takes; others are seen through (up to
