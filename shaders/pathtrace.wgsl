@@ -22,8 +22,13 @@ struct Object {
     emissive: vec4<f32>,
     // Metallic, perceptual roughness, reflectance, unused.
     params: vec4<f32>,
-    // Reserved for the texture atlas rectangle; zero width means untextured.
-    texture: vec4<f32>,
+    // Columns of the UV transform's linear part (xy, zw), then its translation.
+    uv_matrix: vec4<f32>,
+    uv_offset: vec2<f32>,
+    // Layer of the base-colour texture array; NONE when untextured.
+    texture: u32,
+    // Wrap modes, u in bits 0-1 and v in bits 2-3: 0 clamp, 1 repeat, 2 mirror.
+    wrap: u32,
 }
 
 struct Light {
@@ -65,6 +70,10 @@ struct View {
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<uniform> view: View;
 @group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
+// Base-colour textures, one per layer, resampled to a common size with sRGB-encoded colour (storage
+// textures cannot be sRGB, so the kernel decodes).
+@group(0) @binding(8) var base_color_textures: texture_2d_array<f32>;
+@group(0) @binding(9) var texture_sampler: sampler;
 
 const MODE_PATH: u32 = 0u;
 const MODE_ALBEDO: u32 = 1u;
@@ -136,6 +145,14 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.ng = ng;
     s.ns = ns;
     s.albedo = obj.base_color.rgb;
+    if obj.texture != NONE {
+        let w = 1.0 - hit.u - hit.v;
+        let uv = attr.uv01.xy * w + attr.uv01.zw * hit.u + attr.uv2 * hit.v;
+        let t = mat2x2<f32>(obj.uv_matrix.xy, obj.uv_matrix.zw) * uv + obj.uv_offset;
+        let st = vec2<f32>(wrap_coordinate(t.x, obj.wrap & 3u), wrap_coordinate(t.y, (obj.wrap >> 2u) & 3u));
+        let texel = textureSampleLevel(base_color_textures, texture_sampler, st, obj.texture, 0.0);
+        s.albedo *= srgb_to_linear(texel.rgb);
+    }
     s.emissive = obj.emissive.rgb;
     s.metallic = clamp(obj.params.x, 0.0, 1.0);
     // Bevy clamps perceptual roughness the same way, which also keeps point-light highlights finite.
@@ -143,6 +160,22 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.alpha = r * r;
     s.reflectance = obj.params.z;
     return s;
+}
+
+// Folds a texture coordinate into 0..1: 0 clamp, 1 repeat, 2 mirror.
+fn wrap_coordinate(x: f32, mode: u32) -> f32 {
+    if mode == 1u {
+        return fract(x);
+    }
+    if mode == 2u {
+        let t = fract(x * 0.5) * 2.0;
+        return 1.0 - abs(t - 1.0);
+    }
+    return clamp(x, 0.0, 1.0);
+}
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
 
 fn luminance(c: vec3<f32>) -> f32 {

@@ -1,5 +1,6 @@
 //! glTF 2.0 (.gltf with external or embedded buffers, and .glb).
 
+use crate::texture::ImageCache;
 use crate::{
     ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices,
     check_positions,
@@ -17,6 +18,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
         gltf::Gltf::from_slice(&bytes).map_err(|e| ImportError::new(path, describe(&e, &bytes)))?;
     let buffers = load_buffers(path, &gltf)?;
     let mut scene = ImportedScene::default();
+    let mut images = ImageCache::default();
     for m in gltf.document.materials() {
         let pbr = m.pbr_metallic_roughness();
         let e = m.emissive_factor();
@@ -30,6 +32,15 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
             emissive: [e[0] * strength, e[1] * strength, e[2] * strength],
+            base_color_texture: pbr.base_color_texture().and_then(|info| {
+                images.base_color(
+                    path,
+                    &buffers,
+                    &info,
+                    &mut scene.textures,
+                    &mut scene.warnings,
+                )
+            }),
         });
     }
     let default_material = scene.materials.len();
@@ -150,7 +161,7 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
                     "a buffer refers to the GLB binary chunk, which is missing",
                 )
             })?,
-            gltf::buffer::Source::Uri(uri) => read_uri(path, dir, uri)?,
+            gltf::buffer::Source::Uri(uri) => read_uri(path, dir, uri, "buffer")?,
         };
         if data.len() < buffer.length() {
             return Err(ImportError::new(
@@ -168,23 +179,29 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
     Ok(out)
 }
 
-/// Resolves a buffer URI: a `data:` URI, or a relative path to a file beside the opened one (no
-/// absolute paths, no `..`, no other schemes), so that nothing outside what the user opened is read.
-fn read_uri(path: &Path, dir: &Path, uri: &str) -> Result<Vec<u8>, ImportError> {
+/// Resolves a buffer or image URI: a `data:` URI, or a relative path to a file beside the opened one
+/// (no absolute paths, no `..`, no other schemes), so that nothing outside what the user opened is
+/// read. `what` names the referrer in errors ("buffer", "image").
+pub(crate) fn read_uri(
+    path: &Path,
+    dir: &Path,
+    uri: &str,
+    what: &str,
+) -> Result<Vec<u8>, ImportError> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, payload) = rest
-            .split_once(";base64,")
-            .ok_or_else(|| ImportError::new(path, "a data URI buffer is not base64-encoded"))?;
+        let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
+            ImportError::new(path, format!("a data URI {what} is not base64-encoded"))
+        })?;
         return base64::engine::general_purpose::STANDARD
             .decode(payload)
             .map_err(|e| {
-                ImportError::new(path, format!("a data URI buffer is not valid base64: {e}"))
+                ImportError::new(path, format!("a data URI {what} is not valid base64: {e}"))
             });
     }
     if uri.contains(':') {
         return Err(ImportError::new(
             path,
-            format!("buffer URI '{uri}' is not a relative file path"),
+            format!("{what} URI '{uri}' is not a relative file path"),
         ));
     }
     let decoded = percent_encoding::percent_decode_str(uri)
@@ -197,14 +214,14 @@ fn read_uri(path: &Path, dir: &Path, uri: &str) -> Result<Vec<u8>, ImportError> 
     {
         return Err(ImportError::new(
             path,
-            format!("buffer URI '{uri}' points outside the file's folder"),
+            format!("{what} URI '{uri}' points outside the file's folder"),
         ));
     }
     let full = dir.join(rel);
     std::fs::read(&full).map_err(|e| {
         ImportError::new(
             path,
-            format!("cannot read buffer '{}': {e}", full.display()),
+            format!("cannot read {what} '{}': {e}", full.display()),
         )
     })
 }

@@ -6,6 +6,7 @@
 
 mod gltf_scene;
 mod obj_scene;
+mod texture;
 
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
@@ -13,6 +14,7 @@ use thiserror::Error;
 
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;
+pub use texture::{ImportedTexture, MAX_TEXTURE_SIDE, TextureRef, WrapMode};
 
 /// Most vertices or indices accepted in one file, so a hostile header cannot exhaust memory.
 pub const MAX_ELEMENTS: usize = 1 << 28;
@@ -49,6 +51,8 @@ pub struct ImportedMaterial {
     pub roughness: f32,
     /// Linear emitted radiance (factor times strength).
     pub emissive: [f32; 3],
+    /// Base-colour texture, multiplied with `base_color`; read with the mesh's first UV set.
+    pub base_color_texture: Option<TextureRef>,
 }
 
 impl Default for ImportedMaterial {
@@ -59,6 +63,7 @@ impl Default for ImportedMaterial {
             metallic: 0.0,
             roughness: 0.6,
             emissive: [0.0; 3],
+            base_color_texture: None,
         }
     }
 }
@@ -104,6 +109,8 @@ pub struct ImportedScene {
     pub meshes: Vec<ImportedMesh>,
     /// Materials referenced by the meshes.
     pub materials: Vec<ImportedMaterial>,
+    /// Decoded images the materials refer to, once each.
+    pub textures: Vec<ImportedTexture>,
     /// Things skipped, each naming what and why (non-triangle primitives, say).
     pub warnings: Vec<String>,
 }

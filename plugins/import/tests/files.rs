@@ -1,7 +1,7 @@
 //! Real files from ../shared/scenes, good and broken.
 
 use std::path::PathBuf;
-use treelight_import::load_scene;
+use treelight_import::{WrapMode, load_scene};
 
 fn scene(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -27,6 +27,118 @@ fn separate_and_embedded_buffers_give_the_same_box() {
     let b = load_scene(&scene("gltf/BoxTextured-glTF-Embedded/BoxTextured.gltf")).unwrap();
     assert_eq!(a.triangle_count(), 12);
     assert_eq!(a.world_triangles(), b.world_triangles());
+}
+
+#[test]
+fn base_colour_textures_are_decoded_once_with_their_wrap_modes() {
+    // BoxTextured: one 256×256 PNG (the Cesium logo), as a file and as a data URI.
+    let a = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    let b = load_scene(&scene("gltf/BoxTextured-glTF-Embedded/BoxTextured.gltf")).unwrap();
+    assert!(a.warnings.is_empty(), "{:?}", a.warnings);
+    assert_eq!(a.textures.len(), 1);
+    let t = &a.textures[0];
+    assert_eq!(t.rgba8.len(), (t.width * t.height * 4) as usize);
+    assert!(t.width >= 64 && t.height >= 64, "{t:?}");
+    assert_eq!(a.textures[0].rgba8, b.textures[0].rgba8);
+    let r = a.materials[0]
+        .base_color_texture
+        .expect("the box is textured");
+    assert_eq!(r.texture, 0);
+    // The file's sampler: wrapS MIRRORED_REPEAT (33648), wrapT CLAMP_TO_EDGE (33071).
+    assert_eq!(r.wrap, [WrapMode::MirroredRepeat, WrapMode::ClampToEdge]);
+    // FlightHelmet's sampler names no wrap modes: glTF's default, REPEAT.
+    // More than one colour: the logo, not a flat fill.
+    let mut colours: Vec<&[u8]> = t.rgba8.chunks_exact(4).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 10, "{} colours", colours.len());
+    // FlightHelmet: five base-colour PNGs beside the file, one per material.
+    let h = load_scene(&scene("gltf/FlightHelmet/FlightHelmet.gltf")).unwrap();
+    assert!(h.warnings.is_empty(), "{:?}", h.warnings);
+    assert_eq!(h.textures.len(), 5);
+    assert!(h.textures.iter().all(|t| t.name.contains("BaseColor")));
+    for m in &h.materials {
+        let r = m
+            .base_color_texture
+            .expect("every helmet material is textured");
+        assert_eq!(r.wrap, [WrapMode::Repeat; 2]);
+    }
+}
+
+#[test]
+fn bad_textures_become_warnings_and_keep_the_geometry() {
+    let dir = std::env::temp_dir().join(format!("treelight-textures-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let original =
+        std::fs::read_to_string(scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    std::fs::copy(
+        scene("gltf/BoxTextured-glTF/BoxTextured0.bin"),
+        dir.join("BoxTextured0.bin"),
+    )
+    .unwrap();
+    let cases = [
+        ("missing.gltf", "gone.png", None, "cannot read image"),
+        ("escape.gltf", "../../etc/passwd", None, "outside"),
+        (
+            "garbage.gltf",
+            "garbage.png",
+            Some(b"\x89PNG\r\n\x1a\nnot really".to_vec()),
+            "decode",
+        ),
+        (
+            "text.gltf",
+            "text.png",
+            Some(b"hello".to_vec()),
+            "not a PNG or JPEG",
+        ),
+        // A valid PNG header claiming 100000 × 100000 pixels.
+        ("huge.gltf", "huge.png", Some(huge_png_header()), "decode"),
+    ];
+    for (file, uri, contents, expected) in cases {
+        if let Some(bytes) = contents {
+            std::fs::write(dir.join(uri), bytes).unwrap();
+        }
+        let text = original.replace("CesiumLogoFlat.png", uri);
+        assert_ne!(text, original);
+        std::fs::write(dir.join(file), text).unwrap();
+        let s = load_scene(&dir.join(file)).unwrap();
+        assert_eq!(s.triangle_count(), 12, "{file}: the geometry stays");
+        assert!(s.textures.is_empty(), "{file}");
+        assert!(s.materials[0].base_color_texture.is_none(), "{file}");
+        assert_eq!(s.warnings.len(), 1, "{file}: {:?}", s.warnings);
+        let w = &s.warnings[0];
+        assert!(w.contains(uri) && w.contains(expected), "{file}: {w}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The first bytes of a PNG whose IHDR claims 100000 × 100000 RGBA pixels (40 GB decoded).
+fn huge_png_header() -> Vec<u8> {
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(100_000u32.to_be_bytes());
+    ihdr.extend(100_000u32.to_be_bytes());
+    ihdr.extend([8, 6, 0, 0, 0]);
+    let crc = crc32(&ihdr);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc.to_be_bytes());
+    png
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
 use crate::records::{SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes};
+use crate::textures::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::light::{DirectionalLight, PointLight};
@@ -48,11 +49,20 @@ pub(crate) struct SceneSync {
 
 type MaterialQuery<'w, 's> = Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>>;
 
+/// Main-world assets a material is read from.
+#[derive(Clone, Copy)]
+struct MaterialAssets<'a> {
+    materials: Option<&'a Assets<StandardMaterial>>,
+    images: Option<&'a Assets<Image>>,
+}
+
 fn material_of(
     e: Entity,
     handles: &MaterialQuery,
-    materials: Option<&Assets<StandardMaterial>>,
+    assets: MaterialAssets,
+    layers: &mut TextureLayers,
 ) -> SurfaceMaterial {
+    let materials = assets.materials;
     let Some(m) = handles
         .get(e)
         .ok()
@@ -67,15 +77,22 @@ fn material_of(
         metallic: m.metallic,
         perceptual_roughness: m.perceptual_roughness,
         reflectance: m.reflectance,
+        base_color_texture: match (&m.base_color_texture, assets.images) {
+            (Some(h), Some(images)) => layers.layer_for(h.id(), images),
+            _ => None,
+        },
+        uv_transform: m.uv_transform,
     }
 }
 
 #[allow(clippy::too_many_arguments)]
 fn extract_scene(
     mut sync: ResMut<SceneSync>,
+    mut layers: ResMut<TextureLayers>,
     scene: Extract<Option<Res<SceneBvh>>>,
     handles: Extract<MaterialQuery>,
     materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
+    images: Extract<Option<Res<Assets<Image>>>>,
     points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
     suns: Extract<
         Query<(
@@ -90,9 +107,12 @@ fn extract_scene(
         return;
     };
     let everything = !sync.synced;
-    let materials = materials.as_deref();
+    let assets = MaterialAssets {
+        materials: materials.as_deref(),
+        images: images.as_deref(),
+    };
     let taken = scene.try_take_changes(everything, |tree, changes| {
-        scene_writes(sync, tree, changes, &handles, materials);
+        scene_writes(sync, tree, changes, &handles, assets, &mut layers);
     });
     if taken.is_some() {
         sync.synced = true;
@@ -139,7 +159,8 @@ fn scene_writes(
     tree: &SceneTree,
     changes: &SceneChanges,
     handles: &MaterialQuery,
-    materials: Option<&Assets<StandardMaterial>>,
+    assets: MaterialAssets,
+    layers: &mut TextureLayers,
 ) {
     let bvh = &tree.bvh;
     let p = &mut sync.pending;
@@ -176,13 +197,14 @@ fn scene_writes(
 
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
     sync.objects.resize(bvh.group_slots() as usize, None);
+    layers.begin_pass();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
         };
         let rec = object_bytes(
             Mat3::from(transform.matrix3),
-            &material_of(e, handles, materials),
+            &material_of(e, handles, assets, layers),
         );
         let slot = &mut sync.objects[g.index() as usize];
         if slot.as_ref() != Some(&rec) {
@@ -194,4 +216,5 @@ fn scene_writes(
             *slot = Some(rec);
         }
     }
+    layers.end_pass();
 }

@@ -69,7 +69,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
     });
 }
 
-fn apply_scene_uploads(
+pub(crate) fn apply_scene_uploads(
     mut sync: ResMut<SceneSync>,
     mut scene: ResMut<GpuScene>,
     device: Res<RenderDevice>,

@@ -11,13 +11,15 @@ mod extract;
 mod gpu_scene;
 mod node;
 mod records;
+mod textures;
 mod upload;
 
 pub use records::{
-    ATTRIBUTE_BYTES, LIGHT_BYTES, OBJECT_BYTES, SceneLight, SurfaceMaterial, VIEW_BYTES,
-    ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes, object_bytes,
-    resolve_bytes,
+    ATTRIBUTE_BYTES, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, SceneLight, SurfaceMaterial,
+    TextureWrap, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal,
+    light_bytes, object_bytes, resolve_bytes,
 };
+pub use textures::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
     BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -46,6 +48,9 @@ pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
+
+/// WGSL: resamples an image into a layer of the base-colour texture array (`copy_to_layer`).
+pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../../shaders/texture_layer.wgsl");
 
 /// WGSL: the pass that draws the accumulated average into the view target.
 pub const RESOLVE_WGSL: &str = include_str!("../../../shaders/resolve.wgsl");
@@ -193,6 +198,10 @@ impl Plugin for PathTracerPlugin {
                     "treelight/pathtrace.wgsl",
                 )),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
+                texture_layer: assets.add(Shader::from_wgsl(
+                    TEXTURE_LAYER_WGSL,
+                    "treelight/texture_layer.wgsl",
+                )),
             }
         };
         // The strong handles live in the main world so the shaders stay loaded.
@@ -203,6 +212,7 @@ impl Plugin for PathTracerPlugin {
         render_app.insert_resource(stats).insert_resource(shaders);
         extract::build(render_app);
         gpu_scene::build(render_app);
+        textures::build(render_app);
         node::build(render_app);
     }
 }

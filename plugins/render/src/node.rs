@@ -4,20 +4,22 @@
 
 use crate::gpu_scene::GpuScene;
 use crate::records::{VIEW_BYTES, ViewParams, resolve_bytes};
+use crate::textures::TextureLayers;
 use crate::{DebugView, PathTraced, PathTracerStats};
 use bevy::core_pipeline::core_3d::{main_opaque_pass_3d, main_transparent_pass_3d};
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer_sized,
+    sampler, storage_buffer_read_only_sized, storage_buffer_sized, texture_2d_array,
+    uniform_buffer_sized,
 };
 use bevy::render::render_resource::{
     BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, Buffer, BufferDescriptor,
     BufferUsages, CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
     ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, LoadOp, MultisampleState,
-    Operations, PipelineCache, RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages,
-    StoreOp, TextureFormat, VertexState,
+    Operations, PipelineCache, RenderPassDescriptor, RenderPipelineDescriptor, SamplerBindingType,
+    ShaderStages, StoreOp, TextureFormat, TextureSampleType, VertexState,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::sync_world::MainEntity;
@@ -31,6 +33,7 @@ use std::sync::Mutex;
 pub(crate) struct PathTracerShaders {
     pub trace: Handle<Shader>,
     pub resolve: Handle<Shader>,
+    pub texture_layer: Handle<Shader>,
 }
 
 pub(crate) fn build(render_app: &mut SubApp) {
@@ -78,6 +81,8 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 uniform_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
+                texture_2d_array(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
             ),
         ),
     );
@@ -213,6 +218,7 @@ fn path_trace(
     pipelines: Option<Res<PathTracerPipelines>>,
     pipeline_cache: Res<PipelineCache>,
     scene: Option<Res<GpuScene>>,
+    layers: Option<Res<TextureLayers>>,
     mut states: ResMut<ViewStates>,
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
@@ -220,7 +226,7 @@ fn path_trace(
 ) {
     let view_entity = view.entity();
     let (camera, extracted, target, settings, main_entity) = view.into_inner();
-    let (Some(pipelines), Some(scene)) = (pipelines, scene) else {
+    let (Some(pipelines), Some(scene), Some(layers)) = (pipelines, scene, layers) else {
         return;
     };
     let Some(trace_pipeline) = pipeline_cache.get_compute_pipeline(pipelines.trace) else {
@@ -299,6 +305,8 @@ fn path_trace(
                 b[5].as_entire_binding(),
                 state.view_uniform.as_entire_binding(),
                 state.accum.as_entire_binding(),
+                &layers.view,
+                &layers.sampler,
             )),
         );
         let mut pass = ctx

@@ -1,12 +1,12 @@
 //! The byte layouts of the path tracer's scene records, matching `shaders/pathtrace.wgsl`. Kept free of
 //! Bevy's render types so the GPU tests can feed the kernel the same bytes the plugin uploads.
 
-use bevy::math::{Mat3, Mat4, Vec2, Vec3};
+use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3};
 
 /// Bytes of one per-triangle shading record.
 pub const ATTRIBUTE_BYTES: u64 = 48;
 /// Bytes of one per-group record (normal matrix and material).
-pub const OBJECT_BYTES: u64 = 112;
+pub const OBJECT_BYTES: u64 = 128;
 /// Bytes of one light record.
 pub const LIGHT_BYTES: u64 = 32;
 /// Bytes of the path tracer's view uniform.
@@ -67,6 +67,50 @@ pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group
     out
 }
 
+/// How a texture coordinate outside 0..1 folds back, along one axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TextureWrap {
+    /// Hold the edge texel (Bevy's default sampler).
+    #[default]
+    Clamp,
+    /// Tile.
+    Repeat,
+    /// Tile, every other copy mirrored.
+    Mirror,
+}
+
+impl TextureWrap {
+    /// The shader's code for the mode (two bits).
+    pub fn code(self) -> u32 {
+        match self {
+            TextureWrap::Clamp => 0,
+            TextureWrap::Repeat => 1,
+            TextureWrap::Mirror => 2,
+        }
+    }
+
+    /// Folds `x` into 0..1 as the kernel does.
+    pub fn apply(self, x: f32) -> f32 {
+        match self {
+            TextureWrap::Clamp => x.clamp(0.0, 1.0),
+            TextureWrap::Repeat => x.rem_euclid(1.0),
+            TextureWrap::Mirror => {
+                let t = x.rem_euclid(2.0);
+                if t > 1.0 { 2.0 - t } else { t }
+            }
+        }
+    }
+}
+
+/// A base-colour texture as the kernel finds it: a layer of the texture array, and how to wrap.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LayerTexture {
+    /// Layer of the base-colour texture array.
+    pub layer: u32,
+    /// Wrap modes along u and v.
+    pub wrap: [TextureWrap; 2],
+}
+
 /// A surface as the path tracer shades it: Bevy's `StandardMaterial` reduced to what the kernel uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceMaterial {
@@ -80,6 +124,10 @@ pub struct SurfaceMaterial {
     pub perceptual_roughness: f32,
     /// Dielectric specular reflectance (0.5 is 4%).
     pub reflectance: f32,
+    /// Base-colour texture, multiplied with `base_color`; `None` untextured.
+    pub base_color_texture: Option<LayerTexture>,
+    /// Applied to the mesh's UVs before the texture is read (Bevy's `uv_transform`).
+    pub uv_transform: Affine2,
 }
 
 impl Default for SurfaceMaterial {
@@ -90,6 +138,8 @@ impl Default for SurfaceMaterial {
             metallic: 0.0,
             perceptual_roughness: 0.5,
             reflectance: 0.5,
+            base_color_texture: None,
+            uv_transform: Affine2::IDENTITY,
         }
     }
 }
@@ -112,7 +162,22 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
         &mut out,
         &[m.metallic, m.perceptual_roughness, m.reflectance, 0.0],
     );
-    push_f32s(&mut out, &[0.0; 4]);
+    let uv = m.uv_transform;
+    push_f32s(
+        &mut out,
+        &[
+            uv.matrix2.x_axis.x,
+            uv.matrix2.x_axis.y,
+            uv.matrix2.y_axis.x,
+            uv.matrix2.y_axis.y,
+            uv.translation.x,
+            uv.translation.y,
+        ],
+    );
+    let (layer, wrap) = m.base_color_texture.map_or((u32::MAX, 0), |t| {
+        (t.layer, t.wrap[0].code() | (t.wrap[1].code() << 2))
+    });
+    push_u32s(&mut out, &[layer, wrap]);
     out
 }
 

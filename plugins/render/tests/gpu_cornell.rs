@@ -15,8 +15,8 @@ use support::{Gpu, floats, skip, tree_bytes};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    PATHTRACE_WGSL, SceneLight, SurfaceMaterial, ViewParams, attribute_bytes, light_bytes,
-    object_bytes,
+    OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, ViewParams, attribute_bytes,
+    light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -174,15 +174,16 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
     let bvh = &scene.bvh;
     let [n, t, i] = tree_bytes(bvh);
     let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * 48];
-    let mut objects = vec![0u8; bvh.group_slots() as usize * 112];
+    let object = OBJECT_BYTES as usize;
+    let mut objects = vec![0u8; bvh.group_slots() as usize * object];
     for (&g, m) in &scene.materials {
         for &id in bvh.group_triangles(g).unwrap() {
             let rec = attribute_bytes(None, None, g.index());
             attrs[id as usize * 48..id as usize * 48 + 48].copy_from_slice(&rec);
         }
         let rec = object_bytes(Mat3::from(bvh.group_transform(g).unwrap().matrix3), m);
-        let at = g.index() as usize * 112;
-        objects[at..at + 112].copy_from_slice(&rec);
+        let at = g.index() as usize * object;
+        objects[at..at + object].copy_from_slice(&rec);
     }
     let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
     let buffers = [
@@ -195,6 +196,8 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
     ];
     let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    // Untextured: an empty one-layer array fills the binding.
+    let layers = gpu.layers(4, 1);
     for k in 0..SAMPLES / PER_DISPATCH {
         let params = ViewParams {
             world_from_clip: world_from_clip(),
@@ -211,12 +214,15 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
             indirect_clamp: 0.0,
         };
         let uniform = gpu.uniform(&params.to_bytes());
-        let b = &buffers;
-        gpu.dispatch(
-            &pipeline,
-            &[&b[0], &b[1], &b[2], &b[3], &b[4], &b[5], &uniform, &accum],
-            (SIZE.div_ceil(8), SIZE.div_ceil(8)),
-        );
+        let mut resources: Vec<wgpu::BindingResource> =
+            buffers.iter().map(|b| b.as_entire_binding()).collect();
+        resources.extend([
+            uniform.as_entire_binding(),
+            accum.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&layers.view),
+            wgpu::BindingResource::Sampler(&layers.sampler),
+        ]);
+        gpu.dispatch_with(&pipeline, resources, (SIZE.div_ceil(8), SIZE.div_ceil(8)));
     }
     floats(&gpu.read(&accum))
         .chunks_exact(4)

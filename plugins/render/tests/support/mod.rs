@@ -5,7 +5,9 @@
 
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
-use treelight_render::{PRIMARY_HITS_WGSL, instance_bytes, node_bytes, triangle_bytes};
+use treelight_render::{
+    PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, instance_bytes, node_bytes, triangle_bytes,
+};
 use wgpu::util::DeviceExt;
 
 /// Whether GPU tests are switched off for this run.
@@ -103,12 +105,24 @@ impl Gpu {
         buffers: &[&wgpu::Buffer],
         groups: (u32, u32),
     ) {
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
+        let resources: Vec<wgpu::BindingResource> =
+            buffers.iter().map(|b| b.as_entire_binding()).collect();
+        self.dispatch_with(pipeline, resources, groups);
+    }
+
+    /// Dispatches with any resources (buffers, textures, samplers) bound in order to group 0.
+    pub fn dispatch_with(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        resources: Vec<wgpu::BindingResource>,
+        groups: (u32, u32),
+    ) {
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .into_iter()
             .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
+            .map(|(i, resource)| wgpu::BindGroupEntry {
                 binding: i as u32,
-                resource: b.as_entire_binding(),
+                resource,
             })
             .collect();
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -153,6 +167,162 @@ impl Gpu {
             .map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
         self.wait();
         readback.slice(..).get_mapped_range().to_vec()
+    }
+}
+
+/// The path tracer's base-colour texture array, as the plugin makes it (RGBA8, sRGB-encoded colour).
+pub struct Layers {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+    pub sampler: wgpu::Sampler,
+    pub size: u32,
+}
+
+impl Gpu {
+    /// A `count`-layer array of `size`² texels, bilinear and clamped like the plugin's.
+    pub fn layers(&self, size: u32, count: u32) -> Layers {
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("layers"),
+            size: wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: count,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let sampler = self.device.create_sampler(&wgpu::SamplerDescriptor {
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Layers {
+            texture,
+            view,
+            sampler,
+            size,
+        }
+    }
+
+    /// Runs the plugin's `copy_to_layer` kernel from an sRGB RGBA8 image into `layer`.
+    pub fn copy_to_layer(
+        &self,
+        layers: &Layers,
+        layer: u32,
+        width: u32,
+        height: u32,
+        rgba8: &[u8],
+    ) {
+        let source = self.device.create_texture_with_data(
+            &self.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("source"),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            rgba8,
+        );
+        let source_view = source.create_view(&Default::default());
+        let target = layers.texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            base_array_layer: layer,
+            array_layer_count: Some(1),
+            ..Default::default()
+        });
+        let pipeline = self.pipeline(TEXTURE_LAYER_WGSL, "copy_to_layer");
+        self.dispatch_with(
+            &pipeline,
+            vec![
+                wgpu::BindingResource::TextureView(&source_view),
+                wgpu::BindingResource::TextureView(&target),
+            ],
+            (layers.size.div_ceil(8), layers.size.div_ceil(8)),
+        );
+    }
+
+    /// One layer's texels, RGBA8, rows top to bottom.
+    pub fn read_layer(&self, layers: &Layers, layer: u32) -> Vec<u8> {
+        let row = (layers.size * 4).next_multiple_of(256);
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("layer readback"),
+            size: (row * layers.size) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &layers.texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: layer,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(layers.size),
+                },
+            },
+            wgpu::Extent3d {
+                width: layers.size,
+                height: layers.size,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+        buffer
+            .slice(..)
+            .map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
+        self.wait();
+        let data = buffer.slice(..).get_mapped_range().to_vec();
+        data.chunks_exact(row as usize)
+            .flat_map(|r| r[..(layers.size * 4) as usize].to_vec())
+            .collect()
+    }
+}
+
+/// sRGB transfer function, decoding.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer function, encoding.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.0031308 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
     }
 }
 

@@ -1,0 +1,187 @@
+//! Base-colour textures of glTF materials: images decoded once each to RGBA8, with the sampler's
+//! wrap modes. A texture that cannot be used becomes a warning and its material is drawn without it,
+//! so one bad PNG does not cost the user the whole assembly.
+
+use crate::ImportError;
+use crate::gltf_scene::read_uri;
+use gltf::texture::WrappingMode;
+use std::collections::HashMap;
+use std::io::Cursor;
+use std::path::Path;
+
+/// Largest accepted image side, in pixels: a hostile header cannot ask for gigabytes.
+pub const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// How texture coordinates outside 0..1 fold back into the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum WrapMode {
+    /// Tile (glTF's default).
+    #[default]
+    Repeat,
+    /// Hold the edge texel.
+    ClampToEdge,
+    /// Tile, every other copy mirrored.
+    MirroredRepeat,
+}
+
+/// A decoded image: `width × height` RGBA8 pixels, rows top to bottom, colour sRGB-encoded as stored.
+#[derive(Clone, PartialEq)]
+pub struct ImportedTexture {
+    /// The image's name or URI, for messages and editor labels.
+    pub name: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height * 4` bytes.
+    pub rgba8: Vec<u8>,
+}
+
+impl std::fmt::Debug for ImportedTexture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Millions of pixel bytes would drown any assertion message.
+        write!(
+            f,
+            "ImportedTexture({:?}, {}×{})",
+            self.name, self.width, self.height
+        )
+    }
+}
+
+/// A material's use of a texture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`crate::ImportedScene::textures`].
+    pub texture: usize,
+    /// Wrap modes along u and v.
+    pub wrap: [WrapMode; 2],
+}
+
+/// Images decoded so far, by glTF image index (`None`: it failed and was reported).
+#[derive(Default)]
+pub(crate) struct ImageCache {
+    decoded: HashMap<usize, Option<usize>>,
+}
+
+impl ImageCache {
+    /// The texture reference for a material's base-colour slot, decoding its image on first use.
+    pub fn base_color(
+        &mut self,
+        path: &Path,
+        buffers: &[Vec<u8>],
+        info: &gltf::texture::Info,
+        textures: &mut Vec<ImportedTexture>,
+        warnings: &mut Vec<String>,
+    ) -> Option<TextureRef> {
+        let texture = info.texture();
+        let image = texture.source();
+        let name = image
+            .name()
+            .map(str::to_owned)
+            .or_else(|| match image.source() {
+                gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                    Some(uri.to_owned())
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| format!("image {}", image.index()));
+        if info.tex_coord() != 0 {
+            warnings.push(format!(
+                "texture '{name}' uses texture coordinate set {}, only set 0 is read; its material \
+                 is drawn without it",
+                info.tex_coord()
+            ));
+            return None;
+        }
+        let slot = self.decoded.entry(image.index()).or_insert_with(|| {
+            match decode(path, buffers, &image, &name) {
+                Ok(t) => {
+                    textures.push(t);
+                    Some(textures.len() - 1)
+                }
+                Err(e) => {
+                    warnings.push(format!(
+                        "texture '{name}': {}; its materials are drawn without it",
+                        e.problem
+                    ));
+                    None
+                }
+            }
+        });
+        let index = (*slot)?;
+        let sampler = texture.sampler();
+        Some(TextureRef {
+            texture: index,
+            wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+        })
+    }
+}
+
+fn wrap(mode: WrappingMode) -> WrapMode {
+    match mode {
+        WrappingMode::Repeat => WrapMode::Repeat,
+        WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+        WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+    }
+}
+
+/// The image's bytes (a buffer view, a data URI or a file beside the opened one), decoded.
+fn decode(
+    path: &Path,
+    buffers: &[Vec<u8>],
+    image: &gltf::Image,
+    name: &str,
+) -> Result<ImportedTexture, ImportError> {
+    let bytes: Vec<u8> = match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let start = view.offset();
+            let end = start.checked_add(view.length());
+            buffers
+                .get(view.buffer().index())
+                .and_then(|b| b.get(start..end?))
+                .ok_or_else(|| ImportError::new(path, "its buffer view reads past the buffer"))?
+                .to_vec()
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            let dir = path.parent().unwrap_or(Path::new("."));
+            read_uri(path, dir, uri, "image")?
+        }
+    };
+    decode_bytes(path, &bytes, name)
+}
+
+/// Decodes PNG or JPEG bytes under size limits.
+pub(crate) fn decode_bytes(
+    path: &Path,
+    bytes: &[u8],
+    name: &str,
+) -> Result<ImportedTexture, ImportError> {
+    let mut reader = image::ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))?;
+    if reader.format().is_none() {
+        return Err(ImportError::new(
+            path,
+            "not a PNG or JPEG image (KTX2 and other formats are not supported)",
+        ));
+    }
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    limits.max_alloc = Some(4 * MAX_TEXTURE_SIDE as u64 * MAX_TEXTURE_SIDE as u64);
+    reader.limits(limits);
+    let decoded = reader
+        .decode()
+        .map_err(|e| ImportError::new(path, format!("cannot decode: {e}")))?;
+    let rgba = decoded.to_rgba8();
+    let (width, height) = rgba.dimensions();
+    if width == 0 || height == 0 {
+        return Err(ImportError::new(path, "the image is empty"));
+    }
+    Ok(ImportedTexture {
+        name: name.to_owned(),
+        width,
+        height,
+        rgba8: rgba.into_raw(),
+    })
+}

@@ -1,0 +1,288 @@
+//! Base-colour textures on the adapter: the plugin's layer-copy kernel against a CPU resampling of
+//! the same image, and the path tracer's albedo view of a textured quad (UV transform, mirrored and
+//! clamped wrap, a layer other than 0) against colours worked out on the CPU from the ray, the quad's
+//! UVs and the texture.
+
+mod support;
+
+use support::{Gpu, floats, linear_to_srgb, skip, srgb_to_linear};
+use treelight_bvh::glam::{Affine2, Affine3A, Mat3, Mat4, Vec2, Vec3};
+use treelight_bvh::{Bvh, Triangle};
+use treelight_render::{
+    ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SurfaceMaterial,
+    TextureWrap, ViewParams, attribute_bytes, object_bytes,
+};
+
+/// A tiny deterministic generator (an LCG's high bits).
+struct Rng(u64);
+
+impl Rng {
+    fn byte(&mut self) -> u8 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 56) as u8
+    }
+}
+
+fn random_image(rng: &mut Rng, w: u32, h: u32) -> Vec<u8> {
+    (0..w * h * 4).map(|_| rng.byte()).collect()
+}
+
+/// Linear RGBA of texel (x, y), edges clamped.
+fn linear_texel(img: &[u8], w: u32, h: u32, x: i32, y: i32) -> [f32; 4] {
+    let x = x.clamp(0, w as i32 - 1) as u32;
+    let y = y.clamp(0, h as i32 - 1) as u32;
+    let p = &img[((y * w + x) * 4) as usize..][..4];
+    let c = |v: u8| srgb_to_linear(v as f32 / 255.0);
+    [c(p[0]), c(p[1]), c(p[2]), p[3] as f32 / 255.0]
+}
+
+fn encode(c: [f32; 4]) -> [u8; 4] {
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    [
+        q(linear_to_srgb(c[0])),
+        q(linear_to_srgb(c[1])),
+        q(linear_to_srgb(c[2])),
+        q(c[3]),
+    ]
+}
+
+fn assert_close(got: &[u8], want: &[[u8; 4]], what: &str) {
+    let worst = got
+        .chunks_exact(4)
+        .zip(want)
+        .flat_map(|(g, w)| (0..4).map(move |k| (g[k] as i32 - w[k] as i32).abs()))
+        .max()
+        .unwrap();
+    assert!(worst <= 2, "{what}: a channel differs by {worst} levels");
+}
+
+#[test]
+fn copy_kernel_resamples_images_into_layers() {
+    if skip() {
+        return;
+    }
+    let gpu = Gpu::new();
+    let layers = gpu.layers(8, 2);
+    let mut rng = Rng(7);
+    // Shrinking 32 → 8: each layer texel is the mean of a 4×4 block, in linear colour.
+    let big = random_image(&mut rng, 32, 32);
+    gpu.copy_to_layer(&layers, 1, 32, 32, &big);
+    // Growing 4 → 8: bilinear between texel centres, edges clamped.
+    let small = random_image(&mut rng, 4, 4);
+    gpu.copy_to_layer(&layers, 0, 4, 4, &small);
+
+    let mut shrunk = Vec::new();
+    let mut grown = Vec::new();
+    for y in 0..8 {
+        for x in 0..8 {
+            let mut sum = [0.0f32; 4];
+            for j in 0..4 {
+                for i in 0..4 {
+                    let t = linear_texel(&big, 32, 32, x * 4 + i, y * 4 + j);
+                    (0..4).for_each(|k| sum[k] += t[k] / 16.0);
+                }
+            }
+            shrunk.push(encode(sum));
+            let p = Vec2::new((x as f32 + 0.5) / 2.0 - 0.5, (y as f32 + 0.5) / 2.0 - 0.5);
+            let (i, f) = (p.floor(), p - p.floor());
+            let at =
+                |dx: i32, dy: i32| linear_texel(&small, 4, 4, i.x as i32 + dx, i.y as i32 + dy);
+            let mut c = [0.0f32; 4];
+            for k in 0..4 {
+                let a = at(0, 0)[k] * (1.0 - f.x) + at(1, 0)[k] * f.x;
+                let b = at(0, 1)[k] * (1.0 - f.x) + at(1, 1)[k] * f.x;
+                c[k] = a * (1.0 - f.y) + b * f.y;
+            }
+            grown.push(encode(c));
+        }
+    }
+    assert_close(&gpu.read_layer(&layers, 1), &shrunk, "32→8 box filter");
+    assert_close(&gpu.read_layer(&layers, 0), &grown, "4→8 bilinear");
+}
+
+const SIZE: u32 = 192;
+const LAYER: u32 = 8;
+const BASE: [f32; 4] = [0.9, 0.8, 1.0, 1.0];
+
+/// The quad's texture coordinates, an affine function of its plane position (v grows downwards).
+fn quad_uv(p: Vec2) -> Vec2 {
+    Vec2::new(p.x + 0.5, 0.5 - p.y)
+}
+
+fn world_from_clip() -> Mat4 {
+    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 2.6), Vec3::ZERO, Vec3::Y);
+    let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, 0.1);
+    (proj * view).inverse()
+}
+
+/// Colours of the 4×4 blocks of 2×2 texels the texture is made of.
+fn block_colour(bx: u32, by: u32) -> [u8; 4] {
+    [
+        (bx * 60 + 20) as u8,
+        (by * 60 + 30) as u8,
+        ((bx + by) * 25 + 40) as u8,
+        255,
+    ]
+}
+
+#[test]
+fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
+    if skip() {
+        return;
+    }
+    let gpu = Gpu::new();
+    // The quad's texture in layer 1 (8×8, copied 1:1); layer 0 holds something else.
+    let layers = gpu.layers(LAYER, 2);
+    let image: Vec<u8> = (0..LAYER * LAYER)
+        .flat_map(|i| block_colour((i % LAYER) / 2, (i / LAYER) / 2))
+        .collect();
+    gpu.copy_to_layer(&layers, 1, LAYER, LAYER, &image);
+    gpu.copy_to_layer(&layers, 0, 1, 1, &[200, 0, 0, 255]);
+
+    let corners = [
+        Vec2::new(-1.0, -1.0),
+        Vec2::new(1.0, -1.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(-1.0, 1.0),
+    ];
+    let at = |k: usize| corners[k].extend(0.0);
+    let faces = [[0, 1, 2], [0, 2, 3]];
+    let tris: Vec<Triangle> = faces
+        .iter()
+        .map(|f| Triangle::new(at(f[0]), at(f[1]), at(f[2])))
+        .collect();
+    let mut bvh = Bvh::default();
+    let g = bvh.insert_group(&tris, Affine3A::IDENTITY, false).unwrap();
+    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
+    for (k, &id) in bvh.group_triangles(g).unwrap().iter().enumerate() {
+        let uvs = faces[k].map(|c| quad_uv(corners[c]));
+        let at = id as usize * ATTRIBUTE_BYTES as usize;
+        attrs[at..at + ATTRIBUTE_BYTES as usize].copy_from_slice(&attribute_bytes(
+            None,
+            Some(uvs),
+            g.index(),
+        ));
+    }
+    let uv_transform = Affine2::from_mat2_translation(
+        treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
+        Vec2::new(-0.3, 0.1),
+    );
+    let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
+    let material = SurfaceMaterial {
+        base_color: BASE,
+        base_color_texture: Some(LayerTexture { layer: 1, wrap }),
+        uv_transform,
+        ..Default::default()
+    };
+    let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
+    let at = g.index() as usize * OBJECT_BYTES as usize;
+    objects[at..at + OBJECT_BYTES as usize]
+        .copy_from_slice(&object_bytes(Mat3::IDENTITY, &material));
+
+    let [n, t, i] = support::tree_bytes(&bvh);
+    let buffers = [
+        gpu.storage("nodes", &n),
+        gpu.storage("triangles", &t),
+        gpu.storage("instances", &i),
+        gpu.storage("attributes", &attrs),
+        gpu.storage("objects", &objects),
+        gpu.storage("lights", &[]),
+    ];
+    const SAMPLES: u32 = 8;
+    let params = ViewParams {
+        world_from_clip: world_from_clip(),
+        sky: Vec3::ZERO,
+        exposure: 1.0,
+        width: SIZE,
+        height: SIZE,
+        frame: 0,
+        root: bvh.gpu_root(),
+        max_bounces: 1,
+        samples: SAMPLES,
+        mode: DebugView::Albedo.shader_index(),
+        light_count: 0,
+        indirect_clamp: 0.0,
+    };
+    let uniform = gpu.uniform(&params.to_bytes());
+    let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
+    let mut resources: Vec<wgpu::BindingResource> =
+        buffers.iter().map(|b| b.as_entire_binding()).collect();
+    resources.extend([
+        uniform.as_entire_binding(),
+        accum.as_entire_binding(),
+        wgpu::BindingResource::TextureView(&layers.view),
+        wgpu::BindingResource::Sampler(&layers.sampler),
+    ]);
+    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    gpu.dispatch_with(&pipeline, resources, (SIZE / 8, SIZE / 8));
+    let image = floats(&gpu.read(&accum));
+
+    // Expected albedo per pixel, where a pixel's jittered samples all fall inside one block's flat
+    // middle (bilinear taps there see only that block's colour).
+    let wfc = world_from_clip();
+    let (mut checked, mut mirrored, mut clamped, mut worst) = (0, 0, 0, 0.0f32);
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let ndc = Vec2::new(
+                (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0,
+            );
+            let near = wfc.project_point3(ndc.extend(1.0));
+            let far = wfc.project_point3(ndc.extend(0.5));
+            let d = far - near;
+            let hit = near + d * (-near.z / d.z);
+            if hit.x.abs() > 0.95 || hit.y.abs() > 0.95 {
+                continue;
+            }
+            let t = uv_transform.transform_point2(quad_uv(hit.truncate()));
+            let st = Vec2::new(wrap[0].apply(t.x), wrap[1].apply(t.y));
+            let p = st * LAYER as f32;
+            let last = LAYER as f32 / 2.0 - 1.0;
+            let block = (p / 2.0).floor().min(Vec2::splat(last));
+            // A block's colour is exact between its texel centres, and (the sampler clamping to the
+            // edge) all the way to the border for the first and last blocks.
+            let flat = |b: f32| {
+                let lo = if b == 0.0 {
+                    f32::NEG_INFINITY
+                } else {
+                    2.0 * b + 0.5
+                };
+                let hi = if b == last {
+                    f32::INFINITY
+                } else {
+                    2.0 * b + 1.5
+                };
+                (lo, hi)
+            };
+            // A pixel spans about 0.15 texels here; jitter reaches half of that either way, and the
+            // UV transform's shear widens it a little.
+            let margin = 0.12;
+            let ok = |p: f32, b: f32| {
+                let (lo, hi) = flat(b);
+                p - margin >= lo && p + margin <= hi
+            };
+            if !ok(p.x, block.x) || !ok(p.y, block.y) {
+                continue;
+            }
+            let c = block_colour(block.x as u32, block.y as u32);
+            let px = &image[((y * SIZE + x) * 4) as usize..][..3];
+            for k in 0..3 {
+                let want = BASE[k] * srgb_to_linear(c[k] as f32 / 255.0);
+                worst = worst.max((px[k] / SAMPLES as f32 - want).abs());
+            }
+            checked += 1;
+            mirrored += (t.x > 1.0 || t.x < 0.0) as u32;
+            clamped += (t.y > 1.0 || t.y < 0.0) as u32;
+        }
+    }
+    eprintln!("{checked} pixels checked ({mirrored} mirrored, {clamped} clamped), worst {worst}");
+    assert!(checked > 4000, "only {checked} pixels could be checked");
+    assert!(
+        mirrored > 500 && clamped > 500,
+        "{mirrored} mirrored, {clamped} clamped"
+    );
+    assert!(worst < 0.01, "albedo differs by {worst}");
+}
