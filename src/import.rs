@@ -6,12 +6,18 @@ use crate::camera::OrbitCamera;
 use crate::notice::Notices;
 use crate::selection::SceneObject;
 use bevy::asset::RenderAssetUsages;
+use bevy::ecs::system::SystemParam;
+use bevy::image::{ImageAddressMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
+use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, poll_once};
 use bevy::window::FileDragAndDrop;
+use std::collections::HashMap;
 use std::path::PathBuf;
-use treelight_import::{ImportError, ImportedMaterial, ImportedMesh, ImportedScene};
+use treelight_import::{
+    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, ImportedTexture, WrapMode,
+};
 
 /// Files being parsed.
 #[derive(Resource, Default)]
@@ -47,8 +53,7 @@ pub fn finish_imports(
     mut commands: Commands,
     mut pending: ResMut<PendingImports>,
     mut notices: ResMut<Notices>,
-    mut meshes: ResMut<Assets<Mesh>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut assets: SceneAssets,
     mut orbit: Query<&mut OrbitCamera>,
     lights: Query<(), AnyLight>,
 ) {
@@ -65,7 +70,7 @@ pub fn finish_imports(
                 for w in &scene.warnings {
                     notices.warn(format!("{}: {w}", path.display()));
                 }
-                let bounds = spawn_scene(&mut commands, &scene, &mut meshes, &mut materials);
+                let bounds = spawn_scene(&mut commands, &scene, &mut assets);
                 if lights.is_empty() {
                     commands.spawn((
                         Name::new("Sun"),
@@ -92,19 +97,42 @@ pub fn finish_imports(
     }
 }
 
+/// The asset stores an imported scene is added to.
+#[derive(SystemParam)]
+pub struct SceneAssets<'w> {
+    /// Meshes.
+    pub meshes: ResMut<'w, Assets<Mesh>>,
+    /// Materials.
+    pub materials: ResMut<'w, Assets<StandardMaterial>>,
+    /// Textures.
+    pub images: ResMut<'w, Assets<Image>>,
+}
+
 /// Spawns one entity per mesh; returns the scene's world bounds.
 pub fn spawn_scene(
     commands: &mut Commands,
     scene: &ImportedScene,
-    meshes: &mut Assets<Mesh>,
-    materials: &mut Assets<StandardMaterial>,
+    assets: &mut SceneAssets,
 ) -> Option<(Vec3, Vec3)> {
+    // One image per texture and sampler, shared by the materials that use it.
+    let mut textures: HashMap<(usize, [WrapMode; 2]), Handle<Image>> = HashMap::new();
     let handles: Vec<Handle<StandardMaterial>> = scene
         .materials
         .iter()
-        .map(|m| materials.add(material(m)))
+        .map(|m| {
+            let mut mat = material(m);
+            if let Some(r) = m.base_color_texture
+                && let Some(t) = scene.textures.get(r.texture)
+            {
+                let image = textures
+                    .entry((r.texture, r.wrap))
+                    .or_insert_with(|| assets.images.add(to_bevy_image(t, r.wrap)));
+                mat.base_color_texture = Some(image.clone());
+            }
+            assets.materials.add(mat)
+        })
         .collect();
-    let fallback = materials.add(material(&ImportedMaterial::default()));
+    let fallback = assets.materials.add(material(&ImportedMaterial::default()));
     let mut bounds: Option<(Vec3, Vec3)> = None;
     for m in &scene.meshes {
         for tri in m.world_triangles() {
@@ -120,7 +148,7 @@ pub fn spawn_scene(
         commands.spawn((
             Name::new(m.name.clone()),
             SceneObject,
-            Mesh3d(meshes.add(to_bevy_mesh(m))),
+            Mesh3d(assets.meshes.add(to_bevy_mesh(m))),
             MeshMaterial3d(mat),
             Transform::from_matrix(m.transform),
         ));
@@ -144,6 +172,33 @@ pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
         None => mesh.compute_smooth_normals(),
     }
     mesh
+}
+
+/// A GPU-only Bevy image from a decoded texture (sRGB colour, the file's wrap modes, bilinear).
+pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2]) -> Image {
+    let address = |w: WrapMode| match w {
+        WrapMode::Repeat => ImageAddressMode::Repeat,
+        WrapMode::ClampToEdge => ImageAddressMode::ClampToEdge,
+        WrapMode::MirroredRepeat => ImageAddressMode::MirrorRepeat,
+    };
+    let mut image = Image::new(
+        Extent3d {
+            width: t.width,
+            height: t.height,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        t.rgba8.clone(),
+        TextureFormat::Rgba8UnormSrgb,
+        // The pixels are only needed on the GPU (the path tracer resamples from there too).
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        address_mode_u: address(wrap[0]),
+        address_mode_v: address(wrap[1]),
+        ..ImageSamplerDescriptor::linear()
+    });
+    image
 }
 
 fn material(m: &ImportedMaterial) -> StandardMaterial {

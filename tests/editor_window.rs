@@ -68,6 +68,69 @@ fn opening_a_file_spawns_its_meshes() {
 }
 
 #[test]
+fn imported_textures_reach_the_traced_viewport() {
+    if skip_gpu_tests("imported_textures_reach_the_traced_viewport") {
+        return;
+    }
+    // The textured box, and the same file with its image gone: that one must load with a warning and
+    // show the box flat, which is what the textured run is compared with.
+    let source = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/BoxTextured-glTF");
+    let dir = temp_dir("textures");
+    for f in ["BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"] {
+        std::fs::copy(source.join(f), dir.join(f)).unwrap();
+    }
+    let gltf = std::fs::read_to_string(dir.join("BoxTextured.gltf")).unwrap();
+    std::fs::write(
+        dir.join("Untextured.gltf"),
+        gltf.replace("CesiumLogoFlat.png", "Missing.png"),
+    )
+    .unwrap();
+    let mut counts = Vec::new();
+    for name in ["BoxTextured", "Untextured"] {
+        let file = dir.join(format!("{name}.gltf"));
+        let shot = dir.join(format!("{name}.png"));
+        let out = run_editor(&[
+            file.to_str().unwrap(),
+            "--view",
+            "albedo",
+            "--frames",
+            "40",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ]);
+        if name == "Untextured" {
+            assert!(
+                out.contains("Missing.png") && out.contains("drawn without it"),
+                "{out}"
+            );
+        }
+        let img = load_rgb(&shot);
+        // The logo is a blue sky over green hills on grey; the box's material alone is grey.
+        let (mut blue, mut green) = (0, 0);
+        for y in 70..740 {
+            for x in 300..1000 {
+                let [r, g, b] = img.get_pixel(x, y).0.map(i32::from);
+                blue += (b > r + 30 && b > g + 10) as u32;
+                green += (g > r + 20 && g > b + 20) as u32;
+            }
+        }
+        counts.push((blue, green));
+    }
+    eprintln!(
+        "(blue, green) pixels: textured {:?}, untextured {:?}",
+        counts[0], counts[1]
+    );
+    assert_eq!(counts[1], (0, 0), "the untextured box is not grey");
+    assert!(
+        counts[0].0 > 10_000 && counts[0].1 > 10_000,
+        "the textured box lacks the logo's colours: {:?}",
+        counts[0]
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn a_broken_file_is_reported_not_fatal() {
     if skip_gpu_tests("a_broken_file_is_reported_not_fatal") {
         return;

@@ -90,12 +90,11 @@ fn copy_kernel_resamples_images_into_layers() {
             let (i, f) = (p.floor(), p - p.floor());
             let at =
                 |dx: i32, dy: i32| linear_texel(&small, 4, 4, i.x as i32 + dx, i.y as i32 + dy);
-            let mut c = [0.0f32; 4];
-            for k in 0..4 {
+            let c = std::array::from_fn(|k| {
                 let a = at(0, 0)[k] * (1.0 - f.x) + at(1, 0)[k] * f.x;
                 let b = at(0, 1)[k] * (1.0 - f.x) + at(1, 1)[k] * f.x;
-                c[k] = a * (1.0 - f.y) + b * f.y;
-            }
+                a * (1.0 - f.y) + b * f.y
+            });
             grown.push(encode(c));
         }
     }
