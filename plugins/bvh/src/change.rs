@@ -136,6 +136,15 @@ pub struct ChangeSet {
 }
 
 impl ChangeSet {
+    /// Whether what a ray hits may have changed: triangles written or removed, or instances changed.
+    /// A change set without any is a pure restructuring (global updates, re-insertions), after which
+    /// every ray still finds the same closest hit.
+    pub fn geometry_changed(&self) -> bool {
+        !self.written_triangles.is_empty()
+            || !self.removed_triangles.is_empty()
+            || !self.instances.is_empty()
+    }
+
     /// Number of inner node records to rewrite.
     pub fn inner_count(&self) -> u32 {
         self.inner_ranges.iter().map(|r| r.end - r.start).sum()

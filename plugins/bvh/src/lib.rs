@@ -50,4 +50,4 @@ pub use ray::{Hit, Ray, RayData};
 pub use search::SearchScratch;
 pub use traverse::TraversalStats;
 pub use triangle::{MAX_COORDINATE, Triangle, validate_triangles};
-pub use update::{PostPass, PostPassReport};
+pub use update::{OptimizeCursor, PostPass, PostPassReport};

@@ -184,6 +184,78 @@ impl Bvh {
     }
 }
 
+/// Where [`Bvh::optimize_step`] goes on: a sweep position over the inner-node slots, and scratch
+/// space, so global updates can be spread over many short calls between edits.
+#[derive(Clone, Debug, Default)]
+pub struct OptimizeCursor {
+    next: u32,
+    sweep: u32,
+    candidates: Vec<(f32, u32)>,
+}
+
+impl OptimizeCursor {
+    /// Complete sweeps over the inner-node slots so far.
+    pub fn sweeps(&self) -> u32 {
+        self.sweep
+    }
+}
+
+impl Bvh {
+    /// A bounded slice of the post-pass: scans the next `scan` inner-node slots after the cursor and
+    /// moves the `fraction` most inefficient live nodes among them (children re-insertion on even
+    /// sweeps, subtree re-insertion on odd ones), keeping only moves that lower the cost. Its time is
+    /// O(scan + moves · search), whatever the tree's size, so a caller holding a lock can release it
+    /// between steps. Returns the number of moves tried.
+    pub fn optimize_step(&mut self, cursor: &mut OptimizeCursor, scan: u32, fraction: f32) -> u32 {
+        let slots = self.inner.len() as u32;
+        if slots == 0 || self.root.kind() != NodeKind::Inner {
+            return 0;
+        }
+        let start = cursor.next.min(slots);
+        let end = start.saturating_add(scan.max(1)).min(slots);
+        let candidates = &mut cursor.candidates;
+        candidates.clear();
+        for i in start..end {
+            let p = self.inner[i as usize].parent;
+            // Free slots and the root are skipped here; nodes inside kept-whole groups below.
+            if p != NONE && p != crate::node::FREE {
+                candidates.push((self.inefficiency(i), i));
+            }
+        }
+        let children = cursor.sweep.is_multiple_of(2);
+        if end == slots {
+            cursor.next = 0;
+            cursor.sweep += 1;
+        } else {
+            cursor.next = end;
+        }
+        let k = ((fraction.clamp(0.0, 1.0) * candidates.len() as f32).ceil() as usize)
+            .min(candidates.len());
+        if k == 0 {
+            return 0;
+        }
+        if k < candidates.len() {
+            candidates.select_nth_unstable_by(k - 1, |a, b| b.0.total_cmp(&a.0));
+        }
+        let saved = std::mem::replace(&mut self.config.keep_only_improving, true);
+        let recording = std::mem::replace(&mut self.recording, false);
+        let mut moves = 0;
+        for &(_, i) in &cursor.candidates[..k] {
+            if self.updatable(i) {
+                if children {
+                    self.reinsert_children(i);
+                } else {
+                    self.reinsert_subtree(i);
+                }
+                moves += 1;
+            }
+        }
+        self.recording = recording;
+        self.config.keep_only_improving = saved;
+        moves
+    }
+}
+
 /// Settings of the post-pass.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PostPass {

@@ -53,6 +53,10 @@ enum Op {
         count: usize,
     },
     Optimize,
+    OptimizeStep {
+        scan: u32,
+        fraction: f32,
+    },
 }
 
 fn op() -> impl Strategy<Value = Op> {
@@ -89,6 +93,7 @@ fn op() -> impl Strategy<Value = Op> {
         (any::<u64>(), 1..40usize).prop_map(|(seed, count)| Op::RemoveTriangles { seed, count }),
         (any::<u64>(), 1..20usize).prop_map(|(seed, count)| Op::MoveTriangles { seed, count }),
         Just(Op::Optimize),
+        (1..200u32, 0.0..1.0f32).prop_map(|(scan, fraction)| Op::OptimizeStep { scan, fraction }),
     ]
 }
 
@@ -166,6 +171,9 @@ impl Mirror {
 fn run(ops: &[Op], config: BvhConfig) {
     let mut bvh = Bvh::new(config);
     let mut groups: Vec<(GroupId, usize)> = Vec::new();
+    // One cursor across the whole sequence: steps resume where the last one stopped, over a tree
+    // edited in between.
+    let mut cursor = treelight_bvh::OptimizeCursor::default();
     let mut mirror = Mirror::default();
     let check_rays = rays(60, 99, 12.0);
     for (step, op) in ops.iter().enumerate() {
@@ -251,6 +259,15 @@ fn run(ops: &[Op], config: BvhConfig) {
                     bvh.set_triangles(&updates).unwrap();
                 }
             }
+            Op::OptimizeStep { scan, fraction } => {
+                let before = bvh.sah_cost();
+                bvh.optimize_step(&mut cursor, scan, fraction);
+                let after = bvh.sah_cost();
+                assert!(
+                    after <= before * (1.0 + 1e-4),
+                    "a step kept a worsening move: {before} -> {after}"
+                );
+            }
             Op::Optimize => {
                 bvh.optimize(treelight_bvh::PostPass {
                     max_rounds: 2,
@@ -262,6 +279,11 @@ fn run(ops: &[Op], config: BvhConfig) {
         }
         bvh.validate()
             .unwrap_or_else(|e| panic!("after step {step} {op:?}: {e}"));
+        let (fast, traversed) = (bvh.sah_cost(), bvh.sah_cost_traversed(1.0, 1.0));
+        assert!(
+            (fast - traversed).abs() <= 1e-4 * traversed.abs().max(1.0),
+            "after step {step}: cost {fast} by the arrays, {traversed} by traversal"
+        );
         mirror.apply(&mut bvh);
         mirror.check(&bvh);
     }
@@ -292,6 +314,29 @@ proptest! {
         let config = BvhConfig { global_updates: false, clustering: false, ..BvhConfig::default() };
         run(&ops, config);
     }
+}
+
+#[test]
+fn optimize_steps_lower_the_cost_of_an_insertion_built_tree() {
+    // No global updates during insertion: plenty left for the steps to improve.
+    let mut bvh = Bvh::new(BvhConfig {
+        global_updates: false,
+        ..BvhConfig::default()
+    });
+    bvh.insert_triangles(&soup(3000, 9)).unwrap();
+    let before = bvh.sah_cost();
+    let mut cursor = treelight_bvh::OptimizeCursor::default();
+    let mut last = before;
+    while cursor.sweeps() < 4 {
+        let moves = bvh.optimize_step(&mut cursor, 256, 0.1);
+        // A step moves at most its share of the slots it scanned.
+        assert!(moves <= 26, "{moves} moves");
+        let cost = bvh.sah_cost();
+        assert!(cost <= last * (1.0 + 1e-4), "{last} -> {cost}");
+        last = cost;
+    }
+    bvh.validate().unwrap();
+    assert!(last < before * 0.97, "four sweeps: {before} -> {last}");
 }
 
 #[test]

@@ -27,6 +27,9 @@ pub(crate) struct PendingUpload {
     pub needed: [u64; 6],
     pub root: Option<u32>,
     pub light_count: Option<u32>,
+    /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
+    /// pixel's samples valid).
+    pub geometry_changed: bool,
 }
 
 impl PendingUpload {
@@ -142,6 +145,7 @@ fn extract_scene(
         let p = &mut sync.pending;
         p.need(BufferKind::Lights, lights.len() as u64);
         p.light_count = Some(lights.len() as u32);
+        p.geometry_changed = true;
         if !bytes.is_empty() {
             p.writes.push(BufferWrite {
                 buffer: BufferKind::Lights,
@@ -169,6 +173,7 @@ fn scene_writes(
     let plan = UploadPlan::new(bvh, c, [u64::MAX; 3]);
     p.writes.extend(plan.writes);
     p.root = Some(plan.root);
+    p.geometry_changed |= c.geometry_changed() || !changes.fresh_groups.is_empty();
     p.need(BufferKind::Nodes, c.inner_capacity as u64);
     p.need(BufferKind::Triangles, c.triangle_capacity as u64);
     p.need(BufferKind::Instances, c.instance_capacity as u64);
@@ -208,6 +213,7 @@ fn scene_writes(
         );
         let slot = &mut sync.objects[g.index() as usize];
         if slot.as_ref() != Some(&rec) {
+            p.geometry_changed = true;
             p.writes.push(BufferWrite {
                 buffer: BufferKind::Objects,
                 offset: g.index() as u64 * crate::OBJECT_BYTES,

@@ -29,8 +29,12 @@ pub(crate) struct GpuScene {
     capacities: [u64; 6],
     pub root: u32,
     pub light_count: u32,
-    /// Raised by every upload: views restart their accumulation when it changes.
+    /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
+    /// views restart their accumulation when it changes.
     pub generation: u64,
+    /// Raised by every upload that changes the tree, including pure restructurings, which leave
+    /// the traced image as it was but not the traversal heatmap.
+    pub tree_generation: u64,
 }
 
 fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
@@ -66,6 +70,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
         root: u32::MAX,
         light_count: 0,
         generation: 0,
+        tree_generation: 0,
     });
 }
 
@@ -119,21 +124,21 @@ pub(crate) fn apply_scene_uploads(
         queue.write_buffer(&scene.buffers[i], w.offset, &w.bytes);
         bytes += w.bytes.len() as u64;
     }
-    let mut changed = !pending.writes.is_empty() || !grown.is_empty();
+    let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
     if let Some(root) = pending.root
         && root != scene.root
     {
         scene.root = root;
-        changed = true;
+        tree_changed = true;
     }
-    if let Some(n) = pending.light_count
-        && n != scene.light_count
-    {
+    if let Some(n) = pending.light_count {
         scene.light_count = n;
-        changed = true;
     }
-    if changed {
+    if pending.geometry_changed {
         scene.generation += 1;
+    }
+    if tree_changed || pending.geometry_changed {
+        scene.tree_generation += 1;
     }
     let ready = pending.root.is_some();
     stats.update(|f| {

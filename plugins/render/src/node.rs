@@ -154,6 +154,8 @@ impl PathTracerPipelines {
 struct AccumulationKey {
     world_from_clip: Mat4,
     scene_generation: u64,
+    /// Only for the heatmap, which shows the tree itself.
+    tree_generation: u64,
     settings: PathTraced,
     exposure: f32,
     size: UVec2,
@@ -252,6 +254,11 @@ fn path_trace(
     let key = AccumulationKey {
         world_from_clip,
         scene_generation: scene.generation,
+        tree_generation: if settings.view == DebugView::Heatmap {
+            scene.tree_generation
+        } else {
+            0
+        },
         settings: PathTraced {
             max_samples: 0,
             ..*settings

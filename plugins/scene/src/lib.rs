@@ -12,7 +12,9 @@ mod mesh;
 mod picking;
 mod worker;
 
-pub use mesh::{MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles};
+pub use mesh::{
+    GeometryCopy, MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles,
+};
 pub use picking::SceneBvhPickingPlugin;
 
 use bevy::asset::AssetEvent;
@@ -35,6 +37,9 @@ pub struct SceneBvhConfig {
     pub bake_after: Duration,
     /// How often the idle worker wakes up to bake and run update rounds.
     pub idle_tick: Duration,
+    /// Most main-thread time per frame spent copying new or edited meshes out of the world; a larger
+    /// mesh is copied over several frames (at least one chunk of triangles per frame).
+    pub main_thread_budget: Duration,
     /// The engine's settings.
     pub bvh: BvhConfig,
 }
@@ -44,6 +49,7 @@ impl Default for SceneBvhConfig {
         Self {
             bake_after: Duration::from_millis(500),
             idle_tick: Duration::from_millis(50),
+            main_thread_budget: Duration::from_millis(1),
             bvh: BvhConfig::default(),
         }
     }
@@ -84,15 +90,24 @@ impl Plugin for SceneBvhPlugin {
             stats: SceneStats::default(),
             waiting: HashMap::new(),
             traced: HashSet::new(),
+            copying: HashMap::new(),
+            budget: self.config.main_thread_budget,
         })
         .add_systems(
             PostUpdate,
             (track_world, publish)
                 .chain()
+                .in_set(SceneBvhSystems)
                 .after(TransformSystems::Propagate),
         );
     }
 }
+
+/// The plugin's main-thread systems (in `PostUpdate`, after transform propagation): turning the
+/// frame's world changes into worker commands, and publishing the worker's figures. Order against it
+/// to see this frame's [`SceneBvh`] figures, or to measure what the plugin costs a frame.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SceneBvhSystems;
 
 /// Figures about the tree, refreshed every frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -103,7 +118,7 @@ pub struct SceneStats {
     pub inner_nodes: u32,
     /// SAH cost (Eq. 1, c_T = c_I = 1 by default).
     pub sah_cost: f32,
-    /// Commands sent but not yet applied.
+    /// Meshes still being copied out of the world, plus commands sent but not yet applied.
     pub pending: usize,
     /// Triangles per second (millions) of the last batch of inserted meshes, build included.
     pub insertion_mtris_per_s: f64,
@@ -190,7 +205,22 @@ pub struct SceneBvh {
     waiting: HashMap<AssetId<Mesh>, Vec<Entity>>,
     /// Entities sent to the worker (so moves and removals of others are not sent).
     traced: HashSet<Entity>,
+    /// Meshes being copied out of the world, a budget's worth per frame.
+    copying: HashMap<Entity, MeshCopy>,
+    budget: Duration,
 }
+
+/// A mesh entity whose triangles are being copied for the worker.
+struct MeshCopy {
+    mesh: AssetId<Mesh>,
+    name: String,
+    transform: bevy::math::Affine3A,
+    started: Instant,
+    copy: GeometryCopy,
+}
+
+/// Triangles copied between looks at the clock.
+const COPY_CHUNK: usize = 2048;
 
 impl SceneBvh {
     /// Version of the tree, raised by every change the worker applies.
@@ -205,7 +235,7 @@ impl SceneBvh {
 
     /// Whether every change sent so far has been applied.
     pub fn is_idle(&self) -> bool {
-        self.shared.pending.load(Ordering::Acquire) == 0
+        self.copying.is_empty() && self.shared.pending.load(Ordering::Acquire) == 0
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never
@@ -341,6 +371,7 @@ fn track_world(
         for list in scene.waiting.values_mut() {
             list.retain(|&w| w != e);
         }
+        scene.copying.remove(&e);
         if scene.traced.remove(&e) {
             scene.send(Command::Remove { entity: e });
         }
@@ -366,11 +397,75 @@ fn track_world(
         }
     }
     for (e, gt) in &moved {
-        if !sent_now.contains(&e) && scene.traced.contains(&e) {
+        if let Some(job) = scene.copying.get_mut(&e) {
+            // Not with the worker yet: it will get the latest transform with the triangles.
+            job.transform = gt.affine();
+        } else if !sent_now.contains(&e) && scene.traced.contains(&e) {
             scene.send(Command::Move {
                 entity: e,
                 transform: gt.affine(),
             });
+        }
+    }
+    copy_meshes(scene, &meshes);
+}
+
+/// Copies meshes out of the world until the frame's budget is spent (at least one chunk), and sends
+/// the complete ones to the worker.
+fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
+    if scene.copying.is_empty() {
+        return;
+    }
+    let deadline = Instant::now() + scene.budget;
+    let mut finished: Vec<(Entity, Result<(), MeshSkip>)> = Vec::new();
+    'jobs: for (&e, job) in scene.copying.iter_mut() {
+        let Some(mesh) = meshes.get(job.mesh) else {
+            // The asset went away; a new handle or a despawn will follow.
+            finished.push((e, Err(MeshSkip::NoPositions)));
+            continue;
+        };
+        loop {
+            match job.copy.copy(mesh, COPY_CHUNK) {
+                Ok(true) => {
+                    finished.push((e, Ok(())));
+                    break;
+                }
+                Ok(false) => {}
+                Err(why) => {
+                    finished.push((e, Err(why)));
+                    break;
+                }
+            }
+            if Instant::now() >= deadline {
+                break 'jobs;
+            }
+        }
+        if Instant::now() >= deadline {
+            break;
+        }
+    }
+    for (e, result) in finished {
+        let Some(job) = scene.copying.remove(&e) else {
+            continue;
+        };
+        match result {
+            Ok(()) => {
+                let geometry = job.copy.finish();
+                scene.send(Command::Upsert {
+                    entity: e,
+                    name: job.name,
+                    triangles: Arc::new(geometry.triangles),
+                    shading: Arc::new(geometry.shading),
+                    transform: job.transform,
+                    sent: job.started,
+                });
+            }
+            Err(why) => {
+                warn!("entity {e} ('{}') is not traced: {why}", job.name);
+                if scene.traced.remove(&e) {
+                    scene.send(Command::Remove { entity: e });
+                }
+            }
         }
     }
 }
@@ -384,6 +479,7 @@ fn upsert(
     (e, m, gt, vis, name): MeshEntity,
 ) {
     sent_now.insert(e);
+    scene.copying.remove(&e);
     if vis.is_some_and(|v| !v.get()) {
         if scene.traced.remove(&e) {
             scene.send(Command::Remove { entity: e });
@@ -395,17 +491,20 @@ fn upsert(
         scene.waiting.entry(m.0.id()).or_default().push(e);
         return;
     };
-    match mesh_geometry(mesh) {
-        Ok(geometry) => {
+    match GeometryCopy::new(mesh) {
+        Ok(copy) => {
+            // Traced from now on: a removal must reach the worker even if the copy never finishes.
             scene.traced.insert(e);
-            scene.send(Command::Upsert {
-                entity: e,
-                name: label,
-                triangles: Arc::new(geometry.triangles),
-                shading: Arc::new(geometry.shading),
-                transform: gt.affine(),
-                sent: Instant::now(),
-            });
+            scene.copying.insert(
+                e,
+                MeshCopy {
+                    mesh: m.0.id(),
+                    name: label,
+                    transform: gt.affine(),
+                    started: Instant::now(),
+                    copy,
+                },
+            );
         }
         Err(why) => {
             warn!("entity {e} ('{label}') is not traced: {why}");
@@ -420,7 +519,7 @@ fn upsert(
 fn publish(mut scene: ResMut<SceneBvh>) {
     let version = scene.shared.version.load(Ordering::Acquire);
     let mut stats = *scene.shared.stats.lock().unwrap_or_else(|p| p.into_inner());
-    stats.pending = scene.shared.pending.load(Ordering::Acquire);
+    stats.pending = scene.shared.pending.load(Ordering::Acquire) + scene.copying.len();
     if scene.version != version || scene.stats != stats {
         scene.version = version;
         scene.stats = stats;

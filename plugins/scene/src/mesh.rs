@@ -67,63 +67,162 @@ pub fn mesh_triangles(mesh: &Mesh) -> Result<Vec<Triangle>, MeshSkip> {
 /// The mesh's triangles with their normals and texture coordinates. Normals or UVs in another format,
 /// or with a count that does not match the positions, are left out rather than misread.
 pub fn mesh_geometry(mesh: &Mesh) -> Result<MeshGeometry, MeshSkip> {
+    let mut copy = GeometryCopy::new(mesh)?;
+    copy.copy(mesh, usize::MAX)?;
+    Ok(copy.finish())
+}
+
+/// Reads a mesh's geometry a range of triangles at a time, so that a mesh of millions of triangles
+/// can be copied out of the world over several frames, each within a time budget.
+#[derive(Debug)]
+pub struct GeometryCopy {
+    geometry: MeshGeometry,
+    next: usize,
+    total: usize,
+    vertices: usize,
+    normals: bool,
+    uvs: bool,
+    corners: Vec<[u32; 3]>,
+}
+
+fn positions_of(mesh: &Mesh) -> Result<&[[f32; 3]], MeshSkip> {
+    match mesh.try_attribute_option(Mesh::ATTRIBUTE_POSITION) {
+        Err(_) => Err(MeshSkip::RenderWorldOnly),
+        Ok(None) => Err(MeshSkip::NoPositions),
+        Ok(Some(VertexAttributeValues::Float32x3(p))) => Ok(p),
+        Ok(Some(_)) => Err(MeshSkip::PositionFormat),
+    }
+}
+
+fn triangle_count(mesh: &Mesh, vertices: usize) -> Result<usize, MeshSkip> {
+    Ok(
+        match mesh
+            .try_indices_option()
+            .map_err(|_| MeshSkip::RenderWorldOnly)?
+        {
+            Some(ix) => ix.len() / 3,
+            None => vertices / 3,
+        },
+    )
+}
+
+/// Vertex count, triangle count, and whether normals and UVs are usable.
+fn shape(mesh: &Mesh) -> Result<(usize, usize, bool, bool), MeshSkip> {
     if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
         return Err(MeshSkip::Topology(mesh.primitive_topology()));
     }
-    let positions = match mesh.try_attribute_option(Mesh::ATTRIBUTE_POSITION) {
-        Err(_) => return Err(MeshSkip::RenderWorldOnly),
-        Ok(None) => return Err(MeshSkip::NoPositions),
-        Ok(Some(VertexAttributeValues::Float32x3(p))) => p,
-        Ok(Some(_)) => return Err(MeshSkip::PositionFormat),
-    };
-    let n = positions.len();
-    let corners = corner_indices(mesh, n)?;
-    let triangles = corners
-        .iter()
-        .map(|c| {
-            let [a, b, c] = c.map(|i| Vec3::from_array(positions[i as usize]));
-            Triangle::new(a, b, c)
-        })
-        .collect();
-    let normals = match mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL) {
-        Ok(Some(VertexAttributeValues::Float32x3(v))) if v.len() == n => corners
-            .iter()
-            .map(|c| c.map(|i| Vec3::from_array(v[i as usize])))
-            .collect(),
-        _ => Vec::new(),
-    };
-    let uvs = match mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0) {
-        Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == n => corners
-            .iter()
-            .map(|c| c.map(|i| Vec2::from_array(v[i as usize])))
-            .collect(),
-        _ => Vec::new(),
-    };
-    Ok(MeshGeometry {
-        triangles,
-        shading: TriangleShading { normals, uvs },
-    })
+    let vertices = positions_of(mesh)?.len();
+    let total = triangle_count(mesh, vertices)?;
+    let normals = matches!(
+        mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL),
+        Ok(Some(VertexAttributeValues::Float32x3(v))) if v.len() == vertices
+    );
+    let uvs = matches!(
+        mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0),
+        Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == vertices
+    );
+    Ok((vertices, total, normals, uvs))
 }
 
-/// The vertex indices of each triangle, checked against the vertex count.
-fn corner_indices(mesh: &Mesh, vertices: usize) -> Result<Vec<[u32; 3]>, MeshSkip> {
-    let indices = mesh
-        .try_indices_option()
-        .map_err(|_| MeshSkip::RenderWorldOnly)?;
-    let corners: Vec<[u32; 3]> = match indices {
-        Some(Indices::U16(ix)) => ix
-            .chunks_exact(3)
-            .map(|f| [f[0] as u32, f[1] as u32, f[2] as u32])
-            .collect(),
-        Some(Indices::U32(ix)) => ix.chunks_exact(3).map(|f| [f[0], f[1], f[2]]).collect(),
-        None => (0..(vertices / 3) as u32)
-            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
-            .collect(),
-    };
-    if let Some(&index) = corners.iter().flatten().find(|&&i| i as usize >= vertices) {
-        return Err(MeshSkip::IndexOutOfRange { index, vertices });
+impl GeometryCopy {
+    /// Checks what can be checked without reading every triangle, and sizes the output.
+    pub fn new(mesh: &Mesh) -> Result<Self, MeshSkip> {
+        let (vertices, total, normals, uvs) = shape(mesh)?;
+        Ok(Self {
+            geometry: MeshGeometry {
+                triangles: Vec::with_capacity(total),
+                shading: TriangleShading {
+                    normals: Vec::with_capacity(if normals { total } else { 0 }),
+                    uvs: Vec::with_capacity(if uvs { total } else { 0 }),
+                },
+            },
+            next: 0,
+            total,
+            vertices,
+            normals,
+            uvs,
+            corners: Vec::new(),
+        })
     }
-    Ok(corners)
+
+    /// Triangles in the mesh.
+    pub fn total(&self) -> usize {
+        self.total
+    }
+
+    /// Triangles copied so far.
+    pub fn copied(&self) -> usize {
+        self.next
+    }
+
+    /// Copies up to `max` more triangles from `mesh` (the mesh this copy was made for; the caller
+    /// starts a new copy when the asset changes). Returns whether the copy is complete.
+    pub fn copy(&mut self, mesh: &Mesh, max: usize) -> Result<bool, MeshSkip> {
+        if shape(mesh)? != (self.vertices, self.total, self.normals, self.uvs) {
+            // Changed under us without the caller noticing: start over rather than mix versions.
+            *self = GeometryCopy::new(mesh)?;
+        }
+        let positions = positions_of(mesh)?;
+        let end = self.total.min(self.next.saturating_add(max));
+        self.corners.clear();
+        match mesh.try_indices_option() {
+            Ok(Some(Indices::U16(ix))) => self.corners.extend(
+                ix[3 * self.next..3 * end]
+                    .chunks_exact(3)
+                    .map(|f| [f[0] as u32, f[1] as u32, f[2] as u32]),
+            ),
+            Ok(Some(Indices::U32(ix))) => self.corners.extend(
+                ix[3 * self.next..3 * end]
+                    .chunks_exact(3)
+                    .map(|f| [f[0], f[1], f[2]]),
+            ),
+            Ok(None) => self
+                .corners
+                .extend((self.next as u32..end as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2])),
+            Err(_) => return Err(MeshSkip::RenderWorldOnly),
+        }
+        let vertices = self.vertices;
+        if let Some(&index) = self
+            .corners
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= vertices)
+        {
+            return Err(MeshSkip::IndexOutOfRange { index, vertices });
+        }
+        let g = &mut self.geometry;
+        g.triangles.extend(self.corners.iter().map(|c| {
+            let [a, b, c] = c.map(|i| Vec3::from_array(positions[i as usize]));
+            Triangle::new(a, b, c)
+        }));
+        if self.normals
+            && let Ok(Some(VertexAttributeValues::Float32x3(v))) =
+                mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL)
+        {
+            g.shading.normals.extend(
+                self.corners
+                    .iter()
+                    .map(|c| c.map(|i| Vec3::from_array(v[i as usize]))),
+            );
+        }
+        if self.uvs
+            && let Ok(Some(VertexAttributeValues::Float32x2(v))) =
+                mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0)
+        {
+            g.shading.uvs.extend(
+                self.corners
+                    .iter()
+                    .map(|c| c.map(|i| Vec2::from_array(v[i as usize]))),
+            );
+        }
+        self.next = end;
+        Ok(end == self.total)
+    }
+
+    /// The geometry copied (complete once [`GeometryCopy::copy`] has returned `true`).
+    pub fn finish(self) -> MeshGeometry {
+        self.geometry
+    }
 }
 
 #[cfg(test)]
@@ -178,6 +277,28 @@ mod tests {
             vec![[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
         );
         assert_eq!(mesh_triangles(&unindexed).unwrap().len(), 1);
+    }
+
+    #[test]
+    fn copying_in_chunks_equals_copying_at_once() {
+        use bevy::math::primitives::Sphere;
+        let mesh = Sphere::new(1.0).mesh().uv(13, 7);
+        let whole = mesh_geometry(&mesh).unwrap();
+        assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
+        let mut copy = GeometryCopy::new(&mesh).unwrap();
+        let mut calls = 0;
+        while !copy.copy(&mesh, 7).unwrap() {
+            calls += 1;
+            assert_eq!(copy.copied(), calls * 7);
+        }
+        assert_eq!(calls, copy.total().div_ceil(7) - 1);
+        assert_eq!(copy.finish(), whole);
+        // A mesh swapped for another between chunks is read again from the start.
+        let other = Cuboid::new(1.0, 2.0, 3.0).mesh().build();
+        let mut copy = GeometryCopy::new(&mesh).unwrap();
+        copy.copy(&mesh, 7).unwrap();
+        while !copy.copy(&other, 5).unwrap() {}
+        assert_eq!(copy.finish(), mesh_geometry(&other).unwrap());
     }
 
     #[test]

@@ -7,11 +7,19 @@ use bevy::prelude::Entity;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{PostPass, PreparedGroup, Triangle};
+use treelight_bvh::{OptimizeCursor, PreparedGroup, Triangle};
+
+/// Inner-node slots one idle update step scans; with [`STEP_FRACTION`] it moves a few hundred nodes,
+/// a few milliseconds under the write lock, so a new mesh never waits long for the worker.
+const STEP_SCAN: u32 = 4096;
+/// Fraction of the scanned nodes (the most inefficient) an idle step moves.
+const STEP_FRACTION: f32 = 0.05;
+/// Sweeps of idle update steps over the tree after each batch of edits (one of each move kind).
+const SWEEPS_AFTER_EDIT: u64 = 2;
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
@@ -94,22 +102,25 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
 
 pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConfig) {
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
-    let mut idle_rounds_left = 0u32;
+    let mut idle = IdleUpdates::default();
     let mut clock = CostClock::default();
     loop {
-        let first = match rx.recv_timeout(config.idle_tick) {
-            Ok(c) => Some(c),
-            Err(RecvTimeoutError::Timeout) => None,
-            Err(RecvTimeoutError::Disconnected) => return,
+        // With update steps to do, only look for commands; otherwise sleep until one comes.
+        let first = if idle.slots_left > 0 {
+            match rx.try_recv() {
+                Ok(c) => Some(c),
+                Err(TryRecvError::Empty) => None,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        } else {
+            match rx.recv_timeout(config.idle_tick) {
+                Ok(c) => Some(c),
+                Err(RecvTimeoutError::Timeout) => None,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
         };
         let Some(first) = first else {
-            idle_work(
-                &shared,
-                &mut last_move,
-                config,
-                &mut idle_rounds_left,
-                &mut clock,
-            );
+            idle_work(&shared, &mut last_move, config, &mut idle, &mut clock);
             continue;
         };
         let mut batch = vec![first];
@@ -139,7 +150,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             .collect();
         let mut inserted_tris = 0usize;
         let mut latest_sent: Option<Instant> = None;
-        {
+        let slots = {
             let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
             let tree = &mut *guard;
             for (c, p) in commands.into_iter().zip(prepared) {
@@ -176,29 +187,40 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                     }
                 }
             }
-        }
-        idle_rounds_left = 4;
+            tree.bvh.inner_capacity()
+        };
+        // Ready: readers see the new tree from here on.
+        let latency = latest_sent.map(|sent| sent.elapsed());
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(&shared, &mut clock, |s| {
+        idle.slots_left = SWEEPS_AFTER_EDIT * slots as u64;
+        publish_stats(&shared, &mut clock, received, |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =
                     inserted_tris as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
             }
-            if let Some(sent) = latest_sent {
-                s.last_latency = sent.elapsed();
+            if let Some(latency) = latency {
+                s.last_latency = latency;
             }
         });
         shared.pending.fetch_sub(received, Ordering::AcqRel);
     }
 }
 
-/// Between commands: bake groups that stopped moving, then spend a few rounds on global updates.
+/// Global update work left for idle time, in inner-node slots to scan.
+#[derive(Default)]
+struct IdleUpdates {
+    cursor: OptimizeCursor,
+    slots_left: u64,
+}
+
+/// Between commands: bake groups that stopped moving, then one short step of global updates (the
+/// post-pass in slices, so the write lock is held for milliseconds, not for a pass over the tree).
 fn idle_work(
     shared: &Shared,
     last_move: &mut HashMap<Entity, Instant>,
     config: WorkerConfig,
-    rounds_left: &mut u32,
+    idle: &mut IdleUpdates,
     clock: &mut CostClock,
 ) {
     let still: Vec<Entity> = last_move
@@ -206,10 +228,15 @@ fn idle_work(
         .filter(|(_, t)| t.elapsed() >= config.bake_after)
         .map(|(e, _)| *e)
         .collect();
-    if still.is_empty() && *rounds_left == 0 {
+    if still.is_empty() && idle.slots_left == 0 {
+        if clock.stale {
+            // The last edits were published without their cost; it is due by now.
+            publish_stats(shared, clock, 0, |_| {});
+        }
         return;
     }
-    {
+    let baked = !still.is_empty();
+    let moves = {
         let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
         let tree = &mut *guard;
         for e in still {
@@ -220,46 +247,65 @@ fn idle_work(
                 warn!("entity {e} could not be baked: {err}");
             }
         }
-        if *rounds_left > 0 {
-            *rounds_left -= 1;
-            tree.bvh.optimize(PostPass {
-                max_rounds: 1,
-                fraction: 0.05,
-                min_relative_gain: 0.0,
-            });
+        if idle.slots_left > 0 {
+            idle.slots_left = idle.slots_left.saturating_sub(STEP_SCAN as u64);
+            tree.bvh
+                .optimize_step(&mut idle.cursor, STEP_SCAN, STEP_FRACTION)
+        } else {
+            0
         }
+    };
+    if baked || moves > 0 {
+        shared.version.fetch_add(1, Ordering::Release);
+        publish_stats(shared, clock, 0, |_| {});
     }
-    shared.version.fetch_add(1, Ordering::Release);
-    // Baking and update rounds change the cost without changing the triangle count.
-    clock.0 = None;
-    publish_stats(shared, clock, |_| {});
 }
 
-/// When the SAH cost was last computed, and at what triangle count. The cost is O(n), and moves arrive
-/// every frame while a mesh is dragged, so it is refreshed when the triangle count changes or at most
-/// four times a second.
+/// When the SAH cost was last computed. The cost is O(n) (milliseconds on a million triangles), and
+/// edits, moves and update steps arrive many times a second, so it is refreshed at most four times a
+/// second, and never while further commands wait for the worker.
 #[derive(Default)]
-pub(crate) struct CostClock(Option<(Instant, u32)>);
+pub(crate) struct CostClock {
+    at: Option<Instant>,
+    /// The tree changed since the published cost was computed.
+    stale: bool,
+}
 
-fn publish_stats(shared: &Shared, clock: &mut CostClock, edit: impl FnOnce(&mut SceneStats)) {
-    let (triangles, nodes, cost) = {
+/// Publishes the tree's figures. `in_flight` is how many of the pending commands the caller is still
+/// finishing (any more are waiting).
+fn publish_stats(
+    shared: &Shared,
+    clock: &mut CostClock,
+    in_flight: usize,
+    edit: impl FnOnce(&mut SceneStats),
+) {
+    let waiting = shared.pending.load(Ordering::Acquire) > in_flight;
+    let (triangles, nodes) = {
         let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
-        let triangles = tree.bvh.triangle_count();
-        let stale = clock
-            .0
-            .is_none_or(|(at, n)| n != triangles || at.elapsed() >= Duration::from_millis(250));
-        (
-            triangles,
-            tree.bvh.inner_count(),
-            stale.then(|| tree.bvh.sah_cost()),
-        )
+        (tree.bvh.triangle_count(), tree.bvh.inner_count())
     };
-    let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
-    s.triangles = triangles;
-    s.inner_nodes = nodes;
-    if let Some(cost) = cost {
-        s.sah_cost = cost;
-        clock.0 = Some((Instant::now(), triangles));
+    {
+        let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
+        s.triangles = triangles;
+        s.inner_nodes = nodes;
+        edit(&mut s);
     }
-    edit(&mut s);
+    // The counts are out; the cost, a pass over the tree, follows when it is due.
+    let due = !waiting
+        && clock
+            .at
+            .is_none_or(|at| at.elapsed() >= Duration::from_millis(250));
+    clock.stale = !due;
+    if due {
+        let cost = {
+            let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
+            tree.bvh.sah_cost()
+        };
+        shared
+            .stats
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .sah_cost = cost;
+        clock.at = Some(Instant::now());
+    }
 }

@@ -240,6 +240,61 @@ fn meshes_loaded_later_and_edited_meshes_are_traced() {
 }
 
 #[test]
+fn big_meshes_are_copied_over_several_frames() {
+    // No main-thread budget: one chunk of triangles per frame.
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+    ))
+    .add_plugins(SceneBvhPlugin {
+        config: SceneBvhConfig {
+            main_thread_budget: Duration::ZERO,
+            ..default()
+        },
+    });
+    let sphere = Sphere::new(1.0).mesh().uv(200, 100);
+    let triangles = mesh_triangles(&sphere).unwrap().len() as u32;
+    assert!(triangles > 30_000, "{triangles}");
+    let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(sphere);
+    let kept = app
+        .world_mut()
+        .spawn((Mesh3d(handle.clone()), Transform::default()))
+        .id();
+    let dropped = app
+        .world_mut()
+        .spawn((Mesh3d(handle), Transform::from_xyz(0.0, 0.0, 5.0)))
+        .id();
+    app.update();
+    app.update();
+    let scene = app.world().resource::<SceneBvh>();
+    assert!(!scene.is_idle() && scene.stats().pending >= 1);
+    assert_eq!(tree_triangles(&app), 0, "still copying after two frames");
+    // Moved and despawned while their triangles are still being copied.
+    app.world_mut()
+        .get_mut::<Transform>(kept)
+        .unwrap()
+        .translation = Vec3::new(5.0, 0.0, 0.0);
+    app.world_mut().despawn(dropped);
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), triangles, "only the kept sphere");
+    let down = |x: f32, z: f32| Ray3d::new(Vec3::new(x, 10.0, z), Dir3::NEG_Y);
+    let hit = cast(&app, down(5.0, 0.0)).expect("the sphere where it was moved to");
+    assert_eq!(hit.entity, kept);
+    assert!((hit.point.y - 1.0).abs() < 1e-3);
+    assert!(
+        cast(&app, down(0.0, 0.0)).is_none(),
+        "nothing where it started"
+    );
+    assert!(
+        cast(&app, down(0.0, 5.0)).is_none(),
+        "nothing of the despawned one"
+    );
+}
+
+#[test]
 fn meshes_that_are_not_triangle_lists_are_skipped() {
     let mut app = app(Duration::from_millis(20));
     let lines = app

@@ -12,6 +12,7 @@ pub use sweep::build_sweep_sah;
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
+use glam::Vec3;
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
 /// index `nodes`.
@@ -53,6 +54,20 @@ pub(crate) fn assemble(
     order: &mut [u32],
     mut split: impl FnMut(usize, &mut [u32]) -> usize,
 ) -> BuiltTree {
+    assemble_with_bounds(order, |s, range| {
+        let aabb = range
+            .iter()
+            .fold(Aabb::EMPTY, |b, &p| b.union(&boxes[p as usize]));
+        (split(s, range), aabb)
+    })
+}
+
+/// [`assemble`] for a split procedure that also returns the bounds of the range's boxes (a builder
+/// that passes over the range anyway saves the extra pass).
+pub(crate) fn assemble_with_bounds(
+    order: &mut [u32],
+    mut split: impl FnMut(usize, &mut [u32]) -> (usize, Aabb),
+) -> BuiltTree {
     let n = order.len();
     if n == 0 {
         return BuiltTree {
@@ -73,12 +88,10 @@ pub(crate) fn assemble(
         let me = if e - s == 1 {
             NodeRef::leaf(order[s])
         } else {
-            let mid = s + split(s, &mut order[s..e]);
+            let (at, aabb) = split(s, &mut order[s..e]);
+            let mid = s + at;
             debug_assert!(mid > s && mid < e);
             let i = nodes.len() as u32;
-            let aabb = order[s..e]
-                .iter()
-                .fold(Aabb::EMPTY, |b, &p| b.union(&boxes[p as usize]));
             nodes.push(InnerNode {
                 aabb,
                 children: [NodeRef::NONE; 2],
@@ -165,23 +178,27 @@ impl Bvh {
 }
 
 /// Primitives below which a subtree is built on one thread.
-const PARALLEL_THRESHOLD: usize = 1 << 14;
+const PARALLEL_THRESHOLD: usize = 1 << 12;
 
 /// Binned SAH, with the two halves of every large node built in parallel (rayon).
 pub fn build_binned_parallel(boxes: &[Aabb]) -> BuiltTree {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-    build_binned_range(boxes, &mut order)
+    let centers = binned::centers(boxes);
+    build_binned_range(boxes, &centers, &mut order)
 }
 
-fn build_binned_range(boxes: &[Aabb], order: &mut [u32]) -> BuiltTree {
+fn build_binned_range(boxes: &[Aabb], centers: &[Vec3], order: &mut [u32]) -> BuiltTree {
+    let mut bins = binned::Bins::default();
     if order.len() < PARALLEL_THRESHOLD {
-        return assemble(boxes, order, |_, r| binned::split_binned(boxes, r));
+        return assemble_with_bounds(order, |_, r| {
+            binned::split_binned(boxes, centers, &mut bins, r)
+        });
     }
-    let mid = binned::split_binned(boxes, order);
+    let (mid, _) = binned::split_binned(boxes, centers, &mut bins, order);
     let (l, r) = order.split_at_mut(mid);
     let (a, b) = rayon::join(
-        || build_binned_range(boxes, l),
-        || build_binned_range(boxes, r),
+        || build_binned_range(boxes, centers, l),
+        || build_binned_range(boxes, centers, r),
     );
     merge(a, b, boxes)
 }
