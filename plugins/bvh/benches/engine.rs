@@ -1,0 +1,119 @@
+//! Criterion benches of the engine's hot operations on a real scene (sibenik.obj, 73,564 triangles):
+//! insertion (whole-scene IncrU build, and one triangle into the finished tree), the branch-and-bound
+//! search alone, removal of a 10k-triangle group, and closest-hit and any-hit traversal.
+//!
+//! Run: `cargo bench -p treelight_bvh --bench engine` (reads `../shared/scenes/obj/sibenik.obj`).
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::path::PathBuf;
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_bvh::{Bvh, Ray, SearchScratch, Triangle};
+
+fn sibenik() -> Vec<Triangle> {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
+    let scene = treelight_import::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    scene
+        .world_triangles()
+        .into_iter()
+        .map(|[a, b, c]| Triangle::new(a, b, c))
+        .collect()
+}
+
+/// Deterministic rays from points inside the scene's bounds in pseudo-random directions.
+fn rays(bvh: &Bvh, n: usize) -> Vec<Ray> {
+    let b = bvh.bounds();
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let o = b.min + (b.max - b.min) * Vec3::new(next(), next(), next());
+            let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
+            Ray::new(o, d)
+        })
+        .collect()
+}
+
+fn engine(c: &mut Criterion) {
+    let tris = sibenik();
+    let mut tree = Bvh::default();
+    tree.insert_triangles(&tris).unwrap();
+    let extra = Triangle::new(
+        Vec3::new(1.0, 2.0, 3.0),
+        Vec3::new(1.5, 2.0, 3.0),
+        Vec3::new(1.0, 2.5, 3.2),
+    );
+
+    let mut g = c.benchmark_group("insertion");
+    g.sample_size(10);
+    g.bench_function("incru_sibenik_73k", |b| {
+        b.iter(|| {
+            let mut bvh = Bvh::default();
+            bvh.insert_triangles(black_box(&tris)).unwrap();
+            bvh
+        })
+    });
+    g.finish();
+    // Steady state: the tree's arrays have room (a fresh clone would reallocate them all on the first
+    // push, which is not what an editor sees), so insert and remove the same triangle.
+    c.bench_function("insertion/one_triangle_in_and_out_of_sibenik", |b| {
+        let mut bvh = tree.clone();
+        b.iter(|| {
+            let ids = bvh
+                .insert_triangles(std::slice::from_ref(black_box(&extra)))
+                .unwrap();
+            bvh.remove_triangles(&ids).unwrap();
+        })
+    });
+    c.bench_function("search/best_sibling_in_sibenik", |b| {
+        let mut scratch = SearchScratch::default();
+        let boxes: Vec<_> = tris.iter().step_by(97).map(|t| t.aabb()).collect();
+        let mut k = 0;
+        b.iter(|| {
+            k = (k + 1) % boxes.len();
+            tree.find_best_sibling(black_box(&boxes[k]), &mut scratch)
+        })
+    });
+
+    // A 10k-triangle group (a quarter of the scene, moved aside) in the 73k tree.
+    let group: Vec<Triangle> = tris[..10_000].to_vec();
+    let mut with_group = tree.clone();
+    let id = with_group
+        .insert_group(&group, Affine3A::from_translation(Vec3::X * 3.0), false)
+        .unwrap();
+    c.bench_function("removal/group_10k_from_83k", |b| {
+        b.iter_batched_ref(
+            || with_group.clone(),
+            |bvh| bvh.remove_group(black_box(id)).unwrap(),
+            BatchSize::LargeInput,
+        )
+    });
+
+    let rays = rays(&tree, 4096);
+    let mut g = c.benchmark_group("traversal");
+    g.throughput(criterion::Throughput::Elements(rays.len() as u64));
+    g.bench_function("closest_hit_4096_rays_sibenik", |b| {
+        b.iter(|| {
+            rays.iter()
+                .filter(|r| tree.closest_hit(black_box(r)).is_some())
+                .count()
+        })
+    });
+    g.bench_function("any_hit_4096_rays_sibenik", |b| {
+        b.iter(|| {
+            rays.iter()
+                .filter(|r| tree.any_hit(black_box(r)).is_some())
+                .count()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, engine);
+criterion_main!(benches);
