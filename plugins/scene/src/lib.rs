@@ -38,7 +38,7 @@ pub struct SceneBvhConfig {
     /// How often the idle worker wakes up to bake and run update rounds.
     pub idle_tick: Duration,
     /// Most main-thread time per frame spent copying new or edited meshes out of the world; a larger
-    /// mesh is copied over several frames (at least one chunk of triangles per frame).
+    /// mesh is copied over several frames (at least one chunk of triangles per frame). Default 0.75 ms.
     pub main_thread_budget: Duration,
     /// The engine's settings.
     pub bvh: BvhConfig,
@@ -49,7 +49,7 @@ impl Default for SceneBvhConfig {
         Self {
             bake_after: Duration::from_millis(500),
             idle_tick: Duration::from_millis(50),
-            main_thread_budget: Duration::from_millis(1),
+            main_thread_budget: Duration::from_micros(750),
             bvh: BvhConfig::default(),
         }
     }

@@ -1,5 +1,7 @@
 //! The benchmark's scene sources (files and the paper-style generators), shared with other
-//! measurement tools in the workspace (the GPU ray benchmark of `treelight_render`).
+//! measurement tools in the workspace (the GPU ray benchmark of `treelight_render`), and the peer
+//! libraries' builders.
 
+pub mod peers;
 pub mod rng;
 pub mod scenes;

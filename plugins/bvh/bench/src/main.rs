@@ -1,8 +1,8 @@
 //! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
 //! traced by the same traversal, so only the tree differs between rows.
 
-use treelight_bench::rng;
 use treelight_bench::scenes;
+use treelight_bench::{peers, rng};
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -23,6 +23,10 @@ const METHODS: &[&str] = &[
     "incrup",
     "incrupb",
     "incru-post",
+    "obvhs-fastest",
+    "obvhs-medium",
+    "obvhs-slowest",
+    "bvh",
 ];
 const ORDERS: &[&str] = &["as-is", "random", "view"];
 
@@ -36,7 +40,9 @@ struct Args {
     /// Triangle orders (comma list): as-is, random, view.
     #[arg(long, default_value = "as-is", value_delimiter = ',')]
     order: Vec<String>,
-    /// Methods (comma list): sah, binned, median, incr, incru, incrup, incrupb, incru-post.
+    /// Methods (comma list): sah, binned, median, incr, incru, incrup, incrupb, incru-post, and the
+    /// peers obvhs-fastest, obvhs-medium, obvhs-slowest (obvhs presets) and bvh (the `bvh` crate),
+    /// all with one triangle per leaf; a peer's build time includes converting its tree.
     #[arg(
         long,
         default_value = "sah,median,incr,incru,incrup,incrupb",
@@ -222,7 +228,14 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
             bvh.insert_triangles_block_parallel(tris).map_err(e)?;
             bvh
         }
-        _ => unreachable!("methods are checked up front"),
+        peer => {
+            let built = peers::build(peer, tris).expect("methods are checked up front");
+            let bvh = Bvh::from_built(tris, &built, cfg).map_err(e)?;
+            // A conversion slip would cost and trace a different tree: refuse it.
+            bvh.validate()
+                .map_err(|err| format!("{peer}: the converted tree is invalid: {err}"))?;
+            bvh
+        }
     })
 }
 

@@ -126,12 +126,37 @@ impl Bvh {
         config: BvhConfig,
     ) -> Result<Bvh, BvhError> {
         validate_triangles(tris)?;
+        let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+        // Our builders' boxes are exact: no refit.
+        Bvh::graft_built(tris, &builder.build(&boxes), config, false)
+    }
+
+    /// A tree over `tris` with the structure of `built` (leaf `k` is triangle `k`), made by any
+    /// builder, another library's included: the benchmark costs and traces other libraries' trees
+    /// this way. Its boxes are recomputed from the triangles, so a caller's rounding cannot make the
+    /// tree invalid; every triangle must be in exactly one leaf ([`Bvh::validate`] checks).
+    pub fn from_built(
+        tris: &[Triangle],
+        built: &BuiltTree,
+        config: BvhConfig,
+    ) -> Result<Bvh, BvhError> {
+        validate_triangles(tris)?;
+        Bvh::graft_built(tris, built, config, true)
+    }
+
+    fn graft_built(
+        tris: &[Triangle],
+        built: &BuiltTree,
+        config: BvhConfig,
+        refit: bool,
+    ) -> Result<Bvh, BvhError> {
         let mut bvh = Bvh::new(config);
         bvh.check_room(tris.len())?;
         let ids: Vec<u32> = tris.iter().map(|t| bvh.alloc_triangle(*t, NONE)).collect();
-        let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
-        let built = builder.build(&boxes);
-        let root = bvh.graft(&built, &ids);
+        let root = bvh.graft(built, &ids);
+        if refit && !root.is_none() {
+            bvh.refit_subtree(root);
+        }
         if !root.is_none() {
             bvh.root = root;
             bvh.changes.root_changed = true;
