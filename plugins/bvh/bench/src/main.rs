@@ -1,6 +1,8 @@
 //! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
 //! traced by the same traversal, so only the tree differs between rows.
 
+mod latency;
+
 use treelight_bench::scenes;
 use treelight_bench::{peers, rng};
 
@@ -74,6 +76,12 @@ struct Args {
     /// With one scene, order and method: write the built tree as a TLBVH1 file.
     #[arg(long)]
     export_bvh: Option<PathBuf>,
+    /// Also run the latency experiment of the paper's section 8 on each scene: hold out 0.1, 1, 3
+    /// and 10% of the triangles, build the rest by IncrU, insert the held-out part (IncrU and
+    /// IncrUPB), and compare with full rebuilds (binned SAH, obvhs-fastest); with the first
+    /// `--threads` count.
+    #[arg(long)]
+    latency: bool,
 }
 
 struct Row {
@@ -137,11 +145,22 @@ fn run(args: &Args) -> Result<(), String> {
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap(),
     );
     let mut rows = Vec::new();
+    let mut latency_tables = String::new();
     for spec in &args.scene {
         bar.set_message(format!("loading {spec}"));
         let scene = scenes::load(spec, args.seed)?;
         if scene.triangles.is_empty() {
             return Err(format!("{spec}: no triangles"));
+        }
+        if args.latency {
+            bar.set_message(format!("{} latency experiment", scene.name));
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(args.threads[0])
+                .build()
+                .map_err(|e| e.to_string())?;
+            let (lat, rebuilds) = pool.install(|| latency::run(&scene.triangles, args.seed))?;
+            latency_tables +=
+                &latency::markdown(&scene.name, scene.triangles.len(), &lat, &rebuilds);
         }
         let bounds = scene
             .triangles
@@ -193,6 +212,7 @@ fn run(args: &Args) -> Result<(), String> {
     }
     bar.finish_and_clear();
     print_markdown(&rows);
+    print!("{latency_tables}");
     if let Some(path) = &args.csv {
         write_csv(path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
     }
