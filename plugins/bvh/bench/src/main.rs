@@ -2,6 +2,7 @@
 //! traced by the same traversal, so only the tree differs between rows.
 
 mod latency;
+mod plots;
 
 use treelight_bench::scenes;
 use treelight_bench::{peers, rng};
@@ -82,6 +83,11 @@ struct Args {
     /// `--threads` count.
     #[arg(long)]
     latency: bool,
+    /// Write PNG plots to this folder: triangles inserted and SAH cost against time during
+    /// construction per scene and order (the paper's Figures 8 and 9; an extra, sampled run of each
+    /// method with the first `--threads` count), and with `--latency` its Figure 12.
+    #[arg(long, value_name = "DIR")]
+    plots: Option<PathBuf>,
 }
 
 struct Row {
@@ -146,6 +152,10 @@ fn run(args: &Args) -> Result<(), String> {
     );
     let mut rows = Vec::new();
     let mut latency_tables = String::new();
+    let mut plotted = Vec::new();
+    if let Some(dir) = &args.plots {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
     for spec in &args.scene {
         bar.set_message(format!("loading {spec}"));
         let scene = scenes::load(spec, args.seed)?;
@@ -161,6 +171,9 @@ fn run(args: &Args) -> Result<(), String> {
             let (lat, rebuilds) = pool.install(|| latency::run(&scene.triangles, args.seed))?;
             latency_tables +=
                 &latency::markdown(&scene.name, scene.triangles.len(), &lat, &rebuilds);
+            if let Some(dir) = &args.plots {
+                plotted.push(plots::latency(dir, &scene.name, &lat, &rebuilds)?);
+            }
         }
         let bounds = scene
             .triangles
@@ -172,6 +185,22 @@ fn run(args: &Args) -> Result<(), String> {
         };
         for order in &args.order {
             let (tris, input_index) = reorder(&scene.triangles, order, &camera, args.seed);
+            if let Some(dir) = &args.plots {
+                bar.set_message(format!(
+                    "{} {order}: sampled runs for the plots",
+                    scene.name
+                ));
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(args.threads[0])
+                    .build()
+                    .map_err(|e| e.to_string())?;
+                let runs = args
+                    .method
+                    .iter()
+                    .map(|m| pool.install(|| progress(&tris, m)))
+                    .collect::<Result<Vec<_>, String>>()?;
+                plotted.extend(plots::construction(dir, &scene.name, order, &runs)?);
+            }
             for method in &args.method {
                 for &threads in &args.threads {
                     bar.set_message(format!("{} {order} {method} ×{threads}", scene.name));
@@ -213,6 +242,9 @@ fn run(args: &Args) -> Result<(), String> {
     bar.finish_and_clear();
     print_markdown(&rows);
     print!("{latency_tables}");
+    for p in &plotted {
+        eprintln!("wrote {}", p.display());
+    }
     if let Some(path) = &args.csv {
         write_csv(path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
     }
@@ -256,6 +288,62 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
                 .map_err(|err| format!("{peer}: the converted tree is invalid: {err}"))?;
             bvh
         }
+    })
+}
+
+/// A construction sampled for the plots: the incremental methods insert the triangles in 40 chunks
+/// (the same calls as the table's runs, chunk by chunk) and the post-pass runs two rounds at a time,
+/// with the clock stopped while the cost is measured; other builders give one point when done.
+fn progress(tris: &[Triangle], method: &str) -> Result<plots::Progress, String> {
+    const CHUNKS: usize = 40;
+    let e = |e: treelight_bvh::BvhError| e.to_string();
+    let mut samples = Vec::new();
+    if method.starts_with("incr") {
+        let mut bvh = Bvh::new(if method == "incr" {
+            BvhConfig::incr()
+        } else {
+            BvhConfig::incr_u()
+        });
+        let mut elapsed = 0.0;
+        let mut done = 0;
+        for chunk in tris.chunks(tris.len().div_ceil(CHUNKS).max(1)) {
+            let t = Instant::now();
+            match method {
+                "incrup" => bvh.insert_triangles_parallel_search(chunk),
+                "incrupb" => bvh.insert_triangles_block_parallel(chunk),
+                _ => bvh.insert_triangles(chunk),
+            }
+            .map_err(e)?;
+            elapsed += t.elapsed().as_secs_f64();
+            done += chunk.len();
+            samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
+        }
+        if method == "incru-post" {
+            for _ in 0..4 {
+                let t = Instant::now();
+                let report = bvh.optimize(PostPass {
+                    max_rounds: 2,
+                    ..PostPass::default()
+                });
+                elapsed += t.elapsed().as_secs_f64();
+                samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
+                if report.rounds < 2 {
+                    break;
+                }
+            }
+        }
+    } else {
+        let t = Instant::now();
+        let bvh = build(tris, method)?;
+        samples.push((
+            t.elapsed().as_secs_f64(),
+            tris.len(),
+            bvh.sah_cost_with(1.0, 1.0),
+        ));
+    }
+    Ok(plots::Progress {
+        method: method.to_owned(),
+        samples,
     })
 }
 
