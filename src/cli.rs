@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[derive(Parser, Debug, Clone, Default)]
 #[command(version, about)]
 pub struct Cli {
-    /// A glTF (.gltf or .glb) file to open instead of the built-in default scene.
+    /// A scene file (.gltf, .glb, .obj or .ply) to open instead of the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Save a screenshot of the whole window to this PNG file after `--frames` frames, then exit.
     #[arg(long, value_name = "PATH")]

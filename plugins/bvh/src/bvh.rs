@@ -50,6 +50,8 @@ pub struct Bvh {
     pub(crate) recording: bool,
     pub(crate) changes: ChangeLog,
     pub(crate) scratch: SearchScratch,
+    /// Ranked candidates of an update batch, kept between batches so that batches allocate nothing.
+    pub(crate) update_candidates: Vec<(f32, u32)>,
     pub(crate) update_ops: u64,
     pub(crate) live_tris: u32,
     /// Running sum of changes to the global tree's inner node areas, so a move's effect on Eq. 1 is
@@ -85,6 +87,7 @@ impl Bvh {
             recording: true,
             changes: ChangeLog::default(),
             scratch: SearchScratch::default(),
+            update_candidates: Vec::new(),
             update_ops: 0,
             live_tris: 0,
             area_acc: 0.0,

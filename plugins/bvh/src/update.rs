@@ -31,16 +31,22 @@ impl Bvh {
 
     /// Updates the k_u fraction of the cached nodes with the highest inefficiency, then empties the cache.
     pub fn run_update_batch(&mut self) {
-        let mut candidates: Vec<(f32, u32)> = std::mem::take(&mut self.cache)
-            .into_iter()
-            .filter_map(|i| {
-                self.in_cache[i as usize] = false;
-                self.updatable(i).then(|| (self.inefficiency(i), i))
-            })
-            .collect();
+        // Both buffers go back with their capacity: batches run every few insertions.
+        let mut cache = std::mem::take(&mut self.cache);
+        let mut candidates = std::mem::take(&mut self.update_candidates);
+        candidates.clear();
+        for &i in &cache {
+            self.in_cache[i as usize] = false;
+            if self.updatable(i) {
+                candidates.push((self.inefficiency(i), i));
+            }
+        }
+        cache.clear();
+        self.cache = cache;
         let k = ((self.config.update_fraction * candidates.len() as f32).ceil() as usize)
             .min(candidates.len());
         self.update_top(&mut candidates, k);
+        self.update_candidates = candidates;
     }
 
     /// Re-inserts the children of the `k` most inefficient of `candidates`.

@@ -6,6 +6,7 @@
 
 mod gltf_scene;
 mod obj_scene;
+mod ply_scene;
 mod texture;
 
 use glam::{Mat4, Vec3};
@@ -14,6 +15,7 @@ use thiserror::Error;
 
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;
+pub use ply_scene::load_ply;
 pub use texture::{ImportedTexture, MAX_TEXTURE_SIDE, TextureRef, WrapMode};
 
 /// Most vertices or indices accepted in one file, so a hostile header cannot exhaust memory.
@@ -130,7 +132,7 @@ impl ImportedScene {
     }
 }
 
-/// Loads a scene by its extension: `.gltf`, `.glb` or `.obj`.
+/// Loads a scene by its extension: `.gltf`, `.glb`, `.obj` or `.ply`.
 pub fn load_scene(path: &Path) -> Result<ImportedScene, ImportError> {
     let ext = path
         .extension()
@@ -139,9 +141,10 @@ pub fn load_scene(path: &Path) -> Result<ImportedScene, ImportError> {
     match ext.as_deref() {
         Some("gltf") | Some("glb") => load_gltf(path),
         Some("obj") => load_obj(path),
+        Some("ply") => load_ply(path),
         _ => Err(ImportError::new(
             path,
-            "unsupported file type (expected .gltf, .glb or .obj)",
+            "unsupported file type (expected .gltf, .glb, .obj or .ply)",
         )),
     }
 }

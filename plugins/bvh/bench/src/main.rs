@@ -37,7 +37,7 @@ const ORDERS: &[&str] = &["as-is", "random", "view"];
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
-    /// Scene: an .obj/.gltf/.glb file, `hairball:N`, `scatter:N:FILE` or `subdivide:K:FILE`. Repeatable.
+    /// Scene: an .obj/.ply/.gltf/.glb file, `hairball:N`, `scatter:N:FILE` or `subdivide:K:FILE`. Repeatable.
     #[arg(long, required = true)]
     scene: Vec<String>,
     /// Triangle orders (comma list): as-is, random, view.

@@ -1,4 +1,4 @@
-//! Scene sources: files (OBJ, glTF/GLB) and deterministic generators, labelled synthetic.
+//! Scene sources: files (OBJ, PLY, glTF/GLB) and deterministic generators, labelled synthetic.
 
 use crate::rng::Rng;
 use std::path::Path;

@@ -1,0 +1,204 @@
+//! PLY, the format scanners write (ASCII or binary): vertex positions, and normals and texture
+//! coordinates when every vertex has them; polygons fan-triangulated in file order.
+
+use crate::{
+    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices,
+    check_positions,
+};
+use glam::Mat4;
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{DefaultElement, Property, PropertyAccess, PropertyAccessResult};
+use std::io::BufReader;
+use std::path::Path;
+
+/// One vertex; which optional attributes it had is tracked so that partial ones are left out.
+#[derive(Default)]
+struct PlyVertex {
+    position: [f32; 3],
+    normal: [f32; 3],
+    uv: [f32; 2],
+    /// Bits 0-2: x, y, z; 3-5: nx, ny, nz; 6-7: u, v.
+    seen: u8,
+}
+
+fn scalar(p: &Property) -> Option<f32> {
+    Some(match *p {
+        Property::Float(x) => x,
+        Property::Double(x) => x as f32,
+        Property::Char(x) => x as f32,
+        Property::UChar(x) => x as f32,
+        Property::Short(x) => x as f32,
+        Property::UShort(x) => x as f32,
+        Property::Int(x) => x as f32,
+        Property::UInt(x) => x as f32,
+        _ => return None,
+    })
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        let (slot, bit): (&mut f32, u8) = match name {
+            "x" => (&mut self.position[0], 0),
+            "y" => (&mut self.position[1], 1),
+            "z" => (&mut self.position[2], 2),
+            "nx" => (&mut self.normal[0], 3),
+            "ny" => (&mut self.normal[1], 4),
+            "nz" => (&mut self.normal[2], 5),
+            "u" | "s" | "texture_u" => (&mut self.uv[0], 6),
+            "v" | "t" | "texture_v" => (&mut self.uv[1], 7),
+            _ => return PropertyAccessResult::Ignored,
+        };
+        let Some(value) = scalar(&property) else {
+            return PropertyAccessResult::UnsupportedType;
+        };
+        *slot = value;
+        self.seen |= 1 << bit;
+        PropertyAccessResult::Set
+    }
+}
+
+/// One polygon's vertex indices; `negative` when an index was below zero.
+#[derive(Default)]
+struct PlyFace {
+    indices: Vec<u32>,
+    negative: bool,
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return PropertyAccessResult::Ignored;
+        }
+        let mut push = |v: i64| {
+            if v < 0 || v > u32::MAX as i64 {
+                self.negative = true;
+            } else {
+                self.indices.push(v as u32);
+            }
+        };
+        match property {
+            Property::ListChar(l) => l.into_iter().for_each(|v| push(v as i64)),
+            Property::ListUChar(l) => l.into_iter().for_each(|v| push(v as i64)),
+            Property::ListShort(l) => l.into_iter().for_each(|v| push(v as i64)),
+            Property::ListUShort(l) => l.into_iter().for_each(|v| push(v as i64)),
+            Property::ListInt(l) => l.into_iter().for_each(|v| push(v as i64)),
+            Property::ListUInt(l) => l.into_iter().for_each(|v| push(v as i64)),
+            _ => return PropertyAccessResult::UnsupportedType,
+        }
+        PropertyAccessResult::Set
+    }
+}
+
+/// Loads a PLY file as one mesh named after the file.
+pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
+    let file = std::fs::File::open(path).map_err(|e| ImportError::new(path, e.to_string()))?;
+    let file_len = file.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
+    let mut reader = Reader::new(BufReader::new(file));
+    let vertices_parser = Parser::<PlyVertex>::new();
+    let faces_parser = Parser::<PlyFace>::new();
+    let other_parser = Parser::<DefaultElement>::new();
+    let header = vertices_parser
+        .read_header(&mut reader)
+        .map_err(|e| ImportError::new(path, format!("not a readable PLY header: {e}")))?;
+    let mut vertices: Vec<PlyVertex> = Vec::new();
+    let mut faces: Vec<PlyFace> = Vec::new();
+    for (name, element) in &header.elements {
+        // Every element takes at least a byte: a larger count is a lie, refused before any reading.
+        if element.count > MAX_ELEMENTS || element.count as u64 > file_len {
+            return Err(ImportError::new(
+                path,
+                format!(
+                    "the header declares {} '{name}' elements, more than the file can hold",
+                    element.count
+                ),
+            ));
+        }
+        let read_error = |e: ply_rs_bw::parser::ParseError| {
+            ImportError::new(path, format!("cannot read its {name} elements: {e}"))
+        };
+        match name.as_str() {
+            "vertex" => {
+                vertices = vertices_parser
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(read_error)?
+            }
+            "face" => {
+                faces = faces_parser
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(read_error)?
+            }
+            // Other elements (edges, materials) are read past.
+            _ => {
+                other_parser
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(read_error)?;
+            }
+        }
+    }
+    if vertices.iter().any(|v| v.seen & 0b111 != 0b111) {
+        return Err(ImportError::new(
+            path,
+            "some vertices lack an x, y or z coordinate",
+        ));
+    }
+    if faces.is_empty() {
+        return Err(ImportError::new(
+            path,
+            "the file has no faces (a point cloud cannot be traced)",
+        ));
+    }
+    let name = path
+        .file_stem()
+        .map_or_else(|| "mesh".to_owned(), |s| s.to_string_lossy().into_owned());
+    let positions: Vec<[f32; 3]> = vertices.iter().map(|v| v.position).collect();
+    check_positions(path, &name, &positions)?;
+    let mut indices = Vec::new();
+    let mut skipped = 0usize;
+    for f in &faces {
+        if f.negative {
+            return Err(ImportError::new(
+                path,
+                format!("mesh '{name}' has a negative vertex index"),
+            ));
+        }
+        if f.indices.len() < 3 {
+            skipped += 1;
+            continue;
+        }
+        for k in 1..f.indices.len() - 1 {
+            indices.extend([f.indices[0], f.indices[k], f.indices[k + 1]]);
+        }
+    }
+    check_indices(path, &name, &indices, positions.len())?;
+    let all = |mask: u8| !vertices.is_empty() && vertices.iter().all(|v| v.seen & mask == mask);
+    let normals = all(0b111000).then(|| vertices.iter().map(|v| v.normal).collect());
+    let uvs = all(0b1100_0000).then(|| vertices.iter().map(|v| v.uv).collect());
+    let mut warnings = Vec::new();
+    if skipped > 0 {
+        warnings.push(format!(
+            "'{name}': {skipped} faces with fewer than 3 vertices, skipped"
+        ));
+    }
+    Ok(ImportedScene {
+        meshes: vec![ImportedMesh {
+            name,
+            transform: Mat4::IDENTITY,
+            positions,
+            normals,
+            uvs,
+            indices,
+            material: Some(0),
+        }],
+        materials: vec![ImportedMaterial::default()],
+        textures: Vec::new(),
+        warnings,
+    })
+}
