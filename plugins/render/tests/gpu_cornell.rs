@@ -11,12 +11,12 @@ mod support;
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
-use support::{Gpu, floats, skip, tree_bytes};
+use support::{Gpu, Rng, floats, put_record, skip};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, ViewParams, attribute_bytes,
-    light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, ViewParams,
+    attribute_bytes, light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -172,28 +172,17 @@ fn world_from_clip() -> Mat4 {
 fn gpu_image(scene: &Scene) -> Vec<Vec3> {
     let gpu = Gpu::new();
     let bvh = &scene.bvh;
-    let [n, t, i] = tree_bytes(bvh);
-    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * 48];
-    let object = OBJECT_BYTES as usize;
-    let mut objects = vec![0u8; bvh.group_slots() as usize * object];
+    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
+    let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
     for (&g, m) in &scene.materials {
         for &id in bvh.group_triangles(g).unwrap() {
-            let rec = attribute_bytes(None, None, g.index());
-            attrs[id as usize * 48..id as usize * 48 + 48].copy_from_slice(&rec);
+            put_record(&mut attrs, id, &attribute_bytes(None, None, g.index()));
         }
         let rec = object_bytes(Mat3::from(bvh.group_transform(g).unwrap().matrix3), m);
-        let at = g.index() as usize * object;
-        objects[at..at + object].copy_from_slice(&rec);
+        put_record(&mut objects, g.index(), &rec);
     }
     let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
-    let buffers = [
-        gpu.storage("nodes", &n),
-        gpu.storage("triangles", &t),
-        gpu.storage("instances", &i),
-        gpu.storage("attributes", &attrs),
-        gpu.storage("objects", &objects),
-        gpu.storage("lights", &lights),
-    ];
+    let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights);
     let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
     // Untextured: an empty one-layer array fills the binding.
@@ -213,34 +202,12 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
             light_count: scene.lights.len() as u32,
             indirect_clamp: 0.0,
         };
-        let uniform = gpu.uniform(&params.to_bytes());
-        let mut resources: Vec<wgpu::BindingResource> =
-            buffers.iter().map(|b| b.as_entire_binding()).collect();
-        resources.extend([
-            uniform.as_entire_binding(),
-            accum.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&layers.view),
-            wgpu::BindingResource::Sampler(&layers.sampler),
-        ]);
-        gpu.dispatch_with(&pipeline, resources, (SIZE.div_ceil(8), SIZE.div_ceil(8)));
+        gpu.path_trace(&pipeline, &buffers, &params, &accum, &layers);
     }
     floats(&gpu.read(&accum))
         .chunks_exact(4)
         .map(|c| Vec3::new(c[0], c[1], c[2]) / SAMPLES as f32)
         .collect()
-}
-
-/// A small PCG, independent of the shader's.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
 }
 
 /// The kernel's BRDF model, written again from its definition.

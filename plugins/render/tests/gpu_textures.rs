@@ -5,26 +5,13 @@
 
 mod support;
 
-use support::{Gpu, floats, linear_to_srgb, skip, srgb_to_linear};
+use support::{Gpu, Rng, floats, linear_to_srgb, put_record, skip, srgb_to_linear};
 use treelight_bvh::glam::{Affine2, Affine3A, Mat3, Mat4, Vec2, Vec3};
 use treelight_bvh::{Bvh, Triangle};
 use treelight_render::{
     ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SurfaceMaterial,
     TextureWrap, ViewParams, attribute_bytes, object_bytes,
 };
-
-/// A tiny deterministic generator (an LCG's high bits).
-struct Rng(u64);
-
-impl Rng {
-    fn byte(&mut self) -> u8 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 56) as u8
-    }
-}
 
 fn random_image(rng: &mut Rng, w: u32, h: u32) -> Vec<u8> {
     (0..w * h * 4).map(|_| rng.byte()).collect()
@@ -158,12 +145,7 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
     let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
     for (k, &id) in bvh.group_triangles(g).unwrap().iter().enumerate() {
         let uvs = faces[k].map(|c| quad_uv(corners[c]));
-        let at = id as usize * ATTRIBUTE_BYTES as usize;
-        attrs[at..at + ATTRIBUTE_BYTES as usize].copy_from_slice(&attribute_bytes(
-            None,
-            Some(uvs),
-            g.index(),
-        ));
+        put_record(&mut attrs, id, &attribute_bytes(None, Some(uvs), g.index()));
     }
     let uv_transform = Affine2::from_mat2_translation(
         treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
@@ -177,19 +159,12 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         ..Default::default()
     };
     let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
-    let at = g.index() as usize * OBJECT_BYTES as usize;
-    objects[at..at + OBJECT_BYTES as usize]
-        .copy_from_slice(&object_bytes(Mat3::IDENTITY, &material));
-
-    let [n, t, i] = support::tree_bytes(&bvh);
-    let buffers = [
-        gpu.storage("nodes", &n),
-        gpu.storage("triangles", &t),
-        gpu.storage("instances", &i),
-        gpu.storage("attributes", &attrs),
-        gpu.storage("objects", &objects),
-        gpu.storage("lights", &[]),
-    ];
+    put_record(
+        &mut objects,
+        g.index(),
+        &object_bytes(Mat3::IDENTITY, &material),
+    );
+    let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &[]);
     const SAMPLES: u32 = 8;
     let params = ViewParams {
         world_from_clip: world_from_clip(),
@@ -205,18 +180,9 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         light_count: 0,
         indirect_clamp: 0.0,
     };
-    let uniform = gpu.uniform(&params.to_bytes());
     let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
-    let mut resources: Vec<wgpu::BindingResource> =
-        buffers.iter().map(|b| b.as_entire_binding()).collect();
-    resources.extend([
-        uniform.as_entire_binding(),
-        accum.as_entire_binding(),
-        wgpu::BindingResource::TextureView(&layers.view),
-        wgpu::BindingResource::Sampler(&layers.sampler),
-    ]);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
-    gpu.dispatch_with(&pipeline, resources, (SIZE / 8, SIZE / 8));
+    gpu.path_trace(&pipeline, &buffers, &params, &accum, &layers);
     let image = floats(&gpu.read(&accum));
 
     // Expected albedo per pixel, where a pixel's jittered samples all fall inside one block's flat

@@ -6,7 +6,7 @@
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
 use treelight_render::{
-    PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, instance_bytes, node_bytes, triangle_bytes,
+    PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, ViewParams, instance_bytes, node_bytes, triangle_bytes,
 };
 use wgpu::util::DeviceExt;
 
@@ -304,6 +304,82 @@ impl Gpu {
         data.chunks_exact(row as usize)
             .flat_map(|r| r[..(layers.size * 4) as usize].to_vec())
             .collect()
+    }
+}
+
+impl Gpu {
+    /// The six scene buffers `path_trace` binds first, in its binding order: the tree's records,
+    /// then the given shading, object and light records.
+    pub fn scene_buffers(
+        &self,
+        bvh: &Bvh,
+        attributes: &[u8],
+        objects: &[u8],
+        lights: &[u8],
+    ) -> [wgpu::Buffer; 6] {
+        let [n, t, i] = tree_bytes(bvh);
+        [
+            self.storage("nodes", &n),
+            self.storage("triangles", &t),
+            self.storage("instances", &i),
+            self.storage("attributes", attributes),
+            self.storage("objects", objects),
+            self.storage("lights", lights),
+        ]
+    }
+
+    /// One dispatch of `path_trace` (`pipeline`) over the view's pixels, adding to `accum`.
+    pub fn path_trace(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        scene: &[wgpu::Buffer; 6],
+        view: &ViewParams,
+        accum: &wgpu::Buffer,
+        layers: &Layers,
+    ) {
+        let uniform = self.uniform(&view.to_bytes());
+        let mut resources: Vec<wgpu::BindingResource> =
+            scene.iter().map(|b| b.as_entire_binding()).collect();
+        resources.extend([
+            uniform.as_entire_binding(),
+            accum.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&layers.view),
+            wgpu::BindingResource::Sampler(&layers.sampler),
+        ]);
+        self.dispatch_with(
+            pipeline,
+            resources,
+            (view.width.div_ceil(8), view.height.div_ceil(8)),
+        );
+    }
+}
+
+/// Writes `record` into slot `index` of an array of equal-sized records.
+pub fn put_record(array: &mut [u8], index: u32, record: &[u8]) {
+    let at = index as usize * record.len();
+    array[at..at + record.len()].copy_from_slice(record);
+}
+
+/// A small LCG, independent of the shader's generator.
+pub struct Rng(pub u64);
+
+impl Rng {
+    fn step(&mut self) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        self.0
+    }
+
+    /// Uniform in [0, 1), from the state's top 24 bits.
+    pub fn next(&mut self) -> f32 {
+        ((self.step() >> 40) as f32) / (1u64 << 24) as f32
+    }
+
+    /// A uniform byte, from the state's top 8 bits.
+    pub fn byte(&mut self) -> u8 {
+        (self.step() >> 56) as u8
     }
 }
 
