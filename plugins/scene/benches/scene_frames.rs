@@ -9,13 +9,17 @@
 //!
 //! Run: `cargo bench -p treelight_scene --bench scene_frames` (release). Prints markdown tables.
 
-use bevy::asset::{AssetPlugin, RenderAssetUsages};
-use bevy::mesh::{Indices, Mesh, MeshPlugin, PrimitiveTopology};
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
+use support::headless_app;
 use treelight_bench::scenes::hairball;
 use treelight_bvh::Triangle;
-use treelight_scene::{SceneBvh, SceneBvhPlugin, SceneBvhSystems};
+use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhSystems};
 
 #[derive(Resource, Default)]
 struct PluginClock {
@@ -34,16 +38,8 @@ fn stop_clock(mut c: ResMut<PluginClock>) {
 }
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-        SceneBvhPlugin::default(),
-    ))
-    .init_resource::<PluginClock>()
-    .add_systems(
+    let mut app = headless_app(SceneBvhConfig::default());
+    app.init_resource::<PluginClock>().add_systems(
         PostUpdate,
         (
             start_clock.before(SceneBvhSystems),

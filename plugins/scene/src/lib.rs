@@ -315,6 +315,14 @@ impl SceneBvh {
         Some(f(&tree, &changes))
     }
 
+    /// Stops tracing `e`: the worker removes what it has of it. Nothing is sent for an entity the
+    /// worker never heard of.
+    fn untrace(&mut self, e: Entity) {
+        if self.traced.remove(&e) {
+            self.send(Command::Remove { entity: e });
+        }
+    }
+
     fn send(&self, c: Command) {
         self.shared.pending.fetch_add(1, Ordering::AcqRel);
         if self
@@ -372,9 +380,7 @@ fn track_world(
             list.retain(|&w| w != e);
         }
         scene.copying.remove(&e);
-        if scene.traced.remove(&e) {
-            scene.send(Command::Remove { entity: e });
-        }
+        scene.untrace(e);
         sent_now.insert(e);
     }
     // Meshes that finished loading, for entities that were waiting on them.
@@ -462,9 +468,7 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
             }
             Err(why) => {
                 warn!("entity {e} ('{}') is not traced: {why}", job.name);
-                if scene.traced.remove(&e) {
-                    scene.send(Command::Remove { entity: e });
-                }
+                scene.untrace(e);
             }
         }
     }
@@ -481,9 +485,7 @@ fn upsert(
     sent_now.insert(e);
     scene.copying.remove(&e);
     if vis.is_some_and(|v| !v.get()) {
-        if scene.traced.remove(&e) {
-            scene.send(Command::Remove { entity: e });
-        }
+        scene.untrace(e);
         return;
     }
     let label = name.map_or_else(|| format!("{e}"), |n| n.as_str().to_owned());
@@ -508,9 +510,7 @@ fn upsert(
         }
         Err(why) => {
             warn!("entity {e} ('{label}') is not traced: {why}");
-            if scene.traced.remove(&e) {
-                scene.send(Command::Remove { entity: e });
-            }
+            scene.untrace(e);
         }
     }
 }

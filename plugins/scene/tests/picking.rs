@@ -2,16 +2,18 @@
 //! pointer and camera) come back as `PointerHits` for the nearest entity the camera may pick, seeing
 //! through entities on other render layers and non-hoverable ones.
 
-use bevy::asset::AssetPlugin;
+mod support;
+
 use bevy::camera::visibility::RenderLayers;
-use bevy::mesh::{MeshPlugin, Meshable};
+use bevy::mesh::Meshable;
 use bevy::picking::Pickable;
 use bevy::picking::backend::PointerHits;
 use bevy::picking::backend::ray::{RayId, RayMap};
 use bevy::picking::pointer::PointerId;
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
-use treelight_scene::{SceneBvh, SceneBvhPickingPlugin, SceneBvhPlugin};
+use support::headless_app;
+use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhPickingPlugin};
 
 #[derive(Resource, Default)]
 struct Seen(Vec<PointerHits>);
@@ -21,19 +23,12 @@ fn collect(mut hits: MessageReader<PointerHits>, mut seen: ResMut<Seen>) {
 }
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-        SceneBvhPlugin::default(),
-        SceneBvhPickingPlugin,
-    ))
-    .init_resource::<RayMap>()
-    .init_resource::<Seen>()
-    .add_message::<PointerHits>()
-    .add_systems(Update, collect);
+    let mut app = headless_app(SceneBvhConfig::default());
+    app.add_plugins(SceneBvhPickingPlugin)
+        .init_resource::<RayMap>()
+        .init_resource::<Seen>()
+        .add_message::<PointerHits>()
+        .add_systems(Update, collect);
     app
 }
 

@@ -1,13 +1,15 @@
 //! Headless (no GPU): after random spawns, despawns and moves over many frames, the published tree's
 //! hits equal brute force over the world's current meshes, and nothing remains of despawned entities.
 
-use bevy::asset::AssetPlugin;
+mod support;
+
 use bevy::math::Ray3d;
-use bevy::mesh::{Mesh, MeshBuilder, MeshPlugin, Meshable};
+use bevy::mesh::{Mesh, MeshBuilder, Meshable};
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
+use support::headless_app;
 use treelight_bvh::RayData;
-use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhPlugin, mesh_triangles};
+use treelight_scene::{SceneBvh, SceneBvhConfig, mesh_triangles};
 
 struct Rng(u64);
 impl Rng {
@@ -26,20 +28,10 @@ impl Rng {
 }
 
 fn app(bake_after: Duration) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .add_plugins(SceneBvhPlugin {
-        config: SceneBvhConfig {
-            bake_after,
-            ..default()
-        },
-    });
-    app
+    headless_app(SceneBvhConfig {
+        bake_after,
+        ..default()
+    })
 }
 
 /// Runs frames until the worker has applied everything.
@@ -242,18 +234,9 @@ fn meshes_loaded_later_and_edited_meshes_are_traced() {
 #[test]
 fn big_meshes_are_copied_over_several_frames() {
     // No main-thread budget: one chunk of triangles per frame.
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .add_plugins(SceneBvhPlugin {
-        config: SceneBvhConfig {
-            main_thread_budget: Duration::ZERO,
-            ..default()
-        },
+    let mut app = headless_app(SceneBvhConfig {
+        main_thread_budget: Duration::ZERO,
+        ..default()
     });
     let sphere = Sphere::new(1.0).mesh().uv(200, 100);
     let triangles = mesh_triangles(&sphere).unwrap().len() as u32;
