@@ -43,28 +43,29 @@ impl Bvh {
         }
         cache.clear();
         self.cache = cache;
-        let k = ((self.config.update_fraction * candidates.len() as f32).ceil() as usize)
-            .min(candidates.len());
-        self.update_top(&mut candidates, k);
+        let k = share(self.config.update_fraction, candidates.len());
+        worst_first(&mut candidates, k);
+        self.reinsert_each(&candidates[..k], Move::Children);
         self.update_candidates = candidates;
     }
 
-    /// Re-inserts the children of the `k` most inefficient of `candidates`.
-    fn update_top(&mut self, candidates: &mut [(f32, u32)], k: usize) {
-        if k == 0 {
-            return;
-        }
-        if k < candidates.len() {
-            candidates.select_nth_unstable_by(k - 1, |a, b| b.0.total_cmp(&a.0));
-        }
+    /// Moves each node of `nodes` that is still updatable (an earlier move in the same batch may
+    /// have made it the root), with recording off: the moves must not queue further updates.
+    /// Returns the moves made.
+    fn reinsert_each(&mut self, nodes: &[(f32, u32)], kind: Move) -> u32 {
         let recording = std::mem::replace(&mut self.recording, false);
-        for &(_, i) in &candidates[..k] {
-            // An earlier update in this batch may have moved this node to the root.
+        let mut moves = 0;
+        for &(_, i) in nodes {
             if self.updatable(i) {
-                self.reinsert_children(i);
+                match kind {
+                    Move::Children => self.reinsert_children(i),
+                    Move::Subtree => self.reinsert_subtree(i),
+                };
+                moves += 1;
             }
         }
         self.recording = recording;
+        moves
     }
 
     /// Whether inner node `i` may be updated: live, in the global tree, not the root.
@@ -154,23 +155,11 @@ impl Bvh {
                 .filter(|&&i| self.inner[i as usize].parent != NONE)
                 .map(|&i| (self.inefficiency(i), i))
                 .collect();
-            let k =
-                ((pass.fraction * candidates.len() as f32).ceil() as usize).min(candidates.len());
-            if k < candidates.len() {
-                candidates.select_nth_unstable_by(k.saturating_sub(1), |a, b| b.0.total_cmp(&a.0));
-            }
+            let k = share(pass.fraction, candidates.len());
+            worst_first(&mut candidates, k);
+            // The post-pass also orders its top share, most inefficient first.
             candidates[..k].sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
-            let recording = std::mem::replace(&mut self.recording, false);
-            for &(_, i) in &candidates[..k] {
-                if self.updatable(i) {
-                    if round % 2 == 0 {
-                        self.reinsert_children(i);
-                    } else {
-                        self.reinsert_subtree(i);
-                    }
-                }
-            }
-            self.recording = recording;
+            self.reinsert_each(&candidates[..k], Move::alternating(round));
             rounds += 1;
             let new_cost = self.sah_cost();
             let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
@@ -228,37 +217,52 @@ impl Bvh {
                 candidates.push((self.inefficiency(i), i));
             }
         }
-        let children = cursor.sweep.is_multiple_of(2);
+        let kind = Move::alternating(cursor.sweep);
         if end == slots {
             cursor.next = 0;
             cursor.sweep += 1;
         } else {
             cursor.next = end;
         }
-        let k = ((fraction.clamp(0.0, 1.0) * candidates.len() as f32).ceil() as usize)
-            .min(candidates.len());
-        if k == 0 {
-            return 0;
-        }
-        if k < candidates.len() {
-            candidates.select_nth_unstable_by(k - 1, |a, b| b.0.total_cmp(&a.0));
-        }
+        let k = share(fraction, candidates.len());
+        worst_first(candidates, k);
         let saved = std::mem::replace(&mut self.config.keep_only_improving, true);
-        let recording = std::mem::replace(&mut self.recording, false);
-        let mut moves = 0;
-        for &(_, i) in &cursor.candidates[..k] {
-            if self.updatable(i) {
-                if children {
-                    self.reinsert_children(i);
-                } else {
-                    self.reinsert_subtree(i);
-                }
-                moves += 1;
-            }
-        }
-        self.recording = recording;
+        let moves = self.reinsert_each(&cursor.candidates[..k], kind);
         self.config.keep_only_improving = saved;
         moves
+    }
+}
+
+/// Which re-insertion a global update makes.
+#[derive(Clone, Copy)]
+enum Move {
+    /// Remove the node and its parent, re-insert its two children.
+    Children,
+    /// Re-insert the node's whole subtree.
+    Subtree,
+}
+
+impl Move {
+    /// Children in even rounds (or sweeps), subtrees in odd ones.
+    fn alternating(round: u32) -> Self {
+        if round.is_multiple_of(2) {
+            Move::Children
+        } else {
+            Move::Subtree
+        }
+    }
+}
+
+/// How many of `len` candidates `fraction` selects: rounded up, at most all, none for a negative or
+/// NaN fraction.
+fn share(fraction: f32, len: usize) -> usize {
+    ((fraction * len as f32).ceil() as usize).min(len)
+}
+
+/// Moves the `k` most inefficient candidates to the front, in no particular order.
+fn worst_first(candidates: &mut [(f32, u32)], k: usize) {
+    if k > 0 && k < candidates.len() {
+        candidates.select_nth_unstable_by(k - 1, |a, b| b.0.total_cmp(&a.0));
     }
 }
 
