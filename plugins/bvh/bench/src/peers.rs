@@ -40,40 +40,50 @@ fn obvhs_tree(tris: &[Triangle], preset: obvhs::BvhBuildParams) -> BuiltTree {
     if bvh.nodes.is_empty() {
         return BuiltTree::default();
     }
-    // Inner nodes are numbered in the order they are reached from the root.
-    let mut nodes: Vec<InnerNode> = Vec::with_capacity(bvh.nodes.len() / 2);
-    let leaf_of = |i: usize| {
+    convert(|i| {
         let n = &bvh.nodes[i];
-        NodeRef::leaf(bvh.primitive_indices[n.first_index as usize])
-    };
-    let root_node = &bvh.nodes[0];
-    if root_node.prim_count > 0 {
-        return BuiltTree {
-            nodes,
-            root: leaf_of(0),
-        };
-    }
+        if n.prim_count > 0 {
+            PeerNode::Leaf(bvh.primitive_indices[n.first_index as usize])
+        } else {
+            let first = n.first_index as usize;
+            PeerNode::Inner([first, first + 1])
+        }
+    })
+}
+
+/// A peer's node as the conversion reads it: a leaf's triangle, or an inner node's two children.
+enum PeerNode {
+    Leaf(u32),
+    Inner([usize; 2]),
+}
+
+/// The engine's layout of a peer's tree whose root is node 0, inner nodes numbered in the order
+/// they are reached. Boxes are left empty: [`treelight_bvh::Bvh::from_built`] recomputes them all
+/// from the triangles.
+fn convert(node: impl Fn(usize) -> PeerNode) -> BuiltTree {
+    let mut nodes: Vec<InnerNode> = Vec::new();
     // (their node, our parent, child slot)
     let mut stack = vec![(0usize, NONE, 0usize)];
     while let Some((i, parent, slot)) = stack.pop() {
-        let n = &bvh.nodes[i];
-        let me = if n.prim_count > 0 {
-            leaf_of(i)
-        } else {
-            let k = nodes.len() as u32;
-            nodes.push(InnerNode {
-                aabb: Aabb::new(
-                    treelight_bvh::glam::Vec3::from_array(n.aabb.min.to_array()),
-                    treelight_bvh::glam::Vec3::from_array(n.aabb.max.to_array()),
-                ),
-                children: [NodeRef::NONE; 2],
-                parent,
-            });
-            stack.push((n.first_index as usize + 1, k, 1));
-            stack.push((n.first_index as usize, k, 0));
-            NodeRef::inner(k)
+        let me = match node(i) {
+            PeerNode::Leaf(t) => NodeRef::leaf(t),
+            PeerNode::Inner([l, r]) => {
+                let k = nodes.len() as u32;
+                nodes.push(InnerNode {
+                    aabb: Aabb::EMPTY,
+                    children: [NodeRef::NONE; 2],
+                    parent,
+                });
+                stack.push((r, k, 1));
+                stack.push((l, k, 0));
+                NodeRef::inner(k)
+            }
         };
-        if parent != NONE {
+        if parent == NONE {
+            if !me.is_inner() {
+                return BuiltTree { nodes, root: me };
+            }
+        } else {
             nodes[parent as usize].children[slot] = me;
         }
     }
@@ -122,47 +132,14 @@ fn bvh_crate(tris: &[Triangle]) -> BuiltTree {
         })
         .collect();
     let tree = bvh::bvh::Bvh::build(&mut shapes);
-    let mut nodes: Vec<InnerNode> = Vec::with_capacity(tris.len());
-    // (their node, our parent, child slot, box as the parent stores it)
-    let mut stack = vec![(0usize, NONE, 0usize, Aabb::EMPTY)];
-    while let Some((i, parent, slot, aabb)) = stack.pop() {
-        let me = match &tree.nodes[i] {
-            bvh::bvh::BvhNode::Leaf { shape_index, .. } => NodeRef::leaf(*shape_index as u32),
-            bvh::bvh::BvhNode::Node {
-                child_l_index,
-                child_l_aabb,
-                child_r_index,
-                child_r_aabb,
-                ..
-            } => {
-                let k = nodes.len() as u32;
-                // The root's box is not stored: the engine refits every box from the triangles.
-                nodes.push(InnerNode {
-                    aabb,
-                    children: [NodeRef::NONE; 2],
-                    parent,
-                });
-                let ours = |b: &bvh::aabb::Aabb<f32, 3>| {
-                    Aabb::new(
-                        treelight_bvh::glam::Vec3::new(b.min.x, b.min.y, b.min.z),
-                        treelight_bvh::glam::Vec3::new(b.max.x, b.max.y, b.max.z),
-                    )
-                };
-                stack.push((*child_r_index, k, 1, ours(child_r_aabb)));
-                stack.push((*child_l_index, k, 0, ours(child_l_aabb)));
-                NodeRef::inner(k)
-            }
-        };
-        if parent != NONE {
-            nodes[parent as usize].children[slot] = me;
-        } else if !me.is_inner() {
-            return BuiltTree { nodes, root: me };
-        }
-    }
-    BuiltTree {
-        nodes,
-        root: NodeRef::inner(0),
-    }
+    convert(|i| match &tree.nodes[i] {
+        bvh::bvh::BvhNode::Leaf { shape_index, .. } => PeerNode::Leaf(*shape_index as u32),
+        bvh::bvh::BvhNode::Node {
+            child_l_index,
+            child_r_index,
+            ..
+        } => PeerNode::Inner([*child_l_index, *child_r_index]),
+    })
 }
 
 #[cfg(test)]
