@@ -50,6 +50,25 @@ fn colour(k: usize) -> RGBColor {
     PALETTE[k % PALETTE.len()]
 }
 
+/// A legend entry's swatch: a short line in the series' colour.
+fn swatch(c: RGBColor) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
+    move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2))
+}
+
+/// Draws the legend, in the same style on every plot, at `corner`.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    corner: SeriesLabelPosition,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_series_labels()
+        .position(corner)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 14))
+        .draw()
+}
+
 /// A file name from a scene name: letters, digits and dashes only.
 fn slug(s: &str) -> String {
     let name = Path::new(s)
@@ -130,26 +149,18 @@ pub fn construction(
                 let series = chart
                     .draw_series(LineSeries::new(points.clone(), c.stroke_width(2)))
                     .map_err(|e| err(&path, e))?;
-                series.label(run.method.clone()).legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2))
-                });
+                series.label(run.method.clone()).legend(swatch(c));
                 // Top-down builders have one point: make it visible.
                 chart
                     .draw_series(points.last().map(|&p| Circle::new(p, 4, c.filled())))
                     .map_err(|e| err(&path, e))?;
             }
-            chart
-                .configure_series_labels()
-                .position(if figure == 8 {
-                    SeriesLabelPosition::LowerRight
-                } else {
-                    SeriesLabelPosition::UpperLeft
-                })
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font((FONT, 14))
-                .draw()
-                .map_err(|e| err(&path, e))?;
+            let corner = if figure == 8 {
+                SeriesLabelPosition::LowerRight
+            } else {
+                SeriesLabelPosition::UpperLeft
+            };
+            legend(&mut chart, corner).map_err(|e| err(&path, e))?;
             root.present().map_err(|e| err(&path, e))?;
         }
         files.push(path);
@@ -211,7 +222,7 @@ pub fn latency(
                 .draw_series(LineSeries::new(points.clone(), c.stroke_width(2)))
                 .map_err(|e| err(&path, e))?
                 .label(name)
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
+                .legend(swatch(c));
             chart
                 .draw_series(points.into_iter().map(|p| Circle::new(p, 4, c.filled())))
                 .map_err(|e| err(&path, e))?;
@@ -225,16 +236,9 @@ pub fn latency(
                 ))
                 .map_err(|e| err(&path, e))?
                 .label(format!("full rebuild, {}", r.method))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
+                .legend(swatch(c));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 14))
-            .draw()
-            .map_err(|e| err(&path, e))?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft).map_err(|e| err(&path, e))?;
         root.present().map_err(|e| err(&path, e))?;
     }
     Ok(path)
