@@ -61,32 +61,40 @@ impl Bvh {
     pub fn find_best_sibling(&self, l: &Aabb, scratch: &mut SearchScratch) -> NodeRef {
         let s_l = l.area();
         let root = self.root;
+        let root_box = self.aabb(root);
         let mut best = root;
-        let mut c_best = self.aabb(root).union_area(l);
+        let mut c_best = root_box.union_area(l);
+        if !root.is_inner() {
+            return best;
+        }
         scratch.heap.clear();
-        scratch.push(0.0, root);
+        // The queue holds inner nodes whose own cost is already counted, keyed by the cost they
+        // induce on their children. Children are costed when their parent is expanded, not when
+        // they are popped: a leaf never enters the queue, a good child lowers `c_best` before its
+        // siblings are considered, and each box is read once.
+        let c_root = c_best - root_box.area();
+        if c_root + s_l < c_best {
+            scratch.push(c_root, root);
+        }
         while let Some((c_i, x)) = scratch.pop() {
             if c_i + s_l >= c_best {
                 break;
             }
-            let (bx, children) = match x.kind() {
-                NodeKind::Inner => {
-                    let n = &self.inner[x.index() as usize];
-                    (n.aabb, Some(n.children))
+            for child in self.inner[x.index() as usize].children {
+                let (b, inner) = match child.kind() {
+                    NodeKind::Inner => (self.inner[child.index() as usize].aabb, true),
+                    _ => (self.aabb(child), false),
+                };
+                let c = c_i + b.union_area(l);
+                if c < c_best {
+                    best = child;
+                    c_best = c;
                 }
-                _ => (self.aabb(x), None),
-            };
-            let s_union = bx.union_area(l);
-            let c = c_i + s_union;
-            if c < c_best {
-                best = x;
-                c_best = c;
-            }
-            if let Some([a, b]) = children {
-                let c_child = c - bx.area();
-                if c_child + s_l < c_best {
-                    scratch.push(c_child, a);
-                    scratch.push(c_child, b);
+                if inner {
+                    let c_child = c - b.area();
+                    if c_child + s_l < c_best {
+                        scratch.push(c_child, child);
+                    }
                 }
             }
         }
