@@ -53,6 +53,7 @@ pub struct Bvh {
     /// Ranked candidates of an update batch, kept between batches so that batches allocate nothing.
     pub(crate) update_candidates: Vec<(f32, u32)>,
     pub(crate) update_ops: u64,
+    pub(crate) treelet_scratch: Box<crate::treelet::TreeletScratch>,
     pub(crate) live_tris: u32,
     /// Running sum of changes to the global tree's inner node areas, so a move's effect on Eq. 1 is
     /// known exactly without recosting the tree.
@@ -89,6 +90,7 @@ impl Bvh {
             scratch: SearchScratch::default(),
             update_candidates: Vec::new(),
             update_ops: 0,
+            treelet_scratch: Box::default(),
             live_tris: 0,
             area_acc: 0.0,
         }
@@ -413,6 +415,15 @@ impl Bvh {
 
     /// Whether inner node `i` is reachable from the global root (not freed, not inside an instance).
     pub(crate) fn in_global_tree(&self, i: u32) -> bool {
+        let parent = self.inner[i as usize].parent;
+        if parent == FREE {
+            return false;
+        }
+        if self.instances.len() == self.inst_free.len() {
+            // Without instances every live node with a parent hangs, through live parents, from the
+            // root: no walk up the tree (update batches ask this for every cached node).
+            return parent != NONE || self.root == NodeRef::inner(i);
+        }
         let mut n = NodeRef::inner(i);
         loop {
             let p = self.parent(n);

@@ -39,6 +39,12 @@ pub struct BvhConfig {
     pub block_min_batch: u32,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,
+    /// After each insertion, try tree rotations (Kensler 2008) at every node on the path to the
+    /// root. Not in the paper: a cheap local update that helps most on scanned meshes.
+    pub rotations: bool,
+    /// Subtrees per treelet (3 to 8) when an update batch also restructures a treelet (Karras and
+    /// Aila 2013) at every node of the node update cache; 0 turns it off. Not in the paper.
+    pub update_treelet: u32,
     /// Undo an update that would raise the cost (the paper notes keeping every move works too).
     pub keep_only_improving: bool,
 }
@@ -58,6 +64,8 @@ impl Default for BvhConfig {
             block_min_batch: 1,
             parallel_search_batch: 16,
             keep_only_improving: false,
+            rotations: false,
+            update_treelet: 0,
         }
     }
 }

@@ -60,7 +60,19 @@ impl Bvh {
             self.record(item.index());
         }
         self.insert_node(item);
+        self.rotate_after_insertion(item);
         self.maybe_update();
+    }
+
+    /// With rotations on, tries them along the path from a just-inserted item to the root. Only
+    /// after insertions: an update move relies on its nodes keeping their places until it is done.
+    pub(crate) fn rotate_after_insertion(&mut self, item: NodeRef) {
+        if self.config.rotations {
+            let p = self.parent(item);
+            if p != NONE {
+                self.rotate_upwards(p);
+            }
+        }
     }
 }
 

@@ -27,8 +27,11 @@ mod node;
 mod parallel;
 mod quality;
 mod ray;
+mod recluster;
+mod rotate;
 mod search;
 mod traverse;
+mod treelet;
 mod triangle;
 mod update;
 

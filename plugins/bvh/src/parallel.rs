@@ -59,6 +59,7 @@ impl Bvh {
                 }
                 let p = self.alloc_inner();
                 self.link(item, x, p);
+                self.rotate_after_insertion(item);
                 linked.push(x);
             }
             self.maybe_update();

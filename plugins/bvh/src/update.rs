@@ -41,11 +41,22 @@ impl Bvh {
                 candidates.push((self.inefficiency(i), i));
             }
         }
-        cache.clear();
-        self.cache = cache;
         let k = share(self.config.update_fraction, candidates.len());
         worst_first(&mut candidates, k);
         self.reinsert_each(&candidates[..k], Move::Children);
+        if self.config.update_treelet >= 3 {
+            let mut s = std::mem::take(&mut self.treelet_scratch);
+            for &i in &cache {
+                // Nodes a move of this batch left detached, or a group opened into an instance,
+                // are not the global tree's to restructure.
+                if self.inner[i as usize].children[0] != NodeRef::NONE && self.in_global_tree(i) {
+                    self.optimize_treelet(i, self.config.update_treelet as usize, &mut s);
+                }
+            }
+            self.treelet_scratch = s;
+        }
+        cache.clear();
+        self.cache = cache;
         self.update_candidates = candidates;
     }
 
@@ -133,18 +144,46 @@ impl Bvh {
         if a == n { b } else { a }
     }
 
-    /// The post-pass ("BVH postprocessing", [9]): rounds of updates after construction. Each round
-    /// ranks the chosen fraction of inner nodes by inefficiency and moves each (children re-insertion
-    /// in even rounds, subtree re-insertion in odd ones), keeping only moves that lower the cost; it
-    /// stops early once a round gains less than `min_relative_gain`.
+    /// The post-pass ("BVH postprocessing", [9]): rounds of updates after construction, then
+    /// restarts. Each round ranks the chosen fraction of inner nodes by inefficiency and moves each
+    /// (children re-insertion in even rounds, subtree re-insertion in odd ones), keeping only moves
+    /// that lower the cost, then restructures treelets bottom-up; rounds stop once one gains less
+    /// than `min_relative_gain`. Each restart re-clusters the top of the tree over its small subtrees
+    /// and runs the rounds again, and is taken back unless it ends lower than before.
     pub fn optimize(&mut self, pass: PostPass) -> PostPassReport {
         let before = self.update_ops;
         let cost_before = self.sah_cost();
         let saved = self.config.keep_only_improving;
         self.config.keep_only_improving = true;
+        let mut rounds = self.optimize_rounds(&pass, cost_before);
+        let mut cost = self.sah_cost();
+        let mut restarts_kept = 0;
+        for r in 0..pass.restarts {
+            let snapshot = self.topology_snapshot();
+            self.recluster_top(RESTART_CUTS[r as usize % RESTART_CUTS.len()]);
+            rounds += self.optimize_rounds(&pass, self.sah_cost());
+            let new_cost = self.sah_cost();
+            if new_cost < cost {
+                cost = new_cost;
+                restarts_kept += 1;
+            } else {
+                self.restore_topology(snapshot);
+            }
+        }
+        self.config.keep_only_improving = saved;
+        PostPassReport {
+            rounds,
+            restarts_kept,
+            updates: self.update_ops - before,
+            cost_before,
+            cost_after: cost,
+        }
+    }
+
+    /// Update rounds (and treelet passes) until one gains less than the pass's threshold.
+    fn optimize_rounds(&mut self, pass: &PostPass, mut cost: f32) -> u32 {
         let mut nodes = Vec::new();
         let mut rounds = 0;
-        let mut cost = cost_before;
         for round in 0..pass.max_rounds {
             nodes.clear();
             if self.root.kind() == NodeKind::Inner {
@@ -160,6 +199,9 @@ impl Bvh {
             // The post-pass also orders its top share, most inefficient first.
             candidates[..k].sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
             self.reinsert_each(&candidates[..k], Move::alternating(round));
+            if pass.treelet >= 3 {
+                self.treelet_pass(pass.treelet as usize);
+            }
             rounds += 1;
             let new_cost = self.sah_cost();
             let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
@@ -169,15 +211,13 @@ impl Bvh {
                 break;
             }
         }
-        self.config.keep_only_improving = saved;
-        PostPassReport {
-            rounds,
-            updates: self.update_ops - before,
-            cost_before,
-            cost_after: cost,
-        }
+        rounds
     }
 }
+
+/// Subtree sizes (in triangles) below which successive restarts re-cluster: different cuts give
+/// different arrangements, so a restart that repeats an earlier one's result is rare.
+const RESTART_CUTS: [u32; 4] = [16, 64, 4, 256];
 
 /// Where [`Bvh::optimize_step`] goes on: a sweep position over the inner-node slots, and scratch
 /// space, so global updates can be spread over many short calls between edits.
@@ -275,6 +315,10 @@ pub struct PostPass {
     pub fraction: f32,
     /// Stop when a round lowers the cost by less than this fraction.
     pub min_relative_gain: f32,
+    /// Subtrees per treelet restructured after each round (0: none; at most 8).
+    pub treelet: u32,
+    /// Re-clusterings of the top of the tree tried after the rounds converge.
+    pub restarts: u32,
 }
 
 impl Default for PostPass {
@@ -283,6 +327,19 @@ impl Default for PostPass {
             max_rounds: 8,
             fraction: 1.0,
             min_relative_gain: 1e-3,
+            treelet: 6,
+            restarts: 4,
+        }
+    }
+}
+
+impl PostPass {
+    /// Update rounds only, as in the 2013 paper: no treelets, no restarts.
+    pub fn rounds_only() -> Self {
+        Self {
+            treelet: 0,
+            restarts: 0,
+            ..Self::default()
         }
     }
 }
@@ -290,8 +347,10 @@ impl Default for PostPass {
 /// What a post-pass did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PostPassReport {
-    /// Rounds run.
+    /// Rounds run, restarts' included.
     pub rounds: u32,
+    /// Restarts that lowered the cost and were kept.
+    pub restarts_kept: u32,
     /// Moves tried.
     pub updates: u64,
     /// SAH cost before.

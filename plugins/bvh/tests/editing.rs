@@ -269,11 +269,21 @@ fn run(ops: &[Op], config: BvhConfig) {
                 );
             }
             Op::Optimize => {
-                bvh.optimize(treelight_bvh::PostPass {
+                let before = bvh.sah_cost();
+                let report = bvh.optimize(treelight_bvh::PostPass {
                     max_rounds: 2,
                     fraction: 0.3,
                     min_relative_gain: 0.0,
+                    treelet: 5,
+                    restarts: 1,
                 });
+                let after = bvh.sah_cost();
+                // Every move and restart it keeps lowers the cost; the rest are taken back.
+                assert!(
+                    after <= before * (1.0 + 1e-4),
+                    "the post-pass raised the cost: {before} -> {after}"
+                );
+                assert!((report.cost_after - after).abs() <= 1e-4 * after.max(1.0));
             }
             _ => {}
         }
@@ -306,6 +316,18 @@ proptest! {
     #[test]
     fn random_edit_sequences(ops in prop::collection::vec(op(), 1..25)) {
         let config = BvhConfig { update_cache_size: 40, ..BvhConfig::default() };
+        run(&ops, config);
+    }
+
+    #[test]
+    fn random_edit_sequences_with_rotations_and_treelet_updates(ops in prop::collection::vec(op(), 1..25)) {
+        let config = BvhConfig {
+            update_cache_size: 40,
+            update_fraction: 0.2,
+            rotations: true,
+            update_treelet: 5,
+            ..BvhConfig::default()
+        };
         run(&ops, config);
     }
 

@@ -1,0 +1,293 @@
+//! Treelet restructuring (Karras and Aila 2013): take a node and the few largest nodes below it as
+//! a treelet of up to `MAX_TREELET` subtrees, find the topology over those subtrees with the least
+//! total inner area by dynamic programming over subsets, and rebuild the treelet that way if it is
+//! cheaper. The subtrees below are not touched, so the move is local and exact.
+
+use crate::node::{NONE, NodeRef};
+use crate::{Aabb, Bvh};
+
+/// The most subtrees a treelet gathers (the subset tables grow as 2^n, the search as 3^n).
+pub(crate) const MAX_TREELET: usize = 8;
+const SUBSETS: usize = 1 << MAX_TREELET;
+
+/// Tables for one treelet at a time, reused so restructuring allocates nothing.
+#[derive(Clone)]
+pub(crate) struct TreeletScratch {
+    leaves: [NodeRef; MAX_TREELET],
+    leaf_box: [Aabb; MAX_TREELET],
+    internal: [u32; MAX_TREELET],
+    area: [f32; SUBSETS],
+    bounds: [Aabb; SUBSETS],
+    cost: [f32; SUBSETS],
+    split: [u16; SUBSETS],
+    stack: [(u16, u32); MAX_TREELET * 2],
+}
+
+impl Default for TreeletScratch {
+    fn default() -> Self {
+        Self {
+            leaves: [NodeRef::NONE; MAX_TREELET],
+            leaf_box: [Aabb::EMPTY; MAX_TREELET],
+            internal: [NONE; MAX_TREELET],
+            area: [0.0; SUBSETS],
+            bounds: [Aabb::EMPTY; SUBSETS],
+            cost: [0.0; SUBSETS],
+            split: [0; SUBSETS],
+            stack: [(0, NONE); MAX_TREELET * 2],
+        }
+    }
+}
+
+impl Bvh {
+    /// Restructures the treelet of up to `size` subtrees rooted at inner node `r` optimally.
+    /// Returns whether the tree changed.
+    pub(crate) fn optimize_treelet(&mut self, r: u32, size: usize, s: &mut TreeletScratch) -> bool {
+        let size = size.clamp(3, MAX_TREELET);
+        // Gather: start from r's children, repeatedly open the largest inner subtree.
+        let mut n = 2;
+        s.leaves[0] = self.inner[r as usize].children[0];
+        s.leaves[1] = self.inner[r as usize].children[1];
+        s.internal[0] = r;
+        let mut m = 1;
+        let mut old_cost = self.inner[r as usize].aabb.area();
+        while n < size {
+            let mut pick = usize::MAX;
+            let mut pick_area = -1.0f32;
+            for k in 0..n {
+                if s.leaves[k].is_inner() {
+                    let a = self.inner[s.leaves[k].index() as usize].aabb.area();
+                    if a > pick_area {
+                        pick_area = a;
+                        pick = k;
+                    }
+                }
+            }
+            if pick == usize::MAX {
+                break;
+            }
+            let node = s.leaves[pick].index();
+            let [a, b] = self.inner[node as usize].children;
+            s.internal[m] = node;
+            m += 1;
+            old_cost += pick_area;
+            s.leaves[pick] = a;
+            s.leaves[n] = b;
+            n += 1;
+        }
+        if n < 3 {
+            return false;
+        }
+        for k in 0..n {
+            s.leaf_box[k] = self.aabb(s.leaves[k]);
+        }
+        let full = (1usize << n) - 1;
+        for mask in 1..=full {
+            let low = mask.trailing_zeros() as usize;
+            let rest = mask & (mask - 1);
+            s.bounds[mask] = if rest == 0 {
+                s.leaf_box[low]
+            } else {
+                s.bounds[rest].union(&s.leaf_box[low])
+            };
+            s.area[mask] = s.bounds[mask].area();
+        }
+        for mask in 1..=full {
+            if mask & (mask - 1) == 0 {
+                s.cost[mask] = 0.0;
+                continue;
+            }
+            // Partitions (p, mask ^ p) with p holding the lowest bit, each pair once.
+            let low = mask & mask.wrapping_neg();
+            let others = mask ^ low;
+            let mut best = f32::INFINITY;
+            let mut best_p = 0;
+            let mut sub = others;
+            loop {
+                let p = sub | low;
+                if p != mask {
+                    let c = s.cost[p] + s.cost[mask ^ p];
+                    if c < best {
+                        best = c;
+                        best_p = p;
+                    }
+                }
+                if sub == 0 {
+                    break;
+                }
+                sub = (sub - 1) & others;
+            }
+            s.cost[mask] = best + s.area[mask];
+            s.split[mask] = best_p as u16;
+        }
+        // Rounding in the sums must not trigger an endless sequence of equal-cost rebuilds.
+        if s.cost[full] >= old_cost * (1.0 - 1e-6) {
+            return false;
+        }
+        // Rebuild top-down, reusing the treelet's inner nodes (r stays at the top).
+        let mut next_internal = 1;
+        let mut sp = 0;
+        s.stack[sp] = (full as u16, r);
+        sp += 1;
+        while sp > 0 {
+            sp -= 1;
+            let (mask, node) = s.stack[sp];
+            let left = s.split[mask as usize] as usize;
+            let right = mask as usize ^ left;
+            let mut kids = [NodeRef::NONE; 2];
+            for (slot, part) in [left, right].into_iter().enumerate() {
+                kids[slot] = if part & (part - 1) == 0 {
+                    s.leaves[part.trailing_zeros() as usize]
+                } else {
+                    let id = s.internal[next_internal];
+                    next_internal += 1;
+                    s.stack[sp] = (part as u16, id);
+                    sp += 1;
+                    NodeRef::inner(id)
+                };
+            }
+            let old = self.inner[node as usize].aabb.area();
+            let aabb = s.bounds[mask as usize];
+            self.area_acc += aabb.area() as f64 - old as f64;
+            let nd = &mut self.inner[node as usize];
+            nd.aabb = aabb;
+            nd.children = kids;
+            self.set_parent(kids[0], node);
+            self.set_parent(kids[1], node);
+            self.changes.mark_inner(node);
+        }
+        debug_assert_eq!(next_internal, m);
+        true
+    }
+
+    /// Restructures the treelet at every inner node of the global tree, children before parents
+    /// (a parent's treelet then gathers subtrees that are already good). Returns how many changed.
+    pub(crate) fn treelet_pass(&mut self, size: usize) -> u32 {
+        let mut order = Vec::new();
+        if self.root.is_inner() {
+            self.collect_inner(self.root, &mut order);
+        }
+        let mut s = std::mem::take(&mut self.treelet_scratch);
+        let mut changed = 0;
+        // collect_inner lists parents before children: reversed, children come first.
+        for &i in order.iter().rev() {
+            changed += self.optimize_treelet(i, size, &mut s) as u32;
+        }
+        self.treelet_scratch = s;
+        changed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BvhConfig, Triangle};
+    use glam::Vec3;
+
+    /// A binary tree over leaf indices, for enumerating every topology by brute force.
+    #[derive(Clone)]
+    enum T {
+        Leaf(usize),
+        Pair(Box<T>, Box<T>),
+    }
+
+    /// Every full binary tree over leaves 0..n: leaf k joins as the sibling of each node of every
+    /// tree over 0..k, which makes each of the (2n-3)!! topologies exactly once.
+    fn all_trees(n: usize) -> Vec<T> {
+        fn with_sibling(t: &T, k: usize, out: &mut Vec<T>) {
+            out.push(T::Pair(Box::new(t.clone()), Box::new(T::Leaf(k))));
+            if let T::Pair(a, b) = t {
+                let mut sub = Vec::new();
+                with_sibling(a, k, &mut sub);
+                for x in sub.drain(..) {
+                    out.push(T::Pair(Box::new(x), b.clone()));
+                }
+                with_sibling(b, k, &mut sub);
+                for x in sub {
+                    out.push(T::Pair(a.clone(), Box::new(x)));
+                }
+            }
+        }
+        let mut trees = vec![T::Leaf(0)];
+        for k in 1..n {
+            let mut next = Vec::new();
+            for t in &trees {
+                with_sibling(t, k, &mut next);
+            }
+            trees = next;
+        }
+        trees
+    }
+
+    /// Sum of the inner boxes' areas, and the box.
+    fn cost(t: &T, boxes: &[Aabb]) -> (f32, Aabb) {
+        match t {
+            T::Leaf(k) => (0.0, boxes[*k]),
+            T::Pair(a, b) => {
+                let (ca, ba) = cost(a, boxes);
+                let (cb, bb) = cost(b, boxes);
+                let u = ba.union(&bb);
+                (ca + cb + u.area(), u)
+            }
+        }
+    }
+
+    fn inner_area(bvh: &Bvh) -> f32 {
+        (0..bvh.inner_capacity())
+            .filter_map(|i| bvh.inner_node(i))
+            .map(|n| n.aabb.area())
+            .sum()
+    }
+
+    #[test]
+    fn a_treelet_over_the_whole_tree_is_the_best_of_every_topology() {
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        assert_eq!(all_trees(5).len(), 105);
+        for n in [3usize, 4, 5, 6, 7] {
+            for _ in 0..4 {
+                let tris: Vec<Triangle> = (0..n)
+                    .map(|_| {
+                        let c = Vec3::new(rnd(), rnd(), rnd()) * 10.0;
+                        let s = 0.2 + rnd() * 3.0;
+                        Triangle::new(
+                            c,
+                            c + Vec3::new(s, rnd(), 0.0),
+                            c + Vec3::new(0.0, s, rnd()),
+                        )
+                    })
+                    .collect();
+                let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+                let best = all_trees(n)
+                    .iter()
+                    .map(|t| cost(t, &boxes).0)
+                    .fold(f32::INFINITY, f32::min);
+                let mut bvh = Bvh::new(BvhConfig::incr());
+                bvh.insert_triangles(&tris).unwrap();
+                let before = inner_area(&bvh);
+                let acc_before = bvh.area_acc;
+                let root = bvh.root().index();
+                let mut s = Box::<TreeletScratch>::default();
+                bvh.optimize_treelet(root, n, &mut s);
+                bvh.validate().unwrap();
+                let after = inner_area(&bvh);
+                assert!(after <= before * (1.0 + 1e-5), "{before} -> {after}");
+                assert!(
+                    (after - best).abs() <= 1e-4 * best,
+                    "{n} leaves: treelet gives {after}, the best topology {best}"
+                );
+                // Moves judge themselves by the running sum: it must follow the restructuring.
+                let acc_delta = (bvh.area_acc - acc_before) as f32;
+                assert!(
+                    (acc_delta - (after - before)).abs() <= 1e-3 * before,
+                    "the running area sum moved by {acc_delta}, the tree by {}",
+                    after - before
+                );
+            }
+        }
+    }
+}
