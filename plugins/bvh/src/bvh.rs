@@ -263,6 +263,17 @@ impl Bvh {
         id
     }
 
+    /// Makes room for `n` more triangles at once, so a large batch does not grow the arrays step
+    /// by step.
+    pub(crate) fn reserve_triangles(&mut self, n: usize) {
+        let fresh = n.saturating_sub(self.tri_free.len());
+        self.tris.reserve(fresh);
+        self.tri_box.reserve(fresh);
+        self.tri_parent.reserve(fresh);
+        self.tri_group.reserve(fresh);
+        self.changes.reserve_triangles(self.tris.len() + fresh, n);
+    }
+
     pub(crate) fn free_triangle(&mut self, id: u32) {
         self.tri_parent[id as usize] = FREE;
         self.tri_group[id as usize] = NONE;

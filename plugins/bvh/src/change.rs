@@ -31,6 +31,14 @@ impl ChangeLog {
         }
     }
 
+    /// Room for triangle ids below `len` and for `n` more entries in the list.
+    pub(crate) fn reserve_triangles(&mut self, len: usize, n: usize) {
+        if self.tri_dirty.len() < len {
+            self.tri_dirty.resize(len, false);
+        }
+        self.tri_list.reserve(n);
+    }
+
     #[inline]
     pub(crate) fn mark_triangle(&mut self, id: u32, len: usize) {
         if self.tri_dirty.len() < len {

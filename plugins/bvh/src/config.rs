@@ -35,7 +35,10 @@ pub struct BvhConfig {
     pub coherence_max: f32,
     /// IncrUPB: the largest batch built into one bBVH, so that coherent streams still give parallel work.
     pub block_max_batch: u32,
-    /// IncrUPB: batches this small are not split further, whatever their coherence (1 = the paper's rule).
+    /// IncrUPB: batches this small are not split further, whatever their coherence (1 is the paper's
+    /// rule). The default is 16: on a surface mesh R*_coh grows like the cube root of the batch size
+    /// (flat boxes tile a plane, not a volume), so the paper's rule cuts such a stream into batches of
+    /// a few triangles and spends its time inserting their roots one by one.
     pub block_min_batch: u32,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,
@@ -61,7 +64,7 @@ impl Default for BvhConfig {
             clustering: true,
             coherence_max: 1.5,
             block_max_batch: 1024,
-            block_min_batch: 1,
+            block_min_batch: 16,
             parallel_search_batch: 16,
             keep_only_improving: false,
             rotations: false,

@@ -30,6 +30,20 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     let mut upb = Bvh::new(small);
     upb.insert_triangles_block_parallel(tris).unwrap();
     out.push(("incrupb", upb));
+    // The paper's batching rule: batches split down to single triangles where incoherent.
+    let mut upb1 = Bvh::new(BvhConfig {
+        block_min_batch: 1,
+        ..small
+    });
+    upb1.insert_triangles_block_parallel(tris).unwrap();
+    out.push(("incrupb-min1", upb1));
+    let mut rot = Bvh::new(BvhConfig {
+        rotations: true,
+        update_treelet: 5,
+        ..small
+    });
+    rot.insert_triangles(tris).unwrap();
+    out.push(("incru-rotations-treelets", rot));
     let mut post = Bvh::new(small);
     post.insert_triangles(tris).unwrap();
     post.optimize(treelight_bvh::PostPass::default());
@@ -47,6 +61,25 @@ fn builders_match_brute_force_on_soup() {
         assert_hits_match(&bvh, &rays);
         assert!(bvh.sah_cost() > 0.0, "{name}");
     }
+}
+
+#[test]
+fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
+    // More than one buffer and many pipeline steps.
+    let tris = soup(40_000, 12);
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut bvh = Bvh::new(BvhConfig::incr_u());
+        pool.install(|| bvh.insert_triangles_block_parallel(&tris).unwrap());
+        bvh
+    };
+    let (one, two) = (build(1), build(2));
+    one.validate().unwrap();
+    assert_eq!(one.gpu_nodes(), two.gpu_nodes());
+    assert_eq!(one.sah_cost(), two.sah_cost());
 }
 
 #[test]

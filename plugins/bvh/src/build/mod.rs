@@ -6,13 +6,13 @@ mod median;
 mod sweep;
 
 pub use binned::build_binned;
+pub(crate) use binned::{Prims, build_binned_over};
 pub use median::build_median;
 pub use sweep::build_sweep_sah;
 
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
-use glam::Vec3;
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
 /// index `nodes`.
@@ -167,6 +167,11 @@ impl Bvh {
     /// Copies `built` into the node arrays, mapping its leaf `k` to triangle `ids[k]`, and returns
     /// its root, detached.
     pub(crate) fn graft(&mut self, built: &BuiltTree, ids: &[u32]) -> NodeRef {
+        self.graft_with(built, ids, false)
+    }
+
+    /// [`Bvh::graft`], putting the new inner nodes in the node update cache when `record` is set.
+    pub(crate) fn graft_with(&mut self, built: &BuiltTree, ids: &[u32], record: bool) -> NodeRef {
         if built.root.is_none() {
             return NodeRef::NONE;
         }
@@ -190,6 +195,9 @@ impl Bvh {
                 parent,
             };
             self.changes.mark_inner(me);
+            if record {
+                self.record(me);
+            }
             for c in children {
                 if c.kind() == NodeKind::Leaf {
                     self.tri_parent[c.index() as usize] = me;
@@ -208,22 +216,19 @@ const PARALLEL_THRESHOLD: usize = 1 << 12;
 /// Binned SAH, with the two halves of every large node built in parallel (rayon).
 pub fn build_binned_parallel(boxes: &[Aabb]) -> BuiltTree {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-    let centers = binned::centers(boxes);
-    build_binned_range(boxes, &centers, &mut order)
+    build_binned_range(boxes, &binned::Prims::new(boxes), &mut order)
 }
 
-fn build_binned_range(boxes: &[Aabb], centers: &[Vec3], order: &mut [u32]) -> BuiltTree {
-    let mut bins = binned::Bins::default();
+fn build_binned_range(boxes: &[Aabb], prims: &binned::Prims, order: &mut [u32]) -> BuiltTree {
     if order.len() < PARALLEL_THRESHOLD {
-        return assemble_with_bounds(order, |_, r| {
-            binned::split_binned(boxes, centers, &mut bins, r)
-        });
+        return binned::build_binned_over(prims, order);
     }
-    let (mid, _) = binned::split_binned(boxes, centers, &mut bins, order);
-    let (l, r) = order.split_at_mut(mid);
+    let whole = binned::Side::of(prims, order);
+    let [left, _] = binned::split(prims, &mut binned::Bins::default(), order, &whole);
+    let (l, r) = order.split_at_mut(left.count);
     let (a, b) = rayon::join(
-        || build_binned_range(boxes, centers, l),
-        || build_binned_range(boxes, centers, r),
+        || build_binned_range(boxes, prims, l),
+        || build_binned_range(boxes, prims, r),
     );
     merge(a, b, boxes)
 }
