@@ -83,6 +83,12 @@ struct Args {
     /// `--threads` count.
     #[arg(long)]
     latency: bool,
+    /// Build each row this many times and report the fastest (costs are the same every time; this
+    /// machine's timings vary by tens of percent from run to run).
+    #[arg(long, default_value_t = 1)]
+    repeat: usize,
+    #[command(flatten)]
+    tuning: Tuning,
     /// Write PNG plots to this folder: triangles inserted and SAH cost against time during
     /// construction per scene and order (the paper's Figures 8 and 9; an extra, sampled run of each
     /// method with the first `--threads` count), and with `--latency` its Figure 12.
@@ -90,11 +96,84 @@ struct Args {
     plots: Option<PathBuf>,
 }
 
+/// Settings of the incremental methods; rows built with other than the engine's defaults say so.
+#[derive(clap::Args, Debug, Clone, Copy)]
+struct Tuning {
+    /// k_u: fraction of the node update cache updated per batch (engine default 0.01, the paper's).
+    #[arg(long)]
+    update_fraction: Option<f32>,
+    /// N_u: cached nodes that trigger a batch of updates (engine default 8000, the paper's).
+    #[arg(long)]
+    update_cache: Option<u32>,
+    /// Tree rotations along each insertion's path (not in the paper).
+    #[arg(long)]
+    rotations: bool,
+    /// Treelet restructuring of every cached node in update batches, with this many subtrees (not
+    /// in the paper; 0 = off).
+    #[arg(long)]
+    update_treelet: Option<u32>,
+    /// IncrUPB: smallest batch split further by R*_coh (engine default 16; 1 is the paper's rule).
+    #[arg(long)]
+    block_min_batch: Option<u32>,
+    /// incru-post: restarts of the post-pass (engine default 4).
+    #[arg(long)]
+    post_restarts: Option<u32>,
+}
+
+impl Tuning {
+    /// The configuration of an incremental method with these settings.
+    fn config(&self, base: BvhConfig) -> BvhConfig {
+        BvhConfig {
+            update_fraction: self.update_fraction.unwrap_or(base.update_fraction),
+            update_cache_size: self.update_cache.unwrap_or(base.update_cache_size),
+            rotations: self.rotations || base.rotations,
+            update_treelet: self.update_treelet.unwrap_or(base.update_treelet),
+            block_min_batch: self.block_min_batch.unwrap_or(base.block_min_batch),
+            ..base
+        }
+    }
+
+    fn post_pass(&self) -> PostPass {
+        PostPass {
+            restarts: self.post_restarts.unwrap_or(PostPass::default().restarts),
+            ..PostPass::default()
+        }
+    }
+
+    /// What differs from the defaults, for the method column (empty when nothing does).
+    fn label(&self, method: &str) -> String {
+        if !method.starts_with("incr") {
+            return String::new();
+        }
+        let mut parts = Vec::new();
+        if let Some(k) = self.update_fraction {
+            parts.push(format!("k_u={k}"));
+        }
+        if let Some(n) = self.update_cache {
+            parts.push(format!("N_u={n}"));
+        }
+        if self.rotations {
+            parts.push("rotations".to_owned());
+        }
+        if let Some(t) = self.update_treelet.filter(|&t| t > 0) {
+            parts.push(format!("treelets={t}"));
+        }
+        if let (Some(m), "incrupb") = (self.block_min_batch, method) {
+            parts.push(format!("min batch={m}"));
+        }
+        if let (Some(r), "incru-post") = (self.post_restarts, method) {
+            parts.push(format!("restarts={r}"));
+        }
+        parts.join(" ")
+    }
+}
+
 struct Row {
     scene: String,
     triangles: usize,
     order: String,
     method: String,
+    settings: String,
     threads: usize,
     build_s: f64,
     sah_cost: f32,
@@ -197,7 +276,7 @@ fn run(args: &Args) -> Result<(), String> {
                 let runs = args
                     .method
                     .iter()
-                    .map(|m| pool.install(|| progress(&tris, m)))
+                    .map(|m| pool.install(|| progress(&tris, m, &args.tuning)))
                     .collect::<Result<Vec<_>, String>>()?;
                 plotted.extend(plots::construction(dir, &scene.name, order, &runs)?);
             }
@@ -208,9 +287,15 @@ fn run(args: &Args) -> Result<(), String> {
                         .num_threads(threads)
                         .build()
                         .map_err(|e| e.to_string())?;
-                    let start = Instant::now();
-                    let bvh = pool.install(|| build(&tris, method))?;
-                    let build_s = start.elapsed().as_secs_f64();
+                    let mut build_s = f64::INFINITY;
+                    let mut bvh = None;
+                    for _ in 0..args.repeat.max(1) {
+                        let start = Instant::now();
+                        let built = pool.install(|| build(&tris, method, &args.tuning))?;
+                        build_s = build_s.min(start.elapsed().as_secs_f64());
+                        bvh = Some(built);
+                    }
+                    let bvh = bvh.expect("built at least once");
                     let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
                     let incremental = method.starts_with("incr");
                     rows.push(Row {
@@ -218,6 +303,7 @@ fn run(args: &Args) -> Result<(), String> {
                         triangles: tris.len(),
                         order: order.clone(),
                         method: method.clone(),
+                        settings: args.tuning.label(method),
                         threads,
                         build_s,
                         sah_cost: bvh.sah_cost_with(1.0, 1.0),
@@ -251,8 +337,8 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
-    let cfg = BvhConfig::incr_u();
+fn build(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<Bvh, String> {
+    let cfg = tuning.config(BvhConfig::incr_u());
     let e = |e: treelight_bvh::BvhError| e.to_string();
     Ok(match method {
         "sah" => Bvh::build_top_down(tris, TopDown::SweepSah, cfg).map_err(e)?,
@@ -260,13 +346,13 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
         "median" => Bvh::build_top_down(tris, TopDown::Median, cfg).map_err(e)?,
         "incr" | "incru" | "incru-post" => {
             let mut bvh = Bvh::new(if method == "incr" {
-                BvhConfig::incr()
+                tuning.config(BvhConfig::incr())
             } else {
                 cfg
             });
             bvh.insert_triangles(tris).map_err(e)?;
             if method == "incru-post" {
-                bvh.optimize(PostPass::default());
+                bvh.optimize(tuning.post_pass());
             }
             bvh
         }
@@ -294,16 +380,16 @@ fn build(tris: &[Triangle], method: &str) -> Result<Bvh, String> {
 /// A construction sampled for the plots: the incremental methods insert the triangles in 40 chunks
 /// (the same calls as the table's runs, chunk by chunk) and the post-pass runs two rounds at a time,
 /// with the clock stopped while the cost is measured; other builders give one point when done.
-fn progress(tris: &[Triangle], method: &str) -> Result<plots::Progress, String> {
+fn progress(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<plots::Progress, String> {
     const CHUNKS: usize = 40;
     let e = |e: treelight_bvh::BvhError| e.to_string();
     let mut samples = Vec::new();
     if method.starts_with("incr") {
-        let mut bvh = Bvh::new(if method == "incr" {
+        let mut bvh = Bvh::new(tuning.config(if method == "incr" {
             BvhConfig::incr()
         } else {
             BvhConfig::incr_u()
-        });
+        }));
         let mut elapsed = 0.0;
         let mut done = 0;
         for chunk in tris.chunks(tris.len().div_ceil(CHUNKS).max(1)) {
@@ -323,7 +409,7 @@ fn progress(tris: &[Triangle], method: &str) -> Result<plots::Progress, String> 
                 let t = Instant::now();
                 let report = bvh.optimize(PostPass {
                     max_rounds: 2,
-                    ..PostPass::default()
+                    ..tuning.post_pass()
                 });
                 elapsed += t.elapsed().as_secs_f64();
                 samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
@@ -334,7 +420,7 @@ fn progress(tris: &[Triangle], method: &str) -> Result<plots::Progress, String> 
         }
     } else {
         let t = Instant::now();
-        let bvh = build(tris, method)?;
+        let bvh = build(tris, method, tuning)?;
         samples.push((
             t.elapsed().as_secs_f64(),
             tris.len(),
@@ -477,7 +563,11 @@ fn print_markdown(rows: &[Row]) {
         println!(
             "| {} | {} | {} | {:.3} | {:.2} | {} | {} | {:.2} | {:.2} | {:.2} |",
             r.order,
-            r.method,
+            if r.settings.is_empty() {
+                r.method.clone()
+            } else {
+                format!("{} ({})", r.method, r.settings)
+            },
             r.threads,
             r.build_s,
             r.sah_cost,
@@ -494,16 +584,17 @@ fn write_csv(path: &PathBuf, rows: &[Row]) -> std::io::Result<()> {
     let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(
         f,
-        "scene,triangles,order,method,threads,build_s,sah_cost,mtris_s,primary_mrays_s,ao_mrays_s,update_ops_pct"
+        "scene,triangles,order,method,settings,threads,build_s,sah_cost,mtris_s,primary_mrays_s,ao_mrays_s,update_ops_pct"
     )?;
     for r in rows {
         writeln!(
             f,
-            "\"{}\",{},{},{},{},{:.6},{:.4},{},{:.4},{:.4},{:.4}",
+            "\"{}\",{},{},{},\"{}\",{},{:.6},{:.4},{},{:.4},{:.4},{:.4}",
             r.scene.replace('"', "'"),
             r.triangles,
             r.order,
             r.method,
+            r.settings,
             r.threads,
             r.build_s,
             r.sah_cost,
