@@ -23,7 +23,9 @@ pub fn batch_coherence(bounds: &Aabb, sum_area: f32, count: usize) -> f32 {
 
 /// Splits `order` (indices into `boxes`) into coherent batches: a batch is split at the spatial median
 /// of its bounds on a cycling axis until R*_coh < `r_max` and it has at most `max_batch` primitives,
-/// or until it has at most `min_batch` (below which a bBVH is not worth its insertion).
+/// or until it has at most `min_batch` and its box's area is below `r_max` times the sum of its
+/// primitives' (below that size a compact bBVH is worth more than the coherence rule's single
+/// triangles).
 /// Returns ranges of the reordered `order`, in order and covering it.
 pub fn coherent_batches(
     boxes: &[Aabb],
@@ -71,7 +73,11 @@ fn subdivide(
         let range = &mut order[s..e];
         let (bounds, sum) = prims.bounds_and_area(range);
         let n = range.len();
-        if n <= min_batch.max(1) || (n <= max_batch && batch_coherence(&bounds, sum, n) < r_max) {
+        // A small batch is kept whole while its box is no larger than r_max times its primitives'
+        // (Eq. 3 without the ∛ factor, which would split every surface patch down to single
+        // triangles); a scattered one, as a random order or random edits give, is still split.
+        let small = n <= 1 || (n <= min_batch && bounds.area() < r_max * sum);
+        if small || (n <= max_batch && batch_coherence(&bounds, sum, n) < r_max) {
             out.push(offset + s..offset + e);
             continue;
         }

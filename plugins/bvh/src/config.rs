@@ -35,10 +35,12 @@ pub struct BvhConfig {
     pub coherence_max: f32,
     /// IncrUPB: the largest batch built into one bBVH, so that coherent streams still give parallel work.
     pub block_max_batch: u32,
-    /// IncrUPB: batches this small are not split further, whatever their coherence (1 is the paper's
-    /// rule). The default is 16: on a surface mesh R*_coh grows like the cube root of the batch size
-    /// (flat boxes tile a plane, not a volume), so the paper's rule cuts such a stream into batches of
-    /// a few triangles and spends its time inserting their roots one by one.
+    /// IncrUPB: batches this small are not split further while their box's area is below R_max times
+    /// the sum of their triangles' box areas (1 is the paper's rule, which splits by R*_coh alone).
+    /// The default is 16: on a surface mesh R*_coh grows like the cube root of the batch size (flat
+    /// boxes tile a plane, not a volume), so the paper's rule cuts such a stream into batches of a
+    /// few triangles and spends its time inserting their roots one by one; the area test still
+    /// splits the scattered batches of a random order.
     pub block_min_batch: u32,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,

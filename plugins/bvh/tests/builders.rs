@@ -209,3 +209,37 @@ fn incremental_cost_is_competitive_with_sah_on_soup() {
     assert!(c < 1.3 * sah, "IncrU {c} vs SAH {sah}");
     assert!(sah <= median * 1.01, "SAH {sah} vs median {median}");
 }
+
+/// Boxes of `n` unit squares (as flat boxes) at the given origins.
+fn square_boxes(origins: &[Vec3]) -> Vec<treelight_bvh::Aabb> {
+    origins
+        .iter()
+        .map(|&o| treelight_bvh::Aabb::new(o, o + Vec3::new(1.0, 1.0, 0.0)))
+        .collect()
+}
+
+#[test]
+fn small_batches_stay_whole_when_compact_and_are_split_when_scattered() {
+    // Eight tiles of a 4×2 patch: R*_coh is above R_max (the ∛ factor), but the patch's box is no
+    // larger than its tiles', so a batch below the minimum size stays one bBVH.
+    let patch: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i % 4) as f32, (i / 4) as f32, 0.0))
+        .collect();
+    let boxes = square_boxes(&patch);
+    let mut order: Vec<u32> = (0..8).collect();
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024);
+    assert_eq!(batches, vec![0..8]);
+    // The paper's rule (minimum 1) splits the same patch by R*_coh alone.
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 1, 1024);
+    assert!(batches.len() > 1, "{batches:?}");
+
+    // The same eight tiles scattered over a 1000-unit cube, as a random order brings them:
+    // each ends up in its own batch, however small the batch.
+    let scattered: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32) * 1000.0)
+        .collect();
+    let boxes = square_boxes(&scattered);
+    let mut order: Vec<u32> = (0..8).collect();
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024);
+    assert_eq!(batches.len(), 8, "{batches:?}");
+}
