@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 use treelight_import::load_scene;
 
-fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("treelight-ply-{}", std::process::id()));
+/// A scratch folder of one test: the tests run in parallel and each removes its own at the end.
+fn dir(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("treelight-ply-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -70,7 +71,7 @@ fn binary() -> Vec<u8> {
 
 #[test]
 fn ascii_and_binary_give_the_same_fan_triangulated_mesh() {
-    let d = dir();
+    let d = dir("ascii_and_binary_give_the_same_fan_triangulated_mesh");
     std::fs::write(d.join("a.ply"), ascii()).unwrap();
     std::fs::write(d.join("b.ply"), binary()).unwrap();
     let a = load_scene(&d.join("a.ply")).unwrap();
@@ -99,7 +100,7 @@ fn nan_binary(full: &[u8]) -> Vec<u8> {
 
 #[test]
 fn broken_and_hostile_ply_files_are_refused_with_the_reason() {
-    let d = dir();
+    let d = dir("broken_and_hostile_ply_files_are_refused_with_the_reason");
     let text = ascii();
     let full = binary();
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
