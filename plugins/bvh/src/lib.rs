@@ -35,6 +35,18 @@ mod treelet;
 mod triangle;
 mod update;
 
+/// Deterministic numbers in [0, 1) for unit tests (xorshift64): the same sequence on every machine
+/// and with no dependency to keep in step.
+#[cfg(test)]
+pub(crate) fn test_random(mut seed: u64) -> impl FnMut() -> f32 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 pub use aabb::Aabb;
 pub use block::{BlockStream, batch_coherence, coherent_batches};
 pub use build::{BuiltTree, TopDown};

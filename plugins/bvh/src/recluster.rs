@@ -133,13 +133,7 @@ mod tests {
     use glam::Vec3;
 
     fn scatter(n: usize) -> Vec<Triangle> {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_random(0x2545_f491_4f6c_dd1du64);
         (0..n)
             .map(|_| {
                 let c = Vec3::new(rnd(), rnd(), rnd()) * 20.0;

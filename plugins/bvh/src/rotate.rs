@@ -17,7 +17,7 @@ impl Bvh {
 
     /// Applies the rotation at inner node `a` that lowers the total area the most, if any does.
     /// `a`'s own box never changes: only the child that receives a grandchild gets a new box.
-    fn rotate_at(&mut self, a: u32) -> bool {
+    fn rotate_at(&mut self, a: u32) {
         let [b, c] = self.inner[a as usize].children;
         // (gain, side that keeps its box, grandchild slot to swap)
         let mut best = (0.0f32, 0usize, 0usize);
@@ -39,7 +39,7 @@ impl Bvh {
         }
         let (gain, side, slot) = best;
         if gain <= 0.0 {
-            return false;
+            return;
         }
         let stay = [b, c][side];
         let other = [b, c][1 - side];
@@ -56,6 +56,5 @@ impl Bvh {
         self.inner[o as usize].aabb = aabb;
         self.changes.mark_inner(a);
         self.changes.mark_inner(o);
-        true
     }
 }

@@ -240,13 +240,7 @@ mod tests {
 
     #[test]
     fn a_treelet_over_the_whole_tree_is_the_best_of_every_topology() {
-        let mut seed = 0x9e3779b97f4a7c15u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_random(0x9e3779b97f4a7c15u64);
         assert_eq!(all_trees(5).len(), 105);
         for n in [3usize, 4, 5, 6, 7] {
             for _ in 0..4 {

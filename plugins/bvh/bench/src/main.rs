@@ -112,7 +112,8 @@ struct Tuning {
     /// in the paper; 0 = off).
     #[arg(long)]
     update_treelet: Option<u32>,
-    /// IncrUPB: smallest batch split further by R*_coh (engine default 16; 1 is the paper's rule).
+    /// IncrUPB: batches up to this size stay whole while compact, whatever R*_coh says (engine
+    /// default 16; 1 is the paper's rule).
     #[arg(long)]
     block_min_batch: Option<u32>,
     /// incru-post: restarts of the post-pass (engine default 4).

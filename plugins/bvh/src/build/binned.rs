@@ -126,7 +126,7 @@ pub(crate) fn build_binned_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
         };
     }
     let mut bins = Bins::default();
-    let (bounds, centroids) = prims.bounds(order);
+    let whole = Side::of(prims, order);
     let mut nodes: Vec<InnerNode> = Vec::with_capacity(n - 1);
     // Each range arrives with its bounds and centroid bounds, worked out while its parent was
     // split: a split makes two passes over its primitives (binning, partition), not three.
@@ -135,11 +135,7 @@ pub(crate) fn build_binned_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
         end: n,
         parent: NONE,
         slot: 0,
-        side: Side {
-            count: n,
-            bounds,
-            centroids,
-        },
+        side: whole,
     }];
     while let Some(r) = stack.pop() {
         let me = if r.end - r.start == 1 {
@@ -468,13 +464,7 @@ mod tests {
 
     #[test]
     fn every_node_box_is_the_union_of_its_children() {
-        let mut seed = 77u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_random(77u64);
         for n in [2usize, 3, 4, 5, 9, 16, 17, 40, 300] {
             let mut boxes: Vec<Aabb> = (0..n)
                 .map(|_| {
