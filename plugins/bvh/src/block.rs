@@ -7,7 +7,10 @@ use crate::node::NONE;
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
+use std::collections::VecDeque;
 use std::ops::Range;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// R*_coh(B) = S(B) / Σ S(i) · ∛(|B| − 1) (paper Eq. 3).
 pub fn batch_coherence(bounds: &Aabb, sum_area: f32, count: usize) -> f32 {
@@ -38,9 +41,6 @@ pub fn coherent_batches(
     coherent_batches_with(&prims, order, r_max, min_batch, max_batch)
 }
 
-/// Ranges above this size are subdivided with their two halves in parallel.
-const PARALLEL_BATCHING: usize = 1 << 12;
-
 /// [`coherent_batches`] over boxes already converted for the builder.
 fn coherent_batches_with(
     prims: &Prims,
@@ -49,64 +49,92 @@ fn coherent_batches_with(
     min_batch: usize,
     max_batch: usize,
 ) -> Vec<Range<usize>> {
-    let mut out = Vec::new();
-    subdivide(prims, order, 0, 0, (r_max, min_batch, max_batch), &mut out);
-    out
+    let mut batcher = Batcher::new(prims, order, r_max, min_batch, max_batch);
+    std::iter::from_fn(|| batcher.next_batch(prims, order)).collect()
 }
 
-/// Appends the batches of `order` (which starts at `offset` in the whole order) to `out`, splitting
-/// on `axis` first.
-fn subdivide(
-    prims: &Prims,
-    order: &mut [u32],
-    offset: usize,
+/// The R*_coh subdivision of one order, run lazily: each call splits only as far as the next batch
+/// needs, so the pipeline spreads a buffer's subdivision over its steps instead of stalling the
+/// owner while a whole buffer is cut up front. Batches come left to right and tile the order.
+struct Batcher {
+    /// Ranges of the order still to split, the leftmost on top.
+    stack: Vec<Pending>,
+    r_max: f32,
+    min_batch: usize,
+    max_batch: usize,
+}
+
+/// A range of the order still to split, with the axis to split it on and its primitives' bounds
+/// and area sum (measured when its parent was partitioned).
+struct Pending {
+    range: Range<usize>,
     axis: usize,
-    rule: (f32, usize, usize),
-    out: &mut Vec<Range<usize>>,
-) {
-    let (r_max, min_batch, max_batch) = rule;
-    let mut stack = vec![(0usize, order.len(), axis)];
-    while let Some((s, e, axis)) = stack.pop() {
-        if e == s {
-            continue;
+    bounds: Aabb,
+    sum: f32,
+}
+
+impl Batcher {
+    fn new(prims: &Prims, order: &[u32], r_max: f32, min_batch: usize, max_batch: usize) -> Self {
+        let (bounds, sum) = prims.bounds_and_area(order);
+        Self {
+            stack: vec![Pending {
+                range: 0..order.len(),
+                axis: 0,
+                bounds,
+                sum,
+            }],
+            r_max,
+            min_batch,
+            max_batch,
         }
-        let range = &mut order[s..e];
-        let (bounds, sum) = prims.bounds_and_area(range);
-        let n = range.len();
-        // A small batch is kept whole while its box is no larger than r_max times its primitives'
-        // (Eq. 3 without the ∛ factor, which would split every surface patch down to single
-        // triangles); a scattered one, as a random order or random edits give, is still split.
-        let small = n <= 1 || (n <= min_batch && bounds.area() < r_max * sum);
-        if small || (n <= max_batch && batch_coherence(&bounds, sum, n) < r_max) {
-            out.push(offset + s..offset + e);
-            continue;
-        }
-        let pivot = bounds.center()[axis];
-        let mut i = 0;
-        for j in 0..n {
-            if prims.center(range[j])[axis] < pivot {
-                range.swap(i, j);
-                i += 1;
+    }
+
+    /// The next batch of `order` (indices into `prims`), reordering the part of it still to split.
+    fn next_batch(&mut self, prims: &Prims, order: &mut [u32]) -> Option<Range<usize>> {
+        while let Some(Pending {
+            range,
+            axis,
+            bounds,
+            sum,
+        }) = self.stack.pop()
+        {
+            let n = range.len();
+            if n == 0 {
+                continue;
             }
+            // A small batch is kept whole while its box is no larger than r_max times its
+            // primitives' (Eq. 3 without the ∛ factor, which would split every surface patch down
+            // to single triangles); a scattered one, as a random order or random edits give, is
+            // still split.
+            let small = n <= 1 || (n <= self.min_batch && bounds.area() < self.r_max * sum);
+            if small || (n <= self.max_batch && batch_coherence(&bounds, sum, n) < self.r_max) {
+                return Some(range);
+            }
+            let next = (axis + 1) % 3;
+            let (mut i, mut sides) =
+                prims.partition(&mut order[range.clone()], axis, bounds.center()[axis]);
+            if i == 0 || i == n {
+                // Every centre on one side of the middle: halve the range as it stands.
+                i = n / 2;
+                let (l, r) = order[range.clone()].split_at(i);
+                sides = [prims.bounds_and_area(l), prims.bounds_and_area(r)];
+            }
+            let mid = range.start + i;
+            let [(lb, ls), (rb, rs)] = sides;
+            self.stack.push(Pending {
+                range: mid..range.end,
+                axis: next,
+                bounds: rb,
+                sum: rs,
+            });
+            self.stack.push(Pending {
+                range: range.start..mid,
+                axis: next,
+                bounds: lb,
+                sum: ls,
+            });
         }
-        if i == 0 || i == n {
-            i = n / 2;
-        }
-        let next = (axis + 1) % 3;
-        if n > PARALLEL_BATCHING {
-            // Both halves at once; the left one's batches still come first.
-            let (l, r) = range.split_at_mut(i);
-            let mut right = Vec::new();
-            rayon::join(
-                || subdivide(prims, l, offset + s, next, rule, out),
-                || subdivide(prims, r, offset + s + i, next, rule, &mut right),
-            );
-            out.append(&mut right);
-            // Ranges still on the stack lie to the right of this one: their batches come after.
-            continue;
-        }
-        stack.push((s + i, e, next));
-        stack.push((s, s + i, next));
+        None
     }
 }
 
@@ -133,13 +161,12 @@ fn buffers(n: usize) -> Vec<Range<usize>> {
     out
 }
 
-/// One buffer cut into coherent batches, whose bBVHs are still being built.
+/// One buffer being cut into coherent batches, whose bBVHs are built a step at a time.
 struct BufferBatches {
     index: usize,
     prims: Prims,
     order: Vec<u32>,
-    batches: Vec<Range<usize>>,
-    next: usize,
+    batcher: Batcher,
 }
 
 /// The building side of IncrUPB: cuts buffers into batches and builds their bBVHs, a step at a time.
@@ -152,48 +179,54 @@ struct BatchBuilder<'a> {
     r_max: f32,
     min_batch: usize,
     max_batch: usize,
+    /// This step's batches, reused from step to step.
+    batches: Vec<Range<usize>>,
 }
 
 impl BatchBuilder<'_> {
     /// The bBVHs of the next step's batches (built in parallel), with the buffer they index; `None`
     /// once the stream is done.
     fn next_step(&mut self) -> Option<(usize, Vec<BuiltTree>)> {
-        if self
-            .current
-            .as_ref()
-            .is_none_or(|c| c.next == c.batches.len())
-        {
-            let index = self.next_buffer;
-            let buf = self.buffers.get(index)?.clone();
-            self.next_buffer += 1;
-            let boxes: Vec<Aabb> = self.tris[buf].iter().map(|t| t.aabb()).collect();
-            let prims = Prims::new(&boxes);
-            let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-            let batches = coherent_batches_with(
-                &prims,
-                &mut order,
-                self.r_max,
-                self.min_batch,
-                self.max_batch,
-            );
-            self.current = Some(BufferBatches {
-                index,
-                prims,
-                order,
-                batches,
-                next: 0,
-            });
+        self.batches.clear();
+        let mut count = 0;
+        while count < STEP {
+            if self.current.is_none() {
+                let index = self.next_buffer;
+                let Some(buf) = self.buffers.get(index).cloned() else {
+                    break;
+                };
+                self.next_buffer += 1;
+                let boxes: Vec<Aabb> = self.tris[buf].iter().map(|t| t.aabb()).collect();
+                let prims = Prims::new(&boxes);
+                let order: Vec<u32> = (0..boxes.len() as u32).collect();
+                let batcher =
+                    Batcher::new(&prims, &order, self.r_max, self.min_batch, self.max_batch);
+                self.current = Some(BufferBatches {
+                    index,
+                    prims,
+                    order,
+                    batcher,
+                });
+            }
+            let c = self.current.as_mut()?;
+            match c.batcher.next_batch(&c.prims, &mut c.order) {
+                Some(batch) => {
+                    count += batch.len();
+                    self.batches.push(batch);
+                }
+                // A step never spans two buffers: its bBVHs index one buffer's triangles.
+                None if self.batches.is_empty() => self.current = None,
+                None => break,
+            }
         }
         let c = self.current.as_mut()?;
-        let first = c.next;
-        let mut count = 0;
-        while c.next < c.batches.len() && count < STEP {
-            count += c.batches[c.next].len();
-            c.next += 1;
+        let index = c.index;
+        if self.batches.is_empty() {
+            return None;
         }
         // The batches tile `order` in sequence: cut this step's run of it into one slice per
         // batch, each built in place, so no batch copies its boxes.
-        let run = &c.batches[first..c.next];
+        let run = &self.batches;
         let mut slices = Vec::with_capacity(run.len());
         let mut rest = &mut c.order[run[0].start..run[run.len() - 1].end];
         for r in run {
@@ -206,7 +239,80 @@ impl BatchBuilder<'_> {
             .into_par_iter()
             .map(|slice| build_binned_over(prims, slice))
             .collect();
-        Some((c.index, trees))
+        Some((index, trees))
+    }
+}
+
+/// Steps the building side may run ahead of the owner, so that the built bBVHs waiting for
+/// insertion stay a few steps' worth.
+const LOOKAHEAD: usize = 2;
+
+/// The hand-over between the two sides of IncrUPB. Each side runs as one long job for the whole
+/// stream rather than one job per step: a step takes well under a millisecond, and a worker that
+/// went to sleep between steps woke too late to take the next one (on a virtual machine, waking an
+/// idle vCPU costs about as much as a step), which left the owner running after the builder on
+/// its thread. Only the owner ever waits for the other side while it is not known to be running:
+/// the builder runs first on the calling thread, so a pool whose other threads are busy (or a pool
+/// of one) runs the two sides one after the other.
+#[derive(Default)]
+struct Pipeline {
+    steps: Mutex<VecDeque<(usize, Vec<BuiltTree>)>>,
+    /// The building side has sent its last step (or given up).
+    done: AtomicBool,
+    /// The owner is running, so a full queue will drain.
+    owner_running: AtomicBool,
+}
+
+/// Stores a value into a flag when dropped, also while unwinding: a side that panics still lets
+/// the other one finish, so the panic reaches the caller instead of leaving a thread spinning.
+struct StoreOnDrop<'a>(&'a AtomicBool, bool);
+
+impl Drop for StoreOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(self.1, Ordering::Release);
+    }
+}
+
+impl Pipeline {
+    /// Queues a step, first waiting while the owner is running and has enough to do.
+    fn send(&self, step: (usize, Vec<BuiltTree>)) {
+        while self.owner_running.load(Ordering::Acquire) && self.queued() >= LOOKAHEAD {
+            idle();
+        }
+        self.lock().push_back(step);
+    }
+
+    /// The next step in order, waiting for the building side; `None` once the stream is done.
+    fn receive(&self) -> Option<(usize, Vec<BuiltTree>)> {
+        loop {
+            // Read `done` before looking at the queue: once it is set, every step is queued.
+            let done = self.done.load(Ordering::Acquire);
+            if let Some(step) = self.lock().pop_front() {
+                return Some(step);
+            }
+            if done {
+                return None;
+            }
+            idle();
+        }
+    }
+
+    fn queued(&self) -> usize {
+        self.lock().len()
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<(usize, Vec<BuiltTree>)>> {
+        // A panic on the other side poisons the queue; its contents are still whole.
+        self.steps.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Waits a moment for the other side of the pipeline, helping with any parallel work in the pool
+/// meanwhile (the other side's bBVH builds or parallel searches).
+fn idle() {
+    if !matches!(rayon::yield_now(), Some(rayon::Yield::Executed)) {
+        std::hint::spin_loop();
+        std::thread::yield_now();
     }
 }
 
@@ -231,29 +337,36 @@ impl Bvh {
             r_max: self.config.coherence_max,
             min_batch: self.config.block_min_batch as usize,
             max_batch: self.config.block_max_batch.max(1) as usize,
+            batches: Vec::new(),
         };
         self.reserve_triangles(tris.len());
         let mut ids = Vec::with_capacity(tris.len());
-        let mut ready = builder.next_step();
-        while let Some((index, trees)) = ready {
-            let (next, ()) = rayon::join(
-                || builder.next_step(),
-                || {
+        let pipe = Pipeline::default();
+        rayon::join(
+            || {
+                let _done = StoreOnDrop(&pipe.done, true);
+                while let Some(step) = builder.next_step() {
+                    pipe.send(step);
+                }
+            },
+            || {
+                pipe.owner_running.store(true, Ordering::Release);
+                let _gone = StoreOnDrop(&pipe.owner_running, false);
+                while let Some((index, trees)) = pipe.receive() {
                     // A buffer's triangles get their ids when its first bBVHs arrive.
                     let buf = &buffers[index];
                     while ids.len() < buf.end {
                         ids.push(self.alloc_triangle(tris[ids.len()], NONE));
                     }
+                    // The bBVH's own nodes are candidates for updates too: where batches meet,
+                    // their boxes overlap, and only moving nodes inside them can fix that.
                     for tree in &trees {
-                        // The bBVH's own nodes are candidates for updates too: where batches meet,
-                        // their boxes overlap, and only moving nodes inside them can fix that.
                         let root = self.graft_with(tree, &ids[buf.start..buf.end], true);
                         self.insert_item(root);
                     }
-                },
-            );
-            ready = next;
-        }
+                }
+            },
+        );
         Ok(ids)
     }
 }

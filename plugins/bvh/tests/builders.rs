@@ -1,6 +1,7 @@
 //! Every builder yields a valid tree whose ray hits equal brute force.
 
 mod support;
+use rayon::prelude::*;
 use support::*;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle};
@@ -66,20 +67,55 @@ fn builders_match_brute_force_on_soup() {
 #[test]
 fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
     // More than one buffer and many pipeline steps.
-    let tris = soup(40_000, 12);
-    let build = |threads: usize| {
+    let tris = std::sync::Arc::new(soup(40_000, 12));
+    // The two sides of the pipeline wait for each other: a build that hangs fails the test
+    // instead of stalling the suite.
+    let (done, finished) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut bvh = Bvh::new(BvhConfig::incr_u());
+            pool.install(|| bvh.insert_triangles_block_parallel(&tris).unwrap());
+            bvh
+        };
+        let one = build(1);
+        one.validate().unwrap();
+        for threads in [2, 3] {
+            let other = build(threads);
+            assert_eq!(one.gpu_nodes(), other.gpu_nodes(), "{threads} threads");
+            assert_eq!(one.sah_cost(), other.sah_cost(), "{threads} threads");
+        }
+        // Several builds at once in a pool of two, as a scene plugin's background tasks give:
+        // each build's two sides compete with the others for the threads, none may wait forever
+        // for a side that never gets one, and each tree is still the one-thread tree.
         let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
+            .num_threads(2)
             .build()
             .unwrap();
-        let mut bvh = Bvh::new(BvhConfig::incr_u());
-        pool.install(|| bvh.insert_triangles_block_parallel(&tris).unwrap());
-        bvh
-    };
-    let (one, two) = (build(1), build(2));
-    one.validate().unwrap();
-    assert_eq!(one.gpu_nodes(), two.gpu_nodes());
-    assert_eq!(one.sah_cost(), two.sah_cost());
+        let trees: Vec<Bvh> = pool.install(|| {
+            (0..4)
+                .into_par_iter()
+                .map(|_| {
+                    let mut bvh = Bvh::new(BvhConfig::incr_u());
+                    bvh.insert_triangles_block_parallel(&tris).unwrap();
+                    bvh
+                })
+                .collect()
+        });
+        for bvh in &trees {
+            assert_eq!(one.gpu_nodes(), bvh.gpu_nodes());
+        }
+        done.send(()).unwrap();
+    });
+    match finished.recv_timeout(std::time::Duration::from_secs(120)) {
+        Ok(()) => {}
+        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => panic!("a block-parallel build hung"),
+        // The builds' thread panicked: its assertion message is already printed.
+        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => panic!("a check failed"),
+    }
 }
 
 #[test]

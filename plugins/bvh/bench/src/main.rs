@@ -83,8 +83,9 @@ struct Args {
     /// `--threads` count.
     #[arg(long)]
     latency: bool,
-    /// Build each row this many times and report the fastest (costs are the same every time; this
-    /// machine's timings vary by tens of percent from run to run).
+    /// Build each row this many times, all rows in turn round by round, and report the fastest
+    /// (costs are the same every time; this machine's timings vary by tens of percent from run to
+    /// run, and interleaving keeps a slow spell from landing on one row only).
     #[arg(long, default_value_t = 1)]
     repeat: usize,
     #[command(flatten)]
@@ -281,48 +282,69 @@ fn run(args: &Args) -> Result<(), String> {
                     .collect::<Result<Vec<_>, String>>()?;
                 plotted.extend(plots::construction(dir, &scene.name, order, &runs)?);
             }
-            for method in &args.method {
-                for &threads in &args.threads {
-                    bar.set_message(format!("{} {order} {method} ×{threads}", scene.name));
-                    let pool = rayon::ThreadPoolBuilder::new()
+            // Every row's builds are interleaved, round by round, so that a slow spell of this
+            // machine slows every method alike and the ratios between rows stay fair.
+            let pools = args
+                .threads
+                .iter()
+                .map(|&threads| {
+                    rayon::ThreadPoolBuilder::new()
                         .num_threads(threads)
                         .build()
-                        .map_err(|e| e.to_string())?;
-                    let mut build_s = f64::INFINITY;
-                    let mut bvh = None;
-                    for _ in 0..args.repeat.max(1) {
-                        let start = Instant::now();
-                        let built = pool.install(|| build(&tris, method, &args.tuning))?;
-                        build_s = build_s.min(start.elapsed().as_secs_f64());
-                        bvh = Some(built);
-                    }
-                    let bvh = bvh.expect("built at least once");
-                    let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
-                    let incremental = method.starts_with("incr");
-                    rows.push(Row {
-                        scene: scene.name.clone(),
-                        triangles: tris.len(),
-                        order: order.clone(),
-                        method: method.clone(),
-                        settings: args.tuning.label(method),
-                        threads,
-                        build_s,
-                        sah_cost: bvh.sah_cost_with(1.0, 1.0),
-                        mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
-                        primary_mrays_s: primary,
-                        ao_mrays_s: ao,
-                        update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
-                    });
-                    if let Some(path) = &args.export_bvh {
-                        let mut f = std::io::BufWriter::new(
-                            std::fs::File::create(path)
-                                .map_err(|e| format!("{}: {e}", path.display()))?,
-                        );
-                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
-                            .map_err(|e| format!("{}: {e}", path.display()))?;
-                    }
-                    bar.inc(1);
+                        .map_err(|e| e.to_string())
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            let cells: Vec<(&String, usize)> = args
+                .method
+                .iter()
+                .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
+                .collect();
+            let mut build_s = vec![f64::INFINITY; cells.len()];
+            let mut built = Vec::with_capacity(cells.len());
+            for round in 0..args.repeat.max(1) {
+                built.clear();
+                for (cell, &(method, t)) in cells.iter().enumerate() {
+                    bar.set_message(format!(
+                        "{} {order} {method} ×{} (build {}/{})",
+                        scene.name,
+                        args.threads[t],
+                        round + 1,
+                        args.repeat.max(1)
+                    ));
+                    let start = Instant::now();
+                    let bvh = pools[t].install(|| build(&tris, method, &args.tuning))?;
+                    build_s[cell] = build_s[cell].min(start.elapsed().as_secs_f64());
+                    built.push(bvh);
                 }
+            }
+            for ((cell, &(method, t)), bvh) in cells.iter().enumerate().zip(built) {
+                let (threads, pool, build_s) = (args.threads[t], &pools[t], build_s[cell]);
+                bar.set_message(format!("{} {order} {method} ×{threads}: rays", scene.name));
+                let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
+                let incremental = method.starts_with("incr");
+                rows.push(Row {
+                    scene: scene.name.clone(),
+                    triangles: tris.len(),
+                    order: order.clone(),
+                    method: method.clone(),
+                    settings: args.tuning.label(method),
+                    threads,
+                    build_s,
+                    sah_cost: bvh.sah_cost_with(1.0, 1.0),
+                    mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
+                    primary_mrays_s: primary,
+                    ao_mrays_s: ao,
+                    update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
+                });
+                if let Some(path) = &args.export_bvh {
+                    let mut f = std::io::BufWriter::new(
+                        std::fs::File::create(path)
+                            .map_err(|e| format!("{}: {e}", path.display()))?,
+                    );
+                    bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
+                        .map_err(|e| format!("{}: {e}", path.display()))?;
+                }
+                bar.inc(1);
             }
         }
     }

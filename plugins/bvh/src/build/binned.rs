@@ -8,7 +8,7 @@
 use super::BuiltTree;
 use crate::Aabb;
 use crate::node::{InnerNode, NONE, NodeRef};
-use glam::{Vec3, Vec3A};
+use glam::Vec3A;
 
 const BINS: usize = 16;
 /// Ranges this small are split exactly: every partition is costed.
@@ -81,12 +81,6 @@ impl Prims {
         }
     }
 
-    /// Centre of primitive `p`.
-    #[inline]
-    pub(crate) fn center(&self, p: u32) -> Vec3 {
-        self.centers[p as usize].into()
-    }
-
     /// Bounds of the boxes and of the centres of the primitives `range` lists.
     fn bounds(&self, range: &[u32]) -> (Box3A, Box3A) {
         let (mut b, mut c) = (Box3A::EMPTY, Box3A::EMPTY);
@@ -95,6 +89,31 @@ impl Prims {
             c.grow(self.centers[p as usize]);
         }
         (b, c)
+    }
+
+    /// Partitions `range` in place: primitives whose centre lies below `pivot` on `axis` first.
+    /// Returns how many those are, and the bounds and area sum of each side (gathered in the same
+    /// pass, so a caller that splits again needs no pass of its own to measure the halves).
+    pub(crate) fn partition(
+        &self,
+        range: &mut [u32],
+        axis: usize,
+        pivot: f32,
+    ) -> (usize, [(Aabb, f32); 2]) {
+        let mut sides = [(Box3A::EMPTY, 0.0f32); 2];
+        let mut i = 0;
+        for j in 0..range.len() {
+            let p = range[j] as usize;
+            let below = self.centers[p][axis] < pivot;
+            let side = &mut sides[usize::from(!below)];
+            side.0 = side.0.union(&self.boxes[p]);
+            side.1 += self.areas[p];
+            if below {
+                range.swap(i, j);
+                i += 1;
+            }
+        }
+        (i, sides.map(|(b, a)| (b.aabb(), a)))
     }
 
     /// Bounds of the boxes the primitives `range` lists, and the sum of their areas.
@@ -461,6 +480,7 @@ fn split_small(prims: &Prims, range: &mut [u32]) -> [Side; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn every_node_box_is_the_union_of_its_children() {
