@@ -15,6 +15,12 @@ pub(crate) struct ChangeLog {
 }
 
 impl ChangeLog {
+    /// Makes room for inner nodes up to `len` slots, so that growing to it copies nothing.
+    pub(crate) fn reserve_inner(&mut self, len: usize) {
+        self.inner_dirty
+            .reserve(len.saturating_sub(self.inner_dirty.len()));
+    }
+
     pub(crate) fn grow_inner(&mut self, len: usize) {
         self.inner_dirty.resize(len, false);
     }

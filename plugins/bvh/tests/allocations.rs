@@ -14,10 +14,12 @@ use treelight_bvh::{Aabb, Bvh, BvhConfig, OptimizeCursor, SearchScratch};
 struct Counting;
 
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+static BYTES: AtomicUsize = AtomicUsize::new(0);
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        BYTES.fetch_add(layout.size(), Ordering::Relaxed);
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
@@ -25,12 +27,20 @@ unsafe impl GlobalAlloc for Counting {
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
         ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        BYTES.fetch_add(new_size, Ordering::Relaxed);
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
+
+/// Bytes allocated (or reallocated to) while `f` runs.
+fn bytes(f: impl FnOnce()) -> usize {
+    let before = BYTES.load(Ordering::Relaxed);
+    f();
+    BYTES.load(Ordering::Relaxed) - before
+}
 
 fn allocations(f: impl FnOnce()) -> usize {
     let before = ALLOCATIONS.load(Ordering::Relaxed);
@@ -98,5 +108,18 @@ fn hot_loops_allocate_nothing_per_item() {
         bvh.overlapping_triangles(&query, &mut found);
     });
     assert!(n <= FEW, "a box query allocated {n} times");
+    bvh.validate().unwrap();
+
+    // A small edit right after a large build: with room reserved it copies none of the tree's
+    // arrays (growing them would move megabytes: 50k triangles are ~3.4 MB of triangle data).
+    let mut bvh = Bvh::new(BvhConfig::default());
+    bvh.insert_triangles(&soup(50_000, 4)).unwrap();
+    let edit = soup(200, 5);
+    bvh.reserve(edit.len());
+    let b = bytes(|| ids = bvh.insert_triangles(&edit).unwrap());
+    assert!(
+        b < 64 << 10,
+        "a reserved 200-triangle insertion allocated {b} bytes"
+    );
     bvh.validate().unwrap();
 }

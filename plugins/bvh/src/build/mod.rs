@@ -180,7 +180,11 @@ impl Bvh {
             NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
             _ => r,
         };
-        let base: Vec<u32> = (0..built.nodes.len()).map(|_| self.alloc_inner()).collect();
+        let mut base = std::mem::take(&mut self.graft_slots);
+        base.clear();
+        for _ in 0..built.nodes.len() {
+            base.push(self.alloc_inner());
+        }
         for (k, n) in built.nodes.iter().enumerate() {
             let me = base[k];
             let children = n.children.map(|c| map_node(c, &base));
@@ -206,6 +210,7 @@ impl Bvh {
         }
         let root = map_node(built.root, &base);
         self.set_parent(root, NONE);
+        self.graft_slots = base;
         root
     }
 }
