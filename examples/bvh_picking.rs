@@ -1,7 +1,8 @@
 //! A plain Bevy app (not the editor) using `SceneBvhPlugin`: a few hundred meshes, some moving every
 //! frame, and what the cursor and a scripted ray hit, printed as it changes.
 //!
-//! `cargo run --release --example bvh_picking -- [--frames N]`
+//! `cargo run --release --example bvh_picking -- [--frames N]`: with `--frames`, exits after N frames
+//! once the scripted ray has hit something (at the latest after 20 N frames, for a slow machine).
 
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
@@ -12,6 +13,10 @@ struct Spinner(f32);
 
 #[derive(Resource)]
 struct ExitAfter(Option<u32>);
+
+/// Whether the scripted ray has hit an object yet.
+#[derive(Resource, Default)]
+struct ScriptedHit(bool);
 
 fn main() {
     let frames = std::env::args()
@@ -32,6 +37,7 @@ fn main() {
             }
         })
         .insert_resource(ExitAfter(frames))
+        .init_resource::<ScriptedHit>()
         .add_systems(Startup, setup)
         .add_systems(Update, (spin, report_hits, exit_after))
         .run();
@@ -87,6 +93,7 @@ fn report_hits(
     window: Single<&Window, With<PrimaryWindow>>,
     camera: Single<(&Camera, &GlobalTransform)>,
     mut last: Local<(Option<Entity>, Option<Entity>)>,
+    mut hit: ResMut<ScriptedHit>,
 ) {
     let describe = |e: Option<Entity>| {
         e.and_then(|e| names.get(e).ok())
@@ -96,7 +103,10 @@ fn report_hits(
     let scripted = scene
         .cast_ray(Ray3d::new(Vec3::new(0.75, 10.0, 0.75), Dir3::NEG_Y))
         .map(|h| h.entity);
-    if scripted != last.0 && scene.is_idle() {
+    // A miss is only news once the tree has caught up with the world (while meshes are still
+    // arriving, the ray may pass where an object will be); a hit is news at once.
+    if scripted != last.0 && (scripted.is_some() || scene.is_idle()) {
+        hit.0 |= scripted.is_some();
         println!(
             "scripted ray hits {} (tree version {}, {} triangles)",
             describe(scripted),
@@ -119,17 +129,19 @@ fn report_hits(
 fn exit_after(
     mut frames: Local<u32>,
     limit: Res<ExitAfter>,
+    hit: Res<ScriptedHit>,
     scene: Res<SceneBvh>,
     mut exit: MessageWriter<AppExit>,
 ) {
     *frames += 1;
     if let Some(n) = limit.0
         && *frames >= n
+        && (hit.0 || *frames >= n.saturating_mul(20))
     {
         let s = scene.stats();
         println!(
-            "exiting after {n} frames: {} triangles, SAH cost {:.1}, {} pending",
-            s.triangles, s.sah_cost, s.pending
+            "exiting after {} frames: {} triangles, SAH cost {:.1}, {} pending",
+            *frames, s.triangles, s.sah_cost, s.pending
         );
         exit.write(AppExit::Success);
     }
