@@ -91,22 +91,24 @@ fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
         // Several builds at once in a pool of two, as a scene plugin's background tasks give:
         // each build's two sides compete with the others for the threads, none may wait forever
         // for a side that never gets one, and each tree is still the one-thread tree.
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
-        let trees: Vec<Bvh> = pool.install(|| {
-            (0..4)
-                .into_par_iter()
-                .map(|_| {
-                    let mut bvh = Bvh::new(BvhConfig::incr_u());
-                    bvh.insert_triangles_block_parallel(&tris).unwrap();
-                    bvh
-                })
-                .collect()
-        });
-        for bvh in &trees {
-            assert_eq!(one.gpu_nodes(), bvh.gpu_nodes());
+        for threads in [2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let trees: Vec<Bvh> = pool.install(|| {
+                (0..6)
+                    .into_par_iter()
+                    .map(|_| {
+                        let mut bvh = Bvh::new(BvhConfig::incr_u());
+                        bvh.insert_triangles_block_parallel(&tris).unwrap();
+                        bvh
+                    })
+                    .collect()
+            });
+            for bvh in &trees {
+                assert_eq!(one.gpu_nodes(), bvh.gpu_nodes());
+            }
         }
         done.send(()).unwrap();
     });
