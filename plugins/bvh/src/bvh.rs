@@ -22,7 +22,7 @@ pub struct Instance {
     pub transform: Affine3A,
     /// World to object, applied to rays.
     pub inverse: Affine3A,
-    /// Index of the owning group, or [`FREE`] for a freed slot.
+    /// Index of the owning group, or `u32::MAX - 1` for a freed slot.
     pub group: u32,
 }
 

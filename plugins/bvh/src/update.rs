@@ -144,12 +144,13 @@ impl Bvh {
         if a == n { b } else { a }
     }
 
-    /// The post-pass ("BVH postprocessing", [9]): rounds of updates after construction, then
-    /// restarts. Each round ranks the chosen fraction of inner nodes by inefficiency and moves each
-    /// (children re-insertion in even rounds, subtree re-insertion in odd ones), keeping only moves
-    /// that lower the cost, then restructures treelets bottom-up; rounds stop once one gains less
-    /// than `min_relative_gain`. Each restart re-clusters the top of the tree over its small subtrees
-    /// and runs the rounds again, and is taken back unless it ends lower than before.
+    /// The post-pass ("BVH postprocessing", the paper's reference 9): rounds of updates after
+    /// construction, then restarts. Each round ranks the chosen fraction of inner nodes by
+    /// inefficiency and moves each (children re-insertion in even rounds, subtree re-insertion in
+    /// odd ones), keeping only moves that lower the cost, then restructures treelets bottom-up;
+    /// rounds stop once one gains less than `min_relative_gain`. Each restart re-clusters the top
+    /// of the tree over its small subtrees and runs the rounds again, and is taken back unless it
+    /// ends lower than before.
     pub fn optimize(&mut self, pass: PostPass) -> PostPassReport {
         let before = self.update_ops;
         let cost_before = self.sah_cost();
