@@ -13,6 +13,9 @@
 //! * Export: [`Bvh::gpu_node`] and [`Bvh::take_changes`] for GPUs, [`Bvh::write_tlbvh`] for files.
 //! * Check: [`Bvh::validate`], [`Bvh::sah_cost`].
 
+// Every public item says what it is for: the crate is meant to be used from other apps.
+#![warn(missing_docs)]
+
 mod aabb;
 mod block;
 pub mod build;

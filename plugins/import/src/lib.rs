@@ -4,6 +4,9 @@
 //! Bevy entities) and for the benchmark (which turns them into triangles). Every failure names the
 //! file and the problem; nothing outside the opened file and the buffers beside it is read.
 
+// Every public item says what it is for: the crate is meant to be used from other apps.
+#![warn(missing_docs)]
+
 mod gltf_scene;
 mod obj_scene;
 mod ply_scene;

@@ -7,6 +7,9 @@
 //! accumulates samples; a small render pass writes the average into the view target, in HDR, before
 //! Bevy's tonemapping.
 
+// Every public item says what it is for: the crate is meant to be used from other apps.
+#![warn(missing_docs)]
+
 mod extract;
 mod gpu_scene;
 mod node;

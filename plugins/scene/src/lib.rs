@@ -8,6 +8,9 @@
 //! assets, [`GlobalTransform`] changes, visibility, removal and despawn. Published: the [`SceneBvh`]
 //! resource, with the tree, its version, stats and [`SceneBvh::cast_ray`].
 
+// Every public item says what it is for: the crate is meant to be used from other apps.
+#![warn(missing_docs)]
+
 mod mesh;
 mod picking;
 mod worker;

@@ -2,6 +2,9 @@
 //! measurement tools in the workspace (the GPU ray benchmark of `treelight_render`), and the peer
 //! libraries' builders.
 
+// Every public item says what it is for: the crate is meant to be used from other apps.
+#![warn(missing_docs)]
+
 pub mod peers;
 pub mod rng;
 pub mod scenes;
