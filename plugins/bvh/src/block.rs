@@ -308,7 +308,7 @@ impl Pipeline {
 }
 
 /// Waits a moment for the other side of the pipeline, helping with any parallel work in the pool
-/// meanwhile (the other side's bBVH builds or parallel searches).
+/// meanwhile (the builder's bBVH builds, or other work queued there).
 fn idle() {
     if !matches!(rayon::yield_now(), Some(rayon::Yield::Executed)) {
         std::hint::spin_loop();
@@ -318,9 +318,10 @@ fn idle() {
 
 impl Bvh {
     /// Inserts world-space triangles block-parallel (IncrUPB). The input is cut into buffers and
-    /// each buffer into coherent batches; the other threads build the bBVHs of one step of batches
-    /// while the owner inserts those of the step before. Insertion follows the batches' order
-    /// whatever the timing, so the tree does not depend on the number of threads.
+    /// each buffer into coherent batches; one job builds their bBVHs a step at a time (in parallel
+    /// where the pool has threads to spare), up to two steps ahead of the owner, which inserts the
+    /// roots of the steps before. Insertion follows the batches' order whatever the timing, so the
+    /// tree does not depend on the number of threads.
     /// Rejects the whole input, inserting nothing, if any vertex is invalid. Returns the new ids.
     pub fn insert_triangles_block_parallel(
         &mut self,
