@@ -37,12 +37,17 @@ impl Bvh {
             let (chunk, tail) = rest.split_at(batch.min(rest.len()));
             rest = tail;
             let this = &*self;
-            chunk
-                .par_iter()
-                .map(|&item| {
-                    SCRATCH.with(|s| this.find_best_sibling(&this.aabb(item), &mut s.borrow_mut()))
-                })
-                .collect_into_vec(&mut targets);
+            let search = |&item| {
+                SCRATCH.with(|s| this.find_best_sibling(&this.aabb(item), &mut s.borrow_mut()))
+            };
+            if rayon::current_num_threads() > 1 {
+                chunk.par_iter().map(search).collect_into_vec(&mut targets);
+            } else {
+                // The same searches on the same tree, without handing each small batch to the
+                // pool: with no second thread that hand-over is all it would add.
+                targets.clear();
+                targets.extend(chunk.iter().map(search));
+            }
             linked.clear();
             for (&item, &x) in chunk.iter().zip(&targets) {
                 // A target an earlier item of this batch was linked to has a new parent and a new

@@ -65,6 +65,28 @@ fn builders_match_brute_force_on_soup() {
 }
 
 #[test]
+fn parallel_search_does_not_depend_on_the_thread_count() {
+    // Searches of a batch all run on the tree as it stood before the batch, and conflicts are
+    // searched again in order, so the tree is the same whoever ran which search.
+    let tris = soup(6_000, 21);
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut bvh = Bvh::new(BvhConfig::incr_u());
+        pool.install(|| bvh.insert_triangles_parallel_search(&tris).unwrap());
+        bvh
+    };
+    let one = build(1);
+    one.validate().unwrap();
+    for threads in [2, 3] {
+        let other = build(threads);
+        assert_eq!(one.gpu_nodes(), other.gpu_nodes(), "{threads} threads");
+    }
+}
+
+#[test]
 fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
     // More than one buffer and many pipeline steps.
     let tris = std::sync::Arc::new(soup(40_000, 12));
