@@ -3,7 +3,6 @@
 //! in parallel, and one owner inserts the bBVH roots into the global tree with the search.
 
 use crate::build::{BuiltTree, Prims, build_binned_over};
-use crate::node::NONE;
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
@@ -167,6 +166,18 @@ struct BufferBatches {
     prims: Prims,
     order: Vec<u32>,
     batcher: Batcher,
+    /// The buffer's triangle boxes, until its first step hands them to the owner.
+    boxes: Option<Vec<Aabb>>,
+}
+
+/// What the building side hands the owner per step.
+struct Step {
+    /// Index of the buffer whose triangles the bBVHs' leaves index.
+    buffer: usize,
+    /// The buffer's triangle boxes, with its first step only: the owner stores them with the
+    /// triangles instead of computing them again.
+    boxes: Option<Vec<Aabb>>,
+    trees: Vec<BuiltTree>,
 }
 
 /// The building side of IncrUPB: cuts buffers into batches and builds their bBVHs, a step at a time.
@@ -186,7 +197,7 @@ struct BatchBuilder<'a> {
 impl BatchBuilder<'_> {
     /// The bBVHs of the next step's batches (built in parallel), with the buffer they index; `None`
     /// once the stream is done.
-    fn next_step(&mut self) -> Option<(usize, Vec<BuiltTree>)> {
+    fn next_step(&mut self) -> Option<Step> {
         self.batches.clear();
         let mut count = 0;
         while count < STEP {
@@ -206,6 +217,7 @@ impl BatchBuilder<'_> {
                     prims,
                     order,
                     batcher,
+                    boxes: Some(boxes),
                 });
             }
             let c = self.current.as_mut()?;
@@ -239,7 +251,11 @@ impl BatchBuilder<'_> {
             .into_par_iter()
             .map(|slice| build_binned_over(prims, slice))
             .collect();
-        Some((index, trees))
+        Some(Step {
+            buffer: index,
+            boxes: c.boxes.take(),
+            trees,
+        })
     }
 }
 
@@ -256,7 +272,7 @@ const LOOKAHEAD: usize = 2;
 /// of one) runs the two sides one after the other.
 #[derive(Default)]
 struct Pipeline {
-    steps: Mutex<VecDeque<(usize, Vec<BuiltTree>)>>,
+    steps: Mutex<VecDeque<Step>>,
     /// The building side has sent its last step (or given up).
     done: AtomicBool,
     /// The owner is running, so a full queue will drain.
@@ -275,7 +291,7 @@ impl Drop for StoreOnDrop<'_> {
 
 impl Pipeline {
     /// Queues a step, first waiting while the owner is running and has enough to do.
-    fn send(&self, step: (usize, Vec<BuiltTree>)) {
+    fn send(&self, step: Step) {
         while self.owner_running.load(Ordering::Acquire) && self.queued() >= LOOKAHEAD {
             idle();
         }
@@ -283,7 +299,7 @@ impl Pipeline {
     }
 
     /// The next step in order, waiting for the building side; `None` once the stream is done.
-    fn receive(&self) -> Option<(usize, Vec<BuiltTree>)> {
+    fn receive(&self) -> Option<Step> {
         loop {
             // Read `done` before looking at the queue: once it is set, every step is queued.
             let done = self.done.load(Ordering::Acquire);
@@ -301,7 +317,7 @@ impl Pipeline {
         self.lock().len()
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<(usize, Vec<BuiltTree>)>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<Step>> {
         // A panic on the other side poisons the queue; its contents are still whole.
         self.steps.lock().unwrap_or_else(|e| e.into_inner())
     }
@@ -353,11 +369,16 @@ impl Bvh {
             || {
                 pipe.owner_running.store(true, Ordering::Release);
                 let _gone = StoreOnDrop(&pipe.owner_running, false);
-                while let Some((index, trees)) = pipe.receive() {
+                while let Some(Step {
+                    buffer,
+                    boxes,
+                    trees,
+                }) = pipe.receive()
+                {
                     // A buffer's triangles get their ids when its first bBVHs arrive.
-                    let buf = &buffers[index];
-                    while ids.len() < buf.end {
-                        ids.push(self.alloc_triangle(tris[ids.len()], NONE));
+                    let buf = &buffers[buffer];
+                    if let Some(boxes) = boxes {
+                        self.alloc_triangles_boxed(&tris[buf.clone()], &boxes, &mut ids);
                     }
                     // The bBVH's own nodes are candidates for updates too: where batches meet,
                     // their boxes overlap, and only moving nodes inside them can fix that.

@@ -266,6 +266,31 @@ impl Bvh {
         id
     }
 
+    /// Allocates ids for `tris`, whose boxes `boxes` are already known, appending them to `ids`.
+    /// Reuses free slots first like [`Bvh::alloc_triangle`]; the rest are appended to the arrays as
+    /// slices, which for a fresh tree is every triangle.
+    pub(crate) fn alloc_triangles_boxed(
+        &mut self,
+        tris: &[Triangle],
+        boxes: &[Aabb],
+        ids: &mut Vec<u32>,
+    ) {
+        let reused = self.tri_free.len().min(tris.len());
+        for &t in &tris[..reused] {
+            ids.push(self.alloc_triangle(t, NONE));
+        }
+        let (tris, boxes) = (&tris[reused..], &boxes[reused..]);
+        let first = self.tris.len() as u32;
+        let end = self.tris.len() + tris.len();
+        self.tris.extend_from_slice(tris);
+        self.tri_box.extend_from_slice(boxes);
+        self.tri_parent.resize(end, NONE);
+        self.tri_group.resize(end, NONE);
+        self.live_tris += tris.len() as u32;
+        ids.extend(first..end as u32);
+        self.changes.mark_new_triangles(first..end as u32);
+    }
+
     /// Makes room for `triangles` more triangles, and the inner nodes they bring, without inserting
     /// anything: a later insertion of up to that many then grows no array. Growth doubles the
     /// arrays, cheap per triangle, but once a tree holds ~100k triangles it is a copy of megabytes

@@ -56,6 +56,15 @@ impl ChangeLog {
         }
     }
 
+    /// Marks ids appended at the end of the triangle array (never marked before: they are new).
+    pub(crate) fn mark_new_triangles(&mut self, ids: Range<u32>) {
+        if self.tri_dirty.len() < ids.end as usize {
+            self.tri_dirty.resize(ids.end as usize, false);
+        }
+        self.tri_dirty[ids.start as usize..ids.end as usize].fill(true);
+        self.tri_list.extend(ids);
+    }
+
     pub(crate) fn mark_instance(&mut self, i: u32) {
         let i = i as usize;
         if i >= self.inst_dirty.len() {
