@@ -356,7 +356,7 @@ impl Bvh {
             max_batch: self.config.block_max_batch.max(1) as usize,
             batches: Vec::new(),
         };
-        self.reserve_triangles(tris.len());
+        self.reserve(tris.len());
         let mut ids = Vec::with_capacity(tris.len());
         let pipe = Pipeline::default();
         rayon::join(

@@ -37,6 +37,15 @@ impl ChangeLog {
         }
     }
 
+    /// Marks inner node ids just appended to the node array (never marked before: they are new).
+    pub(crate) fn mark_new_inner(&mut self, ids: Range<u32>) {
+        if self.inner_dirty.len() < ids.end as usize {
+            self.inner_dirty.resize(ids.end as usize, false);
+        }
+        self.inner_dirty[ids.start as usize..ids.end as usize].fill(true);
+        self.inner_list.extend(ids);
+    }
+
     /// Room for triangle ids below `len` and for `n` more entries in the list.
     pub(crate) fn reserve_triangles(&mut self, len: usize, n: usize) {
         if self.tri_dirty.len() < len {

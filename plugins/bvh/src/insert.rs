@@ -27,7 +27,7 @@ impl Bvh {
     pub fn insert_triangles(&mut self, tris: &[Triangle]) -> Result<Vec<u32>, BvhError> {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
-        self.reserve_triangles(tris.len());
+        self.reserve(tris.len());
         let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
         for item in self.cluster_items(&ids) {
             self.insert_item(item);

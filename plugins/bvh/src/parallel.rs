@@ -21,7 +21,7 @@ impl Bvh {
     ) -> Result<Vec<u32>, BvhError> {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
-        self.reserve_triangles(tris.len());
+        self.reserve(tris.len());
         let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
         let items = self.cluster_items(&ids);
         let batch = self.config.parallel_search_batch.max(1) as usize;

@@ -180,6 +180,9 @@ impl Bvh {
             NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
             _ => r,
         };
+        if self.inner_free.is_empty() {
+            return self.graft_appended(built, ids, record);
+        }
         let mut base = std::mem::take(&mut self.graft_slots);
         base.clear();
         for _ in 0..built.nodes.len() {
@@ -211,6 +214,50 @@ impl Bvh {
         let root = map_node(built.root, &base);
         self.set_parent(root, NONE);
         self.graft_slots = base;
+        root
+    }
+}
+
+impl Bvh {
+    /// [`Bvh::graft_with`] when no inner slot is free, as in a tree being built: the nodes go to
+    /// the end of the array in `built`'s order, so a node's id is its index plus the old length
+    /// and the copy needs no slot map. IncrUPB grafts thousands of small bBVHs per build.
+    fn graft_appended(&mut self, built: &BuiltTree, ids: &[u32], record: bool) -> NodeRef {
+        let base = self.inner.len() as u32;
+        let map_node = |r: NodeRef| match r.kind() {
+            NodeKind::Inner => NodeRef::inner(base + r.index()),
+            NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
+            _ => r,
+        };
+        for (k, n) in built.nodes.iter().enumerate() {
+            let me = base + k as u32;
+            let children = n.children.map(map_node);
+            let parent = if n.parent == NONE {
+                NONE
+            } else {
+                base + n.parent
+            };
+            self.inner.push(InnerNode {
+                aabb: n.aabb,
+                children,
+                parent,
+            });
+            for c in children {
+                if c.kind() == NodeKind::Leaf {
+                    self.tri_parent[c.index() as usize] = me;
+                }
+            }
+        }
+        let end = self.inner.len() as u32;
+        self.in_cache.resize(end as usize, false);
+        self.changes.mark_new_inner(base..end);
+        if record {
+            for me in base..end {
+                self.record(me);
+            }
+        }
+        let root = map_node(built.root);
+        self.set_parent(root, NONE);
         root
     }
 }
