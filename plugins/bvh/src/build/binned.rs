@@ -101,10 +101,14 @@ impl Prims {
         pivot: f32,
     ) -> (usize, [(Aabb, f32); 2]) {
         let mut sides = [(Box3A::EMPTY, 0.0f32); 2];
+        // The side test is one vector compare and a mask bit: indexing a vector lane by a runtime
+        // axis would branch on the axis for every primitive. This loop is the batcher's whole
+        // cost, on the building side's critical path.
+        let (pivot, bit) = (Vec3A::splat(pivot), 1u32 << axis);
         let mut i = 0;
         for j in 0..range.len() {
             let p = range[j] as usize;
-            let below = self.centers[p][axis] < pivot;
+            let below = self.centers[p].cmplt(pivot).bitmask() & bit != 0;
             let side = &mut sides[usize::from(!below)];
             side.0 = side.0.union(&self.boxes[p]);
             side.1 += self.areas[p];
