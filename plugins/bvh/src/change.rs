@@ -37,13 +37,9 @@ impl ChangeLog {
         }
     }
 
-    /// Marks inner node ids just appended to the node array (never marked before: they are new).
+    /// Marks inner node ids just appended to the node array.
     pub(crate) fn mark_new_inner(&mut self, ids: Range<u32>) {
-        if self.inner_dirty.len() < ids.end as usize {
-            self.inner_dirty.resize(ids.end as usize, false);
-        }
-        self.inner_dirty[ids.start as usize..ids.end as usize].fill(true);
-        self.inner_list.extend(ids);
+        mark_appended(&mut self.inner_dirty, &mut self.inner_list, ids);
     }
 
     /// Room for triangle ids below `len` and for `n` more entries in the list.
@@ -65,13 +61,9 @@ impl ChangeLog {
         }
     }
 
-    /// Marks ids appended at the end of the triangle array (never marked before: they are new).
+    /// Marks ids appended at the end of the triangle array.
     pub(crate) fn mark_new_triangles(&mut self, ids: Range<u32>) {
-        if self.tri_dirty.len() < ids.end as usize {
-            self.tri_dirty.resize(ids.end as usize, false);
-        }
-        self.tri_dirty[ids.start as usize..ids.end as usize].fill(true);
-        self.tri_list.extend(ids);
+        mark_appended(&mut self.tri_dirty, &mut self.tri_list, ids);
     }
 
     pub(crate) fn mark_instance(&mut self, i: u32) {
@@ -132,6 +124,16 @@ impl ChangeLog {
             instance_capacity: sizes.2,
         }
     }
+}
+
+/// Marks a range of ids just appended to an array dirty at once. They were never marked before
+/// (they are new), so none is in `list` yet.
+fn mark_appended(dirty: &mut Vec<bool>, list: &mut Vec<u32>, ids: Range<u32>) {
+    if dirty.len() < ids.end as usize {
+        dirty.resize(ids.end as usize, false);
+    }
+    dirty[ids.start as usize..ids.end as usize].fill(true);
+    list.extend(ids);
 }
 
 /// Turns sorted ids into ranges of consecutive ids.

@@ -64,19 +64,26 @@ fn builders_match_brute_force_on_soup() {
     }
 }
 
+/// An IncrU tree filled by `insert` inside a rayon pool of `threads` threads.
+fn built_in_pool(threads: usize, insert: impl FnOnce(&mut Bvh) + Send) -> Bvh {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut bvh = Bvh::new(BvhConfig::incr_u());
+    pool.install(|| insert(&mut bvh));
+    bvh
+}
+
 #[test]
 fn parallel_search_does_not_depend_on_the_thread_count() {
     // Searches of a batch all run on the tree as it stood before the batch, and conflicts are
     // searched again in order, so the tree is the same whoever ran which search.
     let tris = soup(6_000, 21);
     let build = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        let mut bvh = Bvh::new(BvhConfig::incr_u());
-        pool.install(|| bvh.insert_triangles_parallel_search(&tris).unwrap());
-        bvh
+        built_in_pool(threads, |bvh| {
+            bvh.insert_triangles_parallel_search(&tris).unwrap();
+        })
     };
     let one = build(1);
     one.validate().unwrap();
@@ -95,13 +102,9 @@ fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
     let (done, finished) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let build = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let mut bvh = Bvh::new(BvhConfig::incr_u());
-            pool.install(|| bvh.insert_triangles_block_parallel(&tris).unwrap());
-            bvh
+            built_in_pool(threads, |bvh| {
+                bvh.insert_triangles_block_parallel(&tris).unwrap();
+            })
         };
         let one = build(1);
         one.validate().unwrap();

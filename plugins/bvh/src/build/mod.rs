@@ -175,90 +175,75 @@ impl Bvh {
         if built.root.is_none() {
             return NodeRef::NONE;
         }
-        let map_node = |r: NodeRef, base: &[u32]| match r.kind() {
-            NodeKind::Inner => NodeRef::inner(base[r.index() as usize]),
+        let root = if self.inner_free.is_empty() {
+            // No slot is free, as in a tree being built: the nodes go to the end of the array in
+            // `built`'s order, so node `k` becomes `base + k`, with no slot map and the change log
+            // marked as one range (IncrUPB grafts thousands of small bBVHs per build).
+            let base = self.inner.len() as u32;
+            let end = base + built.nodes.len() as u32;
+            let placeholder = InnerNode {
+                aabb: Aabb::EMPTY,
+                children: [NodeRef::NONE; 2],
+                parent: NONE,
+            };
+            self.inner.resize(end as usize, placeholder);
+            self.in_cache.resize(end as usize, false);
+            self.changes.mark_new_inner(base..end);
+            let root = self.copy_built(built, ids, |k| base + k);
+            if record {
+                for me in base..end {
+                    self.record(me);
+                }
+            }
+            root
+        } else {
+            let mut slots = std::mem::take(&mut self.graft_slots);
+            slots.clear();
+            for _ in 0..built.nodes.len() {
+                slots.push(self.alloc_inner());
+            }
+            let root = self.copy_built(built, ids, |k| slots[k as usize]);
+            for &me in &slots {
+                self.changes.mark_inner(me);
+                if record {
+                    self.record(me);
+                }
+            }
+            self.graft_slots = slots;
+            root
+        };
+        self.set_parent(root, NONE);
+        root
+    }
+
+    /// Writes `built`'s node `k` into inner slot `slot(k)` (allocated already), its leaf `k` being
+    /// triangle `ids[k]`, and returns where its root went.
+    fn copy_built(&mut self, built: &BuiltTree, ids: &[u32], slot: impl Fn(u32) -> u32) -> NodeRef {
+        let map_node = |r: NodeRef| match r.kind() {
+            NodeKind::Inner => NodeRef::inner(slot(r.index())),
             NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
             _ => r,
         };
-        if self.inner_free.is_empty() {
-            return self.graft_appended(built, ids, record);
-        }
-        let mut base = std::mem::take(&mut self.graft_slots);
-        base.clear();
-        for _ in 0..built.nodes.len() {
-            base.push(self.alloc_inner());
-        }
         for (k, n) in built.nodes.iter().enumerate() {
-            let me = base[k];
-            let children = n.children.map(|c| map_node(c, &base));
+            let me = slot(k as u32);
+            let children = n.children.map(map_node);
             let parent = if n.parent == NONE {
                 NONE
             } else {
-                base[n.parent as usize]
+                slot(n.parent)
             };
             self.inner[me as usize] = InnerNode {
                 aabb: n.aabb,
                 children,
                 parent,
             };
-            self.changes.mark_inner(me);
-            if record {
-                self.record(me);
-            }
             for c in children {
                 if c.kind() == NodeKind::Leaf {
                     self.tri_parent[c.index() as usize] = me;
                 }
             }
         }
-        let root = map_node(built.root, &base);
-        self.set_parent(root, NONE);
-        self.graft_slots = base;
-        root
-    }
-}
-
-impl Bvh {
-    /// [`Bvh::graft_with`] when no inner slot is free, as in a tree being built: the nodes go to
-    /// the end of the array in `built`'s order, so a node's id is its index plus the old length
-    /// and the copy needs no slot map. IncrUPB grafts thousands of small bBVHs per build.
-    fn graft_appended(&mut self, built: &BuiltTree, ids: &[u32], record: bool) -> NodeRef {
-        let base = self.inner.len() as u32;
-        let map_node = |r: NodeRef| match r.kind() {
-            NodeKind::Inner => NodeRef::inner(base + r.index()),
-            NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
-            _ => r,
-        };
-        for (k, n) in built.nodes.iter().enumerate() {
-            let me = base + k as u32;
-            let children = n.children.map(map_node);
-            let parent = if n.parent == NONE {
-                NONE
-            } else {
-                base + n.parent
-            };
-            self.inner.push(InnerNode {
-                aabb: n.aabb,
-                children,
-                parent,
-            });
-            for c in children {
-                if c.kind() == NodeKind::Leaf {
-                    self.tri_parent[c.index() as usize] = me;
-                }
-            }
-        }
-        let end = self.inner.len() as u32;
-        self.in_cache.resize(end as usize, false);
-        self.changes.mark_new_inner(base..end);
-        if record {
-            for me in base..end {
-                self.record(me);
-            }
-        }
-        let root = map_node(built.root);
-        self.set_parent(root, NONE);
-        root
+        map_node(built.root)
     }
 }
 
