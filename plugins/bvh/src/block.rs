@@ -37,27 +37,19 @@ pub fn coherent_batches(
     max_batch: usize,
 ) -> Vec<Range<usize>> {
     let prims = Prims::new(boxes);
-    coherent_batches_with(&prims, order, r_max, min_batch, max_batch)
+    let mut out = Vec::new();
+    Cut {
+        r_max,
+        min_batch,
+        max_batch,
+    }
+    .batches(&prims, order, &mut out);
+    out
 }
 
-/// [`coherent_batches`] over boxes already converted for the builder.
-fn coherent_batches_with(
-    prims: &Prims,
-    order: &mut [u32],
-    r_max: f32,
-    min_batch: usize,
-    max_batch: usize,
-) -> Vec<Range<usize>> {
-    let mut batcher = Batcher::new(prims, order, r_max, min_batch, max_batch);
-    std::iter::from_fn(|| batcher.next_batch(prims, order)).collect()
-}
-
-/// The R*_coh subdivision of one order, run lazily: each call splits only as far as the next batch
-/// needs, so the pipeline spreads a buffer's subdivision over its steps instead of stalling the
-/// owner while a whole buffer is cut up front. Batches come left to right and tile the order.
-struct Batcher {
-    /// Ranges of the order still to split, the leftmost on top.
-    stack: Vec<Pending>,
+/// The rule of the R*_coh subdivision: when a range is a batch, and where it splits.
+#[derive(Clone, Copy)]
+struct Cut {
     r_max: f32,
     min_batch: usize,
     max_batch: usize,
@@ -72,68 +64,128 @@ struct Pending {
     sum: f32,
 }
 
-impl Batcher {
-    fn new(prims: &Prims, order: &[u32], r_max: f32, min_batch: usize, max_batch: usize) -> Self {
+/// What one look at a pending range gives.
+enum Cutting {
+    Empty,
+    Batch(Range<usize>),
+    /// The two halves, left first.
+    Split(Pending, Pending),
+}
+
+/// Ranges of at least this many primitives cut their two halves in parallel: below it a join
+/// costs more than it can win.
+const PARALLEL_MIN: usize = 1 << 10;
+/// Levels of the subdivision that may fork. A stream whose centres crowd to one side splits off a
+/// few primitives per level; past this depth the explicit stack takes over, so no input can
+/// overflow the thread's stack.
+const PARALLEL_DEPTH: u32 = 24;
+
+impl Cut {
+    /// Appends the batches of `order` to `out`, left to right, tiling it. The halves of a large
+    /// range are cut in parallel, so that an owner waiting for its next step takes a share of a
+    /// new buffer's subdivision; the batches do not depend on who cuts them.
+    fn batches(&self, prims: &Prims, order: &mut [u32], out: &mut Vec<Range<usize>>) {
         let (bounds, sum) = prims.bounds_and_area(order);
-        Self {
-            stack: vec![Pending {
-                range: 0..order.len(),
-                axis: 0,
-                bounds,
-                sum,
-            }],
-            r_max,
-            min_batch,
-            max_batch,
+        let whole = Pending {
+            range: 0..order.len(),
+            axis: 0,
+            bounds,
+            sum,
+        };
+        self.batches_from(prims, order, 0, whole, PARALLEL_DEPTH, out);
+    }
+
+    /// [`Cut::batches`] of `order` (which starts at `start` of the whole order), whose bounds,
+    /// area sum and split axis `whole` gives.
+    fn batches_from(
+        &self,
+        prims: &Prims,
+        order: &mut [u32],
+        start: usize,
+        whole: Pending,
+        depth: u32,
+        out: &mut Vec<Range<usize>>,
+    ) {
+        let shift = |r: Range<usize>| start + r.start..start + r.end;
+        if order.len() < PARALLEL_MIN || depth == 0 {
+            let mut stack = vec![whole];
+            while let Some(p) = stack.pop() {
+                match self.look(prims, order, p) {
+                    Cutting::Empty => {}
+                    Cutting::Batch(r) => out.push(shift(r)),
+                    Cutting::Split(l, r) => {
+                        stack.push(r);
+                        stack.push(l);
+                    }
+                }
+            }
+            return;
+        }
+        match self.look(prims, order, whole) {
+            Cutting::Empty => {}
+            Cutting::Batch(r) => out.push(shift(r)),
+            Cutting::Split(l, r) => {
+                let mid = l.range.end;
+                let (lo, hi) = order.split_at_mut(mid);
+                let r = Pending {
+                    range: 0..hi.len(),
+                    ..r
+                };
+                let mut right = Vec::new();
+                rayon::join(
+                    || self.batches_from(prims, lo, start, l, depth - 1, out),
+                    || self.batches_from(prims, hi, start + mid, r, depth - 1, &mut right),
+                );
+                out.append(&mut right);
+            }
         }
     }
 
-    /// The next batch of `order` (indices into `prims`), reordering the part of it still to split.
-    fn next_batch(&mut self, prims: &Prims, order: &mut [u32]) -> Option<Range<usize>> {
-        while let Some(Pending {
+    /// Whether the pending range of `order` is a batch, or else its two halves (reordering it).
+    fn look(&self, prims: &Prims, order: &mut [u32], p: Pending) -> Cutting {
+        let Pending {
             range,
             axis,
             bounds,
             sum,
-        }) = self.stack.pop()
-        {
-            let n = range.len();
-            if n == 0 {
-                continue;
-            }
-            // A small batch is kept whole while its box is no larger than r_max times its
-            // primitives' (Eq. 3 without the ∛ factor, which would split every surface patch down
-            // to single triangles); a scattered one, as a random order or random edits give, is
-            // still split.
-            let small = n <= 1 || (n <= self.min_batch && bounds.area() < self.r_max * sum);
-            if small || (n <= self.max_batch && batch_coherence(&bounds, sum, n) < self.r_max) {
-                return Some(range);
-            }
-            let next = (axis + 1) % 3;
-            let (mut i, mut sides) =
-                prims.partition(&mut order[range.clone()], axis, bounds.center()[axis]);
-            if i == 0 || i == n {
-                // Every centre on one side of the middle: halve the range as it stands.
-                i = n / 2;
-                let (l, r) = order[range.clone()].split_at(i);
-                sides = [prims.bounds_and_area(l), prims.bounds_and_area(r)];
-            }
-            let mid = range.start + i;
-            let [(lb, ls), (rb, rs)] = sides;
-            self.stack.push(Pending {
-                range: mid..range.end,
-                axis: next,
-                bounds: rb,
-                sum: rs,
-            });
-            self.stack.push(Pending {
+        } = p;
+        let n = range.len();
+        if n == 0 {
+            return Cutting::Empty;
+        }
+        // A small batch is kept whole while its box is no larger than r_max times its
+        // primitives' (Eq. 3 without the ∛ factor, which would split every surface patch down
+        // to single triangles); a scattered one, as a random order or random edits give, is
+        // still split.
+        let small = n <= 1 || (n <= self.min_batch && bounds.area() < self.r_max * sum);
+        if small || (n <= self.max_batch && batch_coherence(&bounds, sum, n) < self.r_max) {
+            return Cutting::Batch(range);
+        }
+        let next = (axis + 1) % 3;
+        let (mut i, mut sides) =
+            prims.partition(&mut order[range.clone()], axis, bounds.center()[axis]);
+        if i == 0 || i == n {
+            // Every centre on one side of the middle: halve the range as it stands.
+            i = n / 2;
+            let (l, r) = order[range.clone()].split_at(i);
+            sides = [prims.bounds_and_area(l), prims.bounds_and_area(r)];
+        }
+        let mid = range.start + i;
+        let [(lb, ls), (rb, rs)] = sides;
+        Cutting::Split(
+            Pending {
                 range: range.start..mid,
                 axis: next,
                 bounds: lb,
                 sum: ls,
-            });
-        }
-        None
+            },
+            Pending {
+                range: mid..range.end,
+                axis: next,
+                bounds: rb,
+                sum: rs,
+            },
+        )
     }
 }
 
@@ -160,12 +212,14 @@ fn buffers(n: usize) -> Vec<Range<usize>> {
     out
 }
 
-/// One buffer being cut into coherent batches, whose bBVHs are built a step at a time.
+/// One buffer cut into coherent batches, whose bBVHs are built a step at a time.
 struct BufferBatches {
     index: usize,
     prims: Prims,
     order: Vec<u32>,
-    batcher: Batcher,
+    /// The buffer's batches, tiling `order`, and how many of them earlier steps took.
+    batches: Vec<Range<usize>>,
+    taken: usize,
     /// The buffer's triangle boxes, until its first step hands them to the owner.
     boxes: Option<Vec<Aabb>>,
 }
@@ -187,75 +241,68 @@ struct BatchBuilder<'a> {
     buffers: &'a [Range<usize>],
     next_buffer: usize,
     current: Option<BufferBatches>,
-    r_max: f32,
-    min_batch: usize,
-    max_batch: usize,
-    /// This step's batches, reused from step to step.
-    batches: Vec<Range<usize>>,
+    cut: Cut,
 }
 
 impl BatchBuilder<'_> {
     /// The bBVHs of the next step's batches (built in parallel), with the buffer they index; `None`
     /// once the stream is done.
     fn next_step(&mut self) -> Option<Step> {
-        self.batches.clear();
-        let mut count = 0;
-        while count < STEP {
+        loop {
             if self.current.is_none() {
                 let index = self.next_buffer;
-                let Some(buf) = self.buffers.get(index).cloned() else {
-                    break;
-                };
+                let buf = self.buffers.get(index).cloned()?;
                 self.next_buffer += 1;
+                // A whole buffer is cut at once, in parallel: an owner that has inserted what it
+                // was sent helps with the cutting instead of waiting for it, which it would do
+                // if the cut were spread over the buffer's steps on this side alone.
                 let boxes: Vec<Aabb> = self.tris[buf].iter().map(|t| t.aabb()).collect();
                 let prims = Prims::new(&boxes);
-                let order: Vec<u32> = (0..boxes.len() as u32).collect();
-                let batcher =
-                    Batcher::new(&prims, &order, self.r_max, self.min_batch, self.max_batch);
+                let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+                let mut batches = Vec::new();
+                self.cut.batches(&prims, &mut order, &mut batches);
                 self.current = Some(BufferBatches {
                     index,
                     prims,
                     order,
-                    batcher,
+                    batches,
+                    taken: 0,
                     boxes: Some(boxes),
                 });
             }
             let c = self.current.as_mut()?;
-            match c.batcher.next_batch(&c.prims, &mut c.order) {
-                Some(batch) => {
-                    count += batch.len();
-                    self.batches.push(batch);
-                }
-                // A step never spans two buffers: its bBVHs index one buffer's triangles.
-                None if self.batches.is_empty() => self.current = None,
-                None => break,
+            if c.taken == c.batches.len() {
+                self.current = None;
+                continue;
             }
+            // A step never spans two buffers: its bBVHs index one buffer's triangles.
+            let first = c.taken;
+            let mut count = 0;
+            while c.taken < c.batches.len() && count < STEP {
+                count += c.batches[c.taken].len();
+                c.taken += 1;
+            }
+            // The batches tile `order` in sequence: cut this step's run of it into one slice per
+            // batch, each built in place, so no batch copies its boxes.
+            let run = &c.batches[first..c.taken];
+            let mut slices = Vec::with_capacity(run.len());
+            let mut rest = &mut c.order[run[0].start..run[run.len() - 1].end];
+            for r in run {
+                let (head, tail) = rest.split_at_mut(r.len());
+                slices.push(head);
+                rest = tail;
+            }
+            let prims = &c.prims;
+            let trees = slices
+                .into_par_iter()
+                .map(|slice| build_binned_over(prims, slice))
+                .collect();
+            return Some(Step {
+                buffer: c.index,
+                boxes: c.boxes.take(),
+                trees,
+            });
         }
-        let c = self.current.as_mut()?;
-        let index = c.index;
-        if self.batches.is_empty() {
-            return None;
-        }
-        // The batches tile `order` in sequence: cut this step's run of it into one slice per
-        // batch, each built in place, so no batch copies its boxes.
-        let run = &self.batches;
-        let mut slices = Vec::with_capacity(run.len());
-        let mut rest = &mut c.order[run[0].start..run[run.len() - 1].end];
-        for r in run {
-            let (head, tail) = rest.split_at_mut(r.len());
-            slices.push(head);
-            rest = tail;
-        }
-        let prims = &c.prims;
-        let trees = slices
-            .into_par_iter()
-            .map(|slice| build_binned_over(prims, slice))
-            .collect();
-        Some(Step {
-            buffer: index,
-            boxes: c.boxes.take(),
-            trees,
-        })
     }
 }
 
@@ -351,10 +398,11 @@ impl Bvh {
             buffers: &buffers,
             next_buffer: 0,
             current: None,
-            r_max: self.config.coherence_max,
-            min_batch: self.config.block_min_batch as usize,
-            max_batch: self.config.block_max_batch.max(1) as usize,
-            batches: Vec::new(),
+            cut: Cut {
+                r_max: self.config.coherence_max,
+                min_batch: self.config.block_min_batch as usize,
+                max_batch: self.config.block_max_batch.max(1) as usize,
+            },
         };
         self.reserve(tris.len());
         let mut ids = Vec::with_capacity(tris.len());

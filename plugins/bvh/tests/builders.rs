@@ -306,3 +306,56 @@ fn small_batches_stay_whole_when_compact_and_are_split_when_scattered() {
     let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024);
     assert_eq!(batches.len(), 8, "{batches:?}");
 }
+
+#[test]
+fn coherent_batches_tile_the_order_whatever_the_pool() {
+    // Squares at geometrically spaced x: each spatial-median split peels only the farthest few
+    // off, so the subdivision runs far deeper than it may fork (the explicit stack takes over),
+    // and a scattered soup beside it splits evenly. The cut forks on large ranges, and must give
+    // the same batches, in the same order, on any pool.
+    let mut origins: Vec<Vec3> = (0..300)
+        .flat_map(|i| (0..8).map(move |j| Vec3::new(1.3f32.powi(i), j as f32, 0.0)))
+        .collect();
+    origins.extend(soup(3_000, 77).iter().map(|t| t.aabb().min * 50.0));
+    let boxes = square_boxes(&origins);
+    let cut = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+        let batches =
+            pool.install(|| treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024));
+        (batches, order)
+    };
+    let (batches, order) = cut(1);
+    assert_eq!(cut(4), (batches.clone(), order.clone()));
+    // The batches tile the order left to right, and the order is a permutation.
+    let mut at = 0;
+    for b in &batches {
+        assert_eq!(b.start, at, "{batches:?}");
+        assert!(b.end > b.start, "empty batch in {batches:?}");
+        at = b.end;
+    }
+    assert_eq!(at, boxes.len());
+    let mut sorted = order.clone();
+    sorted.sort_unstable();
+    assert!(sorted.iter().enumerate().all(|(i, &p)| p == i as u32));
+    // Each batch obeys the rule: one primitive, compact and small, or coherent by Eq. 3.
+    for b in &batches {
+        let members: Vec<_> = order[b.clone()]
+            .iter()
+            .map(|&p| boxes[p as usize])
+            .collect();
+        let bounds = members.iter().fold(members[0], |a, m| a.union(m));
+        let sum: f32 = members.iter().map(|m| m.area()).sum();
+        let n = members.len();
+        let small = n <= 16 && bounds.area() < 1.5 * sum * 1.0001;
+        let coherent = n <= 1024 && treelight_bvh::batch_coherence(&bounds, sum, n) < 1.5 * 1.0001;
+        assert!(
+            n == 1 || small || coherent,
+            "batch {b:?} of {n} breaks the rule"
+        );
+    }
+    assert!(batches.len() > 100, "{} batches", batches.len());
+}
