@@ -2,7 +2,7 @@
 
 mod support;
 use support::*;
-use treelight_bvh::{Bvh, BvhConfig, TopDown};
+use treelight_bvh::{BlockStream, Bvh, BvhConfig, PostPass, TopDown};
 
 fn check_scene(name: &str) {
     let tris = load_obj(name);
@@ -25,19 +25,49 @@ fn check_scene(name: &str) {
             Bvh::build_top_down(&tris, TopDown::SweepSah, BvhConfig::default()).unwrap(),
         ),
         (
+            "binned",
+            Bvh::build_top_down(&tris, TopDown::BinnedSah, BvhConfig::default()).unwrap(),
+        ),
+        (
             "median",
             Bvh::build_top_down(&tris, TopDown::Median, BvhConfig::default()).unwrap(),
         ),
     ];
+    let mut incr = Bvh::new(BvhConfig::incr());
+    incr.insert_triangles(&tris).unwrap();
+    builds.push(("incr", incr));
     let mut incru = Bvh::new(BvhConfig::incr_u());
     incru.insert_triangles(&tris).unwrap();
+    // The post-pass on a copy, with a treelet pass and a restart (kept or taken back).
+    let mut post = incru.clone();
+    post.optimize(PostPass {
+        max_rounds: 1,
+        fraction: 0.25,
+        treelet: 5,
+        restarts: 1,
+        ..PostPass::default()
+    });
     builds.push(("incru", incru));
+    builds.push(("incru + post-pass", post));
     let mut incrup = Bvh::new(BvhConfig::incr_u());
     incrup.insert_triangles_parallel_search(&tris).unwrap();
     builds.push(("incrup", incrup));
     let mut incrupb = Bvh::new(BvhConfig::incr_u());
     incrupb.insert_triangles_block_parallel(&tris).unwrap();
     builds.push(("incrupb", incrupb));
+    // The streaming front end, fed in uneven chunks, traceable between them.
+    let mut streamed = Bvh::new(BvhConfig::incr_u());
+    let mut stream = BlockStream::new(10_000);
+    for (k, chunk) in tris.chunks(7_777).enumerate() {
+        stream.push(&mut streamed, chunk).unwrap();
+        if k == 3 {
+            streamed
+                .validate()
+                .unwrap_or_else(|e| panic!("{name} stream after {k} chunks: {e}"));
+        }
+    }
+    stream.flush(&mut streamed).unwrap();
+    builds.push(("incrupb stream", streamed));
     for (method, bvh) in &builds {
         bvh.validate()
             .unwrap_or_else(|e| panic!("{name} {method}: {e}"));

@@ -120,6 +120,16 @@ struct Tuning {
     /// incru-post: restarts of the post-pass (engine default 4).
     #[arg(long)]
     post_restarts: Option<u32>,
+    /// incru-post: most update rounds per convergence (engine default 8).
+    #[arg(long)]
+    post_rounds: Option<u32>,
+    /// incru-post: fraction of the inner nodes, the most inefficient, re-inserted per round
+    /// (engine default 1).
+    #[arg(long)]
+    post_fraction: Option<f32>,
+    /// incru-post: subtrees per treelet restructured after each round (engine default 6; 0 = off).
+    #[arg(long)]
+    post_treelet: Option<u32>,
 }
 
 impl Tuning {
@@ -136,9 +146,13 @@ impl Tuning {
     }
 
     fn post_pass(&self) -> PostPass {
+        let base = PostPass::default();
         PostPass {
-            restarts: self.post_restarts.unwrap_or(PostPass::default().restarts),
-            ..PostPass::default()
+            restarts: self.post_restarts.unwrap_or(base.restarts),
+            max_rounds: self.post_rounds.unwrap_or(base.max_rounds),
+            fraction: self.post_fraction.unwrap_or(base.fraction),
+            treelet: self.post_treelet.unwrap_or(base.treelet),
+            ..base
         }
     }
 
@@ -163,8 +177,19 @@ impl Tuning {
         if let (Some(m), "incrupb") = (self.block_min_batch, method) {
             parts.push(format!("min batch={m}"));
         }
-        if let (Some(r), "incru-post") = (self.post_restarts, method) {
-            parts.push(format!("restarts={r}"));
+        if method == "incru-post" {
+            if let Some(r) = self.post_rounds {
+                parts.push(format!("rounds={r}"));
+            }
+            if let Some(f) = self.post_fraction {
+                parts.push(format!("fraction={f}"));
+            }
+            if let Some(t) = self.post_treelet {
+                parts.push(format!("post treelets={t}"));
+            }
+            if let Some(r) = self.post_restarts {
+                parts.push(format!("restarts={r}"));
+            }
         }
         parts.join(" ")
     }
@@ -428,17 +453,21 @@ fn progress(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<plots::P
             samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
         }
         if method == "incru-post" {
-            for _ in 0..4 {
+            // Two rounds at a time, so the plot shows them converge; the restarts come with the
+            // last piece, as they follow the rounds in one call.
+            let pass = tuning.post_pass();
+            let mut left = pass.max_rounds;
+            while left > 0 {
+                let piece = left.min(2);
+                left -= piece;
                 let t = Instant::now();
-                let report = bvh.optimize(PostPass {
-                    max_rounds: 2,
-                    ..tuning.post_pass()
+                bvh.optimize(PostPass {
+                    max_rounds: piece,
+                    restarts: if left == 0 { pass.restarts } else { 0 },
+                    ..pass
                 });
                 elapsed += t.elapsed().as_secs_f64();
                 samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
-                if report.rounds < 2 {
-                    break;
-                }
             }
         }
     } else {
