@@ -27,14 +27,7 @@ impl ChangeLog {
 
     #[inline]
     pub(crate) fn mark_inner(&mut self, i: u32) {
-        let i = i as usize;
-        if i >= self.inner_dirty.len() {
-            self.inner_dirty.resize(i + 1, false);
-        }
-        if !self.inner_dirty[i] {
-            self.inner_dirty[i] = true;
-            self.inner_list.push(i as u32);
-        }
+        mark_one(&mut self.inner_dirty, &mut self.inner_list, i, 0);
     }
 
     /// Marks inner node ids just appended to the node array.
@@ -52,13 +45,7 @@ impl ChangeLog {
 
     #[inline]
     pub(crate) fn mark_triangle(&mut self, id: u32, len: usize) {
-        if self.tri_dirty.len() < len {
-            self.tri_dirty.resize(len, false);
-        }
-        if !self.tri_dirty[id as usize] {
-            self.tri_dirty[id as usize] = true;
-            self.tri_list.push(id);
-        }
+        mark_one(&mut self.tri_dirty, &mut self.tri_list, id, len);
     }
 
     /// Marks ids appended at the end of the triangle array.
@@ -67,14 +54,7 @@ impl ChangeLog {
     }
 
     pub(crate) fn mark_instance(&mut self, i: u32) {
-        let i = i as usize;
-        if i >= self.inst_dirty.len() {
-            self.inst_dirty.resize(i + 1, false);
-        }
-        if !self.inst_dirty[i] {
-            self.inst_dirty[i] = true;
-            self.inst_list.push(i as u32);
-        }
+        mark_one(&mut self.inst_dirty, &mut self.inst_list, i, 0);
     }
 
     /// Marks everything dirty, for a consumer that must start over.
@@ -128,6 +108,20 @@ impl ChangeLog {
 
 /// Marks a range of ids just appended to an array dirty at once. They were never marked before
 /// (they are new), so none is in `list` yet.
+/// Marks one id, listing it the first time. The flags grow to at least `len` at once (the
+/// triangle count, so that a run of marks resizes once) and always past `id`.
+#[inline]
+fn mark_one(dirty: &mut Vec<bool>, list: &mut Vec<u32>, id: u32, len: usize) {
+    let len = len.max(id as usize + 1);
+    if dirty.len() < len {
+        dirty.resize(len, false);
+    }
+    if !dirty[id as usize] {
+        dirty[id as usize] = true;
+        list.push(id);
+    }
+}
+
 fn mark_appended(dirty: &mut Vec<bool>, list: &mut Vec<u32>, ids: Range<u32>) {
     if dirty.len() < ids.end as usize {
         dirty.resize(ids.end as usize, false);
