@@ -96,7 +96,8 @@ impl Cut {
     }
 
     /// [`Cut::batches`] of `order` (which starts at `start` of the whole order), whose bounds,
-    /// area sum and split axis `whole` gives.
+    /// area sum and split axis `whole` gives. A large range forks its halves while `depth` lasts;
+    /// the ranges still on the stack then lie to its right, so their batches come after.
     fn batches_from(
         &self,
         prims: &Prims,
@@ -106,37 +107,32 @@ impl Cut {
         depth: u32,
         out: &mut Vec<Range<usize>>,
     ) {
-        let shift = |r: Range<usize>| start + r.start..start + r.end;
-        if order.len() < PARALLEL_MIN || depth == 0 {
-            let mut stack = vec![whole];
-            while let Some(p) = stack.pop() {
-                match self.look(prims, order, p) {
-                    Cutting::Empty => {}
-                    Cutting::Batch(r) => out.push(shift(r)),
-                    Cutting::Split(l, r) => {
-                        stack.push(r);
-                        stack.push(l);
-                    }
+        let mut stack = vec![whole];
+        while let Some(p) = stack.pop() {
+            let n = p.range.len();
+            match self.look(prims, order, p) {
+                Cutting::Empty => {}
+                Cutting::Batch(r) => out.push(start + r.start..start + r.end),
+                Cutting::Split(l, r) if n >= PARALLEL_MIN && depth > 0 => {
+                    let (ls, rs) = (l.range.start, r.range.start);
+                    let (lo, hi) = order[ls..r.range.end].split_at_mut(rs - ls);
+                    // Each half's range, relative to its own slice.
+                    let own = |p: Pending, at: usize| Pending {
+                        range: p.range.start - at..p.range.end - at,
+                        ..p
+                    };
+                    let (l, r) = (own(l, ls), own(r, rs));
+                    let mut right = Vec::new();
+                    rayon::join(
+                        || self.batches_from(prims, lo, start + ls, l, depth - 1, out),
+                        || self.batches_from(prims, hi, start + rs, r, depth - 1, &mut right),
+                    );
+                    out.append(&mut right);
                 }
-            }
-            return;
-        }
-        match self.look(prims, order, whole) {
-            Cutting::Empty => {}
-            Cutting::Batch(r) => out.push(shift(r)),
-            Cutting::Split(l, r) => {
-                let mid = l.range.end;
-                let (lo, hi) = order.split_at_mut(mid);
-                let r = Pending {
-                    range: 0..hi.len(),
-                    ..r
-                };
-                let mut right = Vec::new();
-                rayon::join(
-                    || self.batches_from(prims, lo, start, l, depth - 1, out),
-                    || self.batches_from(prims, hi, start + mid, r, depth - 1, &mut right),
-                );
-                out.append(&mut right);
+                Cutting::Split(l, r) => {
+                    stack.push(r);
+                    stack.push(l);
+                }
             }
         }
     }

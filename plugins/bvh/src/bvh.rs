@@ -210,11 +210,7 @@ impl Bvh {
     // ---- allocation ----------------------------------------------------------------------------
 
     pub(crate) fn alloc_inner(&mut self) -> u32 {
-        let node = InnerNode {
-            aabb: Aabb::EMPTY,
-            children: [NodeRef::NONE; 2],
-            parent: NONE,
-        };
+        let node = InnerNode::UNLINKED;
         if let Some(i) = self.inner_free.pop() {
             self.inner[i as usize] = node;
             i

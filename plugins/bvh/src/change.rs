@@ -106,8 +106,6 @@ impl ChangeLog {
     }
 }
 
-/// Marks a range of ids just appended to an array dirty at once. They were never marked before
-/// (they are new), so none is in `list` yet.
 /// Marks one id, listing it the first time. The flags grow to at least `len` at once (the
 /// triangle count, so that a run of marks resizes once) and always past `id`.
 #[inline]
@@ -122,6 +120,8 @@ fn mark_one(dirty: &mut Vec<bool>, list: &mut Vec<u32>, id: u32, len: usize) {
     }
 }
 
+/// Marks a range of ids just appended to an array dirty at once. They were never marked before
+/// (they are new), so none is in `list` yet.
 fn mark_appended(dirty: &mut Vec<bool>, list: &mut Vec<u32>, ids: Range<u32>) {
     if dirty.len() < ids.end as usize {
         dirty.resize(ids.end as usize, false);

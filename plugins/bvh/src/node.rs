@@ -95,3 +95,12 @@ pub struct InnerNode {
     /// Parent inner node, [`NONE`] for a root (of the global tree or of an instanced subtree).
     pub parent: u32,
 }
+
+impl InnerNode {
+    /// A freshly allocated slot, before anything links it: empty box, no children, no parent.
+    pub(crate) const UNLINKED: InnerNode = InnerNode {
+        aabb: Aabb::EMPTY,
+        children: [NodeRef::NONE; 2],
+        parent: NONE,
+    };
+}

@@ -181,12 +181,7 @@ impl Bvh {
             // marked as one range (IncrUPB grafts thousands of small bBVHs per build).
             let base = self.inner.len() as u32;
             let end = base + built.nodes.len() as u32;
-            let placeholder = InnerNode {
-                aabb: Aabb::EMPTY,
-                children: [NodeRef::NONE; 2],
-                parent: NONE,
-            };
-            self.inner.resize(end as usize, placeholder);
+            self.inner.resize(end as usize, InnerNode::UNLINKED);
             self.in_cache.resize(end as usize, false);
             self.changes.mark_new_inner(base..end);
             let root = self.copy_built(built, ids, |k| base + k);
