@@ -64,14 +64,18 @@ fn builders_match_brute_force_on_soup() {
     }
 }
 
-/// An IncrU tree filled by `insert` inside a rayon pool of `threads` threads.
-fn built_in_pool(threads: usize, insert: impl FnOnce(&mut Bvh) + Send) -> Bvh {
-    let pool = rayon::ThreadPoolBuilder::new()
+/// A rayon pool of `threads` threads.
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .unwrap();
+        .unwrap()
+}
+
+/// An IncrU tree filled by `insert` inside a rayon pool of `threads` threads.
+fn built_in_pool(threads: usize, insert: impl FnOnce(&mut Bvh) + Send) -> Bvh {
     let mut bvh = Bvh::new(BvhConfig::incr_u());
-    pool.install(|| insert(&mut bvh));
+    pool(threads).install(|| insert(&mut bvh));
     bvh
 }
 
@@ -117,11 +121,7 @@ fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
         // each build's two sides compete with the others for the threads, none may wait forever
         // for a side that never gets one, and each tree is still the one-thread tree.
         for threads in [2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let trees: Vec<Bvh> = pool.install(|| {
+            let trees: Vec<Bvh> = pool(threads).install(|| {
                 (0..6)
                     .into_par_iter()
                     .map(|_| {
@@ -319,13 +319,9 @@ fn coherent_batches_tile_the_order_whatever_the_pool() {
     origins.extend(soup(3_000, 77).iter().map(|t| t.aabb().min * 50.0));
     let boxes = square_boxes(&origins);
     let cut = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
         let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-        let batches =
-            pool.install(|| treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024));
+        let batches = pool(threads)
+            .install(|| treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024));
         (batches, order)
     };
     let (batches, order) = cut(1);

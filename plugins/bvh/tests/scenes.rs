@@ -55,7 +55,7 @@ fn check_scene(name: &str) {
     let mut incrupb = Bvh::new(BvhConfig::incr_u());
     incrupb.insert_triangles_block_parallel(&tris).unwrap();
     builds.push(("incrupb", incrupb));
-    // The streaming front end, fed in uneven chunks, traceable between them.
+    // The streaming front end, fed in uneven chunks; the tree is valid between them.
     let mut streamed = Bvh::new(BvhConfig::incr_u());
     let mut stream = BlockStream::new(10_000);
     for (k, chunk) in tris.chunks(7_777).enumerate() {
