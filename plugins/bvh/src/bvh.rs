@@ -384,6 +384,17 @@ impl Bvh {
         self.link(l, x, p);
     }
 
+    /// [`Bvh::insert_node_with`] for a node that had a place in the tree: `hint` (a node of the
+    /// tree, typically its old sibling) stays its sibling unless the search finds a strictly better
+    /// one. The tree must not be empty.
+    pub(crate) fn reinsert_node_with(&mut self, l: NodeRef, p: u32, hint: NodeRef) {
+        let bl = self.aabb(l);
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let x = self.find_best_sibling_from(&bl, hint, &mut scratch);
+        self.scratch = scratch;
+        self.link(l, x, p);
+    }
+
     /// Inserts the detached node `l` at the best position.
     pub(crate) fn insert_node(&mut self, l: NodeRef) {
         if self.root.is_none() {

@@ -103,8 +103,10 @@ impl Bvh {
         } else {
             (b, a)
         };
-        self.insert_node_with(first, n);
-        self.insert_node_with(second, p);
+        // Seeded with the old arrangement: the first child next to `n`'s old sibling, the second
+        // next to the first, which is where they were.
+        self.reinsert_node_with(first, n, sibling);
+        self.reinsert_node_with(second, p, first);
         self.update_ops += 1;
         let delta = self.area_acc - before - old_area;
         if !self.config.keep_only_improving || delta <= 0.0 {
@@ -128,7 +130,7 @@ impl Bvh {
         let before = self.area_acc;
         let p = self.unlink(NodeRef::inner(n));
         debug_assert_ne!(p, NONE);
-        self.insert_node_with(NodeRef::inner(n), p);
+        self.reinsert_node_with(NodeRef::inner(n), p, sibling);
         self.update_ops += 1;
         if !self.config.keep_only_improving || self.area_acc - before <= 0.0 {
             return true;
