@@ -377,17 +377,13 @@ impl Bvh {
             self.changes.root_changed = true;
             return;
         }
-        let bl = self.aabb(l);
-        let mut scratch = std::mem::take(&mut self.scratch);
-        let x = self.find_best_sibling(&bl, &mut scratch);
-        self.scratch = scratch;
-        self.link(l, x, p);
+        self.insert_node_from(l, p, self.root);
     }
 
-    /// [`Bvh::insert_node_with`] for a node that had a place in the tree: `hint` (a node of the
-    /// tree, typically its old sibling) stays its sibling unless the search finds a strictly better
-    /// one. The tree must not be empty.
-    pub(crate) fn reinsert_node_with(&mut self, l: NodeRef, p: u32, hint: NodeRef) {
+    /// [`Bvh::insert_node_with`] with the search seeded by `hint`, a node of the tree: it becomes
+    /// `l`'s sibling unless the search finds a strictly better one. A re-insertion passes the node's
+    /// old sibling; a fresh insertion the root. The tree must not be empty.
+    pub(crate) fn insert_node_from(&mut self, l: NodeRef, p: u32, hint: NodeRef) {
         let bl = self.aabb(l);
         let mut scratch = std::mem::take(&mut self.scratch);
         let x = self.find_best_sibling_from(&bl, hint, &mut scratch);

@@ -75,8 +75,8 @@ impl Bvh {
     /// The node whose becoming the sibling of a node with box `l` increases the tree's total inner
     /// surface area the least. Exact with respect to the current tree. The tree must not be empty.
     pub fn find_best_sibling(&self, l: &Aabb, scratch: &mut SearchScratch) -> NodeRef {
-        let root_box = self.aabb(self.root);
-        self.search_below(l, self.root, root_box.union_area(l), scratch)
+        // The root is a candidate like any other, and the one every search may fall back on.
+        self.find_best_sibling_from(l, self.root, scratch)
     }
 
     /// [`Bvh::find_best_sibling`] seeded with a candidate: `hint` (a node of the tree) is returned
@@ -89,24 +89,14 @@ impl Bvh {
         hint: NodeRef,
         scratch: &mut SearchScratch,
     ) -> NodeRef {
-        let mut c = self.aabb(hint).union_area(l);
+        let mut best = hint;
+        let mut c_best = self.aabb(hint).union_area(l);
         let mut a = self.parent(hint);
         while a != NONE {
             let n = &self.inner[a as usize];
-            c += n.aabb.union_area(l) - n.aabb.area();
+            c_best += n.aabb.union_area(l) - n.aabb.area();
             a = n.parent;
         }
-        self.search_below(l, hint, c, scratch)
-    }
-
-    /// The best-first search itself, starting from the candidate `best` of induced cost `c_best`.
-    fn search_below(
-        &self,
-        l: &Aabb,
-        mut best: NodeRef,
-        mut c_best: f32,
-        scratch: &mut SearchScratch,
-    ) -> NodeRef {
         let s_l = l.area();
         let root = self.root;
         if !root.is_inner() {

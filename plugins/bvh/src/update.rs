@@ -105,8 +105,8 @@ impl Bvh {
         };
         // Seeded with the old arrangement: the first child next to `n`'s old sibling, the second
         // next to the first, which is where they were.
-        self.reinsert_node_with(first, n, sibling);
-        self.reinsert_node_with(second, p, first);
+        self.insert_node_from(first, n, sibling);
+        self.insert_node_from(second, p, first);
         self.update_ops += 1;
         let delta = self.area_acc - before - old_area;
         if !self.config.keep_only_improving || delta <= 0.0 {
@@ -130,7 +130,7 @@ impl Bvh {
         let before = self.area_acc;
         let p = self.unlink(NodeRef::inner(n));
         debug_assert_ne!(p, NONE);
-        self.reinsert_node_with(NodeRef::inner(n), p, sibling);
+        self.insert_node_from(NodeRef::inner(n), p, sibling);
         self.update_ops += 1;
         if !self.config.keep_only_improving || self.area_acc - before <= 0.0 {
             return true;

@@ -79,22 +79,27 @@ fn built_in_pool(threads: usize, insert: impl FnOnce(&mut Bvh) + Send) -> Bvh {
     bvh
 }
 
+/// Builds with `insert` in pools of one, two and three threads, checks the one-thread tree is
+/// valid and the others are the same tree, and returns the one-thread tree.
+fn same_tree_on_any_pool(insert: impl Fn(&mut Bvh) + Sync) -> Bvh {
+    let one = built_in_pool(1, &insert);
+    one.validate().unwrap();
+    for threads in [2, 3] {
+        let other = built_in_pool(threads, &insert);
+        assert_eq!(one.gpu_nodes(), other.gpu_nodes(), "{threads} threads");
+        assert_eq!(one.sah_cost(), other.sah_cost(), "{threads} threads");
+    }
+    one
+}
+
 #[test]
 fn parallel_search_does_not_depend_on_the_thread_count() {
     // Searches of a batch all run on the tree as it stood before the batch, and conflicts are
     // searched again in order, so the tree is the same whoever ran which search.
     let tris = soup(6_000, 21);
-    let build = |threads: usize| {
-        built_in_pool(threads, |bvh| {
-            bvh.insert_triangles_parallel_search(&tris).unwrap();
-        })
-    };
-    let one = build(1);
-    one.validate().unwrap();
-    for threads in [2, 3] {
-        let other = build(threads);
-        assert_eq!(one.gpu_nodes(), other.gpu_nodes(), "{threads} threads");
-    }
+    same_tree_on_any_pool(|bvh| {
+        bvh.insert_triangles_parallel_search(&tris).unwrap();
+    });
 }
 
 #[test]
@@ -105,18 +110,9 @@ fn block_parallel_insertion_does_not_depend_on_the_thread_count() {
     // instead of stalling the suite.
     let (done, finished) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        let build = |threads: usize| {
-            built_in_pool(threads, |bvh| {
-                bvh.insert_triangles_block_parallel(&tris).unwrap();
-            })
-        };
-        let one = build(1);
-        one.validate().unwrap();
-        for threads in [2, 3] {
-            let other = build(threads);
-            assert_eq!(one.gpu_nodes(), other.gpu_nodes(), "{threads} threads");
-            assert_eq!(one.sah_cost(), other.sah_cost(), "{threads} threads");
-        }
+        let one = same_tree_on_any_pool(|bvh| {
+            bvh.insert_triangles_block_parallel(&tris).unwrap();
+        });
         // Several builds at once in a pool of two, as a scene plugin's background tasks give:
         // each build's two sides compete with the others for the threads, none may wait forever
         // for a side that never gets one, and each tree is still the one-thread tree.
