@@ -154,17 +154,28 @@ impl Bvh {
     /// of the tree over its small subtrees and runs the rounds again, and is taken back unless it
     /// ends lower than before.
     pub fn optimize(&mut self, pass: PostPass) -> PostPassReport {
+        self.optimize_observed(pass, |_| {})
+    }
+
+    /// [`Bvh::optimize`], calling `observe` with the tree after every round and after each restart
+    /// is kept or taken back, so a caller can sample the pass as it goes (the bench's plots) and
+    /// still run exactly the rounds one call runs.
+    pub fn optimize_observed(
+        &mut self,
+        pass: PostPass,
+        mut observe: impl FnMut(&Bvh),
+    ) -> PostPassReport {
         let before = self.update_ops;
         let cost_before = self.sah_cost();
         let saved = self.config.keep_only_improving;
         self.config.keep_only_improving = true;
-        let mut rounds = self.optimize_rounds(&pass, cost_before);
+        let mut rounds = self.optimize_rounds(&pass, cost_before, &mut observe);
         let mut cost = self.sah_cost();
         let mut restarts_kept = 0;
         for r in 0..pass.restarts {
             let snapshot = self.topology_snapshot();
             self.recluster_top(RESTART_CUTS[r as usize % RESTART_CUTS.len()]);
-            rounds += self.optimize_rounds(&pass, self.sah_cost());
+            rounds += self.optimize_rounds(&pass, self.sah_cost(), &mut observe);
             let new_cost = self.sah_cost();
             if new_cost < cost {
                 cost = new_cost;
@@ -172,6 +183,7 @@ impl Bvh {
             } else {
                 self.restore_topology(snapshot);
             }
+            observe(self);
         }
         self.config.keep_only_improving = saved;
         PostPassReport {
@@ -183,8 +195,14 @@ impl Bvh {
         }
     }
 
-    /// Update rounds (and treelet passes) until one gains less than the pass's threshold.
-    fn optimize_rounds(&mut self, pass: &PostPass, mut cost: f32) -> u32 {
+    /// Update rounds (and treelet passes) until one gains less than the pass's threshold, each
+    /// followed by `observe`.
+    fn optimize_rounds(
+        &mut self,
+        pass: &PostPass,
+        mut cost: f32,
+        observe: &mut impl FnMut(&Bvh),
+    ) -> u32 {
         let mut nodes = Vec::new();
         let mut rounds = 0;
         for round in 0..pass.max_rounds {
@@ -206,6 +224,7 @@ impl Bvh {
                 self.treelet_pass(pass.treelet as usize);
             }
             rounds += 1;
+            observe(self);
             let new_cost = self.sah_cost();
             let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
             cost = new_cost;

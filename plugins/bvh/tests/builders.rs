@@ -64,6 +64,29 @@ fn builders_match_brute_force_on_soup() {
     }
 }
 
+#[test]
+fn an_observed_post_pass_is_the_same_pass_seen_round_by_round() {
+    let tris = soup(3000, 7);
+    let mut plain = Bvh::new(BvhConfig::incr_u());
+    plain.insert_triangles(&tris).unwrap();
+    let mut observed = plain.clone();
+    let pass = treelight_bvh::PostPass {
+        restarts: 2,
+        ..treelight_bvh::PostPass::default()
+    };
+    let report = plain.optimize(pass);
+    let mut costs = Vec::new();
+    let seen = observed.optimize_observed(pass, |b| costs.push(b.sah_cost()));
+    assert_eq!(seen, report, "observing changes the pass");
+    // One look after every round, restarts' included, and one after each restart's verdict.
+    assert_eq!(costs.len() as u32, report.rounds + pass.restarts);
+    assert_eq!(*costs.last().unwrap(), report.cost_after);
+    assert!(
+        costs[0] < report.cost_before,
+        "the first look is after a round"
+    );
+}
+
 /// A rayon pool of `threads` threads.
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()

@@ -426,8 +426,9 @@ fn build(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<Bvh, String
 }
 
 /// A construction sampled for the plots: the incremental methods insert the triangles in 40 chunks
-/// (the same calls as the table's runs, chunk by chunk) and the post-pass runs two rounds at a time,
-/// with the clock stopped while the cost is measured; other builders give one point when done.
+/// (the same calls as the table's runs, chunk by chunk) and the post-pass is sampled after each of
+/// its rounds, with the clock stopped while the cost is measured; other builders give one point
+/// when done.
 fn progress(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<plots::Progress, String> {
     const CHUNKS: usize = 40;
     let e = |e: treelight_bvh::BvhError| e.to_string();
@@ -453,22 +454,14 @@ fn progress(tris: &[Triangle], method: &str, tuning: &Tuning) -> Result<plots::P
             samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
         }
         if method == "incru-post" {
-            // Two rounds at a time, so the plot shows them converge; the restarts come with the
-            // last piece, as they follow the rounds in one call.
-            let pass = tuning.post_pass();
-            let mut left = pass.max_rounds;
-            while left > 0 {
-                let piece = left.min(2);
-                left -= piece;
-                let t = Instant::now();
-                bvh.optimize(PostPass {
-                    max_rounds: piece,
-                    restarts: if left == 0 { pass.restarts } else { 0 },
-                    ..pass
-                });
+            // One call, as in the table's run, sampled after each round (and each restart), with
+            // the clock stopped while the cost is measured.
+            let mut t = Instant::now();
+            bvh.optimize_observed(tuning.post_pass(), |b| {
                 elapsed += t.elapsed().as_secs_f64();
-                samples.push((elapsed, done, bvh.sah_cost_with(1.0, 1.0)));
-            }
+                samples.push((elapsed, done, b.sah_cost_with(1.0, 1.0)));
+                t = Instant::now();
+            });
         }
     } else {
         let t = Instant::now();
