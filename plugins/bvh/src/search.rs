@@ -45,7 +45,7 @@ impl SearchScratch {
     /// Takes the head out and puts `e` in, in one sift down: `e` must not be smaller than the
     /// head, and the queue must not be empty.
     #[inline]
-    fn replace_top(&mut self, last: (f32, NodeRef)) -> (f32, NodeRef) {
+    fn replace_top(&mut self, e: (f32, NodeRef)) -> (f32, NodeRef) {
         let n = self.heap.len();
         let top = self.heap[0];
         let mut i = 0;
@@ -60,13 +60,13 @@ impl SearchScratch {
             } else {
                 l
             };
-            if last.0 <= self.heap[c].0 {
+            if e.0 <= self.heap[c].0 {
                 break;
             }
             self.heap[i] = self.heap[c];
             i = c;
         }
-        self.heap[i] = last;
+        self.heap[i] = e;
         top
     }
 }
