@@ -1,6 +1,6 @@
 //! Axis-aligned bounding boxes and their surface area, the currency of the SAH cost model.
 
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, Vec3, Vec3A};
 
 /// An axis-aligned box. The empty box has `min = +inf`, `max = -inf`, so that union with it is the identity.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,15 +65,14 @@ impl Aabb {
     /// Surface area; zero for the empty box.
     #[inline]
     pub fn area(&self) -> f32 {
-        let d = (self.max - self.min).max(Vec3::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        let b = LaneBox::new(self);
+        LaneBox::area_of(b.max - b.min)
     }
 
     /// Surface area of the union, without building it (the search's innermost operation).
     #[inline]
     pub fn union_area(&self, o: &Aabb) -> f32 {
-        let d = (self.max.max(o.max) - self.min.min(o.min)).max(Vec3::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        LaneBox::new(self).union_area(o)
     }
 
     /// Centre point.
@@ -151,6 +150,110 @@ impl Aabb {
     }
 }
 
+/// A box in vector lanes, measured against many other boxes: the search's query. Its areas are
+/// bit-for-bit those of [`Aabb::area`] and [`Aabb::union_area`] (the same products, summed in the
+/// same order), so the trees it builds do not depend on which form measured them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LaneBox {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl LaneBox {
+    /// `b` in lanes.
+    #[inline]
+    pub(crate) fn new(b: &Aabb) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_loadu_ps, _mm_shuffle_ps};
+            let p = (b as *const Aabb).cast::<f32>();
+            // SAFETY: an `Aabb` is six contiguous f32s (two `Vec3`s of three), so both 16-byte
+            // loads, of floats 0-3 and 2-5, stay inside it; SSE is part of x86-64.
+            unsafe {
+                let lo = _mm_loadu_ps(p);
+                let hi = _mm_loadu_ps(p.add(2));
+                // Lane 3 of each is another coordinate: nothing below reads it.
+                Self {
+                    min: Vec3A::from(lo),
+                    max: Vec3A::from(_mm_shuffle_ps::<0b11_11_10_01>(hi, hi)),
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Self {
+            min: Vec3A::from(b.min),
+            max: Vec3A::from(b.max),
+        }
+    }
+
+    /// Surface area of a box of extent `d` (negative extents count as zero), from lanes 0-2.
+    #[inline]
+    fn area_of(d: Vec3A) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{
+                __m128, _mm_add_ss, _mm_cvtss_f32, _mm_max_ps, _mm_mul_ps, _mm_setzero_ps,
+                _mm_shuffle_ps,
+            };
+            // SAFETY: SSE is part of x86-64.
+            unsafe {
+                let d = _mm_max_ps(__m128::from(d), _mm_setzero_ps());
+                // (x·y, y·z, z·x), then summed left to right as `Aabb::area` sums them.
+                let p = _mm_mul_ps(d, _mm_shuffle_ps::<0b11_00_10_01>(d, d));
+                let s = _mm_add_ss(p, _mm_shuffle_ps::<0b11_11_11_01>(p, p));
+                let s = _mm_add_ss(s, _mm_shuffle_ps::<0b11_11_11_10>(p, p));
+                2.0 * _mm_cvtss_f32(s)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let d = d.max(Vec3A::ZERO);
+            2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        }
+    }
+
+    /// Area of the union of this box and `b`, and area of `b`.
+    #[inline]
+    pub(crate) fn union_area_and_area(&self, b: &Aabb) -> (f32, f32) {
+        let o = Self::new(b);
+        let u = self.max.max(o.max) - self.min.min(o.min);
+        let d = o.max - o.min;
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{
+                __m128, _mm_add_ps, _mm_cvtss_f32, _mm_max_ps, _mm_movehl_ps, _mm_mul_ps,
+                _mm_setzero_ps, _mm_shuffle_ps, _mm_unpackhi_ps, _mm_unpacklo_ps,
+            };
+            // Both products at once, then both sums in two lanes: (u, d) products interleaved
+            // so that each lane adds its own three in `area_of`'s order.
+            // SAFETY: SSE is part of x86-64.
+            unsafe {
+                let u = _mm_max_ps(__m128::from(u), _mm_setzero_ps());
+                let d = _mm_max_ps(__m128::from(d), _mm_setzero_ps());
+                let pu = _mm_mul_ps(u, _mm_shuffle_ps::<0b11_00_10_01>(u, u));
+                let pd = _mm_mul_ps(d, _mm_shuffle_ps::<0b11_00_10_01>(d, d));
+                let lo = _mm_unpacklo_ps(pu, pd);
+                let hi = _mm_unpackhi_ps(pu, pd);
+                let s = _mm_add_ps(_mm_add_ps(lo, _mm_movehl_ps(lo, lo)), hi);
+                let s = _mm_add_ps(s, s);
+                (
+                    _mm_cvtss_f32(s),
+                    _mm_cvtss_f32(_mm_shuffle_ps::<0b01_01_01_01>(s, s)),
+                )
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        (Self::area_of(u), Self::area_of(d))
+    }
+
+    /// Area of the union of this box and `b`.
+    #[inline]
+    pub(crate) fn union_area(&self, b: &Aabb) -> f32 {
+        let o = Self::new(b);
+        Self::area_of(self.max.max(o.max) - self.min.min(o.min))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -164,6 +267,40 @@ mod tests {
         assert_eq!(a.union_area(&b), 24.0);
         assert_eq!(Aabb::EMPTY.area(), 0.0);
         assert_eq!(Aabb::EMPTY.union(&a), a);
+    }
+
+    /// The scalar formula the vector forms must reproduce bit for bit: trees must not depend on
+    /// which form measured a box.
+    fn scalar_area(min: Vec3, max: Vec3) -> f32 {
+        let d = (max - min).max(Vec3::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    #[test]
+    fn vector_areas_equal_the_scalar_formula_bit_for_bit() {
+        let mut rnd = crate::test_random(0x2545_f491_4f6c_dd1d);
+        let mut boxes = vec![
+            Aabb::EMPTY,
+            Aabb::new(Vec3::ZERO, Vec3::ZERO),
+            Aabb::new(Vec3::new(-1e30, 0.0, 5.0), Vec3::new(1e30, 1e-30, 5.0)),
+        ];
+        for k in 0..2000 {
+            let scale = [1e-6f32, 1.0, 1e3, 1e12][k % 4];
+            let c = Vec3::new(rnd(), rnd(), rnd()) * scale - scale * 0.5;
+            let e = Vec3::new(rnd(), rnd(), rnd()) * scale * [0.0f32, 1e-3, 1.0][k % 3];
+            boxes.push(Aabb::new(c, c + e));
+        }
+        for (i, a) in boxes.iter().enumerate() {
+            assert_eq!(a.area().to_bits(), scalar_area(a.min, a.max).to_bits());
+            let b = &boxes[(i * 7919 + 13) % boxes.len()];
+            let u = scalar_area(a.min.min(b.min), a.max.max(b.max));
+            assert_eq!(a.union_area(b).to_bits(), u.to_bits());
+            let (ua, ba) = LaneBox::new(a).union_area_and_area(b);
+            assert_eq!(
+                (ua.to_bits(), ba.to_bits()),
+                (u.to_bits(), scalar_area(b.min, b.max).to_bits())
+            );
+        }
     }
 
     #[test]

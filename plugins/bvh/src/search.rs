@@ -1,6 +1,7 @@
 //! Best-first branch-and-bound search for the sibling that minimises the SAH cost increase
 //! (Bittner et al. 2013, as summarised in the paper's section 4.2).
 
+use crate::aabb::LaneBox;
 use crate::node::{NONE, NodeKind, NodeRef};
 use crate::{Aabb, Bvh};
 
@@ -103,6 +104,7 @@ impl Bvh {
             return best;
         }
         let root_box = self.inner[root.index() as usize].aabb;
+        let q = LaneBox::new(l);
         scratch.heap.clear();
         // The queue holds inner nodes whose own cost is already counted, keyed by the cost they
         // induce on their children. Children are costed when their parent is expanded, not when
@@ -118,30 +120,41 @@ impl Bvh {
             // least its parent's, so the search mostly walks down, and a child no dearer than
             // the queue's head is expanded next without a round trip through the heap.
             let mut held: Option<(f32, NodeRef)> = None;
-            for child in self.inner[x.index() as usize].children {
-                let (b, inner) = match child.kind() {
-                    NodeKind::Inner => (self.inner[child.index() as usize].aabb, true),
-                    _ => (self.aabb(child), false),
-                };
-                let c = c_i + b.union_area(l);
-                if c < c_best {
-                    best = child;
-                    c_best = c;
-                }
-                if inner {
-                    let c_child = c - b.area();
-                    if c_child + s_l < c_best {
-                        match held {
-                            Some(h) if h.0 <= c_child => scratch.push(c_child, child),
-                            Some(h) => {
-                                scratch.push(h.0, h.1);
-                                held = Some((c_child, child));
+            // Written out for each child: a loop over the two cost as much as a box test.
+            macro_rules! visit {
+                ($child:expr) => {
+                    let child: NodeRef = $child;
+                    if child.kind() != NodeKind::Inner {
+                        let c = c_i + q.union_area(&self.aabb(child));
+                        if c < c_best {
+                            best = child;
+                            c_best = c;
+                        }
+                    } else {
+                        let (u, a) =
+                            q.union_area_and_area(&self.inner[child.index() as usize].aabb);
+                        let c = c_i + u;
+                        if c < c_best {
+                            best = child;
+                            c_best = c;
+                        }
+                        let c_child = c - a;
+                        if c_child + s_l < c_best {
+                            match held {
+                                Some(h) if h.0 <= c_child => scratch.push(c_child, child),
+                                Some(h) => {
+                                    scratch.push(h.0, h.1);
+                                    held = Some((c_child, child));
+                                }
+                                None => held = Some((c_child, child)),
                             }
-                            None => held = Some((c_child, child)),
                         }
                     }
-                }
+                };
             }
+            let [left, right] = self.inner[x.index() as usize].children;
+            visit!(left);
+            visit!(right);
             next = match held {
                 Some(h) if h.0 <= scratch.min_key() => Some(h),
                 Some(h) => Some(scratch.replace_top(h)),

@@ -195,6 +195,33 @@ impl Bvh {
         }
     }
 
+    /// Every inner node of the global tree but the root, with its inefficiency, into `out`
+    /// (`nodes` is scratch space).
+    fn rank_global_inner(&self, nodes: &mut Vec<u32>, out: &mut Vec<(f32, u32)>) {
+        out.clear();
+        if self.root.kind() != NodeKind::Inner {
+            return;
+        }
+        if self.instances.len() == self.inst_free.len() {
+            // Without instances every live slot with a parent is in the global tree: a scan of
+            // the flat array, in slot order, instead of a walk of the tree.
+            for (i, n) in self.inner.iter().enumerate() {
+                if n.parent != NONE && n.parent != crate::node::FREE {
+                    out.push((self.inefficiency(i as u32), i as u32));
+                }
+            }
+            return;
+        }
+        nodes.clear();
+        self.collect_inner(self.root, nodes);
+        out.extend(
+            nodes
+                .iter()
+                .filter(|&&i| self.inner[i as usize].parent != NONE)
+                .map(|&i| (self.inefficiency(i), i)),
+        );
+    }
+
     /// Update rounds (and treelet passes) until one gains less than the pass's threshold, each
     /// followed by `observe`.
     fn optimize_rounds(
@@ -204,17 +231,10 @@ impl Bvh {
         observe: &mut impl FnMut(&Bvh),
     ) -> u32 {
         let mut nodes = Vec::new();
+        let mut candidates = Vec::new();
         let mut rounds = 0;
         for round in 0..pass.max_rounds {
-            nodes.clear();
-            if self.root.kind() == NodeKind::Inner {
-                self.collect_inner(self.root, &mut nodes);
-            }
-            let mut candidates: Vec<(f32, u32)> = nodes
-                .iter()
-                .filter(|&&i| self.inner[i as usize].parent != NONE)
-                .map(|&i| (self.inefficiency(i), i))
-                .collect();
+            self.rank_global_inner(&mut nodes, &mut candidates);
             let k = share(pass.fraction, candidates.len());
             worst_first(&mut candidates, k);
             // The post-pass also orders its top share, most inefficient first.
