@@ -90,12 +90,14 @@ impl Bvh {
         hint: NodeRef,
         scratch: &mut SearchScratch,
     ) -> NodeRef {
+        let q = LaneBox::new(l);
         let mut best = hint;
         let mut c_best = self.aabb(hint).union_area(l);
         let mut a = self.parent(hint);
         while a != NONE {
             let n = &self.inner[a as usize];
-            c_best += n.aabb.union_area(l) - n.aabb.area();
+            let (u, s) = q.union_area_and_area(&n.aabb);
+            c_best += u - s;
             a = n.parent;
         }
         let s_l = l.area();
@@ -104,7 +106,6 @@ impl Bvh {
             return best;
         }
         let root_box = self.inner[root.index() as usize].aabb;
-        let q = LaneBox::new(l);
         scratch.heap.clear();
         // The queue holds inner nodes whose own cost is already counted, keyed by the cost they
         // induce on their children. Children are costed when their parent is expanded, not when

@@ -8,9 +8,9 @@ impl Bvh {
     /// Inefficiency of inner node `i` by the configured measure.
     pub fn inefficiency(&self, i: u32) -> f32 {
         let n = &self.inner[i as usize];
-        let a = n.aabb.area();
-        let l = self.aabb(n.children[0]).area();
-        let r = self.aabb(n.children[1]).area();
+        let a = n.aabb.stored_area();
+        let l = self.stored_area(n.children[0]);
+        let r = self.stored_area(n.children[1]);
         let m_sum = || a / (0.5 * (l + r)).max(f32::MIN_POSITIVE);
         let m_min = || a / l.min(r).max(f32::MIN_POSITIVE);
         match self.config.inefficiency {
@@ -18,6 +18,16 @@ impl Bvh {
             Inefficiency::Sum => m_sum(),
             Inefficiency::Min => m_min(),
             Inefficiency::Comb => m_sum() * m_min() * a,
+        }
+    }
+
+    /// Area of any node's box, read in vector lanes where the box lies in a node array.
+    #[inline]
+    fn stored_area(&self, r: NodeRef) -> f32 {
+        match r.kind() {
+            NodeKind::Inner => self.inner[r.index() as usize].aabb.stored_area(),
+            NodeKind::Leaf => self.tri_box[r.index() as usize].stored_area(),
+            _ => self.aabb(r).area(),
         }
     }
 
