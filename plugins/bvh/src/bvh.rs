@@ -186,6 +186,13 @@ impl Bvh {
         }
     }
 
+    /// Whether any kept-whole group (instance) is live: without one, every live node with a
+    /// parent hangs from the global root, which lets several passes scan the flat arrays.
+    #[inline]
+    pub(crate) fn has_live_instances(&self) -> bool {
+        self.instances.len() != self.inst_free.len()
+    }
+
     /// Parent inner node of any node, or [`NONE`].
     #[inline]
     pub fn parent(&self, r: NodeRef) -> u32 {
@@ -474,7 +481,7 @@ impl Bvh {
         if parent == FREE {
             return false;
         }
-        if self.instances.len() == self.inst_free.len() {
+        if !self.has_live_instances() {
             // Without instances every live node with a parent hangs, through live parents, from the
             // root: no walk up the tree (update batches ask this for every cached node).
             return parent != NONE || self.root == NodeRef::inner(i);

@@ -28,7 +28,7 @@ impl Bvh {
 
     /// SAH cost with explicit constants.
     pub fn sah_cost_with(&self, c_t: f32, c_i: f32) -> f32 {
-        if self.instances.iter().all(|i| i.group == FREE) {
+        if !self.has_live_instances() {
             // Without kept-whole groups every live node is in the tree, unscaled: a linear pass over
             // the flat arrays gives the same sum as a traversal, several times faster (no pointer
             // chasing), which matters to callers that publish the cost of a million-node tree.

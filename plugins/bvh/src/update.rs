@@ -212,7 +212,7 @@ impl Bvh {
         if self.root.kind() != NodeKind::Inner {
             return;
         }
-        if self.instances.len() == self.inst_free.len() {
+        if !self.has_live_instances() {
             // Without instances every live slot with a parent is in the global tree: a scan of
             // the flat array, in slot order, instead of a walk of the tree.
             for (i, n) in self.inner.iter().enumerate() {
