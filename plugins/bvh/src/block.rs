@@ -2,7 +2,7 @@
 //! spatially coherent batches by the R*_coh spatial-median subdivision, a bBVH is built for each batch
 //! in parallel, and one owner inserts the bBVH roots into the global tree with the search.
 
-use crate::build::{BuiltTree, Prims, build_binned_over};
+use crate::build::{BuiltTree, Prims, build_batch};
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
@@ -291,7 +291,7 @@ impl BatchBuilder<'_> {
             let prims = &c.prims;
             let trees = slices
                 .into_par_iter()
-                .map(|slice| build_binned_over(prims, slice))
+                .map(|slice| build_batch(prims, slice))
                 .collect();
             return Some(Step {
                 buffer: c.index,

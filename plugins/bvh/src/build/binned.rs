@@ -20,8 +20,8 @@ const SWEEP: usize = 16;
 /// A box in vector lanes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Box3A {
-    min: Vec3A,
-    max: Vec3A,
+    pub(super) min: Vec3A,
+    pub(super) max: Vec3A,
 }
 
 impl Box3A {
@@ -58,7 +58,7 @@ impl Box3A {
 
 /// The primitives of one or more builds: boxes, centres and areas, converted once.
 pub(crate) struct Prims {
-    boxes: Vec<Box3A>,
+    pub(super) boxes: Vec<Box3A>,
     centers: Vec<Vec3A>,
     areas: Vec<f32>,
 }

@@ -1,6 +1,7 @@
 //! Top-down reference builders. Each produces a [`BuiltTree`] over a slice of primitive boxes, with
 //! local ids, so that bBVHs can be built on worker threads and grafted into the global tree later.
 
+mod agglomerative;
 mod binned;
 mod median;
 mod sweep;
@@ -13,6 +14,22 @@ pub use sweep::build_sweep_sah;
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::triangle::validate_triangles;
 use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
+
+/// A bBVH over the primitives `order` lists: greedy agglomerative clustering for a batch of up to
+/// [`agglomerative::AGGLOMERATIVE_MAX`] (nearly every batch of a coherent stream), binned SAH for
+/// a larger one, which reorders `order`. Clustering the small ones costs fewer instructions and
+/// mispredicted branches than splitting them; IncrUPB's final cost moved Sibenik 54.67 -> 53.98,
+/// bunny 39.65 -> 39.63, FlightHelmet 61.17 -> 61.76. Finishing a large batch's small ranges by
+/// clustering too cost more than splitting them, for no gain.
+pub(crate) fn build_batch(prims: &Prims, order: &mut [u32]) -> BuiltTree {
+    let m = order.len();
+    if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&m) {
+        let mut nodes = vec![InnerNode::UNLINKED; m - 1];
+        let root = agglomerative::build_agglomerative_into(prims, order, &mut nodes);
+        return BuiltTree { nodes, root };
+    }
+    build_binned_over(prims, order)
+}
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
 /// index `nodes`.
