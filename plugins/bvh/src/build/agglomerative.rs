@@ -5,6 +5,7 @@
 //! searched four lanes at a time over a fixed width, so that no loop's trip count and no comparison
 //! of two distances is a branch the processor has to guess.
 
+use super::BuiltTree;
 use super::binned::Prims;
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use glam::Vec4;
@@ -45,24 +46,22 @@ impl<const N: usize> Row<N> {
 /// Slots no cluster's nearest can be: marks a slot that holds no cluster.
 const NOBODY: usize = usize::MAX;
 
-/// Builds the tree over the primitives `order` lists (2 to [`AGGLOMERATIVE_MAX`]) into `nodes`,
-/// which must hold exactly `order.len() - 1` nodes, and returns its root. Leaves are
-/// `NodeRef::leaf(primitive)`; inner nodes index `nodes`, their parent links too, the root's being
-/// `NONE`.
-pub(crate) fn build_agglomerative_into(
-    prims: &Prims,
-    order: &[u32],
-    nodes: &mut [InnerNode],
-) -> NodeRef {
-    debug_assert!((2..=AGGLOMERATIVE_MAX).contains(&order.len()) && nodes.len() == order.len() - 1);
+/// The tree over the primitives `order` lists (2 to [`AGGLOMERATIVE_MAX`]): leaves are
+/// `NodeRef::leaf(primitive)`, inner nodes (`order.len() - 1` of them) index its `nodes`, their
+/// parent links too, the root's being `NONE`.
+pub(crate) fn build_agglomerative(prims: &Prims, order: &[u32]) -> BuiltTree {
+    debug_assert!((2..=AGGLOMERATIVE_MAX).contains(&order.len()));
+    let mut nodes = vec![InnerNode::UNLINKED; order.len() - 1];
     // The narrowest matrix that fits: its width is every loop's trip count.
-    match order.len() {
-        0..=8 => cluster::<8>(prims, order, nodes),
-        9..=16 => cluster::<16>(prims, order, nodes),
-        _ => cluster::<32>(prims, order, nodes),
-    }
+    let root = match order.len() {
+        0..=8 => cluster::<8>(prims, order, &mut nodes),
+        9..=16 => cluster::<16>(prims, order, &mut nodes),
+        _ => cluster::<32>(prims, order, &mut nodes),
+    };
+    BuiltTree { nodes, root }
 }
 
+/// Clusters into `nodes`, which holds exactly one node per merge, and returns the root.
 fn cluster<const N: usize>(prims: &Prims, order: &[u32], nodes: &mut [InnerNode]) -> NodeRef {
     let m = order.len();
     // The clusters' boxes by axis, so that one cluster is measured against four at once.
@@ -137,17 +136,20 @@ fn cluster<const N: usize>(prims: &Prims, order: &[u32], nodes: &mut [InnerNode]
         near_area.0[b] = near_area.0[k];
         near[k] = NOBODY;
         near_area.0[k] = f32::INFINITY;
+        // Columns move as the rows did; row `a` is written after them, so that the column move
+        // does not overwrite its distance to the cluster now in `b` (the matrix stays symmetric).
         dist[b] = dist[k];
         let row_a = measure(&lo, &hi, a, k);
-        dist[a] = row_a;
-        for row in dist.iter_mut() {
+        for (x, row) in dist.iter_mut().enumerate() {
             row.0[b] = row.0[k];
             row.0[k] = f32::INFINITY;
-        }
-        for (x, row) in dist.iter_mut().enumerate() {
             row.0[a] = row_a.0[x];
         }
-        dist[b].0[b] = f32::INFINITY;
+        dist[a] = row_a;
+        debug_assert!(
+            (0..k).all(|x| (0..k).all(|y| dist[x].0[y].to_bits() == dist[y].0[x].to_bits())),
+            "the distance matrix is symmetric"
+        );
         (near_area.0[a], near[a]) = row_a.min();
         // A union with the merged cluster is no smaller than with either part, so it becomes
         // nobody's new nearest: only the clusters whose nearest was a part look again.
@@ -196,13 +198,13 @@ mod tests {
         total
     }
 
-    /// Checks the tree `build_agglomerative_into` made over `boxes` and returns its inner area.
+    /// Checks the tree `build_agglomerative` made over `boxes` and returns its inner area.
     fn built_area(boxes: &[Aabb]) -> f64 {
         let m = boxes.len();
         let prims = Prims::new(boxes);
         let order: Vec<u32> = (0..m as u32).rev().collect();
-        let mut nodes = vec![InnerNode::UNLINKED; m - 1];
-        let root = build_agglomerative_into(&prims, &order, &mut nodes);
+        let BuiltTree { nodes, root } = build_agglomerative(&prims, &order);
+        assert_eq!(nodes.len(), m - 1);
         assert_eq!(nodes[root.index() as usize].parent, NONE);
         let mut leaves = vec![0; m];
         let mut total = 0.0;
@@ -231,7 +233,9 @@ mod tests {
     #[test]
     fn clustering_merges_the_pair_with_the_smallest_union_each_time() {
         let mut rnd = crate::test_random(0x2545_f491_4f6c_dd1d);
-        for m in (2..=AGGLOMERATIVE_MAX).chain([5, 9, 17, 31, 32]) {
+        // Many sets per size: a stale distance surfaces only when the cluster that lost it is
+        // the one whose nearest merges away later.
+        for m in (2..=AGGLOMERATIVE_MAX).flat_map(|m| std::iter::repeat_n(m, 40)) {
             let boxes: Vec<Aabb> = (0..m)
                 .map(|_| {
                     let c = Vec3::new(rnd(), rnd(), rnd()) * 20.0;

@@ -18,17 +18,15 @@ use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
 /// A bBVH over the primitives `order` lists: greedy agglomerative clustering for a batch of up to
 /// [`agglomerative::AGGLOMERATIVE_MAX`] (nearly every batch of a coherent stream), binned SAH for
 /// a larger one, which reorders `order`. Clustering the small ones costs fewer instructions and
-/// mispredicted branches than splitting them; IncrUPB's final cost moved Sibenik 54.67 -> 53.98,
-/// bunny 39.65 -> 39.63, FlightHelmet 61.17 -> 61.76. Finishing a large batch's small ranges by
+/// mispredicted branches than splitting them; IncrUPB's final cost moved Sibenik 54.67 -> 54.30,
+/// bunny 39.65 -> 39.63, FlightHelmet 61.17 -> 61.75. Finishing a large batch's small ranges by
 /// clustering too cost more than splitting them, for no gain.
 pub(crate) fn build_batch(prims: &Prims, order: &mut [u32]) -> BuiltTree {
-    let m = order.len();
-    if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&m) {
-        let mut nodes = vec![InnerNode::UNLINKED; m - 1];
-        let root = agglomerative::build_agglomerative_into(prims, order, &mut nodes);
-        return BuiltTree { nodes, root };
+    if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&order.len()) {
+        agglomerative::build_agglomerative(prims, order)
+    } else {
+        build_binned_over(prims, order)
     }
-    build_binned_over(prims, order)
 }
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
