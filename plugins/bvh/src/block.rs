@@ -2,9 +2,10 @@
 //! spatially coherent batches by the R*_coh spatial-median subdivision, a bBVH is built for each batch
 //! in parallel, and one owner inserts the bBVH roots into the global tree with the search.
 
-use crate::build::{BuiltTree, Prims, build_batch};
+use crate::build::{Box3A, BuiltTree, Prims, build_batch};
+use crate::node::NodeRef;
 use crate::triangle::validate_triangles;
-use crate::{Aabb, Bvh, BvhError, Triangle};
+use crate::{Aabb, BatchBvh, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
 use std::collections::VecDeque;
 use std::ops::Range;
@@ -13,10 +14,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// R*_coh(B) = S(B) / Σ S(i) · ∛(|B| − 1) (paper Eq. 3).
 pub fn batch_coherence(bounds: &Aabb, sum_area: f32, count: usize) -> f32 {
+    coherence(bounds.area(), sum_area, count)
+}
+
+/// [`batch_coherence`] of a batch whose box has area `s`.
+fn coherence(s: f32, sum_area: f32, count: usize) -> f32 {
     if count <= 1 {
         return 0.0;
     }
-    let s = bounds.area();
     if sum_area <= 0.0 {
         return if s <= 0.0 { 0.0 } else { f32::INFINITY };
     }
@@ -60,7 +65,7 @@ struct Cut {
 struct Pending {
     range: Range<usize>,
     axis: usize,
-    bounds: Aabb,
+    bounds: Box3A,
     sum: f32,
 }
 
@@ -153,21 +158,23 @@ impl Cut {
         // primitives' (Eq. 3 without the ∛ factor, which would split every surface patch down
         // to single triangles); a scattered one, as a random order or random edits give, is
         // still split.
-        let small = n <= 1 || (n <= self.min_batch && bounds.area() < self.r_max * sum);
-        if small || (n <= self.max_batch && batch_coherence(&bounds, sum, n) < self.r_max) {
+        let area = bounds.area();
+        let small = n <= 1 || (n <= self.min_batch && area < self.r_max * sum);
+        if small || (n <= self.max_batch && coherence(area, sum, n) < self.r_max) {
             return Cutting::Batch(range);
         }
         let next = (axis + 1) % 3;
-        let (mut i, mut sides) =
-            prims.partition(&mut order[range.clone()], axis, bounds.center()[axis]);
+        let mut i = prims.split_at(&mut order[range.clone()], axis, bounds.center()[axis]);
         if i == 0 || i == n {
             // Every centre on one side of the middle: halve the range as it stands.
             i = n / 2;
-            let (l, r) = order[range.clone()].split_at(i);
-            sides = [prims.bounds_and_area(l), prims.bounds_and_area(r)];
         }
+        // The halves are measured after the partition, each in a pass of its own: gathering both
+        // sides' bounds while partitioning made every primitive wait on a union held in memory
+        // (the side it fell on), which cost more than the second pass.
+        let (l, r) = order[range.clone()].split_at(i);
+        let [(lb, ls), (rb, rs)] = [prims.bounds_and_area(l), prims.bounds_and_area(r)];
         let mid = range.start + i;
-        let [(lb, ls), (rb, rs)] = sides;
         Cutting::Split(
             Pending {
                 range: range.start..mid,
@@ -238,6 +245,7 @@ struct BatchBuilder<'a> {
     next_buffer: usize,
     current: Option<BufferBatches>,
     cut: Cut,
+    kind: BatchBvh,
 }
 
 impl BatchBuilder<'_> {
@@ -288,10 +296,10 @@ impl BatchBuilder<'_> {
                 slices.push(head);
                 rest = tail;
             }
-            let prims = &c.prims;
+            let (prims, kind) = (&c.prims, self.kind);
             let trees = slices
                 .into_par_iter()
-                .map(|slice| build_batch(prims, slice))
+                .map(|slice| build_batch(prims, slice, kind))
                 .collect();
             return Some(Step {
                 buffer: c.index,
@@ -399,6 +407,7 @@ impl Bvh {
                 min_batch: self.config.block_min_batch as usize,
                 max_batch: self.config.block_max_batch.max(1) as usize,
             },
+            kind: self.config.block_bvh,
         };
         self.reserve(tris.len());
         let mut ids = Vec::with_capacity(tris.len());
@@ -412,6 +421,7 @@ impl Bvh {
             },
             || {
                 pipe.owner_running.store(true, Ordering::Release);
+                let mut last = NodeRef::NONE;
                 let _gone = StoreOnDrop(&pipe.owner_running, false);
                 while let Some(Step {
                     buffer,
@@ -428,7 +438,11 @@ impl Bvh {
                     // their boxes overlap, and only moving nodes inside them can fix that.
                     for tree in &trees {
                         let root = self.graft_with(tree, &ids[buf.start..buf.end], true);
-                        self.insert_item(root);
+                        // Consecutive batches are neighbours in the cut's order, so the last root
+                        // is a close candidate: seeded with it, the search starts from a tight
+                        // bound and expands fewer nodes. The best it finds is the same up to ties.
+                        self.insert_item_near(root, last);
+                        last = root;
                     }
                 }
             },

@@ -57,10 +57,24 @@ impl Bvh {
 
     /// Inserts one detached item and runs a batch of global updates when the cache is full.
     pub(crate) fn insert_item(&mut self, item: NodeRef) {
+        self.insert_item_near(item, NodeRef::NONE);
+    }
+
+    /// [`Bvh::insert_item`] with the search seeded by `hint` (ignored unless a node of the global
+    /// tree).
+    pub(crate) fn insert_item_near(&mut self, item: NodeRef, hint: NodeRef) {
         if item.is_inner() {
             self.record(item.index());
         }
-        self.insert_node(item);
+        let seeded = !self.root.is_none()
+            && !hint.is_none()
+            && (!hint.is_inner() || self.in_global_tree(hint.index()));
+        if seeded {
+            let p = self.alloc_inner();
+            self.insert_node_from(item, p, hint);
+        } else {
+            self.insert_node(item);
+        }
         self.rotate_after_insertion(item);
         self.maybe_update();
     }

@@ -56,7 +56,7 @@ pub use block::{BlockStream, batch_coherence, coherent_batches};
 pub use build::{BuiltTree, TopDown};
 pub use bvh::{Bvh, Instance};
 pub use change::ChangeSet;
-pub use config::{BvhConfig, Inefficiency};
+pub use config::{BatchBvh, BvhConfig, Inefficiency};
 pub use error::BvhError;
 pub use export::{FileBvh, FileNode, MAGIC, read_tlbvh};
 pub use glam;

@@ -4,7 +4,9 @@ mod support;
 use rayon::prelude::*;
 use support::*;
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle};
+use treelight_bvh::{
+    BatchBvh, BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle,
+};
 
 fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     let mut out = Vec::new();
@@ -31,6 +33,12 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     let mut upb = Bvh::new(small);
     upb.insert_triangles_block_parallel(tris).unwrap();
     out.push(("incrupb", upb));
+    let mut upb_sah = Bvh::new(BvhConfig {
+        block_bvh: BatchBvh::Sah,
+        ..small
+    });
+    upb_sah.insert_triangles_block_parallel(tris).unwrap();
+    out.push(("incrupb-sah-bbvhs", upb_sah));
     // The paper's batching rule: batches split down to single triangles where incoherent.
     let mut upb1 = Bvh::new(BvhConfig {
         block_min_batch: 1,

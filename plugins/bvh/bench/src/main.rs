@@ -15,7 +15,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{Aabb, Bvh, BvhConfig, PostPass, Ray, TopDown, Triangle};
+use treelight_bvh::{Aabb, BatchBvh, Bvh, BvhConfig, PostPass, Ray, TopDown, Triangle};
 
 const METHODS: &[&str] = &[
     "sah",
@@ -117,6 +117,10 @@ struct Tuning {
     /// default 16; 1 is the paper's rule).
     #[arg(long)]
     block_min_batch: Option<u32>,
+    /// IncrUPB: how each batch's bBVH is built: `median` (engine default) or `sah` (greedy
+    /// agglomerative clustering up to 32 triangles, binned SAH above).
+    #[arg(long)]
+    block_bvh: Option<BlockBvhArg>,
     /// incru-post: restarts of the post-pass (engine default 4).
     #[arg(long)]
     post_restarts: Option<u32>,
@@ -132,6 +136,31 @@ struct Tuning {
     post_treelet: Option<u32>,
 }
 
+/// The bBVH builders `--block-bvh` names.
+#[derive(clap::ValueEnum, Debug, Clone, Copy)]
+enum BlockBvhArg {
+    Median,
+    Sah,
+}
+
+impl BlockBvhArg {
+    fn name(self) -> &'static str {
+        match self {
+            BlockBvhArg::Median => "median",
+            BlockBvhArg::Sah => "sah",
+        }
+    }
+}
+
+impl From<BlockBvhArg> for BatchBvh {
+    fn from(b: BlockBvhArg) -> Self {
+        match b {
+            BlockBvhArg::Median => BatchBvh::Median,
+            BlockBvhArg::Sah => BatchBvh::Sah,
+        }
+    }
+}
+
 impl Tuning {
     /// The configuration of an incremental method with these settings.
     fn config(&self, base: BvhConfig) -> BvhConfig {
@@ -141,6 +170,7 @@ impl Tuning {
             rotations: self.rotations || base.rotations,
             update_treelet: self.update_treelet.unwrap_or(base.update_treelet),
             block_min_batch: self.block_min_batch.unwrap_or(base.block_min_batch),
+            block_bvh: self.block_bvh.map_or(base.block_bvh, BatchBvh::from),
             ..base
         }
     }
@@ -176,6 +206,9 @@ impl Tuning {
         }
         if let (Some(m), "incrupb") = (self.block_min_batch, method) {
             parts.push(format!("min batch={m}"));
+        }
+        if let (Some(b), "incrupb") = (self.block_bvh, method) {
+            parts.push(format!("bBVH={}", b.name()));
         }
         if method == "incru-post" {
             if let Some(r) = self.post_rounds {

@@ -6,7 +6,7 @@
 //! of two distances is a branch the processor has to guess.
 
 use super::BuiltTree;
-use super::binned::Prims;
+use super::prims::Prims;
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use glam::Vec4;
 

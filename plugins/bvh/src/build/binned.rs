@@ -1,135 +1,22 @@
 //! Binned SAH (up to 16 bins on each axis over the centroid bounds): fast, used for bBVHs, groups
 //! and the post-pass restarts.
 //!
-//! The builder works on its own copy of the boxes in 16-byte lanes ([`Prims`]): binning a primitive
-//! on all three axes is one vector subtraction, one multiplication and one conversion, and each
-//! union two vector instructions, where `Aabb`'s packed `Vec3`s need a scalar operation per axis.
+//! The builder works on the boxes in 16-byte lanes ([`Prims`]): binning a primitive on all three
+//! axes is one vector subtraction, one multiplication and one conversion, and each union two vector
+//! instructions, where `Aabb`'s packed `Vec3`s need a scalar operation per axis.
 
 use super::BuiltTree;
+use super::prims::{Box3A, Prims};
 use crate::Aabb;
 use crate::node::{InnerNode, NONE, NodeRef};
 use glam::Vec3A;
 
 const BINS: usize = 16;
 /// Ranges this small are split exactly: every partition is costed.
-const SMALL: usize = 4;
+pub(super) const SMALL: usize = 4;
 /// Ranges this small are split exactly along each axis: sorted by centre and swept, which costs
 /// less than filling and sweeping bins for so few primitives.
 const SWEEP: usize = 16;
-
-/// A box in vector lanes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Box3A {
-    pub(super) min: Vec3A,
-    pub(super) max: Vec3A,
-}
-
-impl Box3A {
-    const EMPTY: Box3A = Box3A {
-        min: Vec3A::splat(f32::INFINITY),
-        max: Vec3A::splat(f32::NEG_INFINITY),
-    };
-
-    #[inline]
-    fn union(&self, o: &Box3A) -> Box3A {
-        Box3A {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-        }
-    }
-
-    #[inline]
-    fn grow(&mut self, p: Vec3A) {
-        self.min = self.min.min(p);
-        self.max = self.max.max(p);
-    }
-
-    #[inline]
-    fn area(&self) -> f32 {
-        let d = (self.max - self.min).max(Vec3A::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
-    }
-
-    #[inline]
-    fn aabb(&self) -> Aabb {
-        Aabb::new(self.min.into(), self.max.into())
-    }
-}
-
-/// The primitives of one or more builds: boxes, centres and areas, converted once.
-pub(crate) struct Prims {
-    pub(super) boxes: Vec<Box3A>,
-    centers: Vec<Vec3A>,
-    areas: Vec<f32>,
-}
-
-impl Prims {
-    pub(crate) fn new(boxes: &[Aabb]) -> Self {
-        let boxes: Vec<Box3A> = boxes
-            .iter()
-            .map(|b| Box3A {
-                min: b.min.into(),
-                max: b.max.into(),
-            })
-            .collect();
-        let centers = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let areas = boxes.iter().map(Box3A::area).collect();
-        Self {
-            boxes,
-            centers,
-            areas,
-        }
-    }
-
-    /// Bounds of the boxes and of the centres of the primitives `range` lists.
-    fn bounds(&self, range: &[u32]) -> (Box3A, Box3A) {
-        let (mut b, mut c) = (Box3A::EMPTY, Box3A::EMPTY);
-        for &p in range {
-            b = b.union(&self.boxes[p as usize]);
-            c.grow(self.centers[p as usize]);
-        }
-        (b, c)
-    }
-
-    /// Partitions `range` in place: primitives whose centre lies below `pivot` on `axis` first.
-    /// Returns how many those are, and the bounds and area sum of each side (gathered in the same
-    /// pass, so a caller that splits again needs no pass of its own to measure the halves).
-    pub(crate) fn partition(
-        &self,
-        range: &mut [u32],
-        axis: usize,
-        pivot: f32,
-    ) -> (usize, [(Aabb, f32); 2]) {
-        let mut sides = [(Box3A::EMPTY, 0.0f32); 2];
-        // The side test is one vector compare and a mask bit: indexing a vector lane by a runtime
-        // axis would branch on the axis for every primitive. This loop is the batcher's whole
-        // cost, on the building side's critical path.
-        let (pivot, bit) = (Vec3A::splat(pivot), 1u32 << axis);
-        let mut i = 0;
-        for j in 0..range.len() {
-            let p = range[j] as usize;
-            let below = self.centers[p].cmplt(pivot).bitmask() & bit != 0;
-            let side = &mut sides[usize::from(!below)];
-            side.0 = side.0.union(&self.boxes[p]);
-            side.1 += self.areas[p];
-            if below {
-                range.swap(i, j);
-                i += 1;
-            }
-        }
-        (i, sides.map(|(b, a)| (b.aabb(), a)))
-    }
-
-    /// Bounds of the boxes the primitives `range` lists, and the sum of their areas.
-    pub(crate) fn bounds_and_area(&self, range: &[u32]) -> (Aabb, f32) {
-        let (mut b, mut sum) = (Box3A::EMPTY, 0.0f32);
-        for &p in range {
-            b = b.union(&self.boxes[p as usize]);
-            sum += self.areas[p as usize];
-        }
-        (b.aabb(), sum)
-    }
-}
 
 /// Binned SAH builder, one primitive per leaf.
 pub fn build_binned(boxes: &[Aabb]) -> BuiltTree {
@@ -212,8 +99,8 @@ struct Pending {
 #[derive(Clone, Copy)]
 pub(crate) struct Side {
     pub(crate) count: usize,
-    bounds: Box3A,
-    centroids: Box3A,
+    pub(super) bounds: Box3A,
+    pub(super) centroids: Box3A,
 }
 
 impl Side {
@@ -378,15 +265,7 @@ fn split_sweep(prims: &Prims, range: &mut [u32], cb: &Box3A) -> [Side; 2] {
     let mut best_order = [0u32; SWEEP];
     let (mut best, mut best_at) = (f32::INFINITY, 0usize);
     let mut right_area = [0.0f32; SWEEP];
-    let e = cb.max - cb.min;
-    let largest = if e.x >= e.y && e.x >= e.z {
-        0
-    } else if e.y >= e.z {
-        1
-    } else {
-        2
-    };
-    for axis in [largest] {
+    for axis in [cb.largest_axis()] {
         for (k, &p) in range.iter().enumerate() {
             sorted[k] = (prims.centers[p as usize][axis], p);
         }
@@ -436,7 +315,7 @@ fn split_sweep(prims: &Prims, range: &mut [u32], cb: &Box3A) -> [Side; 2] {
 
 /// The SAH-best of all partitions of a range of 2 to [`SMALL`] primitives (most nodes of a bBVH are
 /// this small, and binning them costs more than trying every way to split them).
-fn split_small(prims: &Prims, range: &mut [u32]) -> [Side; 2] {
+pub(super) fn split_small(prims: &Prims, range: &mut [u32]) -> [Side; 2] {
     let m = range.len();
     if m == 2 {
         let mut sides = [Side::EMPTY; 2];

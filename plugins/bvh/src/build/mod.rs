@@ -4,28 +4,30 @@
 mod agglomerative;
 mod binned;
 mod median;
+mod prims;
 mod sweep;
 
 pub use binned::build_binned;
-pub(crate) use binned::{Prims, build_binned_over};
+pub(crate) use binned::build_binned_over;
 pub use median::build_median;
+pub(crate) use prims::{Box3A, Prims};
 pub use sweep::build_sweep_sah;
 
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::triangle::validate_triangles;
-use crate::{Aabb, Bvh, BvhConfig, BvhError, Triangle};
+use crate::{Aabb, BatchBvh, Bvh, BvhConfig, BvhError, Triangle};
 
-/// A bBVH over the primitives `order` lists: greedy agglomerative clustering for a batch of up to
-/// [`agglomerative::AGGLOMERATIVE_MAX`] (nearly every batch of a coherent stream), binned SAH for
-/// a larger one, which reorders `order`. Clustering the small ones costs fewer instructions and
-/// mispredicted branches than splitting them; IncrUPB's final cost moved Sibenik 54.67 -> 54.30,
-/// bunny 39.65 -> 39.63, FlightHelmet 61.17 -> 61.75. Finishing a large batch's small ranges by
-/// clustering too cost more than splitting them, for no gain.
-pub(crate) fn build_batch(prims: &Prims, order: &mut [u32]) -> BuiltTree {
-    if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&order.len()) {
-        agglomerative::build_agglomerative(prims, order)
-    } else {
-        build_binned_over(prims, order)
+/// A bBVH over the primitives `order` lists, reordering `order`, built the way `kind` says.
+pub(crate) fn build_batch(prims: &Prims, order: &mut [u32], kind: BatchBvh) -> BuiltTree {
+    match kind {
+        BatchBvh::Median => median::build_median_over(prims, order, binned::SMALL),
+        // Clustering a small batch costs fewer instructions and mispredicted branches than
+        // splitting it; finishing a large batch's small ranges by clustering too cost more than
+        // splitting them, for no gain.
+        BatchBvh::Sah if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&order.len()) => {
+            agglomerative::build_agglomerative(prims, order)
+        }
+        BatchBvh::Sah => build_binned_over(prims, order),
     }
 }
 
@@ -263,10 +265,10 @@ const PARALLEL_THRESHOLD: usize = 1 << 12;
 /// Binned SAH, with the two halves of every large node built in parallel (rayon).
 pub fn build_binned_parallel(boxes: &[Aabb]) -> BuiltTree {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-    build_binned_range(boxes, &binned::Prims::new(boxes), &mut order)
+    build_binned_range(boxes, &Prims::new(boxes), &mut order)
 }
 
-fn build_binned_range(boxes: &[Aabb], prims: &binned::Prims, order: &mut [u32]) -> BuiltTree {
+fn build_binned_range(boxes: &[Aabb], prims: &Prims, order: &mut [u32]) -> BuiltTree {
     if order.len() < PARALLEL_THRESHOLD {
         return binned::build_binned_over(prims, order);
     }
