@@ -8,16 +8,52 @@ impl Bvh {
     /// Inefficiency of inner node `i` by the configured measure.
     pub fn inefficiency(&self, i: u32) -> f32 {
         let n = &self.inner[i as usize];
-        let a = n.aabb.stored_area();
-        let l = self.stored_area(n.children[0]);
-        let r = self.stored_area(n.children[1]);
-        let m_sum = || a / (0.5 * (l + r)).max(f32::MIN_POSITIVE);
-        let m_min = || a / l.min(r).max(f32::MIN_POSITIVE);
+        let (l, r) = (
+            self.stored_area(n.children[0]),
+            self.stored_area(n.children[1]),
+        );
+        measure(self.config.inefficiency, n.aabb.stored_area(), l, r)
+    }
+
+    /// The nodes of `cache` that may be updated, each with its inefficiency, into `out`. Update
+    /// batches rank every cached node (IncrUPB caches every bBVH node), so the measure is chosen
+    /// once per batch rather than once per node.
+    fn rank_cached(&self, cache: &[u32], out: &mut Vec<(f32, u32)>) {
         match self.config.inefficiency {
-            Inefficiency::Area => a,
-            Inefficiency::Sum => m_sum(),
-            Inefficiency::Min => m_min(),
-            Inefficiency::Comb => m_sum() * m_min() * a,
+            Inefficiency::Comb => {
+                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Comb, a, l, r))
+            }
+            Inefficiency::Area => {
+                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Area, a, l, r))
+            }
+            Inefficiency::Sum => {
+                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Sum, a, l, r))
+            }
+            Inefficiency::Min => {
+                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Min, a, l, r))
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn rank_by(&self, cache: &[u32], out: &mut Vec<(f32, u32)>, m: impl Fn(f32, f32, f32) -> f32) {
+        let flat = !self.has_live_instances();
+        for &i in cache {
+            let n = &self.inner[i as usize];
+            // Without instances a live node with a parent is in the global tree (see
+            // `in_global_tree`): no call per node.
+            let movable = if flat {
+                n.parent != NONE && n.parent != crate::node::FREE
+            } else {
+                self.updatable(i)
+            };
+            if movable {
+                let (l, r) = (
+                    self.stored_area(n.children[0]),
+                    self.stored_area(n.children[1]),
+                );
+                out.push((m(n.aabb.stored_area(), l, r), i));
+            }
         }
     }
 
@@ -47,10 +83,8 @@ impl Bvh {
         candidates.clear();
         for &i in &cache {
             self.in_cache[i as usize] = false;
-            if self.updatable(i) {
-                candidates.push((self.inefficiency(i), i));
-            }
         }
+        self.rank_cached(&cache, &mut candidates);
         let k = share(self.config.update_fraction, candidates.len());
         worst_first(&mut candidates, k);
         self.reinsert_each(&candidates[..k], Move::Children);
@@ -349,6 +383,19 @@ impl Move {
 /// NaN fraction.
 fn share(fraction: f32, len: usize) -> usize {
     ((fraction * len as f32).ceil() as usize).min(len)
+}
+
+/// Inefficiency `kind` of a node of area `a` whose children have areas `l` and `r`.
+#[inline(always)]
+fn measure(kind: Inefficiency, a: f32, l: f32, r: f32) -> f32 {
+    let m_sum = || a / (0.5 * (l + r)).max(f32::MIN_POSITIVE);
+    let m_min = || a / l.min(r).max(f32::MIN_POSITIVE);
+    match kind {
+        Inefficiency::Area => a,
+        Inefficiency::Sum => m_sum(),
+        Inefficiency::Min => m_min(),
+        Inefficiency::Comb => m_sum() * m_min() * a,
+    }
 }
 
 /// Moves the `k` most inefficient candidates to the front, in no particular order.

@@ -114,7 +114,7 @@ struct Tuning {
     #[arg(long)]
     update_treelet: Option<u32>,
     /// IncrUPB: batches up to this size stay whole while compact, whatever R*_coh says (engine
-    /// default 16; 1 is the paper's rule).
+    /// default 64; 1 is the paper's rule).
     #[arg(long)]
     block_min_batch: Option<u32>,
     /// IncrUPB: how each batch's bBVH is built: `median` (engine default) or `sah` (greedy

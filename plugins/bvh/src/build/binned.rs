@@ -13,7 +13,7 @@ use glam::Vec3A;
 
 const BINS: usize = 16;
 /// Ranges this small are split exactly: every partition is costed.
-pub(super) const SMALL: usize = 4;
+const SMALL: usize = 4;
 /// Ranges this small are split exactly along each axis: sorted by centre and swept, which costs
 /// less than filling and sweeping bins for so few primitives.
 const SWEEP: usize = 16;
@@ -104,7 +104,7 @@ pub(crate) struct Side {
 }
 
 impl Side {
-    const EMPTY: Side = Side {
+    pub(super) const EMPTY: Side = Side {
         count: 0,
         bounds: Box3A::EMPTY,
         centroids: Box3A::EMPTY,
@@ -315,7 +315,7 @@ fn split_sweep(prims: &Prims, range: &mut [u32], cb: &Box3A) -> [Side; 2] {
 
 /// The SAH-best of all partitions of a range of 2 to [`SMALL`] primitives (most nodes of a bBVH are
 /// this small, and binning them costs more than trying every way to split them).
-pub(super) fn split_small(prims: &Prims, range: &mut [u32]) -> [Side; 2] {
+fn split_small(prims: &Prims, range: &mut [u32]) -> [Side; 2] {
     let m = range.len();
     if m == 2 {
         let mut sides = [Side::EMPTY; 2];

@@ -20,7 +20,7 @@ use crate::{Aabb, BatchBvh, Bvh, BvhConfig, BvhError, Triangle};
 /// A bBVH over the primitives `order` lists, reordering `order`, built the way `kind` says.
 pub(crate) fn build_batch(prims: &Prims, order: &mut [u32], kind: BatchBvh) -> BuiltTree {
     match kind {
-        BatchBvh::Median => median::build_median_over(prims, order, binned::SMALL),
+        BatchBvh::Median => median::build_median_over(prims, order),
         // Clustering a small batch costs fewer instructions and mispredicted branches than
         // splitting it; finishing a large batch's small ranges by clustering too cost more than
         // splitting them, for no gain.
