@@ -103,4 +103,11 @@ impl InnerNode {
         children: [NodeRef::NONE; 2],
         parent: NONE,
     };
+
+    /// Whether the slot holds a live node under some parent: not free, and not a root (of the
+    /// global tree, of an instanced subtree, or a node detached for the moment).
+    #[inline]
+    pub(crate) fn has_parent(&self) -> bool {
+        self.parent != NONE && self.parent != FREE
+    }
 }

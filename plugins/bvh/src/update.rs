@@ -43,7 +43,7 @@ impl Bvh {
             // Without instances a live node with a parent is in the global tree (see
             // `in_global_tree`): no call per node.
             let movable = if flat {
-                n.parent != NONE && n.parent != crate::node::FREE
+                n.has_parent()
             } else {
                 self.updatable(i)
             };
@@ -126,7 +126,7 @@ impl Bvh {
     /// Whether inner node `i` may be updated: live, in the global tree, not the root.
     fn updatable(&self, i: u32) -> bool {
         let n = &self.inner[i as usize];
-        n.parent != NONE && n.parent != crate::node::FREE && self.in_global_tree(i)
+        n.has_parent() && self.in_global_tree(i)
     }
 
     /// Removes inner node `n` and its parent, then inserts `n`'s two children separately with the
@@ -250,7 +250,7 @@ impl Bvh {
             // Without instances every live slot with a parent is in the global tree: a scan of
             // the flat array, in slot order, instead of a walk of the tree.
             for (i, n) in self.inner.iter().enumerate() {
-                if n.parent != NONE && n.parent != crate::node::FREE {
+                if n.has_parent() {
                     out.push((self.inefficiency(i as u32), i as u32));
                 }
             }
@@ -337,9 +337,8 @@ impl Bvh {
         let candidates = &mut cursor.candidates;
         candidates.clear();
         for i in start..end {
-            let p = self.inner[i as usize].parent;
             // Free slots and the root are skipped here; nodes inside kept-whole groups below.
-            if p != NONE && p != crate::node::FREE {
+            if self.inner[i as usize].has_parent() {
                 candidates.push((self.inefficiency(i), i));
             }
         }

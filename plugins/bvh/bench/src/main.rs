@@ -143,15 +143,6 @@ enum BlockBvhArg {
     Sah,
 }
 
-impl BlockBvhArg {
-    fn name(self) -> &'static str {
-        match self {
-            BlockBvhArg::Median => "median",
-            BlockBvhArg::Sah => "sah",
-        }
-    }
-}
-
 impl From<BlockBvhArg> for BatchBvh {
     fn from(b: BlockBvhArg) -> Self {
         match b {
@@ -208,7 +199,10 @@ impl Tuning {
             parts.push(format!("min batch={m}"));
         }
         if let (Some(b), "incrupb") = (self.block_bvh, method) {
-            parts.push(format!("bBVH={}", b.name()));
+            // The name `--block-bvh` takes; no variant is skipped, so every one has one.
+            if let Some(v) = clap::ValueEnum::to_possible_value(&b) {
+                parts.push(format!("bBVH={}", v.get_name()));
+            }
         }
         if method == "incru-post" {
             if let Some(r) = self.post_rounds {

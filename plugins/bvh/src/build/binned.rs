@@ -28,6 +28,24 @@ pub fn build_binned(boxes: &[Aabb]) -> BuiltTree {
 /// `NodeRef::leaf(index)`. Builds over part of a larger array without copying it, which is how
 /// IncrUPB builds its many small bBVHs.
 pub(crate) fn build_binned_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
+    let mut bins = Bins::default();
+    assemble_sides(prims, order, |range, whole| {
+        split(prims, &mut bins, range, whole)
+    })
+}
+
+/// Builds the tree over the primitives `order` lists by splitting ranges top-down: `split(range,
+/// side)` gets a range of at least two primitives with its [`Side`], reorders it, and returns its
+/// two halves' sides, left first, both non-empty (`count` says where the range splits; a side of
+/// one primitive, a leaf, need not be measured). Leaves are `NodeRef::leaf(primitive)`.
+///
+/// Each range arrives with its bounds and centroid bounds, worked out while its parent was split,
+/// so a split needs no pass of its own to measure its range.
+pub(super) fn assemble_sides(
+    prims: &Prims,
+    order: &mut [u32],
+    mut split: impl FnMut(&mut [u32], &Side) -> [Side; 2],
+) -> BuiltTree {
     let n = order.len();
     if n <= 1 {
         return BuiltTree {
@@ -35,24 +53,19 @@ pub(crate) fn build_binned_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
             root: order.first().map_or(NodeRef::NONE, |&p| NodeRef::leaf(p)),
         };
     }
-    let mut bins = Bins::default();
-    let whole = Side::of(prims, order);
     let mut nodes: Vec<InnerNode> = Vec::with_capacity(n - 1);
-    // Each range arrives with its bounds and centroid bounds, worked out while its parent was
-    // split: a split makes two passes over its primitives (binning, partition), not three.
     let mut stack = vec![Pending {
         start: 0,
         end: n,
         parent: NONE,
         slot: 0,
-        side: whole,
+        side: Side::of(prims, order),
     }];
     while let Some(r) = stack.pop() {
         let me = if r.end - r.start == 1 {
             NodeRef::leaf(order[r.start])
         } else {
-            let range = &mut order[r.start..r.end];
-            let [left, right] = split(prims, &mut bins, range, &r.side);
+            let [left, right] = split(&mut order[r.start..r.end], &r.side);
             let i = nodes.len() as u32;
             nodes.push(InnerNode {
                 aabb: r.side.bounds.aabb(),
@@ -60,6 +73,7 @@ pub(crate) fn build_binned_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
                 parent: r.parent,
             });
             let mid = r.start + left.count;
+            debug_assert!(mid > r.start && mid < r.end);
             stack.push(Pending {
                 start: mid,
                 end: r.end,

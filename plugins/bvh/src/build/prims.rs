@@ -38,17 +38,10 @@ impl Box3A {
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
 
-    /// The axis of the largest extent (the first of equal ones).
+    /// The axis of the largest extent (the first of equal ones), as [`Aabb::largest_axis`] has it.
     #[inline]
     pub(crate) fn largest_axis(&self) -> usize {
-        let e = self.max - self.min;
-        if e.x >= e.y && e.x >= e.z {
-            0
-        } else if e.y >= e.z {
-            1
-        } else {
-            2
-        }
+        self.aabb().largest_axis()
     }
 
     #[inline]
