@@ -2,9 +2,10 @@
 //! spatially coherent batches by the R*_coh spatial-median subdivision, a bBVH is built for each batch
 //! in parallel, and one owner inserts the bBVH roots into the global tree with the search.
 
-use crate::build::{Box3A, BuiltTree, Prims, build_batch};
+use crate::build::{Box3A, Prims, build_batch_into};
+use crate::node::InnerNode;
 use crate::node::NodeRef;
-use crate::triangle::validate_triangles;
+use crate::triangle::{validate_triangles, within_limits};
 use crate::{Aabb, BatchBvh, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
 use std::collections::VecDeque;
@@ -220,11 +221,86 @@ struct BufferBatches {
     index: usize,
     prims: Prims,
     order: Vec<u32>,
-    /// The buffer's batches, tiling `order`, and how many of them earlier steps took.
+    /// Ranges of `order` the cut has still to look at, the leftmost last.
+    pending: Vec<Pending>,
+    /// The buffer's batches found so far, in order, and how many of them earlier steps took.
+    /// Once nothing is pending they tile `order`.
     batches: Vec<Range<usize>>,
     taken: usize,
     /// The buffer's triangle boxes, until its first step hands them to the owner.
     boxes: Option<Vec<Aabb>>,
+}
+
+/// Primitives the cut looks at per piece of a buffer cut ahead: a piece takes a fraction of
+/// the owner's time for one step, so this side comes back to its queue in time.
+const CUT_PIECE: usize = 1 << 12;
+
+impl BufferBatches {
+    /// Buffer `index` of the stream, holding `tris`, with its cut still to do; `None` if a vertex
+    /// is invalid (which the owner reports: the builders are not to see such boxes).
+    fn new(index: usize, tris: &[Triangle]) -> Option<Self> {
+        let mut valid = true;
+        let boxes: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                valid &= within_limits(t);
+                t.aabb()
+            })
+            .collect();
+        if !valid {
+            return None;
+        }
+        let prims = Prims::new(&boxes);
+        let order: Vec<u32> = (0..boxes.len() as u32).collect();
+        let (bounds, sum) = prims.bounds_and_area(&order);
+        let pending = vec![Pending {
+            range: 0..order.len(),
+            axis: 0,
+            bounds,
+            sum,
+        }];
+        Some(Self {
+            index,
+            prims,
+            order,
+            pending,
+            batches: Vec::new(),
+            taken: 0,
+            boxes: Some(boxes),
+        })
+    }
+
+    /// Cuts about `budget` primitives' worth of the pending ranges, left to right, on this thread.
+    fn cut_piece(&mut self, cut: &Cut, budget: usize) {
+        let mut looked = 0;
+        while looked < budget {
+            let Some(p) = self.pending.pop() else { break };
+            looked += p.range.len();
+            match cut.look(&self.prims, &mut self.order, p) {
+                Cutting::Empty => {}
+                Cutting::Batch(r) => self.batches.push(r),
+                Cutting::Split(l, r) => {
+                    self.pending.push(r);
+                    self.pending.push(l);
+                }
+            }
+        }
+    }
+
+    /// Cuts whatever is pending, in parallel: an owner that has inserted what it was sent helps
+    /// with the cutting instead of waiting for it.
+    fn cut_rest(&mut self, cut: &Cut) {
+        while let Some(p) = self.pending.pop() {
+            cut.batches_from(
+                &self.prims,
+                &mut self.order,
+                0,
+                p,
+                PARALLEL_DEPTH,
+                &mut self.batches,
+            );
+        }
+    }
 }
 
 /// What the building side hands the owner per step.
@@ -234,7 +310,10 @@ struct Step {
     /// The buffer's triangle boxes, with its first step only: the owner stores them with the
     /// triangles instead of computing them again.
     boxes: Option<Vec<Aabb>>,
-    trees: Vec<BuiltTree>,
+    /// The inner nodes of all the step's bBVHs: each batch's `len - 1` in turn, indexed locally.
+    nodes: Vec<InnerNode>,
+    /// Each batch's root and number of inner nodes, in order.
+    roots: Vec<(NodeRef, u32)>,
 }
 
 /// The building side of IncrUPB: cuts buffers into batches and builds their bBVHs, a step at a time.
@@ -244,35 +323,60 @@ struct BatchBuilder<'a> {
     buffers: &'a [Range<usize>],
     next_buffer: usize,
     current: Option<BufferBatches>,
+    /// The next buffer, cut while this side waited for the owner.
+    ahead: Option<BufferBatches>,
     cut: Cut,
     kind: BatchBvh,
 }
 
 impl BatchBuilder<'_> {
+    /// The next buffer of the stream, its cut not begun; `None` once every buffer was taken, or
+    /// from the first with an invalid vertex on.
+    fn next_buffer(&mut self) -> Option<BufferBatches> {
+        let index = self.next_buffer;
+        let buf = self.buffers.get(index).cloned()?;
+        let next = BufferBatches::new(index, &self.tris[buf]);
+        self.next_buffer = if next.is_some() {
+            index + 1
+        } else {
+            self.buffers.len()
+        };
+        next
+    }
+
+    /// Cuts a piece of the buffer after the current one; returns whether there was any to cut.
+    /// Called while the owner has enough queued. A full buffer's cut takes as long as the
+    /// owner's work on several steps: done whole when the current buffer ran out, it left the
+    /// owner waiting (on Sibenik about a millisecond at the first full-size buffer), and done
+    /// whole ahead, it let the queue run dry.
+    fn cut_ahead(&mut self) -> bool {
+        if self.current.is_none() {
+            return false;
+        }
+        match &mut self.ahead {
+            Some(b) if b.pending.is_empty() => false,
+            Some(b) => {
+                b.cut_piece(&self.cut, CUT_PIECE);
+                true
+            }
+            None => {
+                self.ahead = self.next_buffer();
+                self.ahead.is_some()
+            }
+        }
+    }
+
     /// The bBVHs of the next step's batches (built in parallel), with the buffer they index; `None`
     /// once the stream is done.
     fn next_step(&mut self) -> Option<Step> {
         loop {
             if self.current.is_none() {
-                let index = self.next_buffer;
-                let buf = self.buffers.get(index).cloned()?;
-                self.next_buffer += 1;
-                // A whole buffer is cut at once, in parallel: an owner that has inserted what it
-                // was sent helps with the cutting instead of waiting for it, which it would do
-                // if the cut were spread over the buffer's steps on this side alone.
-                let boxes: Vec<Aabb> = self.tris[buf].iter().map(|t| t.aabb()).collect();
-                let prims = Prims::new(&boxes);
-                let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-                let mut batches = Vec::new();
-                self.cut.batches(&prims, &mut order, &mut batches);
-                self.current = Some(BufferBatches {
-                    index,
-                    prims,
-                    order,
-                    batches,
-                    taken: 0,
-                    boxes: Some(boxes),
-                });
+                let mut b = match self.ahead.take() {
+                    Some(b) => b,
+                    None => self.next_buffer()?,
+                };
+                b.cut_rest(&self.cut);
+                self.current = Some(b);
             }
             let c = self.current.as_mut()?;
             if c.taken == c.batches.len() {
@@ -287,24 +391,34 @@ impl BatchBuilder<'_> {
                 c.taken += 1;
             }
             // The batches tile `order` in sequence: cut this step's run of it into one slice per
-            // batch, each built in place, so no batch copies its boxes.
+            // batch, each built in place, so no batch copies its boxes. A batch of k primitives
+            // has k - 1 inner nodes: the step's bBVHs share one node array, cut the same way, so
+            // that a step allocates (and the owner frees) one array, not one per batch.
             let run = &c.batches[first..c.taken];
-            let mut slices = Vec::with_capacity(run.len());
+            let mut nodes = vec![InnerNode::UNLINKED; count - run.len()];
+            let mut jobs = Vec::with_capacity(run.len());
             let mut rest = &mut c.order[run[0].start..run[run.len() - 1].end];
+            let mut rest_nodes = &mut nodes[..];
             for r in run {
                 let (head, tail) = rest.split_at_mut(r.len());
-                slices.push(head);
+                let (node_head, node_tail) = rest_nodes.split_at_mut(r.len() - 1);
+                jobs.push((head, node_head));
                 rest = tail;
+                rest_nodes = node_tail;
             }
             let (prims, kind) = (&c.prims, self.kind);
-            let trees = slices
+            let roots = jobs
                 .into_par_iter()
-                .map(|slice| build_batch(prims, slice, kind))
+                .map(|(slice, nodes)| {
+                    let inner = nodes.len() as u32;
+                    (build_batch_into(prims, slice, kind, nodes), inner)
+                })
                 .collect();
             return Some(Step {
                 buffer: c.index,
                 boxes: c.boxes.take(),
-                trees,
+                nodes,
+                roots,
             });
         }
     }
@@ -328,6 +442,8 @@ struct Pipeline {
     done: AtomicBool,
     /// The owner is running, so a full queue will drain.
     owner_running: AtomicBool,
+    /// The owner found the input invalid: the building side stops.
+    rejected: AtomicBool,
 }
 
 /// Stores a value into a flag when dropped, also while unwinding: a side that panics still lets
@@ -341,10 +457,13 @@ impl Drop for StoreOnDrop<'_> {
 }
 
 impl Pipeline {
-    /// Queues a step, first waiting while the owner is running and has enough to do.
-    fn send(&self, step: Step) {
+    /// Queues a step, first waiting while the owner is running and has enough to do; `meanwhile`
+    /// is called while waiting, and idles when it returns false (nothing left to do ahead).
+    fn send(&self, step: Step, mut meanwhile: impl FnMut() -> bool) {
         while self.owner_running.load(Ordering::Acquire) && self.queued() >= LOOKAHEAD {
-            idle();
+            if !meanwhile() {
+                idle();
+            }
         }
         self.lock().push_back(step);
     }
@@ -394,7 +513,6 @@ impl Bvh {
         &mut self,
         tris: &[Triangle],
     ) -> Result<Vec<u32>, BvhError> {
-        validate_triangles(tris)?;
         self.check_room(tris.len())?;
         let buffers = buffers(tris.len());
         let mut builder = BatchBuilder {
@@ -402,6 +520,7 @@ impl Bvh {
             buffers: &buffers,
             next_buffer: 0,
             current: None,
+            ahead: None,
             cut: Cut {
                 r_max: self.config.coherence_max,
                 min_batch: self.config.block_min_batch as usize,
@@ -409,24 +528,37 @@ impl Bvh {
             },
             kind: self.config.block_bvh,
         };
-        self.reserve(tris.len());
         let mut ids = Vec::with_capacity(tris.len());
         let pipe = Pipeline::default();
+        let mut valid = Ok(());
         rayon::join(
             || {
                 let _done = StoreOnDrop(&pipe.done, true);
-                while let Some(step) = builder.next_step() {
-                    pipe.send(step);
+                while !pipe.rejected.load(Ordering::Acquire)
+                    && let Some(step) = builder.next_step()
+                {
+                    pipe.send(step, || builder.cut_ahead());
                 }
             },
             || {
                 pipe.owner_running.store(true, Ordering::Release);
-                let mut last = NodeRef::NONE;
                 let _gone = StoreOnDrop(&pipe.owner_running, false);
+                // The building side starts on the first buffer while the owner checks the
+                // input, which must be done before anything is inserted: a sequential pass over
+                // every vertex, which took about as long as the first buffer's cut and bBVHs. (The
+                // building side checks each buffer as it reads it, and stops at an invalid one.)
+                valid = validate_triangles(tris);
+                if valid.is_err() {
+                    pipe.rejected.store(true, Ordering::Release);
+                    return;
+                }
+                self.reserve(tris.len());
+                let mut last = NodeRef::NONE;
                 while let Some(Step {
                     buffer,
                     boxes,
-                    trees,
+                    nodes,
+                    roots,
                 }) = pipe.receive()
                 {
                     // A buffer's triangles get their ids when its first bBVHs arrive.
@@ -436,8 +568,11 @@ impl Bvh {
                     }
                     // The bBVH's own nodes are candidates for updates too: where batches meet,
                     // their boxes overlap, and only moving nodes inside them can fix that.
-                    for tree in &trees {
-                        let root = self.graft_with(tree, &ids[buf.start..buf.end], true);
+                    let mut rest = &nodes[..];
+                    for &(root, inner) in &roots {
+                        let (tree, tail) = rest.split_at(inner as usize);
+                        rest = tail;
+                        let root = self.graft_with(tree, root, &ids[buf.start..buf.end], true);
                         // Consecutive batches are neighbours in the cut's order, so the last root
                         // is a close candidate: seeded with it, the search starts from a tight
                         // bound and expands fewer nodes. The best it finds is the same up to ties.
@@ -447,6 +582,7 @@ impl Bvh {
                 }
             },
         );
+        valid?;
         Ok(ids)
     }
 }

@@ -56,20 +56,24 @@ impl Triangle {
 /// Largest coordinate magnitude accepted. Beyond it the surface areas the SAH sums overflow f32.
 pub const MAX_COORDINATE: f32 = 1.0e15;
 
+/// Whether every coordinate of `t` is finite and within [`MAX_COORDINATE`], without a branch:
+/// `|x| <= limit` is false for NaN and infinities too.
+#[inline]
+pub(crate) fn within_limits(t: &Triangle) -> bool {
+    t.v.iter().fold(true, |ok, p| {
+        ok & (p.x.abs() <= MAX_COORDINATE)
+            & (p.y.abs() <= MAX_COORDINATE)
+            & (p.z.abs() <= MAX_COORDINATE)
+    })
+}
+
 /// Rejects a whole batch if any triangle has a NaN, infinite or absurdly large coordinate,
 /// so that a failed call inserts nothing.
 pub fn validate_triangles(tris: &[Triangle]) -> Result<(), BvhError> {
-    // Every insertion pays for this pass before it starts (IncrUPB's two sides wait on it), so the
-    // common case is one branch-free sweep: `|x| <= limit` is false for NaN and infinities too.
-    // Only a batch that fails looks again, triangle by triangle, for the first culprit and why.
-    let within = |t: &Triangle| {
-        t.v.iter().fold(true, |ok, p| {
-            ok & (p.x.abs() <= MAX_COORDINATE)
-                & (p.y.abs() <= MAX_COORDINATE)
-                & (p.z.abs() <= MAX_COORDINATE)
-        })
-    };
-    if tris.iter().fold(true, |ok, t| ok & within(t)) {
+    // Every insertion pays for this pass before it starts, so the common case is one
+    // branch-free sweep. Only a batch that fails looks again, triangle by triangle, for the first
+    // culprit and why.
+    if tris.iter().fold(true, |ok, t| ok & within_limits(t)) {
         return Ok(());
     }
     for (index, t) in tris.iter().enumerate() {

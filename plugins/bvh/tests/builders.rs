@@ -262,6 +262,39 @@ fn non_finite_vertices_are_rejected_and_nothing_is_inserted() {
 }
 
 #[test]
+fn block_parallel_rejects_an_invalid_vertex_in_any_buffer_on_any_pool() {
+    // The building side starts on the first buffers while the owner checks the whole input: an
+    // invalid vertex in the first buffer, in a later one or in the last is still reported by its
+    // index, with either bBVH builder, and leaves the tree as it was, whatever the pool.
+    let mut bvh = Bvh::default();
+    bvh.insert_triangles(&soup(50, 3)).unwrap();
+    let (count, cost) = (bvh.triangle_count(), bvh.sah_cost());
+    for at in [3, 15_000, 39_999] {
+        for bad in [f32::NAN, f32::NEG_INFINITY, 1e30] {
+            let mut tris = soup(40_000, 4);
+            tris[at].v[2].x = bad;
+            for kind in [BatchBvh::Median, BatchBvh::Sah] {
+                bvh.set_config(BvhConfig {
+                    block_bvh: kind,
+                    ..*bvh.config()
+                });
+                for threads in [1, 2] {
+                    let got = pool(threads).install(|| bvh.insert_triangles_block_parallel(&tris));
+                    let want_index = match got {
+                        Err(BvhError::NonFiniteVertex { index }) => index,
+                        Err(BvhError::CoordinateTooLarge { index, .. }) => index,
+                        other => panic!("{bad} at {at}: {other:?}"),
+                    };
+                    assert_eq!(want_index, at, "{bad}");
+                    assert_eq!((bvh.triangle_count(), bvh.sah_cost()), (count, cost));
+                }
+            }
+        }
+    }
+    bvh.validate().unwrap();
+}
+
+#[test]
 fn block_stream_keeps_the_tree_valid_between_chunks() {
     let tris = soup(5000, 9);
     let rays = rays(100, 4, 10.0);

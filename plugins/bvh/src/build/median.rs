@@ -2,9 +2,9 @@
 //! builder, and the builder of IncrUPB's bBVHs.
 
 use super::BuiltTree;
-use super::binned::{Side, assemble_sides};
-use super::prims::Prims;
+use super::prims::{Box3A, Prims};
 use crate::Aabb;
+use crate::node::{InnerNode, NONE, NodeRef};
 
 /// Spatial median builder, one primitive per leaf.
 pub fn build_median(boxes: &[Aabb]) -> BuiltTree {
@@ -14,38 +14,109 @@ pub fn build_median(boxes: &[Aabb]) -> BuiltTree {
 
 /// The spatial median tree over the primitives `order` lists, reordering `order` in place; leaves
 /// are `NodeRef::leaf(primitive)`.
-///
-/// Each split is one branch-free partition pass and one pass measuring both halves (a half of one
-/// primitive, a leaf, is not measured), so this costs a fraction of a binned SAH build, whose every
-/// node fills and sweeps bins on three axes. Finishing ranges of three or four primitives by their
-/// SAH-best partition instead was tried for IncrUPB's bBVHs: on Sibenik it cost 13% more of the
-/// building side's instructions and lowered the final cost by 0.25%, and on the bunny it raised it.
 pub(crate) fn build_median_over(prims: &Prims, order: &mut [u32]) -> BuiltTree {
-    assemble_sides(prims, order, |range, side| {
+    let mut nodes = vec![InnerNode::UNLINKED; order.len().saturating_sub(1)];
+    let root = build_median_into(prims, order, &mut nodes);
+    BuiltTree { nodes, root }
+}
+
+/// A range of the order still to split, whose inner node is already written (with its box).
+struct Task {
+    start: u32,
+    end: u32,
+    node: u32,
+    centroids: Box3A,
+}
+
+/// [`build_median_over`] writing the tree's `order.len() - 1` inner nodes into `nodes` (so that
+/// IncrUPB builds a step's bBVHs into one array); returns the root.
+///
+/// Each split is one branch-free partition pass and one pass measuring both halves. Slots are
+/// numbered in pre-order, computed when a node splits, so every task carries only its range, its slot and
+/// its centres' bounds, and a range of two becomes its two leaves without a task. This builder
+/// is much of IncrUPB's building side: the binned builder's general top-down loop, whose tasks
+/// carried both sides' measures and which grew a new stack per bBVH, took 1.5 times its
+/// instructions on Sibenik's bBVHs.
+/// Finishing ranges of three or four primitives by their SAH-best partition instead was tried
+/// for the bBVHs: on Sibenik it cost 13% more of the building side's instructions and lowered
+/// the final cost by 0.25%, and on the bunny it raised it.
+pub(crate) fn build_median_into(
+    prims: &Prims,
+    order: &mut [u32],
+    nodes: &mut [InnerNode],
+) -> NodeRef {
+    let n = order.len();
+    debug_assert_eq!(nodes.len(), n.saturating_sub(1));
+    if n <= 1 {
+        return order.first().map_or(NodeRef::NONE, |&p| NodeRef::leaf(p));
+    }
+    let (bounds, centroids) = prims.bounds(order);
+    nodes[0] = InnerNode {
+        aabb: bounds.aabb(),
+        children: [NodeRef::leaf(order[0]), NodeRef::leaf(order[n - 1])],
+        parent: NONE,
+    };
+    let mut stack = Vec::with_capacity(32);
+    if n > 2 {
+        stack.push(Task {
+            start: 0,
+            end: n as u32,
+            node: 0,
+            centroids,
+        });
+    }
+    while let Some(t) = stack.pop() {
+        let range = &mut order[t.start as usize..t.end as usize];
         let m = range.len();
-        let mut i = 1;
-        if m > 2 {
-            let cb = &side.centroids;
-            let axis = cb.largest_axis();
-            i = prims.split_at(range, axis, cb.center()[axis]);
-            if i == 0 || i == m {
-                // All centres coincide (or round to one side): halve the range as it stands.
-                i = m / 2;
-            }
+        let axis = t.centroids.largest_axis();
+        let mut i = prims.split_at(range, axis, t.centroids.center()[axis]);
+        if i == 0 || i == m {
+            // All centres coincide (or round to one side): halve the range as it stands.
+            i = m / 2;
         }
-        let (l, r) = range.split_at(i);
-        let measure = |half: &[u32]| {
-            if half.len() > 1 {
-                Side::of(prims, half)
-            } else {
-                Side {
-                    count: 1,
-                    ..Side::EMPTY
+        let mid = t.start + i as u32;
+        let mut children = [NodeRef::NONE; 2];
+        // Slots in pre-order: a subtree of k leaves has k - 1 inner nodes, so the left child
+        // takes the slot after its parent and the right one the slot after the left subtree's.
+        let slots = [t.node + 1, t.node + i as u32];
+        for (slot, (s, e)) in [(t.start, mid), (mid, t.end)].into_iter().enumerate() {
+            let half = &order[s as usize..e as usize];
+            let k = slots[slot];
+            children[slot] = match half.len() {
+                1 => NodeRef::leaf(half[0]),
+                2 => {
+                    // A pair is its two leaves: measured by one union, never split.
+                    let [a, b] = [half[0], half[1]];
+                    let aabb = prims.boxes[a as usize]
+                        .union(&prims.boxes[b as usize])
+                        .aabb();
+                    nodes[k as usize] = InnerNode {
+                        aabb,
+                        children: [NodeRef::leaf(a), NodeRef::leaf(b)],
+                        parent: t.node,
+                    };
+                    NodeRef::inner(k)
                 }
-            }
-        };
-        [measure(l), measure(r)]
-    })
+                _ => {
+                    let (bounds, centroids) = prims.bounds(half);
+                    nodes[k as usize] = InnerNode {
+                        aabb: bounds.aabb(),
+                        children: [NodeRef::NONE; 2],
+                        parent: t.node,
+                    };
+                    stack.push(Task {
+                        start: s,
+                        end: e,
+                        node: k,
+                        centroids,
+                    });
+                    NodeRef::inner(k)
+                }
+            };
+        }
+        nodes[t.node as usize].children = children;
+    }
+    NodeRef::inner(0)
 }
 
 #[cfg(test)]

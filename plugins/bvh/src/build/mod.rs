@@ -17,10 +17,16 @@ use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::triangle::validate_triangles;
 use crate::{Aabb, BatchBvh, Bvh, BvhConfig, BvhError, Triangle};
 
-/// A bBVH over the primitives `order` lists, reordering `order`, built the way `kind` says.
-pub(crate) fn build_batch(prims: &Prims, order: &mut [u32], kind: BatchBvh) -> BuiltTree {
-    match kind {
-        BatchBvh::Median => median::build_median_over(prims, order),
+/// A bBVH over the primitives `order` lists, reordering `order`, built the way `kind` says into
+/// `nodes` (`order.len() - 1` of them, indexed locally); returns its root.
+pub(crate) fn build_batch_into(
+    prims: &Prims,
+    order: &mut [u32],
+    kind: BatchBvh,
+    nodes: &mut [InnerNode],
+) -> NodeRef {
+    let built = match kind {
+        BatchBvh::Median => return median::build_median_into(prims, order, nodes),
         // Clustering a small batch costs fewer instructions and mispredicted branches than
         // splitting it; finishing a large batch's small ranges by clustering too cost more than
         // splitting them, for no gain.
@@ -28,7 +34,9 @@ pub(crate) fn build_batch(prims: &Prims, order: &mut [u32], kind: BatchBvh) -> B
             agglomerative::build_agglomerative(prims, order)
         }
         BatchBvh::Sah => build_binned_over(prims, order),
-    }
+    };
+    nodes.copy_from_slice(&built.nodes);
+    built.root
 }
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
@@ -39,6 +47,13 @@ pub struct BuiltTree {
     pub nodes: Vec<InnerNode>,
     /// The root (a leaf when there is one primitive, none when there are none).
     pub root: NodeRef,
+}
+
+/// A built tree's nodes and root, borrowed.
+#[derive(Clone, Copy)]
+struct BuiltSlice<'a> {
+    nodes: &'a [InnerNode],
+    root: NodeRef,
 }
 
 /// Which top-down builder to use.
@@ -184,11 +199,19 @@ impl Bvh {
     /// Copies `built` into the node arrays, mapping its leaf `k` to triangle `ids[k]`, and returns
     /// its root, detached.
     pub(crate) fn graft(&mut self, built: &BuiltTree, ids: &[u32]) -> NodeRef {
-        self.graft_with(built, ids, false)
+        self.graft_with(&built.nodes, built.root, ids, false)
     }
 
-    /// [`Bvh::graft`], putting the new inner nodes in the node update cache when `record` is set.
-    pub(crate) fn graft_with(&mut self, built: &BuiltTree, ids: &[u32], record: bool) -> NodeRef {
+    /// [`Bvh::graft`] of the tree whose inner nodes are `nodes` (indexed locally) and whose root is
+    /// `root`, putting the new inner nodes in the node update cache when `record` is set.
+    pub(crate) fn graft_with(
+        &mut self,
+        nodes: &[InnerNode],
+        root: NodeRef,
+        ids: &[u32],
+        record: bool,
+    ) -> NodeRef {
+        let built = BuiltSlice { nodes, root };
         if built.root.is_none() {
             return NodeRef::NONE;
         }
@@ -230,7 +253,7 @@ impl Bvh {
 
     /// Writes `built`'s node `k` into inner slot `slot(k)` (allocated already), its leaf `k` being
     /// triangle `ids[k]`, and returns where its root went.
-    fn copy_built(&mut self, built: &BuiltTree, ids: &[u32], slot: impl Fn(u32) -> u32) -> NodeRef {
+    fn copy_built(&mut self, built: BuiltSlice, ids: &[u32], slot: impl Fn(u32) -> u32) -> NodeRef {
         let map_node = |r: NodeRef| match r.kind() {
             NodeKind::Inner => NodeRef::inner(slot(r.index())),
             NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
