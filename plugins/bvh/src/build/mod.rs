@@ -218,19 +218,42 @@ impl Bvh {
         let root = if self.inner_free.is_empty() {
             // No slot is free, as in a tree being built: the nodes go to the end of the array in
             // `built`'s order, so node `k` becomes `base + k`, with no slot map and the change log
-            // marked as one range (IncrUPB grafts thousands of small bBVHs per build).
+            // marked as one range. IncrUPB grafts thousands of small bBVHs per build on its
+            // owner's thread, so each node is written once, pushed in place, and enters the cache
+            // without the per-node test of `record`.
             let base = self.inner.len() as u32;
             let end = base + built.nodes.len() as u32;
-            self.inner.resize(end as usize, InnerNode::UNLINKED);
-            self.in_cache.resize(end as usize, false);
             self.changes.mark_new_inner(base..end);
-            let root = self.copy_built(built, ids, |k| base + k);
-            if record {
-                for me in base..end {
-                    self.record(me);
+            let map = |r: NodeRef| match r.kind() {
+                NodeKind::Inner => NodeRef::inner(base + r.index()),
+                NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
+                _ => r,
+            };
+            self.inner.reserve(built.nodes.len());
+            for (k, n) in built.nodes.iter().enumerate() {
+                let me = base + k as u32;
+                let children = n.children.map(map);
+                for c in children {
+                    if c.kind() == NodeKind::Leaf {
+                        self.tri_parent[c.index() as usize] = me;
+                    }
                 }
+                self.inner.push(InnerNode {
+                    aabb: n.aabb,
+                    children,
+                    parent: if n.parent == NONE {
+                        NONE
+                    } else {
+                        base + n.parent
+                    },
+                });
             }
-            root
+            let record = record && self.recording && self.config.global_updates;
+            self.in_cache.resize(end as usize, record);
+            if record {
+                self.cache.extend(base..end);
+            }
+            map(built.root)
         } else {
             let mut slots = std::mem::take(&mut self.graft_slots);
             slots.clear();
