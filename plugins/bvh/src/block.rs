@@ -3,8 +3,7 @@
 //! in parallel, and one owner inserts the bBVH roots into the global tree with the search.
 
 use crate::build::{Box3A, Prims, build_batch_into};
-use crate::node::InnerNode;
-use crate::node::NodeRef;
+use crate::node::{InnerNode, NodeRef};
 use crate::triangle::{validate_triangles, within_limits};
 use crate::{Aabb, BatchBvh, Bvh, BvhError, Triangle};
 use rayon::prelude::*;
@@ -70,6 +69,19 @@ struct Pending {
     sum: f32,
 }
 
+impl Pending {
+    /// All of `order`, measured, to be split first on x.
+    fn whole(prims: &Prims, order: &[u32]) -> Self {
+        let (bounds, sum) = prims.bounds_and_area(order);
+        Pending {
+            range: 0..order.len(),
+            axis: 0,
+            bounds,
+            sum,
+        }
+    }
+}
+
 /// What one look at a pending range gives.
 enum Cutting {
     Empty,
@@ -91,13 +103,7 @@ impl Cut {
     /// range are cut in parallel, so that an owner waiting for its next step takes a share of a
     /// new buffer's subdivision; the batches do not depend on who cuts them.
     fn batches(&self, prims: &Prims, order: &mut [u32], out: &mut Vec<Range<usize>>) {
-        let (bounds, sum) = prims.bounds_and_area(order);
-        let whole = Pending {
-            range: 0..order.len(),
-            axis: 0,
-            bounds,
-            sum,
-        };
+        let whole = Pending::whole(prims, order);
         self.batches_from(prims, order, 0, whole, PARALLEL_DEPTH, out);
     }
 
@@ -252,13 +258,7 @@ impl BufferBatches {
         }
         let prims = Prims::new(&boxes);
         let order: Vec<u32> = (0..boxes.len() as u32).collect();
-        let (bounds, sum) = prims.bounds_and_area(&order);
-        let pending = vec![Pending {
-            range: 0..order.len(),
-            axis: 0,
-            bounds,
-            sum,
-        }];
+        let pending = vec![Pending::whole(&prims, &order)];
         Some(Self {
             index,
             prims,
