@@ -5,7 +5,6 @@
 //! searched four lanes at a time over a fixed width, so that no loop's trip count and no comparison
 //! of two distances is a branch the processor has to guess.
 
-use super::BuiltTree;
 use super::prims::Prims;
 use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use glam::Vec4;
@@ -46,19 +45,23 @@ impl<const N: usize> Row<N> {
 /// Slots no cluster's nearest can be: marks a slot that holds no cluster.
 const NOBODY: usize = usize::MAX;
 
-/// The tree over the primitives `order` lists (2 to [`AGGLOMERATIVE_MAX`]): leaves are
-/// `NodeRef::leaf(primitive)`, inner nodes (`order.len() - 1` of them) index its `nodes`, their
-/// parent links too, the root's being `NONE`.
-pub(crate) fn build_agglomerative(prims: &Prims, order: &[u32]) -> BuiltTree {
+/// The tree over the primitives `order` lists (2 to [`AGGLOMERATIVE_MAX`]), its `order.len() - 1`
+/// inner nodes written into `nodes` (a slice of IncrUPB's node array for the step), their parent
+/// links local too, the root's being `NONE`; leaves are `NodeRef::leaf(primitive)`. Returns the
+/// root.
+pub(crate) fn build_agglomerative_into(
+    prims: &Prims,
+    order: &[u32],
+    nodes: &mut [InnerNode],
+) -> NodeRef {
     debug_assert!((2..=AGGLOMERATIVE_MAX).contains(&order.len()));
-    let mut nodes = vec![InnerNode::UNLINKED; order.len() - 1];
+    debug_assert_eq!(nodes.len(), order.len() - 1);
     // The narrowest matrix that fits: its width is every loop's trip count.
-    let root = match order.len() {
-        0..=8 => cluster::<8>(prims, order, &mut nodes),
-        9..=16 => cluster::<16>(prims, order, &mut nodes),
-        _ => cluster::<32>(prims, order, &mut nodes),
-    };
-    BuiltTree { nodes, root }
+    match order.len() {
+        0..=8 => cluster::<8>(prims, order, nodes),
+        9..=16 => cluster::<16>(prims, order, nodes),
+        _ => cluster::<32>(prims, order, nodes),
+    }
 }
 
 /// Clusters into `nodes`, which holds exactly one node per merge, and returns the root.
@@ -169,6 +172,7 @@ fn cluster<const N: usize>(prims: &Prims, order: &[u32], nodes: &mut [InnerNode]
 mod tests {
     use super::*;
     use crate::Aabb;
+    use crate::build::BuiltTree;
     use glam::Vec3;
 
     /// The total inner-node area of greedy clustering done the plain way: every step measures every
@@ -198,7 +202,13 @@ mod tests {
         total
     }
 
-    /// Checks the tree `build_agglomerative` made over `boxes` and returns its inner area.
+    fn build_agglomerative(prims: &Prims, order: &[u32]) -> BuiltTree {
+        let mut nodes = vec![InnerNode::UNLINKED; order.len() - 1];
+        let root = build_agglomerative_into(prims, order, &mut nodes);
+        BuiltTree { nodes, root }
+    }
+
+    /// Checks the tree `build_agglomerative_into` made over `boxes` and returns its inner area.
     fn built_area(boxes: &[Aabb]) -> f64 {
         let m = boxes.len();
         let prims = Prims::new(boxes);

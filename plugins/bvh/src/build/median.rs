@@ -32,11 +32,12 @@ struct Task {
 /// IncrUPB builds a step's bBVHs into one array); returns the root.
 ///
 /// Each split is one branch-free partition pass and one pass measuring both halves. Slots are
-/// numbered in pre-order, computed when a node splits, so every task carries only its range, its slot and
-/// its centres' bounds, and a range of two becomes its two leaves without a task. This builder
-/// is much of IncrUPB's building side: the binned builder's general top-down loop, whose tasks
-/// carried both sides' measures and which grew a new stack per bBVH, took 1.5 times its
+/// numbered in pre-order, computed when a node splits, so every task carries only its range, its
+/// slot and its centres' bounds, and a range of two becomes its two leaves without a task. This
+/// builder is much of IncrUPB's building side: the binned builder's general top-down loop, whose
+/// tasks carried both sides' measures and which grew a new stack per bBVH, took 1.5 times its
 /// instructions on Sibenik's bBVHs.
+///
 /// Finishing ranges of three or four primitives by their SAH-best partition instead was tried
 /// for the bBVHs: on Sibenik it cost 13% more of the building side's instructions and lowered
 /// the final cost by 0.25%, and on the bunny it raised it.
@@ -123,7 +124,6 @@ pub(crate) fn build_median_into(
 mod tests {
     use super::*;
     use crate::NodeKind;
-    use crate::node::{NONE, NodeRef};
     use glam::Vec3;
 
     /// Checks `tree` over `boxes`: every primitive in one leaf, every box the union of its

@@ -25,18 +25,22 @@ pub(crate) fn build_batch_into(
     kind: BatchBvh,
     nodes: &mut [InnerNode],
 ) -> NodeRef {
-    let built = match kind {
-        BatchBvh::Median => return median::build_median_into(prims, order, nodes),
+    match kind {
+        BatchBvh::Median => median::build_median_into(prims, order, nodes),
         // Clustering a small batch costs fewer instructions and mispredicted branches than
         // splitting it; finishing a large batch's small ranges by clustering too cost more than
         // splitting them, for no gain.
         BatchBvh::Sah if (2..=agglomerative::AGGLOMERATIVE_MAX).contains(&order.len()) => {
-            agglomerative::build_agglomerative(prims, order)
+            agglomerative::build_agglomerative_into(prims, order, nodes)
         }
-        BatchBvh::Sah => build_binned_over(prims, order),
-    };
-    nodes.copy_from_slice(&built.nodes);
-    built.root
+        BatchBvh::Sah => {
+            // The binned builder grows its own array (its node count per level is not known
+            // ahead): copied into the step's.
+            let built = build_binned_over(prims, order);
+            nodes.copy_from_slice(&built.nodes);
+            built.root
+        }
+    }
 }
 
 /// A tree over primitives `0..n`: leaves are `NodeRef::leaf(local primitive index)`, inner nodes
@@ -47,13 +51,6 @@ pub struct BuiltTree {
     pub nodes: Vec<InnerNode>,
     /// The root (a leaf when there is one primitive, none when there are none).
     pub root: NodeRef,
-}
-
-/// A built tree's nodes and root, borrowed.
-#[derive(Clone, Copy)]
-struct BuiltSlice<'a> {
-    nodes: &'a [InnerNode],
-    root: NodeRef,
 }
 
 /// Which top-down builder to use.
@@ -211,56 +208,39 @@ impl Bvh {
         ids: &[u32],
         record: bool,
     ) -> NodeRef {
-        let built = BuiltSlice { nodes, root };
-        if built.root.is_none() {
+        if root.is_none() {
             return NodeRef::NONE;
         }
         let root = if self.inner_free.is_empty() {
             // No slot is free, as in a tree being built: the nodes go to the end of the array in
-            // `built`'s order, so node `k` becomes `base + k`, with no slot map and the change log
+            // their own order, so node `k` becomes `base + k`, with no slot map and the change log
             // marked as one range. IncrUPB grafts thousands of small bBVHs per build on its
             // owner's thread, so each node is written once, pushed in place, and enters the cache
             // without the per-node test of `record`.
             let base = self.inner.len() as u32;
-            let end = base + built.nodes.len() as u32;
+            let end = base + nodes.len() as u32;
             self.changes.mark_new_inner(base..end);
-            let map = |r: NodeRef| match r.kind() {
-                NodeKind::Inner => NodeRef::inner(base + r.index()),
-                NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
-                _ => r,
-            };
-            self.inner.reserve(built.nodes.len());
-            for (k, n) in built.nodes.iter().enumerate() {
-                let me = base + k as u32;
-                let children = n.children.map(map);
-                for c in children {
-                    if c.kind() == NodeKind::Leaf {
-                        self.tri_parent[c.index() as usize] = me;
-                    }
-                }
-                self.inner.push(InnerNode {
-                    aabb: n.aabb,
-                    children,
-                    parent: if n.parent == NONE {
-                        NONE
-                    } else {
-                        base + n.parent
-                    },
-                });
-            }
+            self.inner.reserve(nodes.len());
+            let root = self.copy_built(nodes, root, ids, |k| base + k, |inner, _, n| inner.push(n));
             let record = record && self.recording && self.config.global_updates;
             self.in_cache.resize(end as usize, record);
             if record {
                 self.cache.extend(base..end);
             }
-            map(built.root)
+            root
         } else {
             let mut slots = std::mem::take(&mut self.graft_slots);
             slots.clear();
-            for _ in 0..built.nodes.len() {
+            for _ in 0..nodes.len() {
                 slots.push(self.alloc_inner());
             }
-            let root = self.copy_built(built, ids, |k| slots[k as usize]);
+            let root = self.copy_built(
+                nodes,
+                root,
+                ids,
+                |k| slots[k as usize],
+                |inner, me, n| inner[me as usize] = n,
+            );
             for &me in &slots {
                 self.changes.mark_inner(me);
                 if record {
@@ -274,15 +254,26 @@ impl Bvh {
         root
     }
 
-    /// Writes `built`'s node `k` into inner slot `slot(k)` (allocated already), its leaf `k` being
-    /// triangle `ids[k]`, and returns where its root went.
-    fn copy_built(&mut self, built: BuiltSlice, ids: &[u32], slot: impl Fn(u32) -> u32) -> NodeRef {
+    /// Writes built node `k` (of `nodes`, rooted at `root`) as inner node `slot(k)`, handing it to
+    /// `place` in order of `k`; its leaf `k` becomes triangle `ids[k]`. Returns where the root went.
+    // Inlined into each caller so that `slot` and `place` become plain arithmetic and a push or
+    // a store: IncrUPB's owner grafts every bBVH through it (out of line it cost the owner 0.4M
+    // more instructions on Sibenik).
+    #[inline(always)]
+    fn copy_built(
+        &mut self,
+        nodes: &[InnerNode],
+        root: NodeRef,
+        ids: &[u32],
+        slot: impl Fn(u32) -> u32,
+        mut place: impl FnMut(&mut Vec<InnerNode>, u32, InnerNode),
+    ) -> NodeRef {
         let map_node = |r: NodeRef| match r.kind() {
             NodeKind::Inner => NodeRef::inner(slot(r.index())),
             NodeKind::Leaf => NodeRef::leaf(ids[r.index() as usize]),
             _ => r,
         };
-        for (k, n) in built.nodes.iter().enumerate() {
+        for (k, n) in nodes.iter().enumerate() {
             let me = slot(k as u32);
             let children = n.children.map(map_node);
             let parent = if n.parent == NONE {
@@ -290,18 +281,22 @@ impl Bvh {
             } else {
                 slot(n.parent)
             };
-            self.inner[me as usize] = InnerNode {
-                aabb: n.aabb,
-                children,
-                parent,
-            };
+            place(
+                &mut self.inner,
+                me,
+                InnerNode {
+                    aabb: n.aabb,
+                    children,
+                    parent,
+                },
+            );
             for c in children {
                 if c.kind() == NodeKind::Leaf {
                     self.tri_parent[c.index() as usize] = me;
                 }
             }
         }
-        map_node(built.root)
+        map_node(root)
     }
 }
 
