@@ -57,11 +57,18 @@ pub struct BvhConfig {
     /// and spends its time inserting their roots one by one; the area test still splits the
     /// scattered batches of a random order. The default, 64, trades cost for the owner's time:
     /// on Sibenik 16 -> 64 cuts the owner's instructions from ~64M to ~42M for a cost 55.55 ->
-    /// 57.06 (1.068x IncrU's), and leaves the bunny and FlightHelmet within 0.3% of IncrU's. On
-    /// crossing thin geometry (a synthetic hairball of tubes) it keeps batches of crossing pieces
-    /// whole: 1.5M triangles cost 1.29x IncrU's at 64 and 1.11x at 16, so set it lower for such
-    /// scenes.
+    /// 57.06 (1.068x IncrU's, before `block_crowd_max`), and leaves the bunny and FlightHelmet
+    /// within 0.3% of IncrU's.
     pub block_min_batch: u32,
+    /// IncrUPB: a batch kept whole by `block_min_batch` is split after all when it is crowded:
+    /// when, at the scene's mean density (its triangles over the volume of its bounds), its box
+    /// would hold more than this many foreign triangles per own one. That catches pieces of thin
+    /// geometry that the rest of the scene crosses (hair, cables, scaffolding), whose own area
+    /// ratio looks compact; flat patches have no volume and are never crowded. The default, 0.25:
+    /// Sibenik 57.06 -> 54.40 (1.018x IncrU's) for about a tenth more of the owner's work, a
+    /// synthetic hairball of 2.88M triangles 1.40x -> 1.15x IncrU's cost. `f32::INFINITY`
+    /// turns the test off.
+    pub block_crowd_max: f32,
     /// IncrUPB: how each batch's bBVH is built.
     pub block_bvh: BatchBvh,
     /// IncrUP: items searched in parallel before they are linked one by one.
@@ -89,6 +96,7 @@ impl Default for BvhConfig {
             coherence_max: 1.5,
             block_max_batch: 1024,
             block_min_batch: 64,
+            block_crowd_max: 0.25,
             block_bvh: BatchBvh::Median,
             parallel_search_batch: 16,
             keep_only_improving: false,

@@ -52,7 +52,7 @@ pub(crate) fn test_random(mut seed: u64) -> impl FnMut() -> f32 {
 }
 
 pub use aabb::Aabb;
-pub use block::{BlockStream, batch_coherence, coherent_batches};
+pub use block::{BlockStream, batch_coherence, coherent_batches, crowding};
 pub use build::{BuiltTree, TopDown};
 pub use bvh::{Bvh, Instance};
 pub use change::ChangeSet;

@@ -350,10 +350,10 @@ fn small_batches_stay_whole_when_compact_and_are_split_when_scattered() {
         .collect();
     let boxes = square_boxes(&patch);
     let mut order: Vec<u32> = (0..8).collect();
-    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024);
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024, 0.0);
     assert_eq!(batches, vec![0..8]);
     // The paper's rule (minimum 1) splits the same patch by R*_coh alone.
-    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 1, 1024);
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 1, 1024, 0.0);
     assert!(batches.len() > 1, "{batches:?}");
 
     // The same eight tiles scattered over a 1000-unit cube, as a random order brings them:
@@ -363,8 +363,48 @@ fn small_batches_stay_whole_when_compact_and_are_split_when_scattered() {
         .collect();
     let boxes = square_boxes(&scattered);
     let mut order: Vec<u32> = (0..8).collect();
-    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024);
+    let batches = treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024, 0.0);
     assert_eq!(batches.len(), 8, "{batches:?}");
+}
+
+#[test]
+fn crowded_small_batches_are_split_and_flat_ones_never_are() {
+    // A row of 16 unit cubes: compact by its area ratio (66 against 96) but not coherent by Eq. 3
+    // (the cube-root factor), so the minimum batch size alone keeps it whole. Its box's volume
+    // is 16.
+    let cubes: Vec<treelight_bvh::Aabb> = (0..16)
+        .map(|i| {
+            let o = Vec3::new(i as f32, 0.0, 0.0);
+            treelight_bvh::Aabb::new(o, o + Vec3::ONE)
+        })
+        .collect();
+    let cut = |boxes: &[treelight_bvh::Aabb], crowding: f32| {
+        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+        treelight_bvh::coherent_batches(boxes, &mut order, 1.5, 16, 1024, crowding)
+    };
+    // Off, or at a density that puts fewer foreign cubes in its box than it holds: one batch.
+    assert_eq!(cut(&cubes, 0.0), vec![0..16]);
+    assert_eq!(cut(&cubes, 0.9), vec![0..16]);
+    // Denser, it is crowded and split; its halves are coherent by Eq. 3, which the crowding
+    // test does not overrule.
+    assert_eq!(cut(&cubes, 2.0), vec![0..8, 8..16]);
+
+    // A flat patch of tiles has no volume: never crowded, whatever the density.
+    let patch: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i % 4) as f32, (i / 4) as f32, 0.0))
+        .collect();
+    assert_eq!(cut(&square_boxes(&patch), 1e9), vec![0..8]);
+
+    // The factor itself: triangles over volume over the allowed crowd; 0 when it cannot apply.
+    let cube = treelight_bvh::Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
+    assert_eq!(treelight_bvh::crowding(&cube, 1000, 0.25), 4.0);
+    assert_eq!(treelight_bvh::crowding(&cube, 1000, f32::INFINITY), 0.0);
+    let flat = treelight_bvh::Aabb::new(Vec3::ZERO, Vec3::new(10.0, 10.0, 0.0));
+    assert_eq!(treelight_bvh::crowding(&flat, 1000, 0.25), 0.0);
+    assert_eq!(
+        treelight_bvh::crowding(&treelight_bvh::Aabb::EMPTY, 1000, 0.25),
+        0.0
+    );
 }
 
 #[test]
@@ -378,14 +418,37 @@ fn coherent_batches_tile_the_order_whatever_the_pool() {
         .collect();
     origins.extend(soup(3_000, 77).iter().map(|t| t.aabb().min * 50.0));
     let boxes = square_boxes(&origins);
-    let cut = |threads: usize| {
+    // And rows of 16 unit cubes, far from the rest: compact, not coherent by Eq. 3, and with
+    // volume, so at this crowding each is crowded and split (see the test above). Their gaps
+    // double, so every spatial-median split of several rows falls between rows.
+    let mut boxes = boxes;
+    boxes.extend((0..10).flat_map(|k| {
+        let at = 100.0 * 2f32.powi(k);
+        (0..16).map(move |i| {
+            let o = Vec3::new(at + i as f32, -1e4 - at, at);
+            treelight_bvh::Aabb::new(o, o + Vec3::ONE)
+        })
+    }));
+    let crowding = 2.0;
+    let cut_with = |threads: usize, crowding: f32| {
         let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-        let batches = pool(threads)
-            .install(|| treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024));
+        let batches = pool(threads).install(|| {
+            treelight_bvh::coherent_batches(&boxes, &mut order, 1.5, 16, 1024, crowding)
+        });
         (batches, order)
     };
+    let cut = |threads: usize| cut_with(threads, crowding);
     let (batches, order) = cut(1);
     assert_eq!(cut(4), (batches.clone(), order.clone()));
+    // Without the test each row is one batch; with it, none is.
+    let rows_from = origins.len() as u32;
+    let row_batches = |(batches, order): &(Vec<std::ops::Range<usize>>, Vec<u32>)| {
+        let rows = batches.iter().filter(|b| order[b.start] >= rows_from);
+        rows.map(|b| b.len()).collect::<Vec<_>>()
+    };
+    assert_eq!(row_batches(&cut_with(1, 0.0)), vec![16; 10]);
+    let split = row_batches(&(batches.clone(), order.clone()));
+    assert!(split.iter().all(|&n| n < 16), "{split:?}");
     // The batches tile the order left to right, and the order is a permutation.
     let mut at = 0;
     for b in &batches {
@@ -406,7 +469,9 @@ fn coherent_batches_tile_the_order_whatever_the_pool() {
         let bounds = members.iter().fold(members[0], |a, m| a.union(m));
         let sum: f32 = members.iter().map(|m| m.area()).sum();
         let n = members.len();
-        let small = n <= 16 && bounds.area() < 1.5 * sum * 1.0001;
+        let e = bounds.extent();
+        let uncrowded = e.x * e.y * e.z * crowding <= n as f32 * 1.0001;
+        let small = n <= 16 && bounds.area() < 1.5 * sum * 1.0001 && uncrowded;
         let coherent = n <= 1024 && treelight_bvh::batch_coherence(&bounds, sum, n) < 1.5 * 1.0001;
         assert!(
             n == 1 || small || coherent,

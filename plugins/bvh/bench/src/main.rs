@@ -117,6 +117,10 @@ struct Tuning {
     /// default 64; 1 is the paper's rule).
     #[arg(long)]
     block_min_batch: Option<u32>,
+    /// IncrUPB: a small batch is split when, at the scene's mean density, its box would hold more
+    /// than this many foreign triangles per own one (engine default 0.25; `inf` turns it off).
+    #[arg(long)]
+    block_crowd_max: Option<f32>,
     /// IncrUPB: how each batch's bBVH is built: `median` (engine default) or `sah` (greedy
     /// agglomerative clustering up to 32 triangles, binned SAH above).
     #[arg(long)]
@@ -161,6 +165,7 @@ impl Tuning {
             rotations: self.rotations || base.rotations,
             update_treelet: self.update_treelet.unwrap_or(base.update_treelet),
             block_min_batch: self.block_min_batch.unwrap_or(base.block_min_batch),
+            block_crowd_max: self.block_crowd_max.unwrap_or(base.block_crowd_max),
             block_bvh: self.block_bvh.map_or(base.block_bvh, BatchBvh::from),
             ..base
         }
@@ -197,6 +202,9 @@ impl Tuning {
         }
         if let (Some(m), "incrupb") = (self.block_min_batch, method) {
             parts.push(format!("min batch={m}"));
+        }
+        if let (Some(c), "incrupb") = (self.block_crowd_max, method) {
+            parts.push(format!("crowd max={c}"));
         }
         if let (Some(b), "incrupb") = (self.block_bvh, method) {
             // The name `--block-bvh` takes; no variant is skipped, so every one has one.
