@@ -59,7 +59,7 @@ pub fn coherent_batches(
 /// mean density (triangles per unit volume) over `crowd_max`. A small batch whose box's volume
 /// times it exceeds the batch's own count is crowded: at the scene's mean density its box would
 /// hold more than `crowd_max` foreign triangles per own one. 0 (no batch is crowded) when the box
-/// is flat, empty or too large to measure, or `crowd_max` is infinite.
+/// is flat, empty or too large to measure, or `crowd_max` is infinite or 0.
 pub fn crowding(bounds: &Aabb, count: usize, crowd_max: f32) -> f32 {
     let e = bounds.extent();
     let volume = e.x as f64 * e.y as f64 * e.z as f64;
@@ -521,7 +521,7 @@ impl Pipeline {
     }
 }
 
-/// Bounds of `tris`, the halves of a long stream measured in parallel. A vertex that is not finite
+/// Bounds of `tris`, a long stream's pieces measured in parallel. A vertex that is not finite
 /// may leave them too large or too small: the cut only reads them for the scene's density, and
 /// such input is rejected before anything is inserted.
 fn stream_bounds(tris: &[Triangle]) -> Aabb {
