@@ -170,6 +170,12 @@ impl Cut {
         }
     }
 
+    /// Whether a batch of `n` primitives within `bounds` is crowded (see [`crowding`]).
+    fn crowded(&self, bounds: &Box3A, n: usize) -> bool {
+        let d = bounds.max - bounds.min;
+        d.x * d.y * d.z * self.crowding > n as f32
+    }
+
     /// Whether the pending range of `order` is a batch, or else its two halves (reordering it).
     fn look(&self, prims: &Prims, order: &mut [u32], p: Pending) -> Cutting {
         let Pending {
@@ -192,9 +198,8 @@ impl Cut {
         // with it). The batch's own ratio cannot see this; the scene's mean density can. A flat
         // patch has no volume, so walls and floors are never crowded.
         let area = bounds.area();
-        let d = bounds.max - bounds.min;
-        let crowded = d.x * d.y * d.z * self.crowding > n as f32;
-        let small = n <= 1 || (n <= self.min_batch && area < self.r_max * sum && !crowded);
+        let small =
+            n <= 1 || (n <= self.min_batch && area < self.r_max * sum && !self.crowded(&bounds, n));
         if small || (n <= self.max_batch && coherence(area, sum, n) < self.r_max) {
             return Cutting::Batch(range);
         }
@@ -270,24 +275,13 @@ struct BufferBatches {
 const CUT_PIECE: usize = 1 << 12;
 
 impl BufferBatches {
-    /// Buffer `index` of the stream, holding `tris`, with its cut still to do; `None` if a vertex
-    /// is invalid (which the owner reports: the builders are not to see such boxes).
-    fn new(index: usize, tris: &[Triangle]) -> Option<Self> {
-        let mut valid = true;
-        let boxes: Vec<Aabb> = tris
-            .iter()
-            .map(|t| {
-                valid &= within_limits(t);
-                t.aabb()
-            })
-            .collect();
-        if !valid {
-            return None;
-        }
+    /// Buffer `index` of the stream, holding `tris` (checked already), with its cut still to do.
+    fn new(index: usize, tris: &[Triangle]) -> Self {
+        let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
         let prims = Prims::new(&boxes);
         let order: Vec<u32> = (0..boxes.len() as u32).collect();
         let pending = vec![Pending::whole(&prims, &order)];
-        Some(Self {
+        Self {
             index,
             prims,
             order,
@@ -295,7 +289,7 @@ impl BufferBatches {
             batches: Vec::new(),
             taken: 0,
             boxes: Some(boxes),
-        })
+        }
     }
 
     /// Cuts about `budget` primitives' worth of the pending ranges, left to right, on this thread.
@@ -358,18 +352,12 @@ struct BatchBuilder<'a> {
 }
 
 impl BatchBuilder<'_> {
-    /// The next buffer of the stream, its cut not begun; `None` once every buffer was taken, or
-    /// from the first with an invalid vertex on.
+    /// The next buffer of the stream, its cut not begun; `None` once every buffer was taken.
     fn next_buffer(&mut self) -> Option<BufferBatches> {
         let index = self.next_buffer;
         let buf = self.buffers.get(index).cloned()?;
-        let next = BufferBatches::new(index, &self.tris[buf]);
-        self.next_buffer = if next.is_some() {
-            index + 1
-        } else {
-            self.buffers.len()
-        };
-        next
+        self.next_buffer += 1;
+        Some(BufferBatches::new(index, &self.tris[buf]))
     }
 
     /// Cuts a piece of the buffer after the current one; returns whether there was any to cut.
@@ -470,8 +458,6 @@ struct Pipeline {
     done: AtomicBool,
     /// The owner is running, so a full queue will drain.
     owner_running: AtomicBool,
-    /// The owner found the input invalid: the building side stops.
-    rejected: AtomicBool,
 }
 
 /// Stores a value into a flag when dropped, also while unwinding: a side that panics still lets
@@ -521,28 +507,29 @@ impl Pipeline {
     }
 }
 
-/// Bounds of `tris`, a long stream's pieces measured in parallel. A vertex that is not finite
-/// may leave them too large or too small: the cut only reads them for the scene's density, and
-/// such input is rejected before anything is inserted.
-fn stream_bounds(tris: &[Triangle]) -> Aabb {
+/// Bounds of `tris`, and whether every vertex is within limits (see `within_limits`): one pass
+/// over the vertices, a long stream's pieces in parallel. The cut needs the bounds (for the
+/// scene's density) before either side starts, and the same loads check the input, so neither
+/// side checks it again. Bounds of input that fails the check are not to be used.
+fn checked_bounds(tris: &[Triangle]) -> (Aabb, bool) {
     /// Triangles measured in one piece: a pass over them takes a small fraction of a millisecond.
     const PIECE: usize = 1 << 15;
     let measure = |part: &[Triangle]| {
-        part.iter().fold(Box3A::EMPTY, |mut b, t| {
+        part.iter().fold((Box3A::EMPTY, true), |(mut b, ok), t| {
             for v in t.v {
                 b.grow(v.into());
             }
-            b
+            (b, ok & within_limits(t))
         })
     };
-    let b = if tris.len() <= PIECE {
+    let (b, ok) = if tris.len() <= PIECE {
         measure(tris)
     } else {
         tris.par_chunks(PIECE)
             .map(measure)
-            .reduce(|| Box3A::EMPTY, |a, b| a.union(&b))
+            .reduce(|| (Box3A::EMPTY, true), |a, b| (a.0.union(&b.0), a.1 & b.1))
     };
-    b.aabb()
+    (b.aabb(), ok)
 }
 
 /// Waits a moment for the other side of the pipeline, helping with any parallel work in the pool
@@ -566,6 +553,11 @@ impl Bvh {
         tris: &[Triangle],
     ) -> Result<Vec<u32>, BvhError> {
         self.check_room(tris.len())?;
+        let (input, valid) = checked_bounds(tris);
+        if !valid {
+            // The slow pass that finds the first invalid vertex and says why.
+            validate_triangles(tris)?;
+        }
         let buffers = buffers(tris.len());
         let mut builder = BatchBuilder {
             tris,
@@ -578,7 +570,7 @@ impl Bvh {
                 min_batch: self.config.block_min_batch as usize,
                 max_batch: self.config.block_max_batch.max(1) as usize,
                 crowding: crowding(
-                    &self.bounds().union(&stream_bounds(tris)),
+                    &self.bounds().union(&input),
                     self.triangle_count() as usize + tris.len(),
                     self.config.block_crowd_max,
                 ),
@@ -587,28 +579,16 @@ impl Bvh {
         };
         let mut ids = Vec::with_capacity(tris.len());
         let pipe = Pipeline::default();
-        let mut valid = Ok(());
         rayon::join(
             || {
                 let _done = StoreOnDrop(&pipe.done, true);
-                while !pipe.rejected.load(Ordering::Acquire)
-                    && let Some(step) = builder.next_step()
-                {
+                while let Some(step) = builder.next_step() {
                     pipe.send(step, || builder.cut_ahead());
                 }
             },
             || {
                 pipe.owner_running.store(true, Ordering::Release);
                 let _gone = StoreOnDrop(&pipe.owner_running, false);
-                // The building side starts on the first buffer while the owner checks the
-                // input, which must be done before anything is inserted: a sequential pass over
-                // every vertex, which took about as long as the first buffer's cut and bBVHs. (The
-                // building side checks each buffer as it reads it, and stops at an invalid one.)
-                valid = validate_triangles(tris);
-                if valid.is_err() {
-                    pipe.rejected.store(true, Ordering::Release);
-                    return;
-                }
                 self.reserve(tris.len());
                 let mut last = NodeRef::NONE;
                 while let Some(Step {
@@ -639,7 +619,6 @@ impl Bvh {
                 }
             },
         );
-        valid?;
         Ok(ids)
     }
 }
