@@ -263,8 +263,8 @@ fn non_finite_vertices_are_rejected_and_nothing_is_inserted() {
 
 #[test]
 fn block_parallel_rejects_an_invalid_vertex_in_any_buffer_on_any_pool() {
-    // The building side starts on the first buffers while the owner checks the whole input: an
-    // invalid vertex in the first buffer, in a later one or in the last is still reported by its
+    // The input is checked in parallel pieces (with the pass that measures its bounds) before
+    // either side starts: an invalid vertex early, in the middle or at the end is reported by its
     // index, with either bBVH builder, and leaves the tree as it was, whatever the pool.
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(50, 3)).unwrap();
