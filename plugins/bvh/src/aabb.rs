@@ -66,7 +66,7 @@ impl Aabb {
     #[inline]
     pub fn area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        extent_area(d.x, d.y, d.z)
     }
 
     /// [`Aabb::area`] of a box that lies in memory (a node array), read in vector lanes: for
@@ -82,7 +82,7 @@ impl Aabb {
     #[inline]
     pub fn union_area(&self, o: &Aabb) -> f32 {
         let d = (self.max.max(o.max) - self.min.min(o.min)).max(Vec3::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        extent_area(d.x, d.y, d.z)
     }
 
     /// Centre point.
@@ -160,6 +160,14 @@ impl Aabb {
     }
 }
 
+/// Surface area of a box with non-negative extents `x`, `y`, `z`. Every scalar area in the engine
+/// goes through this one sum, in this order, because the lane forms ([`LaneBox`]) reproduce it bit
+/// for bit and the trees must not depend on which form measured a box.
+#[inline(always)]
+pub(crate) fn extent_area(x: f32, y: f32, z: f32) -> f32 {
+    2.0 * (x * y + y * z + z * x)
+}
+
 /// A box in vector lanes: the search's query, measured against many stored boxes, and the form
 /// in which stored boxes are measured ([`Aabb::stored_area`]). Its areas are
 /// bit-for-bit those of [`Aabb::area`] and [`Aabb::union_area`] (the same products, summed in the
@@ -219,7 +227,7 @@ impl LaneBox {
         #[cfg(not(target_arch = "x86_64"))]
         {
             let d = d.max(Vec3A::ZERO);
-            2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+            extent_area(d.x, d.y, d.z)
         }
     }
 

@@ -3,6 +3,7 @@
 //! packed `Vec3`s need a scalar operation per axis.
 
 use crate::Aabb;
+use crate::aabb::extent_area;
 use glam::Vec3A;
 
 /// A box in vector lanes.
@@ -35,7 +36,7 @@ impl Box3A {
     #[inline]
     pub(crate) fn area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3A::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+        extent_area(d.x, d.y, d.z)
     }
 
     /// The axis of the largest extent (the first of equal ones), as [`Aabb::largest_axis`] has it.
