@@ -138,6 +138,10 @@ struct Tuning {
     /// incru-post: subtrees per treelet restructured after each round (engine default 6; 0 = off).
     #[arg(long)]
     post_treelet: Option<u32>,
+    /// incru-post: rounds stop early once one lowers the cost by less than this fraction (engine
+    /// default 0.001; 0 runs every round `--post-rounds` allows).
+    #[arg(long)]
+    post_min_gain: Option<f32>,
 }
 
 /// The bBVH builders `--block-bvh` names.
@@ -178,7 +182,7 @@ impl Tuning {
             max_rounds: self.post_rounds.unwrap_or(base.max_rounds),
             fraction: self.post_fraction.unwrap_or(base.fraction),
             treelet: self.post_treelet.unwrap_or(base.treelet),
-            ..base
+            min_relative_gain: self.post_min_gain.unwrap_or(base.min_relative_gain),
         }
     }
 
@@ -224,6 +228,9 @@ impl Tuning {
             }
             if let Some(r) = self.post_restarts {
                 parts.push(format!("restarts={r}"));
+            }
+            if let Some(g) = self.post_min_gain {
+                parts.push(format!("min gain={g}"));
             }
         }
         parts.join(" ")
