@@ -61,10 +61,11 @@ pub fn coherent_batches(
 /// hold more than `crowd_max` foreign triangles per own one. 0 (no batch is crowded) when the box
 /// is flat, empty or too large to measure, or `crowd_max` is infinite or 0.
 pub fn crowding(bounds: &Aabb, count: usize, crowd_max: f32) -> f32 {
+    // An empty box's extent clamps to zero, so it is flat here too.
     let e = bounds.extent();
     let volume = e.x as f64 * e.y as f64 * e.z as f64;
     let c = count as f64 / volume / crowd_max as f64;
-    if volume > 0.0 && c.is_finite() && !bounds.is_empty() {
+    if volume > 0.0 && c.is_finite() {
         c as f32
     } else {
         0.0
