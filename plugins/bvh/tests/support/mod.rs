@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{Bvh, Ray, Triangle};
+use treelight_bvh::{Bvh, Hit, Ray, Triangle};
 
 /// Small deterministic PRNG (xorshift64*), so tests need no extra crates and repeat exactly.
 pub struct Rng(pub u64);
@@ -55,27 +55,42 @@ pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
         let b = bvh.brute_force_closest_hit(ray);
         match (a, b) {
             (None, None) => {}
-            (Some(a), Some(b)) => {
-                // Equal distance; the triangle may differ only where two are hit at the same t.
-                assert!(
-                    (a.t - b.t).abs() <= 1e-4 * b.t.abs().max(1.0),
-                    "ray {k}: bvh t={} tri {} vs brute t={} tri {}",
-                    a.t,
-                    a.triangle,
-                    b.t,
-                    b.triangle
-                );
-            }
-            (a, b) => panic!("ray {k}: bvh {a:?} vs brute force {b:?}"),
+            // Equal distance; the triangle may differ only where two are hit at the same t.
+            (Some(a), Some(b)) if (a.t - b.t).abs() <= 1e-4 * b.t.abs().max(1.0) => {}
+            (Some(h), None) | (None, Some(h)) => assert!(
+                grazes_instanced_edge(bvh, &h),
+                "ray {k}: bvh {a:?} vs brute force {b:?}"
+            ),
+            (Some(x), Some(y)) => assert!(
+                grazes_instanced_edge(bvh, if x.t < y.t { &x } else { &y }),
+                "ray {k}: bvh t={} tri {} vs brute t={} tri {}",
+                x.t,
+                x.triangle,
+                y.t,
+                y.triangle
+            ),
         }
         if let Some(b) = b {
             assert!(
                 bvh.any_hit(&ray.with_range(ray.t_min, b.t * 1.0001 + 1e-6))
-                    .is_some(),
+                    .is_some()
+                    || grazes_instanced_edge(bvh, &b),
                 "ray {k}: any_hit missed"
             );
         }
     }
+}
+
+/// Whether `hit` lies within rounding of an edge of a triangle in a kept-whole group. The tree tests
+/// such a triangle against the ray carried into object space, brute force against the triangle
+/// carried into world space, and the two roundings can put a grazing ray on opposite sides of the
+/// edge (proptest found one 2e-6 from it). Only that hit may differ: the nearer of two disagreeing
+/// hits must be such a graze, so a tree that loses a triangle still fails.
+fn grazes_instanced_edge(bvh: &Bvh, hit: &Hit) -> bool {
+    let whole = bvh
+        .triangle_group(hit.triangle)
+        .is_some_and(|g| bvh.is_group_whole(g) == Ok(true));
+    whole && hit.u.min(hit.v).min(1.0 - hit.u - hit.v) < 1e-4
 }
 
 /// Loads an OBJ from ../shared/scenes/obj, fan-triangulated in file order.
