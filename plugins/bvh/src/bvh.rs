@@ -57,8 +57,10 @@ pub struct Bvh {
     pub(crate) update_ops: u64,
     pub(crate) treelet_scratch: Box<crate::treelet::TreeletScratch>,
     pub(crate) live_tris: u32,
-    /// Running sum of changes to the global tree's inner node areas, so a move's effect on Eq. 1 is
-    /// known exactly without recosting the tree.
+    /// Running sum of changes to the global tree's inner node areas. Links, unlinks, refits, moves,
+    /// rotations and treelets keep its changes exact, so a move's effect on Eq. 1, and a post-pass
+    /// round's cost, are known without recosting the tree. It is not the sum itself: a subtree
+    /// linked whole (a cluster pair, a bBVH) enters with its new parent's area only.
     pub(crate) area_acc: f64,
 }
 

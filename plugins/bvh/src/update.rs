@@ -141,6 +141,8 @@ impl Bvh {
         debug_assert_ne!(p, NONE);
         self.set_parent(a, NONE);
         self.set_parent(b, NONE);
+        // `n` has left the tree; `area_acc` tracks the tree's inner area, which the post-pass reads.
+        self.area_acc -= old_area;
         // The larger child first: it constrains the best position of the smaller one.
         let (first, second) = if self.aabb(a).area() >= self.aabb(b).area() {
             (a, b)
@@ -152,7 +154,7 @@ impl Bvh {
         self.insert_node_from(first, n, sibling);
         self.insert_node_from(second, p, first);
         self.update_ops += 1;
-        let delta = self.area_acc - before - old_area;
+        let delta = self.area_acc - before;
         if !self.config.keep_only_improving || delta <= 0.0 {
             return true;
         }
@@ -162,6 +164,7 @@ impl Bvh {
         let n2 = self.unlink(first);
         let (n, p) = if n2 == n { (n, p) } else { (p, n) };
         self.set_pair(n, a, b);
+        self.area_acc += self.inner[n as usize].aabb.area() as f64;
         self.link(NodeRef::inner(n), sibling, p);
         false
     }
@@ -277,7 +280,14 @@ impl Bvh {
         let mut nodes = Vec::new();
         let mut candidates = Vec::new();
         let mut rounds = 0;
+        // Moves and treelets change neither the triangles nor the root's box (a union of the same
+        // leaves), so without instances a round's cost follows from the inner area its moves
+        // already account in `area_acc`: no pass over the node arrays per round.
+        let tracked = (!self.has_live_instances() && self.root.is_inner())
+            .then(|| self.config.c_t as f64 / self.aabb(self.root).area() as f64)
+            .filter(|scale| scale.is_finite());
         for round in 0..pass.max_rounds {
+            let acc_before = self.area_acc;
             self.rank_global_inner(&mut nodes, &mut candidates);
             let k = share(pass.fraction, candidates.len());
             worst_first(&mut candidates, k);
@@ -289,7 +299,15 @@ impl Bvh {
             }
             rounds += 1;
             observe(self);
-            let new_cost = self.sah_cost();
+            let new_cost = match tracked {
+                Some(scale) => cost + ((self.area_acc - acc_before) * scale) as f32,
+                None => self.sah_cost(),
+            };
+            debug_assert!(
+                (new_cost - self.sah_cost()).abs() <= 1e-4 * new_cost.abs().max(1.0),
+                "tracked round cost {new_cost} drifted from {}",
+                self.sah_cost()
+            );
             let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
             cost = new_cost;
             // Both move kinds must have had their turn before convergence is judged.
