@@ -57,6 +57,10 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     post.insert_triangles(tris).unwrap();
     post.optimize(treelight_bvh::PostPass::default());
     out.push(("incru-post", post));
+    let mut short = Bvh::new(small);
+    short.insert_triangles(tris).unwrap();
+    short.optimize(treelight_bvh::PostPass::short());
+    out.push(("incru-short-post", short));
     out
 }
 
@@ -96,6 +100,36 @@ fn an_observed_post_pass_is_the_same_pass_seen_round_by_round() {
 }
 
 /// A rayon pool of `threads` threads.
+#[test]
+fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
+    let tris = soup(3000, 7);
+    let mut bvh = Bvh::new(BvhConfig::incr_u());
+    bvh.insert_triangles(&tris).unwrap();
+    let inner = bvh.triangle_count() - 1;
+    let short = treelight_bvh::PostPass::short();
+    let report = bvh.clone().optimize(short);
+    // Each round ranks every inner node but the root and moves its share, rounded up; a move can
+    // only make a later node of the same round the root, which is then skipped.
+    let mut fraction = short.fraction;
+    let mut most = 0u64;
+    for _ in 0..short.max_rounds {
+        most += (fraction * (inner - 1) as f32).ceil() as u64;
+        fraction *= short.fraction_decay;
+    }
+    assert_eq!(report.rounds, short.max_rounds);
+    assert!(
+        report.updates <= most && report.updates + 3 >= most,
+        "{report:?} against {most}"
+    );
+    assert!(report.cost_after < report.cost_before, "{report:?}");
+    // A constant share tries more for the same rounds.
+    let constant = bvh.optimize(treelight_bvh::PostPass {
+        fraction_decay: 1.0,
+        ..short
+    });
+    assert!(constant.updates > report.updates + (inner as u64) / 10);
+}
+
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

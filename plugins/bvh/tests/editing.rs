@@ -52,7 +52,9 @@ enum Op {
         seed: u64,
         count: usize,
     },
-    Optimize,
+    Optimize {
+        short: bool,
+    },
     OptimizeStep {
         scan: u32,
         fraction: f32,
@@ -92,7 +94,7 @@ fn op() -> impl Strategy<Value = Op> {
             .prop_map(|(pick, seed)| Op::EditGroupVertices { pick, seed }),
         (any::<u64>(), 1..40usize).prop_map(|(seed, count)| Op::RemoveTriangles { seed, count }),
         (any::<u64>(), 1..20usize).prop_map(|(seed, count)| Op::MoveTriangles { seed, count }),
-        Just(Op::Optimize),
+        any::<bool>().prop_map(|short| Op::Optimize { short }),
         (1..200u32, 0.0..1.0f32).prop_map(|(scan, fraction)| Op::OptimizeStep { scan, fraction }),
     ]
 }
@@ -268,15 +270,21 @@ fn run(ops: &[Op], config: BvhConfig) {
                     "a step kept a worsening move: {before} -> {after}"
                 );
             }
-            Op::Optimize => {
+            Op::Optimize { short } => {
                 let before = bvh.sah_cost();
-                let report = bvh.optimize(treelight_bvh::PostPass {
-                    max_rounds: 2,
-                    fraction: 0.3,
-                    min_relative_gain: 0.0,
-                    treelet: 5,
-                    restarts: 1,
-                });
+                let pass = if short {
+                    treelight_bvh::PostPass::short()
+                } else {
+                    treelight_bvh::PostPass {
+                        max_rounds: 2,
+                        fraction: 0.3,
+                        min_relative_gain: 0.0,
+                        treelet: 5,
+                        restarts: 1,
+                        ..treelight_bvh::PostPass::default()
+                    }
+                };
+                let report = bvh.optimize(pass);
                 let after = bvh.sah_cost();
                 // Every move and restart it keeps lowers the cost; the rest are taken back.
                 assert!(

@@ -15,7 +15,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{Aabb, BatchBvh, Bvh, BvhConfig, PostPass, Ray, TopDown, Triangle};
+use treelight_bvh::{Aabb, BatchBvh, Bvh, BvhConfig, PostMoves, PostPass, Ray, TopDown, Triangle};
 
 const METHODS: &[&str] = &[
     "sah",
@@ -142,6 +142,33 @@ struct Tuning {
     /// default 0.001; 0 runs every round `--post-rounds` allows).
     #[arg(long)]
     post_min_gain: Option<f32>,
+    /// incru-post: each round's share is the last one's times this (engine default 1).
+    #[arg(long)]
+    post_decay: Option<f32>,
+    /// incru-post: the rounds' moves: `alternating` (engine default: children, then subtrees) or
+    /// `children`.
+    #[arg(long)]
+    post_moves: Option<PostMovesArg>,
+    /// incru-post: the engine's short pass (`PostPass::short`: three rounds of children moves over
+    /// 20%, 8% and 3.2%) as the base that the other `--post-*` flags change.
+    #[arg(long)]
+    post_short: bool,
+}
+
+/// The post-pass moves `--post-moves` names.
+#[derive(clap::ValueEnum, Debug, Clone, Copy)]
+enum PostMovesArg {
+    Alternating,
+    Children,
+}
+
+impl From<PostMovesArg> for PostMoves {
+    fn from(m: PostMovesArg) -> Self {
+        match m {
+            PostMovesArg::Alternating => PostMoves::Alternating,
+            PostMovesArg::Children => PostMoves::Children,
+        }
+    }
 }
 
 /// The bBVH builders `--block-bvh` names.
@@ -176,13 +203,19 @@ impl Tuning {
     }
 
     fn post_pass(&self) -> PostPass {
-        let base = PostPass::default();
+        let base = if self.post_short {
+            PostPass::short()
+        } else {
+            PostPass::default()
+        };
         PostPass {
             restarts: self.post_restarts.unwrap_or(base.restarts),
             max_rounds: self.post_rounds.unwrap_or(base.max_rounds),
             fraction: self.post_fraction.unwrap_or(base.fraction),
             treelet: self.post_treelet.unwrap_or(base.treelet),
             min_relative_gain: self.post_min_gain.unwrap_or(base.min_relative_gain),
+            fraction_decay: self.post_decay.unwrap_or(base.fraction_decay),
+            moves: self.post_moves.map_or(base.moves, PostMoves::from),
         }
     }
 
@@ -231,6 +264,18 @@ impl Tuning {
             }
             if let Some(g) = self.post_min_gain {
                 parts.push(format!("min gain={g}"));
+            }
+            if self.post_short {
+                parts.push("short".to_owned());
+            }
+            if let Some(d) = self.post_decay {
+                parts.push(format!("decay={d}"));
+            }
+            if let Some(v) = self
+                .post_moves
+                .and_then(|m| clap::ValueEnum::to_possible_value(&m))
+            {
+                parts.push(format!("moves={}", v.get_name()));
             }
         }
         parts.join(" ")
