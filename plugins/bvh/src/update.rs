@@ -244,17 +244,34 @@ impl Bvh {
 
     /// Every inner node of the global tree but the root, with its inefficiency, into `out`
     /// (`nodes` is scratch space).
-    fn rank_global_inner(&self, nodes: &mut Vec<u32>, out: &mut Vec<(f32, u32)>) {
+    fn rank_global_inner(
+        &self,
+        nodes: &mut Vec<u32>,
+        areas: &mut Vec<f32>,
+        out: &mut Vec<(f32, u32)>,
+    ) {
         out.clear();
         if self.root.kind() != NodeKind::Inner {
             return;
         }
         if !self.has_live_instances() {
             // Without instances every live slot with a parent is in the global tree: a scan of
-            // the flat array, in slot order, instead of a walk of the tree.
-            for (i, n) in self.inner.iter().enumerate() {
-                if n.has_parent() {
-                    out.push((self.inefficiency(i as u32), i as u32));
+            // the flat array, in slot order, instead of a walk of the tree. Each inner box's area
+            // is computed once, as its own and its parent's child area both.
+            areas.clear();
+            areas.extend(self.inner.iter().map(|n| n.aabb.stored_area()));
+            match self.config.inefficiency {
+                Inefficiency::Comb => {
+                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Comb, a, l, r))
+                }
+                Inefficiency::Area => {
+                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Area, a, l, r))
+                }
+                Inefficiency::Sum => {
+                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Sum, a, l, r))
+                }
+                Inefficiency::Min => {
+                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Min, a, l, r))
                 }
             }
             return;
@@ -269,6 +286,27 @@ impl Bvh {
         );
     }
 
+    /// Every live inner node with a parent, ranked by `m` over the inner areas `areas` (one per
+    /// slot): the same values [`Bvh::inefficiency`] gives, bit for bit.
+    #[inline(always)]
+    fn rank_flat(
+        &self,
+        areas: &[f32],
+        out: &mut Vec<(f32, u32)>,
+        m: impl Fn(f32, f32, f32) -> f32,
+    ) {
+        let child_area = |r: NodeRef| match r.kind() {
+            NodeKind::Inner => areas[r.index() as usize],
+            _ => self.stored_area(r),
+        };
+        for (i, n) in self.inner.iter().enumerate() {
+            if n.has_parent() {
+                let (l, r) = (child_area(n.children[0]), child_area(n.children[1]));
+                out.push((m(areas[i], l, r), i as u32));
+            }
+        }
+    }
+
     /// Update rounds (and treelet passes) until one gains less than the pass's threshold, each
     /// followed by `observe`.
     fn optimize_rounds(
@@ -278,6 +316,7 @@ impl Bvh {
         observe: &mut impl FnMut(&Bvh),
     ) -> u32 {
         let mut nodes = Vec::new();
+        let mut areas = Vec::new();
         let mut candidates = Vec::new();
         let mut rounds = 0;
         // Moves and treelets change neither the triangles nor the root's box (a union of the same
@@ -289,7 +328,7 @@ impl Bvh {
         let mut fraction = pass.fraction;
         for round in 0..pass.max_rounds {
             let acc_before = self.area_acc;
-            self.rank_global_inner(&mut nodes, &mut candidates);
+            self.rank_global_inner(&mut nodes, &mut areas, &mut candidates);
             let k = share(fraction, candidates.len());
             fraction *= pass.fraction_decay;
             worst_first(&mut candidates, k);
