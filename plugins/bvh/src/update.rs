@@ -4,6 +4,32 @@
 use crate::node::{NONE, NodeKind, NodeRef};
 use crate::{Bvh, Inefficiency};
 
+/// Runs `$body` with `$m` bound to the measure `$kind` names, as a closure with that kind fixed:
+/// ranking loops are generic over the closure, so the measure is chosen once per ranking instead
+/// of once per node.
+macro_rules! with_measure {
+    ($kind:expr, $m:ident => $body:expr) => {
+        match $kind {
+            Inefficiency::Comb => {
+                let $m = |a, l, r| measure(Inefficiency::Comb, a, l, r);
+                $body
+            }
+            Inefficiency::Area => {
+                let $m = |a, l, r| measure(Inefficiency::Area, a, l, r);
+                $body
+            }
+            Inefficiency::Sum => {
+                let $m = |a, l, r| measure(Inefficiency::Sum, a, l, r);
+                $body
+            }
+            Inefficiency::Min => {
+                let $m = |a, l, r| measure(Inefficiency::Min, a, l, r);
+                $body
+            }
+        }
+    };
+}
+
 impl Bvh {
     /// Inefficiency of inner node `i` by the configured measure.
     pub fn inefficiency(&self, i: u32) -> f32 {
@@ -19,20 +45,7 @@ impl Bvh {
     /// batches rank every cached node (IncrUPB caches every bBVH node), so the measure is chosen
     /// once per batch rather than once per node.
     fn rank_cached(&self, cache: &[u32], out: &mut Vec<(f32, u32)>) {
-        match self.config.inefficiency {
-            Inefficiency::Comb => {
-                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Comb, a, l, r))
-            }
-            Inefficiency::Area => {
-                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Area, a, l, r))
-            }
-            Inefficiency::Sum => {
-                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Sum, a, l, r))
-            }
-            Inefficiency::Min => {
-                self.rank_by(cache, out, |a, l, r| measure(Inefficiency::Min, a, l, r))
-            }
-        }
+        with_measure!(self.config.inefficiency, m => self.rank_by(cache, out, m));
     }
 
     #[inline(always)]
@@ -260,20 +273,7 @@ impl Bvh {
             // is computed once, as its own and its parent's child area both.
             areas.clear();
             areas.extend(self.inner.iter().map(|n| n.aabb.stored_area()));
-            match self.config.inefficiency {
-                Inefficiency::Comb => {
-                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Comb, a, l, r))
-                }
-                Inefficiency::Area => {
-                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Area, a, l, r))
-                }
-                Inefficiency::Sum => {
-                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Sum, a, l, r))
-                }
-                Inefficiency::Min => {
-                    self.rank_flat(areas, out, |a, l, r| measure(Inefficiency::Min, a, l, r))
-                }
-            }
+            with_measure!(self.config.inefficiency, m => self.rank_flat(areas, out, m));
             return;
         }
         nodes.clear();
