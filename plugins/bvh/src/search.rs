@@ -100,7 +100,8 @@ impl Bvh {
                 (kl, left, kr, right)
             };
             // The dearer child waits on the stack if it may still pay: written always, kept
-            // only then, because that test is the search's least predictable.
+            // only then, because as a branch this test was the queue version's least predictable
+            // (a third of its mispredictions).
             if sp == stack.len() {
                 stack.resize((2 * sp).max(4), (0.0, NodeRef::NONE));
             }
