@@ -5,7 +5,7 @@ mod latency;
 mod plots;
 
 use treelight_bench::scenes;
-use treelight_bench::{peers, rng};
+use treelight_bench::{peers, rng, sweep};
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -88,6 +88,11 @@ struct Args {
     /// run, and interleaving keeps a slow spell from landing on one row only).
     #[arg(long, default_value_t = 1)]
     repeat: usize,
+    /// Build every incremental row once per k_u in this range (`FROM:TO:STEP`, e.g.
+    /// 0.06:0.14:0.005), overriding `--update-fraction`, and summarise each row's draws after the
+    /// table: a single k_u's cost is one draw from a rough landscape.
+    #[arg(long, value_name = "FROM:TO:STEP")]
+    update_fraction_sweep: Option<String>,
     #[command(flatten)]
     tuning: Tuning,
     /// Write PNG plots to this folder: triangles inserted and SAH cost against time during
@@ -295,6 +300,8 @@ struct Row {
     primary_mrays_s: f64,
     ao_mrays_s: f64,
     update_ops_pct: f64,
+    /// Under a k_u sweep: the row's settings but k_u, which its draws share.
+    sweep_group: Option<String>,
 }
 
 struct Camera {
@@ -337,8 +344,22 @@ fn run(args: &Args) -> Result<(), String> {
     {
         return Err("--export-bvh needs exactly one scene, one method and one order".into());
     }
-    let jobs =
-        (args.scene.len() * args.order.len() * args.method.len() * args.threads.len()) as u64;
+    // Without a sweep one variant, the given settings; with one, a k_u per draw for the
+    // incremental methods (the others do not read k_u and are built once).
+    let draws: Vec<Option<f32>> = match &args.update_fraction_sweep {
+        Some(spec) => sweep::parse_range(spec)?.into_iter().map(Some).collect(),
+        None => vec![None],
+    };
+    let variants = |m: &str| {
+        if m.starts_with("incr") {
+            draws.len()
+        } else {
+            1
+        }
+    };
+    let per_order: usize =
+        args.method.iter().map(|m| variants(m)).sum::<usize>() * args.threads.len();
+    let jobs = (args.scene.len() * args.order.len() * per_order) as u64;
     let bar = ProgressBar::new(jobs);
     bar.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap(),
@@ -406,62 +427,85 @@ fn run(args: &Args) -> Result<(), String> {
                         .map_err(|e| e.to_string())
                 })
                 .collect::<Result<Vec<_>, String>>()?;
-            let cells: Vec<(&String, usize)> = args
+            let cells: Vec<(&String, usize, Tuning)> = args
                 .method
                 .iter()
                 .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
+                .flat_map(|(m, t)| {
+                    draws[..variants(m)].iter().map(move |d| {
+                        let tuning = Tuning {
+                            update_fraction: d.or(args.tuning.update_fraction),
+                            ..args.tuning
+                        };
+                        (m, t, tuning)
+                    })
+                })
                 .collect();
             let mut build_s = vec![f64::INFINITY; cells.len()];
-            let mut built = Vec::with_capacity(cells.len());
-            for round in 0..args.repeat.max(1) {
-                built.clear();
-                for (cell, &(method, t)) in cells.iter().enumerate() {
+            let rounds = args.repeat.max(1);
+            for round in 0..rounds {
+                for (cell, (method, t, tuning)) in cells.iter().enumerate() {
+                    let (method, t) = (*method, *t);
                     bar.set_message(format!(
-                        "{} {order} {method} ×{} (build {}/{})",
+                        "{} {order} {method} {} ×{} (build {}/{rounds})",
                         scene.name,
+                        tuning.label(method),
                         args.threads[t],
                         round + 1,
-                        args.repeat.max(1)
                     ));
                     let start = Instant::now();
-                    let bvh = pools[t].install(|| build(&tris, method, &args.tuning))?;
+                    let bvh = pools[t].install(|| build(&tris, method, tuning))?;
                     build_s[cell] = build_s[cell].min(start.elapsed().as_secs_f64());
-                    built.push(bvh);
+                    if round + 1 < rounds {
+                        continue;
+                    }
+                    // The last round traces each tree as soon as it is built, so a sweep holds one
+                    // tree at a time, not one per draw.
+                    let (threads, pool, build_s) = (args.threads[t], &pools[t], build_s[cell]);
+                    bar.set_message(format!("{} {order} {method} ×{threads}: rays", scene.name));
+                    let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
+                    let incremental = method.starts_with("incr");
+                    rows.push(Row {
+                        scene: scene.name.clone(),
+                        triangles: tris.len(),
+                        order: order.clone(),
+                        method: method.clone(),
+                        settings: tuning.label(method),
+                        threads,
+                        build_s,
+                        sah_cost: bvh.sah_cost_with(1.0, 1.0),
+                        mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
+                        primary_mrays_s: primary,
+                        ao_mrays_s: ao,
+                        update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
+                        sweep_group: (args.update_fraction_sweep.is_some() && incremental).then(
+                            || {
+                                Tuning {
+                                    update_fraction: None,
+                                    ..*tuning
+                                }
+                                .label(method)
+                            },
+                        ),
+                    });
+                    if let Some(path) = &args.export_bvh {
+                        let mut f = std::io::BufWriter::new(
+                            std::fs::File::create(path)
+                                .map_err(|e| format!("{}: {e}", path.display()))?,
+                        );
+                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
+                            .map_err(|e| format!("{}: {e}", path.display()))?;
+                    }
+                    bar.inc(1);
                 }
-            }
-            for ((cell, &(method, t)), bvh) in cells.iter().enumerate().zip(built) {
-                let (threads, pool, build_s) = (args.threads[t], &pools[t], build_s[cell]);
-                bar.set_message(format!("{} {order} {method} ×{threads}: rays", scene.name));
-                let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
-                let incremental = method.starts_with("incr");
-                rows.push(Row {
-                    scene: scene.name.clone(),
-                    triangles: tris.len(),
-                    order: order.clone(),
-                    method: method.clone(),
-                    settings: args.tuning.label(method),
-                    threads,
-                    build_s,
-                    sah_cost: bvh.sah_cost_with(1.0, 1.0),
-                    mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
-                    primary_mrays_s: primary,
-                    ao_mrays_s: ao,
-                    update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
-                });
-                if let Some(path) = &args.export_bvh {
-                    let mut f = std::io::BufWriter::new(
-                        std::fs::File::create(path)
-                            .map_err(|e| format!("{}: {e}", path.display()))?,
-                    );
-                    bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
-                        .map_err(|e| format!("{}: {e}", path.display()))?;
-                }
-                bar.inc(1);
             }
         }
     }
     bar.finish_and_clear();
     print_markdown(&rows);
+    if let Some(spec) = &args.update_fraction_sweep {
+        print_sweep(spec, &rows);
+    }
     print!("{latency_tables}");
     for p in &plotted {
         eprintln!("wrote {}", p.display());
@@ -708,6 +752,65 @@ fn print_markdown(rows: &[Row]) {
             r.primary_mrays_s,
             r.ao_mrays_s,
             r.update_ops_pct
+        );
+    }
+}
+
+/// One line per row of the table that a k_u sweep drew several times: the draws' SAH costs
+/// summarised, and their mean build time and stream rate.
+fn print_sweep(spec: &str, rows: &[Row]) {
+    println!("\n### k_u sweep {spec}\n");
+    println!(
+        "| scene | order | method | threads | draws | mean SAH cost | ± s.e. | min – max | mean build [s] | mean stream [MTris/s] |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut seen: Vec<(&str, &str, &str, &str, usize)> = Vec::new();
+    for r in rows {
+        let Some(group) = &r.sweep_group else {
+            continue;
+        };
+        let key = (
+            &r.scene[..],
+            &r.order[..],
+            &r.method[..],
+            &group[..],
+            r.threads,
+        );
+        if seen.contains(&key) {
+            continue;
+        }
+        seen.push(key);
+        let draws: Vec<&Row> = rows
+            .iter()
+            .filter(|d| {
+                (&d.scene[..], &d.order[..], &d.method[..], d.threads)
+                    == (key.0, key.1, key.2, key.4)
+                    && d.sweep_group.as_deref() == Some(group)
+            })
+            .collect();
+        let cost = sweep::summarize(&draws.iter().map(|d| d.sah_cost as f64).collect::<Vec<_>>());
+        let build = sweep::summarize(&draws.iter().map(|d| d.build_s).collect::<Vec<_>>());
+        let stream = sweep::summarize(&draws.iter().filter_map(|d| d.mtris_s).collect::<Vec<_>>());
+        let (Some(cost), Some(build)) = (cost, build) else {
+            continue;
+        };
+        println!(
+            "| {} | {} | {} | {} | {} | {:.4} | {} | {:.4} – {:.4} | {:.4} | {} |",
+            r.scene,
+            r.order,
+            if group.is_empty() {
+                r.method.clone()
+            } else {
+                format!("{} ({group})", r.method)
+            },
+            r.threads,
+            cost.n,
+            cost.mean,
+            cost.std_err.map_or("–".into(), |e| format!("{e:.4}")),
+            cost.min,
+            cost.max,
+            build.mean,
+            stream.map_or("–".into(), |s| format!("{:.2}", s.mean)),
         );
     }
 }

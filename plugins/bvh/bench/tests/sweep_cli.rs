@@ -1,0 +1,110 @@
+//! The bench's k_u sweep, end to end: one row per draw for the incremental methods, one for the
+//! others, and a summary whose means are those of the rows.
+
+use std::process::Command;
+
+#[test]
+fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
+    let dir = std::env::temp_dir().join(format!("treelight-sweep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("rows.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
+        .args([
+            "--scene",
+            "hairball:3000",
+            "--method",
+            "median,incru",
+            "--update-fraction-sweep",
+            "0.05:0.15:0.05",
+            // A cache this small fills many times over 3,000 triangles.
+            "--update-cache",
+            "500",
+            "--ao-rays",
+            "0",
+            "--resolution",
+            "8x8",
+            "--csv",
+        ])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8(out.stdout).unwrap();
+
+    // Rows: median once, IncrU once per k_u.
+    let rows: Vec<Vec<String>> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|f| f.trim_matches('"').to_owned())
+                .collect()
+        })
+        .collect();
+    let methods: Vec<(&str, &str)> = rows.iter().map(|r| (&r[3][..], &r[4][..])).collect();
+    assert_eq!(
+        methods,
+        [
+            ("median", ""),
+            ("incru", "k_u=0.05 N_u=500"),
+            ("incru", "k_u=0.1 N_u=500"),
+            ("incru", "k_u=0.15 N_u=500"),
+        ]
+    );
+    // Different k_u, different update work: the draws are really different builds.
+    let updates: Vec<f64> = rows[1..].iter().map(|r| r[11].parse().unwrap()).collect();
+    assert!(
+        updates[0] < updates[1] && updates[1] < updates[2],
+        "{updates:?}"
+    );
+
+    // The summary line's mean is the mean of the three rows' costs.
+    let costs: Vec<f64> = rows[1..].iter().map(|r| r[7].parse().unwrap()).collect();
+    let mean = costs.iter().sum::<f64>() / 3.0;
+    let (_, summary) = table
+        .split_once("### k_u sweep 0.05:0.15:0.05")
+        .unwrap_or_else(|| panic!("no summary:\n{table}"));
+    let line = summary
+        .lines()
+        .find(|l| l.contains("| incru (N_u=500) |"))
+        .unwrap_or_else(|| panic!("no summary line:\n{table}"));
+    let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+    assert_eq!(cells[5], "3", "{line}");
+    let summary_mean: f64 = cells[6].parse().unwrap();
+    // The CSV keeps four decimals, the summary means the unrounded costs.
+    assert!(
+        (summary_mean - mean).abs() < 1e-3,
+        "{summary_mean} against {mean}"
+    );
+    assert!(
+        !summary.contains("| median |"),
+        "median does not read k_u:\n{summary}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_bad_sweep_is_refused_with_its_reason() {
+    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
+        .args([
+            "--scene",
+            "hairball:100",
+            "--method",
+            "incru",
+            "--update-fraction-sweep",
+            "0.1:0.2:0",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("0.1:0.2:0") && err.contains("step must be positive"),
+        "{err}"
+    );
+}
