@@ -344,6 +344,11 @@ fn run(args: &Args) -> Result<(), String> {
     {
         return Err("--export-bvh needs exactly one scene, one method and one order".into());
     }
+    if args.export_bvh.is_some() && args.update_fraction_sweep.is_some() {
+        return Err(
+            "--export-bvh writes one tree; it cannot follow a --update-fraction-sweep".into(),
+        );
+    }
     // Without a sweep one variant, the given settings; with one, a k_u per draw for the
     // incremental methods (the others do not read k_u and are built once).
     let draws: Vec<Option<f32>> = match &args.update_fraction_sweep {
@@ -446,10 +451,11 @@ fn run(args: &Args) -> Result<(), String> {
             for round in 0..rounds {
                 for (cell, (method, t, tuning)) in cells.iter().enumerate() {
                     let (method, t) = (*method, *t);
+                    let settings = tuning.label(method);
                     bar.set_message(format!(
-                        "{} {order} {method} {} ×{} (build {}/{rounds})",
+                        "{} {order} {method}{}{settings} ×{} (build {}/{rounds})",
                         scene.name,
-                        tuning.label(method),
+                        if settings.is_empty() { "" } else { " " },
                         args.threads[t],
                         round + 1,
                     ));
@@ -470,7 +476,7 @@ fn run(args: &Args) -> Result<(), String> {
                         triangles: tris.len(),
                         order: order.clone(),
                         method: method.clone(),
-                        settings: tuning.label(method),
+                        settings,
                         threads,
                         build_s,
                         sah_cost: bvh.sah_cost_with(1.0, 1.0),

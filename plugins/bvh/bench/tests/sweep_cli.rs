@@ -108,3 +108,24 @@ fn a_bad_sweep_is_refused_with_its_reason() {
         "{err}"
     );
 }
+
+#[test]
+fn a_sweep_will_not_export_one_of_its_trees() {
+    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
+        .args([
+            "--scene",
+            "hairball:100",
+            "--method",
+            "incru",
+            "--update-fraction-sweep",
+            "0.1:0.2:0.1",
+            "--export-bvh",
+            "never-written.tlbvh",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--export-bvh"), "{err}");
+    assert!(!std::path::Path::new("never-written.tlbvh").exists());
+}
