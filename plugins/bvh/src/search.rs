@@ -143,6 +143,24 @@ mod tests {
         c
     }
 
+    /// Every node of the tree, inner nodes and the leaves of its `tris` triangles: the candidates
+    /// the brute force tries.
+    fn all_nodes(bvh: &Bvh, tris: usize) -> Vec<NodeRef> {
+        let mut inner = Vec::new();
+        bvh.collect_inner(bvh.root, &mut inner);
+        let mut nodes: Vec<NodeRef> = inner.iter().map(|&i| NodeRef::inner(i)).collect();
+        nodes.extend((0..tris as u32).map(NodeRef::leaf));
+        nodes
+    }
+
+    /// The least induced cost over `nodes`, by brute force.
+    fn cheapest_cost(bvh: &Bvh, nodes: &[NodeRef], l: &Aabb) -> f64 {
+        nodes
+            .iter()
+            .map(|&x| induced_cost(bvh, x, l))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     #[test]
     fn searches_find_the_cheapest_sibling_of_all_nodes() {
         use crate::{BvhConfig, Triangle};
@@ -157,19 +175,13 @@ mod tests {
             .collect();
         let mut bvh = Bvh::new(BvhConfig::incr_u());
         bvh.insert_triangles(&tris).unwrap();
-        let mut inner = Vec::new();
-        bvh.collect_inner(bvh.root, &mut inner);
-        let mut nodes: Vec<NodeRef> = inner.iter().map(|&i| NodeRef::inner(i)).collect();
-        nodes.extend((0..tris.len() as u32).map(NodeRef::leaf));
+        let nodes = all_nodes(&bvh, tris.len());
         let mut scratch = SearchScratch::default();
         for q in 0..300 {
             // Boxes from a triangle's size to a tenth of the scene, anywhere in it.
             let lo = v() * 32.0;
             let l = Aabb::new(lo, lo + v() * (0.5 + (q % 4) as f32 * 1.5));
-            let best = nodes
-                .iter()
-                .map(|&x| induced_cost(&bvh, x, &l))
-                .fold(f64::INFINITY, f64::min);
+            let best = cheapest_cost(&bvh, &nodes, &l);
             let tolerance = 1e-5 * best.max(1.0);
             let found = bvh.find_best_sibling(&l, &mut scratch);
             assert!(
@@ -211,18 +223,12 @@ mod tests {
         let mut bvh = Bvh::new(BvhConfig::incr());
         bvh.insert_triangles(&tris).unwrap();
         bvh.validate().unwrap();
-        let mut inner = Vec::new();
-        bvh.collect_inner(bvh.root, &mut inner);
-        let mut nodes: Vec<NodeRef> = inner.iter().map(|&i| NodeRef::inner(i)).collect();
-        nodes.extend((0..tris.len() as u32).map(NodeRef::leaf));
+        let nodes = all_nodes(&bvh, tris.len());
         let mut scratch = SearchScratch::default();
         for q in 0..200 {
             let lo = Vec3::new(rnd(), rnd(), rnd()) * 0.8;
             let l = Aabb::new(lo, lo + Vec3::splat(0.05 + 0.1 * rnd()));
-            let best = nodes
-                .iter()
-                .map(|&x| induced_cost(&bvh, x, &l))
-                .fold(f64::INFINITY, f64::min);
+            let best = cheapest_cost(&bvh, &nodes, &l);
             let found = bvh.find_best_sibling(&l, &mut scratch);
             assert!(
                 induced_cost(&bvh, found, &l) <= best + 1e-5 * best.max(1.0),

@@ -1,33 +1,38 @@
 //! The bench's k_u sweep, end to end: one row per draw for the incremental methods, one for the
 //! others, and a summary whose means are those of the rows.
 
-use std::process::Command;
+use std::process::{Command, Output};
+
+/// Runs the bench with `args`.
+fn bench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
+        .args(args)
+        .output()
+        .unwrap()
+}
 
 #[test]
 fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
     let dir = std::env::temp_dir().join(format!("treelight-sweep-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("rows.csv");
-    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
-        .args([
-            "--scene",
-            "hairball:3000",
-            "--method",
-            "median,incru",
-            "--update-fraction-sweep",
-            "0.05:0.15:0.05",
-            // A cache this small fills many times over 3,000 triangles.
-            "--update-cache",
-            "500",
-            "--ao-rays",
-            "0",
-            "--resolution",
-            "8x8",
-            "--csv",
-        ])
-        .arg(&csv)
-        .output()
-        .unwrap();
+    let out = bench(&[
+        "--scene",
+        "hairball:3000",
+        "--method",
+        "median,incru",
+        "--update-fraction-sweep",
+        "0.05:0.15:0.05",
+        // A cache this small fills many times over 3,000 triangles.
+        "--update-cache",
+        "500",
+        "--ao-rays",
+        "0",
+        "--resolution",
+        "8x8",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
     assert!(
         out.status.success(),
         "{}",
@@ -90,17 +95,14 @@ fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
 
 #[test]
 fn a_bad_sweep_is_refused_with_its_reason() {
-    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
-        .args([
-            "--scene",
-            "hairball:100",
-            "--method",
-            "incru",
-            "--update-fraction-sweep",
-            "0.1:0.2:0",
-        ])
-        .output()
-        .unwrap();
+    let out = bench(&[
+        "--scene",
+        "hairball:100",
+        "--method",
+        "incru",
+        "--update-fraction-sweep",
+        "0.1:0.2:0",
+    ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -111,19 +113,16 @@ fn a_bad_sweep_is_refused_with_its_reason() {
 
 #[test]
 fn a_sweep_will_not_export_one_of_its_trees() {
-    let out = Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
-        .args([
-            "--scene",
-            "hairball:100",
-            "--method",
-            "incru",
-            "--update-fraction-sweep",
-            "0.1:0.2:0.1",
-            "--export-bvh",
-            "never-written.tlbvh",
-        ])
-        .output()
-        .unwrap();
+    let out = bench(&[
+        "--scene",
+        "hairball:100",
+        "--method",
+        "incru",
+        "--update-fraction-sweep",
+        "0.1:0.2:0.1",
+        "--export-bvh",
+        "never-written.tlbvh",
+    ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--export-bvh"), "{err}");
