@@ -6,19 +6,15 @@
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use std::path::PathBuf;
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, Ray, SearchScratch, Triangle};
 
+// The tests' scene loader, so the benches read the scene exactly as the tests check it.
+#[path = "../tests/support/mod.rs"]
+mod support;
+
 fn sibenik() -> Vec<Triangle> {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
-    let scene = treelight_import::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
-    scene
-        .world_triangles()
-        .into_iter()
-        .map(|[a, b, c]| Triangle::new(a, b, c))
-        .collect()
+    support::load_obj("sibenik.obj")
 }
 
 /// Deterministic rays from points inside the scene's bounds in pseudo-random directions.
