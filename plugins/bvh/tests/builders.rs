@@ -99,7 +99,6 @@ fn an_observed_post_pass_is_the_same_pass_seen_round_by_round() {
     );
 }
 
-/// A rayon pool of `threads` threads.
 #[test]
 fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
     let tris = soup(3000, 7);
@@ -130,6 +129,7 @@ fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
     assert!(constant.updates > report.updates + (inner as u64) / 10);
 }
 
+/// A rayon pool of `threads` threads.
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

@@ -770,30 +770,23 @@ fn print_sweep(spec: &str, rows: &[Row]) {
         "| scene | order | method | threads | draws | mean SAH cost | ± s.e. | min – max | mean build [s] | mean stream [MTris/s] |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
-    let mut seen: Vec<(&str, &str, &str, &str, usize)> = Vec::new();
+    // Rows are draws of the same setting when they agree on everything but k_u.
+    fn setting(r: &Row) -> Option<(&str, &str, &str, &str, usize)> {
+        r.sweep_group
+            .as_deref()
+            .map(|g| (&r.scene[..], &r.order[..], &r.method[..], g, r.threads))
+    }
+    let mut seen = Vec::new();
     for r in rows {
-        let Some(group) = &r.sweep_group else {
+        let Some(key) = setting(r) else {
             continue;
         };
-        let key = (
-            &r.scene[..],
-            &r.order[..],
-            &r.method[..],
-            &group[..],
-            r.threads,
-        );
         if seen.contains(&key) {
             continue;
         }
         seen.push(key);
-        let draws: Vec<&Row> = rows
-            .iter()
-            .filter(|d| {
-                (&d.scene[..], &d.order[..], &d.method[..], d.threads)
-                    == (key.0, key.1, key.2, key.4)
-                    && d.sweep_group.as_deref() == Some(group)
-            })
-            .collect();
+        let group = key.3;
+        let draws: Vec<&Row> = rows.iter().filter(|d| setting(d) == Some(key)).collect();
         let cost = sweep::summarize(&draws.iter().map(|d| d.sah_cost as f64).collect::<Vec<_>>());
         let build = sweep::summarize(&draws.iter().map(|d| d.build_s).collect::<Vec<_>>());
         let stream = sweep::summarize(&draws.iter().filter_map(|d| d.mtris_s).collect::<Vec<_>>());
