@@ -69,4 +69,4 @@ pub use ray::{Hit, Ray, RayData};
 pub use search::SearchScratch;
 pub use traverse::TraversalStats;
 pub use triangle::{MAX_COORDINATE, Triangle, validate_triangles};
-pub use update::{OptimizeCursor, PostMoves, PostPass, PostPassReport};
+pub use update::{OptimizeCursor, PostMoves, PostPass, PostPassReport, TreeletSweep};

@@ -175,6 +175,42 @@ impl Bvh {
         self.treelet_scratch = s;
         changed
     }
+
+    /// [`Bvh::treelet_pass`] restricted to the inner nodes of the global tree whose box has at
+    /// least `min_area` times the root's area. A treelet can gain at most its inner nodes' area,
+    /// so the few large nodes near the top hold most of what restructuring gains, and there
+    /// large treelets pay; the many small ones below are left to cheaper moves. Returns how many
+    /// treelets changed.
+    pub(crate) fn treelet_pass_above(&mut self, size: usize, min_area: f32) -> u32 {
+        if !self.root.is_inner() {
+            return 0;
+        }
+        let floor = min_area * self.inner[self.root.index() as usize].aabb.area();
+        let mut s = std::mem::take(&mut self.treelet_scratch);
+        let mut changed = 0;
+        if self.has_live_instances() {
+            let mut order = Vec::new();
+            self.collect_inner(self.root, &mut order);
+            for &i in order.iter().rev() {
+                if self.inner[i as usize].aabb.area() >= floor {
+                    changed += self.optimize_treelet(i, size, &mut s) as u32;
+                }
+            }
+        } else {
+            // Without instances every live slot with a parent, and the root, is in the global
+            // tree: a scan of the flat array, with no list of nodes to build. A restructured
+            // treelet keeps its slots, so the scan's order only decides which treelet goes first.
+            let root = self.root.index();
+            for i in 0..self.inner.len() as u32 {
+                let n = &self.inner[i as usize];
+                if (n.has_parent() || i == root) && n.aabb.area() >= floor {
+                    changed += self.optimize_treelet(i, size, &mut s) as u32;
+                }
+            }
+        }
+        self.treelet_scratch = s;
+        changed
+    }
 }
 
 #[cfg(test)]
@@ -282,6 +318,83 @@ mod tests {
                     after - before
                 );
             }
+        }
+    }
+
+    /// An IncrU tree over `n` scattered triangles of mixed sizes.
+    fn soup_tree(n: usize, seed: u64) -> (Bvh, Vec<Triangle>) {
+        let mut rnd = crate::test_random(seed);
+        let tris: Vec<Triangle> = (0..n)
+            .map(|_| {
+                let c = Vec3::new(rnd(), rnd(), rnd()) * 40.0;
+                let s = 0.1 + rnd() * rnd() * 6.0;
+                Triangle::new(
+                    c,
+                    c + Vec3::new(s, rnd(), 0.0),
+                    c + Vec3::new(0.0, s, rnd()),
+                )
+            })
+            .collect();
+        let mut bvh = Bvh::new(BvhConfig::incr_u());
+        bvh.insert_triangles(&tris).unwrap();
+        (bvh, tris)
+    }
+
+    #[test]
+    fn sweeps_over_large_nodes_gain_and_leave_the_rest_to_other_moves() {
+        let (bvh, _) = soup_tree(2000, 0x2545_f491_4f6c_dd1d);
+        let cost = bvh.sah_cost();
+        // Above the root's own area nothing qualifies.
+        let mut none = bvh.clone();
+        assert_eq!(none.treelet_pass_above(8, 1.01), 0);
+        assert_eq!(none.gpu_nodes(), bvh.gpu_nodes());
+        // At the root's area only the root's treelet may change.
+        let mut top = bvh.clone();
+        assert!(top.treelet_pass_above(8, 1.0) <= 1);
+        let mut large = bvh.clone();
+        let mut every = bvh.clone();
+        let (n_large, n_every) = (
+            large.treelet_pass_above(6, 0.01),
+            every.treelet_pass_above(6, 0.0),
+        );
+        for (name, t) in [("top", &top), ("large", &large), ("every", &every)] {
+            t.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(t.sah_cost() <= cost * (1.0 + 1e-6), "{name}");
+        }
+        assert!(0 < n_large && n_large < n_every, "{n_large} of {n_every}");
+        assert!(large.sah_cost() < cost && every.sah_cost() < large.sah_cost());
+        // Moves judge themselves by the running sum: it must follow the sweep.
+        let acc = (large.area_acc - bvh.area_acc) as f32;
+        let real = inner_area(&large) - inner_area(&bvh);
+        assert!(
+            (acc - real).abs() <= 1e-3 * inner_area(&bvh),
+            "{acc} against {real}"
+        );
+    }
+
+    #[test]
+    fn sweeps_leave_kept_whole_groups_as_they_are() {
+        use glam::Affine3A;
+        let (mut bvh, tris) = soup_tree(600, 0x9e37_79b9_7f4a_7c15);
+        // A group as large as the scene, so its instance's box passes any area floor.
+        let group: Vec<Triangle> = tris.iter().step_by(3).copied().collect();
+        bvh.insert_group(&group, Affine3A::from_translation(Vec3::X), true)
+            .unwrap();
+        let inst = (0..bvh.instances.len() as u32)
+            .find(|i| !bvh.inst_free.contains(i))
+            .unwrap();
+        let mut inside = Vec::new();
+        bvh.collect_inner(bvh.instances[inst as usize].root, &mut inside);
+        assert!(inside.len() > 100);
+        let snapshot: Vec<_> = inside.iter().map(|&i| bvh.inner[i as usize]).collect();
+        let cost = bvh.sah_cost();
+        assert!(bvh.treelet_pass_above(6, 0.0) > 0);
+        bvh.validate().unwrap();
+        assert!(bvh.sah_cost() <= cost * (1.0 + 1e-6));
+        for (&i, before) in inside.iter().zip(&snapshot) {
+            let after = &bvh.inner[i as usize];
+            assert_eq!(after.children, before.children, "node {i} of the group");
+            assert_eq!(after.aabb, before.aabb, "node {i} of the group");
         }
     }
 }

@@ -212,7 +212,7 @@ impl Bvh {
     /// keeping only moves that lower the cost, then restructures treelets bottom-up;
     /// rounds stop once one gains less than `min_relative_gain`. Each restart re-clusters the top
     /// of the tree over its small subtrees and runs the rounds again, and is taken back unless it
-    /// ends lower than before.
+    /// ends lower than before. Last come the `finish` sweeps of treelets over the large nodes.
     pub fn optimize(&mut self, pass: PostPass) -> PostPassReport {
         self.optimize_observed(pass, |_| {})
     }
@@ -243,6 +243,24 @@ impl Bvh {
             } else {
                 self.restore_topology(snapshot);
             }
+            observe(self);
+        }
+        if pass.finish.iter().any(|s| s.size > 0) {
+            let acc_before = self.area_acc;
+            for sweep in pass.finish.iter().filter(|s| s.size > 0) {
+                self.treelet_pass_above(sweep.size as usize, sweep.min_area);
+            }
+            // As in the rounds: without instances the change in inner area is the change in
+            // cost, which saves a pass over the node arrays.
+            cost = match self.cost_scale() {
+                Some(scale) => cost + ((self.area_acc - acc_before) * scale) as f32,
+                None => self.sah_cost(),
+            };
+            debug_assert!(
+                (cost - self.sah_cost()).abs() <= 1e-4 * cost.abs().max(1.0),
+                "tracked finishing cost {cost} drifted from {}",
+                self.sah_cost()
+            );
             observe(self);
         }
         self.config.keep_only_improving = saved;
@@ -307,6 +325,15 @@ impl Bvh {
         }
     }
 
+    /// What one unit of inner area adds to the SAH cost, when moves that keep the triangles and
+    /// the root's box can track the cost by the inner area alone: without instances, whose
+    /// inner nodes the global sum leaves out.
+    fn cost_scale(&self) -> Option<f64> {
+        (!self.has_live_instances() && self.root.is_inner())
+            .then(|| self.config.c_t as f64 / self.aabb(self.root).area() as f64)
+            .filter(|scale| scale.is_finite())
+    }
+
     /// Update rounds (and treelet passes) until one gains less than the pass's threshold, each
     /// followed by `observe`.
     fn optimize_rounds(
@@ -322,9 +349,7 @@ impl Bvh {
         // Moves and treelets change neither the triangles nor the root's box (a union of the same
         // leaves), so without instances a round's cost follows from the inner area its moves
         // already account in `area_acc`: no pass over the node arrays per round.
-        let tracked = (!self.has_live_instances() && self.root.is_inner())
-            .then(|| self.config.c_t as f64 / self.aabb(self.root).area() as f64)
-            .filter(|scale| scale.is_finite());
+        let tracked = self.cost_scale();
         let mut fraction = pass.fraction;
         for round in 0..pass.max_rounds {
             let acc_before = self.area_acc;
@@ -487,6 +512,27 @@ pub struct PostPass {
     pub fraction_decay: f32,
     /// Which moves the rounds make.
     pub moves: PostMoves,
+    /// Treelet sweeps over the large nodes once the rounds and restarts are done, in order (a
+    /// sweep of size 0 is skipped).
+    pub finish: [TreeletSweep; 2],
+}
+
+/// One restructuring sweep: a treelet of up to `size` subtrees (3 to 8) at every inner node whose
+/// box has at least `min_area` times the root's area.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeletSweep {
+    /// Subtrees per treelet (0: no sweep).
+    pub size: u32,
+    /// Smallest box area swept, as a fraction of the root's.
+    pub min_area: f32,
+}
+
+impl TreeletSweep {
+    /// No sweep.
+    pub const OFF: Self = Self {
+        size: 0,
+        min_area: 0.0,
+    };
 }
 
 /// The moves of the post-pass's rounds.
@@ -511,6 +557,7 @@ impl Default for PostPass {
             restarts: 4,
             fraction_decay: 1.0,
             moves: PostMoves::Alternating,
+            finish: [TreeletSweep::OFF; 2],
         }
     }
 }
@@ -526,9 +573,11 @@ impl PostPass {
     }
 
     /// A short pass for a build that must stay fast: three rounds of children moves over the worst
-    /// 20%, 8% and 3.2% of the inner nodes. After IncrU at k_u = 0.1 it takes Sibenik from 49.23 to
-    /// 46.30 (46.43 on average over k_u = 0.08-0.12) in about the time the build took; the same
-    /// mean costs alternating rounds at a constant share about 15% more work (BENCHMARKS.md).
+    /// 20%, 8% and 3.2% of the inner nodes, then treelets of 6 subtrees at every node with at
+    /// least 0.3% of the root's area and of 8 at every node with 1%. After IncrU at k_u = 0.1 it
+    /// takes Sibenik from 49.23 to 46.18 (46.39 on average over k_u = 0.06-0.14) in about the time
+    /// the build took; spending the treelets' time on wider rounds gains about half as much
+    /// (BENCHMARKS.md).
     pub fn short() -> Self {
         Self {
             max_rounds: 3,
@@ -538,6 +587,16 @@ impl PostPass {
             restarts: 0,
             fraction_decay: 0.4,
             moves: PostMoves::Children,
+            finish: [
+                TreeletSweep {
+                    size: 6,
+                    min_area: 0.003,
+                },
+                TreeletSweep {
+                    size: 8,
+                    min_area: 0.01,
+                },
+            ],
         }
     }
 }

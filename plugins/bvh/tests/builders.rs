@@ -129,6 +129,39 @@ fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
     assert!(constant.updates > report.updates + (inner as u64) / 10);
 }
 
+#[test]
+fn the_short_pass_ends_with_treelet_sweeps_that_lower_its_cost() {
+    use treelight_bvh::{PostPass, TreeletSweep};
+    let tris = soup(3000, 7);
+    let mut built = Bvh::new(BvhConfig::incr_u());
+    built.insert_triangles(&tris).unwrap();
+    let short = PostPass::short();
+    assert!(short.finish.iter().any(|s| s.size > 0));
+    let mut with = built.clone();
+    let mut looks = 0;
+    let report = with.optimize_observed(short, |_| looks += 1);
+    let mut without = built.clone();
+    let rounds_only = without.optimize(PostPass {
+        finish: [TreeletSweep::OFF; 2],
+        ..short
+    });
+    // The same rounds, then the sweeps, which only ever lower the cost.
+    assert_eq!(report.updates, rounds_only.updates);
+    assert!(
+        report.cost_after < rounds_only.cost_after,
+        "{report:?} against {rounds_only:?}"
+    );
+    // The report's cost, tracked by the inner area, is the tree's; one more look after the sweeps.
+    let real = with.sah_cost();
+    assert!(
+        (report.cost_after - real).abs() <= 1e-4 * real,
+        "{report:?} against {real}"
+    );
+    assert_eq!(looks, report.rounds + 1);
+    with.validate().unwrap();
+    assert_hits_match(&with, &rays(300, 11, 10.0));
+}
+
 /// A rayon pool of `threads` threads.
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()

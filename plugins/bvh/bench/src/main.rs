@@ -15,7 +15,9 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{Aabb, BatchBvh, Bvh, BvhConfig, PostMoves, PostPass, Ray, TopDown, Triangle};
+use treelight_bvh::{
+    Aabb, BatchBvh, Bvh, BvhConfig, PostMoves, PostPass, Ray, TopDown, TreeletSweep, Triangle,
+};
 
 const METHODS: &[&str] = &[
     "sah",
@@ -155,9 +157,72 @@ struct Tuning {
     #[arg(long)]
     post_moves: Option<PostMovesArg>,
     /// incru-post: the engine's short pass (`PostPass::short`: three rounds of children moves over
-    /// 20%, 8% and 3.2%) as the base that the other `--post-*` flags change.
+    /// 20%, 8% and 3.2%, then treelet sweeps over the large nodes) as the base that the other
+    /// `--post-*` flags change.
     #[arg(long)]
     post_short: bool,
+    /// incru-post: treelet sweeps after the rounds, `SIZE@AREA[,SIZE@AREA]` (treelets of SIZE
+    /// subtrees at every node with at least AREA times the root's area, e.g. `6@0.003,8@0.01`),
+    /// or `off` (engine default off; `--post-short` sets `6@0.003,8@0.01`).
+    #[arg(long, value_parser = parse_finish)]
+    post_finish: Option<Finish>,
+}
+
+/// The treelet sweeps `--post-finish` names.
+#[derive(Debug, Clone, Copy)]
+struct Finish {
+    sweeps: [TreeletSweep; 2],
+}
+
+impl std::fmt::Display for Finish {
+    /// As `--post-finish` takes it, for the row label.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let on: Vec<String> = self
+            .sweeps
+            .iter()
+            .filter(|s| s.size > 0)
+            .map(|s| format!("{}@{}", s.size, s.min_area))
+            .collect();
+        if on.is_empty() {
+            f.write_str("off")
+        } else {
+            f.write_str(&on.join(","))
+        }
+    }
+}
+
+/// Parses `--post-finish`: `off`, or one or two `SIZE@AREA` sweeps.
+fn parse_finish(s: &str) -> Result<Finish, String> {
+    let mut sweeps = [TreeletSweep::OFF; 2];
+    if s != "off" {
+        let parts: Vec<&str> = s.split(',').collect();
+        if parts.len() > sweeps.len() {
+            return Err(format!(
+                "at most {} sweeps, got {}",
+                sweeps.len(),
+                parts.len()
+            ));
+        }
+        for (sweep, part) in sweeps.iter_mut().zip(parts) {
+            let (size, area) = part
+                .split_once('@')
+                .ok_or_else(|| format!("`{part}` is not SIZE@AREA"))?;
+            let size: u32 = size
+                .parse()
+                .map_err(|e| format!("treelet size `{size}`: {e}"))?;
+            let min_area: f32 = area
+                .parse()
+                .map_err(|e| format!("area fraction `{area}`: {e}"))?;
+            if !(3..=8).contains(&size) {
+                return Err(format!("treelet size {size} is not in 3-8"));
+            }
+            if !(min_area.is_finite() && min_area >= 0.0) {
+                return Err(format!("area fraction {area} is not a finite number >= 0"));
+            }
+            *sweep = TreeletSweep { size, min_area };
+        }
+    }
+    Ok(Finish { sweeps })
 }
 
 /// The post-pass moves `--post-moves` names.
@@ -221,6 +286,7 @@ impl Tuning {
             min_relative_gain: self.post_min_gain.unwrap_or(base.min_relative_gain),
             fraction_decay: self.post_decay.unwrap_or(base.fraction_decay),
             moves: self.post_moves.map_or(base.moves, PostMoves::from),
+            finish: self.post_finish.map_or(base.finish, |f| f.sweeps),
         }
     }
 
@@ -281,6 +347,9 @@ impl Tuning {
                 .and_then(|m| clap::ValueEnum::to_possible_value(&m))
             {
                 parts.push(format!("moves={}", v.get_name()));
+            }
+            if let Some(f) = self.post_finish {
+                parts.push(format!("finish={f}"));
             }
         }
         parts.join(" ")
