@@ -162,18 +162,7 @@ impl Bvh {
     /// Restructures the treelet at every inner node of the global tree, children before parents
     /// (a parent's treelet then gathers subtrees that are already good). Returns how many changed.
     pub(crate) fn treelet_pass(&mut self, size: usize) -> u32 {
-        let mut order = Vec::new();
-        if self.root.is_inner() {
-            self.collect_inner(self.root, &mut order);
-        }
-        let mut s = std::mem::take(&mut self.treelet_scratch);
-        let mut changed = 0;
-        // collect_inner lists parents before children: reversed, children come first.
-        for &i in order.iter().rev() {
-            changed += self.optimize_treelet(i, size, &mut s) as u32;
-        }
-        self.treelet_scratch = s;
-        changed
+        self.treelet_walk(size, f32::NEG_INFINITY)
     }
 
     /// [`Bvh::treelet_pass`] restricted to the inner nodes of the global tree whose box has at
@@ -186,26 +175,38 @@ impl Bvh {
             return 0;
         }
         let floor = min_area * self.inner[self.root.index() as usize].aabb.area();
+        if self.has_live_instances() {
+            return self.treelet_walk(size, floor);
+        }
+        // Without instances every live slot with a parent, and the root, is in the global tree:
+        // a scan of the flat array, with no list of nodes to build. A restructured treelet keeps
+        // its slots, so the scan's order only decides which treelet goes first.
         let mut s = std::mem::take(&mut self.treelet_scratch);
         let mut changed = 0;
-        if self.has_live_instances() {
-            let mut order = Vec::new();
-            self.collect_inner(self.root, &mut order);
-            for &i in order.iter().rev() {
-                if self.inner[i as usize].aabb.area() >= floor {
-                    changed += self.optimize_treelet(i, size, &mut s) as u32;
-                }
+        let root = self.root.index();
+        for i in 0..self.inner.len() as u32 {
+            let n = &self.inner[i as usize];
+            if (n.has_parent() || i == root) && n.aabb.area() >= floor {
+                changed += self.optimize_treelet(i, size, &mut s) as u32;
             }
-        } else {
-            // Without instances every live slot with a parent, and the root, is in the global
-            // tree: a scan of the flat array, with no list of nodes to build. A restructured
-            // treelet keeps its slots, so the scan's order only decides which treelet goes first.
-            let root = self.root.index();
-            for i in 0..self.inner.len() as u32 {
-                let n = &self.inner[i as usize];
-                if (n.has_parent() || i == root) && n.aabb.area() >= floor {
-                    changed += self.optimize_treelet(i, size, &mut s) as u32;
-                }
+        }
+        self.treelet_scratch = s;
+        changed
+    }
+
+    /// Treelets at the inner nodes of the global tree whose box area is at least `floor`, found
+    /// by a walk from the root (which stops at instances), children before parents.
+    fn treelet_walk(&mut self, size: usize, floor: f32) -> u32 {
+        let mut order = Vec::new();
+        if self.root.is_inner() {
+            self.collect_inner(self.root, &mut order);
+        }
+        let mut s = std::mem::take(&mut self.treelet_scratch);
+        let mut changed = 0;
+        // collect_inner lists parents before children: reversed, children come first.
+        for &i in order.iter().rev() {
+            if self.inner[i as usize].aabb.area() >= floor {
+                changed += self.optimize_treelet(i, size, &mut s) as u32;
             }
         }
         self.treelet_scratch = s;

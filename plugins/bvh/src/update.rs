@@ -250,17 +250,7 @@ impl Bvh {
             for sweep in pass.finish.iter().filter(|s| s.size > 0) {
                 self.treelet_pass_above(sweep.size as usize, sweep.min_area);
             }
-            // As in the rounds: without instances the change in inner area is the change in
-            // cost, which saves a pass over the node arrays.
-            cost = match self.cost_scale() {
-                Some(scale) => cost + ((self.area_acc - acc_before) * scale) as f32,
-                None => self.sah_cost(),
-            };
-            debug_assert!(
-                (cost - self.sah_cost()).abs() <= 1e-4 * cost.abs().max(1.0),
-                "tracked finishing cost {cost} drifted from {}",
-                self.sah_cost()
-            );
+            cost = self.cost_since(cost, acc_before, self.cost_scale());
             observe(self);
         }
         self.config.keep_only_improving = saved;
@@ -334,6 +324,22 @@ impl Bvh {
             .filter(|scale| scale.is_finite())
     }
 
+    /// The SAH cost after moves that began at `cost` with the inner-area sum at `acc_before`:
+    /// followed from the sum with [`Bvh::cost_scale`]'s `scale` where there is one, so no pass
+    /// over the node arrays is needed, and measured otherwise.
+    fn cost_since(&self, cost: f32, acc_before: f64, scale: Option<f64>) -> f32 {
+        let new_cost = match scale {
+            Some(scale) => cost + ((self.area_acc - acc_before) * scale) as f32,
+            None => self.sah_cost(),
+        };
+        debug_assert!(
+            (new_cost - self.sah_cost()).abs() <= 1e-4 * new_cost.abs().max(1.0),
+            "tracked cost {new_cost} drifted from {}",
+            self.sah_cost()
+        );
+        new_cost
+    }
+
     /// Update rounds (and treelet passes) until one gains less than the pass's threshold, each
     /// followed by `observe`.
     fn optimize_rounds(
@@ -369,15 +375,7 @@ impl Bvh {
             }
             rounds += 1;
             observe(self);
-            let new_cost = match tracked {
-                Some(scale) => cost + ((self.area_acc - acc_before) * scale) as f32,
-                None => self.sah_cost(),
-            };
-            debug_assert!(
-                (new_cost - self.sah_cost()).abs() <= 1e-4 * new_cost.abs().max(1.0),
-                "tracked round cost {new_cost} drifted from {}",
-                self.sah_cost()
-            );
+            let new_cost = self.cost_since(cost, acc_before, tracked);
             let gain = (cost - new_cost) / cost.max(f32::MIN_POSITIVE);
             cost = new_cost;
             // Both move kinds must have had their turn before convergence is judged.

@@ -1,15 +1,9 @@
 //! The bench's post-pass flags, end to end: `--post-finish` changes the short pass's treelet
 //! sweeps, labels its rows, and refuses what it cannot run.
 
-use std::process::{Command, Output};
+mod support;
 
-/// Runs the bench with `args`.
-fn bench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use support::bench;
 
 /// The short post-pass's row on a synthetic scene with `--post-finish finish` (none: the short
 /// pass's own sweeps): its settings label and SAH cost, read back from the CSV.

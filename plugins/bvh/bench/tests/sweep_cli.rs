@@ -1,15 +1,9 @@
 //! The bench's k_u sweep, end to end: one row per draw for the incremental methods, one for the
 //! others, and a summary whose means are those of the rows.
 
-use std::process::{Command, Output};
+mod support;
 
-/// Runs the bench with `args`.
-fn bench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_treelight-bench"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use support::bench;
 
 #[test]
 fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
