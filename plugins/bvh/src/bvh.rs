@@ -55,7 +55,9 @@ pub struct Bvh {
     /// Node slots of the bBVH being grafted, reused from graft to graft (IncrUPB grafts thousands).
     pub(crate) graft_slots: Vec<u32>,
     pub(crate) update_ops: u64,
-    pub(crate) treelet_scratch: Box<crate::treelet::TreeletScratch>,
+    /// Treelet restructuring's tables (8 KiB): made on first use, then taken out for each pass
+    /// or update batch and put back, so that later ones allocate nothing.
+    pub(crate) treelet_scratch: Option<Box<crate::treelet::TreeletScratch>>,
     pub(crate) live_tris: u32,
     /// Running sum of changes to the global tree's inner node areas. Links, unlinks, refits, moves,
     /// rotations and treelets keep its changes exact, so a move's effect on Eq. 1, and a post-pass
@@ -95,7 +97,7 @@ impl Bvh {
             update_candidates: Vec::new(),
             graft_slots: Vec::new(),
             update_ops: 0,
-            treelet_scratch: Box::default(),
+            treelet_scratch: None,
             live_tris: 0,
             area_acc: 0.0,
         }

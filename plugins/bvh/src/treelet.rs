@@ -19,7 +19,7 @@ pub(crate) struct TreeletScratch {
     area: [f32; SUBSETS],
     bounds: [Aabb; SUBSETS],
     cost: [f32; SUBSETS],
-    split: [u16; SUBSETS],
+    best_sum: [f32; SUBSETS],
     stack: [(u16, u32); MAX_TREELET * 2],
 }
 
@@ -32,8 +32,26 @@ impl Default for TreeletScratch {
             area: [0.0; SUBSETS],
             bounds: [Aabb::EMPTY; SUBSETS],
             cost: [0.0; SUBSETS],
-            split: [0; SUBSETS],
+            best_sum: [0.0; SUBSETS],
             stack: [(0, NONE); MAX_TREELET * 2],
+        }
+    }
+}
+
+impl TreeletScratch {
+    /// The part holding the lowest bit of the best split of `mask`: the first partition whose sum
+    /// is the least one the dynamic programme kept. The same sum of the same two floats, so the
+    /// comparison is exact.
+    fn split_of(&self, mask: usize) -> usize {
+        let low = mask & mask.wrapping_neg();
+        let others = mask ^ low;
+        let mut sub = (others - 1) & others;
+        loop {
+            let p = sub | low;
+            if self.cost[p] + self.cost[mask ^ p] == self.best_sum[mask] || sub == 0 {
+                return p;
+            }
+            sub = (sub - 1) & others;
         }
     }
 }
@@ -96,28 +114,29 @@ impl Bvh {
                 s.cost[mask] = 0.0;
                 continue;
             }
-            // Partitions (p, mask ^ p) with p holding the lowest bit, each pair once.
+            // Partitions (p, mask ^ p) with p holding the lowest bit, each pair once; `sub`
+            // starts below `others` so that p never is the whole mask. Only the least sum is
+            // kept: the few splits the rebuild uses are found again from it, which keeps this
+            // loop (3^n / 2 steps) free of the argmin's branches.
             let low = mask & mask.wrapping_neg();
             let others = mask ^ low;
-            let mut best = f32::INFINITY;
-            let mut best_p = 0;
-            let mut sub = others;
-            loop {
-                let p = sub | low;
-                if p != mask {
+            // Two running minima, because one was bound by the latency of its compare.
+            let mut best = [f32::INFINITY; 2];
+            let mut sub = (others - 1) & others;
+            'parts: loop {
+                for b in &mut best {
+                    let p = sub | low;
                     let c = s.cost[p] + s.cost[mask ^ p];
-                    if c < best {
-                        best = c;
-                        best_p = p;
+                    *b = if c < *b { c } else { *b };
+                    if sub == 0 {
+                        break 'parts;
                     }
+                    sub = (sub - 1) & others;
                 }
-                if sub == 0 {
-                    break;
-                }
-                sub = (sub - 1) & others;
             }
+            let best = best[0].min(best[1]);
+            s.best_sum[mask] = best;
             s.cost[mask] = best + s.area[mask];
-            s.split[mask] = best_p as u16;
         }
         // Rounding in the sums must not trigger an endless sequence of equal-cost rebuilds.
         if s.cost[full] >= old_cost * (1.0 - 1e-6) {
@@ -131,7 +150,7 @@ impl Bvh {
         while sp > 0 {
             sp -= 1;
             let (mask, node) = s.stack[sp];
-            let left = s.split[mask as usize] as usize;
+            let left = s.split_of(mask as usize);
             let right = mask as usize ^ left;
             let mut kids = [NodeRef::NONE; 2];
             for (slot, part) in [left, right].into_iter().enumerate() {
@@ -181,7 +200,7 @@ impl Bvh {
         // Without instances every live slot with a parent, and the root, is in the global tree:
         // a scan of the flat array, with no list of nodes to build. A restructured treelet keeps
         // its slots, so the scan's order only decides which treelet goes first.
-        let mut s = std::mem::take(&mut self.treelet_scratch);
+        let mut s = self.treelet_scratch.take().unwrap_or_default();
         let mut changed = 0;
         let root = self.root.index();
         for i in 0..self.inner.len() as u32 {
@@ -190,7 +209,7 @@ impl Bvh {
                 changed += self.optimize_treelet(i, size, &mut s) as u32;
             }
         }
-        self.treelet_scratch = s;
+        self.treelet_scratch = Some(s);
         changed
     }
 
@@ -201,7 +220,7 @@ impl Bvh {
         if self.root.is_inner() {
             self.collect_inner(self.root, &mut order);
         }
-        let mut s = std::mem::take(&mut self.treelet_scratch);
+        let mut s = self.treelet_scratch.take().unwrap_or_default();
         let mut changed = 0;
         // collect_inner lists parents before children: reversed, children come first.
         for &i in order.iter().rev() {
@@ -209,7 +228,7 @@ impl Bvh {
                 changed += self.optimize_treelet(i, size, &mut s) as u32;
             }
         }
-        self.treelet_scratch = s;
+        self.treelet_scratch = Some(s);
         changed
     }
 }

@@ -102,7 +102,7 @@ impl Bvh {
         worst_first(&mut candidates, k);
         self.reinsert_each(&candidates[..k], Move::Children);
         if self.config.update_treelet >= 3 {
-            let mut s = std::mem::take(&mut self.treelet_scratch);
+            let mut s = self.treelet_scratch.take().unwrap_or_default();
             for &i in &cache {
                 // Nodes a move of this batch left detached, or a group opened into an instance,
                 // are not the global tree's to restructure.
@@ -110,7 +110,7 @@ impl Bvh {
                     self.optimize_treelet(i, self.config.update_treelet as usize, &mut s);
                 }
             }
-            self.treelet_scratch = s;
+            self.treelet_scratch = Some(s);
         }
         cache.clear();
         self.cache = cache;

@@ -1,5 +1,5 @@
 //! The engine's hot loops allocate nothing: a counting global allocator watches insertion (search,
-//! linking, refit, the node update cache and its update batches), removal, traversal, the sliced
+//! linking, refit, the node update cache and its update batches, with and without treelets), removal, traversal, the sliced
 //! post-pass and box queries on a warmed-up tree. A call may allocate a constant number of times (the
 //! ids it returns, an array doubling); what must not happen is an allocation per triangle, per node
 //! or per ray. One test per binary, so no other test's allocations are counted.
@@ -108,6 +108,23 @@ fn hot_loops_allocate_nothing_per_item() {
         bvh.overlapping_triangles(&query, &mut found);
     });
     assert!(n <= FEW, "a box query allocated {n} times");
+    bvh.validate().unwrap();
+
+    // Update batches that also restructure treelets reuse the treelet tables from batch to batch.
+    let mut bvh = Bvh::new(BvhConfig {
+        update_cache_size: 200,
+        update_treelet: 6,
+        ..BvhConfig::default()
+    });
+    bvh.insert_triangles(&soup(20_000, 6)).unwrap();
+    let ids = bvh.insert_triangles(&extra).unwrap();
+    bvh.remove_triangles(&ids).unwrap();
+    let mut ids = Vec::new();
+    let n = allocations(|| ids = bvh.insert_triangles(&extra).unwrap());
+    assert!(
+        n <= FEW,
+        "inserting 2000 triangles with treelet updates allocated {n} times"
+    );
     bvh.validate().unwrap();
 
     // A small edit right after a large build: with room reserved it copies none of the tree's
