@@ -55,8 +55,8 @@ pub struct Bvh {
     /// Node slots of the bBVH being grafted, reused from graft to graft (IncrUPB grafts thousands).
     pub(crate) graft_slots: Vec<u32>,
     pub(crate) update_ops: u64,
-    /// Treelet restructuring's tables (8 KiB): made on first use, then taken out for each pass
-    /// or update batch and put back, so that later ones allocate nothing.
+    /// Treelet restructuring's tables (8 KiB), made on first use and kept, so that later passes
+    /// and update batches allocate nothing (see `Bvh::with_treelet_scratch`).
     pub(crate) treelet_scratch: Option<Box<crate::treelet::TreeletScratch>>,
     pub(crate) live_tris: u32,
     /// Running sum of changes to the global tree's inner node areas. Links, unlinks, refits, moves,

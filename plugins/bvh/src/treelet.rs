@@ -200,17 +200,29 @@ impl Bvh {
         // Without instances every live slot with a parent, and the root, is in the global tree:
         // a scan of the flat array, with no list of nodes to build. A restructured treelet keeps
         // its slots, so the scan's order only decides which treelet goes first.
-        let mut s = self.treelet_scratch.take().unwrap_or_default();
-        let mut changed = 0;
         let root = self.root.index();
-        for i in 0..self.inner.len() as u32 {
-            let n = &self.inner[i as usize];
-            if (n.has_parent() || i == root) && n.aabb.area() >= floor {
-                changed += self.optimize_treelet(i, size, &mut s) as u32;
+        self.with_treelet_scratch(|bvh, s| {
+            let mut changed = 0;
+            for i in 0..bvh.inner.len() as u32 {
+                let n = &bvh.inner[i as usize];
+                if (n.has_parent() || i == root) && n.aabb.area() >= floor {
+                    changed += bvh.optimize_treelet(i, size, s) as u32;
+                }
             }
-        }
+            changed
+        })
+    }
+
+    /// Runs `f` with the treelet tables, made on the first call and kept for the next ones (they
+    /// are taken out of the tree while `f` has it mutably).
+    pub(crate) fn with_treelet_scratch<R>(
+        &mut self,
+        f: impl FnOnce(&mut Self, &mut TreeletScratch) -> R,
+    ) -> R {
+        let mut s = self.treelet_scratch.take().unwrap_or_default();
+        let r = f(self, &mut s);
         self.treelet_scratch = Some(s);
-        changed
+        r
     }
 
     /// Treelets at the inner nodes of the global tree whose box area is at least `floor`, found
@@ -220,16 +232,16 @@ impl Bvh {
         if self.root.is_inner() {
             self.collect_inner(self.root, &mut order);
         }
-        let mut s = self.treelet_scratch.take().unwrap_or_default();
-        let mut changed = 0;
-        // collect_inner lists parents before children: reversed, children come first.
-        for &i in order.iter().rev() {
-            if self.inner[i as usize].aabb.area() >= floor {
-                changed += self.optimize_treelet(i, size, &mut s) as u32;
+        self.with_treelet_scratch(|bvh, s| {
+            let mut changed = 0;
+            // collect_inner lists parents before children: reversed, children come first.
+            for &i in order.iter().rev() {
+                if bvh.inner[i as usize].aabb.area() >= floor {
+                    changed += bvh.optimize_treelet(i, size, s) as u32;
+                }
             }
-        }
-        self.treelet_scratch = Some(s);
-        changed
+            changed
+        })
     }
 }
 

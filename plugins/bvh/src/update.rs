@@ -102,15 +102,16 @@ impl Bvh {
         worst_first(&mut candidates, k);
         self.reinsert_each(&candidates[..k], Move::Children);
         if self.config.update_treelet >= 3 {
-            let mut s = self.treelet_scratch.take().unwrap_or_default();
-            for &i in &cache {
-                // Nodes a move of this batch left detached, or a group opened into an instance,
-                // are not the global tree's to restructure.
-                if self.inner[i as usize].children[0] != NodeRef::NONE && self.in_global_tree(i) {
-                    self.optimize_treelet(i, self.config.update_treelet as usize, &mut s);
+            let size = self.config.update_treelet as usize;
+            self.with_treelet_scratch(|bvh, s| {
+                for &i in &cache {
+                    // Nodes a move of this batch left detached, or a group opened into an
+                    // instance, are not the global tree's to restructure.
+                    if bvh.inner[i as usize].children[0] != NodeRef::NONE && bvh.in_global_tree(i) {
+                        bvh.optimize_treelet(i, size, s);
+                    }
                 }
-            }
-            self.treelet_scratch = Some(s);
+            });
         }
         cache.clear();
         self.cache = cache;

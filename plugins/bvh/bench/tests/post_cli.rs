@@ -3,7 +3,7 @@
 
 mod support;
 
-use support::bench;
+use support::{bench_ok, bench_refused};
 
 /// The short post-pass's row on a synthetic scene with `--post-finish finish` (none: the short
 /// pass's own sweeps): its settings label and SAH cost, read back from the CSV.
@@ -31,12 +31,7 @@ fn short_pass(finish: Option<&str>) -> (String, f32) {
     if let Some(f) = finish {
         args.extend(["--post-finish", f]);
     }
-    let out = bench(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    bench_ok(&args);
     let text = std::fs::read_to_string(&csv).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     let row = text.lines().nth(1).unwrap();
@@ -75,7 +70,7 @@ fn a_bad_finish_is_refused_with_its_reason() {
         ("6@nan", "not a finite number >= 0"),
         ("4@0,6@0,8@0", "at most 2 sweeps"),
     ] {
-        let out = bench(&[
+        let err = bench_refused(&[
             "--scene",
             "hairball:100",
             "--method",
@@ -83,8 +78,6 @@ fn a_bad_finish_is_refused_with_its_reason() {
             "--post-finish",
             finish,
         ]);
-        assert!(!out.status.success(), "{finish}");
-        let err = String::from_utf8_lossy(&out.stderr);
         assert!(
             err.contains(finish) && err.contains(reason),
             "{finish}: {err}"

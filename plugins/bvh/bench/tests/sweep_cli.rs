@@ -3,14 +3,14 @@
 
 mod support;
 
-use support::bench;
+use support::{bench_ok, bench_refused};
 
 #[test]
 fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
     let dir = std::env::temp_dir().join(format!("treelight-sweep-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("rows.csv");
-    let out = bench(&[
+    let table = bench_ok(&[
         "--scene",
         "hairball:3000",
         "--method",
@@ -27,12 +27,6 @@ fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
         "--csv",
         csv.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let table = String::from_utf8(out.stdout).unwrap();
 
     // Rows: median once, IncrU once per k_u.
     let rows: Vec<Vec<String>> = std::fs::read_to_string(&csv)
@@ -89,7 +83,7 @@ fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
 
 #[test]
 fn a_bad_sweep_is_refused_with_its_reason() {
-    let out = bench(&[
+    let err = bench_refused(&[
         "--scene",
         "hairball:100",
         "--method",
@@ -97,8 +91,6 @@ fn a_bad_sweep_is_refused_with_its_reason() {
         "--update-fraction-sweep",
         "0.1:0.2:0",
     ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("0.1:0.2:0") && err.contains("step must be positive"),
         "{err}"
@@ -107,7 +99,7 @@ fn a_bad_sweep_is_refused_with_its_reason() {
 
 #[test]
 fn a_sweep_will_not_export_one_of_its_trees() {
-    let out = bench(&[
+    let err = bench_refused(&[
         "--scene",
         "hairball:100",
         "--method",
@@ -117,8 +109,6 @@ fn a_sweep_will_not_export_one_of_its_trees() {
         "--export-bvh",
         "never-written.tlbvh",
     ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--export-bvh"), "{err}");
     assert!(!std::path::Path::new("never-written.tlbvh").exists());
 }
