@@ -1,7 +1,7 @@
 //! Global updates: remove an inefficient node and re-insert its two children at better places,
 //! driven by the node update cache (paper section 4.3), plus the optional post-pass.
 
-use crate::node::{NONE, NodeKind, NodeRef};
+use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
 use crate::{Bvh, Inefficiency};
 
 /// Runs `$body` with `$m` bound to the measure `$kind` names, as a closure with that kind fixed:
@@ -246,10 +246,13 @@ impl Bvh {
             }
             observe(self);
         }
-        if pass.finish.iter().any(|s| s.size > 0) {
+        if pass.finish.iter().any(|s| s.size > 0) || pass.finish_moves > 0.0 {
             let acc_before = self.area_acc;
             for sweep in pass.finish.iter().filter(|s| s.size > 0) {
                 self.treelet_pass_above(sweep.size as usize, sweep.min_area);
+            }
+            if pass.finish_moves > 0.0 {
+                self.move_children_above(pass.finish_moves);
             }
             cost = self.cost_since(cost, acc_before, self.cost_scale());
             observe(self);
@@ -262,6 +265,33 @@ impl Bvh {
             cost_before,
             cost_after: cost,
         }
+    }
+
+    /// A children move at every inner node of the global tree (the root aside) whose box has at
+    /// least `min_area` times the root's area, in slot order. Returns the moves made.
+    fn move_children_above(&mut self, min_area: f32) -> u32 {
+        if !self.root.is_inner() {
+            return 0;
+        }
+        let floor = min_area * self.inner[self.root.index() as usize].aabb.area();
+        let large = |n: &InnerNode| n.has_parent() && n.aabb.area() >= floor;
+        // Listed before any move, as the moves rewrite slots: a later entry may then name the
+        // node an earlier move made in that slot, and that node is moved instead.
+        let nodes: Vec<(f32, u32)> = if self.has_live_instances() {
+            let mut nodes = Vec::new();
+            self.collect_inner(self.root, &mut nodes);
+            nodes
+                .into_iter()
+                .filter(|&i| large(&self.inner[i as usize]))
+                .map(|i| (0.0, i))
+                .collect()
+        } else {
+            (0..self.inner.len() as u32)
+                .filter(|&i| large(&self.inner[i as usize]))
+                .map(|i| (0.0, i))
+                .collect()
+        };
+        self.reinsert_each(&nodes, Move::Children)
     }
 
     /// Every inner node of the global tree but the root, with its inefficiency, into `out`
@@ -514,6 +544,11 @@ pub struct PostPass {
     /// Treelet sweeps over the large nodes once the rounds and restarts are done, in order (a
     /// sweep of size 0 is skipped).
     pub finish: [TreeletSweep; 2],
+    /// After the sweeps, a children move at every inner node whose box has at least this share of
+    /// the root's area (0: none). The rounds pick nodes by inefficiency, which passes over large
+    /// nodes whose children are merely misplaced; the sweeps reshape the top, which gives those
+    /// children new places to go.
+    pub finish_moves: f32,
 }
 
 /// One restructuring sweep: a treelet of up to `size` subtrees (3 to 8) at every inner node whose
@@ -557,6 +592,7 @@ impl Default for PostPass {
             fraction_decay: 1.0,
             moves: PostMoves::Alternating,
             finish: [TreeletSweep::OFF; 2],
+            finish_moves: 0.0,
         }
     }
 }
@@ -573,10 +609,10 @@ impl PostPass {
 
     /// A short pass for a build that must stay fast: three rounds of children moves over the worst
     /// 20%, 8% and 3.2% of the inner nodes, then treelets of 6 subtrees at every node with at
-    /// least 0.3% of the root's area and of 8 at every node with 1%. After IncrU at k_u = 0.1 it
-    /// takes Sibenik from 49.23 to 46.18 (46.39 on average over k_u = 0.06-0.14) in about the time
-    /// the build took; spending the treelets' time on wider rounds gains about half as much
-    /// (BENCHMARKS.md).
+    /// least 0.3% of the root's area and of 8 at every node with 1%, then a children move at every
+    /// node with 0.3%. After IncrU at k_u = 0.1 it takes Sibenik from 49.23 to about 46.18 (46.36
+    /// on average over k_u = 0.06-0.14) in about the time the build took; spending the sweeps'
+    /// time on wider rounds gains about half as much (BENCHMARKS.md).
     pub fn short() -> Self {
         Self {
             max_rounds: 3,
@@ -596,6 +632,7 @@ impl PostPass {
                     min_area: 0.01,
                 },
             ],
+            finish_moves: 0.003,
         }
     }
 }

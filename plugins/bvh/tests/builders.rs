@@ -105,7 +105,11 @@ fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
     let mut bvh = Bvh::new(BvhConfig::incr_u());
     bvh.insert_triangles(&tris).unwrap();
     let inner = bvh.triangle_count() - 1;
-    let short = treelight_bvh::PostPass::short();
+    // The rounds alone: the finishing moves are counted in their own test below.
+    let short = treelight_bvh::PostPass {
+        finish_moves: 0.0,
+        ..treelight_bvh::PostPass::short()
+    };
     let report = bvh.clone().optimize(short);
     // Each round ranks every inner node but the root and moves its share, rounded up; a move can
     // only make a later node of the same round the root, which is then skipped.
@@ -130,28 +134,47 @@ fn a_shrinking_share_tries_each_round_its_own_share_of_the_worst_nodes() {
 }
 
 #[test]
-fn the_short_pass_ends_with_treelet_sweeps_that_lower_its_cost() {
-    use treelight_bvh::{PostPass, TreeletSweep};
+fn the_short_pass_ends_with_treelet_sweeps_and_moves_that_lower_its_cost() {
+    use treelight_bvh::{NONE, PostPass, TreeletSweep};
     let tris = soup(3000, 7);
     let mut built = Bvh::new(BvhConfig::incr_u());
     built.insert_triangles(&tris).unwrap();
     let short = PostPass::short();
-    assert!(short.finish.iter().any(|s| s.size > 0));
+    assert!(short.finish.iter().any(|s| s.size > 0) && short.finish_moves > 0.0);
     let mut with = built.clone();
     let mut looks = 0;
     let report = with.optimize_observed(short, |_| looks += 1);
-    let mut without = built.clone();
-    let rounds_only = without.optimize(PostPass {
+    let mut swept = built.clone();
+    let sweeps_only = swept.optimize(PostPass {
+        finish_moves: 0.0,
+        ..short
+    });
+    let rounds_only = built.clone().optimize(PostPass {
         finish: [TreeletSweep::OFF; 2],
+        finish_moves: 0.0,
         ..short
     });
     // The same rounds, then the sweeps, which only ever lower the cost.
-    assert_eq!(report.updates, rounds_only.updates);
+    assert_eq!(sweeps_only.updates, rounds_only.updates);
     assert!(
-        report.cost_after < rounds_only.cost_after,
-        "{report:?} against {rounds_only:?}"
+        sweeps_only.cost_after < rounds_only.cost_after,
+        "{sweeps_only:?} against {rounds_only:?}"
     );
-    // The report's cost, tracked by the inner area, is the tree's; one more look after the sweeps.
+    // Then one move for each node (the root aside) that the sweeps left with at least the
+    // pass's share of the root's area; moves that do not pay are taken back.
+    let floor = short.finish_moves * swept.bounds().area();
+    let large = (0..swept.inner_capacity())
+        .filter_map(|i| swept.inner_node(i))
+        .filter(|n| n.parent != NONE && n.aabb.area() >= floor)
+        .count() as u64;
+    assert!(large > 10, "only {large} large nodes");
+    assert_eq!(report.updates, sweeps_only.updates + large);
+    assert!(
+        report.cost_after < sweeps_only.cost_after,
+        "{report:?} against {sweeps_only:?}"
+    );
+    // The report's cost, tracked by the inner area, is the tree's; one more look after the
+    // sweeps and moves.
     let real = with.sah_cost();
     assert!(
         (report.cost_after - real).abs() <= 1e-4 * real,

@@ -166,6 +166,10 @@ struct Tuning {
     /// or `off` (engine default off; `--post-short` sets `6@0.003,8@0.01`).
     #[arg(long, value_parser = parse_finish)]
     post_finish: Option<Finish>,
+    /// incru-post: after the treelet sweeps, a children move at every node with at least this
+    /// share of the root's area (engine default 0 = off; `--post-short` sets 0.003).
+    #[arg(long, value_parser = parse_area_fraction)]
+    post_finish_moves: Option<f32>,
 }
 
 /// The treelet sweeps `--post-finish` names.
@@ -210,19 +214,25 @@ fn parse_finish(s: &str) -> Result<Finish, String> {
             let size: u32 = size
                 .parse()
                 .map_err(|e| format!("treelet size `{size}`: {e}"))?;
-            let min_area: f32 = area
-                .parse()
-                .map_err(|e| format!("area fraction `{area}`: {e}"))?;
             if !(3..=8).contains(&size) {
                 return Err(format!("treelet size {size} is not in 3-8"));
             }
-            if !(min_area.is_finite() && min_area >= 0.0) {
-                return Err(format!("area fraction {area} is not a finite number >= 0"));
-            }
+            let min_area = parse_area_fraction(area)?;
             *sweep = TreeletSweep { size, min_area };
         }
     }
     Ok(Finish { sweeps })
+}
+
+/// Parses a share of the root's box area, as `--post-finish` and `--post-finish-moves` take it.
+fn parse_area_fraction(area: &str) -> Result<f32, String> {
+    let a: f32 = area
+        .parse()
+        .map_err(|e| format!("area fraction `{area}`: {e}"))?;
+    if !(a.is_finite() && a >= 0.0) {
+        return Err(format!("area fraction {area} is not a finite number >= 0"));
+    }
+    Ok(a)
 }
 
 /// The post-pass moves `--post-moves` names.
@@ -287,6 +297,7 @@ impl Tuning {
             fraction_decay: self.post_decay.unwrap_or(base.fraction_decay),
             moves: self.post_moves.map_or(base.moves, PostMoves::from),
             finish: self.post_finish.map_or(base.finish, |f| f.sweeps),
+            finish_moves: self.post_finish_moves.unwrap_or(base.finish_moves),
         }
     }
 
@@ -350,6 +361,9 @@ impl Tuning {
             }
             if let Some(f) = self.post_finish {
                 parts.push(format!("finish={f}"));
+            }
+            if let Some(a) = self.post_finish_moves {
+                parts.push(format!("finish moves={a}"));
             }
         }
         parts.join(" ")

@@ -1,23 +1,24 @@
-//! The bench's post-pass flags, end to end: `--post-finish` changes the short pass's treelet
-//! sweeps, labels its rows, and refuses what it cannot run.
+//! The bench's post-pass flags, end to end: `--post-finish` and `--post-finish-moves` change the
+//! short pass's treelet sweeps and finishing moves, label its rows, and refuse what they cannot run.
 
 mod support;
 
 use support::{bench_ok, bench_refused};
 
-/// The short post-pass's row on a synthetic scene with `--post-finish finish` (none: the short
-/// pass's own sweeps): its settings label and SAH cost, read back from the CSV.
-fn short_pass(finish: Option<&str>) -> (String, f32) {
+/// The short post-pass's row on the synthetic `scene` with the flags `extra` (none: the short pass
+/// as it is): its settings label and SAH cost, read back from the CSV.
+fn short_pass(scene: &str, extra: &[&str]) -> (String, f32) {
     let dir = std::env::temp_dir().join(format!(
-        "treelight-post-{}-{}",
+        "treelight-post-{}-{}-{}",
         std::process::id(),
-        finish.unwrap_or("default").replace(['@', ','], "_")
+        scene.replace(':', "_"),
+        extra.join("_").replace(['@', ',', '-'], "_")
     ));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("rows.csv");
     let mut args = vec![
         "--scene",
-        "hairball:3000",
+        scene,
         "--method",
         "incru-post",
         "--post-short",
@@ -28,9 +29,7 @@ fn short_pass(finish: Option<&str>) -> (String, f32) {
         "--csv",
         csv.to_str().unwrap(),
     ];
-    if let Some(f) = finish {
-        args.extend(["--post-finish", f]);
-    }
+    args.extend(extra);
     bench_ok(&args);
     let text = std::fs::read_to_string(&csv).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
@@ -44,9 +43,9 @@ fn short_pass(finish: Option<&str>) -> (String, f32) {
 
 #[test]
 fn the_short_pass_s_sweeps_lower_its_cost_and_can_be_turned_off_or_changed() {
-    let (short, with) = short_pass(None);
-    let (off, without) = short_pass(Some("off"));
-    let (changed, other) = short_pass(Some("4@0,8@0.01"));
+    let (short, with) = short_pass("hairball:3000", &[]);
+    let (off, without) = short_pass("hairball:3000", &["--post-finish", "off"]);
+    let (changed, other) = short_pass("hairball:3000", &["--post-finish", "4@0,8@0.01"]);
     assert_eq!(short, "short");
     assert_eq!(off, "short finish=off");
     assert_eq!(changed, "short finish=4@0,8@0.01");
@@ -59,6 +58,22 @@ fn the_short_pass_s_sweeps_lower_its_cost_and_can_be_turned_off_or_changed() {
         "{other} against {without} without the sweeps"
     );
     assert_ne!(with, other);
+}
+
+#[test]
+fn the_short_pass_s_finishing_moves_lower_its_cost_and_can_be_turned_off() {
+    // A scene large enough for the moves to find better places at the CSV's four decimals.
+    let scene = "hairball:20000";
+    let (short, with) = short_pass(scene, &[]);
+    let (off, without) = short_pass(scene, &["--post-finish-moves", "0"]);
+    let (wider, more) = short_pass(scene, &["--post-finish-moves", "0.0003"]);
+    assert_eq!(off, "short finish moves=0");
+    assert_eq!(wider, "short finish moves=0.0003");
+    assert!(with < without, "{with} against {without} without the moves");
+    assert!(
+        more < with,
+        "{more} over more nodes against {with} ({short})"
+    );
 }
 
 #[test]
@@ -82,5 +97,24 @@ fn a_bad_finish_is_refused_with_its_reason() {
             err.contains(finish) && err.contains(reason),
             "{finish}: {err}"
         );
+    }
+}
+
+#[test]
+fn bad_finishing_moves_are_refused_with_their_reason() {
+    for (area, reason) in [
+        ("-0.01", "not a finite number >= 0"),
+        ("nan", "not a finite number >= 0"),
+        ("inf", "not a finite number >= 0"),
+        ("most", "area fraction `most`"),
+    ] {
+        let err = bench_refused(&[
+            "--scene",
+            "hairball:100",
+            "--method",
+            "incru-post",
+            &format!("--post-finish-moves={area}"),
+        ]);
+        assert!(err.contains(reason), "{area}: {err}");
     }
 }
