@@ -1,7 +1,7 @@
 //! Global updates: remove an inefficient node and re-insert its two children at better places,
 //! driven by the node update cache (paper section 4.3), plus the optional post-pass.
 
-use crate::node::{InnerNode, NONE, NodeKind, NodeRef};
+use crate::node::{NONE, NodeKind, NodeRef};
 use crate::{Bvh, Inefficiency};
 
 /// Runs `$body` with `$m` bound to the measure `$kind` names, as a closure with that kind fixed:
@@ -268,30 +268,31 @@ impl Bvh {
     }
 
     /// A children move at every inner node of the global tree (the root aside) whose box has at
-    /// least `min_area` times the root's area, in slot order. Returns the moves made.
+    /// least `min_area` times the root's area, in slot order (tree order with instances). Returns
+    /// the moves made.
     fn move_children_above(&mut self, min_area: f32) -> u32 {
         if !self.root.is_inner() {
             return 0;
         }
         let floor = min_area * self.inner[self.root.index() as usize].aabb.area();
-        let large = |n: &InnerNode| n.has_parent() && n.aabb.area() >= floor;
+        let mut nodes = Vec::new();
+        if self.has_live_instances() {
+            self.collect_inner(self.root, &mut nodes);
+        } else {
+            // Without instances every live slot with a parent is in the global tree.
+            nodes.extend(0..self.inner.len() as u32);
+        }
         // Listed before any move, as the moves rewrite slots: a later entry may then name the
         // node an earlier move made in that slot, and that node is moved instead.
-        let nodes: Vec<(f32, u32)> = if self.has_live_instances() {
-            let mut nodes = Vec::new();
-            self.collect_inner(self.root, &mut nodes);
-            nodes
-                .into_iter()
-                .filter(|&i| large(&self.inner[i as usize]))
-                .map(|i| (0.0, i))
-                .collect()
-        } else {
-            (0..self.inner.len() as u32)
-                .filter(|&i| large(&self.inner[i as usize]))
-                .map(|i| (0.0, i))
-                .collect()
-        };
-        self.reinsert_each(&nodes, Move::Children)
+        let large: Vec<(f32, u32)> = nodes
+            .into_iter()
+            .filter(|&i| {
+                let n = &self.inner[i as usize];
+                n.has_parent() && n.aabb.area() >= floor
+            })
+            .map(|i| (0.0, i))
+            .collect();
+        self.reinsert_each(&large, Move::Children)
     }
 
     /// Every inner node of the global tree but the root, with its inefficiency, into `out`
@@ -545,9 +546,9 @@ pub struct PostPass {
     /// sweep of size 0 is skipped).
     pub finish: [TreeletSweep; 2],
     /// After the sweeps, a children move at every inner node whose box has at least this share of
-    /// the root's area (0: none). The rounds pick nodes by inefficiency, which passes over large
-    /// nodes whose children are merely misplaced; the sweeps reshape the top, which gives those
-    /// children new places to go.
+    /// the root's area (0: none). The sweeps have just reshaped the top, where an insertion-built
+    /// tree spends most above a SAH-built one, so its nodes' children may now have better places;
+    /// made before the sweeps, the same moves gain only what the sweeps would have.
     pub finish_moves: f32,
 }
 
@@ -610,7 +611,7 @@ impl PostPass {
     /// A short pass for a build that must stay fast: three rounds of children moves over the worst
     /// 20%, 8% and 3.2% of the inner nodes, then treelets of 6 subtrees at every node with at
     /// least 0.3% of the root's area and of 8 at every node with 1%, then a children move at every
-    /// node with 0.3%. After IncrU at k_u = 0.1 it takes Sibenik from 49.23 to about 46.18 (46.36
+    /// node with 0.3%. After IncrU at k_u = 0.1 it takes Sibenik from 49.23 to 46.17 (46.36
     /// on average over k_u = 0.06-0.14) in about the time the build took; spending the sweeps'
     /// time on wider rounds gains about half as much (BENCHMARKS.md).
     pub fn short() -> Self {
