@@ -3,36 +3,15 @@
 
 mod support;
 
-use support::{bench_ok, bench_refused};
+use support::{bench_csv, bench_refused};
 
 /// The short post-pass's row on the synthetic `scene` with the flags `extra` (none: the short pass
 /// as it is): its settings label and SAH cost, read back from the CSV.
 fn short_pass(scene: &str, extra: &[&str]) -> (String, f32) {
-    let dir = std::env::temp_dir().join(format!(
-        "treelight-post-{}-{}-{}",
-        std::process::id(),
-        scene.replace(':', "_"),
-        extra.join("_").replace(['@', ',', '-'], "_")
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    let csv = dir.join("rows.csv");
-    let mut args = vec![
-        "--scene",
-        scene,
-        "--method",
-        "incru-post",
-        "--post-short",
-        "--ao-rays",
-        "0",
-        "--resolution",
-        "8x8",
-        "--csv",
-        csv.to_str().unwrap(),
-    ];
+    let name = format!("post-{scene}-{}", extra.join("_")).replace(['@', ',', '-', ':'], "_");
+    let mut args = vec!["--scene", scene, "--method", "incru-post", "--post-short"];
     args.extend(extra);
-    bench_ok(&args);
-    let text = std::fs::read_to_string(&csv).unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
+    let (_, text) = bench_csv(&name, &args);
     let row = text.lines().nth(1).unwrap();
     // The label is quoted and may hold commas; the seven numbers after it do not.
     let (head, numbers) = row.rsplit_once('"').unwrap();

@@ -3,34 +3,27 @@
 
 mod support;
 
-use support::{bench_ok, bench_refused};
+use support::{bench_csv, bench_refused};
 
 #[test]
 fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
-    let dir = std::env::temp_dir().join(format!("treelight-sweep-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let csv = dir.join("rows.csv");
-    let table = bench_ok(&[
-        "--scene",
-        "hairball:3000",
-        "--method",
-        "median,incru",
-        "--update-fraction-sweep",
-        "0.05:0.15:0.05",
-        // A cache this small fills many times over 3,000 triangles.
-        "--update-cache",
-        "500",
-        "--ao-rays",
-        "0",
-        "--resolution",
-        "8x8",
-        "--csv",
-        csv.to_str().unwrap(),
-    ]);
+    let (table, text) = bench_csv(
+        "sweep",
+        &[
+            "--scene",
+            "hairball:3000",
+            "--method",
+            "median,incru",
+            "--update-fraction-sweep",
+            "0.05:0.15:0.05",
+            // A cache this small fills many times over 3,000 triangles.
+            "--update-cache",
+            "500",
+        ],
+    );
 
     // Rows: median once, IncrU once per k_u.
-    let rows: Vec<Vec<String>> = std::fs::read_to_string(&csv)
-        .unwrap()
+    let rows: Vec<Vec<String>> = text
         .lines()
         .skip(1)
         .map(|l| {
@@ -78,7 +71,6 @@ fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
         !summary.contains("| median |"),
         "median does not read k_u:\n{summary}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

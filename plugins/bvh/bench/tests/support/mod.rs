@@ -27,3 +27,24 @@ pub fn bench_refused(args: &[&str]) -> String {
     assert!(!out.status.success(), "{args:?} was not refused");
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
+
+/// Runs the bench with `args` and no traced image, writing its rows as CSV into a fresh folder
+/// named by `name` (unique per test); its standard output and the CSV's text.
+pub fn bench_csv(name: &str, args: &[&str]) -> (String, String) {
+    let dir = std::env::temp_dir().join(format!("treelight-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("rows.csv");
+    let mut all = args.to_vec();
+    all.extend([
+        "--ao-rays",
+        "0",
+        "--resolution",
+        "8x8",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    let table = bench_ok(&all);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    (table, text)
+}
