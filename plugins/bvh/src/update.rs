@@ -613,15 +613,15 @@ impl PostPass {
     }
 
     /// A short pass for a build that must stay fast: three rounds of children moves over the worst
-    /// 20%, 8% and 3.2% of the inner nodes, then treelets of 6 subtrees at every node with at
+    /// 23%, 9.2% and 3.7% of the inner nodes, then treelets of 6 subtrees at every node with at
     /// least 0.3% of the root's area and of 8 at every node with 1%, then a children move at every
-    /// node with 0.3%. After IncrU at k_u = 0.1 it takes Sibenik from 49.23 to 46.17 (46.36
+    /// node with 0.3%. After IncrU at k_u = 0.1 it takes Sibenik from 48.76 to 46.16 (46.29
     /// on average over k_u = 0.06-0.14) in about the time the build took; spending the sweeps'
     /// time on wider rounds gains about half as much (BENCHMARKS.md).
     pub fn short() -> Self {
         Self {
             max_rounds: 3,
-            fraction: 0.2,
+            fraction: 0.23,
             min_relative_gain: 0.0,
             treelet: 0,
             restarts: 0,
