@@ -97,6 +97,11 @@ struct Args {
     update_fraction_sweep: Option<String>,
     #[command(flatten)]
     tuning: Tuning,
+    /// incru-post: fraction of the inner nodes, the most inefficient, re-inserted per round
+    /// (engine default 1; `--post-short` 0.23). A comma list makes one incru-post row per fraction,
+    /// built in turn with the other rows, so that their times share this machine's spells.
+    #[arg(long = "post-fraction", value_delimiter = ',')]
+    post_fractions: Vec<f32>,
     /// Write PNG plots to this folder: triangles inserted and SAH cost against time during
     /// construction per scene and order (the paper's Figures 8 and 9; an extra, sampled run of each
     /// method with the first `--threads` count), and with `--latency` its Figure 12.
@@ -138,9 +143,9 @@ struct Tuning {
     /// incru-post: most update rounds per convergence (engine default 8).
     #[arg(long)]
     post_rounds: Option<u32>,
-    /// incru-post: fraction of the inner nodes, the most inefficient, re-inserted per round
-    /// (engine default 1).
-    #[arg(long)]
+    /// incru-post: fraction of the inner nodes, the most inefficient, re-inserted per round; one
+    /// row's, set from `--post-fraction`.
+    #[arg(skip)]
     post_fraction: Option<f32>,
     /// incru-post: subtrees per treelet restructured after each round (engine default 6; 0 = off).
     #[arg(long)]
@@ -427,6 +432,9 @@ fn run(args: &Args) -> Result<(), String> {
     {
         return Err("--export-bvh needs exactly one scene, one method and one order".into());
     }
+    if args.export_bvh.is_some() && args.post_fractions.len() > 1 {
+        return Err("--export-bvh writes one tree; give at most one --post-fraction".into());
+    }
     if args.export_bvh.is_some() && args.update_fraction_sweep.is_some() {
         return Err(
             "--export-bvh writes one tree; it cannot follow a --update-fraction-sweep".into(),
@@ -438,12 +446,26 @@ fn run(args: &Args) -> Result<(), String> {
         Some(spec) => sweep::parse_range(spec)?.into_iter().map(Some).collect(),
         None => vec![None],
     };
+    // Each incru-post row is built once per post-pass fraction given, the engine's when none is.
+    let fractions: Vec<Option<f32>> = if args.post_fractions.is_empty() {
+        vec![None]
+    } else {
+        args.post_fractions.iter().copied().map(Some).collect()
+    };
+    let fractions_of = |m: &str| {
+        if m == "incru-post" {
+            &fractions[..]
+        } else {
+            &fractions[..1]
+        }
+    };
     let variants = |m: &str| {
-        if m.starts_with("incr") {
+        let draws = if m.starts_with("incr") {
             draws.len()
         } else {
             1
-        }
+        };
+        draws * fractions_of(m).len()
     };
     let per_order: usize =
         args.method.iter().map(|m| variants(m)).sum::<usize>() * args.threads.len();
@@ -452,6 +474,11 @@ fn run(args: &Args) -> Result<(), String> {
     bar.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {msg}").unwrap(),
     );
+    // The plots' sampled runs take the first post-pass fraction.
+    let plot_tuning = Tuning {
+        post_fraction: fractions[0],
+        ..args.tuning
+    };
     let mut rows = Vec::new();
     let mut latency_tables = String::new();
     let mut plotted = Vec::new();
@@ -499,7 +526,7 @@ fn run(args: &Args) -> Result<(), String> {
                 let runs = args
                     .method
                     .iter()
-                    .map(|m| pool.install(|| progress(&tris, m, &args.tuning)))
+                    .map(|m| pool.install(|| progress(&tris, m, &plot_tuning)))
                     .collect::<Result<Vec<_>, String>>()?;
                 plotted.extend(plots::construction(dir, &scene.name, order, &runs)?);
             }
@@ -520,12 +547,20 @@ fn run(args: &Args) -> Result<(), String> {
                 .iter()
                 .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
                 .flat_map(|(m, t)| {
-                    draws[..variants(m)].iter().map(move |d| {
-                        let tuning = Tuning {
-                            update_fraction: d.or(args.tuning.update_fraction),
-                            ..args.tuning
-                        };
-                        (m, t, tuning)
+                    let draws = if m.starts_with("incr") {
+                        &draws[..]
+                    } else {
+                        &draws[..1]
+                    };
+                    draws.iter().flat_map(move |d| {
+                        fractions_of(m).iter().map(move |&f| {
+                            let tuning = Tuning {
+                                update_fraction: d.or(args.tuning.update_fraction),
+                                post_fraction: f,
+                                ..args.tuning
+                            };
+                            (m, t, tuning)
+                        })
                     })
                 })
                 .collect();

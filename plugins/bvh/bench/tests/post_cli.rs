@@ -1,5 +1,6 @@
 //! The bench's post-pass flags, end to end: `--post-finish` and `--post-finish-moves` change the
-//! short pass's treelet sweeps and finishing moves, label its rows, and refuse what they cannot run.
+//! short pass's treelet sweeps and finishing moves, a `--post-fraction` list makes a row per
+//! fraction, and all label their rows and refuse what they cannot run.
 
 mod support;
 
@@ -96,4 +97,66 @@ fn bad_finishing_moves_are_refused_with_their_reason() {
         ]);
         assert!(err.contains(reason), "{area}: {err}");
     }
+}
+
+#[test]
+fn a_list_of_post_fractions_builds_one_post_pass_row_each_and_summarises_each() {
+    let (table, text) = bench_csv(
+        "post-fractions",
+        &[
+            "--scene",
+            "hairball:20000",
+            "--method",
+            "incru,incru-post",
+            "--post-short",
+            "--post-fraction",
+            "0.05,0.4",
+            "--update-fraction-sweep",
+            "0.05:0.1:0.05",
+        ],
+    );
+    // Rows: IncrU once per k_u, the post-pass once per k_u and fraction.
+    let rows: Vec<(String, String, f32)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').map(|f| f.trim_matches('"')).collect();
+            (f[3].to_owned(), f[4].to_owned(), f[7].parse().unwrap())
+        })
+        .collect();
+    let labels: Vec<(&str, &str)> = rows.iter().map(|r| (&r.0[..], &r.1[..])).collect();
+    assert_eq!(
+        labels,
+        [
+            ("incru", "k_u=0.05"),
+            ("incru", "k_u=0.1"),
+            ("incru-post", "k_u=0.05 fraction=0.05 short"),
+            ("incru-post", "k_u=0.05 fraction=0.4 short"),
+            ("incru-post", "k_u=0.1 fraction=0.05 short"),
+            ("incru-post", "k_u=0.1 fraction=0.4 short"),
+        ]
+    );
+    // The wider rounds end lower from the same build at each k_u.
+    assert!(rows[3].2 < rows[2].2, "{rows:?}");
+    assert!(rows[5].2 < rows[4].2, "{rows:?}");
+    // The summary has a line per fraction, over its own draws.
+    for fraction in ["0.05", "0.4"] {
+        let needle = format!("| incru-post (fraction={fraction} short) |");
+        assert!(table.contains(&needle), "no {needle} in:\n{table}");
+    }
+}
+
+#[test]
+fn several_post_fractions_will_not_export_one_of_their_trees() {
+    let err = bench_refused(&[
+        "--scene",
+        "hairball:100",
+        "--method",
+        "incru-post",
+        "--post-fraction",
+        "0.1,0.2",
+        "--export-bvh",
+        "never.tlbvh",
+    ]);
+    assert!(err.contains("at most one --post-fraction"), "{err}");
 }
