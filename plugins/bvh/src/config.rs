@@ -46,6 +46,12 @@ pub struct BvhConfig {
     pub inefficiency: Inefficiency,
     /// Pair consecutive coherent triangles before insertion.
     pub clustering: bool,
+    /// Rounds of clustering (when `clustering` is on): the first pairs coherent consecutive
+    /// triangles, as the paper does, and each further round pairs coherent consecutive clusters
+    /// that the round before made, by the same R_coh < R_max test on their boxes. 2 makes
+    /// subtrees of up to four triangles from a coherent stream and inserts a quarter as many
+    /// items as triangles. 0 counts as 1. Not in the paper beyond 1; IncrU and IncrUP read it.
+    pub cluster_levels: u32,
     /// R_max: pairs with R_coh below it are clustered, batches with R*_coh below it are not split further.
     pub coherence_max: f32,
     /// IncrUPB: the largest batch built into one bBVH, so that coherent streams still give parallel work.
@@ -94,6 +100,7 @@ impl Default for BvhConfig {
             update_fraction: 0.01,
             inefficiency: Inefficiency::Comb,
             clustering: true,
+            cluster_levels: 1,
             coherence_max: 1.5,
             block_max_batch: 1024,
             block_min_batch: 64,

@@ -73,25 +73,110 @@ impl Bvh {
         Ok(ids)
     }
 
-    /// Pairs coherent consecutive leaves into two-leaf subtrees (section 4.4) without inserting them.
+    /// Pairs coherent consecutive leaves into two-leaf subtrees (section 4.4) without inserting
+    /// them, then, for each further level of `cluster_levels`, coherent consecutive pairs of the
+    /// level before into subtrees twice their size. Returns the items to insert, in stream order.
     pub(crate) fn cluster_items(&mut self, ids: &[u32]) -> Vec<NodeRef> {
-        let mut items = Vec::with_capacity(ids.len());
-        let mut i = 0;
-        while i < ids.len() {
-            let a = ids[i];
-            if self.config.clustering && i + 1 < ids.len() {
-                let b = ids[i + 1];
-                let c =
-                    crate::insert::coherence(&self.tri_box[a as usize], &self.tri_box[b as usize]);
-                if c < self.config.coherence_max {
-                    items.push(self.make_pair(NodeRef::leaf(a), NodeRef::leaf(b)));
-                    i += 2;
-                    continue;
+        let mut items: Vec<NodeRef> = ids.iter().map(|&t| NodeRef::leaf(t)).collect();
+        if !self.config.clustering {
+            return items;
+        }
+        // Whether each item was made by the last level (every leaf, at first): a triangle or
+        // cluster left alone by one level stays alone, as the paper leaves an incoherent one.
+        let mut fresh = vec![true; items.len()];
+        for _ in 0..self.config.cluster_levels.max(1) {
+            // In place: the write index never passes the read index.
+            let (mut r, mut w, n) = (0, 0, items.len());
+            while r < n {
+                let a = items[r];
+                if fresh[r] && r + 1 < n && fresh[r + 1] {
+                    let b = items[r + 1];
+                    let c = crate::insert::coherence(&self.aabb(a), &self.aabb(b));
+                    if c < self.config.coherence_max {
+                        items[w] = self.make_pair(a, b);
+                        fresh[w] = true;
+                        (r, w) = (r + 2, w + 1);
+                        continue;
+                    }
                 }
+                items[w] = a;
+                fresh[w] = false;
+                (r, w) = (r + 1, w + 1);
             }
-            items.push(NodeRef::leaf(a));
-            i += 1;
+            items.truncate(w);
+            fresh.truncate(w);
+            if w == n {
+                break;
+            }
         }
         items
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::node::{NodeKind, NodeRef};
+    use crate::{Bvh, BvhConfig, Triangle};
+    use glam::Vec3;
+
+    /// The triangles under `r`, in order.
+    fn leaves(bvh: &Bvh, r: NodeRef) -> Vec<u32> {
+        match r.kind() {
+            NodeKind::Inner => bvh.inner[r.index() as usize]
+                .children
+                .iter()
+                .flat_map(|&c| leaves(bvh, c))
+                .collect(),
+            _ => vec![r.index()],
+        }
+    }
+
+    /// A strip of unit triangles along x, with one far away after the sixth.
+    fn strip() -> Vec<Triangle> {
+        let mut tris: Vec<Triangle> = (0..9)
+            .map(|i| {
+                let x = i as f32;
+                Triangle::new(
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 1.0, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                )
+            })
+            .collect();
+        tris[6] = Triangle::new(
+            Vec3::splat(100.0),
+            Vec3::new(101.0, 100.0, 100.0),
+            Vec3::new(100.0, 101.0, 100.0),
+        );
+        tris
+    }
+
+    fn clusters(levels: u32) -> Vec<Vec<u32>> {
+        let mut bvh = Bvh::new(BvhConfig {
+            cluster_levels: levels,
+            ..BvhConfig::incr()
+        });
+        let tris = strip();
+        let boxes: Vec<_> = tris.iter().map(Triangle::aabb).collect();
+        let mut ids = Vec::new();
+        bvh.alloc_triangles_boxed(&tris, &boxes, &mut ids);
+        let items = bvh.cluster_items(&ids);
+        items.iter().map(|&r| leaves(&bvh, r)).collect()
+    }
+
+    #[test]
+    fn each_cluster_level_pairs_the_coherent_clusters_of_the_level_before() {
+        // Neighbours along the strip are coherent (flat boxes side by side, and so are two pairs
+        // side by side: R_coh = 1); triangle 6 is coherent with nothing, so 7 and 8 pair alone.
+        let pairs = clusters(1);
+        assert_eq!(
+            pairs,
+            [vec![0, 1], vec![2, 3], vec![4, 5], vec![6], vec![7, 8]]
+        );
+        assert_eq!(clusters(0), pairs, "0 counts as 1");
+        let quads = clusters(2);
+        assert_eq!(quads, [vec![0, 1, 2, 3], vec![4, 5], vec![6], vec![7, 8]]);
+        // A pair left alone by one level stays alone; nothing more is coherent here.
+        assert_eq!(clusters(3), quads);
     }
 }

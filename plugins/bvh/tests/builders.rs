@@ -27,6 +27,16 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
         bvh.insert_triangles(tris).unwrap();
         out.push((name, bvh));
     }
+    let quads = BvhConfig {
+        cluster_levels: 2,
+        ..small
+    };
+    let mut incru_quads = Bvh::new(quads);
+    incru_quads.insert_triangles(tris).unwrap();
+    out.push(("incru-cluster-levels-2", incru_quads));
+    let mut up_quads = Bvh::new(quads);
+    up_quads.insert_triangles_parallel_search(tris).unwrap();
+    out.push(("incrup-cluster-levels-2", up_quads));
     let mut up = Bvh::new(small);
     up.insert_triangles_parallel_search(tris).unwrap();
     out.push(("incrup", up));

@@ -52,6 +52,14 @@ fn check_scene(name: &str) {
     let mut incrup = Bvh::new(BvhConfig::incr_u());
     incrup.insert_triangles_parallel_search(&tris).unwrap();
     builds.push(("incrup", incrup));
+    // Clusters of up to four coherent consecutive triangles, then the short post-pass on them.
+    let mut quads = Bvh::new(BvhConfig {
+        cluster_levels: 2,
+        ..BvhConfig::incr_u()
+    });
+    quads.insert_triangles(&tris).unwrap();
+    quads.optimize(PostPass::short());
+    builds.push(("incru, cluster levels 2, short post-pass", quads));
     let mut incrupb = Bvh::new(BvhConfig::incr_u());
     incrupb.insert_triangles_block_parallel(&tris).unwrap();
     builds.push(("incrupb", incrupb));

@@ -118,6 +118,10 @@ struct Tuning {
     /// N_u: cached nodes that trigger a batch of updates (engine default 8000, the paper's).
     #[arg(long)]
     update_cache: Option<u32>,
+    /// Rounds of clustering of coherent consecutive items: 1 pairs triangles (engine default, the
+    /// paper's), 2 also pairs coherent consecutive pairs into subtrees of four (not in the paper).
+    #[arg(long)]
+    cluster_levels: Option<u32>,
     /// Tree rotations along each insertion's path (not in the paper).
     #[arg(long)]
     rotations: bool,
@@ -278,6 +282,7 @@ impl Tuning {
         BvhConfig {
             update_fraction: self.update_fraction.unwrap_or(base.update_fraction),
             update_cache_size: self.update_cache.unwrap_or(base.update_cache_size),
+            cluster_levels: self.cluster_levels.unwrap_or(base.cluster_levels),
             rotations: self.rotations || base.rotations,
             update_treelet: self.update_treelet.unwrap_or(base.update_treelet),
             block_min_batch: self.block_min_batch.unwrap_or(base.block_min_batch),
@@ -317,6 +322,9 @@ impl Tuning {
         }
         if let Some(n) = self.update_cache {
             parts.push(format!("N_u={n}"));
+        }
+        if let (Some(c), false) = (self.cluster_levels, method == "incrupb") {
+            parts.push(format!("cluster levels={c}"));
         }
         if self.rotations {
             parts.push("rotations".to_owned());
