@@ -455,45 +455,19 @@ impl Bvh {
     /// `i`: a box that `removed` lies strictly inside on all six sides keeps every side, since
     /// what reaches each side lies outside the removed subtree, so the refit stops there without
     /// reading the children's boxes; other boxes are recomputed from their children.
-    pub(crate) fn shrink_from(&mut self, mut i: u32, removed: &Aabb) {
-        while i != NONE {
-            self.changes.mark_inner(i);
-            let old = self.inner[i as usize].aabb;
-            if removed.min.cmpgt(old.min).all() && removed.max.cmplt(old.max).all() {
-                break;
-            }
-            let [a, b] = self.inner[i as usize].children;
-            let aabb = self.aabb(a).union(&self.aabb(b));
-            let node = &mut self.inner[i as usize];
-            if node.aabb == aabb {
-                break;
-            }
-            self.area_acc += aabb.area() as f64 - node.aabb.area() as f64;
-            node.aabb = aabb;
-            let parent = node.parent;
-            self.record(i);
-            i = parent;
-        }
+    pub(crate) fn shrink_from(&mut self, i: u32, removed: &Aabb) {
+        self.refit_with(i, |bvh, i| {
+            let old = &bvh.inner[i as usize].aabb;
+            let inside = removed.min.cmpgt(old.min).all() && removed.max.cmplt(old.max).all();
+            (!inside).then(|| bvh.children_union(i))
+        });
     }
 
     /// Recomputes boxes from inner node `i` upwards, stopping where a box no longer changes
     /// (above that point every box already contains what lies below). A node's GPU record holds its
     /// children's boxes, so every node reached is marked changed: its child's box just changed.
-    pub(crate) fn refit_from(&mut self, mut i: u32) {
-        while i != NONE {
-            self.changes.mark_inner(i);
-            let [a, b] = self.inner[i as usize].children;
-            let aabb = self.aabb(a).union(&self.aabb(b));
-            let node = &mut self.inner[i as usize];
-            if node.aabb == aabb {
-                break;
-            }
-            self.area_acc += aabb.area() as f64 - node.aabb.area() as f64;
-            node.aabb = aabb;
-            let parent = node.parent;
-            self.record(i);
-            i = parent;
-        }
+    pub(crate) fn refit_from(&mut self, i: u32) {
+        self.refit_with(i, |bvh, i| Some(bvh.children_union(i)));
     }
 
     /// [`Bvh::refit_from`] after a link: the boxes from inner node `i` upwards take in `b`, the
@@ -501,11 +475,21 @@ impl Bvh {
     /// comes out the same, bit for bit, as the union of its children (every box was that union
     /// before, and one child grew by `b`), but without reading the other child's box at each
     /// level, a load that the refit's profile showed missing the cache.
-    pub(crate) fn grow_from(&mut self, mut i: u32, b: &Aabb) {
+    pub(crate) fn grow_from(&mut self, i: u32, b: &Aabb) {
+        self.refit_with(i, |bvh, i| Some(bvh.inner[i as usize].aabb.union(b)));
+    }
+
+    /// The walk the refits share: from inner node `i` upwards, mark each node reached, take the
+    /// box `next_box` gives it (none: it keeps its own), and stop at the first whose box is
+    /// unchanged, keeping the area sum and the update cache in step.
+    #[inline(always)]
+    fn refit_with(&mut self, mut i: u32, next_box: impl Fn(&Self, u32) -> Option<Aabb>) {
         while i != NONE {
             self.changes.mark_inner(i);
+            let Some(aabb) = next_box(self, i) else {
+                break;
+            };
             let node = &mut self.inner[i as usize];
-            let aabb = node.aabb.union(b);
             if node.aabb == aabb {
                 break;
             }
@@ -515,6 +499,13 @@ impl Bvh {
             self.record(i);
             i = parent;
         }
+    }
+
+    /// The union of inner node `i`'s children's boxes.
+    #[inline]
+    fn children_union(&self, i: u32) -> Aabb {
+        let [a, b] = self.inner[i as usize].children;
+        self.aabb(a).union(&self.aabb(b))
     }
 
     /// Adds an inner node to the node update cache while insertions are recorded.

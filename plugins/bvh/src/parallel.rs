@@ -77,14 +77,33 @@ impl Bvh {
     /// them, then, for each further level of `cluster_levels`, coherent consecutive pairs of the
     /// level before into subtrees twice their size. Returns the items to insert, in stream order.
     pub(crate) fn cluster_items(&mut self, ids: &[u32]) -> Vec<NodeRef> {
-        let mut items: Vec<NodeRef> = ids.iter().map(|&t| NodeRef::leaf(t)).collect();
+        let mut items = Vec::with_capacity(ids.len());
         if !self.config.clustering {
+            items.extend(ids.iter().map(|&t| NodeRef::leaf(t)));
             return items;
         }
-        // Whether each item was made by the last level (every leaf, at first): a triangle or
-        // cluster left alone by one level stays alone, as the paper leaves an incoherent one.
-        let mut fresh = vec![true; items.len()];
-        for _ in 0..self.config.cluster_levels.max(1) {
+        // Whether each item was made by the last level: a triangle or cluster left alone by one
+        // level stays alone, as the paper leaves an incoherent triangle.
+        let mut fresh = Vec::with_capacity(ids.len());
+        // The first level reads the triangles' boxes straight from their array.
+        let mut i = 0;
+        while i < ids.len() {
+            let a = ids[i];
+            if let Some(&b) = ids.get(i + 1) {
+                let c =
+                    crate::insert::coherence(&self.tri_box[a as usize], &self.tri_box[b as usize]);
+                if c < self.config.coherence_max {
+                    items.push(self.make_pair(NodeRef::leaf(a), NodeRef::leaf(b)));
+                    fresh.push(true);
+                    i += 2;
+                    continue;
+                }
+            }
+            items.push(NodeRef::leaf(a));
+            fresh.push(false);
+            i += 1;
+        }
+        for _ in 1..self.config.cluster_levels {
             // In place: the write index never passes the read index.
             let (mut r, mut w, n) = (0, 0, items.len());
             while r < n {
