@@ -1,5 +1,6 @@
 //! Criterion benches of the engine's hot operations on a real scene (sibenik.obj, 73,564 triangles):
-//! insertion (whole-scene IncrU build, and one triangle into the finished tree), the branch-and-bound
+//! insertion (whole-scene IncrU build, the target build of IncrU at k_u = 0.1 and the short
+//! post-pass with pairs and with clusters of four, and one triangle into the finished tree), the branch-and-bound
 //! search alone, removal of a 10k-triangle group, and closest-hit and any-hit traversal.
 //!
 //! Run: `cargo bench -p treelight_bvh --bench engine` (reads `../shared/scenes/obj/sibenik.obj`).
@@ -7,7 +8,7 @@
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{Bvh, Ray, SearchScratch, Triangle};
+use treelight_bvh::{Bvh, BvhConfig, PostPass, Ray, SearchScratch, Triangle};
 
 // The tests' scene loader, so the benches read the scene exactly as the tests check it.
 #[path = "../tests/support/mod.rs"]
@@ -55,6 +56,26 @@ fn engine(c: &mut Criterion) {
             bvh
         })
     });
+    // The Sibenik target: IncrU at k_u = 0.1 and the short post-pass, with the paper's
+    // pairs and with clusters of four.
+    for levels in [1, 2] {
+        let config = BvhConfig {
+            update_fraction: 0.1,
+            cluster_levels: levels,
+            ..BvhConfig::incr_u()
+        };
+        g.bench_function(
+            format!("incru_k_u_0.1_cluster_levels_{levels}_short_pass_sibenik_73k"),
+            |b| {
+                b.iter(|| {
+                    let mut bvh = Bvh::new(config);
+                    bvh.insert_triangles(black_box(&tris)).unwrap();
+                    bvh.optimize(PostPass::short());
+                    bvh
+                })
+            },
+        );
+    }
     g.finish();
     // Steady state: the tree's arrays have room (a fresh clone would reallocate them all on the first
     // push, which is not what an editor sees), so insert and remove the same triangle.
