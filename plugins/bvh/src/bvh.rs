@@ -273,6 +273,15 @@ impl Bvh {
         id
     }
 
+    /// Allocates ids for `tris`, in input order, growing the arrays by slices rather than
+    /// triangle by triangle (see [`Bvh::alloc_triangles_boxed`]).
+    pub(crate) fn alloc_triangles(&mut self, tris: &[Triangle]) -> Vec<u32> {
+        let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
+        let mut ids = Vec::with_capacity(tris.len());
+        self.alloc_triangles_boxed(tris, &boxes, &mut ids);
+        ids
+    }
+
     /// Allocates ids for `tris`, whose boxes `boxes` are already known, appending them to `ids`.
     /// Reuses free slots first like [`Bvh::alloc_triangle`]; the rest are appended to the arrays as
     /// slices, which for a fresh tree is every triangle.

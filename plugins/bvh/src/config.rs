@@ -50,7 +50,8 @@ pub struct BvhConfig {
     /// triangles, as the paper does, and each further round pairs coherent consecutive clusters
     /// that the round before made, by the same R_coh < R_max test on their boxes. 2 makes
     /// subtrees of up to four triangles from a coherent stream and inserts a quarter as many
-    /// items as triangles. 0 counts as 1. Not in the paper beyond 1; IncrU and IncrUP read it.
+    /// items as triangles. 0 counts as 1. Not in the paper beyond 1; Incr, IncrU and IncrUP read
+    /// it (IncrUPB builds its batches its own way).
     pub cluster_levels: u32,
     /// R_max: pairs with R_coh below it are clustered, batches with R*_coh below it are not split further.
     pub coherence_max: f32,

@@ -28,10 +28,7 @@ impl Bvh {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
         self.reserve(tris.len());
-        // The arrays grow by slices, not triangle by triangle.
-        let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
-        let mut ids = Vec::with_capacity(tris.len());
-        self.alloc_triangles_boxed(tris, &boxes, &mut ids);
+        let ids = self.alloc_triangles(tris);
         for item in self.cluster_items(&ids) {
             self.insert_item(item);
         }

@@ -1,7 +1,7 @@
 //! IncrUP: the best siblings of a small batch are searched in parallel on the current tree, then
 //! linked one by one (paper section 5.1).
 
-use crate::node::{NONE, NodeRef};
+use crate::node::NodeRef;
 use crate::search::SearchScratch;
 use crate::triangle::validate_triangles;
 use crate::{Bvh, BvhError, Triangle};
@@ -22,7 +22,7 @@ impl Bvh {
         validate_triangles(tris)?;
         self.check_room(tris.len())?;
         self.reserve(tris.len());
-        let ids: Vec<u32> = tris.iter().map(|t| self.alloc_triangle(*t, NONE)).collect();
+        let ids = self.alloc_triangles(tris);
         let items = self.cluster_items(&ids);
         let batch = self.config.parallel_search_batch.max(1) as usize;
         let mut targets: Vec<NodeRef> = Vec::with_capacity(batch);
@@ -175,10 +175,7 @@ mod tests {
             cluster_levels: levels,
             ..BvhConfig::incr()
         });
-        let tris = strip();
-        let boxes: Vec<_> = tris.iter().map(Triangle::aabb).collect();
-        let mut ids = Vec::new();
-        bvh.alloc_triangles_boxed(&tris, &boxes, &mut ids);
+        let ids = bvh.alloc_triangles(&strip());
         let items = bvh.cluster_items(&ids);
         items.iter().map(|&r| leaves(&bvh, r)).collect()
     }
