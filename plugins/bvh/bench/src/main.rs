@@ -467,14 +467,14 @@ fn run(args: &Args) -> Result<(), String> {
             &fractions[..1]
         }
     };
-    let variants = |m: &str| {
-        let draws = if m.starts_with("incr") {
-            draws.len()
+    let draws_of = |m: &str| {
+        if m.starts_with("incr") {
+            &draws[..]
         } else {
-            1
-        };
-        draws * fractions_of(m).len()
+            &draws[..1]
+        }
     };
+    let variants = |m: &str| draws_of(m).len() * fractions_of(m).len();
     let per_order: usize =
         args.method.iter().map(|m| variants(m)).sum::<usize>() * args.threads.len();
     let jobs = (args.scene.len() * args.order.len() * per_order) as u64;
@@ -555,12 +555,7 @@ fn run(args: &Args) -> Result<(), String> {
                 .iter()
                 .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
                 .flat_map(|(m, t)| {
-                    let draws = if m.starts_with("incr") {
-                        &draws[..]
-                    } else {
-                        &draws[..1]
-                    };
-                    draws.iter().flat_map(move |d| {
+                    draws_of(m).iter().flat_map(move |d| {
                         fractions_of(m).iter().map(move |&f| {
                             let tuning = Tuning {
                                 update_fraction: d.or(args.tuning.update_fraction),

@@ -4,7 +4,7 @@
 
 mod support;
 
-use support::{bench_csv, bench_refused};
+use support::{bench_csv, bench_refused, csv_rows};
 
 /// Each row's method, settings label and SAH cost, from the CSV of a run with `levels`.
 fn rows(levels: &str) -> Vec<(String, String, f32)> {
@@ -19,12 +19,9 @@ fn rows(levels: &str) -> Vec<(String, String, f32)> {
             levels,
         ],
     );
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').map(|f| f.trim_matches('"')).collect();
-            (f[3].to_owned(), f[4].to_owned(), f[7].parse().unwrap())
-        })
+    csv_rows(&text)
+        .into_iter()
+        .map(|r| (r[3].clone(), r[4].clone(), r[7].parse().unwrap()))
         .collect()
 }
 

@@ -4,7 +4,7 @@
 
 mod support;
 
-use support::{bench_csv, bench_refused};
+use support::{bench_csv, bench_refused, csv_rows};
 
 /// The short post-pass's row on the synthetic `scene` with the flags `extra` (none: the short pass
 /// as it is): its settings label and SAH cost, read back from the CSV.
@@ -13,12 +13,8 @@ fn short_pass(scene: &str, extra: &[&str]) -> (String, f32) {
     let mut args = vec!["--scene", scene, "--method", "incru-post", "--post-short"];
     args.extend(extra);
     let (_, text) = bench_csv(&name, &args);
-    let row = text.lines().nth(1).unwrap();
-    // The label is quoted and may hold commas; the seven numbers after it do not.
-    let (head, numbers) = row.rsplit_once('"').unwrap();
-    let label = head.rsplit_once('"').unwrap().1.to_owned();
-    let cost = numbers.split(',').nth(3).unwrap().parse().unwrap();
-    (label, cost)
+    let row = &csv_rows(&text)[0];
+    (row[4].clone(), row[7].parse().unwrap())
 }
 
 #[test]
@@ -116,13 +112,9 @@ fn a_list_of_post_fractions_builds_one_post_pass_row_each_and_summarises_each() 
         ],
     );
     // Rows: IncrU once per k_u, the post-pass once per k_u and fraction.
-    let rows: Vec<(String, String, f32)> = text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').map(|f| f.trim_matches('"')).collect();
-            (f[3].to_owned(), f[4].to_owned(), f[7].parse().unwrap())
-        })
+    let rows: Vec<(String, String, f32)> = csv_rows(&text)
+        .into_iter()
+        .map(|r| (r[3].clone(), r[4].clone(), r[7].parse().unwrap()))
         .collect();
     let labels: Vec<(&str, &str)> = rows.iter().map(|r| (&r.0[..], &r.1[..])).collect();
     assert_eq!(

@@ -3,7 +3,7 @@
 
 mod support;
 
-use support::{bench_csv, bench_refused};
+use support::{bench_csv, bench_refused, csv_rows};
 
 #[test]
 fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
@@ -23,15 +23,7 @@ fn a_k_u_sweep_builds_each_draw_and_summarises_them() {
     );
 
     // Rows: median once, IncrU once per k_u.
-    let rows: Vec<Vec<String>> = text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            l.split(',')
-                .map(|f| f.trim_matches('"').to_owned())
-                .collect()
-        })
-        .collect();
+    let rows = csv_rows(&text);
     let methods: Vec<(&str, &str)> = rows.iter().map(|r| (&r[3][..], &r[4][..])).collect();
     assert_eq!(
         methods,

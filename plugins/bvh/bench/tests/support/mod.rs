@@ -48,3 +48,23 @@ pub fn bench_csv(name: &str, args: &[&str]) -> (String, String) {
     std::fs::remove_dir_all(&dir).unwrap();
     (table, text)
 }
+
+/// The CSV's data rows (the header skipped), each split into its fields: commas inside a quoted
+/// field (the scene name, the settings label) do not split it, and the quotes are dropped.
+pub fn csv_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            let mut fields = vec![String::new()];
+            let mut quoted = false;
+            for c in line.chars() {
+                match c {
+                    '"' => quoted = !quoted,
+                    ',' if !quoted => fields.push(String::new()),
+                    _ => fields.last_mut().unwrap().push(c),
+                }
+            }
+            fields
+        })
+        .collect()
+}
