@@ -550,6 +550,24 @@ impl Bvh {
         }
     }
 
+    /// The triangles of the leaves under `r`, left to right (instances are not entered): the
+    /// unit tests' view of what a subtree holds.
+    #[cfg(test)]
+    pub(crate) fn leaves_under(&self, r: NodeRef) -> Vec<u32> {
+        let (mut out, mut stack) = (Vec::new(), vec![r]);
+        while let Some(n) = stack.pop() {
+            match n.kind() {
+                NodeKind::Inner => {
+                    let [a, b] = self.inner[n.index() as usize].children;
+                    stack.extend([b, a]);
+                }
+                NodeKind::Leaf => out.push(n.index()),
+                _ => {}
+            }
+        }
+        out
+    }
+
     /// Inner node ids in the subtree under `r` (instances are not entered).
     pub(crate) fn collect_inner(&self, r: NodeRef, out: &mut Vec<u32>) {
         let mut stack = vec![r];

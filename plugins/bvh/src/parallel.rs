@@ -134,21 +134,8 @@ impl Bvh {
 
 #[cfg(test)]
 mod tests {
-    use crate::node::{NodeKind, NodeRef};
     use crate::{Bvh, BvhConfig, Triangle};
     use glam::Vec3;
-
-    /// The triangles under `r`, in order.
-    fn leaves(bvh: &Bvh, r: NodeRef) -> Vec<u32> {
-        match r.kind() {
-            NodeKind::Inner => bvh.inner[r.index() as usize]
-                .children
-                .iter()
-                .flat_map(|&c| leaves(bvh, c))
-                .collect(),
-            _ => vec![r.index()],
-        }
-    }
 
     /// A strip of unit triangles along x, with one far away after the sixth.
     fn strip() -> Vec<Triangle> {
@@ -177,7 +164,7 @@ mod tests {
         });
         let ids = bvh.alloc_triangles(&strip());
         let items = bvh.cluster_items(&ids);
-        items.iter().map(|&r| leaves(&bvh, r)).collect()
+        items.iter().map(|&r| bvh.leaves_under(r)).collect()
     }
 
     #[test]

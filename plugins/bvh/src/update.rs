@@ -678,23 +678,12 @@ mod tests {
 
     /// The tree's shape without its slot numbers: each inner node's triangles, sorted.
     fn shape(bvh: &Bvh) -> Vec<Vec<u32>> {
-        fn leaves(bvh: &Bvh, r: NodeRef, out: &mut Vec<u32>) {
-            match r.kind() {
-                NodeKind::Inner => {
-                    for c in bvh.inner[r.index() as usize].children {
-                        leaves(bvh, c, out);
-                    }
-                }
-                _ => out.push(r.index()),
-            }
-        }
         let mut inner = Vec::new();
         bvh.collect_inner(bvh.root, &mut inner);
         let mut shape: Vec<Vec<u32>> = inner
             .iter()
             .map(|&i| {
-                let mut t = Vec::new();
-                leaves(bvh, NodeRef::inner(i), &mut t);
+                let mut t = bvh.leaves_under(NodeRef::inner(i));
                 t.sort_unstable();
                 t
             })

@@ -22,55 +22,61 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     }
     let mut small = BvhConfig::incr_u();
     small.update_cache_size = 64; // small enough that updates run many times on small inputs
-    for (name, cfg) in [("incr", BvhConfig::incr()), ("incru", small)] {
-        let mut bvh = Bvh::new(cfg);
-        bvh.insert_triangles(tris).unwrap();
-        out.push((name, bvh));
-    }
     let quads = BvhConfig {
         cluster_levels: 2,
         ..small
     };
-    let mut incru_quads = Bvh::new(quads);
-    incru_quads.insert_triangles(tris).unwrap();
-    out.push(("incru-cluster-levels-2", incru_quads));
-    let mut up_quads = Bvh::new(quads);
-    up_quads.insert_triangles_parallel_search(tris).unwrap();
-    out.push(("incrup-cluster-levels-2", up_quads));
-    let mut up = Bvh::new(small);
-    up.insert_triangles_parallel_search(tris).unwrap();
-    out.push(("incrup", up));
-    let mut upb = Bvh::new(small);
-    upb.insert_triangles_block_parallel(tris).unwrap();
-    out.push(("incrupb", upb));
-    let mut upb_sah = Bvh::new(BvhConfig {
-        block_bvh: BatchBvh::Sah,
-        ..small
-    });
-    upb_sah.insert_triangles_block_parallel(tris).unwrap();
-    out.push(("incrupb-sah-bbvhs", upb_sah));
-    // The paper's batching rule: batches split down to single triangles where incoherent.
-    let mut upb1 = Bvh::new(BvhConfig {
-        block_min_batch: 1,
-        ..small
-    });
-    upb1.insert_triangles_block_parallel(tris).unwrap();
-    out.push(("incrupb-min1", upb1));
-    let mut rot = Bvh::new(BvhConfig {
-        rotations: true,
-        update_treelet: 5,
-        ..small
-    });
-    rot.insert_triangles(tris).unwrap();
-    out.push(("incru-rotations-treelets", rot));
-    let mut post = Bvh::new(small);
-    post.insert_triangles(tris).unwrap();
-    post.optimize(treelight_bvh::PostPass::default());
-    out.push(("incru-post", post));
-    let mut short = Bvh::new(small);
-    short.insert_triangles(tris).unwrap();
-    short.optimize(treelight_bvh::PostPass::short());
-    out.push(("incru-short-post", short));
+    type Insert = fn(&mut Bvh, &[Triangle]) -> Result<Vec<u32>, BvhError>;
+    let seq: Insert = Bvh::insert_triangles;
+    let up: Insert = Bvh::insert_triangles_parallel_search;
+    let upb: Insert = Bvh::insert_triangles_block_parallel;
+    for (name, cfg, insert) in [
+        ("incr", BvhConfig::incr(), seq),
+        ("incru", small, seq),
+        ("incru-cluster-levels-2", quads, seq),
+        ("incrup-cluster-levels-2", quads, up),
+        ("incrup", small, up),
+        ("incrupb", small, upb),
+        (
+            "incrupb-sah-bbvhs",
+            BvhConfig {
+                block_bvh: BatchBvh::Sah,
+                ..small
+            },
+            upb,
+        ),
+        // The paper's batching rule: batches split down to single triangles where incoherent.
+        (
+            "incrupb-min1",
+            BvhConfig {
+                block_min_batch: 1,
+                ..small
+            },
+            upb,
+        ),
+        (
+            "incru-rotations-treelets",
+            BvhConfig {
+                rotations: true,
+                update_treelet: 5,
+                ..small
+            },
+            seq,
+        ),
+    ] {
+        let mut bvh = Bvh::new(cfg);
+        insert(&mut bvh, tris).unwrap();
+        out.push((name, bvh));
+    }
+    for (name, pass) in [
+        ("incru-post", treelight_bvh::PostPass::default()),
+        ("incru-short-post", treelight_bvh::PostPass::short()),
+    ] {
+        let mut post = Bvh::new(small);
+        post.insert_triangles(tris).unwrap();
+        post.optimize(pass);
+        out.push((name, post));
+    }
     out
 }
 
