@@ -10,6 +10,7 @@
 mod gltf_scene;
 mod obj_scene;
 mod ply_scene;
+mod sandbox;
 mod texture;
 
 use glam::{Mat4, Vec3};

@@ -3,7 +3,7 @@
 //! so one bad PNG does not cost the user the whole assembly.
 
 use crate::ImportError;
-use crate::gltf_scene::read_uri;
+use crate::sandbox::read_uri;
 use gltf::texture::WrappingMode;
 use std::collections::HashMap;
 use std::io::Cursor;
