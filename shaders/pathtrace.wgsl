@@ -62,18 +62,21 @@ struct View {
     pad2: u32,
 }
 
+// Group 0, the scene: the records and the texture array, shared by every view and bound again only
+// when a buffer grows.
 @group(0) @binding(0) var<storage, read> nodes: array<Node>;
 @group(0) @binding(1) var<storage, read> tris: array<Tri>;
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(3) var<storage, read> attrs: array<Attr>;
 @group(0) @binding(4) var<storage, read> objects: array<Object>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
-@group(0) @binding(6) var<uniform> view: View;
-@group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
 // Base-colour textures, one per layer, resampled to a common size with sRGB-encoded colour (storage
 // textures cannot be sRGB, so the kernel decodes).
-@group(0) @binding(8) var base_color_textures: texture_2d_array<f32>;
-@group(0) @binding(9) var texture_sampler: sampler;
+@group(0) @binding(6) var base_color_textures: texture_2d_array<f32>;
+@group(0) @binding(7) var texture_sampler: sampler;
+// Group 1, the view: its uniform and its accumulation buffer.
+@group(1) @binding(0) var<uniform> view: View;
+@group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
 
 const MODE_PATH: u32 = 0u;
 const MODE_ALBEDO: u32 = 1u;

@@ -32,7 +32,13 @@ pub fn build_app(cli: &cli::Cli) -> App {
     .add_plugins((
         EguiPlugin::default(),
         FrameTimeDiagnosticsPlugin::default(),
-        treelight_scene::SceneBvhPlugin::default(),
+        // The editor's policy: edits traced at once, the tree improved in idle time.
+        treelight_scene::SceneBvhPlugin {
+            config: treelight_scene::SceneBvhConfig {
+                preset: treelight_scene::Preset::Balanced,
+                ..default()
+            },
+        },
         treelight_render::PathTracerPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))

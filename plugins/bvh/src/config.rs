@@ -14,21 +14,6 @@ pub enum Inefficiency {
     Min,
 }
 
-/// How IncrUPB builds the bBVH of a batch (the paper allows any builder).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum BatchBvh {
-    /// Spatial median splits of the centroid bounds: per level one branch-free partition pass and
-    /// one pass measuring the halves. The default: on Sibenik its bBVHs take well under half the
-    /// instructions that `Sah`'s take, which lets the building side keep up with the owner, and
-    /// the global updates repair most of what the cheaper bBVHs lose (final cost 55.55 against
-    /// 54.30 with the batching of `block_min_batch` = 16).
-    #[default]
-    Median,
-    /// SAH-driven: greedy agglomerative clustering for batches of up to 32 triangles, binned SAH
-    /// for larger ones.
-    Sah,
-}
-
 /// Everything the incremental builders and the cost model can be tuned by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BvhConfig {
@@ -62,31 +47,20 @@ pub struct BvhConfig {
     /// On a surface mesh R*_coh grows like the cube root of the batch size (flat boxes tile a
     /// plane, not a volume), so the paper's rule cuts such a stream into batches of a few triangles
     /// and spends its time inserting their roots one by one; the area test still splits the
-    /// scattered batches of a random order. The default, 64, trades cost for the owner's time:
-    /// on Sibenik 16 -> 64 cuts the owner's instructions from ~64M to ~42M for a cost 55.55 ->
-    /// 57.06 (1.068x IncrU's, before `block_crowd_max`), and leaves the bunny and FlightHelmet
-    /// within 0.3% of IncrU's.
+    /// scattered batches of a random order. The default, 64, trades a little cost for much of
+    /// the owner's time.
     pub block_min_batch: u32,
     /// IncrUPB: a batch kept whole by `block_min_batch` is split after all when it is crowded:
     /// when, at the scene's mean density (its triangles over the volume of its bounds), its box
     /// would hold more than this many foreign triangles per own one. That catches pieces of thin
     /// geometry that the rest of the scene crosses (hair, cables, scaffolding), whose own area
-    /// ratio looks compact; flat patches have no volume and are never crowded. The default, 0.25:
-    /// Sibenik 57.06 -> 54.40 (1.018x IncrU's) for about a tenth more of the owner's work, a
-    /// synthetic hairball of 2.88M triangles 1.40x -> 1.15x IncrU's cost, but there 1.94x
-    /// instead of 3.06x IncrU's speed on two threads: its batches become tube segments, whose
-    /// roots the owner inserts one by one. `f32::INFINITY` (or 0) turns the test off.
+    /// ratio looks compact; flat patches have no volume and are never crowded. It lowers the cost
+    /// most on tangled scenes (a hairball), where it also costs the most speed: their batches
+    /// become tube segments, whose roots the owner inserts one by one. `f32::INFINITY` (or 0)
+    /// turns the test off.
     pub block_crowd_max: f32,
-    /// IncrUPB: how each batch's bBVH is built.
-    pub block_bvh: BatchBvh,
     /// IncrUP: items searched in parallel before they are linked one by one.
     pub parallel_search_batch: u32,
-    /// After each insertion, try tree rotations (Kensler 2008) at every node on the path to the
-    /// root. Not in the paper: a cheap local update that helps most on scanned meshes.
-    pub rotations: bool,
-    /// Subtrees per treelet (3 to 8) when an update batch also restructures a treelet (Karras and
-    /// Aila 2013) at every node of the node update cache; 0 turns it off. Not in the paper.
-    pub update_treelet: u32,
     /// Undo an update that would raise the cost (the paper notes keeping every move works too).
     pub keep_only_improving: bool,
 }
@@ -106,11 +80,8 @@ impl Default for BvhConfig {
             block_max_batch: 1024,
             block_min_batch: 64,
             block_crowd_max: 0.25,
-            block_bvh: BatchBvh::Median,
             parallel_search_batch: 16,
             keep_only_improving: false,
-            rotations: false,
-            update_treelet: 0,
         }
     }
 }

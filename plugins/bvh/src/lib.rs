@@ -11,33 +11,22 @@
 //!   [`Bvh::reserve`] ahead of an edit whose latency matters.
 //! * Query: [`Bvh::closest_hit`], [`Bvh::any_hit`], [`Bvh::overlapping_triangles`].
 //! * Export: [`Bvh::gpu_node`] and [`Bvh::take_changes`] for GPUs, [`Bvh::write_tlbvh`] for files.
+//! * Choose a whole policy by name: [`Preset`] (`fast`, `balanced`, `best`) and its [`Policy`].
 //! * Check: [`Bvh::validate`], [`Bvh::sah_cost`].
 
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
-mod aabb;
-mod block;
-pub mod build;
-mod bvh;
-mod change;
 mod config;
+mod edit;
 mod error;
 mod export;
-mod gpu;
-mod group;
-mod insert;
-mod node;
-mod parallel;
-mod quality;
-mod ray;
-mod recluster;
-mod rotate;
-mod search;
-mod traverse;
-mod treelet;
-mod triangle;
-mod update;
+mod incremental;
+mod optimize;
+mod preset;
+mod query;
+pub mod top_down;
+mod tree;
 
 /// Deterministic numbers in [0, 1) for unit tests (xorshift64): the same sequence on every machine
 /// and with no dependency to keep in step.
@@ -51,22 +40,24 @@ pub(crate) fn test_random(mut seed: u64) -> impl FnMut() -> f32 {
     }
 }
 
-pub use aabb::Aabb;
-pub use block::{BlockStream, batch_coherence, coherent_batches, crowding};
-pub use build::{BuiltTree, TopDown};
-pub use bvh::{Bvh, Instance};
-pub use change::ChangeSet;
-pub use config::{BatchBvh, BvhConfig, Inefficiency};
+pub use config::{BvhConfig, Inefficiency};
+pub use edit::group::{GroupId, PreparedGroup};
 pub use error::BvhError;
-pub use export::{FileBvh, FileNode, MAGIC, read_tlbvh};
+pub use export::change::ChangeSet;
+pub use export::gpu::{GpuInstance, GpuNode, GpuTriangle};
+pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};
 pub use glam;
-pub use gpu::{GpuInstance, GpuNode, GpuTriangle};
-pub use group::{GroupId, PreparedGroup};
-pub use insert::coherence;
-pub use node::{InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
-pub use quality::TreeStats;
-pub use ray::{Hit, Ray, RayData};
-pub use search::SearchScratch;
-pub use traverse::TraversalStats;
-pub use triangle::{MAX_COORDINATE, Triangle, validate_triangles};
-pub use update::{OptimizeCursor, PostMoves, PostPass, PostPassReport, TreeletSweep};
+pub use incremental::incr_upb::{BlockStream, batch_coherence, coherent_batches, crowding};
+pub use incremental::insert::coherence;
+pub use optimize::idle_step::OptimizeCursor;
+pub use optimize::post_pass::{PostMoves, PostPass, PostPassReport, TreeletSweep};
+pub use preset::{IdleUpdates, Insertion, Policy, Preset};
+pub use query::ray::{Hit, Ray, RayData};
+pub use query::traverse::TraversalStats;
+pub use top_down::{BuiltTree, TopDown};
+pub use tree::aabb::Aabb;
+pub use tree::bvh::{Bvh, Instance};
+pub use tree::cost::TreeStats;
+pub use tree::node::{InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
+pub use tree::scratch::SearchScratch;
+pub use tree::triangle::{MAX_COORDINATE, Triangle, validate_triangles};

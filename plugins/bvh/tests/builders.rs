@@ -4,9 +4,7 @@ mod support;
 use rayon::prelude::*;
 use support::*;
 use treelight_bvh::glam::Vec3;
-use treelight_bvh::{
-    BatchBvh, BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle,
-};
+use treelight_bvh::{BlockStream, Bvh, BvhConfig, BvhError, Inefficiency, TopDown, Triangle};
 
 fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
     let mut out = Vec::new();
@@ -37,14 +35,6 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
         ("incrup-cluster-levels-2", quads, up),
         ("incrup", small, up),
         ("incrupb", small, upb),
-        (
-            "incrupb-sah-bbvhs",
-            BvhConfig {
-                block_bvh: BatchBvh::Sah,
-                ..small
-            },
-            upb,
-        ),
         // The paper's batching rule: batches split down to single triangles where incoherent.
         (
             "incrupb-min1",
@@ -53,15 +43,6 @@ fn all_builds(tris: &[Triangle]) -> Vec<(&'static str, Bvh)> {
                 ..small
             },
             upb,
-        ),
-        (
-            "incru-rotations-treelets",
-            BvhConfig {
-                rotations: true,
-                update_treelet: 5,
-                ..small
-            },
-            seq,
         ),
     ] {
         let mut bvh = Bvh::new(cfg);
@@ -371,7 +352,7 @@ fn non_finite_vertices_are_rejected_and_nothing_is_inserted() {
 fn block_parallel_rejects_an_invalid_vertex_in_any_buffer_on_any_pool() {
     // The input is checked in parallel pieces (with the pass that measures its bounds) before
     // either side starts: an invalid vertex early, in the middle or at the end is reported by its
-    // index, with either bBVH builder, and leaves the tree as it was, whatever the pool.
+    // index, and leaves the tree as it was, whatever the pool.
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(50, 3)).unwrap();
     let (count, cost) = (bvh.triangle_count(), bvh.sah_cost());
@@ -379,21 +360,15 @@ fn block_parallel_rejects_an_invalid_vertex_in_any_buffer_on_any_pool() {
         for bad in [f32::NAN, f32::NEG_INFINITY, 1e30] {
             let mut tris = soup(40_000, 4);
             tris[at].v[2].x = bad;
-            for kind in [BatchBvh::Median, BatchBvh::Sah] {
-                bvh.set_config(BvhConfig {
-                    block_bvh: kind,
-                    ..*bvh.config()
-                });
-                for threads in [1, 2] {
-                    let got = pool(threads).install(|| bvh.insert_triangles_block_parallel(&tris));
-                    let want_index = match got {
-                        Err(BvhError::NonFiniteVertex { index }) => index,
-                        Err(BvhError::CoordinateTooLarge { index, .. }) => index,
-                        other => panic!("{bad} at {at}: {other:?}"),
-                    };
-                    assert_eq!(want_index, at, "{bad}");
-                    assert_eq!((bvh.triangle_count(), bvh.sah_cost()), (count, cost));
-                }
+            for threads in [1, 2] {
+                let got = pool(threads).install(|| bvh.insert_triangles_block_parallel(&tris));
+                let want_index = match got {
+                    Err(BvhError::NonFiniteVertex { index }) => index,
+                    Err(BvhError::CoordinateTooLarge { index, .. }) => index,
+                    other => panic!("{bad} at {at}: {other:?}"),
+                };
+                assert_eq!(want_index, at, "{bad}");
+                assert_eq!((bvh.triangle_count(), bvh.sah_cost()), (count, cost));
             }
         }
     }

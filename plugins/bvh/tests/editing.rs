@@ -346,12 +346,10 @@ proptest! {
     }
 
     #[test]
-    fn random_edit_sequences_with_rotations_treelet_updates_and_quad_clusters(ops in prop::collection::vec(op(), 1..25)) {
+    fn random_edit_sequences_with_wide_update_batches_and_quad_clusters(ops in prop::collection::vec(op(), 1..25)) {
         let config = BvhConfig {
             update_cache_size: 40,
             update_fraction: 0.2,
-            rotations: true,
-            update_treelet: 5,
             cluster_levels: 2,
             ..BvhConfig::default()
         };

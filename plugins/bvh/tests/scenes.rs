@@ -2,7 +2,7 @@
 
 mod support;
 use support::*;
-use treelight_bvh::{BatchBvh, BlockStream, Bvh, BvhConfig, PostPass, TopDown};
+use treelight_bvh::{BlockStream, Bvh, BvhConfig, PostPass, TopDown};
 
 fn check_scene(name: &str) {
     let tris = load_obj(name);
@@ -63,12 +63,6 @@ fn check_scene(name: &str) {
     let mut incrupb = Bvh::new(BvhConfig::incr_u());
     incrupb.insert_triangles_block_parallel(&tris).unwrap();
     builds.push(("incrupb", incrupb));
-    let mut incrupb_sah = Bvh::new(BvhConfig {
-        block_bvh: BatchBvh::Sah,
-        ..BvhConfig::incr_u()
-    });
-    incrupb_sah.insert_triangles_block_parallel(&tris).unwrap();
-    builds.push(("incrupb, SAH bBVHs", incrupb_sah));
     // The streaming front end, fed in uneven chunks; the tree is valid between them.
     let mut streamed = Bvh::new(BvhConfig::incr_u());
     let mut stream = BlockStream::new(10_000);

@@ -14,7 +14,7 @@ use std::time::Instant;
 use support::{Gpu, PinholeView, tree_bytes};
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
-use treelight_render::{PRIMARY_HITS_WGSL, UploadPlan};
+use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, UploadPlan};
 
 fn arg(name: &str, default: u32) -> u32 {
     std::env::args()
@@ -69,11 +69,11 @@ fn main() {
             gpu.storage("instances", &i),
         ];
         let camera = gpu.uniform(&view.uniform(bvh.gpu_root()));
-        let mut ao = Vec::new();
-        ao.extend(ao_rays.to_le_bytes());
-        ao.extend((diag.length() * 0.05).to_le_bytes());
-        ao.extend([0u8; 8]);
-        let ao = gpu.uniform(&ao);
+        let ao = gpu.uniform(bytemuck::bytes_of(&GpuAoParams {
+            rays: ao_rays,
+            length: diag.length() * 0.05,
+            ..GpuAoParams::default()
+        }));
         let out = gpu.zeroed((resolution * resolution * 4) as u64);
         let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
         let primary = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");

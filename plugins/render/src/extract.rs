@@ -3,7 +3,7 @@
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
 use crate::records::{SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes};
-use crate::textures::TextureLayers;
+use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::light::{DirectionalLight, PointLight};

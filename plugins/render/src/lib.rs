@@ -2,27 +2,31 @@
 //!
 //! [`PathTracerPlugin`] and the camera component [`PathTraced`] turn any Bevy 3D camera into a live
 //! path-traced view of what `treelight_scene`'s [`SceneBvhPlugin`](treelight_scene::SceneBvhPlugin)
-//! tracks. Each frame the plugin takes the scene's change set, uploads only the changed records
-//! ([`UploadPlan`]), and a compute pass in the camera's `Core3d` schedule traces the tree and
-//! accumulates samples; a small render pass writes the average into the view target, in HDR, before
+//! tracks. It is laid out as Bevy's own render features are: extraction takes the scene's change set
+//! and turns it into record writes ([`UploadPlan`]); prepare grows and patches the GPU buffers and
+//! readies each view's uniforms and bind groups; the node, a system in the camera's `Core3d`
+//! schedule, only binds and dispatches the compute pass that traces the tree and accumulates
+//! samples, and the small render pass that writes the average into the view target, in HDR, before
 //! Bevy's tonemapping.
 
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
 mod extract;
-mod gpu_scene;
 mod node;
+mod pipelines;
+mod prepare;
 mod records;
-mod textures;
+mod texture_layers;
 mod upload;
 
 pub use records::{
-    ATTRIBUTE_BYTES, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, SceneLight, SurfaceMaterial,
-    TextureWrap, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal,
-    light_bytes, object_bytes, resolve_bytes,
+    ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
+    GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, SceneLight, SurfaceMaterial, TextureWrap,
+    VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes,
+    object_bytes, resolve_bytes,
 };
-pub use textures::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
+pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
     BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -195,7 +199,7 @@ impl Plugin for PathTracerPlugin {
             .add_plugins(ExtractComponentPlugin::<PathTraced>::default());
         let shaders = {
             let mut assets = app.world_mut().resource_mut::<Assets<Shader>>();
-            node::PathTracerShaders {
+            pipelines::PathTracerShaders {
                 trace: assets.add(Shader::from_wgsl(
                     PATHTRACE_WGSL,
                     "treelight/pathtrace.wgsl",
@@ -213,9 +217,12 @@ impl Plugin for PathTracerPlugin {
             return;
         };
         render_app.insert_resource(stats).insert_resource(shaders);
+        // Bevy's render phases, one module each: extract, then prepare (the texture layers, the
+        // scene's buffers, the views), then the node that binds and dispatches.
+        pipelines::build(render_app);
         extract::build(render_app);
-        gpu_scene::build(render_app);
-        textures::build(render_app);
+        texture_layers::build(render_app);
+        prepare::build(render_app);
         node::build(render_app);
     }
 }

@@ -1,29 +1,158 @@
-//! The byte layouts of the path tracer's scene records, matching `shaders/pathtrace.wgsl`. Kept free of
-//! Bevy's render types so the GPU tests can feed the kernel the same bytes the plugin uploads.
+//! The path tracer's GPU records, one `#[repr(C)]` plain-data struct per WGSL struct (field for field,
+//! so a test can hold their layouts against naga's), and the functions that fill them. Kept free of
+//! Bevy's render types so the GPU tests can feed the kernels the same bytes the plugin uploads.
 
 use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3};
+use bytemuck::{Pod, Zeroable};
 
 /// Bytes of one per-triangle shading record.
-pub const ATTRIBUTE_BYTES: u64 = 48;
+pub const ATTRIBUTE_BYTES: u64 = size_of::<GpuAttribute>() as u64;
 /// Bytes of one per-group record (normal matrix and material).
-pub const OBJECT_BYTES: u64 = 128;
+pub const OBJECT_BYTES: u64 = size_of::<GpuObject>() as u64;
 /// Bytes of one light record.
-pub const LIGHT_BYTES: u64 = 32;
+pub const LIGHT_BYTES: u64 = size_of::<GpuLight>() as u64;
 /// Bytes of the path tracer's view uniform.
-pub const VIEW_BYTES: u64 = 128;
+pub const VIEW_BYTES: u64 = size_of::<GpuView>() as u64;
 
 const HAS_NORMALS: u32 = 0x8000_0000;
 
-fn push_f32s(out: &mut Vec<u8>, v: &[f32]) {
-    for x in v {
-        out.extend_from_slice(&x.to_le_bytes());
-    }
+/// `Attr` of `pathtrace.wgsl`: one triangle's shading.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuAttribute {
+    /// Object-space corner normals, octahedral ([`encode_normal`]).
+    pub normals: [u32; 3],
+    /// The group's slot; bit 31 set when the normals are present.
+    pub group: u32,
+    /// UVs of corners 0 and 1.
+    pub uv01: [f32; 4],
+    /// UV of corner 2.
+    pub uv2: [f32; 2],
+    /// Padding to 48 bytes.
+    pub pad: [u32; 2],
 }
 
-fn push_u32s(out: &mut Vec<u8>, v: &[u32]) {
-    for x in v {
-        out.extend_from_slice(&x.to_le_bytes());
-    }
+/// `Object` of `pathtrace.wgsl`: one group's normal matrix and material.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuObject {
+    /// Rows of the object-to-world normal matrix (the inverse transpose of the linear part).
+    pub normal_rows: [[f32; 4]; 3],
+    /// Linear base colour.
+    pub base_color: [f32; 4],
+    /// Emitted radiance (rgb), before exposure.
+    pub emissive: [f32; 4],
+    /// Metallic, perceptual roughness, reflectance, unused.
+    pub params: [f32; 4],
+    /// Columns of the UV transform's linear part.
+    pub uv_matrix: [f32; 4],
+    /// The UV transform's translation.
+    pub uv_offset: [f32; 2],
+    /// Layer of the base-colour texture array; `u32::MAX` untextured.
+    pub texture: u32,
+    /// Wrap modes: u in bits 0-1, v in bits 2-3 ([`TextureWrap::code`]).
+    pub wrap: u32,
+}
+
+/// `Light` of `pathtrace.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    /// A point light's position, or the unit direction towards a directional light.
+    pub position: [f32; 3],
+    /// 0 point, 1 directional.
+    pub kind: u32,
+    /// Point: intensity (luminous power / 4π). Directional: illuminance.
+    pub radiance: [f32; 3],
+    /// A point light's radius.
+    pub radius: f32,
+}
+
+/// `View` of `pathtrace.wgsl`: the per-view uniform ([`ViewParams`] as the kernel reads it).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuView {
+    /// Clip space to world space, column-major.
+    pub world_from_clip: [[f32; 4]; 4],
+    /// Sky radiance (rgb) and the camera's exposure (w).
+    pub sky: [f32; 4],
+    /// Accumulation buffer width.
+    pub width: u32,
+    /// Accumulation buffer height.
+    pub height: u32,
+    /// Samples accumulated so far; 0 restarts.
+    pub frame: u32,
+    /// The tree's root reference.
+    pub root: u32,
+    /// Bounces after the primary hit.
+    pub max_bounces: u32,
+    /// Samples this dispatch adds per pixel.
+    pub samples: u32,
+    /// What to show.
+    pub mode: u32,
+    /// Lights in the light buffer.
+    pub light_count: u32,
+    /// Indirect luminance cap; 0 disables.
+    pub indirect_clamp: f32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// `Resolve` of `resolve.wgsl`: where the view sits in its target, and the samples to divide by.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuResolve {
+    /// The viewport's origin in target pixels.
+    pub origin: [f32; 2],
+    /// The viewport's size in target pixels.
+    pub viewport: [f32; 2],
+    /// The accumulation buffer's size.
+    pub size: [u32; 2],
+    /// Samples accumulated.
+    pub samples: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// `PrimaryCamera` of `primary_hits.wgsl`: pixel (x, y) looks along `lower_left + (x + 0.5) /
+/// width * horizontal + (y + 0.5) / height * vertical` from `origin`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPrimaryCamera {
+    /// Eye position.
+    pub origin: [f32; 3],
+    /// Image width.
+    pub width: u32,
+    /// Direction to the lower-left corner.
+    pub lower_left: [f32; 3],
+    /// Image height.
+    pub height: u32,
+    /// The image's horizontal extent.
+    pub horizontal: [f32; 3],
+    /// The tree's root reference.
+    pub root: u32,
+    /// The image's vertical extent.
+    pub vertical: [f32; 3],
+    /// Padding.
+    pub pad: u32,
+}
+
+/// `AoParams` of `primary_hits.wgsl`: ambient-occlusion rays per primary hit and their length.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuAoParams {
+    /// Rays per hit.
+    pub rays: u32,
+    /// Ray length.
+    pub length: f32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
 }
 
 /// A unit vector in 32 bits: octahedral mapping, two snorm16 (x in the low half, as WGSL's
@@ -54,17 +183,16 @@ pub fn decode_normal(w: u32) -> Vec3 {
 /// One triangle's shading record: its corners' object-space normals (or none: flat shading), UVs and
 /// the slot of the group whose object record holds its material.
 pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group: u32) -> Vec<u8> {
-    let mut out = Vec::with_capacity(ATTRIBUTE_BYTES as usize);
-    let n = normals.map_or([0; 3], |n| n.map(encode_normal));
     let flag = if normals.is_some() { HAS_NORMALS } else { 0 };
-    push_u32s(&mut out, &[n[0], n[1], n[2], (group & !HAS_NORMALS) | flag]);
     let uv = uvs.unwrap_or([Vec2::ZERO; 3]);
-    push_f32s(
-        &mut out,
-        &[uv[0].x, uv[0].y, uv[1].x, uv[1].y, uv[2].x, uv[2].y],
-    );
-    push_u32s(&mut out, &[0, 0]);
-    out
+    let record = GpuAttribute {
+        normals: normals.map_or([0; 3], |n| n.map(encode_normal)),
+        group: (group & !HAS_NORMALS) | flag,
+        uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+        uv2: [uv[2].x, uv[2].y],
+        pad: [0; 2],
+    };
+    bytemuck::bytes_of(&record).to_vec()
 }
 
 /// How a texture coordinate outside 0..1 folds back, along one axis.
@@ -149,36 +277,27 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
     let inv = object_to_world.inverse();
     // The inverse transpose's rows are the inverse's columns.
     let normal = if inv.is_finite() { inv } else { Mat3::IDENTITY };
-    let mut out = Vec::with_capacity(OBJECT_BYTES as usize);
-    for c in [normal.x_axis, normal.y_axis, normal.z_axis] {
-        push_f32s(&mut out, &[c.x, c.y, c.z, 0.0]);
-    }
-    push_f32s(&mut out, &m.base_color);
-    push_f32s(
-        &mut out,
-        &[m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
-    );
-    push_f32s(
-        &mut out,
-        &[m.metallic, m.perceptual_roughness, m.reflectance, 0.0],
-    );
+    let row = |c: Vec3| [c.x, c.y, c.z, 0.0];
     let uv = m.uv_transform;
-    push_f32s(
-        &mut out,
-        &[
+    let (texture, wrap) = m.base_color_texture.map_or((u32::MAX, 0), |t| {
+        (t.layer, t.wrap[0].code() | (t.wrap[1].code() << 2))
+    });
+    let record = GpuObject {
+        normal_rows: [row(normal.x_axis), row(normal.y_axis), row(normal.z_axis)],
+        base_color: m.base_color,
+        emissive: [m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
+        params: [m.metallic, m.perceptual_roughness, m.reflectance, 0.0],
+        uv_matrix: [
             uv.matrix2.x_axis.x,
             uv.matrix2.x_axis.y,
             uv.matrix2.y_axis.x,
             uv.matrix2.y_axis.y,
-            uv.translation.x,
-            uv.translation.y,
         ],
-    );
-    let (layer, wrap) = m.base_color_texture.map_or((u32::MAX, 0), |t| {
-        (t.layer, t.wrap[0].code() | (t.wrap[1].code() << 2))
-    });
-    push_u32s(&mut out, &[layer, wrap]);
-    out
+        uv_offset: uv.translation.to_array(),
+        texture,
+        wrap,
+    };
+    bytemuck::bytes_of(&record).to_vec()
 }
 
 /// A light the path tracer samples directly.
@@ -204,33 +323,29 @@ pub enum SceneLight {
 
 /// One light's record.
 pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
-    let mut out = Vec::with_capacity(LIGHT_BYTES as usize);
-    match *l {
+    let record = match *l {
         SceneLight::Point {
             position,
             power,
             radius,
-        } => {
+        } => GpuLight {
+            position: position.to_array(),
+            kind: 0,
             // Intensity: luminous power spread over the sphere, as Bevy's point lights do.
-            let i = power / (4.0 * std::f32::consts::PI);
-            push_f32s(&mut out, &position.to_array());
-            push_u32s(&mut out, &[0]);
-            push_f32s(&mut out, &[i.x, i.y, i.z, radius]);
-        }
+            radiance: (power / (4.0 * std::f32::consts::PI)).to_array(),
+            radius,
+        },
         SceneLight::Directional {
             direction,
             illuminance,
-        } => {
-            let towards = -direction.normalize_or(Vec3::NEG_Y);
-            push_f32s(&mut out, &towards.to_array());
-            push_u32s(&mut out, &[1]);
-            push_f32s(
-                &mut out,
-                &[illuminance.x, illuminance.y, illuminance.z, 0.0],
-            );
-        }
-    }
-    out
+        } => GpuLight {
+            position: (-direction.normalize_or(Vec3::NEG_Y)).to_array(),
+            kind: 1,
+            radiance: illuminance.to_array(),
+            radius: 0.0,
+        },
+    };
+    bytemuck::bytes_of(&record).to_vec()
 }
 
 /// The path tracer's per-view uniform.
@@ -263,39 +378,40 @@ pub struct ViewParams {
 }
 
 impl ViewParams {
+    /// The uniform as the kernel reads it.
+    pub fn record(&self) -> GpuView {
+        GpuView {
+            world_from_clip: self.world_from_clip.to_cols_array_2d(),
+            sky: [self.sky.x, self.sky.y, self.sky.z, self.exposure],
+            width: self.width,
+            height: self.height,
+            frame: self.frame,
+            root: self.root,
+            max_bounces: self.max_bounces,
+            samples: self.samples,
+            mode: self.mode,
+            light_count: self.light_count,
+            indirect_clamp: self.indirect_clamp,
+            ..GpuView::default()
+        }
+    }
+
     /// The uniform's bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(VIEW_BYTES as usize);
-        push_f32s(&mut out, &self.world_from_clip.to_cols_array());
-        push_f32s(
-            &mut out,
-            &[self.sky.x, self.sky.y, self.sky.z, self.exposure],
-        );
-        push_u32s(
-            &mut out,
-            &[
-                self.width,
-                self.height,
-                self.frame,
-                self.root,
-                self.max_bounces,
-                self.samples,
-                self.mode,
-                self.light_count,
-            ],
-        );
-        push_f32s(&mut out, &[self.indirect_clamp]);
-        push_u32s(&mut out, &[0, 0, 0]);
-        out
+        bytemuck::bytes_of(&self.record()).to_vec()
     }
 }
 
 /// The resolve pass's uniform: where the view sits in its target and how many samples to divide by.
 pub fn resolve_bytes(origin: Vec2, viewport: Vec2, size: [u32; 2], samples: u32) -> Vec<u8> {
-    let mut out = Vec::with_capacity(32);
-    push_f32s(&mut out, &[origin.x, origin.y, viewport.x, viewport.y]);
-    push_u32s(&mut out, &[size[0], size[1], samples, 0]);
-    out
+    let record = GpuResolve {
+        origin: origin.to_array(),
+        viewport: viewport.to_array(),
+        size,
+        samples,
+        pad: 0,
+    };
+    bytemuck::bytes_of(&record).to_vec()
 }
 
 #[cfg(test)]

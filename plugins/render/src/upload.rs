@@ -4,11 +4,11 @@
 use treelight_bvh::{Bvh, ChangeSet, GpuInstance, GpuNode, GpuTriangle};
 
 /// Bytes of one node record.
-pub const NODE_BYTES: u64 = 64;
+pub const NODE_BYTES: u64 = size_of::<GpuNode>() as u64;
 /// Bytes of one triangle record.
-pub const TRIANGLE_BYTES: u64 = 48;
+pub const TRIANGLE_BYTES: u64 = size_of::<GpuTriangle>() as u64;
 /// Bytes of one instance record.
-pub const INSTANCE_BYTES: u64 = 112;
+pub const INSTANCE_BYTES: u64 = size_of::<GpuInstance>() as u64;
 
 /// The GPU buffers of the scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -87,42 +87,19 @@ pub fn grown_capacity(current: u64, needed: u64) -> u64 {
     cap
 }
 
-fn words(ws: &[u32]) -> Vec<u8> {
-    ws.iter().flat_map(|w| w.to_le_bytes()).collect()
-}
-
-fn f(x: f32) -> u32 {
-    x.to_bits()
-}
-
 /// The 64 bytes of a node record.
 pub fn node_bytes(n: &GpuNode) -> Vec<u8> {
-    let [a0, a1, a2] = n.a_min.map(f);
-    let [a3, a4, a5] = n.a_max.map(f);
-    let [b0, b1, b2] = n.b_min.map(f);
-    let [b3, b4, b5] = n.b_max.map(f);
-    words(&[
-        a0, a1, a2, n.a_ref, a3, a4, a5, n.b_ref, b0, b1, b2, n.pad0, b3, b4, b5, n.pad1,
-    ])
+    bytemuck::bytes_of(n).to_vec()
 }
 
 /// The 48 bytes of a triangle record.
 pub fn triangle_bytes(t: &GpuTriangle) -> Vec<u8> {
-    let [x0, y0, z0] = t.v0.map(f);
-    let [x1, y1, z1] = t.v1.map(f);
-    let [x2, y2, z2] = t.v2.map(f);
-    words(&[x0, y0, z0, t.pad0, x1, y1, z1, t.pad1, x2, y2, z2, t.pad2])
+    bytemuck::bytes_of(t).to_vec()
 }
 
 /// The 112 bytes of an instance record.
 pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
-    let mut w: Vec<u32> = Vec::with_capacity(28);
-    for row in i.world_to_object.iter().chain(&i.object_to_world) {
-        w.extend(row.map(f));
-    }
-    w.push(i.root);
-    w.extend(i.pad);
-    words(&w)
+    bytemuck::bytes_of(i).to_vec()
 }
 
 impl UploadPlan {

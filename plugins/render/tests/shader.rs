@@ -1,9 +1,12 @@
-//! The WGSL compiles and validates, and its struct layouts match the records the crate writes.
+//! The WGSL compiles and validates, and every GPU record the crates write has the layout naga gives
+//! its WGSL struct: the same size, and each field at the offset of the member of the same name.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
+use std::mem::{offset_of, size_of};
+use treelight_bvh::{GpuInstance, GpuNode, GpuTriangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, LIGHT_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, PRIMARY_HITS_WGSL, RESOLVE_WGSL,
-    VIEW_BYTES,
+    GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuView,
+    PATHTRACE_WGSL, PRIMARY_HITS_WGSL, RESOLVE_WGSL,
 };
 
 fn module(source: &str) -> naga::Module {
@@ -16,13 +19,35 @@ fn module(source: &str) -> naga::Module {
     module
 }
 
-fn size_of(module: &naga::Module, name: &str) -> u64 {
-    let (handle, _) = module
+/// A struct's layout: each member's name and byte offset, in order, and its size.
+type Layout = (Vec<(String, u32)>, u32);
+
+/// The layout naga gives WGSL struct `name` (host-shareable structs follow WGSL's layout rules).
+fn wgsl_layout(module: &naga::Module, name: &str) -> Layout {
+    let ty = module
         .types
         .iter()
         .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no struct {name}"));
-    module.types[handle].inner.size(module.to_ctx()) as u64
+        .unwrap_or_else(|| panic!("no struct {name}"))
+        .1;
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    let fields = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+        .collect();
+    (fields, *span)
+}
+
+/// The layout of Rust record `$t`, whose fields are listed in order.
+macro_rules! rust_layout {
+    ($t:ty, [$($field:ident),* $(,)?]) => {
+        (
+            vec![$((stringify!($field).to_owned(), offset_of!($t, $field) as u32)),*],
+            size_of::<$t>() as u32,
+        )
+    };
 }
 
 fn has_entry(module: &naga::Module, name: &str) -> bool {
@@ -30,38 +55,114 @@ fn has_entry(module: &naga::Module, name: &str) -> bool {
 }
 
 #[test]
-fn traversal_records_match_the_engine() {
+fn traversal_records_have_the_engine_s_layout() {
     for source in [PATHTRACE_WGSL, PRIMARY_HITS_WGSL] {
         let m = module(source);
         assert_eq!(
-            size_of(&m, "Node") as usize,
-            std::mem::size_of::<treelight_bvh::GpuNode>()
+            wgsl_layout(&m, "Node"),
+            rust_layout!(
+                GpuNode,
+                [a_min, a_ref, a_max, b_ref, b_min, pad0, b_max, pad1]
+            )
         );
         assert_eq!(
-            size_of(&m, "Tri") as usize,
-            std::mem::size_of::<treelight_bvh::GpuTriangle>()
+            wgsl_layout(&m, "Tri"),
+            rust_layout!(GpuTriangle, [v0, pad0, v1, pad1, v2, pad2])
         );
         assert_eq!(
-            size_of(&m, "Instance") as usize,
-            std::mem::size_of::<treelight_bvh::GpuInstance>()
+            wgsl_layout(&m, "Instance"),
+            rust_layout!(
+                GpuInstance,
+                [world_to_object, object_to_world, root, pad0, pad1, pad2]
+            )
         );
     }
 }
 
 #[test]
-fn path_tracer_records_match_the_crate() {
+fn path_tracer_records_have_the_crate_s_layout() {
     let m = module(PATHTRACE_WGSL);
     assert!(has_entry(&m, "path_trace"));
-    assert_eq!(size_of(&m, "Attr"), ATTRIBUTE_BYTES);
-    assert_eq!(size_of(&m, "Object"), OBJECT_BYTES);
-    assert_eq!(size_of(&m, "Light"), LIGHT_BYTES);
-    assert_eq!(size_of(&m, "View"), VIEW_BYTES);
+    assert_eq!(
+        wgsl_layout(&m, "Attr"),
+        rust_layout!(GpuAttribute, [normals, group, uv01, uv2, pad])
+    );
+    assert_eq!(
+        wgsl_layout(&m, "Object"),
+        rust_layout!(
+            GpuObject,
+            [
+                normal_rows,
+                base_color,
+                emissive,
+                params,
+                uv_matrix,
+                uv_offset,
+                texture,
+                wrap
+            ]
+        )
+    );
+    assert_eq!(
+        wgsl_layout(&m, "Light"),
+        rust_layout!(GpuLight, [position, kind, radiance, radius])
+    );
+    assert_eq!(
+        wgsl_layout(&m, "View"),
+        rust_layout!(
+            GpuView,
+            [
+                world_from_clip,
+                sky,
+                width,
+                height,
+                frame,
+                root,
+                max_bounces,
+                samples,
+                mode,
+                light_count,
+                indirect_clamp,
+                pad0,
+                pad1,
+                pad2
+            ]
+        )
+    );
 }
 
 #[test]
-fn primary_hits_and_resolve_are_valid() {
-    assert!(has_entry(&module(PRIMARY_HITS_WGSL), "primary_hits"));
+fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
+    let p = module(PRIMARY_HITS_WGSL);
+    assert!(has_entry(&p, "primary_hits") && has_entry(&p, "ambient_occlusion"));
+    assert_eq!(
+        wgsl_layout(&p, "PrimaryCamera"),
+        rust_layout!(
+            GpuPrimaryCamera,
+            [
+                origin, width, lower_left, height, horizontal, root, vertical, pad
+            ]
+        )
+    );
+    assert_eq!(
+        wgsl_layout(&p, "AoParams"),
+        rust_layout!(GpuAoParams, [rays, length, pad0, pad1])
+    );
     let r = module(RESOLVE_WGSL);
     assert!(has_entry(&r, "vertex") && has_entry(&r, "fragment"));
-    assert_eq!(size_of(&r, "Resolve"), 32);
+    assert_eq!(
+        wgsl_layout(&r, "Resolve"),
+        rust_layout!(GpuResolve, [origin, viewport, size, samples, pad])
+    );
+}
+
+#[test]
+fn a_moved_field_would_fail_the_comparison() {
+    // The comparison sees order and offsets, not only sizes: the same fields listed in another
+    // order give another layout.
+    let m = module(PATHTRACE_WGSL);
+    assert_ne!(
+        wgsl_layout(&m, "Light"),
+        rust_layout!(GpuLight, [kind, position, radiance, radius])
+    );
 }

@@ -19,6 +19,8 @@ pub use mesh::{
     GeometryCopy, MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles,
 };
 pub use picking::SceneBvhPickingPlugin;
+/// The engine's named policies, which [`SceneBvhConfig::preset`] takes.
+pub use treelight_bvh::Preset;
 
 use bevy::asset::AssetEvent;
 use bevy::camera::visibility::InheritedVisibility;
@@ -30,7 +32,7 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
-use treelight_bvh::{Bvh, BvhConfig, ChangeSet, GroupId, Ray};
+use treelight_bvh::{Bvh, ChangeSet, GroupId, Ray};
 use worker::{Command, Shared, WorkerConfig};
 
 /// Settings of [`SceneBvhPlugin`].
@@ -43,8 +45,9 @@ pub struct SceneBvhConfig {
     /// Most main-thread time per frame spent copying new or edited meshes out of the world; a larger
     /// mesh is copied over several frames (at least one chunk of triangles per frame). Default 0.75 ms.
     pub main_thread_budget: Duration,
-    /// The engine's settings.
-    pub bvh: BvhConfig,
+    /// The engine's policy by name: its configuration for the tree, and the global updates the
+    /// worker runs in idle time after each edit ([`Preset::policy`]).
+    pub preset: Preset,
 }
 
 impl Default for SceneBvhConfig {
@@ -53,7 +56,7 @@ impl Default for SceneBvhConfig {
             bake_after: Duration::from_millis(500),
             idle_tick: Duration::from_millis(50),
             main_thread_budget: Duration::from_micros(750),
-            bvh: BvhConfig::default(),
+            preset: Preset::Balanced,
         }
     }
 }
@@ -67,9 +70,10 @@ pub struct SceneBvhPlugin {
 
 impl Plugin for SceneBvhPlugin {
     fn build(&self, app: &mut App) {
+        let policy = self.config.preset.policy();
         let shared = Arc::new(Shared {
             tree: RwLock::new(SceneTree {
-                bvh: Bvh::new(self.config.bvh),
+                bvh: Bvh::new(policy.config),
                 ..Default::default()
             }),
             stats: Mutex::new(SceneStats::default()),
@@ -81,6 +85,7 @@ impl Plugin for SceneBvhPlugin {
         let cfg = WorkerConfig {
             bake_after: self.config.bake_after,
             idle_tick: self.config.idle_tick,
+            idle_updates: policy.idle,
         };
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())

@@ -11,15 +11,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{OptimizeCursor, PreparedGroup, Triangle};
-
-/// Inner-node slots one idle update step scans; with [`STEP_FRACTION`] it moves a few hundred nodes,
-/// a few milliseconds under the write lock, so a new mesh never waits long for the worker.
-const STEP_SCAN: u32 = 4096;
-/// Fraction of the scanned nodes (the most inefficient) an idle step moves.
-const STEP_FRACTION: f32 = 0.05;
-/// Sweeps of idle update steps over the tree after each batch of edits (one of each move kind).
-const SWEEPS_AFTER_EDIT: u64 = 2;
+use treelight_bvh::{IdleUpdates, OptimizeCursor, PreparedGroup, Triangle};
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
@@ -61,6 +53,8 @@ pub(crate) struct Shared {
 pub(crate) struct WorkerConfig {
     pub bake_after: Duration,
     pub idle_tick: Duration,
+    /// The preset's global updates after each edit.
+    pub idle_updates: IdleUpdates,
 }
 
 /// Keeps only the last word on each entity, in first-mention order. A move after an upsert edits
@@ -102,7 +96,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
 
 pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConfig) {
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
-    let mut idle = IdleUpdates::default();
+    let mut idle = IdleWork::default();
     let mut clock = CostClock::default();
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
@@ -193,7 +187,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let latency = latest_sent.map(|sent| sent.elapsed());
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
-        idle.slots_left = SWEEPS_AFTER_EDIT * slots as u64;
+        idle.slots_left = config.idle_updates.slots_after_edit(slots);
         publish_stats(&shared, &mut clock, received, |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =
@@ -209,7 +203,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
 
 /// Global update work left for idle time, in inner-node slots to scan.
 #[derive(Default)]
-struct IdleUpdates {
+struct IdleWork {
     cursor: OptimizeCursor,
     slots_left: u64,
 }
@@ -220,7 +214,7 @@ fn idle_work(
     shared: &Shared,
     last_move: &mut HashMap<Entity, Instant>,
     config: WorkerConfig,
-    idle: &mut IdleUpdates,
+    idle: &mut IdleWork,
     clock: &mut CostClock,
 ) {
     let still: Vec<Entity> = last_move
@@ -248,9 +242,10 @@ fn idle_work(
             }
         }
         if idle.slots_left > 0 {
-            idle.slots_left = idle.slots_left.saturating_sub(STEP_SCAN as u64);
+            let step = config.idle_updates;
+            idle.slots_left = idle.slots_left.saturating_sub(step.scan.max(1) as u64);
             tree.bvh
-                .optimize_step(&mut idle.cursor, STEP_SCAN, STEP_FRACTION)
+                .optimize_step(&mut idle.cursor, step.scan, step.fraction)
         } else {
             0
         }

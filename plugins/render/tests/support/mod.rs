@@ -6,7 +6,8 @@
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
 use treelight_render::{
-    PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, ViewParams, instance_bytes, node_bytes, triangle_bytes,
+    GpuPrimaryCamera, PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, ViewParams, instance_bytes,
+    node_bytes, triangle_bytes,
 };
 use wgpu::util::DeviceExt;
 
@@ -117,24 +118,42 @@ impl Gpu {
         resources: Vec<wgpu::BindingResource>,
         groups: (u32, u32),
     ) {
-        let entries: Vec<wgpu::BindGroupEntry> = resources
+        self.dispatch_groups(pipeline, vec![resources], groups);
+    }
+
+    /// Dispatches with one list of resources per bind group, each bound in order.
+    pub fn dispatch_groups(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bind_groups: Vec<Vec<wgpu::BindingResource>>,
+        groups: (u32, u32),
+    ) {
+        let bound: Vec<wgpu::BindGroup> = bind_groups
             .into_iter()
             .enumerate()
-            .map(|(i, resource)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource,
+            .map(|(g, resources)| {
+                let entries: Vec<wgpu::BindGroupEntry> = resources
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, resource)| wgpu::BindGroupEntry {
+                        binding: i as u32,
+                        resource,
+                    })
+                    .collect();
+                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: &pipeline.get_bind_group_layout(g as u32),
+                    entries: &entries,
+                })
             })
             .collect();
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
         let mut encoder = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &group, &[]);
+            for (g, group) in bound.iter().enumerate() {
+                pass.set_bind_group(g as u32, group, &[]);
+            }
             pass.dispatch_workgroups(groups.0, groups.1, 1);
         }
         self.queue.submit([encoder.finish()]);
@@ -337,18 +356,18 @@ impl Gpu {
         accum: &wgpu::Buffer,
         layers: &Layers,
     ) {
+        // The plugin's two bind groups: the scene (records and textures), then the view.
         let uniform = self.uniform(&view.to_bytes());
-        let mut resources: Vec<wgpu::BindingResource> =
+        let mut scene_group: Vec<wgpu::BindingResource> =
             scene.iter().map(|b| b.as_entire_binding()).collect();
-        resources.extend([
-            uniform.as_entire_binding(),
-            accum.as_entire_binding(),
+        scene_group.extend([
             wgpu::BindingResource::TextureView(&layers.view),
             wgpu::BindingResource::Sampler(&layers.sampler),
         ]);
-        self.dispatch_with(
+        let view_group = vec![uniform.as_entire_binding(), accum.as_entire_binding()];
+        self.dispatch_groups(
             pipeline,
-            resources,
+            vec![scene_group, view_group],
             (view.width.div_ceil(8), view.height.div_ceil(8)),
         );
     }
@@ -464,17 +483,17 @@ impl PinholeView {
         )
     }
     pub fn uniform(&self, root: u32) -> Vec<u8> {
-        let mut w: Vec<u32> = Vec::new();
-        for (v, extra) in [
-            (self.origin, self.width),
-            (self.lower_left, self.height),
-            (self.horizontal, root),
-            (self.vertical, 0),
-        ] {
-            w.extend(v.to_array().map(f32::to_bits));
-            w.push(extra);
-        }
-        w.iter().flat_map(|x| x.to_le_bytes()).collect()
+        let record = GpuPrimaryCamera {
+            origin: self.origin.to_array(),
+            width: self.width,
+            lower_left: self.lower_left.to_array(),
+            height: self.height,
+            horizontal: self.horizontal.to_array(),
+            root,
+            vertical: self.vertical.to_array(),
+            pad: 0,
+        };
+        bytemuck::bytes_of(&record).to_vec()
     }
 }
 

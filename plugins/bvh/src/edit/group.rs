@@ -1,0 +1,554 @@
+//! Groups: a mesh's triangles inserted as one bBVH subtree, removable as a unit, and movable without
+//! touching its triangles while it is kept whole under a transform (an instance node).
+
+use crate::top_down::{BuiltTree, build_binned_parallel};
+use crate::tree::bvh::{AreaSum, Group};
+use crate::tree::node::{NONE, NodeKind, NodeRef};
+use crate::tree::triangle::validate_triangles;
+use crate::{Aabb, Bvh, BvhError, Instance, Triangle};
+use glam::Affine3A;
+
+/// Handle to a group; stale handles (of removed groups) are rejected, never confused with new ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GroupId {
+    index: u32,
+    generation: u32,
+}
+
+impl GroupId {
+    /// The group's slot: dense, below the number of groups ever alive at once, and reused after
+    /// removal (with a new generation). Renderers index per-group tables (transforms, materials) by it.
+    pub fn index(self) -> u32 {
+        self.index
+    }
+}
+
+/// A group's bBVH, built off the thread that owns the tree (it is `Send`), ready for
+/// [`Bvh::insert_prepared`].
+pub struct PreparedGroup {
+    object: Vec<Triangle>,
+    transform: Affine3A,
+    whole: bool,
+    /// Triangles as they will be stored: object space if whole, world space if baked.
+    stored: Vec<Triangle>,
+    tree: BuiltTree,
+}
+
+impl PreparedGroup {
+    /// Validates and builds (binned SAH, parallel for large meshes). `keep_whole` keeps the triangles in
+    /// object space under `transform`; otherwise they are moved to world space and baked.
+    pub fn build(
+        object: Vec<Triangle>,
+        transform: Affine3A,
+        keep_whole: bool,
+    ) -> Result<Self, BvhError> {
+        validate_triangles(&object)?;
+        check_transform(&transform)?;
+        let stored: Vec<Triangle> = if keep_whole {
+            object.clone()
+        } else {
+            object.iter().map(|t| t.transformed(&transform)).collect()
+        };
+        validate_triangles(&stored)?;
+        let boxes: Vec<Aabb> = stored.iter().map(|t| t.aabb()).collect();
+        let tree = build_binned_parallel(&boxes);
+        Ok(Self {
+            object,
+            transform,
+            whole: keep_whole,
+            stored,
+            tree,
+        })
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.object.len()
+    }
+
+    /// Whether the group has no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.object.is_empty()
+    }
+}
+
+fn check_transform(t: &Affine3A) -> Result<(), BvhError> {
+    let det = t.matrix3.determinant();
+    if !t.is_finite() || det == 0.0 || !det.is_finite() {
+        return Err(BvhError::BadTransform);
+    }
+    Ok(())
+}
+
+impl Bvh {
+    fn group(&self, id: GroupId) -> Result<&Group, BvhError> {
+        match self.groups.get(id.index as usize) {
+            Some(g) if g.alive && g.generation == id.generation => Ok(g),
+            _ => Err(BvhError::UnknownGroup),
+        }
+    }
+
+    /// Builds and inserts a group in one call. See [`PreparedGroup::build`].
+    pub fn insert_group(
+        &mut self,
+        object: &[Triangle],
+        transform: Affine3A,
+        keep_whole: bool,
+    ) -> Result<GroupId, BvhError> {
+        let prepared = PreparedGroup::build(object.to_vec(), transform, keep_whole)?;
+        self.insert_prepared(prepared)
+    }
+
+    /// Inserts a group built elsewhere: its bBVH root goes in with one search (IncrUPB's insertion).
+    pub fn insert_prepared(&mut self, g: PreparedGroup) -> Result<GroupId, BvhError> {
+        self.check_room(g.object.len())?;
+        let index = match self.group_free.pop() {
+            Some(i) => i,
+            None => {
+                self.groups.push(Group {
+                    generation: 0,
+                    alive: false,
+                    triangles: Vec::new(),
+                    object: Vec::new(),
+                    transform: Affine3A::IDENTITY,
+                    instance: NONE,
+                });
+                self.groups.len() as u32 - 1
+            }
+        };
+        let ids: Vec<u32> = g
+            .stored
+            .iter()
+            .map(|t| self.alloc_triangle(*t, index))
+            .collect();
+        let root = self.graft(&g.tree, &ids);
+        let mut instance = NONE;
+        if !root.is_none() {
+            if g.whole {
+                instance = self.make_instance(root, g.transform, index);
+                self.insert_item(NodeRef::instance(instance));
+            } else {
+                self.record_subtree(root);
+                self.insert_item(root);
+            }
+        }
+        let slot = &mut self.groups[index as usize];
+        slot.alive = true;
+        slot.triangles = ids;
+        slot.object = g.object;
+        slot.transform = g.transform;
+        slot.instance = instance;
+        Ok(GroupId {
+            index,
+            generation: slot.generation,
+        })
+    }
+
+    fn make_instance(&mut self, root: NodeRef, transform: Affine3A, group: u32) -> u32 {
+        let aabb = self.aabb(root).transformed(&transform);
+        self.alloc_instance(Instance {
+            aabb,
+            parent: NONE,
+            root,
+            transform,
+            inverse: transform.inverse(),
+            group,
+        })
+    }
+
+    /// Puts a baked subtree's inner nodes in the node update cache, opening them to global updates.
+    fn record_subtree(&mut self, root: NodeRef) {
+        if !self.config.global_updates {
+            return;
+        }
+        let mut nodes = Vec::new();
+        self.collect_inner(root, &mut nodes);
+        for i in nodes {
+            self.record(i);
+        }
+    }
+
+    /// Removes a group and all its triangles.
+    pub fn remove_group(&mut self, id: GroupId) -> Result<(), BvhError> {
+        let g = self.group(id)?;
+        let (instance, triangles) = (g.instance, g.triangles.clone());
+        if instance != NONE {
+            let root = self.instances[instance as usize].root;
+            self.detach_instance(instance);
+            let mut inner = Vec::new();
+            self.collect_inner(root, &mut inner);
+            for i in inner {
+                self.free_inner(i);
+            }
+            for t in &triangles {
+                self.free_triangle(*t);
+            }
+            self.free_instance(instance);
+        } else {
+            self.remove_leaves(&triangles);
+        }
+        let slot = &mut self.groups[id.index as usize];
+        slot.alive = false;
+        slot.generation = slot.generation.wrapping_add(1);
+        slot.triangles = Vec::new();
+        slot.object = Vec::new();
+        self.group_free.push(id.index);
+        Ok(())
+    }
+
+    /// Unlinks an instance node from the global tree and frees the inner node it hung from.
+    fn detach_instance(&mut self, instance: u32) {
+        let p = self.unlink(NodeRef::instance(instance));
+        if p != NONE {
+            self.free_inner(p);
+        }
+    }
+
+    /// Moves a group. A baked group is first opened into an instance (its triangles go back to object
+    /// space, once); from then on each move is one O(log n) re-insertion of the instance node.
+    pub fn set_group_transform(
+        &mut self,
+        id: GroupId,
+        transform: Affine3A,
+    ) -> Result<(), BvhError> {
+        check_transform(&transform)?;
+        let g = self.group(id)?;
+        if g.triangles.is_empty() {
+            self.groups[id.index as usize].transform = transform;
+            return Ok(());
+        }
+        if g.instance == NONE {
+            self.unbake(id.index);
+        }
+        let index = id.index as usize;
+        let instance = self.groups[index].instance;
+        self.groups[index].transform = transform;
+        let attached = self.instances[instance as usize].parent != NONE
+            || self.root == NodeRef::instance(instance);
+        let p = if attached {
+            self.unlink(NodeRef::instance(instance))
+        } else {
+            NONE
+        };
+        let inst = &mut self.instances[instance as usize];
+        inst.transform = transform;
+        inst.inverse = transform.inverse();
+        let root = inst.root;
+        self.instances[instance as usize].aabb = self.aabb(root).transformed(&transform);
+        self.changes.mark_instance(instance);
+        if p == NONE {
+            self.insert_node(NodeRef::instance(instance));
+        } else {
+            self.insert_node_with(NodeRef::instance(instance), p);
+        }
+        self.maybe_update();
+        Ok(())
+    }
+
+    /// Turns a baked group into an instance over an object-space subtree of the same triangle ids.
+    fn unbake(&mut self, index: u32) {
+        let g = &self.groups[index as usize];
+        let (triangles, object, transform) = (g.triangles.clone(), g.object.clone(), g.transform);
+        self.remove_leaves_keep_triangles(&triangles);
+        for (&t, tri) in triangles.iter().zip(&object) {
+            self.tri.items[t as usize] = *tri;
+            self.tri.boxes[t as usize] = tri.aabb();
+            self.changes.mark_triangle(t, self.tri.items.len());
+        }
+        let boxes: Vec<Aabb> = object.iter().map(|t| t.aabb()).collect();
+        let tree = build_binned_parallel(&boxes);
+        let root = self.graft(&tree, &triangles);
+        let instance = self.make_instance(root, transform, index);
+        // Left detached: the caller links it at its new position.
+        self.groups[index as usize].instance = instance;
+    }
+
+    /// Moves a group's triangles to world space and replaces its instance node by its subtree, which
+    /// then takes part in global updates: the single-level tree the paper measures.
+    pub fn bake_group(&mut self, id: GroupId) -> Result<(), BvhError> {
+        let g = self.group(id)?;
+        let instance = g.instance;
+        if instance == NONE {
+            return Ok(());
+        }
+        let (triangles, transform) = (g.triangles.clone(), g.transform);
+        for (k, &t) in triangles.iter().enumerate() {
+            let w = self.groups[id.index as usize].object[k].transformed(&transform);
+            self.tri.items[t as usize] = w;
+            self.tri.boxes[t as usize] = w.aabb();
+            self.changes.mark_triangle(t, self.tri.items.len());
+        }
+        let inst = self.instances[instance as usize];
+        self.refit_subtree(inst.root);
+        // The subtree takes the instance's place in the tree.
+        let root = inst.root;
+        self.set_parent(root, inst.parent);
+        if inst.parent == NONE {
+            self.root = root;
+            self.changes.root_changed = true;
+        } else {
+            self.replace_child(inst.parent, NodeRef::instance(instance), root);
+            self.refit_from(inst.parent);
+        }
+        self.free_instance(instance);
+        self.groups[id.index as usize].instance = NONE;
+        self.record_subtree(root);
+        self.maybe_update();
+        Ok(())
+    }
+
+    /// Replaces a group's vertices (same triangle count, object space) and refits.
+    pub fn update_group_vertices(
+        &mut self,
+        id: GroupId,
+        object: &[Triangle],
+    ) -> Result<(), BvhError> {
+        let g = self.group(id)?;
+        if g.object.len() != object.len() {
+            return Err(BvhError::TriangleCountMismatch {
+                expected: g.object.len(),
+                got: object.len(),
+            });
+        }
+        validate_triangles(object)?;
+        let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
+        if instance == NONE {
+            let world: Vec<Triangle> = object.iter().map(|t| t.transformed(&transform)).collect();
+            validate_triangles(&world)?;
+            let updates: Vec<(u32, Triangle)> = triangles.iter().copied().zip(world).collect();
+            self.set_triangles(&updates)?;
+        } else {
+            for (&t, tri) in triangles.iter().zip(object) {
+                self.tri.items[t as usize] = *tri;
+                self.tri.boxes[t as usize] = tri.aabb();
+                self.changes.mark_triangle(t, self.tri.items.len());
+            }
+            self.refit_subtree(self.instances[instance as usize].root);
+            self.groups[id.index as usize].object = object.to_vec();
+            self.set_group_transform(id, transform)?;
+            return Ok(());
+        }
+        self.groups[id.index as usize].object = object.to_vec();
+        Ok(())
+    }
+
+    /// Recomputes every box of the subtree under `root` bottom-up.
+    pub(crate) fn refit_subtree(&mut self, root: NodeRef) {
+        let mut nodes = Vec::new();
+        self.collect_inner(root, &mut nodes);
+        // Pre-order lists parents before children; reversed, children come first.
+        for &i in nodes.iter().rev() {
+            let [a, b] = self.inner[i as usize].children;
+            let aabb = self.aabb(a).union(&self.aabb(b));
+            self.write_inner(i, AreaSum::Outside, |n| n.aabb = aabb);
+        }
+    }
+
+    /// Number of group slots (live or free): every [`GroupId::index`] is below it.
+    pub fn group_slots(&self) -> u32 {
+        self.groups.len() as u32
+    }
+
+    /// The group's triangle ids.
+    pub fn group_triangles(&self, id: GroupId) -> Result<&[u32], BvhError> {
+        Ok(&self.group(id)?.triangles)
+    }
+
+    /// The group's current transform.
+    pub fn group_transform(&self, id: GroupId) -> Result<Affine3A, BvhError> {
+        Ok(self.group(id)?.transform)
+    }
+
+    /// Whether the group is kept whole under its transform (true) or baked (false).
+    pub fn is_group_whole(&self, id: GroupId) -> Result<bool, BvhError> {
+        Ok(self.group(id)?.instance != NONE)
+    }
+
+    /// The group a triangle belongs to, if any.
+    pub fn triangle_group(&self, t: u32) -> Option<GroupId> {
+        if !self.is_live_triangle(t) {
+            return None;
+        }
+        let g = self.tri.group[t as usize];
+        (g != NONE).then(|| GroupId {
+            index: g,
+            generation: self.groups[g as usize].generation,
+        })
+    }
+
+    /// Triangle `t` in world space, whatever its group's state.
+    pub fn world_triangle(&self, t: u32) -> Option<Triangle> {
+        let tri = *self.triangle(t)?;
+        let g = self.tri.group[t as usize];
+        if g != NONE && self.groups[g as usize].instance != NONE {
+            return Some(tri.transformed(&self.groups[g as usize].transform));
+        }
+        Some(tri)
+    }
+
+    /// Removes individual triangles (leaves). Triangles of a group kept whole bake that group first.
+    /// Unknown ids are rejected before anything changes.
+    pub fn remove_triangles(&mut self, ids: &[u32]) -> Result<(), BvhError> {
+        if let Some(&bad) = ids.iter().find(|&&t| !self.is_live_triangle(t)) {
+            return Err(BvhError::UnknownTriangle(bad));
+        }
+        let mut ids = ids.to_vec();
+        ids.sort_unstable();
+        ids.dedup();
+        let mut touched_groups: Vec<u32> = ids
+            .iter()
+            .map(|&t| self.tri.group[t as usize])
+            .filter(|&g| g != NONE)
+            .collect();
+        touched_groups.sort_unstable();
+        touched_groups.dedup();
+        for &g in &touched_groups {
+            if self.groups[g as usize].instance != NONE {
+                let id = GroupId {
+                    index: g,
+                    generation: self.groups[g as usize].generation,
+                };
+                self.bake_group(id)?;
+            }
+        }
+        for &g in &touched_groups {
+            let group = &mut self.groups[g as usize];
+            let (mut tris, mut object) = (Vec::new(), Vec::new());
+            for (k, &t) in group.triangles.iter().enumerate() {
+                if ids.binary_search(&t).is_err() {
+                    tris.push(t);
+                    object.push(group.object[k]);
+                }
+            }
+            group.triangles = tris;
+            group.object = object;
+        }
+        self.remove_leaves(&ids);
+        Ok(())
+    }
+
+    /// Moves baked or ungrouped triangles (world space) and refits. Unknown ids or bad vertices are
+    /// rejected before anything changes. Triangles of groups kept whole must use
+    /// [`Bvh::update_group_vertices`].
+    pub fn set_triangles(&mut self, updates: &[(u32, Triangle)]) -> Result<(), BvhError> {
+        if let Some(&(t, _)) = updates.iter().find(|(t, _)| !self.is_live_triangle(*t)) {
+            return Err(BvhError::UnknownTriangle(t));
+        }
+        validate_triangles(&updates.iter().map(|u| u.1).collect::<Vec<_>>())?;
+        for &(t, _) in updates {
+            let g = self.tri.group[t as usize];
+            if g != NONE && self.groups[g as usize].instance != NONE {
+                return Err(BvhError::UnknownTriangle(t));
+            }
+        }
+        for &(t, tri) in updates {
+            self.tri.items[t as usize] = tri;
+            self.tri.boxes[t as usize] = tri.aabb();
+            self.changes.mark_triangle(t, self.tri.items.len());
+            let p = self.tri.parent[t as usize];
+            if p != NONE {
+                self.refit_from(p);
+            }
+        }
+        Ok(())
+    }
+
+    /// Removes leaves from the global tree and frees their triangles.
+    pub(crate) fn remove_leaves(&mut self, ids: &[u32]) {
+        self.remove_leaves_keep_triangles(ids);
+        for &t in ids {
+            self.free_triangle(t);
+        }
+    }
+
+    /// Removes leaves from the global tree, keeping their triangle slots (detached).
+    fn remove_leaves_keep_triangles(&mut self, ids: &[u32]) {
+        // Many leaves at once: one pass that prunes the whole tree beats a refit walk per leaf.
+        if ids.len() > 64 && ids.len() * 16 > self.tri.live as usize {
+            self.prune_leaves(ids);
+            return;
+        }
+        for &t in ids {
+            let p = self.unlink(NodeRef::leaf(t));
+            if p != NONE {
+                self.free_inner(p);
+            }
+        }
+    }
+
+    /// Removes `ids` from the global tree in one post-order pass: an inner node with one surviving
+    /// child is replaced by that child, one with none disappears.
+    fn prune_leaves(&mut self, ids: &[u32]) {
+        let mut doomed = vec![false; self.tri.items.len()];
+        for &t in ids {
+            doomed[t as usize] = true;
+            self.tri.parent[t as usize] = NONE;
+        }
+        let root = self.root;
+        if root.is_none() {
+            return;
+        }
+        // Iterative post-order: (node, children visited). Results carry whether the node's box changed,
+        // because the parent's GPU record holds its children's boxes.
+        let mut stack: Vec<(NodeRef, bool)> = vec![(root, false)];
+        let mut results: Vec<(NodeRef, bool)> = Vec::new();
+        while let Some((n, visited)) = stack.pop() {
+            match n.kind() {
+                NodeKind::Inner if !visited => {
+                    stack.push((n, true));
+                    let [a, b] = self.inner[n.index() as usize].children;
+                    stack.push((b, false));
+                    stack.push((a, false));
+                }
+                NodeKind::Inner => {
+                    let (b, b_changed) = results.pop().unwrap_or((NodeRef::NONE, false));
+                    let (a, a_changed) = results.pop().unwrap_or((NodeRef::NONE, false));
+                    let i = n.index();
+                    let kept = match (a.is_none(), b.is_none()) {
+                        (true, true) => {
+                            self.free_inner(i);
+                            (NodeRef::NONE, true)
+                        }
+                        (false, true) | (true, false) => {
+                            self.free_inner(i);
+                            (if a.is_none() { b } else { a }, true)
+                        }
+                        (false, false) => {
+                            let old = self.inner[i as usize];
+                            let aabb = self.aabb(a).union(&self.aabb(b));
+                            if old.children != [a, b] || a_changed || b_changed {
+                                self.write_inner(i, AreaSum::Outside, |n| {
+                                    n.children = [a, b];
+                                    n.aabb = aabb;
+                                });
+                            }
+                            self.set_parent(a, i);
+                            self.set_parent(b, i);
+                            (n, old.aabb != aabb)
+                        }
+                    };
+                    results.push(kept);
+                }
+                NodeKind::Leaf if doomed[n.index() as usize] => results.push((NodeRef::NONE, true)),
+                _ => results.push((n, false)),
+            }
+        }
+        let new_root = results.pop().map_or(NodeRef::NONE, |r| r.0);
+        if new_root != self.root {
+            self.root = new_root;
+            self.changes.root_changed = true;
+        }
+        if !new_root.is_none() {
+            self.set_parent(new_root, NONE);
+        }
+    }
+}
+
+impl Group {
+    pub(crate) fn is_alive(&self) -> bool {
+        self.alive
+    }
+    pub(crate) fn triangle_ids(&self) -> &[u32] {
+        &self.triangles
+    }
+}

@@ -1,0 +1,3 @@
+//! Editing a built tree: groups kept whole or baked, triangle removal and refit.
+
+pub(crate) mod group;

@@ -1,0 +1,6 @@
+//! The tree for others: GPU node records and the change log that keeps a GPU copy in step, and the
+//! TLBVH1 file.
+
+pub(crate) mod change;
+pub(crate) mod gpu;
+pub(crate) mod tlbvh;

@@ -1,0 +1,232 @@
+//! Ray traversal (closest hit and any hit: nearer child first, explicit stack) and box queries.
+//! Instance nodes carry the ray into their group's object space.
+
+use crate::query::ray::RayData;
+use crate::tree::node::{NodeKind, NodeRef};
+use crate::{Aabb, Bvh, Hit, Ray};
+
+/// Counters filled by [`Bvh::closest_hit_counted`], the CPU twin of the GPU heatmap view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Nodes whose box was tested.
+    pub nodes_visited: u32,
+    /// Triangles tested.
+    pub triangles_tested: u32,
+}
+
+/// A stack that lives on the call stack for ordinary depths and spills to the heap only for trees
+/// deeper than `INLINE` (degenerate input can make insertion-built trees deep).
+struct NodeStack {
+    inline: [NodeRef; 64],
+    len: usize,
+    spill: Vec<NodeRef>,
+}
+
+impl NodeStack {
+    #[inline]
+    fn new() -> Self {
+        Self {
+            inline: [NodeRef::NONE; 64],
+            len: 0,
+            spill: Vec::new(),
+        }
+    }
+    #[inline]
+    fn push(&mut self, n: NodeRef) {
+        if self.len < self.inline.len() {
+            self.inline[self.len] = n;
+            self.len += 1;
+        } else {
+            self.spill.push(n);
+        }
+    }
+    #[inline]
+    fn pop(&mut self) -> Option<NodeRef> {
+        if let Some(n) = self.spill.pop() {
+            return Some(n);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
+impl Bvh {
+    /// The nearest hit along the ray within its range.
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut stats = TraversalStats::default();
+        self.closest_hit_counted(ray, &mut stats)
+    }
+
+    /// [`Bvh::closest_hit`], counting the work done.
+    pub fn closest_hit_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
+        let mut best = None;
+        self.traverse::<false>(self.root, ray, &mut best, stats);
+        best
+    }
+
+    /// Some hit along the ray within its range, found as early as possible (for shadow and AO rays).
+    pub fn any_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut best = None;
+        self.traverse::<true>(self.root, ray, &mut best, &mut TraversalStats::default());
+        best
+    }
+
+    /// Returns true when something was found and `ANY` asks to stop.
+    fn traverse<const ANY: bool>(
+        &self,
+        root: NodeRef,
+        ray: &Ray,
+        best: &mut Option<Hit>,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        if root.is_none() {
+            return false;
+        }
+        let rd = RayData::new(ray);
+        let t_max = |best: &Option<Hit>| best.map_or(ray.t_max, |h| h.t);
+        stats.nodes_visited += 1;
+        let rb = self.aabb(root);
+        if rd.hit_box(rb.min, rb.max, ray.t_min, ray.t_max).is_none() {
+            return false;
+        }
+        let mut stack = NodeStack::new();
+        stack.push(root);
+        while let Some(n) = stack.pop() {
+            match n.kind() {
+                NodeKind::Inner => {
+                    let [a, b] = self.inner[n.index() as usize].children;
+                    let (ba, bb) = (self.aabb(a), self.aabb(b));
+                    let tm = t_max(best);
+                    stats.nodes_visited += 2;
+                    let ta = rd.hit_box(ba.min, ba.max, ray.t_min, tm);
+                    let tb = rd.hit_box(bb.min, bb.max, ray.t_min, tm);
+                    match (ta, tb) {
+                        (Some(ta), Some(tb)) => {
+                            // Farther child below, nearer on top.
+                            if ta <= tb {
+                                stack.push(b);
+                                stack.push(a);
+                            } else {
+                                stack.push(a);
+                                stack.push(b);
+                            }
+                        }
+                        (Some(_), None) => stack.push(a),
+                        (None, Some(_)) => stack.push(b),
+                        (None, None) => {}
+                    }
+                }
+                NodeKind::Leaf => {
+                    stats.triangles_tested += 1;
+                    let id = n.index();
+                    if let Some((t, u, v)) =
+                        rd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max(best))
+                    {
+                        *best = Some(Hit {
+                            triangle: id,
+                            t,
+                            u,
+                            v,
+                        });
+                        if ANY {
+                            return true;
+                        }
+                    }
+                }
+                NodeKind::Instance => {
+                    let inst = &self.instances[n.index() as usize];
+                    let local = ray
+                        .transformed(&inst.inverse)
+                        .with_range(ray.t_min, t_max(best));
+                    if self.traverse::<ANY>(inst.root, &local, best, stats) && ANY {
+                        return true;
+                    }
+                }
+                NodeKind::None => {}
+            }
+        }
+        best.is_some()
+    }
+
+    /// Ids of live triangles whose world-space bounding boxes overlap `query`, appended to `out`.
+    pub fn overlapping_triangles(&self, query: &Aabb, out: &mut Vec<u32>) {
+        self.overlap_in(self.root, None, query, out);
+    }
+
+    /// Inside an instance (`xf` = object to world) every node box is tested after transforming it to
+    /// world space: that box contains the world boxes of all triangles below, so nothing is missed.
+    fn overlap_in(
+        &self,
+        root: NodeRef,
+        xf: Option<&glam::Affine3A>,
+        query: &Aabb,
+        out: &mut Vec<u32>,
+    ) {
+        if root.is_none() {
+            return;
+        }
+        let mut stack = NodeStack::new();
+        stack.push(root);
+        while let Some(n) = stack.pop() {
+            let b = self.aabb(n);
+            let world = match (xf, n.kind()) {
+                (Some(t), NodeKind::Leaf) => {
+                    self.tri.items[n.index() as usize].transformed(t).aabb()
+                }
+                (Some(t), _) => b.transformed(t),
+                (None, _) => b,
+            };
+            if !world.overlaps(query) {
+                continue;
+            }
+            match n.kind() {
+                NodeKind::Inner => {
+                    let [a, b] = self.inner[n.index() as usize].children;
+                    stack.push(a);
+                    stack.push(b);
+                }
+                NodeKind::Leaf => out.push(n.index()),
+                NodeKind::Instance => {
+                    let inst = &self.instances[n.index() as usize];
+                    self.overlap_in(inst.root, Some(&inst.transform), query, out);
+                }
+                NodeKind::None => {}
+            }
+        }
+    }
+
+    /// The nearest hit by testing every live triangle in world space: the independent reference
+    /// the tests hold the traversal to.
+    pub fn brute_force_closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let rd = RayData::new(ray);
+        let mut best: Option<Hit> = None;
+        for id in 0..self.tri.items.len() as u32 {
+            let Some(tri) = self.world_triangle(id) else {
+                continue;
+            };
+            let t_max = best.map_or(ray.t_max, |h| h.t);
+            if let Some((t, u, v)) = rd.hit_triangle(&tri, ray.t_min, t_max) {
+                best = Some(Hit {
+                    triangle: id,
+                    t,
+                    u,
+                    v,
+                });
+            }
+        }
+        best
+    }
+
+    /// Ids of live triangles whose world boxes overlap `query`, by testing every one.
+    pub fn brute_force_overlapping(&self, query: &Aabb) -> Vec<u32> {
+        (0..self.tri.items.len() as u32)
+            .filter(|&id| {
+                self.world_triangle(id)
+                    .is_some_and(|t| t.aabb().overlaps(query))
+            })
+            .collect()
+    }
+}

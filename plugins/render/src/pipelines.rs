@@ -1,0 +1,142 @@
+//! The kernels' shaders, bind group layouts and pipelines, made once at render startup. The trace
+//! kernel binds two groups: the scene (records and textures, shared by every view) and the view
+//! (its uniform and accumulation buffer).
+
+use bevy::prelude::*;
+use bevy::render::RenderStartup;
+use bevy::render::render_resource::binding_types::{
+    sampler, storage_buffer_read_only_sized, storage_buffer_sized, texture_2d_array,
+    uniform_buffer_sized,
+};
+use bevy::render::render_resource::{
+    BindGroupLayoutDescriptor, BindGroupLayoutEntries, CachedComputePipelineId,
+    CachedRenderPipelineId, ColorTargetState, ColorWrites, ComputePipelineDescriptor,
+    FragmentState, MultisampleState, PipelineCache, RenderPipelineDescriptor, SamplerBindingType,
+    ShaderStages, TextureFormat, TextureSampleType, VertexState,
+};
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// The kernels' shader assets.
+#[derive(Resource, Clone)]
+pub(crate) struct PathTracerShaders {
+    pub trace: Handle<Shader>,
+    pub resolve: Handle<Shader>,
+    pub texture_layer: Handle<Shader>,
+}
+
+pub(crate) fn build(render_app: &mut SubApp) {
+    render_app.add_systems(RenderStartup, init_pipelines);
+}
+
+/// Layouts and pipelines of the trace and resolve passes.
+#[derive(Resource)]
+pub(crate) struct PathTracerPipelines {
+    /// Group 0 of the trace kernel: the six record buffers, the texture array and its sampler.
+    pub scene_layout: BindGroupLayoutDescriptor,
+    /// Group 1 of the trace kernel: the view uniform and the accumulation buffer.
+    pub view_layout: BindGroupLayoutDescriptor,
+    /// The resolve pass's group: the accumulation buffer and its uniform.
+    pub resolve_layout: BindGroupLayoutDescriptor,
+    pub trace: CachedComputePipelineId,
+    resolve_shader: Handle<Shader>,
+    /// Resolve pipelines by target format and sample count.
+    resolve: Mutex<HashMap<(TextureFormat, u32), CachedRenderPipelineId>>,
+}
+
+fn init_pipelines(
+    mut commands: Commands,
+    shaders: Res<PathTracerShaders>,
+    pipeline_cache: Res<PipelineCache>,
+) {
+    let records = || storage_buffer_read_only_sized(false, None);
+    let scene_layout = BindGroupLayoutDescriptor::new(
+        "treelight scene",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                records(),
+                records(),
+                records(),
+                records(),
+                records(),
+                records(),
+                texture_2d_array(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
+            ),
+        ),
+    );
+    let view_layout = BindGroupLayoutDescriptor::new(
+        "treelight view",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let resolve_layout = BindGroupLayoutDescriptor::new(
+        "treelight resolve",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::FRAGMENT,
+            (
+                storage_buffer_read_only_sized(false, None),
+                uniform_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let trace = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("treelight path trace".into()),
+        layout: vec![scene_layout.clone(), view_layout.clone()],
+        shader: shaders.trace.clone(),
+        entry_point: Some("path_trace".into()),
+        ..default()
+    });
+    commands.insert_resource(PathTracerPipelines {
+        scene_layout,
+        view_layout,
+        resolve_layout,
+        trace,
+        resolve_shader: shaders.resolve.clone(),
+        resolve: Mutex::new(HashMap::new()),
+    });
+}
+
+impl PathTracerPipelines {
+    /// The resolve pipeline for a target of `format` with `samples` samples, queued on first use.
+    pub fn resolve_pipeline(
+        &self,
+        cache: &PipelineCache,
+        format: TextureFormat,
+        samples: u32,
+    ) -> CachedRenderPipelineId {
+        let mut map = self.resolve.lock().unwrap_or_else(|p| p.into_inner());
+        *map.entry((format, samples)).or_insert_with(|| {
+            cache.queue_render_pipeline(RenderPipelineDescriptor {
+                label: Some("treelight resolve".into()),
+                layout: vec![self.resolve_layout.clone()],
+                vertex: VertexState {
+                    shader: self.resolve_shader.clone(),
+                    entry_point: Some("vertex".into()),
+                    ..default()
+                },
+                fragment: Some(FragmentState {
+                    shader: self.resolve_shader.clone(),
+                    entry_point: Some("fragment".into()),
+                    targets: vec![Some(ColorTargetState {
+                        format,
+                        blend: None,
+                        write_mask: ColorWrites::ALL,
+                    })],
+                    ..default()
+                }),
+                multisample: MultisampleState {
+                    count: samples,
+                    ..default()
+                },
+                ..default()
+            })
+        })
+    }
+}

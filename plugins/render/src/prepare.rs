@@ -1,0 +1,454 @@
+//! Prepare: the scene's GPU buffers (grown by doubling, old contents copied on the GPU, then patched
+//! with the frame's writes), the scene bind group (made again only when a buffer or the texture
+//! array grew), and each path-traced view's accumulation buffer, uniforms and bind groups, with what
+//! the node is to dispatch and draw this frame.
+
+use crate::extract::SceneSync;
+use crate::pipelines::PathTracerPipelines;
+use crate::records::{VIEW_BYTES, ViewParams, resolve_bytes};
+use crate::texture_layers::TextureLayers;
+use crate::upload::{BufferKind, grown_capacity};
+use crate::{DebugView, PathTraced, PathTracerStats};
+use bevy::prelude::*;
+use bevy::render::camera::ExtractedCamera;
+use bevy::render::render_resource::{
+    BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferUsages, CachedRenderPipelineId,
+    CommandEncoderDescriptor, PipelineCache,
+};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::sync_world::MainEntity;
+use bevy::render::view::{ExtractedView, ViewTarget};
+use bevy::render::{Render, RenderStartup, RenderSystems};
+use std::collections::HashMap;
+
+pub(crate) fn build(render_app: &mut SubApp) {
+    render_app
+        .init_resource::<ViewStates>()
+        .add_systems(RenderStartup, init_gpu_scene)
+        .add_systems(
+            Render,
+            (
+                apply_scene_uploads.in_set(RenderSystems::PrepareResources),
+                (prepare_scene_bind_group, prepare_views)
+                    .chain()
+                    .in_set(RenderSystems::PrepareBindGroups),
+                forget_views.in_set(RenderSystems::Cleanup),
+            ),
+        );
+}
+
+/// The scene as the kernels read it.
+#[derive(Resource)]
+pub(crate) struct GpuScene {
+    /// In [`BufferKind::ALL`] order.
+    pub buffers: Vec<Buffer>,
+    /// Records each buffer holds.
+    capacities: [u64; 6],
+    pub root: u32,
+    pub light_count: u32,
+    /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
+    /// views restart their accumulation when it changes.
+    pub generation: u64,
+    /// Raised by every upload that changes the tree, including pure restructurings, which leave
+    /// the traced image as it was but not the traversal heatmap.
+    pub tree_generation: u64,
+    /// Group 0 of the trace kernel over the current buffers and texture array; `None` after a
+    /// buffer grew, until it is made again.
+    pub bind_group: Option<BindGroup>,
+    /// The texture array's version the bind group was made with.
+    bound_array: u64,
+}
+
+fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(match kind {
+            BufferKind::Nodes => "treelight nodes",
+            BufferKind::Triangles => "treelight triangles",
+            BufferKind::Instances => "treelight instances",
+            BufferKind::Attributes => "treelight triangle shading",
+            BufferKind::Objects => "treelight objects",
+            BufferKind::Lights => "treelight lights",
+        }),
+        size: records * kind.record_bytes(),
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
+}
+
+fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
+    // Lights start small; the rest at the doubling floor.
+    let capacities = BufferKind::ALL.map(|k| match k {
+        BufferKind::Lights => 16,
+        _ => grown_capacity(0, 1),
+    });
+    let buffers = BufferKind::ALL
+        .iter()
+        .zip(capacities)
+        .map(|(&k, c)| create(&device, k, c))
+        .collect();
+    commands.insert_resource(GpuScene {
+        buffers,
+        capacities,
+        root: u32::MAX,
+        light_count: 0,
+        generation: 0,
+        tree_generation: 0,
+        bind_group: None,
+        bound_array: 0,
+    });
+}
+
+/// Grows the buffers that must hold more records, then writes the frame's records.
+fn apply_scene_uploads(
+    mut sync: ResMut<SceneSync>,
+    mut scene: ResMut<GpuScene>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    stats: Res<PathTracerStats>,
+) {
+    let pending = std::mem::take(&mut sync.pending);
+    let scene = &mut *scene;
+    let mut grown = Vec::new();
+    for (i, &kind) in BufferKind::ALL.iter().enumerate() {
+        let need = pending.needed[i];
+        if need <= scene.capacities[i] {
+            continue;
+        }
+        let cap = grown_capacity(scene.capacities[i], need);
+        let bigger = create(&device, kind, cap);
+        grown.push((
+            std::mem::replace(&mut scene.buffers[i], bigger),
+            scene.capacities[i] * kind.record_bytes(),
+            i,
+        ));
+        scene.capacities[i] = cap;
+        scene.bind_group = None;
+    }
+    if !grown.is_empty() {
+        // Keep what is already on the GPU: records outside this frame's writes stay valid.
+        let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
+            label: Some("treelight buffer growth"),
+        });
+        for (old, bytes, i) in &grown {
+            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i], 0, *bytes);
+        }
+        queue.submit([encoder.finish()]);
+    }
+    let mut bytes = 0u64;
+    for w in &pending.writes {
+        let i = w.buffer.index();
+        let end = w.offset + w.bytes.len() as u64;
+        if end > scene.capacities[i] * w.buffer.record_bytes() {
+            // Extraction sized every buffer for its writes; a write past the end is a bug, and
+            // skipping it beats a device error that would stop all rendering.
+            error!(
+                "treelight: dropped a {:?} write past the buffer's end",
+                w.buffer
+            );
+            continue;
+        }
+        queue.write_buffer(&scene.buffers[i], w.offset, &w.bytes);
+        bytes += w.bytes.len() as u64;
+    }
+    let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
+    if let Some(root) = pending.root
+        && root != scene.root
+    {
+        scene.root = root;
+        tree_changed = true;
+    }
+    if let Some(n) = pending.light_count {
+        scene.light_count = n;
+    }
+    if pending.geometry_changed {
+        scene.generation += 1;
+    }
+    if tree_changed || pending.geometry_changed {
+        scene.tree_generation += 1;
+    }
+    let ready = pending.root.is_some();
+    stats.update(|f| {
+        if bytes > 0 {
+            f.last_upload_bytes = bytes;
+            f.total_upload_bytes += bytes;
+            f.uploads += 1;
+        }
+        f.scene_ready |= ready;
+    });
+}
+
+/// Makes the scene bind group again when a buffer grew or the texture array was replaced.
+fn prepare_scene_bind_group(
+    mut scene: ResMut<GpuScene>,
+    layers: Option<Res<TextureLayers>>,
+    pipelines: Option<Res<PathTracerPipelines>>,
+    pipeline_cache: Res<PipelineCache>,
+    device: Res<RenderDevice>,
+) {
+    let (Some(layers), Some(pipelines)) = (layers, pipelines) else {
+        return;
+    };
+    if scene.bind_group.is_some() && scene.bound_array == layers.array_version {
+        return;
+    }
+    let layout = pipeline_cache.get_bind_group_layout(&pipelines.scene_layout);
+    let b = &scene.buffers;
+    let group = device.create_bind_group(
+        "treelight scene",
+        &layout,
+        &BindGroupEntries::sequential((
+            b[0].as_entire_binding(),
+            b[1].as_entire_binding(),
+            b[2].as_entire_binding(),
+            b[3].as_entire_binding(),
+            b[4].as_entire_binding(),
+            b[5].as_entire_binding(),
+            &layers.view,
+            &layers.sampler,
+        )),
+    );
+    scene.bind_group = Some(group);
+    scene.bound_array = layers.array_version;
+}
+
+/// What a view's accumulated samples depend on: any change restarts the accumulation.
+#[derive(Clone, Copy, PartialEq)]
+struct AccumulationKey {
+    world_from_clip: Mat4,
+    scene_generation: u64,
+    texture_generation: u64,
+    /// Only for the heatmap, which shows the tree itself.
+    tree_generation: u64,
+    settings: PathTraced,
+    exposure: f32,
+    size: UVec2,
+}
+
+/// What the node does for a view this frame.
+pub(crate) struct ViewFrame {
+    /// Workgroups of the trace dispatch; `None` when the view has all its samples.
+    pub dispatch: Option<UVec2>,
+    /// The resolve pipeline for the view's target.
+    pub resolve_pipeline: CachedRenderPipelineId,
+    /// The camera's viewport in target pixels: x, y, width, height.
+    pub viewport: UVec4,
+}
+
+/// One path-traced view's GPU state. Its buffers and bind groups live as long as its size; the
+/// accumulation buffer is held by the two bind groups that use it.
+pub(crate) struct ViewState {
+    view_uniform: Buffer,
+    resolve_uniform: Buffer,
+    /// Group 1 of the trace kernel.
+    pub trace_bind_group: BindGroup,
+    /// The resolve pass's group.
+    pub resolve_bind_group: BindGroup,
+    size: UVec2,
+    samples: u32,
+    key: Option<AccumulationKey>,
+    seen: bool,
+    /// This frame's work, when the trace pipeline is ready.
+    pub frame: Option<ViewFrame>,
+}
+
+/// Per-view state, by render-world view entity.
+#[derive(Resource, Default)]
+pub(crate) struct ViewStates(pub HashMap<Entity, ViewState>);
+
+fn uniform(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn view_state(
+    device: &RenderDevice,
+    pipelines: &PathTracerPipelines,
+    cache: &PipelineCache,
+    size: UVec2,
+) -> ViewState {
+    let accum = device.create_buffer(&BufferDescriptor {
+        label: Some("treelight accumulation"),
+        size: size.x as u64 * size.y as u64 * 16,
+        usage: BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
+    let resolve_uniform = uniform(
+        device,
+        "treelight resolve",
+        size_of::<crate::GpuResolve>() as u64,
+    );
+    let trace_bind_group = device.create_bind_group(
+        "treelight view",
+        &cache.get_bind_group_layout(&pipelines.view_layout),
+        &BindGroupEntries::sequential((
+            view_uniform.as_entire_binding(),
+            accum.as_entire_binding(),
+        )),
+    );
+    let resolve_bind_group = device.create_bind_group(
+        "treelight resolve",
+        &cache.get_bind_group_layout(&pipelines.resolve_layout),
+        &BindGroupEntries::sequential((
+            accum.as_entire_binding(),
+            resolve_uniform.as_entire_binding(),
+        )),
+    );
+    ViewState {
+        view_uniform,
+        resolve_uniform,
+        trace_bind_group,
+        resolve_bind_group,
+        size,
+        samples: 0,
+        key: None,
+        seen: true,
+        frame: None,
+    }
+}
+
+/// For each path-traced view: its state made or remade for its size, its accumulation restarted
+/// when what it shows changed, its uniforms written, and what the node is to do this frame.
+#[allow(clippy::too_many_arguments)]
+fn prepare_views(
+    views: Query<(
+        Entity,
+        &ExtractedCamera,
+        &ExtractedView,
+        &ViewTarget,
+        &PathTraced,
+        &MainEntity,
+    )>,
+    pipelines: Option<Res<PathTracerPipelines>>,
+    pipeline_cache: Res<PipelineCache>,
+    scene: Res<GpuScene>,
+    layers: Option<Res<TextureLayers>>,
+    mut states: ResMut<ViewStates>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    stats: Res<PathTracerStats>,
+) {
+    let (Some(pipelines), Some(layers)) = (pipelines, layers) else {
+        return;
+    };
+    let trace_ready = pipeline_cache
+        .get_compute_pipeline(pipelines.trace)
+        .is_some()
+        && scene.bind_group.is_some();
+    for (entity, camera, extracted, target, settings, main_entity) in &views {
+        let viewport = extracted.viewport;
+        if viewport.z == 0 || viewport.w == 0 {
+            continue;
+        }
+        let scale = if settings.resolution_scale.is_finite() {
+            settings.resolution_scale.clamp(0.05, 4.0)
+        } else {
+            1.0
+        };
+        let size = (Vec2::new(viewport.z as f32, viewport.w as f32) * scale)
+            .round()
+            .as_uvec2()
+            .max(UVec2::ONE);
+        let clip_from_world = extracted.clip_from_world.unwrap_or_else(|| {
+            extracted.clip_from_view * extracted.world_from_view.affine().inverse()
+        });
+        let world_from_clip = clip_from_world.inverse();
+        let key = AccumulationKey {
+            world_from_clip,
+            scene_generation: scene.generation,
+            texture_generation: layers.generation,
+            tree_generation: if settings.view == DebugView::Heatmap {
+                scene.tree_generation
+            } else {
+                0
+            },
+            settings: PathTraced {
+                max_samples: 0,
+                ..*settings
+            },
+            exposure: camera.exposure,
+            size,
+        };
+        let state = states
+            .0
+            .entry(entity)
+            .or_insert_with(|| view_state(&device, &pipelines, &pipeline_cache, size));
+        if state.size != size {
+            *state = view_state(&device, &pipelines, &pipeline_cache, size);
+        }
+        state.seen = true;
+        state.frame = None;
+        if !trace_ready {
+            continue;
+        }
+        if state.key != Some(key) {
+            state.key = Some(key);
+            state.samples = 0;
+        }
+        let spf = settings.samples_per_frame.clamp(1, 64);
+        let done = settings.max_samples > 0 && state.samples >= settings.max_samples;
+        let dispatch = (!done).then(|| {
+            let sky = settings.sky;
+            let params = ViewParams {
+                world_from_clip,
+                sky: Vec3::new(sky.red, sky.green, sky.blue),
+                exposure: camera.exposure,
+                width: size.x,
+                height: size.y,
+                frame: state.samples,
+                root: scene.root,
+                max_bounces: settings.max_bounces.min(64),
+                samples: spf,
+                mode: settings.view.shader_index(),
+                light_count: scene.light_count,
+                indirect_clamp: settings.indirect_clamp.max(0.0),
+            };
+            queue.write_buffer(&state.view_uniform, 0, &params.to_bytes());
+            state.samples += spf;
+            UVec2::new(size.x.div_ceil(8), size.y.div_ceil(8))
+        });
+        // Debug views show a single sample's worth of data as well as the average.
+        let shown = if settings.view == DebugView::PathTraced {
+            state.samples
+        } else {
+            state.samples.max(1)
+        };
+        queue.write_buffer(
+            &state.resolve_uniform,
+            0,
+            &resolve_bytes(
+                Vec2::new(viewport.x as f32, viewport.y as f32),
+                Vec2::new(viewport.z as f32, viewport.w as f32),
+                [size.x, size.y],
+                shown,
+            ),
+        );
+        let msaa = target
+            .sampled_main_texture()
+            .map_or(1, |t| t.sample_count());
+        state.frame = Some(ViewFrame {
+            dispatch,
+            resolve_pipeline: pipelines.resolve_pipeline(
+                &pipeline_cache,
+                target.main_texture_format(),
+                msaa,
+            ),
+            viewport,
+        });
+        let samples = state.samples;
+        stats.update(|f| {
+            f.samples.insert(main_entity.id(), samples);
+        });
+    }
+}
+
+/// Drops the state of views that were not drawn this frame (cameras despawned or switched off).
+fn forget_views(mut states: ResMut<ViewStates>) {
+    states
+        .0
+        .retain(|_, s| std::mem::replace(&mut s.seen, false));
+}
