@@ -51,7 +51,7 @@ pub use incremental::incr_upb::{BlockStream, batch_coherence, coherent_batches, 
 pub use incremental::insert::coherence;
 pub use optimize::idle_step::OptimizeCursor;
 pub use optimize::post_pass::{PostMoves, PostPass, PostPassReport, TreeletSweep};
-pub use preset::{IdleUpdates, Insertion, Policy, Preset};
+pub use preset::{IdleUpdates, IdleWork, Insertion, Policy, Preset};
 pub use query::ray::{Hit, Ray, RayData};
 pub use query::traverse::TraversalStats;
 pub use top_down::{BuiltTree, TopDown};

@@ -63,22 +63,45 @@ impl IdleUpdates {
         sweeps_after_edit: 2,
     };
 
-    /// Inner-node slots left to scan after an edit to a tree of `slots` inner-node slots.
-    pub fn slots_after_edit(&self, slots: u32) -> u64 {
-        self.sweeps_after_edit as u64 * slots as u64
-    }
-
     /// Runs the steps one edit is followed by, to the end: what a tree becomes once its owner has
     /// been idle long enough. Returns the moves tried.
     pub fn run_to_end(&self, bvh: &mut Bvh) -> u64 {
-        let mut cursor = OptimizeCursor::default();
-        let mut left = self.slots_after_edit(bvh.inner_capacity());
+        let mut work = IdleWork::default();
+        work.after_edit(self, bvh);
         let mut moves = 0;
-        while left > 0 {
-            moves += bvh.optimize_step(&mut cursor, self.scan, self.fraction) as u64;
-            left = left.saturating_sub(self.scan.max(1) as u64);
+        while work.is_pending() {
+            moves += work.step(self, bvh) as u64;
         }
         moves
+    }
+}
+
+/// Idle updates under way: where the steps go on, and how much of the sweeps the last edit asked
+/// for is left. An owner that releases the tree between steps (the scene worker) keeps one.
+#[derive(Clone, Debug, Default)]
+pub struct IdleWork {
+    cursor: OptimizeCursor,
+    slots_left: u64,
+}
+
+impl IdleWork {
+    /// After an edit: the sweeps `updates` asks for, over the tree as it is now.
+    pub fn after_edit(&mut self, updates: &IdleUpdates, bvh: &Bvh) {
+        self.slots_left = updates.sweeps_after_edit as u64 * bvh.inner_capacity() as u64;
+    }
+
+    /// Whether steps are left.
+    pub fn is_pending(&self) -> bool {
+        self.slots_left > 0
+    }
+
+    /// One step of `updates`, if any is left; returns the moves tried.
+    pub fn step(&mut self, updates: &IdleUpdates, bvh: &mut Bvh) -> u32 {
+        if self.slots_left == 0 {
+            return 0;
+        }
+        self.slots_left = self.slots_left.saturating_sub(updates.scan.max(1) as u64);
+        bvh.optimize_step(&mut self.cursor, updates.scan, updates.fraction)
     }
 }
 
@@ -200,15 +223,45 @@ mod tests {
     }
 
     #[test]
-    fn each_preset_builds_a_valid_tree_and_best_costs_least() {
+    fn idle_work_runs_the_sweeps_an_edit_asks_for_then_stops() {
+        let mut bvh = Preset::Fast.policy().build(&soup(2000)).unwrap();
+        let updates = IdleUpdates {
+            scan: 100,
+            fraction: 0.05,
+            sweeps_after_edit: 2,
+        };
+        let mut work = IdleWork::default();
+        assert!(!work.is_pending());
+        assert_eq!(work.step(&updates, &mut bvh), 0, "no edit, no step");
+        work.after_edit(&updates, &bvh);
+        let (slots, cost) = (bvh.inner_capacity() as u64, bvh.sah_cost());
+        let (mut steps, mut moves) = (0, 0);
+        while work.is_pending() {
+            moves += work.step(&updates, &mut bvh);
+            steps += 1;
+        }
+        assert_eq!(steps, (2 * slots).div_ceil(100));
+        assert!(moves > 0);
+        // Idle moves are kept only when they lower the cost.
+        assert!(bvh.sah_cost() <= cost);
+        bvh.validate().unwrap();
+    }
+
+    /// `n` small random triangles in a 10-unit cube.
+    fn soup(n: usize) -> Vec<Triangle> {
         let mut r = crate::test_random(7);
-        let tris: Vec<Triangle> = (0..3000)
+        (0..n)
             .map(|_| {
                 let c = Vec3::new(r(), r(), r()) * 10.0;
                 let d = |r: &mut dyn FnMut() -> f32| Vec3::new(r(), r(), r()) * 0.3;
                 Triangle::new(c, c + d(&mut r), c + d(&mut r))
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn each_preset_builds_a_valid_tree_and_best_costs_least() {
+        let tris = soup(3000);
         let costs: Vec<f32> = Preset::ALL
             .iter()
             .map(|p| {

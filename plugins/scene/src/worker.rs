@@ -11,7 +11,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{IdleUpdates, OptimizeCursor, PreparedGroup, Triangle};
+use treelight_bvh::{IdleUpdates, IdleWork, PreparedGroup, Triangle};
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
@@ -100,7 +100,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
     let mut clock = CostClock::default();
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
-        let first = if idle.slots_left > 0 {
+        let first = if idle.is_pending() {
             match rx.try_recv() {
                 Ok(c) => Some(c),
                 Err(TryRecvError::Empty) => None,
@@ -144,7 +144,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             .collect();
         let mut inserted_tris = 0usize;
         let mut latest_sent: Option<Instant> = None;
-        let slots = {
+        {
             let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
             let tree = &mut *guard;
             for (c, p) in commands.into_iter().zip(prepared) {
@@ -181,13 +181,12 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                     }
                 }
             }
-            tree.bvh.inner_capacity()
-        };
+            idle.after_edit(&config.idle_updates, &tree.bvh);
+        }
         // Ready: readers see the new tree from here on.
         let latency = latest_sent.map(|sent| sent.elapsed());
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
-        idle.slots_left = config.idle_updates.slots_after_edit(slots);
         publish_stats(&shared, &mut clock, received, |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =
@@ -199,13 +198,6 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         });
         shared.pending.fetch_sub(received, Ordering::AcqRel);
     }
-}
-
-/// Global update work left for idle time, in inner-node slots to scan.
-#[derive(Default)]
-struct IdleWork {
-    cursor: OptimizeCursor,
-    slots_left: u64,
 }
 
 /// Between commands: bake groups that stopped moving, then one short step of global updates (the
@@ -222,7 +214,7 @@ fn idle_work(
         .filter(|(_, t)| t.elapsed() >= config.bake_after)
         .map(|(e, _)| *e)
         .collect();
-    if still.is_empty() && idle.slots_left == 0 {
+    if still.is_empty() && !idle.is_pending() {
         if clock.stale {
             // The last edits were published without their cost; it is due by now.
             publish_stats(shared, clock, 0, |_| {});
@@ -241,14 +233,7 @@ fn idle_work(
                 warn!("entity {e} could not be baked: {err}");
             }
         }
-        if idle.slots_left > 0 {
-            let step = config.idle_updates;
-            idle.slots_left = idle.slots_left.saturating_sub(step.scan.max(1) as u64);
-            tree.bvh
-                .optimize_step(&mut idle.cursor, step.scan, step.fraction)
-        } else {
-            0
-        }
+        idle.step(&config.idle_updates, &mut tree.bvh)
     };
     if baked || moves > 0 {
         shared.version.fetch_add(1, Ordering::Release);
