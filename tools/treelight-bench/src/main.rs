@@ -1,6 +1,7 @@
 //! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
 //! traced by the same traversal, so only the tree differs between rows.
 
+mod editor_tree;
 mod latency;
 mod plots;
 
@@ -33,6 +34,8 @@ const METHODS: &[&str] = &[
     "bvh",
 ];
 const ORDERS: &[&str] = &["as-is", "random", "view"];
+/// The preset the editor's scene plugin runs under, which `--editor` measures.
+const EDITOR_PRESET: Preset = Preset::Balanced;
 
 /// Table 1 of "Incremental BVH construction for ray tracing" for our scenes, methods and presets.
 #[derive(Parser, Debug)]
@@ -82,6 +85,9 @@ struct Args {
     /// Also run the paper's section 8 latency experiment on each scene.
     #[arg(long)]
     latency: bool,
+    /// Also measure the editor's tree: each mesh a group, then idle updates for 0, 0.1, 1 and 10 s.
+    #[arg(long)]
+    editor: bool,
     /// Build each row N times, rows interleaved round by round, and report the fastest.
     #[arg(long, default_value_t = 1)]
     repeat: usize,
@@ -237,6 +243,7 @@ fn run(args: &Args) -> Result<(), String> {
     );
     let mut rows = Vec::new();
     let mut latency_tables = String::new();
+    let mut editor_runs = Vec::new();
     let mut plotted = Vec::new();
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -268,6 +275,19 @@ fn run(args: &Args) -> Result<(), String> {
             Some(c) => parse_camera(c)?,
             None => default_camera(&bounds),
         };
+        if args.editor {
+            bar.set_message(format!("{} the editor's tree", scene.name));
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(args.threads[0])
+                .build()
+                .map_err(|e| e.to_string())?;
+            let run = pool.install(|| {
+                editor_tree::run(&scene.triangles, &scene.meshes, EDITOR_PRESET, |bvh| {
+                    trace(bvh, &camera, &bounds, w, h, args)
+                })
+            })?;
+            editor_runs.push((scene.name.clone(), run));
+        }
         for order in &args.order {
             let (tris, input_index) = reorder(&scene.triangles, order, &camera, args.seed);
             if let Some(dir) = &args.plots {
@@ -375,6 +395,16 @@ fn run(args: &Args) -> Result<(), String> {
     print_markdown(&rows);
     if let Some(spec) = &args.update_fraction_sweep {
         print_sweep(spec, &rows);
+    }
+    if !editor_runs.is_empty() {
+        print!(
+            "{}",
+            editor_tree::markdown(EDITOR_PRESET, &editor_runs, |scene| {
+                rows.iter()
+                    .find(|r| r.scene == scene && r.method == "sah")
+                    .map(|r| r.sah_cost)
+            })
+        );
     }
     print!("{latency_tables}");
     for p in &plotted {

@@ -1,6 +1,7 @@
 //! Scene sources: files (OBJ, PLY, glTF/GLB) and deterministic generators, labelled synthetic.
 
 use crate::rng::Rng;
+use std::ops::Range;
 use std::path::Path;
 use treelight_bvh::Triangle;
 use treelight_bvh::glam::{Quat, Vec3};
@@ -11,6 +12,25 @@ pub struct Scene {
     pub name: String,
     /// Triangles in file order.
     pub triangles: Vec<Triangle>,
+    /// The scene's meshes, as spans of `triangles` in order: a file's meshes, a hairball's tubes,
+    /// a scatter's copies. The editor inserts each as a group of its own.
+    pub meshes: Vec<Range<usize>>,
+}
+
+impl Scene {
+    /// A scene whose meshes are the spans between consecutive `starts` (each a triangle index).
+    fn new(name: String, triangles: Vec<Triangle>, starts: &[usize]) -> Self {
+        let n = triangles.len();
+        let mut bounds: Vec<usize> = starts.iter().copied().filter(|&s| s < n).collect();
+        bounds.dedup();
+        bounds.push(n);
+        let meshes = bounds.windows(2).map(|w| w[0]..w[1]).collect();
+        Self {
+            name,
+            triangles,
+            meshes,
+        }
+    }
 }
 
 /// Parses a `--scene` argument: a file path, `hairball:N`, `scatter:N:FILE` or `subdivide:K:FILE`.
@@ -21,20 +41,25 @@ pub fn load(spec: &str, seed: u64) -> Result<Scene, String> {
             let n: usize = n
                 .parse()
                 .map_err(|_| format!("{spec}: N must be a number"))?;
-            Ok(Scene {
-                name: format!("hairball:{n} (synthetic)"),
-                triangles: hairball(n, seed),
-            })
+            let (triangles, starts) = hairball_tubes(n, seed);
+            Ok(Scene::new(
+                format!("hairball:{n} (synthetic)"),
+                triangles,
+                &starts,
+            ))
         }
         ["scatter", n, file] => {
             let n: usize = n
                 .parse()
                 .map_err(|_| format!("{spec}: N must be a number"))?;
-            let base = load_file(Path::new(file))?;
-            Ok(Scene {
-                name: format!("scatter:{n}:{file} (synthetic)"),
-                triangles: scatter(&base, n, seed),
-            })
+            let (base, _) = load_file(Path::new(file))?;
+            let triangles = scatter(&base, n, seed);
+            let starts: Vec<usize> = (0..triangles.len()).step_by(base.len().max(1)).collect();
+            Ok(Scene::new(
+                format!("scatter:{n}:{file} (synthetic)"),
+                triangles,
+                &starts,
+            ))
         }
         ["subdivide", k, file] => {
             let k: u32 = k
@@ -45,38 +70,54 @@ pub fn load(spec: &str, seed: u64) -> Result<Scene, String> {
                     "{spec}: K above 8 gives more than 65536 triangles per input triangle"
                 ));
             }
-            let mut tris = load_file(Path::new(file))?;
+            let (mut tris, starts) = load_file(Path::new(file))?;
             for _ in 0..k {
                 tris = subdivide(&tris);
             }
-            Ok(Scene {
-                name: format!("subdivide:{k}:{file} (synthetic)"),
-                triangles: tris,
-            })
+            // Subdivision keeps the order, four triangles for each.
+            let starts: Vec<usize> = starts.iter().map(|s| s << (2 * k)).collect();
+            Ok(Scene::new(
+                format!("subdivide:{k}:{file} (synthetic)"),
+                tris,
+                &starts,
+            ))
         }
-        _ => Ok(Scene {
-            name: spec.to_owned(),
-            triangles: load_file(Path::new(spec))?,
-        }),
+        _ => {
+            let (triangles, starts) = load_file(Path::new(spec))?;
+            Ok(Scene::new(spec.to_owned(), triangles, &starts))
+        }
     }
 }
 
-fn load_file(path: &Path) -> Result<Vec<Triangle>, String> {
+/// A file's triangles in world space, mesh by mesh, and where each mesh starts.
+fn load_file(path: &Path) -> Result<(Vec<Triangle>, Vec<usize>), String> {
     let scene = treelight_import::load_scene(path).map_err(|e| e.to_string())?;
-    Ok(scene
-        .world_triangles()
-        .into_iter()
-        .map(|[a, b, c]| Triangle::new(a, b, c))
-        .collect())
+    let mut triangles = Vec::with_capacity(scene.triangle_count());
+    let mut starts = Vec::with_capacity(scene.meshes.len());
+    for mesh in &scene.meshes {
+        starts.push(triangles.len());
+        triangles.extend(
+            mesh.world_triangles()
+                .map(|[a, b, c]| Triangle::new(a, b, c)),
+        );
+    }
+    Ok((triangles, starts))
 }
 
 /// Random-walk tubes inside the unit sphere, like the paper's Hairball: each step adds a three-sided
 /// tube segment (six triangles).
 pub fn hairball(n: usize, seed: u64) -> Vec<Triangle> {
+    hairball_tubes(n, seed).0
+}
+
+/// [`hairball`], and where each tube starts.
+fn hairball_tubes(n: usize, seed: u64) -> (Vec<Triangle>, Vec<usize>) {
     let mut r = Rng::new(seed);
     let mut out = Vec::with_capacity(n + 6);
+    let mut starts = Vec::new();
     let radius = 0.0025;
     while out.len() < n {
+        starts.push(out.len());
         let mut p = r.in_unit_sphere() * 0.9;
         let mut d = r.unit_vector();
         for _ in 0..200 {
@@ -104,7 +145,7 @@ pub fn hairball(n: usize, seed: u64) -> Vec<Triangle> {
         }
     }
     out.truncate(n);
-    out
+    (out, starts)
 }
 
 /// Copies of `base` with random rotations, scales over three orders of magnitude and positions, until

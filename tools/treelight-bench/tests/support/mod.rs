@@ -1,5 +1,8 @@
 //! What the bench's CLI tests share.
 
+// Each test binary uses a part of it.
+#![allow(dead_code)]
+
 use std::process::{Command, Output};
 
 /// Runs the bench with `args`.

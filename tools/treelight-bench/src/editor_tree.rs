@@ -1,0 +1,114 @@
+//! The tree the editor traces: each mesh of a scene inserted as a group of its own, as the scene
+//! plugin's worker does (every mesh's bBVH built in parallel, then the bBVHs inserted one by one),
+//! then the idle updates of the editor's preset, through the same engine calls the worker makes,
+//! measured after fixed amounts of idle time.
+
+use rayon::prelude::*;
+use std::ops::Range;
+use std::time::Instant;
+use treelight_bvh::glam::Affine3A;
+use treelight_bvh::{Bvh, IdleWork, PreparedGroup, Preset, Triangle};
+
+/// Idle time, in seconds of update steps, after which the tree is measured.
+pub const IDLE_CHECKPOINTS: [f64; 4] = [0.0, 0.1, 1.0, 10.0];
+
+/// The tree at one checkpoint.
+pub struct IdlePoint {
+    /// Idle time asked for, in seconds.
+    pub idle_s: f64,
+    /// Idle time spent in update steps so far (less than asked once the steps ran out).
+    pub spent_s: f64,
+    /// Update steps so far.
+    pub steps: u64,
+    /// Eq. 1 with c_T = c_I = 1.
+    pub sah_cost: f32,
+    /// Primary and AO rays per second (millions) through the tree as it is.
+    pub rays: (f64, f64),
+}
+
+/// One scene's run.
+pub struct EditorRun {
+    /// Groups inserted.
+    pub meshes: usize,
+    /// Time to build the bBVHs and insert them.
+    pub insert_s: f64,
+    /// The tree at each of [`IDLE_CHECKPOINTS`].
+    pub points: Vec<IdlePoint>,
+}
+
+/// Inserts each span of `tris` in `meshes` as a group under `preset`'s policy, then runs its idle
+/// updates, measuring the tree with `trace` (clock stopped) at each checkpoint.
+pub fn run(
+    tris: &[Triangle],
+    meshes: &[Range<usize>],
+    preset: Preset,
+    trace: impl Fn(&Bvh) -> (f64, f64),
+) -> Result<EditorRun, String> {
+    let policy = preset.policy();
+    let mut bvh = Bvh::new(policy.config);
+    let start = Instant::now();
+    let prepared = meshes
+        .par_iter()
+        .map(|span| PreparedGroup::build(tris[span.clone()].to_vec(), Affine3A::IDENTITY, false))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
+    for group in prepared {
+        bvh.insert_prepared(group).map_err(|e| e.to_string())?;
+    }
+    let insert_s = start.elapsed().as_secs_f64();
+    let mut work = IdleWork::default();
+    work.after_edit(&policy.idle, &bvh);
+    let (mut spent_s, mut steps) = (0.0, 0);
+    let mut points = Vec::with_capacity(IDLE_CHECKPOINTS.len());
+    for idle_s in IDLE_CHECKPOINTS {
+        while work.is_pending() && spent_s < idle_s {
+            let step = Instant::now();
+            work.step(&policy.idle, &mut bvh);
+            spent_s += step.elapsed().as_secs_f64();
+            steps += 1;
+        }
+        points.push(IdlePoint {
+            idle_s,
+            spent_s,
+            steps,
+            sah_cost: bvh.sah_cost_with(1.0, 1.0),
+            rays: trace(&bvh),
+        });
+    }
+    Ok(EditorRun {
+        meshes: meshes.len(),
+        insert_s,
+        points,
+    })
+}
+
+/// The runs as a markdown table, one row per scene and checkpoint; `sah` gives a scene's full-sweep
+/// SAH cost when that row was built in the same run.
+pub fn markdown(
+    preset: Preset,
+    runs: &[(String, EditorRun)],
+    sah: impl Fn(&str) -> Option<f32>,
+) -> String {
+    let mut out = format!(
+        "\n### The editor's tree over idle time (`{preset}` preset, each mesh a group)\n\n\
+         | scene | meshes | insertion [ms] | idle [s] | steps (time in them [s]) | SAH cost | cost / SAH | primary [MRays/s] | AO [MRays/s] |\n\
+         |---|---|---|---|---|---|---|---|---|\n"
+    );
+    for (scene, run) in runs {
+        for p in &run.points {
+            out += &format!(
+                "| {scene} | {} | {:.1} | {} | {} ({:.3}) | {:.2} | {} | {:.2} | {:.2} |\n",
+                run.meshes,
+                run.insert_s * 1e3,
+                p.idle_s,
+                p.steps,
+                p.spent_s,
+                p.sah_cost,
+                sah(scene).map_or("–".into(), |s| format!("{:.3}", p.sah_cost / s)),
+                p.rays.0,
+                p.rays.1,
+            );
+        }
+    }
+    out
+}
