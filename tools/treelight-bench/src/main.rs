@@ -133,7 +133,7 @@ impl Tuning {
         if Preset::from_name(method).is_some() {
             return "preset".to_owned();
         }
-        if !method.starts_with("incr") {
+        if !is_paper_incremental(method) {
             return String::new();
         }
         let mut parts = Vec::new();
@@ -248,6 +248,18 @@ fn run(args: &Args) -> Result<(), String> {
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
+    // One pool per thread count; the latency experiment, the editor's tree and the plots' sampled
+    // runs use the first.
+    let pools = args
+        .threads
+        .iter()
+        .map(|&threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| e.to_string())
+        })
+        .collect::<Result<Vec<_>, String>>()?;
     for spec in &args.scene {
         bar.set_message(format!("loading {spec}"));
         let scene = scenes::load(spec, args.seed)?;
@@ -256,10 +268,7 @@ fn run(args: &Args) -> Result<(), String> {
         }
         if args.latency {
             bar.set_message(format!("{} latency experiment", scene.name));
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(args.threads[0])
-                .build()
-                .map_err(|e| e.to_string())?;
+            let pool = &pools[0];
             let (lat, rebuilds) = pool.install(|| latency::run(&scene.triangles, args.seed))?;
             latency_tables +=
                 &latency::markdown(&scene.name, scene.triangles.len(), &lat, &rebuilds);
@@ -277,10 +286,7 @@ fn run(args: &Args) -> Result<(), String> {
         };
         if args.editor {
             bar.set_message(format!("{} the editor's tree", scene.name));
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(args.threads[0])
-                .build()
-                .map_err(|e| e.to_string())?;
+            let pool = &pools[0];
             let run = pool.install(|| {
                 editor_tree::run(&scene.triangles, &scene.meshes, EDITOR_PRESET, |bvh| {
                     trace(bvh, &camera, &bounds, w, h, args)
@@ -295,10 +301,7 @@ fn run(args: &Args) -> Result<(), String> {
                     "{} {order}: sampled runs for the plots",
                     scene.name
                 ));
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(args.threads[0])
-                    .build()
-                    .map_err(|e| e.to_string())?;
+                let pool = &pools[0];
                 let runs = methods
                     .iter()
                     .map(|m| pool.install(|| progress(&tris, m, &args.tuning)))
@@ -307,16 +310,6 @@ fn run(args: &Args) -> Result<(), String> {
             }
             // Every row's builds are interleaved, round by round, so that a slow spell of this
             // machine slows every method alike and the ratios between rows stay fair.
-            let pools = args
-                .threads
-                .iter()
-                .map(|&threads| {
-                    rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .map_err(|e| e.to_string())
-                })
-                .collect::<Result<Vec<_>, String>>()?;
             let cells: Vec<(&String, usize, Tuning)> = methods
                 .iter()
                 .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
