@@ -1,5 +1,5 @@
-// The path tracer: one compute invocation per pixel adds `view.samples` samples to an accumulation
-// buffer (or restarts it when `view.frame` is 0). Bevy's StandardMaterial is approximated by a
+// The path tracer: each dispatch traces a run of 8×8 tiles (as many as the frame's budget allows),
+// each pixel adding `view.samples` samples to its running sum, or a coarse preview after a restart. Bevy's StandardMaterial is approximated by a
 // Lambert lobe plus a GGX lobe; punctual lights are sampled directly (next-event estimation), emissive
 // surfaces and the sky are found by the BSDF samples. The crate appends traverse.wgsl and
 // sampling.wgsl.
@@ -44,22 +44,30 @@ struct Light {
 
 struct View {
     world_from_clip: mat4x4<f32>,
+    // The depth the resolve writes comes from this projection of the primary hit.
+    clip_from_world: mat4x4<f32>,
     // Sky radiance (rgb) and the camera's exposure (w).
     sky: vec4<f32>,
     width: u32,
     height: u32,
-    // Samples accumulated so far; 0 restarts the accumulation.
-    frame: u32,
     root: u32,
     max_bounces: u32,
+    // Samples each traced pixel adds.
     samples: u32,
     mode: u32,
     light_count: u32,
     // Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
     indirect_clamp: f32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // Pixels per preview block along each axis; 0 traces tiles into the accumulation instead.
+    preview_scale: u32,
+    preview_seed: u32,
+    // Tiles tile_start .. tile_start + tile_count of the sequence j -> j * tile_stride mod tile_total.
+    tile_start: u32,
+    tile_count: u32,
+    tiles_x: u32,
+    tile_total: u32,
+    tile_stride: u32,
+    pad: u32,
 }
 
 // Group 0, the scene: the records and the texture array, shared by every view and bound again only
@@ -74,9 +82,12 @@ struct View {
 // textures cannot be sRGB, so the kernel decodes).
 @group(0) @binding(6) var base_color_textures: texture_2d_array<f32>;
 @group(0) @binding(7) var texture_sampler: sampler;
-// Group 1, the view: its uniform and its accumulation buffer.
+// Group 1, the view: its uniform; per pixel the running sum of its samples (rgb) and their count
+// (w); and `aux`: per pixel the depth of its first sample's primary hit, then per preview block one
+// sample (rgb) and its depth, four floats each (one buffer, as WebGPU allows a stage eight).
 @group(1) @binding(0) var<uniform> view: View;
 @group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read_write> aux: array<f32>;
 
 const MODE_PATH: u32 = 0u;
 const MODE_ALBEDO: u32 = 1u;
@@ -88,6 +99,8 @@ const HAS_NORMALS: u32 = 0x80000000u;
 const HEATMAP_MAX: f32 = 160.0;
 
 var<private> rng_state: u32;
+// The depth of the current sample's primary hit (0, the far plane, when it escapes).
+var<private> primary_depth: f32;
 
 fn rand() -> f32 {
     rng_state = pcg(rng_state);
@@ -318,6 +331,9 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             radiance += indirect(throughput * view.sky.rgb, bounce);
             break;
         }
+        if bounce == 0u {
+            primary_depth = clip_depth(o + d * hit.t);
+        }
         let s = surface_at(hit, o, d);
         let wo = -d;
         radiance += indirect(throughput * s.emissive, bounce);
@@ -361,6 +377,9 @@ fn heat(x: f32) -> vec3<f32> {
 // What the debug views show at the primary hit.
 fn debug_value(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let hit = closest_hit(view.root, o, d, FAR);
+    if hit.triangle != NONE {
+        primary_depth = clip_depth(o + d * hit.t);
+    }
     if view.mode == MODE_HEATMAP {
         return heat(f32(hit.visited) / HEATMAP_MAX);
     }
@@ -387,37 +406,114 @@ fn camera_ray(uv: vec2<f32>) -> array<vec3<f32>, 2> {
     return array<vec3<f32>, 2>(o, normalize(mid.xyz / mid.w - o));
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn path_trace(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= view.width || id.y >= view.height {
-        return;
+// Reversed-z depth of a world-space point, as Bevy's depth buffer holds it.
+fn clip_depth(p: vec3<f32>) -> f32 {
+    let c = view.clip_from_world * vec4<f32>(p, 1.0);
+    return clamp(c.z / c.w, 0.0, 1.0);
+}
+
+// a * b mod m without overflow (m < 2^31), by doubling: the tile sequence's products exceed 32 bits
+// on large images.
+fn mul_mod(a: u32, b: u32, m: u32) -> u32 {
+    var r = 0u;
+    var x = a % m;
+    var y = b;
+    loop {
+        if y == 0u {
+            break;
+        }
+        if (y & 1u) != 0u {
+            r = (r + x) % m;
+        }
+        x = (x + x) % m;
+        y = y >> 1u;
     }
-    let pixel = id.y * view.width + id.x;
-    rng_state = pcg(pixel ^ pcg(view.frame * 0x9e3779b9u + 0x632be5abu));
-    let size = vec2<f32>(f32(view.width), f32(view.height));
-    // Ids and heat are per pixel centre: averaging them across edges would mean nothing.
-    let jitter = view.mode == MODE_PATH || view.mode == MODE_ALBEDO || view.mode == MODE_NORMALS;
-    var sum = vec3<f32>(0.0);
-    for (var k = 0u; k < view.samples; k += 1u) {
+    return r;
+}
+
+// One sample through the image point `at` (pixels, continuous): its value, or zero for a bad path
+// sample (inf or NaN), which would otherwise stain the pixel until the next restart. Sets
+// primary_depth.
+fn trace_sample(at: vec2<f32>) -> vec3<f32> {
+    primary_depth = 0.0;
+    let ray = camera_ray(at / vec2<f32>(f32(view.width), f32(view.height)));
+    if view.mode == MODE_PATH {
+        let l = path_radiance(ray[0], ray[1]);
+        if all(l == l) && all(abs(l) < vec3<f32>(FAR)) {
+            return l;
+        }
+        return vec3<f32>(0.0);
+    }
+    return debug_value(ray[0], ray[1]);
+}
+
+// Ids and heat are per pixel centre: averaging them across edges would mean nothing.
+fn jittered() -> bool {
+    return view.mode == MODE_PATH || view.mode == MODE_ALBEDO || view.mode == MODE_NORMALS;
+}
+
+// A pixel's n-th sample draws its random numbers from (pixel, n) alone, so the image after n samples
+// per pixel is the same however the frames split the work into tiles.
+fn seed(pixel: u32, n: u32) -> u32 {
+    return pcg(pixel ^ pcg(n * 0x9e3779b9u + 0x632be5abu));
+}
+
+// One workgroup per tile of the sequence; or, in a preview frame, one invocation per block of
+// preview_scale² pixels, its single sample overwriting the preview.
+@compute @workgroup_size(8, 8, 1)
+fn path_trace(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+) {
+    if view.preview_scale > 0u {
+        let k = view.preview_scale;
+        let pw = (view.width + k - 1u) / k;
+        let ph = (view.height + k - 1u) / k;
+        let q = group.xy * 8u + local.xy;
+        if q.x >= pw || q.y >= ph {
+            return;
+        }
+        let block = q.y * pw + q.x;
+        rng_state = pcg(block ^ pcg(view.preview_seed * 0x85ebca6bu + 0x27d4eb2fu));
         var sub = vec2<f32>(0.5);
-        if jitter {
+        if jittered() {
             sub = vec2<f32>(rand(), rand());
         }
-        let ray = camera_ray((vec2<f32>(id.xy) + sub) / size);
-        if view.mode == MODE_PATH {
-            let l = path_radiance(ray[0], ray[1]);
-            // One bad sample (an inf or NaN from a degenerate triangle) would stain the pixel until
-            // the next reset; drop it instead.
-            if all(l == l) && all(abs(l) < vec3<f32>(FAR)) {
-                sum += l;
-            }
-        } else {
-            sum += debug_value(ray[0], ray[1]);
+        let lo = vec2<f32>(q * k);
+        let hi = min(vec2<f32>((q + 1u) * k), vec2<f32>(f32(view.width), f32(view.height)));
+        let value = trace_sample(lo + (hi - lo) * sub);
+        let at = view.width * view.height + 4u * block;
+        aux[at] = value.r;
+        aux[at + 1u] = value.g;
+        aux[at + 2u] = value.b;
+        aux[at + 3u] = primary_depth;
+        return;
+    }
+    let linear = group.y * groups.x + group.x;
+    if linear >= view.tile_count {
+        return;
+    }
+    let j = (view.tile_start + linear) % view.tile_total;
+    let tile = mul_mod(j, view.tile_stride, view.tile_total);
+    let p = vec2<u32>(tile % view.tiles_x, tile / view.tiles_x) * 8u + local.xy;
+    if p.x >= view.width || p.y >= view.height {
+        return;
+    }
+    let pixel = p.y * view.width + p.x;
+    let acc = accum[pixel];
+    let first = u32(acc.w);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < view.samples; k += 1u) {
+        rng_state = seed(pixel, first + k);
+        var sub = vec2<f32>(0.5);
+        if jittered() {
+            sub = vec2<f32>(rand(), rand());
+        }
+        sum += trace_sample(vec2<f32>(p) + sub);
+        if first + k == 0u {
+            aux[pixel] = primary_depth;
         }
     }
-    if view.frame == 0u {
-        accum[pixel] = vec4<f32>(sum, 0.0);
-    } else {
-        accum[pixel] += vec4<f32>(sum, 0.0);
-    }
+    accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -1,4 +1,5 @@
-//! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]`.
+//! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]
+//! [--frame-budget MS]`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -24,6 +25,10 @@ pub struct Cli {
     /// How the viewport starts: rasterised, path traced, or a debug view of the path tracer.
     #[arg(long, value_enum, default_value_t = ViewArg::Path)]
     pub view: ViewArg,
+    /// Milliseconds of GPU time a frame may spend path tracing (it may also take a quarter of the
+    /// rest of the frame's time); 0 traces every pixel every frame.
+    #[arg(long, value_name = "MS", default_value_t = 4.0)]
+    pub frame_budget: f32,
 }
 
 /// The viewport modes on the command line.

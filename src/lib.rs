@@ -49,7 +49,14 @@ pub fn build_app(cli: &cli::Cli) -> App {
     .init_resource::<import::PendingImports>()
     .insert_resource(render_mode::ViewportRender {
         traced: cli.view.debug_view(),
-        ..default()
+        settings: treelight_render::PathTraced {
+            frame_budget_ms: if cli.frame_budget.is_finite() {
+                cli.frame_budget.max(0.0)
+            } else {
+                0.0
+            },
+            ..default()
+        },
     })
     .add_systems(Startup, (setup_cameras, render_mode::adapt_to_adapter))
     .add_systems(EguiPrimaryContextPass, ui::editor_ui)
@@ -99,6 +106,9 @@ fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGlobalSet
     egui_settings.auto_create_primary_context = false;
     commands.spawn((
         Name::new("Editor UI camera"),
+        // egui antialiases its own shapes; multisampling this camera would only add a copy of the
+        // whole window each frame (Bevy's MSAA writeback of the 3D camera's output).
+        Msaa::Off,
         PrimaryEguiContext,
         Camera2d,
         RenderLayers::none(),

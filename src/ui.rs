@@ -304,9 +304,22 @@ pub fn editor_ui(
                 let figures = tracer.figures();
                 ui.separator();
                 let spp = figures.samples.get(&camera).copied().unwrap_or(0);
-                ui.label(format!("{}: {spp} spp", view.label())).on_hover_text(format!(
-                    "Samples per pixel accumulated since the last change. Scene upload: {} bytes in the last upload, {} in all",
-                    figures.last_upload_bytes, figures.total_upload_bytes
+                let trace = figures.traces.get(&camera).copied().unwrap_or_default();
+                let progress = if trace.previewing {
+                    "preview".to_string()
+                } else {
+                    format!("{spp} spp")
+                };
+                let cost = trace.cost.map_or("not measured yet".to_string(), |(ns, source)| {
+                    let how = match source {
+                        treelight_render::CostSource::Timestamps => "GPU timestamps",
+                        treelight_render::CostSource::FrameTimes => "from frame times",
+                    };
+                    format!("{ns:.0} ns per pixel sample ({how})")
+                });
+                ui.label(format!("{}: {progress}", view.label())).on_hover_text(format!(
+                    "Samples every pixel has accumulated since the last change. This frame traced {} pixel samples; {cost}. Scene upload: {} bytes in the last upload, {} in all",
+                    trace.traced_per_frame, figures.last_upload_bytes, figures.total_upload_bytes
                 ));
             }
             if stats.pending > 0 {

@@ -12,18 +12,25 @@
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
+mod budget;
 mod extract;
 mod node;
 mod pipelines;
 mod prepare;
+mod raster_skip;
 mod records;
 mod texture_layers;
+mod timing;
 mod upload;
 
+pub use budget::{
+    CostSource, FrameBudget, MAX_PREVIEW_SCALE, TILE, TileCursor, TileOrder, TraceClock,
+    preview_scale,
+};
 pub use records::{
     ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
     GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, SceneLight, SurfaceMaterial, TextureWrap,
-    VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes,
+    TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes,
     object_bytes, resolve_bytes,
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
@@ -107,13 +114,19 @@ impl DebugView {
 
 /// Turns a Bevy 3D camera into a live path-traced view. Requires [`Hdr`] so that Bevy's tonemapping
 /// applies to the traced radiance.
+///
+/// Each frame traces what fits its budget: a coarse preview right after anything changes (the
+/// camera, an object, a material), then runs of 8×8 tiles spread over the image, each pixel
+/// accumulating its own samples, so the frame rate holds while the image converges. The camera
+/// rasterises no meshes (the traced image replaces them); the traced depth is written to its
+/// depth buffer, so gizmos and other overlays drawn after are hidden behind traced surfaces.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Reflect, ExtractComponent)]
 #[extract_component_filter(With<Camera>)]
 #[require(Hdr)]
 pub struct PathTraced {
     /// Bounces after the primary hit.
     pub max_bounces: u32,
-    /// Samples per pixel added each frame.
+    /// Samples a traced pixel adds at once.
     pub samples_per_frame: u32,
     /// Stop accumulating after this many samples per pixel (0: never stop).
     pub max_samples: u32,
@@ -129,6 +142,14 @@ pub struct PathTraced {
     pub indirect_clamp: f32,
     /// What to show.
     pub view: DebugView,
+    /// Milliseconds of GPU time a frame may always spend tracing (measured with timestamp queries
+    /// where the adapter has them, else estimated from frame intervals). Zero traces the whole
+    /// image every frame.
+    pub frame_budget_ms: f32,
+    /// Share of the rest of the frame's time the trace may take when that is more than
+    /// `frame_budget_ms`: on a slow adapter the preview keeps up while the frame rate stays within
+    /// `1 / (1 + share)` of what the rest of the frame allows.
+    pub frame_budget_share: f32,
 }
 
 impl Default for PathTraced {
@@ -141,6 +162,8 @@ impl Default for PathTraced {
             sky: LinearRgba::rgb(110.0, 140.0, 200.0),
             indirect_clamp: 4.0,
             view: DebugView::PathTraced,
+            frame_budget_ms: 4.0,
+            frame_budget_share: 0.25,
         }
     }
 }
@@ -154,10 +177,23 @@ pub struct PathTracerFigures {
     pub total_upload_bytes: u64,
     /// Frames that uploaded anything.
     pub uploads: u64,
-    /// Samples per pixel accumulated so far, per path-traced camera.
+    /// Samples every pixel has accumulated so far, per path-traced camera.
     pub samples: HashMap<Entity, u32>,
+    /// The frame budget's latest figures, per path-traced camera.
+    pub traces: HashMap<Entity, TraceFigures>,
     /// Whether the GPU copy has caught up with the scene at least once.
     pub scene_ready: bool,
+}
+
+/// One path-traced camera's latest frame under its budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceFigures {
+    /// Pixel samples the frame traced.
+    pub traced_per_frame: u64,
+    /// What a pixel sample costs, nanoseconds, and how that was measured, once it was.
+    pub cost: Option<(f64, CostSource)>,
+    /// Whether the frame traced the coarse preview (the view had just changed).
+    pub previewing: bool,
 }
 
 /// Figures about the path tracer (bytes uploaded, samples per camera), readable from the main world.
@@ -213,6 +249,7 @@ impl Plugin for PathTracerPlugin {
         };
         // The strong handles live in the main world so the shaders stay loaded.
         app.insert_resource(shaders.clone());
+        raster_skip::build(app);
         let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) else {
             return;
         };

@@ -1,7 +1,7 @@
 //! The render node: a system in each path-traced camera's `Core3d` schedule that only binds and
 //! dispatches what prepare made ready. It runs after the opaque pass and before the transparent
-//! pass, so gizmos and other transparent draws still land on top of the traced image (depth-tested
-//! against the rasterised depth of the same meshes).
+//! pass, so gizmos and other transparent draws land on top of the traced image, depth-tested
+//! against the traced depth the resolve writes.
 
 use crate::pipelines::PathTracerPipelines;
 use crate::prepare::{GpuScene, ViewStates};
@@ -12,7 +12,7 @@ use bevy::render::render_resource::{
     ComputePassDescriptor, LoadOp, Operations, PipelineCache, RenderPassDescriptor, StoreOp,
 };
 use bevy::render::renderer::{RenderContext, ViewQuery};
-use bevy::render::view::ViewTarget;
+use bevy::render::view::{ViewDepthTexture, ViewTarget};
 
 pub(crate) fn build(render_app: &mut SubApp) {
     render_app.add_systems(
@@ -24,10 +24,10 @@ pub(crate) fn build(render_app: &mut SubApp) {
     );
 }
 
-/// Traces the view's samples of this frame into its accumulation buffer, then draws the average
-/// into the view target.
+/// Traces this frame's share of the view's work (clearing the accumulation first on a restart, and
+/// timing the pass where the adapter can), then draws the image and its depth into the view.
 fn path_trace(
-    view: ViewQuery<&ViewTarget>,
+    view: ViewQuery<(&ViewTarget, Option<&ViewDepthTexture>)>,
     pipelines: Option<Res<PathTracerPipelines>>,
     pipeline_cache: Res<PipelineCache>,
     scene: Option<Res<GpuScene>>,
@@ -35,7 +35,7 @@ fn path_trace(
     mut ctx: RenderContext,
 ) {
     let view_entity = view.entity();
-    let target = view.into_inner();
+    let (target, depth) = view.into_inner();
     let (Some(pipelines), Some(scene)) = (pipelines, scene) else {
         return;
     };
@@ -50,16 +50,23 @@ fn path_trace(
         pipeline_cache.get_compute_pipeline(pipelines.trace),
         &scene.bind_group,
     ) {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_compute_pass(&ComputePassDescriptor {
-                label: Some("treelight path trace"),
-                timestamp_writes: None,
-            });
+        let encoder = ctx.command_encoder();
+        if frame.clear {
+            encoder.clear_buffer(&state.buffers.accum, 0, None);
+        }
+        let timer = frame.timing.zip(state.timer.as_ref());
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("treelight path trace"),
+            timestamp_writes: timer.map(|(slot, t)| t.pass_writes(slot)),
+        });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, scene_group, &[]);
-        pass.set_bind_group(1, &state.trace_bind_group, &[]);
+        pass.set_bind_group(1, &state.buffers.trace_bind_group, &[]);
         pass.dispatch_workgroups(groups.x, groups.y, 1);
+        drop(pass);
+        if let Some((slot, t)) = timer {
+            t.copy_out(slot, encoder);
+        }
     }
     let Some(resolve) = pipeline_cache.get_render_pipeline(frame.resolve_pipeline) else {
         return;
@@ -69,12 +76,13 @@ fn path_trace(
         load: LoadOp::Load,
         store: StoreOp::Store,
     };
+    let depth = depth.filter(|_| frame.writes_depth);
     let mut pass = ctx
         .command_encoder()
         .begin_render_pass(&RenderPassDescriptor {
             label: Some("treelight resolve"),
             color_attachments: &[Some(attachment)],
-            depth_stencil_attachment: None,
+            depth_stencil_attachment: depth.map(|d| d.get_attachment(StoreOp::Store)),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
@@ -82,6 +90,6 @@ fn path_trace(
     let v = frame.viewport.as_vec4();
     pass.set_viewport(v.x, v.y, v.z, v.w, 0.0, 1.0);
     pass.set_pipeline(resolve);
-    pass.set_bind_group(0, &state.resolve_bind_group, &[]);
+    pass.set_bind_group(0, &state.buffers.resolve_bind_group, &[]);
     pass.draw(0..3, 0..1);
 }

@@ -1,7 +1,8 @@
 //! The kernels' shaders, bind group layouts and pipelines, made once at render startup. The trace
 //! kernel binds two groups: the scene (records and textures, shared by every view) and the view
-//! (its uniform and accumulation buffer).
+//! (its uniform, its accumulation, its depth and preview).
 
+use bevy::core_pipeline::core_3d::CORE_3D_DEPTH_FORMAT;
 use bevy::prelude::*;
 use bevy::render::RenderStartup;
 use bevy::render::render_resource::binding_types::{
@@ -10,9 +11,10 @@ use bevy::render::render_resource::binding_types::{
 };
 use bevy::render::render_resource::{
     BindGroupLayoutDescriptor, BindGroupLayoutEntries, CachedComputePipelineId,
-    CachedRenderPipelineId, ColorTargetState, ColorWrites, ComputePipelineDescriptor,
-    FragmentState, MultisampleState, PipelineCache, RenderPipelineDescriptor, SamplerBindingType,
-    ShaderStages, TextureFormat, TextureSampleType, VertexState,
+    CachedRenderPipelineId, ColorTargetState, ColorWrites, CompareFunction,
+    ComputePipelineDescriptor, DepthStencilState, FragmentState, MultisampleState, PipelineCache,
+    RenderPipelineDescriptor, SamplerBindingType, ShaderStages, TextureFormat, TextureSampleType,
+    VertexState,
 };
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -34,14 +36,14 @@ pub(crate) fn build(render_app: &mut SubApp) {
 pub(crate) struct PathTracerPipelines {
     /// Group 0 of the trace kernel: the six record buffers, the texture array and its sampler.
     pub scene_layout: BindGroupLayoutDescriptor,
-    /// Group 1 of the trace kernel: the view uniform and the accumulation buffer.
+    /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
     pub view_layout: BindGroupLayoutDescriptor,
-    /// The resolve pass's group: the accumulation buffer and its uniform.
+    /// The resolve pass's group: the accumulation, the depth and preview, and its uniform.
     pub resolve_layout: BindGroupLayoutDescriptor,
     pub trace: CachedComputePipelineId,
     resolve_shader: Handle<Shader>,
-    /// Resolve pipelines by target format and sample count.
-    resolve: Mutex<HashMap<(TextureFormat, u32), CachedRenderPipelineId>>,
+    /// Resolve pipelines by target format, sample count and whether they write depth.
+    resolve: Mutex<HashMap<(TextureFormat, u32, bool), CachedRenderPipelineId>>,
 }
 
 fn init_pipelines(
@@ -73,6 +75,7 @@ fn init_pipelines(
             (
                 uniform_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
     );
@@ -81,6 +84,7 @@ fn init_pipelines(
         &BindGroupLayoutEntries::sequential(
             ShaderStages::FRAGMENT,
             (
+                storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 uniform_buffer_sized(false, None),
             ),
@@ -104,15 +108,17 @@ fn init_pipelines(
 }
 
 impl PathTracerPipelines {
-    /// The resolve pipeline for a target of `format` with `samples` samples, queued on first use.
+    /// The resolve pipeline for a target of `format` with `samples` samples, writing the view's
+    /// depth buffer too when `depth`, queued on first use.
     pub fn resolve_pipeline(
         &self,
         cache: &PipelineCache,
         format: TextureFormat,
         samples: u32,
+        depth: bool,
     ) -> CachedRenderPipelineId {
         let mut map = self.resolve.lock().unwrap_or_else(|p| p.into_inner());
-        *map.entry((format, samples)).or_insert_with(|| {
+        *map.entry((format, samples, depth)).or_insert_with(|| {
             cache.queue_render_pipeline(RenderPipelineDescriptor {
                 label: Some("treelight resolve".into()),
                 layout: vec![self.resolve_layout.clone()],
@@ -123,13 +129,21 @@ impl PathTracerPipelines {
                 },
                 fragment: Some(FragmentState {
                     shader: self.resolve_shader.clone(),
-                    entry_point: Some("fragment".into()),
+                    entry_point: Some(if depth { "fragment_depth" } else { "fragment" }.into()),
                     targets: vec![Some(ColorTargetState {
                         format,
                         blend: None,
                         write_mask: ColorWrites::ALL,
                     })],
                     ..default()
+                }),
+                // Every traced pixel's depth replaces what is there.
+                depth_stencil: depth.then(|| DepthStencilState {
+                    format: CORE_3D_DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(CompareFunction::Always),
+                    stencil: default(),
+                    bias: default(),
                 }),
                 multisample: MultisampleState {
                     count: samples,

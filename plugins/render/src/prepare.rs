@@ -1,14 +1,16 @@
 //! Prepare: the scene's GPU buffers (grown by doubling, old contents copied on the GPU, then patched
 //! with the frame's writes), the scene bind group (made again only when a buffer or the texture
-//! array grew), and each path-traced view's accumulation buffer, uniforms and bind groups, with what
-//! the node is to dispatch and draw this frame.
+//! array grew), and each path-traced view's buffers, uniforms and bind groups, with the share of its
+//! work that fits this frame's budget: what the node is to dispatch and draw.
 
+use crate::budget::{FrameBudget, TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::extract::SceneSync;
 use crate::pipelines::PathTracerPipelines;
-use crate::records::{VIEW_BYTES, ViewParams, resolve_bytes};
+use crate::records::{TraceWork, VIEW_BYTES, ViewParams, resolve_bytes};
 use crate::texture_layers::TextureLayers;
+use crate::timing::TraceTimer;
 use crate::upload::{BufferKind, grown_capacity};
-use crate::{DebugView, PathTraced, PathTracerStats};
+use crate::{DebugView, PathTraced, PathTracerStats, TraceFigures};
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::{
@@ -17,9 +19,10 @@ use bevy::render::render_resource::{
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::sync_world::MainEntity;
-use bevy::render::view::{ExtractedView, ViewTarget};
+use bevy::render::view::{ExtractedView, ViewDepthTexture, ViewTarget};
 use bevy::render::{Render, RenderStartup, RenderSystems};
 use std::collections::HashMap;
+use std::time::Instant;
 
 pub(crate) fn build(render_app: &mut SubApp) {
     render_app
@@ -32,7 +35,9 @@ pub(crate) fn build(render_app: &mut SubApp) {
                 (prepare_scene_bind_group, prepare_views)
                     .chain()
                     .in_set(RenderSystems::PrepareBindGroups),
-                forget_views.in_set(RenderSystems::Cleanup),
+                (request_timings, forget_views)
+                    .chain()
+                    .in_set(RenderSystems::Cleanup),
             ),
         );
 }
@@ -219,6 +224,7 @@ struct AccumulationKey {
     texture_generation: u64,
     /// Only for the heatmap, which shows the tree itself.
     tree_generation: u64,
+    /// The settings that change the image (not the sample limit or the budget).
     settings: PathTraced,
     exposure: f32,
     size: UVec2,
@@ -228,15 +234,24 @@ struct AccumulationKey {
 pub(crate) struct ViewFrame {
     /// Workgroups of the trace dispatch; `None` when the view has all its samples.
     pub dispatch: Option<UVec2>,
+    /// Whether the accumulation restarts: the node clears it before the dispatch.
+    pub clear: bool,
+    /// The timer slot the pass writes its timestamps to.
+    pub timing: Option<usize>,
     /// The resolve pipeline for the view's target.
     pub resolve_pipeline: CachedRenderPipelineId,
+    /// Whether the resolve writes the view's depth buffer too.
+    pub writes_depth: bool,
     /// The camera's viewport in target pixels: x, y, width, height.
     pub viewport: UVec4,
 }
 
-/// One path-traced view's GPU state. Its buffers and bind groups live as long as its size; the
-/// accumulation buffer is held by the two bind groups that use it.
-pub(crate) struct ViewState {
+/// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
+/// count), the primary hits' depth with the preview after it, the uniforms and the bind groups over
+/// them.
+pub(crate) struct ViewBuffers {
+    /// Cleared by the node when the accumulation restarts.
+    pub accum: Buffer,
     view_uniform: Buffer,
     resolve_uniform: Buffer,
     /// Group 1 of the trace kernel.
@@ -244,8 +259,23 @@ pub(crate) struct ViewState {
     /// The resolve pass's group.
     pub resolve_bind_group: BindGroup,
     size: UVec2,
-    samples: u32,
+}
+
+/// One path-traced view's GPU state and its place in the frame budget.
+pub(crate) struct ViewState {
+    /// Remade when the view's size changes.
+    pub buffers: ViewBuffers,
+    order: TileOrder,
+    cursor: TileCursor,
+    clock: TraceClock,
+    /// `None` where the adapter has no timestamp queries.
+    pub timer: Option<TraceTimer>,
     key: Option<AccumulationKey>,
+    /// The scale of the preview traced since the last restart; 0 when none was.
+    preview_scale: u32,
+    preview_seed: u32,
+    /// When the previous frame was prepared, and the pixel samples it traced.
+    last_frame: Option<(Instant, u64)>,
     seen: bool,
     /// This frame's work, when the trace pipeline is ready.
     pub frame: Option<ViewFrame>,
@@ -264,18 +294,30 @@ fn uniform(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
     })
 }
 
-fn view_state(
+fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn view_buffers(
     device: &RenderDevice,
     pipelines: &PathTracerPipelines,
     cache: &PipelineCache,
     size: UVec2,
-) -> ViewState {
-    let accum = device.create_buffer(&BufferDescriptor {
-        label: Some("treelight accumulation"),
-        size: size.x as u64 * size.y as u64 * 16,
-        usage: BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
+) -> ViewBuffers {
+    let pixels = size.x as u64 * size.y as u64;
+    let accum = storage(device, "treelight accumulation", pixels * 16);
+    // Depth per pixel, then the preview, whose finest scale halves each axis.
+    let blocks = size.x.div_ceil(2) as u64 * size.y.div_ceil(2) as u64;
+    let aux = storage(
+        device,
+        "treelight depth and preview",
+        pixels * 4 + blocks * 16,
+    );
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
     let resolve_uniform = uniform(
         device,
@@ -288,6 +330,7 @@ fn view_state(
         &BindGroupEntries::sequential((
             view_uniform.as_entire_binding(),
             accum.as_entire_binding(),
+            aux.as_entire_binding(),
         )),
     );
     let resolve_bind_group = device.create_bind_group(
@@ -295,34 +338,88 @@ fn view_state(
         &cache.get_bind_group_layout(&pipelines.resolve_layout),
         &BindGroupEntries::sequential((
             accum.as_entire_binding(),
+            aux.as_entire_binding(),
             resolve_uniform.as_entire_binding(),
         )),
     );
-    ViewState {
+    ViewBuffers {
+        accum,
         view_uniform,
         resolve_uniform,
         trace_bind_group,
         resolve_bind_group,
         size,
-        samples: 0,
-        key: None,
-        seen: true,
-        frame: None,
     }
 }
 
+impl ViewState {
+    fn new(buffers: ViewBuffers, timer: Option<TraceTimer>) -> Self {
+        let order = TileOrder::new(buffers.size.x, buffers.size.y);
+        Self {
+            buffers,
+            order,
+            cursor: TileCursor::default(),
+            clock: TraceClock::default(),
+            timer,
+            key: None,
+            preview_scale: 0,
+            preview_seed: 0,
+            last_frame: None,
+            seen: true,
+            frame: None,
+        }
+    }
+
+    /// Decides this frame's work: a preview after a restart the budget cannot cover with a whole
+    /// sweep, else the next run of tiles the budget allows; `None` once the view has its samples.
+    fn next_work(&mut self, settings: &PathTraced, restart: bool) -> Option<(TraceWork, u64)> {
+        let spf = settings.samples_per_frame.clamp(1, 64);
+        let sweeps = self.cursor.sweeps(&self.order);
+        if settings.max_samples > 0 && sweeps * spf as u64 >= settings.max_samples as u64 {
+            return None;
+        }
+        let allowed = self.clock.sample_budget(&FrameBudget {
+            millis: settings.frame_budget_ms,
+            share: settings.frame_budget_share,
+        });
+        let size = self.buffers.size;
+        let pixels = size.x as u64 * size.y as u64;
+        if restart && allowed < pixels * spf as u64 {
+            let scale = preview_scale(size.x, size.y, allowed);
+            self.preview_scale = scale;
+            self.preview_seed = self.preview_seed.wrapping_add(1);
+            let blocks = size.x.div_ceil(scale) as u64 * size.y.div_ceil(scale) as u64;
+            let work = TraceWork::Preview {
+                scale,
+                seed: self.preview_seed,
+            };
+            return Some((work, blocks));
+        }
+        let per_tile = (TILE * TILE * spf) as u64;
+        let allowed = self.clock.dither(allowed);
+        let count = (allowed / per_tile).clamp(1, self.order.total as u64) as u32;
+        let start = self.cursor.take(&self.order, count);
+        Some((TraceWork::Tiles { start, count }, count as u64 * per_tile))
+    }
+}
+
+/// What prepare reads of a path-traced view.
+type TracedView = (
+    Entity,
+    &'static ExtractedCamera,
+    &'static ExtractedView,
+    &'static ViewTarget,
+    Option<&'static ViewDepthTexture>,
+    &'static PathTraced,
+    &'static MainEntity,
+);
+
 /// For each path-traced view: its state made or remade for its size, its accumulation restarted
-/// when what it shows changed, its uniforms written, and what the node is to do this frame.
+/// when what it shows changed, this frame's share of the work under its budget, its uniforms
+/// written, and what the node is to do.
 #[allow(clippy::too_many_arguments)]
 fn prepare_views(
-    views: Query<(
-        Entity,
-        &ExtractedCamera,
-        &ExtractedView,
-        &ViewTarget,
-        &PathTraced,
-        &MainEntity,
-    )>,
+    views: Query<TracedView>,
     pipelines: Option<Res<PathTracerPipelines>>,
     pipeline_cache: Res<PipelineCache>,
     scene: Res<GpuScene>,
@@ -339,7 +436,8 @@ fn prepare_views(
         .get_compute_pipeline(pipelines.trace)
         .is_some()
         && scene.bind_group.is_some();
-    for (entity, camera, extracted, target, settings, main_entity) in &views {
+    let now = Instant::now();
+    for (entity, camera, extracted, target, depth, settings, main_entity) in &views {
         let viewport = extracted.viewport;
         if viewport.z == 0 || viewport.w == 0 {
             continue;
@@ -368,63 +466,95 @@ fn prepare_views(
             },
             settings: PathTraced {
                 max_samples: 0,
+                frame_budget_ms: 0.0,
+                frame_budget_share: 0.0,
                 ..*settings
             },
             exposure: camera.exposure,
             size,
         };
-        let state = states
-            .0
-            .entry(entity)
-            .or_insert_with(|| view_state(&device, &pipelines, &pipeline_cache, size));
-        if state.size != size {
-            *state = view_state(&device, &pipelines, &pipeline_cache, size);
+        let state = states.0.entry(entity).or_insert_with(|| {
+            ViewState::new(
+                view_buffers(&device, &pipelines, &pipeline_cache, size),
+                TraceTimer::new(&device, &queue),
+            )
+        });
+        if state.buffers.size != size {
+            // What a sample costs survives a resize; the tiles and the accumulation do not.
+            state.buffers = view_buffers(&device, &pipelines, &pipeline_cache, size);
+            state.order = TileOrder::new(size.x, size.y);
+            state.key = None;
         }
         state.seen = true;
         state.frame = None;
+        if let Some(timer) = &mut state.timer {
+            timer.harvest(&mut state.clock);
+        }
+        if let Some((then, samples)) = state.last_frame.take() {
+            state
+                .clock
+                .observe_frame(samples, (now - then).as_secs_f64() * 1e9);
+        }
         if !trace_ready {
             continue;
         }
-        if state.key != Some(key) {
+        let restart = state.key != Some(key);
+        if restart {
             state.key = Some(key);
-            state.samples = 0;
+            state.cursor = TileCursor::default();
+            state.preview_scale = 0;
         }
-        let spf = settings.samples_per_frame.clamp(1, 64);
-        let done = settings.max_samples > 0 && state.samples >= settings.max_samples;
-        let dispatch = (!done).then(|| {
+        let work = state.next_work(settings, restart);
+        let traced = work.map_or(0, |(_, n)| n);
+        state.last_frame = Some((now, traced));
+        let mut timing = None;
+        let dispatch = work.map(|(work, samples)| {
             let sky = settings.sky;
+            // The preview is one sample per block, shown for a frame: one bounce and a tight cap
+            // on indirect light keep it from flickering with fireflies while the camera moves.
+            let preview = matches!(work, TraceWork::Preview { .. });
+            let (bounces, clamp) = if preview {
+                (
+                    settings.max_bounces.min(1),
+                    settings.indirect_clamp.clamp(0.0, 1.0),
+                )
+            } else {
+                (
+                    settings.max_bounces.min(64),
+                    settings.indirect_clamp.max(0.0),
+                )
+            };
+            let clamp = if preview && clamp == 0.0 { 1.0 } else { clamp };
             let params = ViewParams {
                 world_from_clip,
                 sky: Vec3::new(sky.red, sky.green, sky.blue),
                 exposure: camera.exposure,
                 width: size.x,
                 height: size.y,
-                frame: state.samples,
                 root: scene.root,
-                max_bounces: settings.max_bounces.min(64),
-                samples: spf,
+                max_bounces: bounces,
+                samples: settings.samples_per_frame.clamp(1, 64),
                 mode: settings.view.shader_index(),
                 light_count: scene.light_count,
-                indirect_clamp: settings.indirect_clamp.max(0.0),
+                indirect_clamp: clamp,
+                work,
             };
-            queue.write_buffer(&state.view_uniform, 0, &params.to_bytes());
-            state.samples += spf;
-            UVec2::new(size.x.div_ceil(8), size.y.div_ceil(8))
+            queue.write_buffer(&state.buffers.view_uniform, 0, &params.to_bytes());
+            timing = state.timer.as_mut().and_then(|t| t.assign(samples));
+            let (x, y) = params.workgroups();
+            UVec2::new(x, y)
         });
-        // Debug views show a single sample's worth of data as well as the average.
-        let shown = if settings.view == DebugView::PathTraced {
-            state.samples
-        } else {
-            state.samples.max(1)
-        };
+        // The preview stands in for pixels without a sample until a whole sweep has run.
+        let sweeps = state.cursor.sweeps(&state.order);
+        let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
         queue.write_buffer(
-            &state.resolve_uniform,
+            &state.buffers.resolve_uniform,
             0,
             &resolve_bytes(
                 Vec2::new(viewport.x as f32, viewport.y as f32),
                 Vec2::new(viewport.z as f32, viewport.w as f32),
                 [size.x, size.y],
-                shown,
+                shown_preview,
             ),
         );
         let msaa = target
@@ -432,17 +562,36 @@ fn prepare_views(
             .map_or(1, |t| t.sample_count());
         state.frame = Some(ViewFrame {
             dispatch,
+            clear: restart,
+            timing,
             resolve_pipeline: pipelines.resolve_pipeline(
                 &pipeline_cache,
                 target.main_texture_format(),
                 msaa,
+                depth.is_some(),
             ),
+            writes_depth: depth.is_some(),
             viewport,
         });
-        let samples = state.samples;
+        let samples = (sweeps * settings.samples_per_frame.clamp(1, 64) as u64) as u32;
+        let figures = TraceFigures {
+            traced_per_frame: traced,
+            cost: state.clock.cost(),
+            previewing: work.is_some_and(|(w, _)| matches!(w, TraceWork::Preview { .. })),
+        };
         stats.update(|f| {
             f.samples.insert(main_entity.id(), samples);
+            f.traces.insert(main_entity.id(), figures);
         });
+    }
+}
+
+/// After the frame's submission: asks for the timestamps its passes wrote.
+fn request_timings(mut states: ResMut<ViewStates>) {
+    for state in states.0.values_mut() {
+        if let Some(timer) = &mut state.timer {
+            timer.request_readback();
+        }
     }
 }
 

@@ -74,19 +74,19 @@ pub struct GpuLight {
 pub struct GpuView {
     /// Clip space to world space, column-major.
     pub world_from_clip: [[f32; 4]; 4],
+    /// World space to clip space, column-major (the depth the resolve writes).
+    pub clip_from_world: [[f32; 4]; 4],
     /// Sky radiance (rgb) and the camera's exposure (w).
     pub sky: [f32; 4],
     /// Accumulation buffer width.
     pub width: u32,
     /// Accumulation buffer height.
     pub height: u32,
-    /// Samples accumulated so far; 0 restarts.
-    pub frame: u32,
     /// The tree's root reference.
     pub root: u32,
     /// Bounces after the primary hit.
     pub max_bounces: u32,
-    /// Samples this dispatch adds per pixel.
+    /// Samples each traced pixel adds.
     pub samples: u32,
     /// What to show.
     pub mode: u32,
@@ -94,15 +94,25 @@ pub struct GpuView {
     pub light_count: u32,
     /// Indirect luminance cap; 0 disables.
     pub indirect_clamp: f32,
+    /// Pixels per preview block along each axis; 0 traces tiles instead.
+    pub preview_scale: u32,
+    /// The preview's random sequence.
+    pub preview_seed: u32,
+    /// First position in the tile sequence.
+    pub tile_start: u32,
+    /// Tiles this dispatch traces.
+    pub tile_count: u32,
+    /// Tiles per row.
+    pub tiles_x: u32,
+    /// Tiles in the image.
+    pub tile_total: u32,
+    /// The tile sequence's step ([`crate::TileOrder`]).
+    pub tile_stride: u32,
     /// Padding.
-    pub pad0: u32,
-    /// Padding.
-    pub pad1: u32,
-    /// Padding.
-    pub pad2: u32,
+    pub pad: u32,
 }
 
-/// `Resolve` of `resolve.wgsl`: where the view sits in its target, and the samples to divide by.
+/// `Resolve` of `resolve.wgsl`: where the view sits in its target, and where to find its pixels.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuResolve {
@@ -112,8 +122,8 @@ pub struct GpuResolve {
     pub viewport: [f32; 2],
     /// The accumulation buffer's size.
     pub size: [u32; 2],
-    /// Samples accumulated.
-    pub samples: u32,
+    /// Pixels per preview block, shown where a pixel has no sample yet; 0: no preview.
+    pub preview_scale: u32,
     /// Padding.
     pub pad: u32,
 }
@@ -348,6 +358,34 @@ pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
     bytemuck::bytes_of(&record).to_vec()
 }
 
+/// What one dispatch of the trace kernel does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraceWork {
+    /// Trace `count` tiles from position `start` of the view's [`TileOrder`](crate::TileOrder),
+    /// each pixel adding [`ViewParams::samples`] samples to its running sum and count.
+    Tiles {
+        /// First position in the sequence.
+        start: u32,
+        /// Tiles to trace (at most one sweep).
+        count: u32,
+    },
+    /// Trace one sample per `scale` × `scale` block into the preview buffer, overwriting it.
+    Preview {
+        /// Pixels per block along each axis (2 or more).
+        scale: u32,
+        /// Chooses the samples' random sequence.
+        seed: u32,
+    },
+}
+
+impl TraceWork {
+    /// Every tile once, as an unbudgeted frame traces (the count is cut to the image's tiles).
+    pub const WHOLE_IMAGE: TraceWork = TraceWork::Tiles {
+        start: 0,
+        count: u32::MAX,
+    };
+}
+
 /// The path tracer's per-view uniform.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewParams {
@@ -361,13 +399,12 @@ pub struct ViewParams {
     pub width: u32,
     /// Accumulation buffer height.
     pub height: u32,
-    /// Samples accumulated so far; 0 restarts.
-    pub frame: u32,
     /// The tree's root reference.
     pub root: u32,
     /// Bounces after the primary hit.
     pub max_bounces: u32,
-    /// Samples this dispatch adds per pixel.
+    /// Samples each traced pixel adds (a pixel's `n`-th sample is the same whichever dispatch
+    /// traces it).
     pub samples: u32,
     /// What to show ([`crate::DebugView::shader_index`]).
     pub mode: u32,
@@ -375,24 +412,40 @@ pub struct ViewParams {
     pub light_count: u32,
     /// Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
     pub indirect_clamp: f32,
+    /// What this dispatch traces.
+    pub work: TraceWork,
 }
 
 impl ViewParams {
     /// The uniform as the kernel reads it.
     pub fn record(&self) -> GpuView {
+        let order = crate::TileOrder::new(self.width, self.height);
+        let (preview_scale, preview_seed, tile_start, tile_count) = match self.work {
+            TraceWork::Tiles { start, count } => {
+                (0, 0, start % order.total, count.min(order.total))
+            }
+            TraceWork::Preview { scale, seed } => (scale.max(2), seed, 0, 0),
+        };
         GpuView {
             world_from_clip: self.world_from_clip.to_cols_array_2d(),
+            clip_from_world: self.world_from_clip.inverse().to_cols_array_2d(),
             sky: [self.sky.x, self.sky.y, self.sky.z, self.exposure],
             width: self.width,
             height: self.height,
-            frame: self.frame,
             root: self.root,
             max_bounces: self.max_bounces,
             samples: self.samples,
             mode: self.mode,
             light_count: self.light_count,
             indirect_clamp: self.indirect_clamp,
-            ..GpuView::default()
+            preview_scale,
+            preview_seed,
+            tile_start,
+            tile_count,
+            tiles_x: order.tiles_x,
+            tile_total: order.total,
+            tile_stride: order.stride,
+            pad: 0,
         }
     }
 
@@ -400,15 +453,33 @@ impl ViewParams {
     pub fn to_bytes(&self) -> Vec<u8> {
         bytemuck::bytes_of(&self.record()).to_vec()
     }
+
+    /// Workgroups of the dispatch: one per tile (rows of at most 65,535), or one per 8 × 8 preview
+    /// pixels.
+    pub fn workgroups(&self) -> (u32, u32) {
+        match self.work {
+            TraceWork::Tiles { count, .. } => {
+                let count = count.min(crate::TileOrder::new(self.width, self.height).total);
+                let x = count.clamp(1, 65_535);
+                (x, count.div_ceil(x).max(1))
+            }
+            TraceWork::Preview { scale, .. } => {
+                let scale = scale.max(2);
+                let t = crate::budget::TILE * scale;
+                (self.width.div_ceil(t), self.height.div_ceil(t))
+            }
+        }
+    }
 }
 
-/// The resolve pass's uniform: where the view sits in its target and how many samples to divide by.
-pub fn resolve_bytes(origin: Vec2, viewport: Vec2, size: [u32; 2], samples: u32) -> Vec<u8> {
+/// The resolve pass's uniform: where the view sits in its target, the accumulation's size, and the
+/// scale of the preview shown where a pixel has no sample yet (0: none).
+pub fn resolve_bytes(origin: Vec2, viewport: Vec2, size: [u32; 2], preview_scale: u32) -> Vec<u8> {
     let record = GpuResolve {
         origin: origin.to_array(),
         viewport: viewport.to_array(),
         size,
-        samples,
+        preview_scale,
         pad: 0,
     };
     bytemuck::bytes_of(&record).to_vec()
@@ -460,13 +531,13 @@ mod tests {
             exposure: 1.0,
             width: 1,
             height: 1,
-            frame: 0,
             root: 0,
             max_bounces: 1,
             samples: 1,
             mode: 0,
             light_count: 0,
             indirect_clamp: 0.0,
+            work: TraceWork::Tiles { start: 0, count: 1 },
         };
         assert_eq!(v.to_bytes().len() as u64, VIEW_BYTES);
     }

@@ -15,8 +15,8 @@ use support::{Gpu, Rng, floats, put_record, skip};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, ViewParams,
-    attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork,
+    ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -183,28 +183,28 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
     }
     let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
     let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights);
-    let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
+    let target = gpu.trace_target(SIZE, SIZE);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
     // Untextured: an empty one-layer array fills the binding.
     let layers = gpu.layers(4, 1);
-    for k in 0..SAMPLES / PER_DISPATCH {
+    for _ in 0..SAMPLES / PER_DISPATCH {
         let params = ViewParams {
             world_from_clip: world_from_clip(),
             sky: SKY,
             exposure: 1.0,
             width: SIZE,
             height: SIZE,
-            frame: k * PER_DISPATCH,
             root: bvh.gpu_root(),
             max_bounces: BOUNCES,
             samples: PER_DISPATCH,
             mode: 0,
             light_count: scene.lights.len() as u32,
             indirect_clamp: 0.0,
+            work: TraceWork::WHOLE_IMAGE,
         };
-        gpu.path_trace(&pipeline, &buffers, &params, &accum, &layers);
+        gpu.path_trace(&pipeline, &buffers, &params, &target, &layers);
     }
-    floats(&gpu.read(&accum))
+    floats(&gpu.read(&target.accum))
         .chunks_exact(4)
         .map(|c| Vec3::new(c[0], c[1], c[2]) / SAMPLES as f32)
         .collect()

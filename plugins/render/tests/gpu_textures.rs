@@ -10,7 +10,7 @@ use treelight_bvh::glam::{Affine2, Affine3A, Mat3, Mat4, Vec2, Vec3};
 use treelight_bvh::{Bvh, Triangle};
 use treelight_render::{
     ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SurfaceMaterial,
-    TextureWrap, ViewParams, attribute_bytes, object_bytes,
+    TextureWrap, TraceWork, ViewParams, attribute_bytes, object_bytes,
 };
 
 fn random_image(rng: &mut Rng, w: u32, h: u32) -> Vec<u8> {
@@ -172,18 +172,18 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         exposure: 1.0,
         width: SIZE,
         height: SIZE,
-        frame: 0,
         root: bvh.gpu_root(),
         max_bounces: 1,
         samples: SAMPLES,
         mode: DebugView::Albedo.shader_index(),
         light_count: 0,
         indirect_clamp: 0.0,
+        work: TraceWork::WHOLE_IMAGE,
     };
-    let accum = gpu.storage("accum", &vec![0u8; (SIZE * SIZE * 16) as usize]);
+    let target = gpu.trace_target(SIZE, SIZE);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
-    gpu.path_trace(&pipeline, &buffers, &params, &accum, &layers);
-    let image = floats(&gpu.read(&accum));
+    gpu.path_trace(&pipeline, &buffers, &params, &target, &layers);
+    let image = floats(&gpu.read(&target.accum));
 
     // Expected albedo per pixel, where a pixel's jittered samples all fall inside one block's flat
     // middle (bilinear taps there see only that block's colour).

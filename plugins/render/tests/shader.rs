@@ -113,19 +113,24 @@ fn path_tracer_records_have_the_crate_s_layout() {
             GpuView,
             [
                 world_from_clip,
+                clip_from_world,
                 sky,
                 width,
                 height,
-                frame,
                 root,
                 max_bounces,
                 samples,
                 mode,
                 light_count,
                 indirect_clamp,
-                pad0,
-                pad1,
-                pad2
+                preview_scale,
+                preview_seed,
+                tile_start,
+                tile_count,
+                tiles_x,
+                tile_total,
+                tile_stride,
+                pad
             ]
         )
     );
@@ -149,10 +154,12 @@ fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
         rust_layout!(GpuAoParams, [rays, length, pad0, pad1])
     );
     let r = module(RESOLVE_WGSL);
-    assert!(has_entry(&r, "vertex") && has_entry(&r, "fragment"));
+    assert!(
+        has_entry(&r, "vertex") && has_entry(&r, "fragment") && has_entry(&r, "fragment_depth")
+    );
     assert_eq!(
         wgsl_layout(&r, "Resolve"),
-        rust_layout!(GpuResolve, [origin, viewport, size, samples, pad])
+        rust_layout!(GpuResolve, [origin, viewport, size, preview_scale, pad])
     );
 }
 

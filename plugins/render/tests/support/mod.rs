@@ -347,13 +347,24 @@ impl Gpu {
         ]
     }
 
-    /// One dispatch of `path_trace` (`pipeline`) over the view's pixels, adding to `accum`.
+    /// A view's buffers for the trace kernel, zeroed: accumulation, then depth and preview.
+    pub fn trace_target(&self, width: u32, height: u32) -> TraceTarget {
+        let pixels = (width * height) as usize;
+        let blocks = (width.div_ceil(2) * height.div_ceil(2)) as usize;
+        TraceTarget {
+            accum: self.storage("accum", &vec![0u8; pixels * 16]),
+            aux: self.storage("depth and preview", &vec![0u8; pixels * 4 + blocks * 16]),
+            pixels,
+        }
+    }
+
+    /// One dispatch of `path_trace` (`pipeline`): the work `view` names, into `target`.
     pub fn path_trace(
         &self,
         pipeline: &wgpu::ComputePipeline,
         scene: &[wgpu::Buffer; 6],
         view: &ViewParams,
-        accum: &wgpu::Buffer,
+        target: &TraceTarget,
         layers: &Layers,
     ) {
         // The plugin's two bind groups: the scene (records and textures), then the view.
@@ -364,12 +375,35 @@ impl Gpu {
             wgpu::BindingResource::TextureView(&layers.view),
             wgpu::BindingResource::Sampler(&layers.sampler),
         ]);
-        let view_group = vec![uniform.as_entire_binding(), accum.as_entire_binding()];
-        self.dispatch_groups(
-            pipeline,
-            vec![scene_group, view_group],
-            (view.width.div_ceil(8), view.height.div_ceil(8)),
-        );
+        let view_group = vec![
+            uniform.as_entire_binding(),
+            target.accum.as_entire_binding(),
+            target.aux.as_entire_binding(),
+        ];
+        self.dispatch_groups(pipeline, vec![scene_group, view_group], view.workgroups());
+    }
+}
+
+/// A view's buffers as the trace kernel binds them.
+pub struct TraceTarget {
+    /// Per pixel: the sum of its samples (rgb) and their count (w).
+    pub accum: wgpu::Buffer,
+    /// Per pixel the depth of its first sample's primary hit, then per preview block one sample
+    /// (rgb) and its depth.
+    pub aux: wgpu::Buffer,
+    /// Pixels in the image: where the preview starts in `aux`.
+    pub pixels: usize,
+}
+
+impl Gpu {
+    /// Per pixel, the depth of its first sample's primary hit.
+    pub fn read_depth(&self, target: &TraceTarget) -> Vec<f32> {
+        floats(&self.read(&target.aux))[..target.pixels].to_vec()
+    }
+
+    /// Per preview block, its sample (rgb) and depth.
+    pub fn read_preview(&self, target: &TraceTarget) -> Vec<f32> {
+        floats(&self.read(&target.aux))[target.pixels..].to_vec()
     }
 }
 

@@ -1,0 +1,138 @@
+//! What the frame budget costs in throughput: path-traced pixel samples per second through the WGSL
+//! kernel when each dispatch traces the whole image, against dispatches of a few tiles each in the
+//! plugin's tile order (as a frame under a budget does), at the same resolution and sample count.
+//!
+//! `cargo run --release -p treelight_render --example trace_budget -- [--resolution 384]
+//!  [--sweeps 4] [--parts 16] SCENE...` where SCENE is a file or a generator of `treelight-bench`.
+
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use std::time::Instant;
+use support::Gpu;
+use treelight_bvh::glam::{Mat4, Vec3};
+use treelight_bvh::{Bvh, BvhConfig};
+use treelight_render::{
+    ATTRIBUTE_BYTES, DebugView, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TileCursor, TileOrder,
+    TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+};
+
+fn arg(name: &str, default: u32) -> u32 {
+    std::env::args()
+        .skip_while(|a| a != name)
+        .nth(1)
+        .map_or(default, |v| v.parse().expect("a number"))
+}
+
+fn main() {
+    let resolution = arg("--resolution", 384);
+    let sweeps = arg("--sweeps", 4).max(1);
+    let parts = arg("--parts", 16).max(1);
+    let mut specs: Vec<String> = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a.starts_with("--") {
+            args.next();
+        } else {
+            specs.push(a);
+        }
+    }
+    if specs.is_empty() {
+        eprintln!("give at least one scene (a file, or hairball:N, scatter:N:FILE)");
+        std::process::exit(2);
+    }
+    let gpu = Gpu::new();
+    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let layers = gpu.layers(4, 1);
+    let order = TileOrder::new(resolution, resolution);
+    let per_run = order.total.div_ceil(parts);
+    println!(
+        "| scene | triangles | whole image, Msamples/s | {parts} runs of {per_run} tiles, Msamples/s | ratio |"
+    );
+    println!("|---|---|---|---|---|");
+    for spec in &specs {
+        let scene = treelight_bench::scenes::load(spec, 1).unwrap_or_else(|e| {
+            eprintln!("{e}");
+            std::process::exit(1);
+        });
+        let mut bvh = Bvh::new(BvhConfig::incr_u());
+        bvh.insert_triangles(&scene.triangles)
+            .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+        let b = bvh.bounds();
+        let diag = (b.max - b.min).length();
+        // Grey Lambert everywhere (group 0), a point light above the centre, a blue sky.
+        let attrs: Vec<u8> = (0..bvh.triangle_capacity())
+            .flat_map(|_| attribute_bytes(None, None, 0))
+            .collect();
+        assert_eq!(
+            attrs.len() as u64,
+            bvh.triangle_capacity() as u64 * ATTRIBUTE_BYTES
+        );
+        let material = SurfaceMaterial {
+            base_color: [0.7, 0.7, 0.7, 1.0],
+            perceptual_roughness: 0.8,
+            ..Default::default()
+        };
+        let objects = object_bytes(treelight_bvh::glam::Mat3::IDENTITY, &material);
+        let light = SceneLight::Point {
+            position: b.center() + Vec3::Y * diag * 0.3,
+            power: Vec3::splat(diag * diag * 40.0),
+            radius: diag * 0.01,
+        };
+        let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &light_bytes(&light));
+        let eye = b.center() + Vec3::new(0.35, 0.25, 0.6) * diag * 0.9;
+        let view = Mat4::look_at_rh(eye, b.center(), Vec3::Y);
+        let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, diag * 1e-3);
+        let params = |work| ViewParams {
+            world_from_clip: (proj * view).inverse(),
+            sky: Vec3::new(0.4, 0.5, 0.7),
+            exposure: 1.0,
+            width: resolution,
+            height: resolution,
+            root: bvh.gpu_root(),
+            max_bounces: 4,
+            samples: 1,
+            mode: DebugView::PathTraced.shader_index(),
+            light_count: 1,
+            indirect_clamp: 4.0,
+            work,
+        };
+        let run = |runs: &[u32]| {
+            let target = gpu.trace_target(resolution, resolution);
+            let mut cursor = TileCursor::default();
+            let t = Instant::now();
+            for &count in runs {
+                let start = cursor.take(&order, count);
+                let p = params(TraceWork::Tiles { start, count });
+                gpu.path_trace(&pipeline, &buffers, &p, &target, &layers);
+            }
+            t.elapsed().as_secs_f64()
+        };
+        let whole: Vec<u32> = vec![order.total; sweeps as usize];
+        let mut split = Vec::new();
+        for _ in 0..sweeps {
+            let mut left = order.total;
+            while left > 0 {
+                split.push(per_run.min(left));
+                left -= per_run.min(left);
+            }
+        }
+        // A warm-up (shader compilation, first touch of the buffers), then alternate the two,
+        // keeping each one's best time.
+        run(&whole[..1]);
+        let (mut t_whole, mut t_split) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..3 {
+            t_whole = t_whole.min(run(&whole));
+            t_split = t_split.min(run(&split));
+        }
+        let samples = (resolution * resolution * sweeps) as f64;
+        println!(
+            "| {} | {} | {:.3} | {:.3} | {:.3} |",
+            scene.name,
+            scene.triangles.len(),
+            samples / t_whole / 1e6,
+            samples / t_split / 1e6,
+            t_whole / t_split
+        );
+    }
+}
