@@ -1,5 +1,5 @@
 //! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]
-//! [--frame-budget MS]`.
+//! [--frame-budget MS] [--commands EDITS.ron]`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -29,6 +29,9 @@ pub struct Cli {
     /// rest of the frame's time); 0 traces every pixel every frame.
     #[arg(long, value_name = "MS", default_value_t = 4.0)]
     pub frame_budget: f32,
+    /// A RON list of edit commands to apply once the scene has loaded and its BVH is idle.
+    #[arg(long, value_name = "EDITS.ron")]
+    pub commands: Option<PathBuf>,
 }
 
 /// The viewport modes on the command line.

@@ -5,9 +5,13 @@ pub mod camera;
 pub mod capture;
 pub mod cli;
 pub mod default_scene;
+pub mod edit;
 pub mod import;
 pub mod notice;
+pub mod placement;
 pub mod render_mode;
+pub mod scene_id;
+pub mod script;
 pub mod selection;
 pub mod ui;
 
@@ -18,8 +22,15 @@ use bevy::prelude::*;
 use bevy::render::render_resource::BlendState;
 use bevy_egui::{EguiGlobalSettings, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext};
 
-/// The editor as a Bevy app, configured from the command line.
+/// The editor as a Bevy app, configured from the command line; `script` holds the commands of
+/// `--commands`, already read.
 pub fn build_app(cli: &cli::Cli) -> App {
+    build_app_with(cli, None)
+}
+
+/// [`build_app`] with the commands `--commands` named, read by the caller (so a bad file stops the
+/// start with its error).
+pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> App {
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin {
         primary_window: Some(Window {
@@ -40,6 +51,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
             },
         },
         treelight_render::PathTracerPlugin,
+        edit::EditPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<selection::Selection>()
@@ -80,6 +92,10 @@ pub fn build_app(cli: &cli::Cli) -> App {
         None => {
             app.add_systems(Startup, default_scene::spawn_default_scene);
         }
+    }
+    if let Some(script) = script {
+        app.insert_resource(script)
+            .add_systems(Update, script::run_scripted_edits);
     }
     if cli.screenshot.is_some() || cli.frames.is_some() {
         app.insert_resource(capture::CaptureRequest {

@@ -1,10 +1,23 @@
-//! `treelight [SCENE_FILE] [--screenshot PATH --frames N]`
+//! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`
 
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
     let cli = treelight::cli::Cli::parse();
-    match treelight::build_app(&cli).run() {
+    let script = match &cli.commands {
+        None => None,
+        Some(path) => match treelight::script::read_commands(path) {
+            Ok(commands) => Some(treelight::script::ScriptedEdits::new(
+                path.clone(),
+                commands,
+            )),
+            Err(e) => {
+                eprintln!("treelight: {e}");
+                return std::process::ExitCode::from(2);
+            }
+        },
+    };
+    match treelight::build_app_with(&cli, script).run() {
         bevy::app::AppExit::Success => std::process::ExitCode::SUCCESS,
         bevy::app::AppExit::Error(code) => std::process::ExitCode::from(code.get()),
     }

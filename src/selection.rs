@@ -3,8 +3,9 @@
 use bevy::prelude::*;
 
 /// Marks entities that are part of the edited scene (listed in the outliner), as opposed to the
-/// editor's own camera and UI.
+/// editor's own camera and UI. Each has a stable [`SceneId`](crate::scene_id::SceneId).
 #[derive(Component, Debug, Default, Clone, Copy)]
+#[require(crate::scene_id::SceneId)]
 pub struct SceneObject;
 
 /// The selected scene entity, if any.

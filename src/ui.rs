@@ -1,12 +1,17 @@
-//! The docked editor panels: viewport, outliner, inspector, and a status bar.
+//! The docked editor panels (viewport, outliner, inspector, history), the menu bar and the status
+//! bar. Every change to the scene leaves as an [`EditRequest`].
 
 use crate::camera::OrbitCamera;
+use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, Primitive};
 use crate::import::PendingImports;
 use crate::notice::{Level, Notices};
+use crate::placement::{place_on, surface_under};
 use crate::render_mode::ViewportRender;
+use crate::scene_id::SceneId;
 use crate::selection::{SceneObject, Selection};
 use bevy::camera::Viewport;
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::{EguiContexts, egui};
@@ -23,6 +28,8 @@ pub enum EditorTab {
     Outliner,
     /// The selected entity's properties.
     Inspector,
+    /// The edit history: every step, and a click goes back or forward to it.
+    History,
 }
 
 /// The dock layout, kept between frames so the user's rearrangements persist.
@@ -35,7 +42,8 @@ impl Default for EditorDock {
         let tree = state.main_surface_mut();
         let [viewport, _outliner] =
             tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
-        tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
+        let [_, inspector] = tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
+        tree.split_below(inspector, 0.6, vec![EditorTab::History]);
         Self(state)
     }
 }
@@ -74,6 +82,10 @@ struct EditorTabs<'a> {
     viewport: &'a mut egui::Rect,
     clicked_at: &'a mut Option<egui::Pos2>,
     render: &'a mut ViewportRender,
+    /// The history's steps and how many are applied.
+    history: (&'a [String], usize),
+    /// A step the user clicked in the history panel.
+    go_to: &'a mut Option<usize>,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -88,6 +100,7 @@ impl TabViewer for EditorTabs<'_> {
             EditorTab::Viewport => "Viewport".into(),
             EditorTab::Outliner => "Outliner".into(),
             EditorTab::Inspector => "Inspector".into(),
+            EditorTab::History => "History".into(),
         }
     }
 
@@ -105,6 +118,7 @@ impl TabViewer for EditorTabs<'_> {
             EditorTab::Viewport => self.viewport_ui(ui),
             EditorTab::Outliner => self.outliner_ui(ui),
             EditorTab::Inspector => self.inspector_ui(ui),
+            EditorTab::History => self.history_ui(ui),
         }
     }
 }
@@ -171,6 +185,26 @@ impl EditorTabs<'_> {
             });
     }
 
+    fn history_ui(&mut self, ui: &mut egui::Ui) {
+        let (labels, head) = self.history;
+        egui::ScrollArea::vertical()
+            .auto_shrink([false; 2])
+            .stick_to_bottom(true)
+            .show(ui, |ui| {
+                // Row 0 is the scene as opened; row i the scene after step i.
+                if ui.selectable_label(head == 0, "Opened").clicked() && head != 0 {
+                    *self.go_to = Some(0);
+                }
+                for (i, label) in labels.iter().enumerate() {
+                    let text = egui::RichText::new(label);
+                    let text = if i < head { text } else { text.weak() };
+                    if ui.selectable_label(head == i + 1, text).clicked() && head != i + 1 {
+                        *self.go_to = Some(i + 1);
+                    }
+                }
+            });
+    }
+
     fn inspector_ui(&mut self, ui: &mut egui::Ui) {
         let Some(state) = self.inspected.as_deref_mut() else {
             ui.weak("Select an entity in the outliner.");
@@ -219,21 +253,31 @@ fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
 /// What the outliner and inspector read and edit of each scene entity.
 type ObjectItem = (
     Entity,
-    &'static mut Name,
-    &'static mut Transform,
+    &'static SceneId,
+    &'static Name,
+    &'static Transform,
     Has<Mesh3d>,
     Has<PointLight>,
     Has<DirectionalLight>,
 );
 
-/// Draws the editor UI and applies what the user changed.
+/// What the UI reads of the history and how it asks for edits.
+#[derive(SystemParam)]
+pub struct EditAccess<'w, 's> {
+    history: Res<'w, EditHistory>,
+    requests: ResMut<'w, EditRequests>,
+    /// The widget whose drag or typing made the last request, to merge what it does next.
+    gesture: Local<'s, Option<egui::Id>>,
+}
+
+/// Draws the editor UI and turns what the user changed into edit requests.
 #[allow(clippy::too_many_arguments)]
 pub fn editor_ui(
     mut contexts: EguiContexts,
     mut dock: ResMut<EditorDock>,
     mut selection: ResMut<Selection>,
     mut viewport_rect: ResMut<ViewportRect>,
-    mut objects: Query<ObjectItem, With<SceneObject>>,
+    objects: Query<ObjectItem, With<SceneObject>>,
     mut orbit: Query<&mut OrbitCamera>,
     diagnostics: Res<DiagnosticsStore>,
     window: Single<&Window, With<PrimaryWindow>>,
@@ -244,11 +288,17 @@ pub fn editor_ui(
     cameras: Query<(Entity, &Camera, &GlobalTransform), With<OrbitCamera>>,
     mut render: ResMut<ViewportRender>,
     tracer: Res<PathTracerStats>,
+    edits: EditAccess,
 ) -> Result {
+    let EditAccess {
+        history,
+        mut requests,
+        mut gesture,
+    } = edits;
     let ctx = contexts.ctx_mut()?.clone();
     let mut rows: Vec<OutlinerRow> = objects
         .iter()
-        .map(|(entity, name, _, mesh, point, dir)| OutlinerRow {
+        .map(|(entity, _, name, _, mesh, point, dir)| OutlinerRow {
             entity,
             name: name.as_str().to_owned(),
             kind: kind_of(mesh, point, dir),
@@ -258,7 +308,7 @@ pub fn editor_ui(
     let original = selection
         .0
         .and_then(|e| objects.get(e).ok())
-        .map(|(_, name, t, ..)| {
+        .map(|(_, _, name, t, ..)| {
             let (y, x, z) = t.rotation.to_euler(EulerRot::YXZ);
             InspectorState {
                 name: name.as_str().to_owned(),
@@ -272,6 +322,8 @@ pub fn editor_ui(
     let mut viewport = egui::Rect::NOTHING;
     let mut clicked_at = None;
     let mut render_copy = *render;
+    let history_labels = history.labels();
+    let mut go_to = None;
 
     let mut root = egui::Ui::new(
         ctx.clone(),
@@ -280,6 +332,52 @@ pub fn editor_ui(
             .layer_id(egui::LayerId::background())
             .max_rect(ctx.viewport_rect()),
     );
+    let selected_id = selection
+        .0
+        .and_then(|e| objects.get(e).ok())
+        .map(|(_, id, ..)| *id);
+    let mut added: Option<Primitive> = None;
+    egui::Panel::top("menu-bar").show(&mut root, |ui| {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("Edit", |ui| {
+                let undo = history.undo_label();
+                let label = undo.as_ref().map_or("Undo".into(), |l| format!("Undo {l}"));
+                let button = egui::Button::new(label).shortcut_text("Ctrl+Z");
+                if ui.add_enabled(undo.is_some(), button).clicked() {
+                    requests.0.push(EditRequest::Undo);
+                }
+                let redo = history.redo_label();
+                let label = redo.as_ref().map_or("Redo".into(), |l| format!("Redo {l}"));
+                let button = egui::Button::new(label).shortcut_text("Ctrl+Shift+Z, Ctrl+Y");
+                if ui.add_enabled(redo.is_some(), button).clicked() {
+                    requests.0.push(EditRequest::Redo);
+                }
+                ui.separator();
+                let button = egui::Button::new("Duplicate").shortcut_text("Ctrl+D");
+                if ui.add_enabled(selected_id.is_some(), button).clicked()
+                    && let Some(id) = selected_id
+                {
+                    requests.apply(EditCommand::Duplicate {
+                        ids: vec![id],
+                        copies: Vec::new(),
+                    });
+                }
+                let button = egui::Button::new("Delete").shortcut_text("Del");
+                if ui.add_enabled(selected_id.is_some(), button).clicked()
+                    && let Some(id) = selected_id
+                {
+                    requests.apply(EditCommand::Delete { ids: vec![id] });
+                }
+            });
+            ui.menu_button("Add", |ui| {
+                for shape in Primitive::ALL {
+                    if ui.button(shape.label()).clicked() {
+                        added = Some(shape);
+                    }
+                }
+            });
+        });
+    });
     egui::Panel::bottom("status-bar").show(&mut root, |ui| {
         ui.horizontal(|ui| {
             let fps = diagnostics
@@ -341,6 +439,8 @@ pub fn editor_ui(
         .frame(egui::Frame::NONE)
         .show(&mut root, |ui| {
             let mut tabs = EditorTabs {
+                history: (&history_labels, history.head()),
+                go_to: &mut go_to,
                 rows: &rows,
                 selection: &mut selection,
                 inspected: edited.as_mut(),
@@ -372,20 +472,58 @@ pub fn editor_ui(
             .filter(|e| objects.contains(*e));
     }
 
-    if let (Some(e), Some(before), Some(after)) = (selection.0, &original, &edited)
-        && before != after
-        && let Ok((_, mut name, mut transform, ..)) = objects.get_mut(e)
+    if let Some(i) = go_to {
+        requests.0.push(EditRequest::GoTo(i));
+    }
+    // A new shape goes where the view's centre ray lands, by the placement rule.
+    if let (Some(shape), Ok((_, camera, cam_transform))) = (added, cameras.single())
+        && let Some(size) = camera.logical_viewport_size()
+        && let Ok(ray) = camera.viewport_to_world(cam_transform, size / 2.0)
     {
+        let surface = surface_under(&scene, ray, 5.0);
+        let (min, max) = shape.bounds();
+        let translation = place_on(surface, min, max, Vec3::ONE);
+        requests.apply(EditCommand::AddPrimitive {
+            shape,
+            transform: Transform::from_translation(translation).into(),
+            id: None,
+        });
+    }
+    // Inspector edits: one request per change; the changes of one drag of a field (or one text
+    // field's typing) continue one step.
+    let active = ctx.dragged_id().or_else(|| ctx.memory(|m| m.focused()));
+    if let (Some(id), Some(before), Some(after)) = (selected_id, &original, &edited)
+        && before != after
+    {
+        let continuing = active.is_some() && *gesture == active;
         if before.name != after.name {
-            name.set(after.name.clone());
+            requests.0.push(EditRequest::Apply {
+                command: EditCommand::Rename {
+                    id,
+                    name: after.name.clone(),
+                },
+                continuing,
+            });
         }
         let r = after.rotation_deg * (std::f32::consts::PI / 180.0);
-        *transform = Transform {
+        let transform = Transform {
             translation: after.translation,
             rotation: Quat::from_euler(EulerRot::YXZ, r.y, r.x, r.z),
             scale: after.scale,
         };
+        if (before.translation, before.rotation_deg, before.scale)
+            != (after.translation, after.rotation_deg, after.scale)
+        {
+            requests.0.push(EditRequest::Apply {
+                command: EditCommand::SetTransform {
+                    id,
+                    transform: transform.into(),
+                },
+                continuing,
+            });
+        }
     }
+    *gesture = active;
     if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy)
         && (o.focus != copy.focus
             || o.radius != copy.radius

@@ -216,3 +216,61 @@ fn path_traced_example_draws_the_traced_scene() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_commands_file_edits_the_scene_once_it_has_loaded() {
+    if skip_gpu_tests("a_commands_file_edits_the_scene_once_it_has_loaded") {
+        return;
+    }
+    let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
+    let dir = temp_dir("commands");
+    let edited = dir.join("edited.png");
+    let plain = dir.join("plain.png");
+    let out = run_editor(&[
+        "--commands",
+        example.to_str().unwrap(),
+        "--view",
+        "albedo",
+        "--frames",
+        "30",
+        "--screenshot",
+        edited.to_str().unwrap(),
+    ]);
+    // 11 objects, one added, one copied, one deleted.
+    assert!(
+        out.contains("edits-example.ron: applied 5 of 5 commands; the scene has 12 objects"),
+        "{out}"
+    );
+    run_editor(&[
+        "--view",
+        "albedo",
+        "--frames",
+        "30",
+        "--screenshot",
+        plain.to_str().unwrap(),
+    ]);
+    // The traced albedo differs where the cube, the moved sphere and the removed box are.
+    let (a, b) = (load_rgb(&edited), load_rgb(&plain));
+    let changed = a
+        .pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 40))
+        .count();
+    assert!(changed > 2000, "{changed} pixels changed");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_bad_commands_file_stops_the_start_with_its_name() {
+    let dir = temp_dir("bad-commands");
+    let bad = dir.join("oops.ron");
+    std::fs::write(&bad, "[Rename(id: (1))]").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_treelight"))
+        .args(["--commands", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("oops.ron") && err.contains("name"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -70,6 +70,7 @@ pub struct SceneBvhPlugin {
 
 impl Plugin for SceneBvhPlugin {
     fn build(&self, app: &mut App) {
+        app.register_type::<NotTraced>();
         let policy = self.config.preset.policy();
         let shared = Arc::new(Shared {
             tree: RwLock::new(SceneTree {
@@ -370,20 +371,38 @@ type MeshEntity<'a> = (
     Option<&'a Name>,
 );
 
+/// Keeps a mesh entity out of the scene BVH, and so out of ray picking and every renderer that
+/// traces the tree: an app's own helpers (gizmo handles, icons, drag ghosts, thumbnails) carry it.
+/// Adding it to a traced entity removes the entity from the tree; removing it puts the entity back.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+#[reflect(Component, Default)]
+pub struct NotTraced;
+
 /// Turns this frame's world changes into worker commands.
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn track_world(
     mut scene: ResMut<SceneBvh>,
     meshes: Res<Assets<Mesh>>,
     mut asset_events: MessageReader<AssetEvent<Mesh>>,
-    changed_mesh: Query<MeshEntity, Or<(Changed<Mesh3d>, Changed<InheritedVisibility>)>>,
-    moved: Query<(Entity, &GlobalTransform), (Changed<GlobalTransform>, With<Mesh3d>)>,
-    all: Query<MeshEntity>,
+    changed_mesh: Query<
+        MeshEntity,
+        (
+            Or<(Changed<Mesh3d>, Changed<InheritedVisibility>)>,
+            Without<NotTraced>,
+        ),
+    >,
+    moved: Query<
+        (Entity, &GlobalTransform),
+        (Changed<GlobalTransform>, With<Mesh3d>, Without<NotTraced>),
+    >,
+    all: Query<MeshEntity, Without<NotTraced>>,
+    opted_out: Query<Entity, Added<NotTraced>>,
+    mut opted_in: RemovedComponents<NotTraced>,
     mut removed: RemovedComponents<Mesh3d>,
 ) {
     let scene = &mut *scene;
     let mut sent_now: HashSet<Entity> = HashSet::new();
-    for e in removed.read() {
+    for e in removed.read().chain(opted_out.iter()) {
         for list in scene.waiting.values_mut() {
             list.retain(|&w| w != e);
         }
@@ -403,6 +422,8 @@ fn track_world(
     for item in &changed_mesh {
         upsert(scene, &meshes, &mut sent_now, item);
     }
+    // Entities that dropped the marker this frame are traced again (if they still have a mesh).
+    ready.extend(opted_in.read());
     for e in ready {
         if let Ok(item) = all.get(e)
             && !sent_now.contains(&e)

@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use std::time::{Duration, Instant};
 use support::headless_app;
 use treelight_bvh::RayData;
-use treelight_scene::{SceneBvh, SceneBvhConfig, mesh_triangles};
+use treelight_scene::{NotTraced, SceneBvh, SceneBvhConfig, mesh_triangles};
 
 struct Rng(u64);
 impl Rng {
@@ -321,4 +321,48 @@ fn filtered_rays_see_through_rejected_entities() {
     assert!((hit.distance - 5.5).abs() < 1e-3, "{}", hit.distance);
     assert!((hit.point - Vec3::new(0.0, 0.0, -5.5)).length() < 1e-3);
     assert!(scene.cast_ray_filtered(ray, |_| false).is_none());
+}
+
+#[test]
+fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
+    let mut app = app(Duration::from_millis(20));
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0).mesh().build());
+    let ray = Ray3d::new(Vec3::ZERO, Dir3::NEG_Z);
+    // A helper in front of a scene mesh: rays pass through it.
+    let helper = app
+        .world_mut()
+        .spawn((
+            Mesh3d(cube.clone()),
+            Transform::from_xyz(0.0, 0.0, -3.0),
+            NotTraced,
+        ))
+        .id();
+    let scene_mesh = app
+        .world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(0.0, 0.0, -6.0)))
+        .id();
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 12);
+    assert_eq!(cast(&app, ray).map(|h| h.entity), Some(scene_mesh));
+    // Moving the helper sends nothing.
+    app.world_mut()
+        .entity_mut(helper)
+        .insert(Transform::from_xyz(0.0, 0.0, -2.0));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 12);
+    // Without the marker it is traced where it now stands.
+    app.world_mut().entity_mut(helper).remove::<NotTraced>();
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 24);
+    let hit = cast(&app, ray).expect("the helper is hit");
+    assert_eq!(hit.entity, helper);
+    assert!((hit.distance - 1.5).abs() < 1e-4, "{}", hit.distance);
+    // With it again, it leaves the tree.
+    app.world_mut().entity_mut(helper).insert(NotTraced);
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 12);
+    assert_eq!(cast(&app, ray).map(|h| h.entity), Some(scene_mesh));
 }

@@ -1,0 +1,111 @@
+//! Keyboard shortcuts for the history and the selection: Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y
+//! redo, Delete deletes, Ctrl+D duplicates. None fires while a text field has the keyboard.
+
+use super::{EditCommand, EditRequest, EditRequests};
+use crate::scene_id::SceneId;
+use crate::selection::Selection;
+use bevy::prelude::*;
+use bevy_egui::EguiContexts;
+
+/// What a frame's keys ask for, given the modifiers held; `None` for nothing.
+pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: Option<SceneId>) -> Option<EditRequest> {
+    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
+    let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
+    if ctrl && keys.just_pressed(KeyCode::KeyZ) {
+        return Some(if shift {
+            EditRequest::Redo
+        } else {
+            EditRequest::Undo
+        });
+    }
+    if ctrl && keys.just_pressed(KeyCode::KeyY) {
+        return Some(EditRequest::Redo);
+    }
+    let id = selected?;
+    if keys.just_pressed(KeyCode::Delete) {
+        return Some(EditRequest::Apply {
+            command: EditCommand::Delete { ids: vec![id] },
+            continuing: false,
+        });
+    }
+    if ctrl && keys.just_pressed(KeyCode::KeyD) {
+        return Some(EditRequest::Apply {
+            command: EditCommand::Duplicate {
+                ids: vec![id],
+                copies: Vec::new(),
+            },
+            continuing: false,
+        });
+    }
+    None
+}
+
+/// Turns the frame's shortcuts into requests.
+pub fn edit_shortcuts(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut contexts: EguiContexts,
+    selection: Res<Selection>,
+    ids: Query<&SceneId>,
+    mut requests: ResMut<EditRequests>,
+) {
+    if let Ok(ctx) = contexts.ctx_mut()
+        && ctx.egui_wants_keyboard_input()
+    {
+        return;
+    }
+    let selected = selection.0.and_then(|e| ids.get(e).ok()).copied();
+    if let Some(r) = shortcut(&keys, selected) {
+        requests.0.push(r);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn press(held: &[KeyCode], key: KeyCode) -> ButtonInput<KeyCode> {
+        let mut keys = ButtonInput::default();
+        for k in held {
+            keys.press(*k);
+        }
+        keys.clear();
+        keys.press(key);
+        keys
+    }
+
+    #[test]
+    fn the_keys_map_to_their_requests() {
+        let id = Some(SceneId(4));
+        let ctrl = [KeyCode::ControlLeft];
+        let ctrl_shift = [KeyCode::ControlLeft, KeyCode::ShiftRight];
+        assert_eq!(
+            shortcut(&press(&ctrl, KeyCode::KeyZ), id),
+            Some(EditRequest::Undo)
+        );
+        assert_eq!(
+            shortcut(&press(&ctrl_shift, KeyCode::KeyZ), id),
+            Some(EditRequest::Redo)
+        );
+        assert_eq!(
+            shortcut(&press(&ctrl, KeyCode::KeyY), id),
+            Some(EditRequest::Redo)
+        );
+        assert!(matches!(
+            shortcut(&press(&[], KeyCode::Delete), id),
+            Some(EditRequest::Apply {
+                command: EditCommand::Delete { .. },
+                ..
+            })
+        ));
+        assert!(matches!(
+            shortcut(&press(&ctrl, KeyCode::KeyD), id),
+            Some(EditRequest::Apply {
+                command: EditCommand::Duplicate { .. },
+                ..
+            })
+        ));
+        // Nothing selected: nothing to delete; a plain D is no shortcut.
+        assert_eq!(shortcut(&press(&[], KeyCode::Delete), None), None);
+        assert_eq!(shortcut(&press(&[], KeyCode::KeyD), id), None);
+    }
+}

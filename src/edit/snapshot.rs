@@ -1,0 +1,101 @@
+//! An object as an undone delete or a duplicate needs it: its id, name, transform, visibility, mesh,
+//! material and lights, and its children's snapshots, so it can be spawned again as it was.
+
+use crate::scene_id::SceneId;
+use crate::selection::SceneObject;
+use bevy::prelude::*;
+
+/// A scene object and its subtree, taken from the world.
+#[derive(Clone, Debug)]
+pub struct ObjectSnapshot {
+    /// Its id.
+    pub id: SceneId,
+    name: Option<Name>,
+    transform: Transform,
+    visibility: Option<Visibility>,
+    mesh: Option<Mesh3d>,
+    material: Option<MeshMaterial3d<StandardMaterial>>,
+    point: Option<PointLight>,
+    directional: Option<DirectionalLight>,
+    /// Its parent's id when the parent is a scene object.
+    pub parent: Option<SceneId>,
+    children: Vec<ObjectSnapshot>,
+}
+
+impl ObjectSnapshot {
+    /// The object `e` and the scene objects under it; `None` if `e` has no id.
+    pub fn capture(world: &World, e: Entity) -> Option<Self> {
+        let entity = world.get_entity(e).ok()?;
+        let id = *entity.get::<SceneId>()?;
+        let parent = entity
+            .get::<ChildOf>()
+            .and_then(|c| world.get::<SceneId>(c.parent()).copied());
+        let children = entity
+            .get::<Children>()
+            .map(|c| {
+                c.iter()
+                    .filter_map(|child| Self::capture(world, child))
+                    .collect()
+            })
+            .unwrap_or_default();
+        Some(Self {
+            id,
+            name: entity.get::<Name>().cloned(),
+            transform: entity.get::<Transform>().copied().unwrap_or_default(),
+            visibility: entity.get::<Visibility>().copied(),
+            mesh: entity.get::<Mesh3d>().cloned(),
+            material: entity.get::<MeshMaterial3d<StandardMaterial>>().cloned(),
+            point: entity.get::<PointLight>().copied(),
+            directional: entity.get::<DirectionalLight>().copied(),
+            parent,
+            children,
+        })
+    }
+
+    /// Ids in the subtree, the object first, then its children's subtrees in order.
+    pub fn ids(&self) -> Vec<SceneId> {
+        let mut out = vec![self.id];
+        for c in &self.children {
+            out.extend(c.ids());
+        }
+        out
+    }
+
+    /// Spawns the subtree under `parent`, giving each object the next id from `ids` (its own id
+    /// when `ids` runs out). Returns the root entity.
+    pub fn spawn(
+        &self,
+        world: &mut World,
+        parent: Option<Entity>,
+        ids: &mut impl Iterator<Item = SceneId>,
+    ) -> Entity {
+        let id = ids.next().unwrap_or(self.id);
+        let mut e = world.spawn((SceneObject, id, self.transform));
+        if let Some(v) = self.visibility {
+            e.insert(v);
+        }
+        if let Some(n) = &self.name {
+            e.insert(n.clone());
+        }
+        if let Some(m) = &self.mesh {
+            e.insert(m.clone());
+        }
+        if let Some(m) = &self.material {
+            e.insert(m.clone());
+        }
+        if let Some(l) = &self.point {
+            e.insert(*l);
+        }
+        if let Some(l) = &self.directional {
+            e.insert(*l);
+        }
+        if let Some(p) = parent {
+            e.insert(ChildOf(p));
+        }
+        let entity = e.id();
+        for c in &self.children {
+            c.spawn(world, Some(entity), ids);
+        }
+        entity
+    }
+}

@@ -1,0 +1,403 @@
+//! The command path on a real scene (FlightHelmet from `../shared/scenes`), headless: random command
+//! sequences applied through the history, then all undone, give back the world as it was (objects
+//! compared by stable id: names, transforms, parents, visibility, meshes, materials); redoing all
+//! reaches the same world again; and the scene BVH's ray casts agree with brute force over the
+//! world's meshes along the way.
+
+use bevy::asset::AssetPlugin;
+use bevy::camera::visibility::VisibilityPlugin;
+use bevy::math::Ray3d;
+use bevy::mesh::MeshPlugin;
+use bevy::prelude::*;
+use proptest::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+use treelight::edit::{
+    EditCommand, EditHistory, EditRequest, EditRequests, Primitive, TransformValue, apply_request,
+};
+use treelight::import::to_bevy_mesh;
+use treelight::scene_id::{SceneId, SceneIndex};
+use treelight::selection::{SceneObject, Selection};
+use treelight_bvh::RayData;
+use treelight_scene::{SceneBvh, SceneBvhPlugin, cast_on, mesh_triangles};
+
+fn app_with_flight_helmet() -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+        VisibilityPlugin,
+        SceneBvhPlugin::default(),
+    ))
+    .init_asset::<StandardMaterial>()
+    .init_resource::<SceneIndex>()
+    .init_resource::<EditHistory>()
+    .init_resource::<EditRequests>()
+    .init_resource::<Selection>();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let scene = treelight_import::load_scene(&path).expect("FlightHelmet loads");
+    let world = app.world_mut();
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial::default());
+    // One assembly root with the file's meshes under it, as an import makes.
+    let root = world
+        .spawn((
+            Name::new("FlightHelmet"),
+            SceneObject,
+            Transform::default(),
+            Visibility::default(),
+        ))
+        .id();
+    for m in &scene.meshes {
+        let mesh = world.resource_mut::<Assets<Mesh>>().add(to_bevy_mesh(m));
+        world.spawn((
+            Name::new(m.name.clone()),
+            SceneObject,
+            Mesh3d(mesh),
+            MeshMaterial3d(material.clone()),
+            Transform::from_matrix(m.transform),
+            ChildOf(root),
+        ));
+    }
+    settle(&mut app);
+    app
+}
+
+fn settle(app: &mut App) {
+    let start = Instant::now();
+    for _ in 0..3 {
+        app.update();
+    }
+    loop {
+        app.update();
+        if app.world().resource::<SceneBvh>().is_idle() {
+            app.update();
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the BVH did not settle"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// What is compared of each object.
+#[derive(Debug, PartialEq)]
+struct ObjectState {
+    name: Option<String>,
+    transform: [f32; 10],
+    parent: Option<SceneId>,
+    visibility: Option<Visibility>,
+    mesh: Option<AssetId<Mesh>>,
+    material: Option<AssetId<StandardMaterial>>,
+}
+
+fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
+    let mut q = world.query::<(
+        &SceneId,
+        Option<&Name>,
+        &Transform,
+        Option<&ChildOf>,
+        Option<&Visibility>,
+        Option<&Mesh3d>,
+        Option<&MeshMaterial3d<StandardMaterial>>,
+    )>();
+    let parents: BTreeMap<Entity, SceneId> = world
+        .query::<(Entity, &SceneId)>()
+        .iter(world)
+        .map(|(e, id)| (e, *id))
+        .collect();
+    q.iter(world)
+        .map(|(id, name, t, parent, vis, mesh, mat)| {
+            let mut transform = [0.0; 10];
+            transform[..3].copy_from_slice(&t.translation.to_array());
+            transform[3..7].copy_from_slice(&t.rotation.to_array());
+            transform[7..].copy_from_slice(&t.scale.to_array());
+            (
+                *id,
+                ObjectState {
+                    name: name.map(|n| n.as_str().to_owned()),
+                    transform,
+                    parent: parent.and_then(|p| parents.get(&p.parent()).copied()),
+                    visibility: vis.copied(),
+                    mesh: mesh.map(|m| m.0.id()),
+                    material: mat.map(|m| m.0.id()),
+                },
+            )
+        })
+        .collect()
+}
+
+/// Closest hits of a fan of rays through the helmet, by the scene BVH and by brute force over the
+/// visible meshes in the world; they must name the same entity at the same distance.
+fn check_rays(app: &mut App) {
+    settle(app);
+    let world = app.world_mut();
+    let mut q = world.query::<(Entity, &Mesh3d, &GlobalTransform, &InheritedVisibility)>();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let mut tris = Vec::new();
+    for (e, m, gt, vis) in q.iter(world) {
+        if !vis.get() {
+            continue;
+        }
+        let xf = gt.affine();
+        for t in mesh_triangles(meshes.get(&m.0).unwrap()).unwrap() {
+            tris.push((e, t.transformed(&xf)));
+        }
+    }
+    let scene = world.resource::<SceneBvh>();
+    for i in 0..12 {
+        let a = i as f32 * 0.52;
+        let origin = Vec3::new(a.cos() * 2.0, 0.2 + 0.05 * i as f32, a.sin() * 2.0);
+        let target = Vec3::new(0.0, 0.3, 0.0);
+        let ray = Ray3d::new(origin, Dir3::new(target - origin).unwrap());
+        let rd = RayData::new(&treelight_bvh::Ray::new(ray.origin, ray.direction.into()));
+        let mut best: Option<(Entity, f32)> = None;
+        for (e, t) in &tris {
+            if let Some((d, _, _)) = rd.hit_triangle(t, 0.0, best.map_or(f32::INFINITY, |b| b.1)) {
+                best = Some((*e, d));
+            }
+        }
+        let hit = cast_on(&scene.read_blocking(), ray).map(|h| (h.entity, h.distance));
+        match (hit, best) {
+            (None, None) => {}
+            (Some((e1, d1)), Some((_, d2))) => {
+                // Coplanar duplicates may tie: the distance decides.
+                assert!((d1 - d2).abs() < 1e-4, "ray {i}: {d1} vs {d2} ({e1})");
+            }
+            other => panic!("ray {i}: BVH and brute force disagree: {other:?}"),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Op {
+    Move(usize, [f32; 3]),
+    Rename(usize),
+    Hide(usize, bool),
+    Delete(usize),
+    Duplicate(usize),
+    Add(u8, [f32; 3]),
+    Undo,
+    Redo,
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    let v = || prop::array::uniform3(-0.5f32..0.5);
+    prop_oneof![
+        3 => (any::<usize>(), v()).prop_map(|(i, d)| Op::Move(i, d)),
+        1 => any::<usize>().prop_map(Op::Rename),
+        1 => (any::<usize>(), any::<bool>()).prop_map(|(i, b)| Op::Hide(i, b)),
+        2 => any::<usize>().prop_map(Op::Delete),
+        2 => any::<usize>().prop_map(Op::Duplicate),
+        1 => (0u8..4, v()).prop_map(|(k, p)| Op::Add(k, p)),
+        1 => Just(Op::Undo),
+        1 => Just(Op::Redo),
+    ]
+}
+
+fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
+    let ids: Vec<SceneId> = {
+        let mut q = world.query::<&SceneId>();
+        let mut v: Vec<SceneId> = q.iter(world).copied().collect();
+        v.sort();
+        v
+    };
+    let pick = |i: usize| ids.get(i % ids.len().max(1)).copied();
+    let apply = |command| {
+        Some(EditRequest::Apply {
+            command,
+            continuing: false,
+        })
+    };
+    match *op {
+        Op::Move(i, d) => {
+            let id = pick(i)?;
+            let e = world.resource::<SceneIndex>().entity(id)?;
+            let t = *world.get::<Transform>(e)?;
+            let mut moved = t;
+            moved.translation += Vec3::from_array(d);
+            moved.rotation *= Quat::from_rotation_y(d[0]);
+            apply(EditCommand::SetTransform {
+                id,
+                transform: moved.into(),
+            })
+        }
+        Op::Rename(i) => apply(EditCommand::Rename {
+            id: pick(i)?,
+            name: format!("renamed {step}"),
+        }),
+        Op::Hide(i, visible) => apply(EditCommand::SetVisible {
+            id: pick(i)?,
+            visible,
+        }),
+        Op::Delete(i) => apply(EditCommand::Delete {
+            ids: vec![pick(i)?],
+        }),
+        Op::Duplicate(i) => apply(EditCommand::Duplicate {
+            ids: vec![pick(i)?],
+            copies: Vec::new(),
+        }),
+        Op::Add(k, p) => apply(EditCommand::AddPrimitive {
+            shape: Primitive::ALL[k as usize % 4],
+            transform: TransformValue {
+                translation: p,
+                rotation: [0.0, 0.0, 0.0, 1.0],
+                scale: [0.2; 3],
+            },
+            id: None,
+        }),
+        Op::Undo => Some(EditRequest::Undo),
+        Op::Redo => Some(EditRequest::Redo),
+    }
+}
+
+fn head(app: &App) -> usize {
+    app.world().resource::<EditHistory>().head()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, .. ProptestConfig::default() })]
+
+    #[test]
+    fn undo_all_restores_the_world_and_redo_all_reaches_it_again(
+        ops in prop::collection::vec(op(), 1..24)
+    ) {
+        let mut app = app_with_flight_helmet();
+        let before = world_state(app.world_mut());
+        for (step, op) in ops.iter().enumerate() {
+            let Some(r) = request(app.world_mut(), op, step) else { continue };
+            apply_request(app.world_mut(), r).expect("valid commands apply");
+            app.update();
+            if step % 6 == 5 {
+                check_rays(&mut app);
+            }
+        }
+        let head_after = head(&app);
+        let after = world_state(app.world_mut());
+        check_rays(&mut app);
+        while head(&app) > 0 {
+            apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+        }
+        app.update();
+        prop_assert_eq!(&world_state(app.world_mut()), &before);
+        check_rays(&mut app);
+        // Redo all, as far as the history went before the undos.
+        apply_request(app.world_mut(), EditRequest::GoTo(head_after)).unwrap();
+        app.update();
+        prop_assert_eq!(&world_state(app.world_mut()), &after);
+        check_rays(&mut app);
+    }
+}
+
+#[test]
+fn an_undone_delete_restores_the_same_object_with_its_children() {
+    let mut app = app_with_flight_helmet();
+    let before = world_state(app.world_mut());
+    let root = *before
+        .iter()
+        .find(|(_, s)| s.name.as_deref() == Some("FlightHelmet"))
+        .unwrap()
+        .0;
+    let children = before.values().filter(|s| s.parent == Some(root)).count();
+    assert!(children >= 5, "{children} parts");
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::Delete { ids: vec![root] },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    app.update();
+    assert!(world_state(app.world_mut()).is_empty());
+    settle(&mut app);
+    assert_eq!(app.world().resource::<SceneBvh>().stats().triangles, 0);
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    app.update();
+    assert_eq!(world_state(app.world_mut()), before);
+    check_rays(&mut app);
+    assert!(app.world().resource::<SceneBvh>().stats().triangles > 0);
+}
+
+#[test]
+fn a_duplicate_is_selected_and_a_refused_command_changes_nothing() {
+    let mut app = app_with_flight_helmet();
+    let before = world_state(app.world_mut());
+    let part = *before.keys().nth(1).unwrap();
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::Duplicate {
+                ids: vec![part],
+                copies: Vec::new(),
+            },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    let after = world_state(app.world_mut());
+    assert_eq!(after.len(), before.len() + 1);
+    let copy = *after.keys().max().unwrap();
+    let selected = app.world().resource::<Selection>().0;
+    assert_eq!(
+        selected
+            .and_then(|e| app.world().get::<SceneId>(e))
+            .copied(),
+        Some(copy)
+    );
+    // Same mesh and material (shared, not copied), same parent and transform.
+    let (a, b) = (&after[&part], &after[&copy]);
+    assert_eq!(
+        (a.mesh, a.material, a.parent, a.transform),
+        (b.mesh, b.material, b.parent, b.transform)
+    );
+    // A command naming no object is refused and leaves no step.
+    let steps = head(&app);
+    let refused = apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::Delete {
+                ids: vec![SceneId(999_999)],
+            },
+            continuing: false,
+        },
+    );
+    assert!(refused.is_err());
+    assert_eq!(head(&app), steps);
+    assert_eq!(world_state(app.world_mut()), after);
+}
+
+#[test]
+fn a_drag_is_one_step() {
+    let mut app = app_with_flight_helmet();
+    let id = *world_state(app.world_mut()).keys().nth(2).unwrap();
+    let e = app.world().resource::<SceneIndex>().entity(id).unwrap();
+    let start = *app.world().get::<Transform>(e).unwrap();
+    for k in 1..=10 {
+        let mut t = start;
+        t.translation.x += 0.01 * k as f32;
+        apply_request(
+            app.world_mut(),
+            EditRequest::Apply {
+                command: EditCommand::SetTransform {
+                    id,
+                    transform: t.into(),
+                },
+                continuing: k > 1,
+            },
+        )
+        .unwrap();
+    }
+    assert_eq!(head(&app), 1);
+    let moved = app.world().get::<Transform>(e).unwrap().translation.x;
+    assert!((moved - start.translation.x - 0.1).abs() < 1e-5);
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    assert_eq!(*app.world().get::<Transform>(e).unwrap(), start);
+}
