@@ -60,6 +60,9 @@ pub struct ViewportRect {
 /// One row of the outliner.
 struct OutlinerRow {
     entity: Entity,
+    id: SceneId,
+    /// Whether the object itself is shown (its parent may still hide it).
+    visible: bool,
     name: String,
     kind: &'static str,
 }
@@ -86,6 +89,8 @@ struct EditorTabs<'a> {
     history: (&'a [String], usize),
     /// A step the user clicked in the history panel.
     go_to: &'a mut Option<usize>,
+    /// Commands the panels ask for this frame.
+    commands: &'a mut Vec<EditCommand>,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -174,10 +179,21 @@ impl EditorTabs<'_> {
             .show(ui, |ui| {
                 for row in self.rows {
                     let selected = self.selection.0 == Some(row.entity);
-                    let label = format!("{}  {}", row.kind, row.name);
-                    if ui.selectable_label(selected, label).clicked() {
-                        self.selection.0 = Some(row.entity);
-                    }
+                    ui.horizontal(|ui| {
+                        // Show or hide: a hidden mesh leaves the traced scene too.
+                        let eye = if row.visible { "👁" } else { "—" };
+                        let tip = if row.visible { "Hide" } else { "Show" };
+                        if ui.small_button(eye).on_hover_text(tip).clicked() {
+                            self.commands.push(EditCommand::SetVisible {
+                                id: row.id,
+                                visible: !row.visible,
+                            });
+                        }
+                        let label = format!("{}  {}", row.kind, row.name);
+                        if ui.selectable_label(selected, label).clicked() {
+                            self.selection.0 = Some(row.entity);
+                        }
+                    });
                 }
                 if self.rows.is_empty() {
                     ui.weak("The scene is empty.");
@@ -259,6 +275,7 @@ type ObjectItem = (
     Has<Mesh3d>,
     Has<PointLight>,
     Has<DirectionalLight>,
+    Option<&'static Visibility>,
 );
 
 /// What the UI reads of the history and how it asks for edits.
@@ -298,10 +315,12 @@ pub fn editor_ui(
     let ctx = contexts.ctx_mut()?.clone();
     let mut rows: Vec<OutlinerRow> = objects
         .iter()
-        .map(|(entity, _, name, _, mesh, point, dir)| OutlinerRow {
+        .map(|(entity, id, name, _, mesh, point, dir, vis)| OutlinerRow {
             entity,
+            id: *id,
             name: name.as_str().to_owned(),
             kind: kind_of(mesh, point, dir),
+            visible: vis != Some(&Visibility::Hidden),
         })
         .collect();
     rows.sort_by_key(|r| r.entity.index());
@@ -324,6 +343,7 @@ pub fn editor_ui(
     let mut render_copy = *render;
     let history_labels = history.labels();
     let mut go_to = None;
+    let mut panel_commands: Vec<EditCommand> = Vec::new();
 
     let mut root = egui::Ui::new(
         ctx.clone(),
@@ -439,6 +459,7 @@ pub fn editor_ui(
         .frame(egui::Frame::NONE)
         .show(&mut root, |ui| {
             let mut tabs = EditorTabs {
+                commands: &mut panel_commands,
                 history: (&history_labels, history.head()),
                 go_to: &mut go_to,
                 rows: &rows,
@@ -474,6 +495,9 @@ pub fn editor_ui(
 
     if let Some(i) = go_to {
         requests.0.push(EditRequest::GoTo(i));
+    }
+    for command in panel_commands {
+        requests.apply(command);
     }
     // A new shape goes where the view's centre ray lands, by the placement rule.
     if let (Some(shape), Ok((_, camera, cam_transform))) = (added, cameras.single())
