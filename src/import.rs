@@ -14,7 +14,7 @@ use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, poll_once};
 use bevy::window::FileDragAndDrop;
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use treelight_import::{
     ImportError, ImportedMaterial, ImportedMesh, ImportedScene, ImportedTexture, WrapMode,
 };
@@ -70,7 +70,7 @@ pub fn finish_imports(
                 for w in &scene.warnings {
                     notices.warn(format!("{}: {w}", path.display()));
                 }
-                let bounds = spawn_scene(&mut commands, &scene, &mut assets);
+                let bounds = spawn_scene(&mut commands, &path, &scene, &mut assets);
                 if lights.is_empty() {
                     commands.spawn((
                         Name::new("Sun"),
@@ -108,9 +108,24 @@ pub struct SceneAssets<'w> {
     pub images: ResMut<'w, Assets<Image>>,
 }
 
-/// Spawns one entity per mesh; returns the scene's world bounds.
+/// Where an imported object came from: the file and the node's key in it (names from the top,
+/// `#index` where a node has none), so a project can find the node again in a later version of
+/// the file.
+#[derive(Component, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct SourceKey {
+    /// The file.
+    pub file: PathBuf,
+    /// The node's key in the file; the mesh's index (`mesh N`) for files without nodes.
+    pub key: String,
+}
+
+/// Spawns the file as an assembly: one root named after the file, its node hierarchy beneath as
+/// parent and child entities with local transforms, each mesh on its node (or, for a node with
+/// several meshes or for files without nodes, as a child of its own). Returns the scene's world
+/// bounds.
 pub fn spawn_scene(
     commands: &mut Commands,
+    file: &Path,
     scene: &ImportedScene,
     assets: &mut SceneAssets,
 ) -> Option<(Vec3, Vec3)> {
@@ -133,8 +148,50 @@ pub fn spawn_scene(
         })
         .collect();
     let fallback = assets.materials.add(material(&ImportedMaterial::default()));
-    let mut bounds: Option<(Vec3, Vec3)> = None;
+    let root_name = file.file_name().map_or_else(
+        || file.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let root = commands
+        .spawn((
+            Name::new(root_name),
+            SceneObject,
+            Transform::IDENTITY,
+            Visibility::default(),
+            SourceKey {
+                file: file.to_owned(),
+                key: String::new(),
+            },
+        ))
+        .id();
+    // Parents come before their children in the file's node list.
+    let mut nodes: Vec<Entity> = Vec::with_capacity(scene.nodes.len());
+    for n in &scene.nodes {
+        let parent = n.parent.and_then(|p| nodes.get(p).copied()).unwrap_or(root);
+        nodes.push(
+            commands
+                .spawn((
+                    Name::new(n.name.clone()),
+                    SceneObject,
+                    Transform::from_matrix(n.local),
+                    Visibility::default(),
+                    SourceKey {
+                        file: file.to_owned(),
+                        key: n.key.clone(),
+                    },
+                    ChildOf(parent),
+                ))
+                .id(),
+        );
+    }
+    let mut meshes_per_node: HashMap<usize, usize> = HashMap::new();
     for m in &scene.meshes {
+        if let Some(n) = m.node {
+            *meshes_per_node.entry(n).or_default() += 1;
+        }
+    }
+    let mut bounds: Option<(Vec3, Vec3)> = None;
+    for (i, m) in scene.meshes.iter().enumerate() {
         for tri in m.world_triangles() {
             for p in tri {
                 bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
@@ -145,13 +202,42 @@ pub fn spawn_scene(
             .and_then(|k| handles.get(k))
             .cloned()
             .unwrap_or_else(|| fallback.clone());
-        commands.spawn((
-            Name::new(m.name.clone()),
-            SceneObject,
+        let shape = (
             Mesh3d(assets.meshes.add(to_bevy_mesh(m))),
             MeshMaterial3d(mat),
-            Transform::from_matrix(m.transform),
-        ));
+        );
+        match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
+            // A node's only mesh lives on the node itself.
+            Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
+                commands.entity(node).insert(shape);
+            }
+            Some((n, node)) => {
+                commands.spawn((
+                    Name::new(m.name.clone()),
+                    SceneObject,
+                    shape,
+                    Transform::IDENTITY,
+                    SourceKey {
+                        file: file.to_owned(),
+                        key: format!("{}/mesh {i}", scene.nodes[n].key),
+                    },
+                    ChildOf(node),
+                ));
+            }
+            None => {
+                commands.spawn((
+                    Name::new(m.name.clone()),
+                    SceneObject,
+                    shape,
+                    Transform::from_matrix(m.transform),
+                    SourceKey {
+                        file: file.to_owned(),
+                        key: format!("mesh {i}"),
+                    },
+                    ChildOf(root),
+                ));
+            }
+        }
     }
     bounds
 }

@@ -16,6 +16,7 @@ use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::{EguiContexts, egui};
 use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
+use std::collections::{HashMap, HashSet};
 use treelight_render::PathTracerStats;
 use treelight_scene::SceneBvh;
 
@@ -63,6 +64,10 @@ struct OutlinerRow {
     id: SceneId,
     /// Whether the object itself is shown (its parent may still hide it).
     visible: bool,
+    /// Levels below the top.
+    depth: usize,
+    /// `Some(expanded)` for a row with children.
+    expandable: Option<bool>,
     name: String,
     kind: &'static str,
 }
@@ -91,6 +96,8 @@ struct EditorTabs<'a> {
     go_to: &'a mut Option<usize>,
     /// Commands the panels ask for this frame.
     commands: &'a mut Vec<EditCommand>,
+    /// Outliner rows the user collapsed.
+    collapsed: &'a mut HashSet<Entity>,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -180,6 +187,20 @@ impl EditorTabs<'_> {
                 for row in self.rows {
                     let selected = self.selection.0 == Some(row.entity);
                     ui.horizontal(|ui| {
+                        ui.add_space(row.depth as f32 * 14.0);
+                        match row.expandable {
+                            Some(expanded) => {
+                                let arrow = if expanded { "⏷" } else { "⏵" };
+                                if ui.small_button(arrow).clicked() {
+                                    if expanded {
+                                        self.collapsed.insert(row.entity);
+                                    } else {
+                                        self.collapsed.remove(&row.entity);
+                                    }
+                                }
+                            }
+                            None => ui.add_space(18.0),
+                        }
                         // Show or hide: a hidden mesh leaves the traced scene too.
                         let eye = if row.visible { "👁" } else { "—" };
                         let tip = if row.visible { "Hide" } else { "Show" };
@@ -276,6 +297,7 @@ type ObjectItem = (
     Has<PointLight>,
     Has<DirectionalLight>,
     Option<&'static Visibility>,
+    Option<&'static ChildOf>,
 );
 
 /// What the UI reads of the history and how it asks for edits.
@@ -285,6 +307,8 @@ pub struct EditAccess<'w, 's> {
     requests: ResMut<'w, EditRequests>,
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,
+    /// Outliner rows the user collapsed.
+    outliner: Local<'s, HashSet<Entity>>,
 }
 
 /// Draws the editor UI and turns what the user changed into edit requests.
@@ -311,19 +335,44 @@ pub fn editor_ui(
         history,
         mut requests,
         mut gesture,
+        mut outliner,
     } = edits;
     let ctx = contexts.ctx_mut()?.clone();
-    let mut rows: Vec<OutlinerRow> = objects
-        .iter()
-        .map(|(entity, id, name, _, mesh, point, dir, vis)| OutlinerRow {
+    // The outliner lists the scene as a tree: each object after its parent, indented, and nothing
+    // under a collapsed row.
+    let mut children: HashMap<Option<Entity>, Vec<Entity>> = HashMap::new();
+    for (entity, .., parent) in objects.iter() {
+        let parent = parent.map(|p| p.parent()).filter(|p| objects.contains(*p));
+        children.entry(parent).or_default().push(entity);
+    }
+    for list in children.values_mut() {
+        list.sort_by_key(|e| e.index());
+    }
+    outliner.retain(|e| objects.contains(*e));
+    let mut rows: Vec<OutlinerRow> = Vec::new();
+    let mut stack: Vec<(Entity, usize)> = children
+        .get(&None)
+        .map(|r| r.iter().rev().map(|e| (*e, 0)).collect())
+        .unwrap_or_default();
+    while let Some((entity, depth)) = stack.pop() {
+        let Ok((_, id, name, _, mesh, point, dir, vis, _)) = objects.get(entity) else {
+            continue;
+        };
+        let kids = children.get(&Some(entity));
+        let collapsed = outliner.contains(&entity);
+        rows.push(OutlinerRow {
             entity,
             id: *id,
             name: name.as_str().to_owned(),
             kind: kind_of(mesh, point, dir),
             visible: vis != Some(&Visibility::Hidden),
-        })
-        .collect();
-    rows.sort_by_key(|r| r.entity.index());
+            depth,
+            expandable: kids.is_some_and(|k| !k.is_empty()).then_some(!collapsed),
+        });
+        if !collapsed && let Some(kids) = kids {
+            stack.extend(kids.iter().rev().map(|e| (*e, depth + 1)));
+        }
+    }
     let original = selection
         .0
         .and_then(|e| objects.get(e).ok())
@@ -459,6 +508,7 @@ pub fn editor_ui(
         .frame(egui::Frame::NONE)
         .show(&mut root, |ui| {
             let mut tabs = EditorTabs {
+                collapsed: &mut outliner,
                 commands: &mut panel_commands,
                 history: (&history_labels, history.head()),
                 go_to: &mut go_to,

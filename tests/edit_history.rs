@@ -401,3 +401,88 @@ fn a_drag_is_one_step() {
     apply_request(app.world_mut(), EditRequest::Undo).unwrap();
     assert_eq!(*app.world().get::<Transform>(e).unwrap(), start);
 }
+
+#[test]
+fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
+    use bevy::ecs::system::RunSystemOnce;
+    use treelight::import::{SceneAssets, SourceKey, spawn_scene};
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+    ))
+    .init_asset::<StandardMaterial>()
+    .init_asset::<Image>()
+    .init_resource::<SceneIndex>()
+    .init_resource::<EditHistory>()
+    .init_resource::<Selection>();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/gltf/CesiumMan.glb");
+    let scene = treelight_import::load_scene(&path).unwrap();
+    let (file, imported) = (path.clone(), scene.clone());
+    app.world_mut()
+        .run_system_once(move |mut commands: Commands, mut assets: SceneAssets| {
+            spawn_scene(&mut commands, &file, &imported, &mut assets);
+        })
+        .unwrap();
+    app.update();
+    let world = app.world_mut();
+    // The root is named after the file; every node is an object under it, keyed by its path.
+    let mut q = world.query::<(
+        Entity,
+        &Name,
+        &SourceKey,
+        Option<&ChildOf>,
+        &GlobalTransform,
+        Option<&Mesh3d>,
+    )>();
+    let rows: Vec<_> = q
+        .iter(world)
+        .map(|(e, n, k, p, g, m)| {
+            (
+                e,
+                n.as_str().to_owned(),
+                k.key.clone(),
+                p.map(|p| p.parent()),
+                *g,
+                m.is_some(),
+            )
+        })
+        .collect();
+    assert_eq!(rows.len(), scene.nodes.len() + 1);
+    let root = rows.iter().find(|r| r.3.is_none()).unwrap();
+    assert_eq!(root.1, "CesiumMan.glb");
+    for n in &scene.nodes {
+        assert!(rows.iter().any(|r| r.2 == n.key), "{}", n.key);
+    }
+    // The mesh sits where the file puts it: its global transform is the mesh's world transform.
+    let mesh_row = rows.iter().find(|r| r.5).unwrap();
+    let expected = scene.meshes[0].transform;
+    assert!(
+        mesh_row.4.to_matrix().abs_diff_eq(expected, 1e-4),
+        "{} vs {expected}",
+        mesh_row.4.to_matrix()
+    );
+    // Deleting the assembly and undoing gives back every object with its key.
+    let root_id = *world.get::<SceneId>(root.0).unwrap();
+    let keys = |world: &mut World| {
+        let mut q = world.query::<(&SceneId, &SourceKey)>();
+        let mut v: Vec<(SceneId, String)> =
+            q.iter(world).map(|(i, k)| (*i, k.key.clone())).collect();
+        v.sort();
+        v
+    };
+    let before = keys(world);
+    apply_request(
+        world,
+        EditRequest::Apply {
+            command: EditCommand::Delete { ids: vec![root_id] },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    assert!(keys(world).is_empty());
+    apply_request(world, EditRequest::Undo).unwrap();
+    assert_eq!(keys(world), before);
+}

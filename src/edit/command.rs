@@ -314,6 +314,7 @@ impl EditCommand {
                 let snapshots: Vec<ObjectSnapshot> = roots
                     .iter()
                     .filter_map(|id| ObjectSnapshot::capture(world, entity(world, *id).ok()?))
+                    .map(ObjectSnapshot::without_sources)
                     .collect();
                 let wanted: usize = snapshots.iter().map(|s| s.ids().len()).sum();
                 if copies.len() != wanted {

@@ -1,6 +1,8 @@
 //! An object as an undone delete or a duplicate needs it: its id, name, transform, visibility, mesh,
-//! material and lights, and its children's snapshots, so it can be spawned again as it was.
+//! material, lights and source key, and its children's snapshots, so it can be spawned again as it
+//! was.
 
+use crate::import::SourceKey;
 use crate::scene_id::SceneId;
 use crate::selection::SceneObject;
 use bevy::prelude::*;
@@ -17,6 +19,7 @@ pub struct ObjectSnapshot {
     material: Option<MeshMaterial3d<StandardMaterial>>,
     point: Option<PointLight>,
     directional: Option<DirectionalLight>,
+    source: Option<SourceKey>,
     /// Its parent's id when the parent is a scene object.
     pub parent: Option<SceneId>,
     children: Vec<ObjectSnapshot>,
@@ -47,9 +50,21 @@ impl ObjectSnapshot {
             material: entity.get::<MeshMaterial3d<StandardMaterial>>().cloned(),
             point: entity.get::<PointLight>().copied(),
             directional: entity.get::<DirectionalLight>().copied(),
+            source: entity.get::<SourceKey>().cloned(),
             parent,
             children,
         })
+    }
+
+    /// The same subtree as objects of the scene's own, not from a file (what a copy is).
+    pub fn without_sources(mut self) -> Self {
+        self.source = None;
+        self.children = self
+            .children
+            .into_iter()
+            .map(Self::without_sources)
+            .collect();
+        self
     }
 
     /// Ids in the subtree, the object first, then its children's subtrees in order.
@@ -88,6 +103,9 @@ impl ObjectSnapshot {
         }
         if let Some(l) = &self.directional {
             e.insert(*l);
+        }
+        if let Some(s) = &self.source {
+            e.insert(s.clone());
         }
         if let Some(p) = parent {
             e.insert(ChildOf(p));

@@ -3,8 +3,8 @@
 use crate::sandbox::read_uri;
 use crate::texture::ImageCache;
 use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices,
-    check_positions,
+    ImportError, ImportedMaterial, ImportedMesh, ImportedNode, ImportedScene, MAX_ELEMENTS,
+    check_indices, check_positions,
 };
 use glam::Mat4;
 use gltf::mesh::Mode;
@@ -52,22 +52,43 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     let Some(root_scene) = root_scene else {
         return Err(ImportError::new(path, "the file has no scene"));
     };
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        root_scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
+    // (node, parent's world transform, depth, parent's index in scene.nodes). Popped depth first,
+    // so a node is always listed after its parent.
+    let mut stack: Vec<(gltf::Node, Mat4, usize, Option<usize>)> = root_scene
+        .nodes()
+        .map(|n| (n, Mat4::IDENTITY, 0, None))
+        .collect();
+    while let Some((node, parent, depth, parent_index)) = stack.pop() {
         if depth > 256 {
             return Err(ImportError::new(
                 path,
                 "the node hierarchy is deeper than 256 levels (a cycle?)",
             ));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
         if !world.is_finite() {
             return Err(ImportError::new(
                 path,
                 format!("node {} has a non-finite transform", node.index()),
             ));
         }
+        let step = node
+            .name()
+            .map_or_else(|| format!("#{}", node.index()), |n| n.replace('/', "_"));
+        let key = match parent_index {
+            Some(p) => format!("{}/{step}", scene.nodes[p].key),
+            None => step,
+        };
+        let index = scene.nodes.len();
+        scene.nodes.push(ImportedNode {
+            name: node
+                .name()
+                .map_or_else(|| format!("node {}", node.index()), str::to_owned),
+            parent: parent_index,
+            local,
+            key,
+        });
         if let Some(mesh) = node.mesh() {
             let base = node
                 .name()
@@ -89,6 +110,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                 match read_primitive(path, &prim, &name, &buffers)? {
                     Some(mut m) => {
                         m.transform = world;
+                        m.node = Some(index);
                         m.material = Some(prim.material().index().unwrap_or_else(|| {
                             used_default = true;
                             default_material
@@ -102,7 +124,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
             }
         }
         for child in node.children() {
-            stack.push((child, world, depth + 1));
+            stack.push((child, world, depth + 1, Some(index)));
         }
     }
     if used_default {
@@ -224,6 +246,7 @@ fn read_primitive(
     Ok(Some(ImportedMesh {
         name: name.to_owned(),
         transform: Mat4::IDENTITY,
+        node: None,
         positions,
         normals,
         uvs,

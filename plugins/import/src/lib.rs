@@ -74,13 +74,29 @@ impl Default for ImportedMaterial {
     }
 }
 
+/// One node of a file's hierarchy (glTF nodes; OBJ and PLY files have none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportedNode {
+    /// The node's name (`node N` when it has none).
+    pub name: String,
+    /// Index of its parent in [`ImportedScene::nodes`]; parents come before their children.
+    pub parent: Option<usize>,
+    /// Node to parent (to the file's root for a top-level node).
+    pub local: Mat4,
+    /// A key that finds the node again in a later version of the file: the names from the top,
+    /// joined by `/`, each `#index` where a node has no name.
+    pub key: String,
+}
+
 /// One triangle mesh placed in the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImportedMesh {
     /// Node (or object) name.
     pub name: String,
-    /// Object to world.
+    /// Object to world: the product of its node's and its ancestors' local transforms.
     pub transform: Mat4,
+    /// The node it hangs under, in [`ImportedScene::nodes`] (`None` for OBJ and PLY meshes).
+    pub node: Option<usize>,
     /// Vertex positions, object space.
     pub positions: Vec<[f32; 3]>,
     /// Vertex normals, if the file has them.
@@ -113,6 +129,8 @@ impl ImportedMesh {
 pub struct ImportedScene {
     /// Meshes in file order.
     pub meshes: Vec<ImportedMesh>,
+    /// The node hierarchy the meshes hang under, parents first.
+    pub nodes: Vec<ImportedNode>,
     /// Materials referenced by the meshes.
     pub materials: Vec<ImportedMaterial>,
     /// Decoded images the materials refer to, once each.

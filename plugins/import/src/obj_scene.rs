@@ -55,6 +55,7 @@ pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
         scene.meshes.push(ImportedMesh {
             name: m.name,
             transform: Mat4::IDENTITY,
+            node: None,
             positions,
             normals,
             uvs,

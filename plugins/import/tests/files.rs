@@ -245,3 +245,46 @@ fn hostile_inputs_are_refused() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
+    for file in ["gltf/CesiumMan.glb", "gltf/FlightHelmet/FlightHelmet.gltf"] {
+        let s = load_scene(&scene(file)).unwrap();
+        assert!(!s.nodes.is_empty(), "{file}");
+        for (i, n) in s.nodes.iter().enumerate() {
+            // Parents come first, and keys extend the parent's key.
+            if let Some(p) = n.parent {
+                assert!(p < i, "{file}: node {i} before its parent {p}");
+                assert!(
+                    n.key.starts_with(&format!("{}/", s.nodes[p].key)),
+                    "{}",
+                    n.key
+                );
+            } else {
+                assert!(!n.key.contains('/'), "{}", n.key);
+            }
+        }
+        let keys: std::collections::HashSet<&str> =
+            s.nodes.iter().map(|n| n.key.as_str()).collect();
+        // Every mesh hangs under a node whose chain of local transforms gives its world transform.
+        for m in &s.meshes {
+            let mut world = glam::Mat4::IDENTITY;
+            let mut at = m.node;
+            while let Some(i) = at {
+                world = s.nodes[i].local * world;
+                at = s.nodes[i].parent;
+            }
+            assert!(
+                world.abs_diff_eq(m.transform, 1e-5),
+                "{file}: '{}' {world} vs {}",
+                m.name,
+                m.transform
+            );
+        }
+        assert!(keys.len() <= s.nodes.len());
+    }
+    // CesiumMan nests its mesh several levels down.
+    let s = load_scene(&scene("gltf/CesiumMan.glb")).unwrap();
+    let node = s.meshes[0].node.unwrap();
+    assert!(s.nodes[node].parent.is_some(), "{:?}", s.nodes);
+}
