@@ -25,8 +25,8 @@ pub struct Cli {
     /// How the viewport starts: rasterised, path traced, or a debug view of the path tracer.
     #[arg(long, value_enum, default_value_t = ViewArg::Path)]
     pub view: ViewArg,
-    /// Milliseconds of GPU time a frame may spend path tracing (it may also take a quarter of the
-    /// rest of the frame's time); 0 traces every pixel every frame.
+    /// Milliseconds of GPU time a frame may spend path tracing (it may also take as long as the
+    /// rest of the frame takes); 0 traces every pixel every frame.
     #[arg(long, value_name = "MS", default_value_t = 4.0)]
     pub frame_budget: f32,
     /// A RON list of edit commands to apply once the scene has loaded and its BVH is idle.

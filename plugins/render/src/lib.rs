@@ -163,7 +163,7 @@ impl Default for PathTraced {
             indirect_clamp: 4.0,
             view: DebugView::PathTraced,
             frame_budget_ms: 4.0,
-            frame_budget_share: 0.25,
+            frame_budget_share: 1.0,
         }
     }
 }
