@@ -51,6 +51,12 @@ impl OrbitCamera {
         Quat::from_euler(EulerRot::YXZ, self.yaw, self.pitch, 0.0)
     }
 
+    /// Looks at a box from the current direction, far enough to see all of it.
+    pub fn frame(&mut self, min: Vec3, max: Vec3) {
+        self.focus = (min + max) * 0.5;
+        self.radius = ((max - min).length() * 1.4).max(0.05);
+    }
+
     /// The camera transform these parameters describe.
     pub fn transform(&self) -> Transform {
         let rot = self.rotation();
@@ -59,6 +65,62 @@ impl OrbitCamera {
             rotation: rot,
             ..default()
         }
+    }
+}
+
+/// World-space bounds of an entity's meshes and its descendants' meshes, from their local boxes.
+pub fn world_bounds(
+    root: Entity,
+    boxes: &Query<(&bevy::camera::primitives::Aabb, &GlobalTransform)>,
+    children: &Query<&Children>,
+) -> Option<(Vec3, Vec3)> {
+    let mut out: Option<(Vec3, Vec3)> = None;
+    let mut stack = vec![root];
+    while let Some(e) = stack.pop() {
+        if let Ok((aabb, gt)) = boxes.get(e) {
+            let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
+            for i in 0..8 {
+                let corner = c + h * Vec3::new(
+                    if i & 1 == 0 { -1.0 } else { 1.0 },
+                    if i & 2 == 0 { -1.0 } else { 1.0 },
+                    if i & 4 == 0 { -1.0 } else { 1.0 },
+                );
+                let p = gt.transform_point(corner);
+                out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+        if let Ok(kids) = children.get(e) {
+            stack.extend(kids.iter());
+        }
+    }
+    out
+}
+
+/// `F` frames the selection (its meshes and everything under it); nothing happens while a text
+/// field has the keyboard.
+pub fn frame_selection_on_f(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut contexts: bevy_egui::EguiContexts,
+    selection: Res<crate::selection::Selection>,
+    boxes: Query<(&bevy::camera::primitives::Aabb, &GlobalTransform)>,
+    children: Query<&Children>,
+    mut orbit: Query<&mut OrbitCamera>,
+) {
+    if !keys.just_pressed(KeyCode::KeyF)
+        || keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight])
+    {
+        return;
+    }
+    if let Ok(ctx) = contexts.ctx_mut()
+        && ctx.egui_wants_keyboard_input()
+    {
+        return;
+    }
+    if let Some(e) = selection.0
+        && let Some((min, max)) = world_bounds(e, &boxes, &children)
+        && let Ok(mut o) = orbit.single_mut()
+    {
+        o.frame(min, max);
     }
 }
 
@@ -81,6 +143,17 @@ mod tests {
         assert!((t.translation.distance(o.focus) - o.radius).abs() < 1e-4);
         let forward = t.forward();
         assert!((o.focus - t.translation).normalize().dot(*forward) > 0.9999);
+    }
+
+    #[test]
+    fn framing_puts_the_box_in_view() {
+        let mut o = OrbitCamera::default();
+        let (min, max) = (Vec3::new(4.0, 0.0, -1.0), Vec3::new(6.0, 2.0, 1.0));
+        o.frame(min, max);
+        assert_eq!(o.focus, Vec3::new(5.0, 1.0, 0.0));
+        // The whole box is in front of the camera, further than its half diagonal.
+        let eye = o.transform().translation;
+        assert!((eye - o.focus).length() > (max - min).length() * 0.5);
     }
 
     #[test]

@@ -76,6 +76,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         Update,
         (
             selection::drop_stale_selection,
+            selection::clear_selection_on_escape,
+            camera::frame_selection_on_f.before(camera::apply_orbit),
             camera::apply_orbit,
             ui::fit_camera_viewport,
             import::import_dropped_files,

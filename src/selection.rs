@@ -23,3 +23,20 @@ pub fn drop_stale_selection(
         selection.0 = None;
     }
 }
+
+/// Escape clears the selection (not while a text field has the keyboard, where it ends the edit).
+pub fn clear_selection_on_escape(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut contexts: bevy_egui::EguiContexts,
+    mut selection: ResMut<Selection>,
+) {
+    if !keys.just_pressed(KeyCode::Escape) || selection.0.is_none() {
+        return;
+    }
+    if let Ok(ctx) = contexts.ctx_mut()
+        && ctx.egui_wants_keyboard_input()
+    {
+        return;
+    }
+    selection.0 = None;
+}

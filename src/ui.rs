@@ -300,6 +300,20 @@ type ObjectItem = (
     Option<&'static ChildOf>,
 );
 
+/// The shortcuts and mouse controls the Help menu lists.
+const SHORTCUTS: &[(&str, &str)] = &[
+    ("Ctrl+Z", "Undo"),
+    ("Ctrl+Shift+Z, Ctrl+Y", "Redo"),
+    ("Del", "Delete the selection"),
+    ("Ctrl+D", "Duplicate the selection (the copy is selected)"),
+    ("F", "Frame the selection"),
+    ("Esc", "Clear the selection"),
+    ("Left click", "Select what is under the pointer"),
+    ("Left drag", "Orbit"),
+    ("Right or middle drag, Shift+left drag", "Pan"),
+    ("Wheel", "Zoom"),
+];
+
 /// What the UI reads of the history and how it asks for edits.
 #[derive(SystemParam)]
 pub struct EditAccess<'w, 's> {
@@ -444,6 +458,17 @@ pub fn editor_ui(
                         added = Some(shape);
                     }
                 }
+            });
+            ui.menu_button("Help", |ui| {
+                ui.label(egui::RichText::new("Keys and mouse").strong());
+                egui::Grid::new("shortcuts").num_columns(2).show(ui, |ui| {
+                    for (keys, what) in SHORTCUTS {
+                        ui.monospace(*keys);
+                        ui.label(*what);
+                        ui.end_row();
+                    }
+                });
+                ui.weak("Keys do nothing while a text field has the keyboard.");
             });
         });
     });
