@@ -79,12 +79,7 @@ pub fn world_bounds(
     while let Some(e) = stack.pop() {
         if let Ok((aabb, gt)) = boxes.get(e) {
             let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
-            for i in 0..8 {
-                let corner = c + h * Vec3::new(
-                    if i & 1 == 0 { -1.0 } else { 1.0 },
-                    if i & 2 == 0 { -1.0 } else { 1.0 },
-                    if i & 4 == 0 { -1.0 } else { 1.0 },
-                );
+            for corner in crate::placement::box_corners(c - h, c + h) {
                 let p = gt.transform_point(corner);
                 out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
             }
@@ -111,9 +106,7 @@ pub fn frame_selection_on_f(
     {
         return;
     }
-    if let Ok(ctx) = contexts.ctx_mut()
-        && ctx.egui_wants_keyboard_input()
-    {
+    if !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
         return;
     }
     if let Some(e) = selection.0

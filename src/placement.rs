@@ -41,6 +41,17 @@ pub fn surface_under(scene: &SceneBvh, ray: Ray3d, fallback_distance: f32) -> Su
     }
 }
 
+/// The eight corners of the box `min..max`.
+pub fn box_corners(min: Vec3, max: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|i| {
+        Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    })
+}
+
 /// The translation that puts an upright object with local bounds `min..max` (scaled by `scale`) on
 /// `surface` by the rule.
 pub fn place_on(surface: Surface, min: Vec3, max: Vec3, scale: Vec3) -> Vec3 {
@@ -52,15 +63,9 @@ pub fn place_on(surface: Surface, min: Vec3, max: Vec3, scale: Vec3) -> Vec3 {
     let n = surface.normal.normalize_or(Vec3::Y);
     let mut t = surface.point - bottom;
     // How far the deepest corner is behind the surface's plane.
-    let mut deepest: f32 = 0.0;
-    for i in 0..8 {
-        let corner = Vec3::new(
-            if i & 1 == 0 { min.x } else { max.x },
-            if i & 2 == 0 { min.y } else { max.y },
-            if i & 4 == 0 { min.z } else { max.z },
-        ) + t;
-        deepest = deepest.max(-(corner - surface.point).dot(n));
-    }
+    let deepest = box_corners(min + t, max + t)
+        .iter()
+        .fold(0.0f32, |d, c| d.max(-(*c - surface.point).dot(n)));
     t += n * deepest;
     t
 }
@@ -100,15 +105,9 @@ mod tests {
             normal: n,
         };
         let t = place_on(s, CUBE.0, CUBE.1, Vec3::ONE);
-        let depths: Vec<f32> = (0..8)
-            .map(|i| {
-                let c = Vec3::new(
-                    if i & 1 == 0 { -0.5 } else { 0.5 },
-                    if i & 2 == 0 { -0.5 } else { 0.5 },
-                    if i & 4 == 0 { -0.5 } else { 0.5 },
-                ) + t;
-                c.dot(n)
-            })
+        let depths: Vec<f32> = box_corners(CUBE.0 + t, CUBE.1 + t)
+            .iter()
+            .map(|c| c.dot(n))
             .collect();
         let min = depths.iter().copied().fold(f32::INFINITY, f32::min);
         assert!(min.abs() < 1e-5, "{depths:?}");

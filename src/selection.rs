@@ -33,9 +33,7 @@ pub fn clear_selection_on_escape(
     if !keys.just_pressed(KeyCode::Escape) || selection.0.is_none() {
         return;
     }
-    if let Ok(ctx) = contexts.ctx_mut()
-        && ctx.egui_wants_keyboard_input()
-    {
+    if !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
         return;
     }
     selection.0 = None;

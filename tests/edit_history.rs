@@ -22,21 +22,26 @@ use treelight::selection::{SceneObject, Selection};
 use treelight_bvh::RayData;
 use treelight_scene::{SceneBvh, SceneBvhPlugin, cast_on, mesh_triangles};
 
-fn app_with_flight_helmet() -> App {
+/// A headless app with what edits need: assets, transforms, ids, the history and the selection.
+fn editing_app() -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
         AssetPlugin::default(),
         MeshPlugin,
         TransformPlugin,
-        VisibilityPlugin,
-        SceneBvhPlugin::default(),
     ))
     .init_asset::<StandardMaterial>()
     .init_resource::<SceneIndex>()
     .init_resource::<EditHistory>()
     .init_resource::<EditRequests>()
     .init_resource::<Selection>();
+    app
+}
+
+fn app_with_flight_helmet() -> App {
+    let mut app = editing_app();
+    app.add_plugins((VisibilityPlugin, SceneBvhPlugin::default()));
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     let scene = treelight_import::load_scene(&path).expect("FlightHelmet loads");
@@ -406,18 +411,8 @@ fn a_drag_is_one_step() {
 fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     use bevy::ecs::system::RunSystemOnce;
     use treelight::import::{SceneAssets, SourceKey, spawn_scene};
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .init_asset::<StandardMaterial>()
-    .init_asset::<Image>()
-    .init_resource::<SceneIndex>()
-    .init_resource::<EditHistory>()
-    .init_resource::<Selection>();
+    let mut app = editing_app();
+    app.init_asset::<Image>();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/gltf/CesiumMan.glb");
     let scene = treelight_import::load_scene(&path).unwrap();
     let (file, imported) = (path.clone(), scene.clone());

@@ -324,10 +324,7 @@ impl EditCommand {
                 let mut fresh = copies.clone().into_iter();
                 let mut made = Vec::new();
                 for s in &snapshots {
-                    let parent = s
-                        .parent
-                        .and_then(|p| world.resource::<SceneIndex>().entity(p));
-                    let root = s.spawn(world, parent, &mut fresh);
+                    let root = s.respawn(world, &mut fresh);
                     made.extend(world.get::<SceneId>(root).copied());
                 }
                 Undo::Despawn(made)
@@ -417,8 +414,7 @@ impl Undo {
             }
             Undo::Respawn(snapshots) => {
                 for s in snapshots {
-                    let parent = s.parent.and_then(|p| find(world, &p));
-                    s.spawn(world, parent, &mut std::iter::empty());
+                    s.respawn(world, &mut std::iter::empty());
                 }
             }
             Undo::Despawn(ids) => {

@@ -65,15 +65,10 @@ impl Edit for Step {
         let Some(snapshots) = self.remade.take() else {
             return self.edit(world);
         };
-        let mut ids = Vec::new();
         for s in &snapshots {
-            let parent = s
-                .parent
-                .and_then(|p| world.resource::<SceneIndex>().entity(p));
-            s.spawn(world, parent, &mut std::iter::empty());
-            ids.push(s.id);
+            s.respawn(world, &mut std::iter::empty());
         }
-        self.undo = Some(Undo::Despawn(ids));
+        self.undo = Some(Undo::Despawn(snapshots.iter().map(|s| s.id).collect()));
     }
 
     fn merge(&mut self, other: Self) -> Merged<Self> {

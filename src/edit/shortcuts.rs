@@ -7,6 +7,13 @@ use crate::selection::Selection;
 use bevy::prelude::*;
 use bevy_egui::EguiContexts;
 
+/// Whether the keys are the editor's this frame: not while an egui text field has the keyboard.
+pub fn keyboard_is_free(contexts: &mut EguiContexts) -> bool {
+    contexts
+        .ctx_mut()
+        .map_or(true, |ctx| !ctx.egui_wants_keyboard_input())
+}
+
 /// What a frame's keys ask for, given the modifiers held; `None` for nothing.
 pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: Option<SceneId>) -> Option<EditRequest> {
     let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
@@ -48,9 +55,7 @@ pub fn edit_shortcuts(
     ids: Query<&SceneId>,
     mut requests: ResMut<EditRequests>,
 ) {
-    if let Ok(ctx) = contexts.ctx_mut()
-        && ctx.egui_wants_keyboard_input()
-    {
+    if !keyboard_is_free(&mut contexts) {
         return;
     }
     let selected = selection.0.and_then(|e| ids.get(e).ok()).copied();

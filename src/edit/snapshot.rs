@@ -3,7 +3,7 @@
 //! was.
 
 use crate::import::SourceKey;
-use crate::scene_id::SceneId;
+use crate::scene_id::{SceneId, SceneIndex};
 use crate::selection::SceneObject;
 use bevy::prelude::*;
 
@@ -74,6 +74,15 @@ impl ObjectSnapshot {
             out.extend(c.ids());
         }
         out
+    }
+
+    /// Spawns the subtree back under its recorded parent (at the top when that parent is gone),
+    /// giving each object the next id from `ids` (its own when `ids` runs out). Returns the root.
+    pub fn respawn(&self, world: &mut World, ids: &mut impl Iterator<Item = SceneId>) -> Entity {
+        let parent = self
+            .parent
+            .and_then(|p| world.resource::<SceneIndex>().entity(p));
+        self.spawn(world, parent, ids)
     }
 
     /// Spawns the subtree under `parent`, giving each object the next id from `ids` (its own id

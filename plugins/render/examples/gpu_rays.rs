@@ -11,37 +11,18 @@
 mod support;
 
 use std::time::Instant;
-use support::{Gpu, PinholeView, tree_bytes};
+use support::{Gpu, PinholeView, arg, scene_args, tree_bytes};
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
 use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, UploadPlan};
-
-fn arg(name: &str, default: u32) -> u32 {
-    std::env::args()
-        .skip_while(|a| a != name)
-        .nth(1)
-        .map_or(default, |v| v.parse().expect("a number"))
-}
 
 fn main() {
     let resolution = arg("--resolution", 512);
     let ao_rays = arg("--ao-rays", 8);
     let repeats = arg("--repeats", 5).max(1);
-    let mut specs: Vec<String> = Vec::new();
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a.starts_with("--") {
-            args.next();
-        } else {
-            specs.push(a);
-        }
-    }
-    if specs.is_empty() {
-        eprintln!(
-            "give at least one scene (a file, or hairball:N, scatter:N:FILE, subdivide:K:FILE)"
-        );
-        std::process::exit(2);
-    }
+    let specs = scene_args(
+        "give at least one scene (a file, or hairball:N, scatter:N:FILE, subdivide:K:FILE)",
+    );
     let gpu = Gpu::new();
     println!("| scene | triangles | primary Mrays/s | AO Mrays/s | AO rays per hit |");
     println!("|---|---|---|---|---|");

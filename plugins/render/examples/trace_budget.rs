@@ -9,7 +9,7 @@
 mod support;
 
 use std::time::Instant;
-use support::Gpu;
+use support::{Gpu, arg, scene_args};
 use treelight_bvh::glam::{Mat4, Vec3};
 use treelight_bvh::{Bvh, BvhConfig};
 use treelight_render::{
@@ -17,30 +17,11 @@ use treelight_render::{
     TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
-fn arg(name: &str, default: u32) -> u32 {
-    std::env::args()
-        .skip_while(|a| a != name)
-        .nth(1)
-        .map_or(default, |v| v.parse().expect("a number"))
-}
-
 fn main() {
     let resolution = arg("--resolution", 384);
     let sweeps = arg("--sweeps", 4).max(1);
     let parts = arg("--parts", 16).max(1);
-    let mut specs: Vec<String> = Vec::new();
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a.starts_with("--") {
-            args.next();
-        } else {
-            specs.push(a);
-        }
-    }
-    if specs.is_empty() {
-        eprintln!("give at least one scene (a file, or hairball:N, scatter:N:FILE)");
-        std::process::exit(2);
-    }
+    let specs = scene_args("give at least one scene (a file, or hairball:N, scatter:N:FILE)");
     let gpu = Gpu::new();
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
     let layers = gpu.layers(4, 1);

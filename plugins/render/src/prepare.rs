@@ -513,18 +513,20 @@ fn prepare_views(
             // The preview is one sample per block, shown for a frame: one bounce and a tight cap
             // on indirect light keep it from flickering with fireflies while the camera moves.
             let preview = matches!(work, TraceWork::Preview { .. });
-            let (bounces, clamp) = if preview {
-                (
-                    settings.max_bounces.min(1),
-                    settings.indirect_clamp.clamp(0.0, 1.0),
-                )
-            } else {
+            let (bounces, clamp) = if !preview {
                 (
                     settings.max_bounces.min(64),
                     settings.indirect_clamp.max(0.0),
                 )
+            } else if settings.indirect_clamp > 0.0 {
+                (
+                    settings.max_bounces.min(1),
+                    settings.indirect_clamp.min(1.0),
+                )
+            } else {
+                // An uncapped view still gets the cap in its preview.
+                (settings.max_bounces.min(1), 1.0)
             };
-            let clamp = if preview && clamp == 0.0 { 1.0 } else { clamp };
             let params = ViewParams {
                 world_from_clip,
                 sky: Vec3::new(sky.red, sky.green, sky.blue),

@@ -565,3 +565,30 @@ pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
         view,
     )
 }
+
+/// For the examples: the number after flag `name` on the command line, or `default`.
+pub fn arg(name: &str, default: u32) -> u32 {
+    std::env::args()
+        .skip_while(|a| a != name)
+        .nth(1)
+        .map_or(default, |v| v.parse().expect("a number"))
+}
+
+/// For the examples: the scene arguments (those that are not a flag or a flag's value); exits with
+/// `usage` when there are none.
+pub fn scene_args(usage: &str) -> Vec<String> {
+    let mut specs: Vec<String> = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a.starts_with("--") {
+            args.next();
+        } else {
+            specs.push(a);
+        }
+    }
+    if specs.is_empty() {
+        eprintln!("{usage}");
+        std::process::exit(2);
+    }
+    specs
+}
