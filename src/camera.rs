@@ -91,29 +91,48 @@ pub fn world_bounds(
     out
 }
 
+/// Asks for the selection to be framed this frame (View → Frame selection).
+#[derive(Resource, Debug, Default)]
+pub struct FrameRequest(pub bool);
+
 /// `F` frames the selection (its meshes and everything under it); nothing happens while a text
 /// field has the keyboard.
 pub fn frame_selection_on_f(
     keys: Res<ButtonInput<KeyCode>>,
     mut contexts: bevy_egui::EguiContexts,
+    mut request: ResMut<FrameRequest>,
     selection: Res<crate::selection::Selection>,
     boxes: Query<(&bevy::camera::primitives::Aabb, &GlobalTransform)>,
     children: Query<&Children>,
     mut orbit: Query<&mut OrbitCamera>,
 ) {
-    if !keys.just_pressed(KeyCode::KeyF)
-        || keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight])
-    {
+    let key = keys.just_pressed(KeyCode::KeyF)
+        && !keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight])
+        && crate::edit::shortcuts::keyboard_is_free(&mut contexts);
+    if !key && !std::mem::take(&mut request.0) {
         return;
     }
-    if !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
-        return;
-    }
-    if let Some(e) = selection.0
-        && let Some((min, max)) = world_bounds(e, &boxes, &children)
+    let bounds = selection
+        .entities()
+        .iter()
+        .filter_map(|e| world_bounds(*e, &boxes, &children))
+        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+    if let Some((min, max)) = bounds
         && let Ok(mut o) = orbit.single_mut()
     {
         o.frame(min, max);
+    }
+}
+
+/// The orbit camera and its keys.
+pub struct CameraPlugin;
+
+impl Plugin for CameraPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<FrameRequest>().add_systems(
+            Update,
+            (frame_selection_on_f.before(apply_orbit), apply_orbit),
+        );
     }
 }
 

@@ -1,5 +1,5 @@
 //! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]
-//! [--frame-budget MS] [--commands EDITS.ron]`.
+//! [--frame-budget MS] [--commands EDITS.ron] [--state PATH]`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -32,6 +32,11 @@ pub struct Cli {
     /// A RON list of edit commands to apply once the scene has loaded and its BVH is idle.
     #[arg(long, value_name = "EDITS.ron")]
     pub commands: Option<PathBuf>,
+    /// Keep this RON file up to date, every frame, with the scene's objects, the selection, the
+    /// history's position and the gizmo's handles on screen (for scripts and tests driving the
+    /// editor).
+    #[arg(long, value_name = "PATH")]
+    pub state: Option<PathBuf>,
 }
 
 /// The viewport modes on the command line.

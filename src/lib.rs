@@ -6,21 +6,24 @@ pub mod capture;
 pub mod cli;
 pub mod default_scene;
 pub mod edit;
+pub mod gizmo;
 pub mod import;
 pub mod notice;
 pub mod placement;
 pub mod render_mode;
+pub mod report;
 pub mod scene_id;
 pub mod script;
 pub mod selection;
 pub mod ui;
+pub mod viewport;
 
 use bevy::camera::visibility::RenderLayers;
 use bevy::camera::{CameraOutputMode, ClearColorConfig};
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
 use bevy::render::render_resource::BlendState;
-use bevy_egui::{EguiGlobalSettings, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext};
+use bevy_egui::{EguiGlobalSettings, EguiPlugin, PrimaryEguiContext};
 
 /// The editor as a Bevy app, configured from the command line; `script` holds the commands of
 /// `--commands`, already read.
@@ -51,12 +54,15 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             },
         },
         treelight_render::PathTracerPlugin,
+    ))
+    .add_plugins((
         edit::EditPlugin,
+        selection::SelectionPlugin,
+        gizmo::GizmoPlugin,
+        camera::CameraPlugin,
+        ui::UiPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
-    .init_resource::<selection::Selection>()
-    .init_resource::<ui::EditorDock>()
-    .init_resource::<ui::ViewportRect>()
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
     .insert_resource(render_mode::ViewportRender {
@@ -71,15 +77,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         },
     })
     .add_systems(Startup, (setup_cameras, render_mode::adapt_to_adapter))
-    .add_systems(EguiPrimaryContextPass, ui::editor_ui)
     .add_systems(
         Update,
         (
-            selection::drop_stale_selection,
-            selection::clear_selection_on_escape,
-            camera::frame_selection_on_f.before(camera::apply_orbit),
-            camera::apply_orbit,
-            ui::fit_camera_viewport,
             import::import_dropped_files,
             import::finish_imports,
             notice::expire_notices,
@@ -98,6 +98,10 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     if let Some(script) = script {
         app.insert_resource(script)
             .add_systems(Update, script::run_scripted_edits);
+    }
+    if let Some(path) = &cli.state {
+        app.insert_resource(report::StateReport::new(path.clone()))
+            .add_systems(Last, report::write_state_report);
     }
     if cli.screenshot.is_some() || cli.frames.is_some() {
         app.insert_resource(capture::CaptureRequest {

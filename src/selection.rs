@@ -1,4 +1,5 @@
-//! What belongs to the edited scene, and what is selected.
+//! What belongs to the edited scene, what is selected, and how clicks and boxes in the viewport
+//! change the selection. The outliner and the viewport share the one [`Selection`].
 
 use bevy::prelude::*;
 
@@ -8,33 +9,225 @@ use bevy::prelude::*;
 #[require(crate::scene_id::SceneId)]
 pub struct SceneObject;
 
-/// The selected scene entity, if any.
-#[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
-pub struct Selection(pub Option<Entity>);
+/// The selected scene entities, in the order they were selected; the last is the active one (the
+/// inspector's, and the gizmo's frame in local mode).
+#[derive(Resource, Debug, Default, Clone, PartialEq)]
+pub struct Selection {
+    entities: Vec<Entity>,
+}
 
-/// Clears the selection when its entity is gone.
+impl Selection {
+    /// A selection of one entity, or none.
+    pub fn of(entity: Option<Entity>) -> Self {
+        Self {
+            entities: entity.into_iter().collect(),
+        }
+    }
+
+    /// The active entity: the one selected last.
+    pub fn active(&self) -> Option<Entity> {
+        self.entities.last().copied()
+    }
+
+    /// Every selected entity, the active one last.
+    pub fn entities(&self) -> &[Entity] {
+        &self.entities
+    }
+
+    /// Whether `e` is selected.
+    pub fn contains(&self, e: Entity) -> bool {
+        self.entities.contains(&e)
+    }
+
+    /// Whether nothing is selected.
+    pub fn is_empty(&self) -> bool {
+        self.entities.is_empty()
+    }
+
+    /// Selects `e` alone (nothing for `None`).
+    pub fn set(&mut self, e: Option<Entity>) {
+        self.entities.clear();
+        self.entities.extend(e);
+    }
+
+    /// Selects exactly `entities`, the last active.
+    pub fn set_all(&mut self, entities: impl IntoIterator<Item = Entity>) {
+        self.entities.clear();
+        for e in entities {
+            self.add(e);
+        }
+    }
+
+    /// Adds `e` and makes it active.
+    pub fn add(&mut self, e: Entity) {
+        self.entities.retain(|x| *x != e);
+        self.entities.push(e);
+    }
+
+    /// Adds `e` if it is not selected, else removes it.
+    pub fn toggle(&mut self, e: Entity) {
+        if self.contains(e) {
+            self.entities.retain(|x| *x != e);
+        } else {
+            self.entities.push(e);
+        }
+    }
+
+    /// Clears the selection.
+    pub fn clear(&mut self) {
+        self.entities.clear();
+    }
+
+    /// Keeps only the entities `keep` accepts.
+    pub fn retain(&mut self, keep: impl FnMut(&Entity) -> bool) {
+        self.entities.retain(keep);
+    }
+}
+
+/// Modifier keys held during a click.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct ClickModifiers {
+    /// Ctrl or Shift: add to or toggle in the selection.
+    pub toggle: bool,
+    /// Alt: select the parent assembly of what is under the pointer.
+    pub parent: bool,
+}
+
+/// What a click in the viewport selects, given what the ray hit (`hit`, a scene object or `None`
+/// for empty space), the modifiers, whether it repeats the last click on the same spot, and
+/// `parent_of` (a scene object's parent when that is a scene object too).
+///
+/// A plain click selects what was hit; clicking again on the same spot, or Alt-clicking, walks up
+/// from the selected ancestor of the hit to its parent; Ctrl/Shift-click toggles the hit (or its
+/// selected ancestor); a click on nothing clears the selection unless Ctrl/Shift is held.
+pub fn click(
+    selection: &mut Selection,
+    hit: Option<Entity>,
+    modifiers: ClickModifiers,
+    same_spot: bool,
+    parent_of: impl Fn(Entity) -> Option<Entity>,
+) {
+    let Some(hit) = hit else {
+        if !modifiers.toggle {
+            selection.clear();
+        }
+        return;
+    };
+    // The hit itself or the ancestor of it that is selected (after a walk up).
+    let mut chain = vec![hit];
+    while let Some(p) = parent_of(*chain.last().unwrap()) {
+        chain.push(p);
+    }
+    let selected_in_chain = chain.iter().position(|e| selection.contains(*e));
+    if modifiers.toggle {
+        selection.toggle(selected_in_chain.map_or(hit, |i| chain[i]));
+        return;
+    }
+    let walk_up = modifiers.parent || same_spot;
+    let target = match (walk_up, selected_in_chain) {
+        // Up one level from what is selected; past the top, back to the hit.
+        (true, Some(i)) if selection.entities().len() == 1 => {
+            chain.get(i + 1).copied().unwrap_or(hit)
+        }
+        (true, None) if modifiers.parent => chain.get(1).copied().unwrap_or(hit),
+        _ => hit,
+    };
+    selection.set(Some(target));
+}
+
+/// Drops selected entities that are gone or no longer scene objects.
 pub fn drop_stale_selection(
     mut selection: ResMut<Selection>,
     objects: Query<(), With<SceneObject>>,
 ) {
-    if let Some(e) = selection.0
-        && objects.get(e).is_err()
-    {
-        selection.0 = None;
+    if selection.entities().iter().any(|e| !objects.contains(*e)) {
+        selection.retain(|e| objects.contains(*e));
     }
 }
 
-/// Escape clears the selection (not while a text field has the keyboard, where it ends the edit).
+/// Escape clears the selection (not while a text field has the keyboard, where it ends the edit,
+/// nor during a gizmo drag, which it cancels).
 pub fn clear_selection_on_escape(
     keys: Res<ButtonInput<KeyCode>>,
     mut contexts: bevy_egui::EguiContexts,
     mut selection: ResMut<Selection>,
 ) {
-    if !keys.just_pressed(KeyCode::Escape) || selection.0.is_none() {
+    if !keys.just_pressed(KeyCode::Escape) || selection.is_empty() {
         return;
     }
     if !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
         return;
     }
-    selection.0 = None;
+    selection.clear();
+}
+
+/// The shared selection and what keeps it valid.
+pub struct SelectionPlugin;
+
+impl Plugin for SelectionPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<Selection>().add_systems(
+            Update,
+            (
+                drop_stale_selection,
+                clear_selection_on_escape.after(crate::gizmo::cancel_drag_on_escape),
+            ),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Entities 1 ⊂ 2 ⊂ 3 (3 the top), and 4 alone.
+    fn parent_of(e: Entity) -> Option<Entity> {
+        match e.index_u32() {
+            1 => Some(Entity::from_raw_u32(2).unwrap()),
+            2 => Some(Entity::from_raw_u32(3).unwrap()),
+            _ => None,
+        }
+    }
+
+    fn e(i: u32) -> Entity {
+        Entity::from_raw_u32(i).unwrap()
+    }
+
+    #[test]
+    fn clicks_select_walk_up_and_toggle() {
+        let mut s = Selection::default();
+        let plain = ClickModifiers::default();
+        click(&mut s, Some(e(1)), plain, false, parent_of);
+        assert_eq!(s.entities(), &[e(1)]);
+        // Clicking the same spot again walks up to the assembly, then its parent, then back.
+        click(&mut s, Some(e(1)), plain, true, parent_of);
+        assert_eq!(s.entities(), &[e(2)]);
+        click(&mut s, Some(e(1)), plain, true, parent_of);
+        assert_eq!(s.entities(), &[e(3)]);
+        click(&mut s, Some(e(1)), plain, true, parent_of);
+        assert_eq!(s.entities(), &[e(1)]);
+        // Alt-click on an unselected part selects its parent at once.
+        let alt = ClickModifiers {
+            parent: true,
+            ..default()
+        };
+        s.clear();
+        click(&mut s, Some(e(1)), alt, false, parent_of);
+        assert_eq!(s.entities(), &[e(2)]);
+        // Ctrl-click adds, and removes what is selected (an ancestor of the hit counts).
+        let ctrl = ClickModifiers {
+            toggle: true,
+            ..default()
+        };
+        click(&mut s, Some(e(4)), ctrl, false, parent_of);
+        assert_eq!(s.entities(), &[e(2), e(4)]);
+        assert_eq!(s.active(), Some(e(4)));
+        click(&mut s, Some(e(1)), ctrl, false, parent_of);
+        assert_eq!(s.entities(), &[e(4)]);
+        // Empty space clears, unless Ctrl is held.
+        click(&mut s, None, ctrl, false, parent_of);
+        assert_eq!(s.entities(), &[e(4)]);
+        click(&mut s, None, plain, false, parent_of);
+        assert!(s.is_empty());
+    }
 }

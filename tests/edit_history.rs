@@ -14,7 +14,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 use treelight::edit::{
-    EditCommand, EditHistory, EditRequest, EditRequests, Primitive, TransformValue, apply_request,
+    EditCommand, EditHistory, EditRequest, EditRequests, MaterialValue, Primitive, TransformValue,
+    apply_request,
 };
 use treelight::import::to_bevy_mesh;
 use treelight::scene_id::{SceneId, SceneIndex};
@@ -101,6 +102,7 @@ struct ObjectState {
     visibility: Option<Visibility>,
     mesh: Option<AssetId<Mesh>>,
     material: Option<AssetId<StandardMaterial>>,
+    material_values: Option<MaterialValue>,
 }
 
 fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
@@ -113,6 +115,11 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
         Option<&Mesh3d>,
         Option<&MeshMaterial3d<StandardMaterial>>,
     )>();
+    let values: BTreeMap<AssetId<StandardMaterial>, MaterialValue> = world
+        .resource::<Assets<StandardMaterial>>()
+        .iter()
+        .map(|(id, m)| (id, MaterialValue::of(m)))
+        .collect();
     let parents: BTreeMap<Entity, SceneId> = world
         .query::<(Entity, &SceneId)>()
         .iter(world)
@@ -133,6 +140,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
                     visibility: vis.copied(),
                     mesh: mesh.map(|m| m.0.id()),
                     material: mat.map(|m| m.0.id()),
+                    material_values: mat.and_then(|m| values.get(&m.0.id()).copied()),
                 },
             )
         })
@@ -189,6 +197,12 @@ enum Op {
     Delete(usize),
     Duplicate(usize),
     Add(u8, [f32; 3]),
+    Reparent(usize, Option<usize>),
+    MoveMany(usize, usize, [f32; 3]),
+    /// A drag shown live then cancelled (no step) or committed (one step).
+    Drag(usize, [f32; 3], bool),
+    Material(usize, f32),
+    MakeUnique(usize),
     Undo,
     Redo,
 }
@@ -202,6 +216,11 @@ fn op() -> impl Strategy<Value = Op> {
         2 => any::<usize>().prop_map(Op::Delete),
         2 => any::<usize>().prop_map(Op::Duplicate),
         1 => (0u8..4, v()).prop_map(|(k, p)| Op::Add(k, p)),
+        2 => (any::<usize>(), any::<Option<usize>>()).prop_map(|(i, p)| Op::Reparent(i, p)),
+        1 => (any::<usize>(), any::<usize>(), v()).prop_map(|(i, j, d)| Op::MoveMany(i, j, d)),
+        2 => (any::<usize>(), v(), any::<bool>()).prop_map(|(i, d, c)| Op::Drag(i, d, c)),
+        1 => (any::<usize>(), 0f32..1.0).prop_map(|(i, r)| Op::Material(i, r)),
+        1 => any::<usize>().prop_map(Op::MakeUnique),
         1 => Just(Op::Undo),
         1 => Just(Op::Redo),
     ]
@@ -258,6 +277,81 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
             },
             id: None,
         }),
+        Op::Reparent(i, p) => {
+            let command = EditCommand::Reparent {
+                ids: vec![pick(i)?],
+                parent: match p {
+                    Some(p) => Some(pick(p)?),
+                    None => None,
+                },
+            };
+            // A parent under the object itself is refused; the generator skips those.
+            command.check(world).ok()?;
+            apply(command)
+        }
+        Op::MoveMany(i, j, d) => {
+            let (a, b) = (pick(i)?, pick(j)?);
+            if a == b {
+                return None;
+            }
+            let moved = |id: SceneId| {
+                let e = world.resource::<SceneIndex>().entity(id)?;
+                let mut t = *world.get::<Transform>(e)?;
+                t.translation += Vec3::from_array(d);
+                Some((id, TransformValue::from(t)))
+            };
+            apply(EditCommand::SetTransforms {
+                transforms: vec![moved(a)?, moved(b)?],
+            })
+        }
+        Op::Drag(i, d, commit) => {
+            let id = pick(i)?;
+            let e = world.resource::<SceneIndex>().entity(id)?;
+            let t = *world.get::<Transform>(e)?;
+            // Three previews, then the commit or the cancel.
+            for k in 1..=3 {
+                let mut moved = t;
+                moved.translation += Vec3::from_array(d) * k as f32 / 3.0;
+                apply_request(
+                    world,
+                    EditRequest::Preview(EditCommand::SetTransform {
+                        id,
+                        transform: moved.into(),
+                    }),
+                )
+                .expect("a preview applies");
+            }
+            if commit {
+                let mut moved = t;
+                moved.translation += Vec3::from_array(d);
+                apply(EditCommand::SetTransform {
+                    id,
+                    transform: moved.into(),
+                })
+            } else {
+                Some(EditRequest::CancelPreview)
+            }
+        }
+        Op::Material(i, r) => {
+            let id = pick(i)?;
+            let e = world.resource::<SceneIndex>().entity(id)?;
+            let handle = world.get::<MeshMaterial3d<StandardMaterial>>(e)?.0.clone();
+            let mut value =
+                MaterialValue::of(world.resource::<Assets<StandardMaterial>>().get(&handle)?);
+            value.perceptual_roughness = r;
+            value.base_color[0] = 1.0 - r;
+            value.emissive = [r, 0.0, 0.0];
+            apply(EditCommand::SetMaterial {
+                id,
+                material: value,
+            })
+        }
+        Op::MakeUnique(i) => {
+            let id = pick(i)?;
+            let e = world.resource::<SceneIndex>().entity(id)?;
+            world.get::<MeshMaterial3d<StandardMaterial>>(e)?;
+            apply(EditCommand::MakeMaterialUnique { id })
+        }
         Op::Undo => Some(EditRequest::Undo),
         Op::Redo => Some(EditRequest::Redo),
     }
@@ -350,7 +444,7 @@ fn a_duplicate_is_selected_and_a_refused_command_changes_nothing() {
     let after = world_state(app.world_mut());
     assert_eq!(after.len(), before.len() + 1);
     let copy = *after.keys().max().unwrap();
-    let selected = app.world().resource::<Selection>().0;
+    let selected = app.world().resource::<Selection>().active();
     assert_eq!(
         selected
             .and_then(|e| app.world().get::<SceneId>(e))

@@ -54,6 +54,62 @@ impl From<TransformValue> for Transform {
     }
 }
 
+/// A material's editable values, as commands store them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialValue {
+    /// Base colour, sRGB with alpha.
+    pub base_color: [f32; 4],
+    /// Metallic, 0 to 1.
+    pub metallic: f32,
+    /// Perceptual roughness, 0 to 1.
+    pub perceptual_roughness: f32,
+    /// Emitted light, linear RGB (colour times strength).
+    #[serde(default)]
+    pub emissive: [f32; 3],
+    /// Whether back faces are drawn too.
+    #[serde(default)]
+    pub double_sided: bool,
+}
+
+impl MaterialValue {
+    /// The values of `m`.
+    pub fn of(m: &StandardMaterial) -> Self {
+        let c = m.base_color.to_srgba();
+        Self {
+            base_color: [c.red, c.green, c.blue, c.alpha],
+            metallic: m.metallic,
+            perceptual_roughness: m.perceptual_roughness,
+            emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
+            double_sided: m.double_sided,
+        }
+    }
+
+    /// Writes the values into `m` (a double-sided material is not culled).
+    pub fn write(&self, m: &mut StandardMaterial) {
+        let [r, g, b, a] = self.base_color;
+        m.base_color = Color::srgba(r, g, b, a);
+        m.metallic = self.metallic;
+        m.perceptual_roughness = self.perceptual_roughness;
+        let [r, g, b] = self.emissive;
+        m.emissive = LinearRgba::rgb(r, g, b);
+        m.double_sided = self.double_sided;
+        m.cull_mode = if self.double_sided {
+            None
+        } else {
+            Some(bevy::render::render_resource::Face::Back)
+        };
+    }
+
+    fn is_valid(&self) -> bool {
+        self.base_color
+            .iter()
+            .chain(&self.emissive)
+            .chain([&self.metallic, &self.perceptual_roughness])
+            .all(|v| v.is_finite())
+            && self.emissive.iter().all(|v| *v >= 0.0)
+    }
+}
+
 /// The built-in shapes of the Add menu, each fitting a unit cube centred on its origin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Primitive {
@@ -115,6 +171,30 @@ pub enum EditCommand {
         /// Its new transform, relative to its parent.
         transform: TransformValue,
     },
+    /// Gives several objects new local transforms at once (one gizmo drag of a multiple selection).
+    SetTransforms {
+        /// Each object and its new transform, relative to its parent.
+        transforms: Vec<(SceneId, TransformValue)>,
+    },
+    /// Moves objects under another (or to the top, for `None`), keeping where they are in the world.
+    Reparent {
+        /// The objects.
+        ids: Vec<SceneId>,
+        /// The new parent.
+        parent: Option<SceneId>,
+    },
+    /// Changes the values of an object's material (every object sharing it changes too).
+    SetMaterial {
+        /// The object.
+        id: SceneId,
+        /// The new values.
+        material: MaterialValue,
+    },
+    /// Gives an object its own copy of its material, so edits no longer reach the others.
+    MakeMaterialUnique {
+        /// The object.
+        id: SceneId,
+    },
     /// Renames an object.
     Rename {
         /// The object.
@@ -170,6 +250,18 @@ pub enum EditError {
     /// A transform with a NaN or infinite number.
     #[error("the transform has a number that is not finite")]
     NotFinite,
+    /// An object without a material, for a material command.
+    #[error("{0} has no material")]
+    NoMaterial(SceneId),
+    /// Material values out of range.
+    #[error("a material value is not finite, or the emission is negative")]
+    BadMaterial,
+    /// A command that cannot be shown as a live preview (only transforms can).
+    #[error("only transform commands can be previewed")]
+    NotPreviewable,
+    /// A parent that is the object itself or under it.
+    #[error("{0} cannot go under itself or its own descendant")]
+    Cycle(SceneId),
 }
 
 /// What undoes an applied command.
@@ -177,6 +269,15 @@ pub enum EditError {
 pub enum Undo {
     /// Give the object this transform back.
     Transform(SceneId, Transform),
+    /// Give each object its transform back.
+    Transforms(Vec<(SceneId, Transform)>),
+    /// Put each object back under its parent (none: at the top) with its local transform, in
+    /// reverse order of the list.
+    Parents(Vec<(SceneId, Option<SceneId>, Transform)>),
+    /// Give the object's material these values back.
+    Material(SceneId, MaterialValue),
+    /// Give the object this material back.
+    MaterialHandle(SceneId, Handle<StandardMaterial>),
     /// Give the object this name back (none: remove it).
     Name(SceneId, Option<Name>),
     /// Give the object this visibility back.
@@ -210,7 +311,19 @@ impl EditCommand {
         };
         match self {
             EditCommand::SetTransform { id, .. } => format!("Move {}", name(id)),
+            EditCommand::SetTransforms { transforms } => {
+                let ids: Vec<SceneId> = transforms.iter().map(|(id, _)| *id).collect();
+                many("Move", &ids)
+            }
+            EditCommand::Reparent { ids, parent } => match parent {
+                Some(p) => format!("{} under {}", many("Put", ids), name(p)),
+                None => format!("{} at the top", many("Put", ids)),
+            },
             EditCommand::Rename { name: to, .. } => format!("Rename to {to}"),
+            EditCommand::SetMaterial { id, .. } => format!("Edit the material of {}", name(id)),
+            EditCommand::MakeMaterialUnique { id } => {
+                format!("Give {} its own material", name(id))
+            }
             EditCommand::SetVisible { id, visible } => {
                 format!("{} {}", if *visible { "Show" } else { "Hide" }, name(id))
             }
@@ -225,19 +338,49 @@ impl EditCommand {
         match self {
             EditCommand::SetTransform { id, transform } => {
                 entity(world, *id)?;
-                let t = transform;
-                let finite = t
-                    .translation
-                    .iter()
-                    .chain(&t.rotation)
-                    .chain(&t.scale)
-                    .all(|v| v.is_finite());
-                if !finite {
-                    return Err(EditError::NotFinite);
+                check_finite(transform)?;
+            }
+            EditCommand::SetTransforms { transforms } => {
+                if transforms.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                for (id, transform) in transforms {
+                    entity(world, *id)?;
+                    check_finite(transform)?;
+                }
+            }
+            EditCommand::Reparent { ids, parent } => {
+                if ids.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                let index = world.resource::<SceneIndex>();
+                let new_parent = match parent {
+                    Some(p) => Some(index.entity(*p).ok_or(EditError::Missing(*p))?),
+                    None => None,
+                };
+                for id in ids {
+                    let e = entity(world, *id)?;
+                    // The new parent may not be the object or anything under it.
+                    let mut up = new_parent;
+                    while let Some(p) = up {
+                        if p == e {
+                            return Err(EditError::Cycle(*id));
+                        }
+                        up = world.get::<ChildOf>(p).map(|c| c.parent());
+                    }
                 }
             }
             EditCommand::Rename { id, .. } | EditCommand::SetVisible { id, .. } => {
                 entity(world, *id)?;
+            }
+            EditCommand::SetMaterial { id, material } => {
+                material_of(world, *id)?;
+                if !material.is_valid() {
+                    return Err(EditError::BadMaterial);
+                }
+            }
+            EditCommand::MakeMaterialUnique { id } => {
+                material_of(world, *id)?;
             }
             EditCommand::Delete { ids } | EditCommand::Duplicate { ids, .. } => {
                 if ids.is_empty() {
@@ -280,6 +423,53 @@ impl EditCommand {
                 let before = *t;
                 *t = (*transform).into();
                 Undo::Transform(*id, before)
+            }
+            EditCommand::SetTransforms { transforms } => {
+                let mut before = Vec::with_capacity(transforms.len());
+                for (id, transform) in transforms.iter() {
+                    let e = entity(world, *id)?;
+                    if let Some(mut t) = world.get_mut::<Transform>(e) {
+                        before.push((*id, *t));
+                        *t = (*transform).into();
+                    }
+                }
+                Undo::Transforms(before)
+            }
+            EditCommand::Reparent { ids, parent } => {
+                let new_parent = parent.and_then(|p| world.resource::<SceneIndex>().entity(p));
+                let mut before = Vec::with_capacity(ids.len());
+                for id in ids.iter() {
+                    let e = entity(world, *id)?;
+                    let old_parent = world
+                        .get::<ChildOf>(e)
+                        .and_then(|c| world.get::<SceneId>(c.parent()).copied());
+                    let local = world.get::<Transform>(e).copied().unwrap_or_default();
+                    before.push((*id, old_parent, local));
+                    set_parent_keeping_world(world, e, new_parent);
+                }
+                Undo::Parents(before)
+            }
+            EditCommand::SetMaterial { id, material } => {
+                let handle = material_of(world, *id)?;
+                let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+                let m = materials
+                    .get_mut(&handle)
+                    .ok_or(EditError::NoMaterial(*id))?;
+                let before = MaterialValue::of(&m);
+                material.write(m.into_inner());
+                Undo::Material(*id, before)
+            }
+            EditCommand::MakeMaterialUnique { id } => {
+                let handle = material_of(world, *id)?;
+                let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+                let copy = materials
+                    .get(&handle)
+                    .ok_or(EditError::NoMaterial(*id))?
+                    .clone();
+                let unique = materials.add(copy);
+                let e = entity(world, *id)?;
+                world.entity_mut(e).insert(MeshMaterial3d(unique));
+                Undo::MaterialHandle(*id, handle)
             }
             EditCommand::Rename { id, name } => {
                 let e = entity(world, *id)?;
@@ -362,6 +552,59 @@ impl EditCommand {
     }
 }
 
+/// The material handle of object `id`.
+fn material_of(world: &World, id: SceneId) -> Result<Handle<StandardMaterial>, EditError> {
+    let e = entity(world, id)?;
+    world
+        .get::<MeshMaterial3d<StandardMaterial>>(e)
+        .map(|m| m.0.clone())
+        .ok_or(EditError::NoMaterial(id))
+}
+
+fn check_finite(t: &TransformValue) -> Result<(), EditError> {
+    let finite = t
+        .translation
+        .iter()
+        .chain(&t.rotation)
+        .chain(&t.scale)
+        .all(|v| v.is_finite());
+    if finite {
+        Ok(())
+    } else {
+        Err(EditError::NotFinite)
+    }
+}
+
+/// The world transform of `e` from the local transforms up its chain of parents (not the
+/// `GlobalTransform`, which is only brought up to date once a frame).
+pub fn world_affine(world: &World, e: Entity) -> bevy::math::Affine3A {
+    let mut out = bevy::math::Affine3A::IDENTITY;
+    let mut at = Some(e);
+    while let Some(x) = at {
+        let local = world.get::<Transform>(x).copied().unwrap_or_default();
+        out = local.compute_affine() * out;
+        at = world.get::<ChildOf>(x).map(|c| c.parent());
+    }
+    out
+}
+
+/// Puts `e` under `parent` (or at the top) with the local transform that keeps its world
+/// transform (as far as a transform can: a rotated child of a non-uniformly scaled parent keeps
+/// its place and loses the shear).
+fn set_parent_keeping_world(world: &mut World, e: Entity, parent: Option<Entity>) {
+    let world_of_e = world_affine(world, e);
+    let parent_world = parent.map_or(bevy::math::Affine3A::IDENTITY, |p| world_affine(world, p));
+    let local = Transform::from_matrix((parent_world.inverse() * world_of_e).into());
+    let mut entity = world.entity_mut(e);
+    match parent {
+        Some(p) => entity.insert(ChildOf(p)),
+        None => entity.remove::<ChildOf>(),
+    };
+    if let Some(mut t) = entity.get_mut::<Transform>() {
+        *t = local;
+    }
+}
+
 /// `ids` without those under another of them (deleting a parent deletes its children).
 fn top_level(world: &World, ids: &[SceneId]) -> Vec<SceneId> {
     let index = world.resource::<SceneIndex>();
@@ -397,6 +640,41 @@ impl Undo {
                     && let Some(mut tr) = world.get_mut::<Transform>(e)
                 {
                     *tr = *t;
+                }
+            }
+            Undo::Transforms(list) => {
+                for (id, t) in list {
+                    if let Some(e) = find(world, id)
+                        && let Some(mut tr) = world.get_mut::<Transform>(e)
+                    {
+                        *tr = *t;
+                    }
+                }
+            }
+            Undo::Parents(list) => {
+                for (id, parent, local) in list.iter().rev() {
+                    let Some(e) = find(world, id) else { continue };
+                    match parent.and_then(|p| find(world, &p)) {
+                        Some(p) => world.entity_mut(e).insert(ChildOf(p)),
+                        None => world.entity_mut(e).remove::<ChildOf>(),
+                    };
+                    if let Some(mut tr) = world.get_mut::<Transform>(e) {
+                        *tr = *local;
+                    }
+                }
+            }
+            Undo::Material(id, value) => {
+                if let Ok(handle) = material_of(world, *id)
+                    && let Some(m) = world
+                        .resource_mut::<Assets<StandardMaterial>>()
+                        .get_mut(&handle)
+                {
+                    value.write(m.into_inner());
+                }
+            }
+            Undo::MaterialHandle(id, handle) => {
+                if let Some(e) = find(world, id) {
+                    world.entity_mut(e).insert(MeshMaterial3d(handle.clone()));
                 }
             }
             Undo::Name(id, name) => {

@@ -19,6 +19,8 @@ pub struct Step {
     /// What an undone step that made objects held: redo brings back these very objects (the
     /// same ids, meshes and materials) instead of making new ones.
     remade: Option<Vec<ObjectSnapshot>>,
+    /// What an undone "make unique" made: redo gives the object this same material again.
+    reassigned: Option<(SceneId, Handle<StandardMaterial>)>,
     /// Whether this step continues the previous one (the same drag or scrub).
     continuing: bool,
 }
@@ -58,10 +60,24 @@ impl Edit for Step {
                     .collect(),
             );
         }
+        if let Undo::MaterialHandle(id, _) = &undo
+            && let Some(e) = world.resource::<SceneIndex>().entity(*id)
+            && let Some(m) = world.get::<MeshMaterial3d<StandardMaterial>>(e)
+        {
+            self.reassigned = Some((*id, m.0.clone()));
+        }
         undo.revert(world);
     }
 
     fn redo(&mut self, world: &mut World) {
+        if let Some((id, unique)) = self.reassigned.take()
+            && let Some(e) = world.resource::<SceneIndex>().entity(id)
+            && let Some(before) = world.get::<MeshMaterial3d<StandardMaterial>>(e).cloned()
+        {
+            world.entity_mut(e).insert(MeshMaterial3d(unique));
+            self.undo = Some(Undo::MaterialHandle(id, before.0));
+            return;
+        }
         let Some(snapshots) = self.remade.take() else {
             return self.edit(world);
         };
@@ -74,7 +90,14 @@ impl Edit for Step {
     fn merge(&mut self, other: Self) -> Merged<Self> {
         let same_target = match (&self.command, &other.command) {
             (EditCommand::SetTransform { id: a, .. }, EditCommand::SetTransform { id: b, .. })
-            | (EditCommand::Rename { id: a, .. }, EditCommand::Rename { id: b, .. }) => a == b,
+            | (EditCommand::Rename { id: a, .. }, EditCommand::Rename { id: b, .. })
+            | (EditCommand::SetMaterial { id: a, .. }, EditCommand::SetMaterial { id: b, .. }) => {
+                a == b
+            }
+            (
+                EditCommand::SetTransforms { transforms: a },
+                EditCommand::SetTransforms { transforms: b },
+            ) => a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.0 == y.0),
             _ => false,
         };
         if other.continuing && same_target {
@@ -92,17 +115,33 @@ impl Edit for Step {
 #[derive(Resource)]
 pub struct EditHistory {
     record: Record<Step>,
+    /// While a drag is shown live but not yet a step: each moved object's transform before it.
+    previewed: Vec<(SceneId, Transform)>,
 }
 
 impl Default for EditHistory {
     fn default() -> Self {
         Self {
             record: Record::builder().limit(1000).build(),
+            previewed: Vec::new(),
         }
     }
 }
 
 impl EditHistory {
+    /// Whether a live preview (a drag not yet committed) has moved objects.
+    pub fn previewing(&self) -> bool {
+        !self.previewed.is_empty()
+    }
+
+    /// Puts back what a preview moved.
+    fn end_preview(&mut self, world: &mut World) {
+        if self.previewed.is_empty() {
+            return;
+        }
+        Undo::Transforms(std::mem::take(&mut self.previewed)).revert(world);
+    }
+
     /// The steps' descriptions, oldest first.
     pub fn labels(&self) -> Vec<String> {
         self.record
@@ -160,6 +199,12 @@ pub enum EditRequest {
     Redo,
     /// Undo or redo until this many steps are applied.
     GoTo(usize),
+    /// Shows a transform command live without making it a step (a gizmo drag in progress). The
+    /// next request of any other kind first puts the objects back, so an `Apply` of the drag's
+    /// final command is one step whose undo returns to where the drag began.
+    Preview(EditCommand),
+    /// Puts back what previews moved: a cancelled drag, and no step.
+    CancelPreview,
 }
 
 /// The frame's requests, applied in order by [`apply_edit_requests`].
@@ -180,6 +225,27 @@ impl EditRequests {
 /// as they were.
 pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), EditError> {
     world.resource_scope(|world, mut history: Mut<EditHistory>| {
+        if let EditRequest::Preview(mut command) = request {
+            let ids: Vec<SceneId> = match &command {
+                EditCommand::SetTransform { id, .. } => vec![*id],
+                EditCommand::SetTransforms { transforms } => {
+                    transforms.iter().map(|(id, _)| *id).collect()
+                }
+                _ => return Err(EditError::NotPreviewable),
+            };
+            command.check(world)?;
+            for id in ids {
+                if !history.previewed.iter().any(|(x, _)| *x == id)
+                    && let Some(e) = world.resource::<SceneIndex>().entity(id)
+                    && let Some(t) = world.get::<Transform>(e)
+                {
+                    history.previewed.push((id, *t));
+                }
+            }
+            command.apply(world)?;
+            return Ok(());
+        }
+        history.end_preview(world);
         let record = &mut history.record;
         match request {
             EditRequest::Apply {
@@ -193,6 +259,7 @@ pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), Edit
                     label,
                     undo: None,
                     remade: None,
+                    reassigned: None,
                     continuing,
                 };
                 record.edit(world, step);
@@ -208,6 +275,7 @@ pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), Edit
             EditRequest::GoTo(i) => {
                 record.go_to(world, i.min(record.len()));
             }
+            EditRequest::Preview(_) | EditRequest::CancelPreview => {}
         }
         Ok(())
     })
@@ -227,11 +295,10 @@ fn select_what_was_made(world: &mut World, record: &Record<Step>) {
         step.command,
         EditCommand::Duplicate { .. } | EditCommand::AddPrimitive { .. }
     );
-    if let (true, Some(Undo::Despawn(ids))) = (made, &step.undo)
-        && let Some(first) = ids.first()
-    {
-        let e = world.resource::<SceneIndex>().entity(*first);
-        world.resource_mut::<Selection>().0 = e;
+    if let (true, Some(Undo::Despawn(ids))) = (made, &step.undo) {
+        let index = world.resource::<SceneIndex>();
+        let made: Vec<Entity> = ids.iter().filter_map(|id| index.entity(*id)).collect();
+        world.resource_mut::<Selection>().set_all(made);
     }
 }
 
@@ -245,8 +312,12 @@ pub fn apply_edit_requests(world: &mut World) {
     }
 }
 
-/// The selected object's id.
-pub fn selected_id(world: &World) -> Option<SceneId> {
-    let e = world.resource::<Selection>().0?;
-    world.get::<SceneId>(e).copied()
+/// The selected objects' ids, the active one last.
+pub fn selected_ids(world: &World) -> Vec<SceneId> {
+    world
+        .resource::<Selection>()
+        .entities()
+        .iter()
+        .filter_map(|e| world.get::<SceneId>(*e).copied())
+        .collect()
 }

@@ -7,7 +7,7 @@ pub mod history;
 pub mod shortcuts;
 pub mod snapshot;
 
-pub use command::{EditCommand, EditError, Primitive, TransformValue};
+pub use command::{EditCommand, EditError, MaterialValue, Primitive, TransformValue};
 pub use history::{EditHistory, EditRequest, EditRequests, apply_edit_requests, apply_request};
 
 use crate::scene_id::SceneIndex;

@@ -15,7 +15,7 @@ pub fn keyboard_is_free(contexts: &mut EguiContexts) -> bool {
 }
 
 /// What a frame's keys ask for, given the modifiers held; `None` for nothing.
-pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: Option<SceneId>) -> Option<EditRequest> {
+pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: &[SceneId]) -> Option<EditRequest> {
     let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
     let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
     if ctrl && keys.just_pressed(KeyCode::KeyZ) {
@@ -28,17 +28,20 @@ pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: Option<SceneId>) -> Optio
     if ctrl && keys.just_pressed(KeyCode::KeyY) {
         return Some(EditRequest::Redo);
     }
-    let id = selected?;
+    if selected.is_empty() {
+        return None;
+    }
+    let ids = selected.to_vec();
     if keys.just_pressed(KeyCode::Delete) {
         return Some(EditRequest::Apply {
-            command: EditCommand::Delete { ids: vec![id] },
+            command: EditCommand::Delete { ids },
             continuing: false,
         });
     }
     if ctrl && keys.just_pressed(KeyCode::KeyD) {
         return Some(EditRequest::Apply {
             command: EditCommand::Duplicate {
-                ids: vec![id],
+                ids,
                 copies: Vec::new(),
             },
             continuing: false,
@@ -58,8 +61,12 @@ pub fn edit_shortcuts(
     if !keyboard_is_free(&mut contexts) {
         return;
     }
-    let selected = selection.0.and_then(|e| ids.get(e).ok()).copied();
-    if let Some(r) = shortcut(&keys, selected) {
+    let selected: Vec<SceneId> = selection
+        .entities()
+        .iter()
+        .filter_map(|e| ids.get(*e).ok().copied())
+        .collect();
+    if let Some(r) = shortcut(&keys, &selected) {
         requests.0.push(r);
     }
 }
@@ -80,7 +87,7 @@ mod tests {
 
     #[test]
     fn the_keys_map_to_their_requests() {
-        let id = Some(SceneId(4));
+        let id = &[SceneId(4)][..];
         let ctrl = [KeyCode::ControlLeft];
         let ctrl_shift = [KeyCode::ControlLeft, KeyCode::ShiftRight];
         assert_eq!(
@@ -110,7 +117,7 @@ mod tests {
             })
         ));
         // Nothing selected: nothing to delete; a plain D is no shortcut.
-        assert_eq!(shortcut(&press(&[], KeyCode::Delete), None), None);
+        assert_eq!(shortcut(&press(&[], KeyCode::Delete), &[]), None);
         assert_eq!(shortcut(&press(&[], KeyCode::KeyD), id), None);
     }
 }

@@ -1,0 +1,201 @@
+//! `--state PATH`: keeps a RON file up to date with what a script or a test driving the editor
+//! needs to know: whether the scene has loaded and its BVH is idle, the objects (ids, names,
+//! parents, transforms, where each is on screen), the selection, the history's position, the gizmo's
+//! handles on screen and the frame count. Written every frame through a temporary file and a
+//! rename, so a reader never sees half of it.
+
+use crate::camera::{OrbitCamera, world_bounds};
+use crate::edit::EditHistory;
+use crate::gizmo::{GizmoSettings, Handle};
+use crate::import::PendingImports;
+use crate::scene_id::SceneId;
+use crate::selection::{SceneObject, Selection};
+use bevy::camera::primitives::Aabb;
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use treelight_scene::SceneBvh;
+
+/// One scene object in the report.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObjectReport {
+    /// Its stable id.
+    pub id: SceneId,
+    /// Its name.
+    pub name: String,
+    /// Its parent's id.
+    pub parent: Option<SceneId>,
+    /// Whether it has a mesh.
+    pub mesh: bool,
+    /// Whether it is shown.
+    pub visible: bool,
+    /// Local transform: translation, rotation (x, y, z, w), scale.
+    pub local: crate::edit::TransformValue,
+    /// World position of its origin.
+    pub world_translation: [f32; 3],
+    /// Its world-space box's centre on screen (window coordinates, logical pixels), if in front.
+    pub screen: Option<[f32; 2]>,
+}
+
+/// One gizmo handle on screen.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HandleReport {
+    /// Which handle: "axis 0", "plane 2", "ring 1", "scale 0", "scale uniform".
+    pub handle: String,
+    /// Its shape on screen (window coordinates).
+    pub points: Vec<[f32; 2]>,
+}
+
+/// The whole report.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EditorState {
+    /// Frames rendered so far.
+    pub frame: u64,
+    /// No import in progress and the scene BVH idle.
+    pub settled: bool,
+    /// The scene's objects, by id.
+    pub objects: Vec<ObjectReport>,
+    /// The selection's ids, the active one last.
+    pub selection: Vec<SceneId>,
+    /// Steps applied and steps in the history.
+    pub history: (usize, usize),
+    /// The gizmo's handles, when something is selected.
+    pub gizmo: Vec<HandleReport>,
+    /// The gizmo's mode, as the toolbar names it.
+    pub gizmo_mode: String,
+    /// The viewport's rectangle in the window: x, y, width, height (logical pixels).
+    pub viewport: [f32; 4],
+}
+
+/// Where the report goes.
+#[derive(Resource, Debug, Clone)]
+pub struct StateReport {
+    /// The file.
+    pub path: PathBuf,
+    frame: u64,
+}
+
+impl StateReport {
+    /// A report written to `path`.
+    pub fn new(path: PathBuf) -> Self {
+        Self { path, frame: 0 }
+    }
+}
+
+fn handle_name(h: Handle) -> String {
+    match h {
+        Handle::Axis(i) => format!("axis {i}"),
+        Handle::Plane(i) => format!("plane {i}"),
+        Handle::Ring(i) => format!("ring {i}"),
+        Handle::ScaleAxis(i) => format!("scale {i}"),
+        Handle::ScaleUniform => "scale uniform".into(),
+    }
+}
+
+type ReportItem = (
+    Entity,
+    &'static SceneId,
+    Option<&'static Name>,
+    &'static Transform,
+    &'static GlobalTransform,
+    Has<Mesh3d>,
+    Option<&'static Visibility>,
+    Option<&'static ChildOf>,
+);
+
+/// Writes the report for this frame.
+#[allow(clippy::too_many_arguments)]
+pub fn write_state_report(
+    mut report: ResMut<StateReport>,
+    objects: Query<ReportItem, With<SceneObject>>,
+    boxes: Query<(&Aabb, &GlobalTransform)>,
+    children: Query<&Children>,
+    cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
+    selection: Res<Selection>,
+    history: Res<EditHistory>,
+    gizmo: Res<GizmoSettings>,
+    pending: Res<PendingImports>,
+    scene: Res<SceneBvh>,
+) {
+    report.frame += 1;
+    let camera = cameras.single().ok();
+    let parent_of = |e: Entity| {
+        objects
+            .get(e)
+            .ok()
+            .and_then(|o| o.7)
+            .map(|c| c.parent())
+            .filter(|p| objects.contains(*p))
+    };
+    let mut list: Vec<ObjectReport> = objects
+        .iter()
+        .map(|(e, id, name, t, gt, mesh, vis, _)| {
+            let centre =
+                world_bounds(e, &boxes, &children).map_or(gt.translation(), |(a, b)| (a + b) * 0.5);
+            ObjectReport {
+                id: *id,
+                name: name.map_or(String::new(), |n| n.as_str().to_owned()),
+                parent: parent_of(e).and_then(|p| objects.get(p).ok()).map(|o| *o.1),
+                mesh,
+                visible: vis != Some(&Visibility::Hidden),
+                local: (*t).into(),
+                world_translation: gt.translation().to_array(),
+                screen: camera
+                    .and_then(|(c, cg)| c.world_to_viewport(cg, centre).ok())
+                    .map(|p| p.to_array()),
+            }
+        })
+        .collect();
+    list.sort_by_key(|o| o.id);
+    let mut handles = Vec::new();
+    if let Some((camera, cam_gt)) = camera {
+        let (targets, active) = crate::viewport::drag_targets(
+            &selection,
+            |e| objects.get(e).ok().map(|o| (*o.1, o.4.affine())),
+            parent_of,
+        );
+        let view = (camera, cam_gt);
+        if let Some(frame) = crate::viewport::gizmo_frame(&targets, active, &gizmo, &view) {
+            handles = frame
+                .handles(gizmo.mode, &view)
+                .into_iter()
+                .map(|(h, points)| HandleReport {
+                    handle: handle_name(h),
+                    points: points.iter().map(|p| p.to_array()).collect(),
+                })
+                .collect();
+        }
+    }
+    let viewport = camera
+        .and_then(|(c, _)| c.logical_viewport_rect())
+        .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
+    let state = EditorState {
+        frame: report.frame,
+        settled: pending.0.is_empty() && scene.is_idle(),
+        objects: list,
+        selection: selection
+            .entities()
+            .iter()
+            .filter_map(|e| objects.get(*e).ok().map(|o| *o.1))
+            .collect(),
+        history: (history.head(), history.labels().len()),
+        gizmo: handles,
+        gizmo_mode: gizmo.mode.label().to_owned(),
+        viewport,
+    };
+    let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
+        Ok(t) => t,
+        Err(e) => {
+            error!("state report: {e}");
+            return;
+        }
+    };
+    let tmp = report.path.with_extension("tmp");
+    let written = std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, &report.path));
+    if let Err(e) = written {
+        error!(
+            "{}: cannot write the state report: {e}",
+            report.path.display()
+        );
+    }
+}

@@ -1,0 +1,155 @@
+//! The menu bar (Edit, Add, View, Help) and the status bar.
+
+use crate::edit::{EditHistory, Primitive};
+use crate::gizmo::{GizmoMode, GizmoSettings, GizmoSpace};
+use crate::render_mode::ViewportRender;
+use bevy_egui::egui;
+
+/// The shortcuts and mouse controls the Help menu lists.
+pub const SHORTCUTS: &[(&str, &str)] = &[
+    ("Ctrl+Z", "Undo"),
+    ("Ctrl+Shift+Z, Ctrl+Y", "Redo"),
+    ("Del", "Delete the selection"),
+    ("Ctrl+D", "Duplicate the selection (the copy is selected)"),
+    ("W / E / R", "Gizmo: move / rotate / scale"),
+    (
+        "Ctrl while dragging",
+        "Snap to the grid, angle and scale steps",
+    ),
+    ("Esc or right click while dragging", "Cancel the drag"),
+    ("F", "Frame the selection"),
+    ("F2 or double click in the outliner", "Rename"),
+    ("Esc", "Clear the selection"),
+    ("Left click", "Select what is under the pointer"),
+    (
+        "Left click again on the same spot, Alt+click",
+        "Select the parent assembly",
+    ),
+    (
+        "Ctrl+click, Shift+click",
+        "Add to or remove from the selection",
+    ),
+    ("Left drag on the image", "Select with a box"),
+    ("Middle drag, Alt+left drag", "Orbit"),
+    ("Shift+middle drag, right drag", "Pan"),
+    ("Wheel", "Zoom"),
+];
+
+/// What the user chose in the menus this frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MenuAction {
+    /// Edit → Undo.
+    Undo,
+    /// Edit → Redo.
+    Redo,
+    /// Edit → Duplicate.
+    Duplicate,
+    /// Edit → Delete.
+    Delete,
+    /// Edit → Select none.
+    SelectNone,
+    /// Add → a shape.
+    Add(Primitive),
+    /// View → Frame selection.
+    FrameSelection,
+    /// View → Reset layout.
+    ResetLayout,
+}
+
+/// Draws the menu bar; returns what was chosen.
+pub fn menu_bar(
+    ui: &mut egui::Ui,
+    history: &EditHistory,
+    has_selection: bool,
+    render: &mut ViewportRender,
+    gizmo: &mut GizmoSettings,
+) -> Option<MenuAction> {
+    let mut action = None;
+    egui::MenuBar::new().ui(ui, |ui| {
+        ui.menu_button("Edit", |ui| {
+            let undo = history.undo_label();
+            let label = undo.as_ref().map_or("Undo".into(), |l| format!("Undo {l}"));
+            let button = egui::Button::new(label).shortcut_text("Ctrl+Z");
+            if ui.add_enabled(undo.is_some(), button).clicked() {
+                action = Some(MenuAction::Undo);
+            }
+            let redo = history.redo_label();
+            let label = redo.as_ref().map_or("Redo".into(), |l| format!("Redo {l}"));
+            let button = egui::Button::new(label).shortcut_text("Ctrl+Shift+Z, Ctrl+Y");
+            if ui.add_enabled(redo.is_some(), button).clicked() {
+                action = Some(MenuAction::Redo);
+            }
+            ui.separator();
+            for (what, label, keys) in [
+                (MenuAction::Duplicate, "Duplicate", "Ctrl+D"),
+                (MenuAction::Delete, "Delete", "Del"),
+                (MenuAction::SelectNone, "Select none", "Esc"),
+            ] {
+                let button = egui::Button::new(label).shortcut_text(keys);
+                if ui.add_enabled(has_selection, button).clicked() {
+                    action = Some(what);
+                }
+            }
+        });
+        ui.menu_button("Add", |ui| {
+            for shape in Primitive::ALL {
+                if ui.button(shape.label()).clicked() {
+                    action = Some(MenuAction::Add(shape));
+                }
+            }
+        });
+        ui.menu_button("View", |ui| {
+            ui.label(egui::RichText::new("Viewport").strong());
+            for mode in ViewportRender::modes() {
+                ui.radio_value(&mut render.traced, mode, ViewportRender::label(mode));
+            }
+            ui.separator();
+            ui.label(egui::RichText::new("Gizmo").strong());
+            for (mode, key) in [
+                (GizmoMode::Translate, "W"),
+                (GizmoMode::Rotate, "E"),
+                (GizmoMode::Scale, "R"),
+            ] {
+                let selected = gizmo.mode == mode;
+                if ui
+                    .add(egui::Button::selectable(selected, mode.label()).shortcut_text(key))
+                    .clicked()
+                {
+                    gizmo.mode = mode;
+                }
+            }
+            let mut local = gizmo.space == GizmoSpace::Local;
+            if ui.checkbox(&mut local, "Local axes").changed() {
+                gizmo.space = if local {
+                    GizmoSpace::Local
+                } else {
+                    GizmoSpace::World
+                };
+            }
+            ui.separator();
+            let button = egui::Button::new("Frame selection").shortcut_text("F");
+            if ui.add_enabled(has_selection, button).clicked() {
+                action = Some(MenuAction::FrameSelection);
+            }
+            if ui
+                .button("Reset panel layout")
+                .on_hover_text("Put the panels back where they start")
+                .clicked()
+            {
+                action = Some(MenuAction::ResetLayout);
+            }
+        });
+        ui.menu_button("Help", |ui| {
+            ui.label(egui::RichText::new("Keys and mouse").strong());
+            egui::Grid::new("shortcuts").num_columns(2).show(ui, |ui| {
+                for (keys, what) in SHORTCUTS {
+                    ui.monospace(*keys);
+                    ui.label(*what);
+                    ui.end_row();
+                }
+            });
+            ui.weak("Keys do nothing while a text field has the keyboard.");
+        });
+    });
+    action
+}

@@ -1,0 +1,720 @@
+//! The docked editor panels (viewport, outliner, inspector, history), the menu bar and the status
+//! bar. Every change to the scene leaves as an [`EditRequest`]; the selection and the camera are
+//! changed directly.
+
+pub mod inspector;
+pub mod menus;
+pub mod outliner;
+
+use crate::camera::{FrameRequest, OrbitCamera, world_bounds};
+use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, MaterialValue};
+use crate::gizmo::{ActiveDrag, GizmoSettings};
+use crate::import::PendingImports;
+use crate::notice::{Level, Notices};
+use crate::placement::{box_corners, place_on, surface_under};
+use crate::render_mode::ViewportRender;
+use crate::scene_id::SceneId;
+use crate::selection::{SceneObject, Selection};
+use crate::viewport::{
+    IconKind, ViewportActions, ViewportInteraction, ViewportPanel, ViewportScene,
+};
+use bevy::camera::Viewport;
+use bevy::camera::primitives::Aabb;
+use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::ecs::system::SystemParam;
+use bevy::prelude::*;
+use bevy::window::PrimaryWindow;
+use bevy_egui::{EguiContexts, EguiTextureHandle, egui};
+use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
+use inspector::{InspectorState, MaterialView};
+use menus::MenuAction;
+use outliner::{OutlinerItem, OutlinerPanel, OutlinerRow, OutlinerState};
+use treelight_render::PathTracerStats;
+use treelight_scene::{SceneBvh, cast_on};
+
+/// The panels that can be docked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EditorTab {
+    /// The 3D view.
+    Viewport,
+    /// The list of scene entities.
+    Outliner,
+    /// The selected entity's properties.
+    Inspector,
+    /// The edit history: every step, and a click goes back or forward to it.
+    History,
+}
+
+/// The dock layout, kept between frames so the user's rearrangements persist.
+#[derive(Resource)]
+pub struct EditorDock(pub DockState<EditorTab>);
+
+impl Default for EditorDock {
+    fn default() -> Self {
+        let mut state = DockState::new(vec![EditorTab::Viewport]);
+        let tree = state.main_surface_mut();
+        let [viewport, _outliner] =
+            tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
+        let [_, inspector] = tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
+        tree.split_below(inspector, 0.6, vec![EditorTab::History]);
+        Self(state)
+    }
+}
+
+/// Where the viewport panel is, in physical pixels, for the 3D camera.
+#[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
+pub struct ViewportRect {
+    /// Top-left corner.
+    pub position: UVec2,
+    /// Size; zero while the panel is hidden.
+    pub size: UVec2,
+}
+
+struct EditorTabs<'a> {
+    viewport: ViewportPanel<'a>,
+    outliner: OutlinerPanel<'a>,
+    inspected: Option<&'a mut InspectorState>,
+    make_unique: &'a mut bool,
+    /// The history's steps and how many are applied.
+    history: (&'a [String], usize),
+    /// A step the user clicked in the history panel.
+    go_to: &'a mut Option<usize>,
+}
+
+impl TabViewer for EditorTabs<'_> {
+    type Tab = EditorTab;
+
+    fn id(&mut self, tab: &mut EditorTab) -> egui::Id {
+        egui::Id::new(("treelight-tab", *tab))
+    }
+
+    fn title(&mut self, tab: &mut EditorTab) -> egui::WidgetText {
+        match tab {
+            EditorTab::Viewport => "Viewport".into(),
+            EditorTab::Outliner => "Outliner".into(),
+            EditorTab::Inspector => "Inspector".into(),
+            EditorTab::History => "History".into(),
+        }
+    }
+
+    fn clear_background(&self, tab: &EditorTab) -> bool {
+        // The 3D camera draws underneath the viewport panel.
+        *tab != EditorTab::Viewport
+    }
+
+    fn closeable(&mut self, _tab: &mut EditorTab) -> bool {
+        false
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, tab: &mut EditorTab) {
+        match tab {
+            EditorTab::Viewport => self.viewport.ui(ui),
+            EditorTab::Outliner => self.outliner.ui(ui),
+            EditorTab::Inspector => {
+                inspector::inspector_ui(ui, self.inspected.as_deref_mut(), self.make_unique)
+            }
+            EditorTab::History => self.history_ui(ui),
+        }
+    }
+}
+
+impl EditorTabs<'_> {
+    fn history_ui(&mut self, ui: &mut egui::Ui) {
+        let (labels, head) = self.history;
+        egui::ScrollArea::vertical()
+            .auto_shrink([false; 2])
+            .stick_to_bottom(true)
+            .show(ui, |ui| {
+                // Row 0 is the scene as opened; row i the scene after step i.
+                if ui.selectable_label(head == 0, "Opened").clicked() && head != 0 {
+                    *self.go_to = Some(0);
+                }
+                for (i, label) in labels.iter().enumerate() {
+                    let text = egui::RichText::new(label);
+                    let text = if i < head { text } else { text.weak() };
+                    if ui.selectable_label(head == i + 1, text).clicked() && head != i + 1 {
+                        *self.go_to = Some(i + 1);
+                    }
+                }
+            });
+    }
+}
+
+fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
+    if mesh {
+        "▣"
+    } else if point {
+        "💡"
+    } else if directional {
+        "☀"
+    } else {
+        "•"
+    }
+}
+
+/// What the outliner, inspector and viewport read of each scene object.
+type ObjectItem = (
+    Entity,
+    &'static SceneId,
+    &'static Name,
+    &'static Transform,
+    &'static GlobalTransform,
+    Option<&'static Mesh3d>,
+    Has<PointLight>,
+    Has<DirectionalLight>,
+    Option<&'static Visibility>,
+    Option<&'static ChildOf>,
+);
+
+/// What the UI reads of the history and how it asks for edits.
+#[derive(SystemParam)]
+pub struct EditAccess<'w, 's> {
+    history: Res<'w, EditHistory>,
+    requests: ResMut<'w, EditRequests>,
+    /// The widget whose drag or typing made the last request, to merge what it does next.
+    gesture: Local<'s, Option<egui::Id>>,
+    outliner: ResMut<'w, OutlinerState>,
+}
+
+/// What the viewport reads of the scene and keeps of its own.
+#[derive(SystemParam)]
+pub struct ViewportAccess<'w, 's> {
+    cameras: Query<'w, 's, (Entity, &'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
+    orbit: Query<'w, 's, &'static mut OrbitCamera>,
+    boxes: Query<'w, 's, (&'static Aabb, &'static GlobalTransform)>,
+    children: Query<'w, 's, &'static Children>,
+    materials: Res<'w, Assets<StandardMaterial>>,
+    images: Res<'w, Assets<Image>>,
+    material_of: Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>, With<SceneObject>>,
+    gizmo: ResMut<'w, GizmoSettings>,
+    drag: ResMut<'w, ActiveDrag>,
+    interaction: ResMut<'w, ViewportInteraction>,
+    frame_request: ResMut<'w, FrameRequest>,
+}
+
+/// Draws the editor UI and turns what the user changed into edit requests.
+#[allow(clippy::too_many_arguments)]
+pub fn editor_ui(
+    mut contexts: EguiContexts,
+    mut dock: ResMut<EditorDock>,
+    mut selection: ResMut<Selection>,
+    mut viewport_rect: ResMut<ViewportRect>,
+    objects: Query<ObjectItem, With<SceneObject>>,
+    diagnostics: Res<DiagnosticsStore>,
+    window: Single<&Window, With<PrimaryWindow>>,
+    all_entities: Query<()>,
+    mut notices: ResMut<Notices>,
+    pending: Res<PendingImports>,
+    scene: Res<SceneBvh>,
+    mut render: ResMut<ViewportRender>,
+    tracer: Res<PathTracerStats>,
+    edits: EditAccess,
+    view: ViewportAccess,
+) -> Result {
+    let EditAccess {
+        history,
+        mut requests,
+        mut gesture,
+        mut outliner,
+    } = edits;
+    let ViewportAccess {
+        cameras,
+        mut orbit,
+        boxes,
+        children,
+        materials,
+        images,
+        material_of,
+        mut gizmo,
+        mut drag,
+        mut interaction,
+        mut frame_request,
+    } = view;
+    let ctx = contexts.ctx_mut()?.clone();
+    let parent_of = |e: Entity| -> Option<Entity> {
+        objects
+            .get(e)
+            .ok()
+            .and_then(|o| o.9)
+            .map(|c| c.parent())
+            .filter(|p| objects.contains(*p))
+    };
+
+    // The outliner's rows.
+    let items: Vec<OutlinerItem> = objects
+        .iter()
+        .map(
+            |(entity, id, name, _, _, mesh, point, dir, vis, _)| OutlinerItem {
+                entity,
+                id: *id,
+                parent: parent_of(entity),
+                name: name.as_str().to_owned(),
+                kind: kind_of(mesh.is_some(), point, dir),
+                visible: vis != Some(&Visibility::Hidden),
+            },
+        )
+        .collect();
+    outliner.collapsed.retain(|e| objects.contains(*e));
+    let rows: Vec<OutlinerRow> = outliner::rows(&items, &outliner);
+
+    // The inspector's copy of the active object.
+    let original = selection.active().and_then(|e| {
+        let (_, id, name, t, ..) = objects.get(e).ok()?;
+        let mut state = InspectorState::new(*id, name.as_str(), t);
+        state.selected = selection.entities().len();
+        if let Ok(handle) = material_of.get(e)
+            && let Some(m) = materials.get(&handle.0)
+        {
+            let users = material_of
+                .iter()
+                .filter(|h| h.0.id() == handle.0.id())
+                .count();
+            let texture = m.base_color_texture.as_ref().and_then(|t| {
+                let size = images.get(t)?.size();
+                let id = contexts.add_image(EguiTextureHandle::Weak(t.id()));
+                Some((id, size))
+            });
+            state.material = Some(MaterialView {
+                value: MaterialValue::of(m),
+                users,
+                texture,
+            });
+        }
+        Some(state)
+    });
+    let mut edited = original.clone();
+
+    // What the viewport draws and drags.
+    let camera_entity = cameras.single().ok().map(|(e, ..)| e);
+    let camera = cameras.single().ok().map(|(_, c, g)| (c.clone(), *g));
+    let viewport_scene = viewport_scene(&selection, &objects, &boxes, &children, camera, parent_of);
+
+    let mut orbit_copy = orbit.single().ok().copied();
+    let mut viewport = egui::Rect::NOTHING;
+    let mut render_copy = *render;
+    let mut gizmo_copy = *gizmo;
+    let history_labels = history.labels();
+    let mut go_to = None;
+    let mut panel_commands: Vec<EditCommand> = Vec::new();
+    let mut actions = ViewportActions::default();
+    let mut make_unique = false;
+    let f2 = ctx.input(|i| i.key_pressed(egui::Key::F2)) && !ctx.egui_wants_keyboard_input();
+
+    let mut root = egui::Ui::new(
+        ctx.clone(),
+        "treelight-root".into(),
+        egui::UiBuilder::new()
+            .layer_id(egui::LayerId::background())
+            .max_rect(ctx.viewport_rect()),
+    );
+    let mut menu_action = None;
+    egui::Panel::top("menu-bar").show(&mut root, |ui| {
+        menu_action = menus::menu_bar(
+            ui,
+            &history,
+            !selection.is_empty(),
+            &mut render_copy,
+            &mut gizmo_copy,
+        );
+    });
+    egui::Panel::bottom("status-bar").show(&mut root, |ui| {
+        ui.horizontal(|ui| {
+            let fps = diagnostics
+                .get(&FrameTimeDiagnosticsPlugin::FPS)
+                .and_then(|d| d.smoothed())
+                .map_or("–".to_owned(), |f| format!("{f:.0}"));
+            ui.label(format!("{fps} FPS"));
+            ui.separator();
+            ui.label(format!("{} scene objects", items.len()));
+            ui.separator();
+            ui.label(format!("{} entities in the world", all_entities.iter().count()));
+            let stats = scene.stats();
+            ui.separator();
+            ui.label(format!("BVH: {} triangles, SAH cost {:.1}", stats.triangles, stats.sah_cost))
+                .on_hover_text(format!(
+                    "{} inner nodes; last insertion {:.2} MTris/s; last mesh ready {:.1} ms after it was sent",
+                    stats.inner_nodes,
+                    stats.insertion_mtris_per_s,
+                    stats.last_latency.as_secs_f64() * 1e3
+                ));
+            if let (Some(view), Some(camera_entity)) = (render.traced, camera_entity) {
+                let figures = tracer.figures();
+                ui.separator();
+                let spp = figures.samples.get(&camera_entity).copied().unwrap_or(0);
+                let trace = figures.traces.get(&camera_entity).copied().unwrap_or_default();
+                let progress = if trace.previewing {
+                    "preview".to_string()
+                } else {
+                    format!("{spp} spp")
+                };
+                let cost = trace.cost.map_or("not measured yet".to_string(), |(ns, source)| {
+                    let how = match source {
+                        treelight_render::CostSource::Timestamps => "GPU timestamps",
+                        treelight_render::CostSource::FrameTimes => "from frame times",
+                    };
+                    format!("{ns:.0} ns per pixel sample ({how})")
+                });
+                ui.label(format!("{}: {progress}", view.label())).on_hover_text(format!(
+                    "Samples every pixel has accumulated since the last change. This frame traced {} pixel samples; {cost}. Scene upload: {} bytes in the last upload, {} in all",
+                    trace.traced_per_frame, figures.last_upload_bytes, figures.total_upload_bytes
+                ));
+            }
+            if stats.pending > 0 {
+                ui.spinner();
+                ui.label(format!("{} changes pending", stats.pending));
+            }
+            match (&original, selection.entities().len()) {
+                (Some(state), 1) => {
+                    ui.separator();
+                    ui.label(format!("Selected: {}", state.name));
+                }
+                (_, n) if n > 1 => {
+                    ui.separator();
+                    ui.label(format!("{n} selected"));
+                }
+                _ => {}
+            }
+            for (path, _) in &pending.0 {
+                ui.separator();
+                ui.spinner();
+                ui.label(format!("Opening {}…", path.display()));
+            }
+        });
+    });
+    egui::CentralPanel::default()
+        .frame(egui::Frame::NONE)
+        .show(&mut root, |ui| {
+            let mut tabs = EditorTabs {
+                viewport: ViewportPanel {
+                    scene: &viewport_scene,
+                    orbit: orbit_copy.as_mut(),
+                    render: &mut render_copy,
+                    gizmo: &mut gizmo_copy,
+                    drag: &mut drag.0,
+                    interaction: &mut interaction,
+                    rect: &mut viewport,
+                    actions: &mut actions,
+                },
+                outliner: OutlinerPanel {
+                    items: &items,
+                    rows: &rows,
+                    selection: &mut selection,
+                    state: &mut outliner,
+                    commands: &mut panel_commands,
+                    f2,
+                },
+                inspected: edited.as_mut(),
+                make_unique: &mut make_unique,
+                history: (&history_labels, history.head()),
+                go_to: &mut go_to,
+            };
+            DockArea::new(&mut dock.0)
+                .style(Style::from_egui(ui.style().as_ref()))
+                .show_close_buttons(false)
+                .show_leaf_close_all_buttons(false)
+                .show_leaf_collapse_buttons(false)
+                .show_inside(ui, &mut tabs);
+        });
+
+    show_notices(&ctx, &mut notices);
+
+    if *render != render_copy {
+        *render = render_copy;
+    }
+    if *gizmo != gizmo_copy {
+        *gizmo = gizmo_copy;
+    }
+
+    // Clicks and boxes in the viewport select through the scene BVH (waiting for the worker if it
+    // holds the tree: a click must not miss).
+    if let Some((e, modifiers)) = actions.icon_click {
+        crate::selection::click(&mut selection, Some(e), modifiers, false, parent_of);
+    }
+    if let (Some((at, modifiers, same_spot)), Some((camera, cam_gt))) =
+        (actions.click, viewport_scene.camera.as_ref())
+        && let Ok(ray) = camera.viewport_to_world(cam_gt, at)
+    {
+        let hit = cast_on(&scene.read_blocking(), ray)
+            .map(|h| h.entity)
+            .filter(|e| objects.contains(*e));
+        crate::selection::click(&mut selection, hit, modifiers, same_spot, parent_of);
+    }
+    if let (Some((rect, modifiers)), Some((camera, cam_gt))) =
+        (actions.box_select, viewport_scene.camera.as_ref())
+    {
+        let inside = box_select(&scene, camera, cam_gt, rect, &objects, &boxes);
+        if !modifiers.toggle {
+            selection.clear();
+        }
+        for e in inside {
+            selection.add(e);
+        }
+    }
+
+    let selected_ids: Vec<SceneId> = selection
+        .entities()
+        .iter()
+        .filter_map(|e| objects.get(*e).ok().map(|o| *o.1))
+        .collect();
+    match menu_action {
+        Some(MenuAction::Undo) => requests.0.push(EditRequest::Undo),
+        Some(MenuAction::Redo) => requests.0.push(EditRequest::Redo),
+        Some(MenuAction::Duplicate) if !selected_ids.is_empty() => {
+            requests.apply(EditCommand::Duplicate {
+                ids: selected_ids.clone(),
+                copies: Vec::new(),
+            })
+        }
+        Some(MenuAction::Delete) if !selected_ids.is_empty() => {
+            requests.apply(EditCommand::Delete {
+                ids: selected_ids.clone(),
+            })
+        }
+        Some(MenuAction::SelectNone) => selection.clear(),
+        Some(MenuAction::FrameSelection) => frame_request.0 = true,
+        Some(MenuAction::ResetLayout) => *dock = EditorDock::default(),
+        // A new shape goes where the view's centre ray lands, by the placement rule.
+        Some(MenuAction::Add(shape)) => {
+            if let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
+                && let Some(rect) = camera.logical_viewport_rect()
+                && let Ok(ray) = camera.viewport_to_world(cam_gt, rect.center())
+            {
+                let surface = surface_under(&scene, ray, 5.0);
+                let (min, max) = shape.bounds();
+                let translation = place_on(surface, min, max, Vec3::ONE);
+                requests.apply(EditCommand::AddPrimitive {
+                    shape,
+                    transform: Transform::from_translation(translation).into(),
+                    id: None,
+                });
+            }
+        }
+        _ => {}
+    }
+    requests.0.append(&mut actions.requests);
+    if let Some(i) = go_to {
+        requests.0.push(EditRequest::GoTo(i));
+    }
+    for command in panel_commands {
+        requests.apply(command);
+    }
+    if make_unique && let Some(state) = &original {
+        requests.apply(EditCommand::MakeMaterialUnique { id: state.id });
+    }
+    let active = ctx.dragged_id().or_else(|| ctx.memory(|m| m.focused()));
+    if let (Some(before), Some(after)) = (&original, &edited)
+        && before != after
+    {
+        let continuing = active.is_some() && *gesture == active;
+        requests
+            .0
+            .extend(inspector::changes(before, after, continuing));
+    }
+    *gesture = active;
+    if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy)
+        && (o.focus != copy.focus
+            || o.radius != copy.radius
+            || o.yaw != copy.yaw
+            || o.pitch != copy.pitch)
+    {
+        *o = copy;
+    }
+    let scale = window.scale_factor();
+    let rect = if viewport.is_positive() {
+        ViewportRect {
+            position: UVec2::new(
+                (viewport.min.x * scale) as u32,
+                (viewport.min.y * scale) as u32,
+            ),
+            size: UVec2::new(
+                (viewport.width() * scale) as u32,
+                (viewport.height() * scale) as u32,
+            ),
+        }
+    } else {
+        ViewportRect::default()
+    };
+    if *viewport_rect != rect {
+        *viewport_rect = rect;
+    }
+    Ok(())
+}
+
+/// Gathers what the viewport draws (the selection's outlines, icons) and what a drag moves.
+fn viewport_scene(
+    selection: &Selection,
+    objects: &Query<ObjectItem, With<SceneObject>>,
+    boxes: &Query<(&Aabb, &GlobalTransform)>,
+    children: &Query<&Children>,
+    camera: Option<(Camera, GlobalTransform)>,
+    parent_of: impl Fn(Entity) -> Option<Entity>,
+) -> ViewportScene {
+    let mut out = ViewportScene {
+        camera,
+        ..default()
+    };
+    let active = selection.active();
+    for &e in selection.entities() {
+        let Ok((_, _, _, _, _, mesh, ..)) = objects.get(e) else {
+            continue;
+        };
+        let is_active = Some(e) == active;
+        // A mesh shows its own box, turned with it; a group the box around everything under it.
+        if mesh.is_some()
+            && let Ok((aabb, gt)) = boxes.get(e)
+        {
+            let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
+            out.outlines.push((
+                box_corners(c - h, c + h).map(|p| gt.transform_point(p)),
+                is_active,
+            ));
+        } else if let Some((min, max)) = world_bounds(e, boxes, children) {
+            out.outlines.push((box_corners(min, max), is_active));
+        }
+    }
+    (out.targets, out.active_world) = crate::viewport::drag_targets(
+        selection,
+        |e| objects.get(e).ok().map(|o| (*o.1, o.4.affine())),
+        &parent_of,
+    );
+    for (e, _, _, _, gt, mesh, point, dir, ..) in objects.iter() {
+        let kind = if point {
+            IconKind::PointLight
+        } else if dir {
+            IconKind::DirectionalLight
+        } else if mesh.is_none() {
+            IconKind::Empty
+        } else {
+            continue;
+        };
+        out.icons
+            .push((e, gt.translation(), kind, selection.contains(e)));
+    }
+    out
+}
+
+/// The meshes a selection box picks: those the image shows inside it (rays through a grid of its
+/// pixels, the nearest hit of each) and those whose whole box projects inside it.
+fn box_select(
+    scene: &SceneBvh,
+    camera: &Camera,
+    cam_gt: &GlobalTransform,
+    rect: Rect,
+    objects: &Query<ObjectItem, With<SceneObject>>,
+    boxes: &Query<(&Aabb, &GlobalTransform)>,
+) -> Vec<Entity> {
+    let mut found: Vec<Entity> = Vec::new();
+    if rect.width() < 2.0 || rect.height() < 2.0 {
+        return found;
+    }
+    // A ray every 4 pixels, at most 96 a side.
+    let nx = ((rect.width() / 4.0).ceil() as usize).clamp(2, 96);
+    let ny = ((rect.height() / 4.0).ceil() as usize).clamp(2, 96);
+    let tree = scene.read_blocking();
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = rect.min
+                + Vec2::new(
+                    rect.width() * (i as f32 + 0.5) / nx as f32,
+                    rect.height() * (j as f32 + 0.5) / ny as f32,
+                );
+            if let Ok(ray) = camera.viewport_to_world(cam_gt, p)
+                && let Some(hit) = cast_on(&tree, ray)
+                && objects.contains(hit.entity)
+                && !found.contains(&hit.entity)
+            {
+                found.push(hit.entity);
+            }
+        }
+    }
+    drop(tree);
+    for (e, _, _, _, _, mesh, ..) in objects.iter() {
+        if mesh.is_none() || found.contains(&e) {
+            continue;
+        }
+        if let Ok((aabb, gt)) = boxes.get(e) {
+            let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
+            let inside = box_corners(c - h, c + h).iter().all(|p| {
+                camera
+                    .world_to_viewport(cam_gt, gt.transform_point(*p))
+                    .is_ok_and(|s| rect.contains(s))
+            });
+            if inside {
+                found.push(e);
+            }
+        }
+    }
+    found
+}
+
+/// Shows notices stacked in the top-right corner; each can be dismissed.
+fn show_notices(ctx: &egui::Context, notices: &mut Notices) {
+    let mut dismissed = None;
+    for (k, n) in notices.0.iter().enumerate() {
+        let (colour, title) = match n.level {
+            Level::Info => (egui::Color32::from_rgb(140, 200, 255), "Info"),
+            Level::Warning => (egui::Color32::from_rgb(255, 200, 90), "Warning"),
+            Level::Error => (egui::Color32::from_rgb(255, 110, 100), "Error"),
+        };
+        egui::Area::new(egui::Id::new(("notice", k)))
+            .anchor(
+                egui::Align2::RIGHT_TOP,
+                egui::vec2(-16.0, 40.0 + 64.0 * k as f32),
+            )
+            .show(ctx, |ui| {
+                egui::Frame::popup(ui.style()).show(ui, |ui| {
+                    ui.set_max_width(420.0);
+                    ui.horizontal(|ui| {
+                        ui.colored_label(colour, title);
+                        if ui.small_button("✕").clicked() {
+                            dismissed = Some(k);
+                        }
+                    });
+                    ui.label(&n.text);
+                });
+            });
+    }
+    if let Some(k) = dismissed {
+        notices.0.remove(k);
+    }
+}
+
+/// Fits the 3D camera's viewport to the viewport panel.
+pub fn fit_camera_viewport(
+    rect: Res<ViewportRect>,
+    window: Single<&Window, With<PrimaryWindow>>,
+    mut cameras: Query<&mut Camera, With<OrbitCamera>>,
+) {
+    let max = UVec2::new(window.physical_width(), window.physical_height());
+    for mut camera in &mut cameras {
+        let pos = rect.position.min(max);
+        let size = rect.size.min(max.saturating_sub(pos));
+        camera.is_active = size.x > 0 && size.y > 0;
+        let size = size.max(UVec2::ONE);
+        let same = camera
+            .viewport
+            .as_ref()
+            .is_some_and(|v| v.physical_position == pos && v.physical_size == size);
+        if !same {
+            camera.viewport = Some(Viewport {
+                physical_position: pos,
+                physical_size: size,
+                ..default()
+            });
+        }
+    }
+}
+
+/// The panels, menus and status bar, and the state they keep.
+pub struct UiPlugin;
+
+impl Plugin for UiPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<EditorDock>()
+            .init_resource::<ViewportRect>()
+            .init_resource::<OutlinerState>()
+            .init_resource::<ViewportInteraction>()
+            .add_systems(bevy_egui::EguiPrimaryContextPass, editor_ui)
+            .add_systems(Update, fit_camera_viewport);
+    }
+}

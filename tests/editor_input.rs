@@ -1,0 +1,267 @@
+//! The editor driven as a user drives it: real pointer and key events through the X server
+//! (XTEST) on the editor's real window under Xvfb, with assertions on the world the editor reports
+//! (`--state`) and on the picture the X server holds.
+
+mod support;
+#[path = "support/xdrive.rs"]
+mod xdrive;
+
+use support::skip_gpu_tests;
+use treelight::report::EditorState;
+use xdrive::{Session, handle, keysym, object};
+
+fn pos(p: [f32; 2]) -> (f32, f32) {
+    (p[0], p[1])
+}
+
+fn ids_named(state: &EditorState, name: &str) -> Vec<treelight::scene_id::SceneId> {
+    state
+        .objects
+        .iter()
+        .filter(|o| o.name == name)
+        .map(|o| o.id)
+        .collect()
+}
+
+/// Pixels of the selection outline's colours inside the viewport.
+fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
+    let [x, y, w, h] = viewport.map(|v| v as u32);
+    let mut n = 0;
+    for py in y..(y + h).min(img.height()) {
+        for px in x..(x + w).min(img.width()) {
+            let p = img.get_pixel(px, py).0;
+            // The outline's orange: strong red, middling green, little blue.
+            if p[0] > 215 && (100..=190).contains(&p[1]) && p[2] < 70 {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+#[test]
+fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
+    if skip_gpu_tests("clicks_keys_and_the_gizmo_edit_the_default_scene") {
+        return;
+    }
+    let mut s = Session::start("input", &[]);
+    let start = s.frames(1);
+    let tall = object(&start, "Tall box").clone();
+    let short = object(&start, "Short box").clone();
+    let sphere = object(&start, "Sphere").clone();
+    let before_outline = outline_pixels(&s.screenshot(), start.viewport);
+
+    // A click selects what is under the pointer, and the path-traced view shows it outlined.
+    s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![tall.id], "click on the tall box");
+    let outlined = outline_pixels(&s.screenshot(), st.viewport);
+    assert!(
+        outlined > before_outline + 100,
+        "the selection is not outlined: {before_outline} -> {outlined} outline pixels"
+    );
+
+    // Ctrl+click adds; Escape clears.
+    s.key_event(keysym::CONTROL, true);
+    s.click(short.screen.unwrap()[0], short.screen.unwrap()[1]);
+    s.key_event(keysym::CONTROL, false);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![tall.id, short.id], "ctrl+click");
+    s.key(&[], keysym::ESCAPE);
+    assert!(s.frames(1).selection.is_empty(), "escape clears");
+
+    // A box dragged around the short box and the sphere selects both, not the tall box.
+    let (a, b) = (short.screen.unwrap(), sphere.screen.unwrap());
+    let from = (a[0].min(b[0]) - 30.0, a[1].min(b[1]) - 30.0);
+    let to = (a[0].max(b[0]) + 30.0, a[1].max(b[1]) + 30.0);
+    s.drag(from, to, 4);
+    let st = s.frames(2);
+    assert!(
+        st.selection.contains(&short.id) && st.selection.contains(&sphere.id),
+        "box select: {:?}",
+        st.selection
+    );
+    assert!(
+        !st.selection.contains(&tall.id),
+        "box select took the tall box"
+    );
+
+    // Del deletes the selection; Ctrl+Z brings the same object back; Ctrl+D copies it.
+    s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
+    let (head, _) = s.frames(1).history;
+    s.key(&[], keysym::DELETE);
+    let st = s.frames(2);
+    assert!(ids_named(&st, "Tall box").is_empty(), "delete");
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    let st = s.frames(2);
+    assert_eq!(
+        ids_named(&st, "Tall box"),
+        vec![tall.id],
+        "undo of the delete"
+    );
+    assert_eq!(st.history.0, head);
+    s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
+    s.key(&[keysym::CONTROL], keysym::letter('d'));
+    let st = s.frames(2);
+    let copies = ids_named(&st, "Tall box");
+    assert_eq!(copies.len(), 2, "duplicate");
+    let copy = *copies.iter().find(|id| **id != tall.id).unwrap();
+    assert_eq!(st.selection, vec![copy], "the copy is selected");
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    assert_eq!(ids_named(&s.frames(2), "Tall box"), vec![tall.id]);
+
+    // The gizmo: a drag along the x arrow moves the tall box along x only, as one step.
+    s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![tall.id]);
+    let (head, _) = st.history;
+    let arrow = handle(&st, "axis 0");
+    let grab = (
+        arrow[0][0] + (arrow[1][0] - arrow[0][0]) * 0.7,
+        arrow[0][1] + (arrow[1][1] - arrow[0][1]) * 0.7,
+    );
+    let dir = (arrow[1][0] - arrow[0][0], arrow[1][1] - arrow[0][1]);
+    let len = (dir.0 * dir.0 + dir.1 * dir.1).sqrt();
+    let to = (grab.0 + dir.0 / len * 80.0, grab.1 + dir.1 / len * 80.0);
+    let was = object(&st, "Tall box").world_translation;
+    s.drag(grab, to, 4);
+    let st = s.frames(2);
+    let now = object(&st, "Tall box").world_translation;
+    assert!(
+        now[0] - was[0] > 0.2,
+        "the drag moved x by {}",
+        now[0] - was[0]
+    );
+    assert!(
+        (now[1] - was[1]).abs() < 1e-4 && (now[2] - was[2]).abs() < 1e-4,
+        "the drag left the axis: {was:?} -> {now:?}"
+    );
+    assert_eq!(st.history.0, head + 1, "one drag, one step");
+
+    // Escape, or a right click, during a drag puts the box back and leaves no step.
+    for cancel in ["escape", "right click"] {
+        let arrow = handle(&st, "axis 0").to_vec();
+        let grab = (
+            arrow[0][0] + (arrow[1][0] - arrow[0][0]) * 0.7,
+            arrow[0][1] + (arrow[1][1] - arrow[0][1]) * 0.7,
+        );
+        s.drag_without_release(grab, (grab.0 + 60.0, grab.1), 3);
+        let moving = object(&s.frames(1), "Tall box").world_translation;
+        assert!(
+            moving[0] != now[0],
+            "{cancel}: the preview follows the drag"
+        );
+        if cancel == "escape" {
+            s.key(&[], keysym::ESCAPE);
+        } else {
+            s.press(3);
+            s.release(3);
+        }
+        s.release(1);
+        let after = s.frames(2);
+        assert_eq!(
+            object(&after, "Tall box").world_translation,
+            now,
+            "{cancel} put the box back"
+        );
+        assert_eq!(after.history.0, head + 1, "{cancel} left no step");
+        assert_eq!(
+            after.selection,
+            vec![tall.id],
+            "{cancel} kept the selection"
+        );
+    }
+
+    // F2 renames in the outliner: while its text field has the keyboard, Delete and W edit the
+    // text and do nothing else; Return commits the new name as a step.
+    s.key(&[], keysym::F2);
+    s.key(&[], keysym::DELETE);
+    s.key(&[], keysym::letter('e'));
+    let st = s.frames(2);
+    assert_eq!(
+        ids_named(&st, "Tall box"),
+        vec![tall.id],
+        "Delete in a text field"
+    );
+    assert_eq!(st.gizmo_mode, "Move", "E in a text field changed the gizmo");
+    s.key(&[], keysym::letter('w'));
+    s.key(&[], keysym::RETURN);
+    let st = s.frames(2);
+    assert!(
+        st.objects
+            .iter()
+            .any(|o| o.id == tall.id && o.name != "Tall box"),
+        "rename: {:?}",
+        object_names(&st)
+    );
+    assert_eq!(st.history.0, head + 2, "the rename is one step");
+    // Outside a text field, E switches the gizmo to rotation.
+    s.key(&[], keysym::letter('e'));
+    assert_eq!(s.frames(1).gizmo_mode, "Rotate");
+}
+
+fn object_names(state: &EditorState) -> Vec<&str> {
+    state.objects.iter().map(|o| o.name.as_str()).collect()
+}
+
+#[test]
+fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world_axis() {
+    if skip_gpu_tests(
+        "the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world_axis",
+    ) {
+        return;
+    }
+    let dir = support::temp_dir("gizmo-child");
+    let commands = dir.join("setup.ron");
+    std::fs::write(
+        &commands,
+        r#"[
+            AddPrimitive(shape: Cube, id: Some((100)), transform: (
+                translation: (-1.2, 1.0, 0.5),
+                rotation: (0.1, 0.35, 0.05, 0.93),
+                scale: (1.6, 0.5, 0.8))),
+            AddPrimitive(shape: Sphere, id: Some((101)), transform: (translation: (0.6, 3.2, 2.0))),
+            Reparent(ids: [(101)], parent: Some((100))),
+            Rename(id: (101), name: "Child"),
+        ]"#,
+    )
+    .unwrap();
+    let mut s = Session::start("gizmo-child", &["--commands", commands.to_str().unwrap()]);
+    let st = s.wait_until(
+        "the setup commands",
+        std::time::Duration::from_secs(60),
+        |s| s.history.0 == 4,
+    );
+    let child = object(&st, "Child").clone();
+    assert_eq!(child.parent, Some(treelight::scene_id::SceneId(100)));
+    s.click(child.screen.unwrap()[0], child.screen.unwrap()[1]);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![child.id], "click on the child");
+    let was = object(&st, "Child").world_translation;
+    let arrow = handle(&st, "axis 0");
+    let grab = (
+        arrow[0][0] + (arrow[1][0] - arrow[0][0]) * 0.7,
+        arrow[0][1] + (arrow[1][1] - arrow[0][1]) * 0.7,
+    );
+    let d = (arrow[1][0] - arrow[0][0], arrow[1][1] - arrow[0][1]);
+    let len = (d.0 * d.0 + d.1 * d.1).sqrt();
+    s.drag(
+        grab,
+        (grab.0 + d.0 / len * 70.0, grab.1 + d.1 / len * 70.0),
+        4,
+    );
+    let st = s.frames(2);
+    let now = object(&st, "Child").world_translation;
+    assert!(now[0] - was[0] > 0.2, "moved {:?} -> {:?}", was, now);
+    assert!(
+        (now[1] - was[1]).abs() < 1e-4 && (now[2] - was[2]).abs() < 1e-4,
+        "the child left the world x axis: {was:?} -> {now:?}"
+    );
+    // Its parent did not move.
+    assert_eq!(
+        object(&st, "Cube").world_translation,
+        [-1.2, 1.0, 0.5].map(|v: f32| v)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let _ = pos;
+}

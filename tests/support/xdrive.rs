@@ -1,0 +1,414 @@
+//! Driving the real editor as a user does: its own virtual X server (Xvfb), the editor's window on
+//! it, and input sent through the X server's XTEST extension (pointer motion, buttons, keys), so
+//! the events reach the editor exactly as a user's would (winit, Bevy's input, egui). The editor
+//! reports its world through `--state PATH`; screenshots come from the X server.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use treelight::report::{EditorState, ObjectReport};
+use x11rb::connection::Connection;
+use x11rb::protocol::xproto::{self, ConnectionExt as _};
+use x11rb::protocol::xtest::ConnectionExt as _;
+use x11rb::rust_connection::RustConnection;
+
+/// X keysyms used by the tests.
+pub mod keysym {
+    /// Escape.
+    pub const ESCAPE: u32 = 0xff1b;
+    /// Delete.
+    pub const DELETE: u32 = 0xffff;
+    /// Left Control.
+    pub const CONTROL: u32 = 0xffe3;
+    /// Left Shift.
+    pub const SHIFT: u32 = 0xffe1;
+    /// Left Alt.
+    pub const ALT: u32 = 0xffe9;
+    /// F2.
+    pub const F2: u32 = 0xffbf;
+    /// Return.
+    pub const RETURN: u32 = 0xff0d;
+    /// A lower-case letter.
+    pub const fn letter(c: char) -> u32 {
+        c as u32
+    }
+}
+
+/// A running editor on its own X server.
+pub struct Session {
+    xvfb: Child,
+    editor: Child,
+    conn: RustConnection,
+    root: xproto::Window,
+    window: xproto::Window,
+    /// Window origin on the screen.
+    origin: (i16, i16),
+    state_path: PathBuf,
+    log_path: PathBuf,
+    dir: PathBuf,
+    keycodes: Vec<(u32, u8)>,
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let _ = self.editor.kill();
+        let _ = self.editor.wait();
+        let _ = self.xvfb.kill();
+        let _ = self.xvfb.wait();
+    }
+}
+
+fn free_display() -> u32 {
+    // Tests of one process run side by side: each call starts further along.
+    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let base = 200 + (std::process::id() % 500) + call * 7;
+    (base..base + 200)
+        .find(|n| {
+            !Path::new(&format!("/tmp/.X{n}-lock")).exists()
+                && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
+        })
+        .expect("a free X display number")
+}
+
+impl Session {
+    /// Starts Xvfb and the editor with `args` (plus `--state`), and waits until the editor's scene
+    /// has loaded and its BVH is idle.
+    pub fn start(name: &str, args: &[&str]) -> Session {
+        let dir = crate::support::temp_dir(name);
+        let mut last_error = String::new();
+        for _ in 0..3 {
+            let display = free_display();
+            let mut xvfb = Command::new("Xvfb")
+                .arg(format!(":{display}"))
+                .args(["-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap_or_else(|e| {
+                    panic!("cannot start Xvfb ({e}). Install: apt-get install -y xvfb")
+                });
+            let socket = PathBuf::from(format!("/tmp/.X11-unix/X{display}"));
+            let start = Instant::now();
+            while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
+                if let Ok(Some(_)) = xvfb.try_wait() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            // A server that exits at once lost the display number to another one.
+            std::thread::sleep(Duration::from_millis(100));
+            let lost = matches!(xvfb.try_wait(), Ok(Some(_)));
+            let connected = if lost {
+                None
+            } else {
+                x11rb::connect(Some(&format!(":{display}"))).ok()
+            };
+            let Some((conn, screen)) = connected else {
+                last_error = format!("cannot connect to Xvfb on :{display}");
+                let _ = xvfb.kill();
+                let _ = xvfb.wait();
+                continue;
+            };
+            let root = conn.setup().roots[screen].root;
+            let state_path = dir.join("state.ron");
+            let log_path = dir.join("editor.log");
+            let log = std::fs::File::create(&log_path).unwrap();
+            let editor = Command::new(env!("CARGO_BIN_EXE_treelight"))
+                .args(args)
+                .arg("--state")
+                .arg(&state_path)
+                .env("DISPLAY", format!(":{display}"))
+                .env("WGPU_BACKEND", "vulkan")
+                .stdout(log.try_clone().unwrap())
+                .stderr(log)
+                .spawn()
+                .expect("the editor starts");
+            let keycodes = keycodes(&conn);
+            let mut session = Session {
+                xvfb,
+                editor,
+                conn,
+                root,
+                window: 0,
+                origin: (0, 0),
+                state_path,
+                log_path,
+                dir,
+                keycodes,
+            };
+            session.wait_until(
+                "the editor's scene settles",
+                Duration::from_secs(240),
+                |s| s.settled && s.frame > 5,
+            );
+            session.find_window();
+            // Let the layout and the first path-traced frames settle.
+            session.frames(4);
+            return session;
+        }
+        panic!("{last_error}");
+    }
+
+    /// The editor's log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(&self.log_path).unwrap_or_default()
+    }
+
+    /// The editor's latest report, if it has written one.
+    pub fn try_state(&self) -> Option<EditorState> {
+        let text = std::fs::read_to_string(&self.state_path).ok()?;
+        ron::from_str(&text).ok()
+    }
+
+    /// Waits for a report that `ok` accepts, panicking with `what` and the log after `timeout`.
+    pub fn wait_until(
+        &mut self,
+        what: &str,
+        timeout: Duration,
+        ok: impl Fn(&EditorState) -> bool,
+    ) -> EditorState {
+        let start = Instant::now();
+        loop {
+            if let Ok(Some(status)) = self.editor.try_wait() {
+                panic!(
+                    "the editor exited ({status}) waiting for {what}:\n{}",
+                    self.log()
+                );
+            }
+            if let Some(s) = self.try_state()
+                && ok(&s)
+            {
+                return s;
+            }
+            if start.elapsed() > timeout {
+                panic!(
+                    "timed out waiting for {what}; last state: {:#?}\nlog:\n{}",
+                    self.try_state(),
+                    self.log()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(30));
+        }
+    }
+
+    /// Waits until the editor has drawn `n` more frames, and returns its report.
+    pub fn frames(&mut self, n: u64) -> EditorState {
+        let now = self
+            .wait_until("a report", Duration::from_secs(60), |_| true)
+            .frame;
+        self.wait_until("frames", Duration::from_secs(120), |s| s.frame >= now + n)
+    }
+
+    fn find_window(&mut self) {
+        let start = Instant::now();
+        loop {
+            let tree = self.conn.query_tree(self.root).unwrap().reply().unwrap();
+            for w in tree.children {
+                let name = self
+                    .conn
+                    .get_property(
+                        false,
+                        w,
+                        xproto::AtomEnum::WM_NAME,
+                        xproto::AtomEnum::ANY,
+                        0,
+                        256,
+                    )
+                    .ok()
+                    .and_then(|c| c.reply().ok())
+                    .map(|r| String::from_utf8_lossy(&r.value).into_owned())
+                    .unwrap_or_default();
+                if name.contains("Treelight") {
+                    let t = self
+                        .conn
+                        .translate_coordinates(w, self.root, 0, 0)
+                        .unwrap()
+                        .reply()
+                        .unwrap();
+                    self.window = w;
+                    self.origin = (t.dst_x, t.dst_y);
+                    // What a window manager does when the user clicks the window: give it the
+                    // keyboard.
+                    self.conn
+                        .set_input_focus(xproto::InputFocus::PARENT, w, x11rb::CURRENT_TIME)
+                        .unwrap();
+                    self.conn.flush().unwrap();
+                    return;
+                }
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "no Treelight window on the X server"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    fn fake(&self, kind: u8, detail: u8, x: i16, y: i16) {
+        self.conn
+            .xtest_fake_input(kind, detail, x11rb::CURRENT_TIME, self.root, x, y, 0)
+            .unwrap();
+        self.conn.flush().unwrap();
+    }
+
+    /// Moves the pointer to window coordinates `(x, y)` and lets a frame pass.
+    pub fn move_to(&mut self, x: f32, y: f32) {
+        let (ox, oy) = self.origin;
+        self.fake(
+            xproto::MOTION_NOTIFY_EVENT,
+            0,
+            ox + x.round() as i16,
+            oy + y.round() as i16,
+        );
+        self.frames(1);
+    }
+
+    /// Presses mouse button `b` (1 left, 2 middle, 3 right).
+    pub fn press(&mut self, b: u8) {
+        self.fake(xproto::BUTTON_PRESS_EVENT, b, 0, 0);
+        self.frames(1);
+    }
+
+    /// Releases mouse button `b`.
+    pub fn release(&mut self, b: u8) {
+        self.fake(xproto::BUTTON_RELEASE_EVENT, b, 0, 0);
+        self.frames(2);
+    }
+
+    /// A click of the left button at `(x, y)`.
+    pub fn click(&mut self, x: f32, y: f32) {
+        self.move_to(x, y);
+        self.press(1);
+        self.release(1);
+    }
+
+    /// Drags with the left button from `from` to `to` in `steps` moves (a frame each), without
+    /// releasing.
+    pub fn drag_without_release(&mut self, from: (f32, f32), to: (f32, f32), steps: u32) {
+        self.move_to(from.0, from.1);
+        self.press(1);
+        for k in 1..=steps {
+            let t = k as f32 / steps as f32;
+            self.move_to(from.0 + (to.0 - from.0) * t, from.1 + (to.1 - from.1) * t);
+        }
+    }
+
+    /// A whole left-button drag.
+    pub fn drag(&mut self, from: (f32, f32), to: (f32, f32), steps: u32) {
+        self.drag_without_release(from, to, steps);
+        self.release(1);
+    }
+
+    fn keycode(&self, sym: u32) -> u8 {
+        self.keycodes
+            .iter()
+            .find(|(s, _)| *s == sym)
+            .map(|(_, k)| *k)
+            .unwrap_or_else(|| panic!("no keycode for keysym {sym:#x}"))
+    }
+
+    /// Presses or releases a key without waiting.
+    pub fn key_event(&mut self, sym: u32, down: bool) {
+        let kind = if down {
+            xproto::KEY_PRESS_EVENT
+        } else {
+            xproto::KEY_RELEASE_EVENT
+        };
+        self.fake(kind, self.keycode(sym), 0, 0);
+    }
+
+    /// Types a key while holding `modifiers`, then lets frames pass.
+    pub fn key(&mut self, modifiers: &[u32], sym: u32) {
+        for m in modifiers {
+            self.key_event(*m, true);
+        }
+        self.frames(1);
+        self.key_event(sym, true);
+        self.frames(1);
+        self.key_event(sym, false);
+        for m in modifiers {
+            self.key_event(*m, false);
+        }
+        self.frames(2);
+    }
+
+    /// The window as an RGB image, taken from the X server.
+    pub fn screenshot(&self) -> image::RgbImage {
+        let geo = self
+            .conn
+            .get_geometry(self.window)
+            .unwrap()
+            .reply()
+            .unwrap();
+        let img = self
+            .conn
+            .get_image(
+                xproto::ImageFormat::Z_PIXMAP,
+                self.window,
+                0,
+                0,
+                geo.width,
+                geo.height,
+                !0,
+            )
+            .unwrap()
+            .reply()
+            .unwrap();
+        let (w, h) = (geo.width as u32, geo.height as u32);
+        let mut out = image::RgbImage::new(w, h);
+        for (i, p) in out.pixels_mut().enumerate() {
+            let b = &img.data[i * 4..i * 4 + 3];
+            *p = image::Rgb([b[2], b[1], b[0]]);
+        }
+        out
+    }
+
+    /// Saves a screenshot beside the test's other files and returns its path.
+    pub fn save_screenshot(&self, name: &str) -> PathBuf {
+        let path = self.dir.join(format!("{name}.png"));
+        self.screenshot().save(&path).unwrap();
+        path
+    }
+}
+
+fn keycodes(conn: &RustConnection) -> Vec<(u32, u8)> {
+    let setup = conn.setup();
+    let (min, max) = (setup.min_keycode, setup.max_keycode);
+    let map = conn
+        .get_keyboard_mapping(min, max - min + 1)
+        .unwrap()
+        .reply()
+        .unwrap();
+    let per = map.keysyms_per_keycode as usize;
+    let mut out = Vec::new();
+    for (i, syms) in map.keysyms.chunks(per.max(1)).enumerate() {
+        // The unshifted symbol is the key's own.
+        if let Some(&s) = syms.first()
+            && s != 0
+        {
+            out.push((s, min + i as u8));
+        }
+    }
+    out
+}
+
+/// The object named `name` in a report.
+pub fn object<'a>(state: &'a EditorState, name: &str) -> &'a ObjectReport {
+    state
+        .objects
+        .iter()
+        .find(|o| o.name == name)
+        .unwrap_or_else(|| panic!("no object named {name}: {:#?}", state.objects))
+}
+
+/// The screen points of a gizmo handle in a report.
+pub fn handle<'a>(state: &'a EditorState, name: &str) -> &'a [[f32; 2]] {
+    &state
+        .gizmo
+        .iter()
+        .find(|h| h.handle == name)
+        .unwrap_or_else(|| panic!("no gizmo handle {name}: {:#?}", state.gizmo))
+        .points
+}
