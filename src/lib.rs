@@ -15,6 +15,7 @@ pub mod report;
 pub mod scene_id;
 pub mod script;
 pub mod selection;
+pub mod settings;
 pub mod ui;
 pub mod viewport;
 
@@ -61,6 +62,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         gizmo::GizmoPlugin,
         camera::CameraPlugin,
         ui::UiPlugin,
+        settings::SettingsPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()

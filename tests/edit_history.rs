@@ -14,8 +14,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 use treelight::edit::{
-    EditCommand, EditHistory, EditRequest, EditRequests, MaterialValue, Primitive, TransformValue,
-    apply_request,
+    EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue, Primitive,
+    TransformValue, apply_request,
 };
 use treelight::import::to_bevy_mesh;
 use treelight::scene_id::{SceneId, SceneIndex};
@@ -103,6 +103,8 @@ struct ObjectState {
     mesh: Option<AssetId<Mesh>>,
     material: Option<AssetId<StandardMaterial>>,
     material_values: Option<MaterialValue>,
+    /// Point light, directional light.
+    lights: (bool, bool),
 }
 
 fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
@@ -114,6 +116,8 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
         Option<&Visibility>,
         Option<&Mesh3d>,
         Option<&MeshMaterial3d<StandardMaterial>>,
+        Has<PointLight>,
+        Has<DirectionalLight>,
     )>();
     let values: BTreeMap<AssetId<StandardMaterial>, MaterialValue> = world
         .resource::<Assets<StandardMaterial>>()
@@ -126,7 +130,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
         .map(|(e, id)| (e, *id))
         .collect();
     q.iter(world)
-        .map(|(id, name, t, parent, vis, mesh, mat)| {
+        .map(|(id, name, t, parent, vis, mesh, mat, point, dir)| {
             let mut transform = [0.0; 10];
             transform[..3].copy_from_slice(&t.translation.to_array());
             transform[3..7].copy_from_slice(&t.rotation.to_array());
@@ -141,6 +145,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
                     mesh: mesh.map(|m| m.0.id()),
                     material: mat.map(|m| m.0.id()),
                     material_values: mat.and_then(|m| values.get(&m.0.id()).copied()),
+                    lights: (point, dir),
                 },
             )
         })
@@ -203,6 +208,8 @@ enum Op {
     Drag(usize, [f32; 3], bool),
     Material(usize, f32),
     MakeUnique(usize),
+    Group(usize, usize),
+    Light(bool, [f32; 3]),
     Undo,
     Redo,
 }
@@ -215,12 +222,14 @@ fn op() -> impl Strategy<Value = Op> {
         1 => (any::<usize>(), any::<bool>()).prop_map(|(i, b)| Op::Hide(i, b)),
         2 => any::<usize>().prop_map(Op::Delete),
         2 => any::<usize>().prop_map(Op::Duplicate),
-        1 => (0u8..4, v()).prop_map(|(k, p)| Op::Add(k, p)),
+        1 => (0u8..5, v()).prop_map(|(k, p)| Op::Add(k, p)),
         2 => (any::<usize>(), any::<Option<usize>>()).prop_map(|(i, p)| Op::Reparent(i, p)),
         1 => (any::<usize>(), any::<usize>(), v()).prop_map(|(i, j, d)| Op::MoveMany(i, j, d)),
         2 => (any::<usize>(), v(), any::<bool>()).prop_map(|(i, d, c)| Op::Drag(i, d, c)),
         1 => (any::<usize>(), 0f32..1.0).prop_map(|(i, r)| Op::Material(i, r)),
         1 => any::<usize>().prop_map(Op::MakeUnique),
+        1 => (any::<usize>(), any::<usize>()).prop_map(|(i, j)| Op::Group(i, j)),
+        1 => (any::<bool>(), v()).prop_map(|(p, at)| Op::Light(p, at)),
         1 => Just(Op::Undo),
         1 => Just(Op::Redo),
     ]
@@ -269,7 +278,7 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
             copies: Vec::new(),
         }),
         Op::Add(k, p) => apply(EditCommand::AddPrimitive {
-            shape: Primitive::ALL[k as usize % 4],
+            shape: Primitive::ALL[k as usize % Primitive::ALL.len()],
             transform: TransformValue {
                 translation: p,
                 rotation: [0.0, 0.0, 0.0, 1.0],
@@ -352,6 +361,24 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
             world.get::<MeshMaterial3d<StandardMaterial>>(e)?;
             apply(EditCommand::MakeMaterialUnique { id })
         }
+        Op::Group(i, j) => {
+            let mut ids = vec![pick(i)?, pick(j)?];
+            ids.dedup();
+            apply(EditCommand::Group {
+                ids,
+                name: format!("Group {step}"),
+                group: None,
+            })
+        }
+        Op::Light(point, at) => apply(EditCommand::AddLight {
+            kind: if point {
+                LightKind::Point
+            } else {
+                LightKind::Directional
+            },
+            transform: Transform::from_translation(Vec3::from_array(at)).into(),
+            id: None,
+        }),
         Op::Undo => Some(EditRequest::Undo),
         Op::Redo => Some(EditRequest::Redo),
     }

@@ -274,3 +274,159 @@ fn a_bad_commands_file_stops_the_start_with_its_name() {
     assert!(err.contains("oops.ron") && err.contains("name"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
+    if skip_gpu_tests("the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored") {
+        return;
+    }
+    use treelight::report::EditorState;
+    use treelight::settings::{EditorSettings, write_settings};
+    use treelight::ui::EditorTab;
+    let dir = temp_dir("layout");
+    let config = dir.join("config");
+    std::fs::create_dir_all(&config).unwrap();
+    let settings = config.join("settings.ron");
+    let state = dir.join("state.ron");
+    let viewport_x = || {
+        let text = std::fs::read_to_string(&state).unwrap();
+        ron::from_str::<EditorState>(&text).unwrap().viewport[0]
+    };
+    // A saved layout with a wide outliner: the viewport starts further right.
+    let mut layout = egui_dock::DockState::new(vec![EditorTab::Viewport]);
+    let tree = layout.main_surface_mut();
+    let [viewport, _] = tree.split_left(
+        egui_dock::NodeIndex::root(),
+        0.45,
+        vec![EditorTab::Outliner],
+    );
+    let [_, inspector] = tree.split_right(viewport, 0.7, vec![EditorTab::Inspector]);
+    tree.split_below(inspector, 0.5, vec![EditorTab::History]);
+    write_settings(
+        &settings,
+        &EditorSettings {
+            version: 1,
+            layout,
+            grid_step: 0.5,
+            angle_step_deg: 10.0,
+            scale_step: 0.25,
+        },
+    )
+    .unwrap();
+    let args = ["--frames", "8", "--state", state.to_str().unwrap()];
+    run_editor_with_config(&args, &config);
+    let wide = viewport_x();
+    assert!(
+        wide > 1280.0 * 0.4,
+        "the saved layout was not used: x = {wide}"
+    );
+    // A broken file: the editor starts with the default layout and says which file it ignored.
+    std::fs::write(&settings, "(version: 1, layout: [[[").unwrap();
+    let out = run_editor_with_config(&args, &config);
+    assert!(
+        out.contains("settings.ron") && out.contains("default layout"),
+        "{out}"
+    );
+    let default_x = viewport_x();
+    assert!(default_x < 1280.0 * 0.3, "x = {default_x}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_material_edit_changes_exactly_that_materials_pixels() {
+    if skip_gpu_tests("a_material_edit_changes_exactly_that_materials_pixels") {
+        return;
+    }
+    let dir = temp_dir("material");
+    // The sphere (#8) has a material of its own. Hiding it shows which pixels are its; giving
+    // it a blue, rough material must change those pixels and no others.
+    let script = |name: &str, command: &str| {
+        let path = dir.join(format!("{name}.ron"));
+        std::fs::write(&path, format!("[{command}]")).unwrap();
+        path
+    };
+    let hide = script("hide", "SetVisible(id: (8), visible: false)");
+    let blue = script(
+        "blue",
+        "SetMaterial(id: (8), material: (base_color: (0.05, 0.1, 0.9, 1.0), metallic: 0.0, \
+         perceptual_roughness: 1.0))",
+    );
+    let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
+        let out = dir.join(format!("{name}.png"));
+        let mut args = vec![
+            "--view",
+            view,
+            "--frame-budget",
+            "0",
+            "--frames",
+            // Unbudgeted path tracing on a software adapter is slow; a few samples show the change.
+            if view == "path" { "12" } else { "24" },
+            "--screenshot",
+            out.to_str().unwrap(),
+        ];
+        if let Some(c) = commands {
+            args.extend(["--commands", c.to_str().unwrap()]);
+        }
+        run_editor(&args);
+        load_rgb(&out)
+    };
+    // Inside the viewport, below its toolbar (the panels show the history, the status bar the
+    // frame rate).
+    let crop = |img: image::RgbImage| image::imageops::crop_imm(&img, 300, 90, 700, 670).to_image();
+    let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
+        crop(shot(view, commands, name))
+    };
+    let differs_by = |a: &image::RgbImage, b: &image::RgbImage, by: u8| -> Vec<bool> {
+        a.pixels()
+            .zip(b.pixels())
+            .map(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > by))
+            .collect()
+    };
+    let differs = |a: &image::RgbImage, b: &image::RgbImage| differs_by(a, b, 40);
+    let plain = shot("albedo", None, "plain");
+    // Edge pixels average a few jittered samples; two runs of the same scene may differ there.
+    let unstable = differs(&plain, &shot("albedo", None, "plain-again"));
+    // The sphere's pixels, edges it only partly covers included.
+    let sphere = differs_by(&plain, &shot("albedo", Some(&hide), "hidden"), 4);
+    let edited = differs(&plain, &shot("albedo", Some(&blue), "blue"));
+    let n_sphere = sphere.iter().filter(|d| **d).count();
+    let n_edited = edited.iter().filter(|d| **d).count();
+    let outside = sphere
+        .iter()
+        .zip(&edited)
+        .zip(&unstable)
+        .filter(|((s, e), u)| **e && !**s && !**u)
+        .count();
+    let n_unstable = unstable.iter().filter(|d| **d).count();
+    assert!(
+        n_unstable < n_sphere / 2,
+        "{n_unstable} pixels differ between two runs"
+    );
+    assert!(n_sphere > 1000, "the sphere covers {n_sphere} pixels");
+    assert!(
+        n_edited as f32 > 0.9 * n_sphere as f32,
+        "{n_edited} of the sphere's {n_sphere} pixels changed"
+    );
+    assert!(
+        (outside as f32) < 0.02 * n_sphere as f32,
+        "{outside} pixels outside the sphere changed"
+    );
+    // Path traced, the sphere's pixels change far more than the rest (noise and bounce light).
+    let (a, b) = (
+        shot("path", None, "path-plain"),
+        shot("path", Some(&blue), "path-blue"),
+    );
+    let mut sums = [(0.0f64, 0usize); 2];
+    for ((p, q), inside) in a.pixels().zip(b.pixels()).zip(&sphere) {
+        let d: f64 = p.0.iter().zip(q.0).map(|(x, y)| x.abs_diff(y) as f64).sum();
+        let s = &mut sums[*inside as usize];
+        s.0 += d;
+        s.1 += 1;
+    }
+    let (rest, on) = (sums[0].0 / sums[0].1 as f64, sums[1].0 / sums[1].1 as f64);
+    assert!(
+        on > 4.0 * rest,
+        "sphere pixels changed {on:.1}, the rest {rest:.1}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

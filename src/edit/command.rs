@@ -121,15 +121,18 @@ pub enum Primitive {
     Plane,
     /// A cylinder of diameter 1 and height 1.
     Cylinder,
+    /// A 1 × 1 square facing up that emits white light.
+    EmissivePanel,
 }
 
 impl Primitive {
     /// Every shape, in menu order.
-    pub const ALL: [Primitive; 4] = [
+    pub const ALL: [Primitive; 5] = [
         Primitive::Cube,
         Primitive::Sphere,
         Primitive::Plane,
         Primitive::Cylinder,
+        Primitive::EmissivePanel,
     ];
 
     /// A name for menus and the outliner.
@@ -139,6 +142,7 @@ impl Primitive {
             Primitive::Sphere => "Sphere",
             Primitive::Plane => "Plane",
             Primitive::Cylinder => "Cylinder",
+            Primitive::EmissivePanel => "Emissive panel",
         }
     }
 
@@ -147,16 +151,60 @@ impl Primitive {
         match self {
             Primitive::Cube => Cuboid::new(1.0, 1.0, 1.0).into(),
             Primitive::Sphere => Sphere::new(0.5).mesh().uv(32, 18),
-            Primitive::Plane => Plane3d::default().mesh().size(1.0, 1.0).into(),
+            Primitive::Plane | Primitive::EmissivePanel => {
+                Plane3d::default().mesh().size(1.0, 1.0).into()
+            }
             Primitive::Cylinder => Cylinder::new(0.5, 1.0).into(),
+        }
+    }
+
+    /// The shape's material: grey, or for the panel a white emitter.
+    pub fn material(self) -> StandardMaterial {
+        match self {
+            Primitive::EmissivePanel => StandardMaterial {
+                base_color: Color::WHITE,
+                emissive: LinearRgba::rgb(8.0, 8.0, 8.0),
+                double_sided: true,
+                cull_mode: None,
+                ..default()
+            },
+            _ => StandardMaterial {
+                base_color: Color::srgb(0.8, 0.8, 0.8),
+                perceptual_roughness: 0.6,
+                ..default()
+            },
         }
     }
 
     /// The mesh's bounding box in its own space: minimum and maximum corners.
     pub fn bounds(self) -> (Vec3, Vec3) {
         match self {
-            Primitive::Plane => (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 0.0, 0.5)),
+            Primitive::Plane | Primitive::EmissivePanel => {
+                (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 0.0, 0.5))
+            }
             _ => (Vec3::splat(-0.5), Vec3::splat(0.5)),
+        }
+    }
+}
+
+/// The lights of the Add menu.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum LightKind {
+    /// Light from a point, in every direction.
+    Point,
+    /// Parallel light from far away (a sun), along the light's forward axis.
+    Directional,
+}
+
+impl LightKind {
+    /// Both kinds, in menu order.
+    pub const ALL: [LightKind; 2] = [LightKind::Point, LightKind::Directional];
+
+    /// A name for menus and the outliner.
+    pub fn label(self) -> &'static str {
+        match self {
+            LightKind::Point => "Point light",
+            LightKind::Directional => "Directional light",
         }
     }
 }
@@ -223,6 +271,27 @@ pub enum EditCommand {
         #[serde(default)]
         copies: Vec<SceneId>,
     },
+    /// Adds a light.
+    AddLight {
+        /// Which kind.
+        kind: LightKind,
+        /// Where, in world space (a directional light shines along its forward axis, -z).
+        transform: TransformValue,
+        /// Its id; filled in on first use.
+        #[serde(default)]
+        id: Option<SceneId>,
+    },
+    /// Puts objects under a new empty group, keeping where they are in the world. The group goes
+    /// at their median point, under the first object's parent.
+    Group {
+        /// The objects.
+        ids: Vec<SceneId>,
+        /// The group's name.
+        name: String,
+        /// The group's id; filled in on first use.
+        #[serde(default)]
+        group: Option<SceneId>,
+    },
     /// Adds a built-in shape with a grey material.
     AddPrimitive {
         /// Which shape.
@@ -286,6 +355,8 @@ pub enum Undo {
     Respawn(Vec<ObjectSnapshot>),
     /// Remove these objects.
     Despawn(Vec<SceneId>),
+    /// Undo each of these, last first.
+    Many(Vec<Undo>),
 }
 
 fn entity(world: &World, id: SceneId) -> Result<Entity, EditError> {
@@ -330,6 +401,8 @@ impl EditCommand {
             EditCommand::Delete { ids } => many("Delete", ids),
             EditCommand::Duplicate { ids, .. } => many("Duplicate", ids),
             EditCommand::AddPrimitive { shape, .. } => format!("Add {}", shape.label()),
+            EditCommand::AddLight { kind, .. } => format!("Add {}", kind.label()),
+            EditCommand::Group { ids, .. } => many("Group", ids),
         }
     }
 
@@ -388,6 +461,27 @@ impl EditCommand {
                 }
                 for id in ids {
                     entity(world, *id)?;
+                }
+            }
+            EditCommand::AddLight { id, transform, .. } => {
+                if let Some(id) = id
+                    && world.resource::<SceneIndex>().entity(*id).is_some()
+                {
+                    return Err(EditError::Taken(*id));
+                }
+                check_finite(transform)?;
+            }
+            EditCommand::Group { ids, group, .. } => {
+                if ids.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                for id in ids {
+                    entity(world, *id)?;
+                }
+                if let Some(g) = group
+                    && world.resource::<SceneIndex>().entity(*g).is_some()
+                {
+                    return Err(EditError::Taken(*g));
                 }
             }
             EditCommand::AddPrimitive { id, transform, .. } => {
@@ -519,6 +613,78 @@ impl EditCommand {
                 }
                 Undo::Despawn(made)
             }
+            EditCommand::AddLight {
+                kind,
+                transform,
+                id,
+            } => {
+                let new_id = match id {
+                    Some(id) => *id,
+                    None => world.resource_mut::<SceneIndex>().allocate(),
+                };
+                *id = Some(new_id);
+                let mut e = world.spawn((
+                    Name::new(kind.label()),
+                    SceneObject,
+                    new_id,
+                    Transform::from(*transform),
+                ));
+                match kind {
+                    LightKind::Point => e.insert(PointLight {
+                        intensity: 200_000.0,
+                        range: 40.0,
+                        shadow_maps_enabled: true,
+                        ..default()
+                    }),
+                    LightKind::Directional => e.insert(DirectionalLight {
+                        illuminance: 3000.0,
+                        shadow_maps_enabled: true,
+                        ..default()
+                    }),
+                };
+                Undo::Despawn(vec![new_id])
+            }
+            EditCommand::Group { ids, name, group } => {
+                let roots = top_level(world, ids);
+                let entities: Vec<Entity> = roots
+                    .iter()
+                    .map(|id| entity(world, *id))
+                    .collect::<Result<_, _>>()?;
+                let parent = world.get::<ChildOf>(entities[0]).map(|c| c.parent());
+                let centre = entities
+                    .iter()
+                    .map(|e| Vec3::from(world_affine(world, *e).translation))
+                    .sum::<Vec3>()
+                    / entities.len() as f32;
+                let parent_world =
+                    parent.map_or(bevy::math::Affine3A::IDENTITY, |p| world_affine(world, p));
+                let group_id = match group {
+                    Some(g) => *g,
+                    None => world.resource_mut::<SceneIndex>().allocate(),
+                };
+                *group = Some(group_id);
+                let mut g = world.spawn((
+                    Name::new(name.clone()),
+                    SceneObject,
+                    group_id,
+                    Transform::from_translation(parent_world.inverse().transform_point3(centre)),
+                    Visibility::default(),
+                ));
+                if let Some(p) = parent {
+                    g.insert(ChildOf(p));
+                }
+                let g = g.id();
+                let mut before = Vec::new();
+                for (id, e) in roots.iter().zip(&entities) {
+                    let old_parent = world
+                        .get::<ChildOf>(*e)
+                        .and_then(|c| world.get::<SceneId>(c.parent()).copied());
+                    let local = world.get::<Transform>(*e).copied().unwrap_or_default();
+                    before.push((*id, old_parent, local));
+                    set_parent_keeping_world(world, *e, Some(g));
+                }
+                Undo::Many(vec![Undo::Despawn(vec![group_id]), Undo::Parents(before)])
+            }
             EditCommand::AddPrimitive {
                 shape,
                 transform,
@@ -530,14 +696,9 @@ impl EditCommand {
                 };
                 *id = Some(new_id);
                 let mesh = world.resource_mut::<Assets<Mesh>>().add(shape.mesh());
-                let material =
-                    world
-                        .resource_mut::<Assets<StandardMaterial>>()
-                        .add(StandardMaterial {
-                            base_color: Color::srgb(0.8, 0.8, 0.8),
-                            perceptual_roughness: 0.6,
-                            ..default()
-                        });
+                let material = world
+                    .resource_mut::<Assets<StandardMaterial>>()
+                    .add(shape.material());
                 world.spawn((
                     Name::new(shape.label()),
                     SceneObject,
@@ -700,6 +861,11 @@ impl Undo {
                     if let Some(e) = find(world, id) {
                         world.entity_mut(e).despawn();
                     }
+                }
+            }
+            Undo::Many(list) => {
+                for undo in list.iter().rev() {
+                    undo.revert(world);
                 }
             }
         }

@@ -291,15 +291,19 @@ fn select_what_was_made(world: &mut World, record: &Record<Step>) {
         return;
     };
     let step = step.as_ref();
-    let made = matches!(
-        step.command,
-        EditCommand::Duplicate { .. } | EditCommand::AddPrimitive { .. }
-    );
-    if let (true, Some(Undo::Despawn(ids))) = (made, &step.undo) {
-        let index = world.resource::<SceneIndex>();
-        let made: Vec<Entity> = ids.iter().filter_map(|id| index.entity(*id)).collect();
-        world.resource_mut::<Selection>().set_all(made);
-    }
+    let made: Vec<SceneId> = match (&step.command, &step.undo) {
+        (
+            EditCommand::Duplicate { .. }
+            | EditCommand::AddPrimitive { .. }
+            | EditCommand::AddLight { .. },
+            Some(Undo::Despawn(ids)),
+        ) => ids.clone(),
+        (EditCommand::Group { group: Some(g), .. }, _) => vec![*g],
+        _ => return,
+    };
+    let index = world.resource::<SceneIndex>();
+    let made: Vec<Entity> = made.iter().filter_map(|id| index.entity(*id)).collect();
+    world.resource_mut::<Selection>().set_all(made);
 }
 
 /// Applies the frame's requests in order.

@@ -7,7 +7,7 @@ pub mod history;
 pub mod shortcuts;
 pub mod snapshot;
 
-pub use command::{EditCommand, EditError, MaterialValue, Primitive, TransformValue};
+pub use command::{EditCommand, EditError, LightKind, MaterialValue, Primitive, TransformValue};
 pub use history::{EditHistory, EditRequest, EditRequests, apply_edit_requests, apply_request};
 
 use crate::scene_id::SceneIndex;
@@ -21,6 +21,7 @@ impl Plugin for EditPlugin {
         app.init_resource::<SceneIndex>()
             .init_resource::<EditHistory>()
             .init_resource::<EditRequests>()
+            .init_resource::<shortcuts::EditClipboard>()
             .add_systems(
                 Update,
                 (shortcuts::edit_shortcuts, apply_edit_requests).chain(),

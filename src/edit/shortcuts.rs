@@ -1,5 +1,6 @@
 //! Keyboard shortcuts for the history and the selection: Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y
-//! redo, Delete deletes, Ctrl+D duplicates. None fires while a text field has the keyboard.
+//! redo, Delete deletes, Ctrl+D duplicates, Ctrl+C and Ctrl+V copy and paste, Ctrl+G groups. None
+//! fires while a text field has the keyboard.
 
 use super::{EditCommand, EditRequest, EditRequests};
 use crate::scene_id::SceneId;
@@ -47,7 +48,40 @@ pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: &[SceneId]) -> Option<Edi
             continuing: false,
         });
     }
+    if ctrl && keys.just_pressed(KeyCode::KeyG) {
+        return Some(EditRequest::Apply {
+            command: EditCommand::Group {
+                ids,
+                name: "Group".into(),
+                group: None,
+            },
+            continuing: false,
+        });
+    }
     None
+}
+
+/// The objects Ctrl+C copied, by id.
+#[derive(Resource, Debug, Default, Clone, PartialEq)]
+pub struct EditClipboard(pub Vec<SceneId>);
+
+impl EditClipboard {
+    /// What pasting asks for: copies of the copied objects that still exist (in place, selected).
+    pub fn paste(&self, index: &crate::scene_id::SceneIndex) -> Option<EditRequest> {
+        let ids: Vec<SceneId> = self
+            .0
+            .iter()
+            .copied()
+            .filter(|id| index.entity(*id).is_some())
+            .collect();
+        (!ids.is_empty()).then_some(EditRequest::Apply {
+            command: EditCommand::Duplicate {
+                ids,
+                copies: Vec::new(),
+            },
+            continuing: false,
+        })
+    }
 }
 
 /// Turns the frame's shortcuts into requests.
@@ -56,6 +90,8 @@ pub fn edit_shortcuts(
     mut contexts: EguiContexts,
     selection: Res<Selection>,
     ids: Query<&SceneId>,
+    index: Res<crate::scene_id::SceneIndex>,
+    mut clipboard: ResMut<EditClipboard>,
     mut requests: ResMut<EditRequests>,
 ) {
     if !keyboard_is_free(&mut contexts) {
@@ -66,6 +102,16 @@ pub fn edit_shortcuts(
         .iter()
         .filter_map(|e| ids.get(*e).ok().copied())
         .collect();
+    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
+    if ctrl && keys.just_pressed(KeyCode::KeyC) && !selected.is_empty() {
+        clipboard.0 = selected.clone();
+    }
+    if ctrl
+        && keys.just_pressed(KeyCode::KeyV)
+        && let Some(r) = clipboard.paste(&index)
+    {
+        requests.0.push(r);
+    }
     if let Some(r) = shortcut(&keys, &selected) {
         requests.0.push(r);
     }
@@ -113,6 +159,13 @@ mod tests {
             shortcut(&press(&ctrl, KeyCode::KeyD), id),
             Some(EditRequest::Apply {
                 command: EditCommand::Duplicate { .. },
+                ..
+            })
+        ));
+        assert!(matches!(
+            shortcut(&press(&ctrl, KeyCode::KeyG), id),
+            Some(EditRequest::Apply {
+                command: EditCommand::Group { .. },
                 ..
             })
         ));

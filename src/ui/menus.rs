@@ -1,6 +1,6 @@
 //! The menu bar (Edit, Add, View, Help) and the status bar.
 
-use crate::edit::{EditHistory, Primitive};
+use crate::edit::{EditHistory, LightKind, Primitive};
 use crate::gizmo::{GizmoMode, GizmoSettings, GizmoSpace};
 use crate::render_mode::ViewportRender;
 use bevy_egui::egui;
@@ -11,6 +11,11 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("Ctrl+Shift+Z, Ctrl+Y", "Redo"),
     ("Del", "Delete the selection"),
     ("Ctrl+D", "Duplicate the selection (the copy is selected)"),
+    (
+        "Ctrl+C, Ctrl+V",
+        "Copy the selection, paste copies of it in place",
+    ),
+    ("Ctrl+G", "Group the selection under a new empty"),
     ("W / E / R", "Gizmo: move / rotate / scale"),
     (
         "Ctrl while dragging",
@@ -46,6 +51,14 @@ pub enum MenuAction {
     Duplicate,
     /// Edit → Delete.
     Delete,
+    /// Edit → Copy.
+    Copy,
+    /// Edit → Paste.
+    Paste,
+    /// Edit → Group.
+    Group,
+    /// Add → a light.
+    AddLight(LightKind),
     /// Edit → Select none.
     SelectNone,
     /// Add → a shape.
@@ -61,6 +74,7 @@ pub fn menu_bar(
     ui: &mut egui::Ui,
     history: &EditHistory,
     has_selection: bool,
+    can_paste: bool,
     render: &mut ViewportRender,
     gizmo: &mut GizmoSettings,
 ) -> Option<MenuAction> {
@@ -80,21 +94,31 @@ pub fn menu_bar(
                 action = Some(MenuAction::Redo);
             }
             ui.separator();
-            for (what, label, keys) in [
-                (MenuAction::Duplicate, "Duplicate", "Ctrl+D"),
-                (MenuAction::Delete, "Delete", "Del"),
-                (MenuAction::SelectNone, "Select none", "Esc"),
+            for (what, label, keys, enabled) in [
+                (MenuAction::Copy, "Copy", "Ctrl+C", has_selection),
+                (MenuAction::Paste, "Paste", "Ctrl+V", can_paste),
+                (MenuAction::Duplicate, "Duplicate", "Ctrl+D", has_selection),
+                (MenuAction::Group, "Group", "Ctrl+G", has_selection),
+                (MenuAction::Delete, "Delete", "Del", has_selection),
+                (MenuAction::SelectNone, "Select none", "Esc", has_selection),
             ] {
                 let button = egui::Button::new(label).shortcut_text(keys);
-                if ui.add_enabled(has_selection, button).clicked() {
+                if ui.add_enabled(enabled, button).clicked() {
                     action = Some(what);
                 }
             }
         });
         ui.menu_button("Add", |ui| {
+            ui.weak("Placed where the view's centre meets the scene");
             for shape in Primitive::ALL {
                 if ui.button(shape.label()).clicked() {
                     action = Some(MenuAction::Add(shape));
+                }
+            }
+            ui.separator();
+            for kind in LightKind::ALL {
+                if ui.button(kind.label()).clicked() {
+                    action = Some(MenuAction::AddLight(kind));
                 }
             }
         });

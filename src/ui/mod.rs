@@ -7,13 +7,14 @@ pub mod menus;
 pub mod outliner;
 
 use crate::camera::{FrameRequest, OrbitCamera, world_bounds};
-use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, MaterialValue};
+use crate::edit::shortcuts::EditClipboard;
+use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue};
 use crate::gizmo::{ActiveDrag, GizmoSettings};
 use crate::import::PendingImports;
 use crate::notice::{Level, Notices};
 use crate::placement::{box_corners, place_on, surface_under};
 use crate::render_mode::ViewportRender;
-use crate::scene_id::SceneId;
+use crate::scene_id::{SceneId, SceneIndex};
 use crate::selection::{SceneObject, Selection};
 use crate::viewport::{
     IconKind, ViewportActions, ViewportInteraction, ViewportPanel, ViewportScene,
@@ -33,7 +34,7 @@ use treelight_render::PathTracerStats;
 use treelight_scene::{SceneBvh, cast_on};
 
 /// The panels that can be docked.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum EditorTab {
     /// The 3D view.
     Viewport,
@@ -43,6 +44,16 @@ pub enum EditorTab {
     Inspector,
     /// The edit history: every step, and a click goes back or forward to it.
     History,
+}
+
+impl EditorTab {
+    /// Every panel.
+    pub const ALL: [EditorTab; 4] = [
+        EditorTab::Viewport,
+        EditorTab::Outliner,
+        EditorTab::Inspector,
+        EditorTab::History,
+    ];
 }
 
 /// The dock layout, kept between frames so the user's rearrangements persist.
@@ -190,6 +201,8 @@ pub struct ViewportAccess<'w, 's> {
     drag: ResMut<'w, ActiveDrag>,
     interaction: ResMut<'w, ViewportInteraction>,
     frame_request: ResMut<'w, FrameRequest>,
+    clipboard: ResMut<'w, EditClipboard>,
+    index: Res<'w, SceneIndex>,
 }
 
 /// Draws the editor UI and turns what the user changed into edit requests.
@@ -229,6 +242,8 @@ pub fn editor_ui(
         mut drag,
         mut interaction,
         mut frame_request,
+        mut clipboard,
+        index,
     } = view;
     let ctx = contexts.ctx_mut()?.clone();
     let parent_of = |e: Entity| -> Option<Entity> {
@@ -313,6 +328,7 @@ pub fn editor_ui(
             ui,
             &history,
             !selection.is_empty(),
+            !clipboard.0.is_empty(),
             &mut render_copy,
             &mut gizmo_copy,
         );
@@ -471,6 +487,37 @@ pub fn editor_ui(
             })
         }
         Some(MenuAction::SelectNone) => selection.clear(),
+        Some(MenuAction::Copy) => clipboard.0 = selected_ids.clone(),
+        Some(MenuAction::Paste) => requests.0.extend(clipboard.paste(&index)),
+        Some(MenuAction::Group) if !selected_ids.is_empty() => requests.apply(EditCommand::Group {
+            ids: selected_ids.clone(),
+            name: "Group".into(),
+            group: None,
+        }),
+        // A light goes a little above where the view's centre meets the scene; a directional
+        // one shines down the way the view looks.
+        Some(MenuAction::AddLight(kind)) => {
+            if let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
+                && let Some(rect) = camera.logical_viewport_rect()
+                && let Ok(ray) = camera.viewport_to_world(cam_gt, rect.center())
+            {
+                let surface = surface_under(&scene, ray, 5.0);
+                let at = surface.point + surface.normal * 1.0;
+                let f = Vec3::from(cam_gt.forward());
+                let down = Vec3::new(f.x, -1.0, f.z).normalize();
+                let transform = match kind {
+                    LightKind::Point => Transform::from_translation(at),
+                    LightKind::Directional => {
+                        Transform::from_translation(at + Vec3::Y * 2.0).looking_to(down, Vec3::Y)
+                    }
+                };
+                requests.apply(EditCommand::AddLight {
+                    kind,
+                    transform: transform.into(),
+                    id: None,
+                });
+            }
+        }
         Some(MenuAction::FrameSelection) => frame_request.0 = true,
         Some(MenuAction::ResetLayout) => *dock = EditorDock::default(),
         // A new shape goes where the view's centre ray lands, by the placement rule.

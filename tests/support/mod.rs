@@ -20,6 +20,11 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// A settings folder for editors the tests start, apart from the user's.
+pub fn test_config_dir() -> PathBuf {
+    std::env::temp_dir().join(format!("treelight-test-config-{}", std::process::id()))
+}
+
 /// Runs the editor with `args` under xvfb-run and returns its combined output.
 pub fn run_editor(args: &[&str]) -> String {
     run_headless(Path::new(env!("CARGO_BIN_EXE_treelight")), args)
@@ -28,11 +33,23 @@ pub fn run_editor(args: &[&str]) -> String {
 /// Runs a program with `args` under xvfb-run and returns its combined output. Panics with an
 /// explanation when the display server or the GPU adapter is missing, or when it fails.
 pub fn run_headless(exe: &Path, args: &[&str]) -> String {
+    run_headless_with_config(exe, args, &test_config_dir())
+}
+
+/// Runs the editor with `args` and its settings in `config`.
+pub fn run_editor_with_config(args: &[&str], config: &Path) -> String {
+    run_headless_with_config(Path::new(env!("CARGO_BIN_EXE_treelight")), args, config)
+}
+
+/// [`run_headless`] with the editor's settings in `config`.
+pub fn run_headless_with_config(exe: &Path, args: &[&str], config: &Path) -> String {
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1000x24"])
         .arg(exe)
         .args(args)
         .env("WGPU_BACKEND", "vulkan")
+        // The user's own settings stay untouched by tests.
+        .env("TREELIGHT_CONFIG_DIR", config)
         .output()
         .unwrap_or_else(|e| {
             panic!("cannot run xvfb-run ({e}). Install the headless GPU test packages: apt-get install -y mesa-vulkan-drivers libvulkan1 xvfb xauth")

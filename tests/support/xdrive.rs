@@ -121,6 +121,7 @@ impl Session {
                 .arg(&state_path)
                 .env("DISPLAY", format!(":{display}"))
                 .env("WGPU_BACKEND", "vulkan")
+                .env("TREELIGHT_CONFIG_DIR", dir.join("config"))
                 .stdout(log.try_clone().unwrap())
                 .stderr(log)
                 .spawn()
