@@ -1,6 +1,6 @@
 //! Opening scene files (command line, drag and drop): parsed on a background task by
-//! `treelight_import`, then spawned as scene entities. Errors become notices; nothing already in the
-//! scene is touched by a failed import.
+//! `treelight_import`, then spawned as scene entities by an import command (one undoable step).
+//! Errors become notices; nothing already in the scene is touched by a failed import.
 
 use crate::camera::OrbitCamera;
 use crate::notice::Notices;
@@ -46,16 +46,21 @@ pub fn import_dropped_files(
 }
 
 /// Filter for entities that light the scene.
-type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
+pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
 
-/// Spawns the scenes whose parsing finished, and frames the camera on the first one.
+/// Files parsed in the background and not yet in the scene: the import command takes its file's
+/// scene from here (and parses the file itself when a script names one that is not).
+#[derive(Resource, Default)]
+pub struct ParsedImports(pub HashMap<PathBuf, ImportedScene>);
+
+/// Hands each parsed file to the history as an import command (one undoable step), and frames
+/// the camera on it.
 pub fn finish_imports(
-    mut commands: Commands,
     mut pending: ResMut<PendingImports>,
+    mut parsed: ResMut<ParsedImports>,
+    mut requests: ResMut<crate::edit::EditRequests>,
     mut notices: ResMut<Notices>,
-    mut assets: SceneAssets,
     mut orbit: Query<&mut OrbitCamera>,
-    lights: Query<(), AnyLight>,
 ) {
     let mut i = 0;
     while i < pending.0.len() {
@@ -70,19 +75,7 @@ pub fn finish_imports(
                 for w in &scene.warnings {
                     notices.warn(format!("{}: {w}", path.display()));
                 }
-                let bounds = spawn_scene(&mut commands, &path, &scene, &mut assets);
-                if lights.is_empty() {
-                    commands.spawn((
-                        Name::new("Sun"),
-                        SceneObject,
-                        DirectionalLight {
-                            illuminance: 8_000.0,
-                            ..default()
-                        },
-                        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
-                    ));
-                }
-                if let (Some((min, max)), Ok(mut o)) = (bounds, orbit.single_mut()) {
+                if let (Some((min, max)), Ok(mut o)) = (scene_bounds(&scene), orbit.single_mut()) {
                     o.focus = (min + max) * 0.5;
                     o.radius = (max - min).length().max(1e-3) * 1.4;
                 }
@@ -92,9 +85,60 @@ pub fn finish_imports(
                     scene.meshes.len(),
                     scene.triangle_count()
                 ));
+                parsed.0.insert(path.clone(), scene);
+                requests.apply(crate::edit::EditCommand::Import {
+                    file: path,
+                    root: None,
+                });
             }
         }
     }
+}
+
+/// The world-space bounds of a parsed scene's triangles.
+pub fn scene_bounds(scene: &ImportedScene) -> Option<(Vec3, Vec3)> {
+    let mut bounds: Option<(Vec3, Vec3)> = None;
+    for m in &scene.meshes {
+        for tri in m.world_triangles() {
+            for p in tri {
+                bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+    }
+    bounds
+}
+
+/// Spawns a parsed scene into the world (what the import command does): the assembly, and a sun
+/// when the scene has no light yet. Returns the entities spawned at the top; fails only in a world
+/// without mesh, material or image assets.
+pub fn spawn_scene_in_world(
+    world: &mut World,
+    file: &Path,
+    scene: &ImportedScene,
+) -> Result<Vec<Entity>, String> {
+    let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
+        bevy::ecs::system::SystemState::new(world);
+    let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
+    let root = spawn_scene(&mut commands, file, scene, &mut assets);
+    state.apply(world);
+    let mut top = vec![root];
+    let mut lights = world.query_filtered::<(), AnyLight>();
+    if lights.iter(world).next().is_none() {
+        top.push(
+            world
+                .spawn((
+                    Name::new("Sun"),
+                    SceneObject,
+                    DirectionalLight {
+                        illuminance: 8_000.0,
+                        ..default()
+                    },
+                    Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
+                ))
+                .id(),
+        );
+    }
+    Ok(top)
 }
 
 /// The asset stores an imported scene is added to.
@@ -121,14 +165,13 @@ pub struct SourceKey {
 
 /// Spawns the file as an assembly: one root named after the file, its node hierarchy beneath as
 /// parent and child entities with local transforms, each mesh on its node (or, for a node with
-/// several meshes or for files without nodes, as a child of its own). Returns the scene's world
-/// bounds.
+/// several meshes or for files without nodes, as a child of its own). Returns the root.
 pub fn spawn_scene(
     commands: &mut Commands,
     file: &Path,
     scene: &ImportedScene,
     assets: &mut SceneAssets,
-) -> Option<(Vec3, Vec3)> {
+) -> Entity {
     // One image per texture and sampler, shared by the materials that use it.
     let mut textures: HashMap<(usize, [WrapMode; 2]), Handle<Image>> = HashMap::new();
     let handles: Vec<Handle<StandardMaterial>> = scene
@@ -190,13 +233,7 @@ pub fn spawn_scene(
             *meshes_per_node.entry(n).or_default() += 1;
         }
     }
-    let mut bounds: Option<(Vec3, Vec3)> = None;
     for (i, m) in scene.meshes.iter().enumerate() {
-        for tri in m.world_triangles() {
-            for p in tri {
-                bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
-            }
-        }
         let mat = m
             .material
             .and_then(|k| handles.get(k))
@@ -239,7 +276,7 @@ pub fn spawn_scene(
             }
         }
     }
-    bounds
+    root
 }
 
 /// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).

@@ -67,6 +67,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
+    .init_resource::<import::ParsedImports>()
     .insert_resource(render_mode::ViewportRender {
         traced: cli.view.debug_view(),
         settings: treelight_render::PathTraced {

@@ -115,6 +115,7 @@ pub fn write_state_report(
     history: Res<EditHistory>,
     gizmo: Res<GizmoSettings>,
     pending: Res<PendingImports>,
+    parsed: Res<crate::import::ParsedImports>,
     scene: Res<SceneBvh>,
 ) {
     report.frame += 1;
@@ -171,7 +172,7 @@ pub fn write_state_report(
         .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
     let state = EditorState {
         frame: report.frame,
-        settled: pending.0.is_empty() && scene.is_idle(),
+        settled: pending.0.is_empty() && parsed.0.is_empty() && scene.is_idle(),
         objects: list,
         selection: selection
             .entities()

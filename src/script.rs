@@ -68,7 +68,11 @@ const SETTLED_FRAMES: u32 = 3;
 
 /// Applies the script once nothing is loading and the BVH is idle; reports what it did.
 pub fn run_scripted_edits(world: &mut World) {
-    let loading = !world.resource::<PendingImports>().0.is_empty();
+    let loading = !world.resource::<PendingImports>().0.is_empty()
+        || !world
+            .resource::<crate::import::ParsedImports>()
+            .0
+            .is_empty();
     let idle = world.resource::<SceneBvh>().is_idle();
     let mut script = world.resource_mut::<ScriptedEdits>();
     if script.commands.is_none() {

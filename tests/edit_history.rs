@@ -530,19 +530,41 @@ fn a_drag_is_one_step() {
 
 #[test]
 fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
-    use bevy::ecs::system::RunSystemOnce;
-    use treelight::import::{SceneAssets, SourceKey, spawn_scene};
+    use treelight::import::SourceKey;
     let mut app = editing_app();
     app.init_asset::<Image>();
+    // A light already there: the import adds none of its own.
+    app.world_mut()
+        .spawn((PointLight::default(), Transform::default()));
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/gltf/CesiumMan.glb");
     let scene = treelight_import::load_scene(&path).unwrap();
-    let (file, imported) = (path.clone(), scene.clone());
-    app.world_mut()
-        .run_system_once(move |mut commands: Commands, mut assets: SceneAssets| {
-            spawn_scene(&mut commands, &file, &imported, &mut assets);
-        })
-        .unwrap();
+    // The import is a command: one step, undone and redone like any other.
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::Import {
+                file: path.clone(),
+                root: None,
+            },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    assert_eq!(head(&app), 1);
     app.update();
+    let imported = world_state(app.world_mut());
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    assert!(
+        world_state(app.world_mut()).is_empty(),
+        "undo removes the import"
+    );
+    apply_request(app.world_mut(), EditRequest::Redo).unwrap();
+    app.update();
+    assert_eq!(
+        world_state(app.world_mut()),
+        imported,
+        "redo brings the same objects back"
+    );
     let world = app.world_mut();
     // The root is named after the file; every node is an object under it, keyed by its path.
     let mut q = world.query::<(

@@ -292,6 +292,15 @@ pub enum EditCommand {
         #[serde(default)]
         group: Option<SceneId>,
     },
+    /// Adds a scene file's contents as an assembly under one root named after the file (and a sun
+    /// if the scene has no light).
+    Import {
+        /// The file (.gltf, .glb, .obj or .ply).
+        file: std::path::PathBuf,
+        /// The root's id; filled in on first use.
+        #[serde(default)]
+        root: Option<SceneId>,
+    },
     /// Adds a built-in shape with a grey material.
     AddPrimitive {
         /// Which shape.
@@ -322,6 +331,9 @@ pub enum EditError {
     /// An object without a material, for a material command.
     #[error("{0} has no material")]
     NoMaterial(SceneId),
+    /// A file that cannot be imported.
+    #[error("{0}")]
+    Import(String),
     /// Material values out of range.
     #[error("a material value is not finite, or the emission is negative")]
     BadMaterial,
@@ -402,6 +414,13 @@ impl EditCommand {
             EditCommand::Duplicate { ids, .. } => many("Duplicate", ids),
             EditCommand::AddPrimitive { shape, .. } => format!("Add {}", shape.label()),
             EditCommand::AddLight { kind, .. } => format!("Add {}", kind.label()),
+            EditCommand::Import { file, .. } => format!(
+                "Import {}",
+                file.file_name().map_or_else(
+                    || file.display().to_string(),
+                    |n| n.to_string_lossy().into()
+                )
+            ),
             EditCommand::Group { ids, .. } => many("Group", ids),
         }
     }
@@ -461,6 +480,13 @@ impl EditCommand {
                 }
                 for id in ids {
                     entity(world, *id)?;
+                }
+            }
+            EditCommand::Import { root, .. } => {
+                if let Some(id) = root
+                    && world.resource::<SceneIndex>().entity(*id).is_some()
+                {
+                    return Err(EditError::Taken(*id));
                 }
             }
             EditCommand::AddLight { id, transform, .. } => {
@@ -612,6 +638,27 @@ impl EditCommand {
                     made.extend(world.get::<SceneId>(root).copied());
                 }
                 Undo::Despawn(made)
+            }
+            EditCommand::Import { file, root } => {
+                let parsed = world
+                    .get_resource_mut::<crate::import::ParsedImports>()
+                    .and_then(|mut p| p.0.remove(file.as_path()));
+                let scene = match parsed {
+                    Some(s) => s,
+                    None => treelight_import::load_scene(file)
+                        .map_err(|e| EditError::Import(e.to_string()))?,
+                };
+                let top = crate::import::spawn_scene_in_world(world, file, &scene)
+                    .map_err(EditError::Import)?;
+                if let Some(id) = root {
+                    world.entity_mut(top[0]).insert(*id);
+                }
+                let ids: Vec<SceneId> = top
+                    .iter()
+                    .filter_map(|e| world.get::<SceneId>(*e).copied())
+                    .collect();
+                *root = ids.first().copied();
+                Undo::Despawn(ids)
             }
             EditCommand::AddLight {
                 kind,

@@ -281,7 +281,8 @@ pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), Edit
     })
 }
 
-/// After a duplicate or an added shape, the new objects are the selection.
+/// After a duplicate, an added shape or light, or a group, the new objects are the selection (an
+/// import leaves it: the opened scene is framed whole, without a gizmo over it).
 fn select_what_was_made(world: &mut World, record: &Record<Step>) {
     let Some(step) = record
         .head()
