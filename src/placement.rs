@@ -19,12 +19,32 @@ pub struct Surface {
 /// down; else a point `fallback_distance` along it, facing back along the ray. Waits for the tree
 /// if the worker holds it (a slice of idle work at most): a user's placement must not miss.
 pub fn surface_under(scene: &SceneBvh, ray: Ray3d, fallback_distance: f32) -> Surface {
-    if let Some(hit) = cast_on(&scene.read_blocking(), ray) {
-        return Surface {
-            point: hit.point,
-            normal: hit.normal,
+    surface_under_excluding(scene, ray, fallback_distance, None)
+}
+
+/// [`surface_under`], seeing through `exclude` (the object being placed).
+pub fn surface_under_excluding(
+    scene: &SceneBvh,
+    ray: Ray3d,
+    fallback_distance: f32,
+    exclude: Option<Entity>,
+) -> Surface {
+    let tree = scene.read_blocking();
+    let mut origin = ray.origin;
+    // Past the excluded object's surfaces, a few times at most (it may be hit front and back).
+    for _ in 0..8 {
+        let Some(hit) = cast_on(&tree, Ray3d::new(origin, ray.direction)) else {
+            break;
         };
+        if Some(hit.entity) != exclude {
+            return Surface {
+                point: hit.point,
+                normal: hit.normal,
+            };
+        }
+        origin = hit.point + Vec3::from(ray.direction) * 1e-4 * hit.distance.max(1.0);
     }
+    drop(tree);
     let d = Vec3::from(ray.direction);
     if d.y < -1e-4 {
         let t = -ray.origin.y / d.y;
@@ -70,6 +90,19 @@ pub fn place_on(surface: Surface, min: Vec3, max: Vec3, scale: Vec3) -> Vec3 {
     t
 }
 
+/// The transform that puts an object with local bounds `min..max` on `surface`: upright by the
+/// rule ([`place_on`]), or with `aligned`, turned so its up axis follows the surface's normal and
+/// the centre of its box's bottom on the point.
+pub fn place_transform(surface: Surface, min: Vec3, max: Vec3, aligned: bool) -> Transform {
+    if !aligned {
+        return Transform::from_translation(place_on(surface, min, max, Vec3::ONE));
+    }
+    let n = surface.normal.normalize_or(Vec3::Y);
+    let rotation = Quat::from_rotation_arc(Vec3::Y, n);
+    let bottom = Vec3::new((min.x + max.x) * 0.5, min.y, (min.z + max.z) * 0.5);
+    Transform::from_translation(surface.point - rotation * bottom).with_rotation(rotation)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,5 +144,22 @@ mod tests {
             .collect();
         let min = depths.iter().copied().fold(f32::INFINITY, f32::min);
         assert!(min.abs() < 1e-5, "{depths:?}");
+    }
+
+    #[test]
+    fn aligned_placement_stands_the_box_on_the_surface_along_its_normal() {
+        let n = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let s = Surface {
+            point: Vec3::new(1.0, 2.0, 3.0),
+            normal: n,
+        };
+        let t = place_transform(s, CUBE.0, CUBE.1, true);
+        assert!((t.rotation * Vec3::Y).distance(n) < 1e-6);
+        // The bottom face's centre is on the point; the box is on the normal's side.
+        let bottom = t.transform_point(Vec3::new(0.0, -0.5, 0.0));
+        assert!(bottom.distance(s.point) < 1e-5);
+        for c in box_corners(CUBE.0, CUBE.1) {
+            assert!((t.transform_point(c) - s.point).dot(n) > -1e-5);
+        }
     }
 }

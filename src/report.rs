@@ -65,6 +65,9 @@ pub struct EditorState {
     pub gizmo_mode: String,
     /// The viewport's rectangle in the window: x, y, width, height (logical pixels).
     pub viewport: [f32; 4],
+    /// Named widgets (the palette's tiles) and their rectangles, as the viewport's.
+    #[serde(default)]
+    pub widgets: Vec<(String, [f32; 4])>,
 }
 
 /// Where the report goes.
@@ -117,6 +120,7 @@ pub fn write_state_report(
     pending: Res<PendingImports>,
     parsed: Res<crate::import::ParsedImports>,
     scene: Res<SceneBvh>,
+    widgets: Res<crate::ui::WidgetRects>,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -183,6 +187,7 @@ pub fn write_state_report(
         gizmo: handles,
         gizmo_mode: gizmo.mode.label().to_owned(),
         viewport,
+        widgets: widgets.0.clone(),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

@@ -130,6 +130,11 @@ pub fn load_settings(
     match read_settings(&path) {
         Ok(Some(s)) => {
             dock.0 = s.layout;
+            for tab in EditorTab::ALL {
+                if dock.0.find_tab(&tab).is_none() {
+                    dock.0.push_to_first_leaf(tab);
+                }
+            }
             gizmo.grid_step = s.grid_step;
             gizmo.angle_step_deg = s.angle_step_deg;
             gizmo.scale_step = s.scale_step;
@@ -217,8 +222,8 @@ mod tests {
             let e = read_settings(&path).unwrap_err();
             assert!(e.contains(problem), "{e}");
         }
-        // A layout that lost a panel.
-        settings.layout = DockState::new(vec![EditorTab::Viewport]);
+        // A layout with a panel twice.
+        settings.layout = DockState::new(vec![EditorTab::Viewport, EditorTab::Viewport]);
         write_settings(&path, &settings).unwrap();
         assert!(read_settings(&path).unwrap_err().contains("panel"));
         std::fs::remove_dir_all(&d).ok();

@@ -73,6 +73,9 @@ pub struct ViewportActions {
     pub box_select: Option<(Rect, ClickModifiers)>,
     /// Edit requests: a drag's previews, its commit or its cancel.
     pub requests: Vec<EditRequest>,
+    /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
+    /// surface, and whether it was dropped this frame.
+    pub palette: Option<(crate::ui::palette::PaletteItem, Vec2, bool, bool)>,
 }
 
 /// Pixels within which a second click counts as the same spot.
@@ -306,6 +309,23 @@ impl ViewportPanel<'_> {
             self.gizmo,
             &view,
         );
+
+        // A palette item dragged over the viewport is shown where it would land; Escape cancels it.
+        if let Some(item) = egui::DragAndDrop::payload::<crate::ui::palette::PaletteItem>(ui.ctx())
+        {
+            if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+                egui::DragAndDrop::clear_payload(ui.ctx());
+            } else if let Some(p) = pointer
+                && rect.contains(p)
+            {
+                self.actions.palette = Some((*item, vec(p), modifiers.shift, false));
+            }
+        }
+        if let Some(item) = response.dnd_release_payload::<crate::ui::palette::PaletteItem>()
+            && let Some(p) = pointer.or(response.interact_pointer_pos())
+        {
+            self.actions.palette = Some((*item, vec(p), modifiers.shift, true));
+        }
 
         // The gizmo has the pointer first.
         let mut gizmo_took = false;

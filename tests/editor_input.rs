@@ -265,3 +265,49 @@ fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world
     std::fs::remove_dir_all(&dir).ok();
     let _ = pos;
 }
+
+#[test]
+fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
+    if skip_gpu_tests("a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer") {
+        return;
+    }
+    let mut s = Session::start("palette", &[]);
+    let st = s.frames(1);
+    let tile = st
+        .widgets
+        .iter()
+        .find(|(n, _)| n == "Cube")
+        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+        .expect("the palette shows a Cube tile");
+    let floor = object(&st, "Floor").screen.unwrap();
+    let (head, _) = st.history;
+    let cubes = |st: &EditorState| ids_named(st, "Cube").len();
+
+    // While the drag is over the viewport, the cube is already in the scene (and traced), with no
+    // step yet.
+    s.drag_without_release(tile, (floor[0], floor[1]), 6);
+    let during = s.frames(2);
+    assert_eq!(cubes(&during), 1, "the dragged cube is shown");
+    assert_eq!(during.history.0, head, "no step while dragging");
+    s.release(1);
+    let st = s.frames(2);
+    assert_eq!(cubes(&st), 1);
+    assert_eq!(st.history.0, head + 1, "the drop is one step");
+    // Upright on the floor (its top at y = 0): the unit cube's centre half a unit above.
+    let cube = object(&st, "Cube");
+    assert!(
+        (cube.world_translation[1] - 0.5).abs() < 0.02,
+        "the cube is not on the floor: {:?}",
+        cube.world_translation
+    );
+    assert_eq!(st.selection, vec![cube.id], "the dropped cube is selected");
+
+    // Escape during a second drag takes the ghost away and leaves no step.
+    s.drag_without_release(tile, (floor[0] + 40.0, floor[1]), 6);
+    assert_eq!(cubes(&s.frames(2)), 2, "the second ghost is shown");
+    s.key(&[], keysym::ESCAPE);
+    s.release(1);
+    let st = s.frames(3);
+    assert_eq!(cubes(&st), 1, "escape removed the ghost");
+    assert_eq!(st.history.0, head + 1, "escape left no step");
+}

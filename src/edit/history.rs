@@ -117,6 +117,8 @@ pub struct EditHistory {
     record: Record<Step>,
     /// While a drag is shown live but not yet a step: each moved object's transform before it.
     previewed: Vec<(SceneId, Transform)>,
+    /// Objects a preview made (a palette item dragged over the viewport), removed when it ends.
+    preview_made: Vec<SceneId>,
 }
 
 impl Default for EditHistory {
@@ -124,6 +126,7 @@ impl Default for EditHistory {
         Self {
             record: Record::builder().limit(1000).build(),
             previewed: Vec::new(),
+            preview_made: Vec::new(),
         }
     }
 }
@@ -131,15 +134,22 @@ impl Default for EditHistory {
 impl EditHistory {
     /// Whether a live preview (a drag not yet committed) has moved objects.
     pub fn previewing(&self) -> bool {
-        !self.previewed.is_empty()
+        !self.previewed.is_empty() || !self.preview_made.is_empty()
     }
 
-    /// Puts back what a preview moved.
+    /// The object a preview made, if any (the ghost of a palette item being dragged).
+    pub fn preview_made(&self) -> Option<SceneId> {
+        self.preview_made.first().copied()
+    }
+
+    /// Puts back what a preview moved and removes what it made.
     fn end_preview(&mut self, world: &mut World) {
-        if self.previewed.is_empty() {
-            return;
+        if !self.preview_made.is_empty() {
+            Undo::Despawn(std::mem::take(&mut self.preview_made)).revert(world);
         }
-        Undo::Transforms(std::mem::take(&mut self.previewed)).revert(world);
+        if !self.previewed.is_empty() {
+            Undo::Transforms(std::mem::take(&mut self.previewed)).revert(world);
+        }
     }
 
     /// The steps' descriptions, oldest first.
@@ -199,9 +209,11 @@ pub enum EditRequest {
     Redo,
     /// Undo or redo until this many steps are applied.
     GoTo(usize),
-    /// Shows a transform command live without making it a step (a gizmo drag in progress). The
-    /// next request of any other kind first puts the objects back, so an `Apply` of the drag's
-    /// final command is one step whose undo returns to where the drag began.
+    /// Shows a transform command live without making it a step (a gizmo drag in progress), or
+    /// adds a shape that is not yet a step (a palette item dragged over the viewport, moved by
+    /// later transform previews). The next request of any other kind first puts the objects back
+    /// and removes what previews added, so an `Apply` of the drag's final command is one step whose
+    /// undo returns to where the drag began.
     Preview(EditCommand),
     /// Puts back what previews moved: a cancelled drag, and no step.
     CancelPreview,
@@ -226,6 +238,13 @@ impl EditRequests {
 pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), EditError> {
     world.resource_scope(|world, mut history: Mut<EditHistory>| {
         if let EditRequest::Preview(mut command) = request {
+            if let EditCommand::AddPrimitive { .. } = command {
+                history.end_preview(world);
+                if let Undo::Despawn(made) = command.apply(world)? {
+                    history.preview_made = made;
+                }
+                return Ok(());
+            }
             let ids: Vec<SceneId> = match &command {
                 EditCommand::SetTransform { id, .. } => vec![*id],
                 EditCommand::SetTransforms { transforms } => {

@@ -35,6 +35,10 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
         "Add to or remove from the selection",
     ),
     ("Left drag on the image", "Select with a box"),
+    (
+        "Drag from the Assets panel",
+        "Place a shape on the surface under the pointer (Shift: along its normal)",
+    ),
     ("Middle drag, Alt+left drag", "Orbit"),
     ("Shift+middle drag, right drag", "Pan"),
     ("Wheel", "Zoom"),

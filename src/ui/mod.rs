@@ -5,6 +5,7 @@
 pub mod inspector;
 pub mod menus;
 pub mod outliner;
+pub mod palette;
 
 use crate::camera::{FrameRequest, OrbitCamera, world_bounds};
 use crate::edit::shortcuts::EditClipboard;
@@ -12,7 +13,7 @@ use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, LightKind
 use crate::gizmo::{ActiveDrag, GizmoSettings};
 use crate::import::PendingImports;
 use crate::notice::{Level, Notices};
-use crate::placement::{box_corners, place_on, surface_under};
+use crate::placement::{box_corners, place_transform, surface_under, surface_under_excluding};
 use crate::render_mode::ViewportRender;
 use crate::scene_id::{SceneId, SceneIndex};
 use crate::selection::{SceneObject, Selection};
@@ -44,15 +45,18 @@ pub enum EditorTab {
     Inspector,
     /// The edit history: every step, and a click goes back or forward to it.
     History,
+    /// The built-in shapes, to drag onto the viewport.
+    Assets,
 }
 
 impl EditorTab {
     /// Every panel.
-    pub const ALL: [EditorTab; 4] = [
+    pub const ALL: [EditorTab; 5] = [
         EditorTab::Viewport,
         EditorTab::Outliner,
         EditorTab::Inspector,
         EditorTab::History,
+        EditorTab::Assets,
     ];
 }
 
@@ -64,13 +68,19 @@ impl Default for EditorDock {
     fn default() -> Self {
         let mut state = DockState::new(vec![EditorTab::Viewport]);
         let tree = state.main_surface_mut();
-        let [viewport, _outliner] =
+        let [viewport, outliner] =
             tree.split_left(NodeIndex::root(), 0.2, vec![EditorTab::Outliner]);
         let [_, inspector] = tree.split_right(viewport, 0.75, vec![EditorTab::Inspector]);
         tree.split_below(inspector, 0.6, vec![EditorTab::History]);
+        tree.split_below(outliner, 0.7, vec![EditorTab::Assets]);
         Self(state)
     }
 }
+
+/// Where named widgets (the palette's tiles) were laid out last frame: name and rectangle (x, y,
+/// width, height, logical pixels), for the state report.
+#[derive(Resource, Debug, Default, Clone)]
+pub struct WidgetRects(pub Vec<(String, [f32; 4])>);
 
 /// Where the viewport panel is, in physical pixels, for the 3D camera.
 #[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
@@ -90,6 +100,10 @@ struct EditorTabs<'a> {
     history: (&'a [String], usize),
     /// A step the user clicked in the history panel.
     go_to: &'a mut Option<usize>,
+    /// A shape the user clicked in the palette.
+    palette_click: &'a mut Option<crate::edit::Primitive>,
+    /// Where named widgets are this frame.
+    named_rects: &'a mut Vec<(String, egui::Rect)>,
 }
 
 impl TabViewer for EditorTabs<'_> {
@@ -105,6 +119,7 @@ impl TabViewer for EditorTabs<'_> {
             EditorTab::Outliner => "Outliner".into(),
             EditorTab::Inspector => "Inspector".into(),
             EditorTab::History => "History".into(),
+            EditorTab::Assets => "Assets".into(),
         }
     }
 
@@ -125,6 +140,11 @@ impl TabViewer for EditorTabs<'_> {
                 inspector::inspector_ui(ui, self.inspected.as_deref_mut(), self.make_unique)
             }
             EditorTab::History => self.history_ui(ui),
+            EditorTab::Assets => {
+                if let Some(shape) = palette::palette_ui(ui, self.named_rects) {
+                    *self.palette_click = Some(shape);
+                }
+            }
         }
     }
 }
@@ -203,6 +223,7 @@ pub struct ViewportAccess<'w, 's> {
     frame_request: ResMut<'w, FrameRequest>,
     clipboard: ResMut<'w, EditClipboard>,
     index: Res<'w, SceneIndex>,
+    widgets: ResMut<'w, WidgetRects>,
 }
 
 /// Draws the editor UI and turns what the user changed into edit requests.
@@ -244,6 +265,7 @@ pub fn editor_ui(
         mut frame_request,
         mut clipboard,
         index,
+        mut widgets,
     } = view;
     let ctx = contexts.ctx_mut()?.clone();
     let parent_of = |e: Entity| -> Option<Entity> {
@@ -313,6 +335,8 @@ pub fn editor_ui(
     let mut panel_commands: Vec<EditCommand> = Vec::new();
     let mut actions = ViewportActions::default();
     let mut make_unique = false;
+    let mut palette_click = None;
+    let mut named_rects = Vec::new();
     let f2 = ctx.input(|i| i.key_pressed(egui::Key::F2)) && !ctx.egui_wants_keyboard_input();
 
     let mut root = egui::Ui::new(
@@ -423,6 +447,8 @@ pub fn editor_ui(
                 make_unique: &mut make_unique,
                 history: (&history_labels, history.head()),
                 go_to: &mut go_to,
+                palette_click: &mut palette_click,
+                named_rects: &mut named_rects,
             };
             DockArea::new(&mut dock.0)
                 .style(Style::from_egui(ui.style().as_ref()))
@@ -437,6 +463,10 @@ pub fn editor_ui(
     if *render != render_copy {
         *render = render_copy;
     }
+    widgets.0 = named_rects
+        .into_iter()
+        .map(|(n, r)| (n, [r.min.x, r.min.y, r.width(), r.height()]))
+        .collect();
     if *gizmo != gizmo_copy {
         *gizmo = gizmo_copy;
     }
@@ -467,6 +497,7 @@ pub fn editor_ui(
         }
     }
 
+    let mut add_at_centre = None;
     let selected_ids: Vec<SceneId> = selection
         .entities()
         .iter()
@@ -521,21 +552,54 @@ pub fn editor_ui(
         Some(MenuAction::FrameSelection) => frame_request.0 = true,
         Some(MenuAction::ResetLayout) => *dock = EditorDock::default(),
         // A new shape goes where the view's centre ray lands, by the placement rule.
-        Some(MenuAction::Add(shape)) => {
-            if let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
-                && let Some(rect) = camera.logical_viewport_rect()
-                && let Ok(ray) = camera.viewport_to_world(cam_gt, rect.center())
-            {
-                let surface = surface_under(&scene, ray, 5.0);
-                let (min, max) = shape.bounds();
-                let translation = place_on(surface, min, max, Vec3::ONE);
-                requests.apply(EditCommand::AddPrimitive {
-                    shape,
-                    transform: Transform::from_translation(translation).into(),
-                    id: None,
+        Some(MenuAction::Add(shape)) => add_at_centre = Some(shape),
+        _ => {}
+    }
+    if let Some(shape) = add_at_centre.or(palette_click)
+        && let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
+        && let Some(rect) = camera.logical_viewport_rect()
+        && let Ok(ray) = camera.viewport_to_world(cam_gt, rect.center())
+    {
+        let surface = surface_under(&scene, ray, 5.0);
+        let (min, max) = shape.bounds();
+        requests.apply(EditCommand::AddPrimitive {
+            shape,
+            transform: place_transform(surface, min, max, false).into(),
+            id: None,
+        });
+    }
+    // A palette item over the viewport: its ghost (a preview, traced like any object) follows the
+    // pointer by the placement rule; a drop makes it one step; anything else removes the ghost.
+    let ghost = history.preview_made();
+    match (actions.palette, viewport_scene.camera.as_ref()) {
+        (Some((item, at, aligned, dropped)), Some((camera, cam_gt))) => {
+            if let Ok(ray) = camera.viewport_to_world(cam_gt, at) {
+                let ghost_entity = ghost.and_then(|g| index.entity(g));
+                let surface = surface_under_excluding(&scene, ray, 5.0, ghost_entity);
+                let (min, max) = item.0.bounds();
+                let transform = place_transform(surface, min, max, aligned);
+                let command = match (dropped, ghost) {
+                    (false, Some(id)) => EditCommand::SetTransform {
+                        id,
+                        transform: transform.into(),
+                    },
+                    _ => EditCommand::AddPrimitive {
+                        shape: item.0,
+                        transform: transform.into(),
+                        id: None,
+                    },
+                };
+                requests.0.push(if dropped {
+                    EditRequest::Apply {
+                        command,
+                        continuing: false,
+                    }
+                } else {
+                    EditRequest::Preview(command)
                 });
             }
         }
+        _ if ghost.is_some() && drag.0.is_none() => requests.0.push(EditRequest::CancelPreview),
         _ => {}
     }
     requests.0.append(&mut actions.requests);
@@ -761,6 +825,7 @@ impl Plugin for UiPlugin {
             .init_resource::<ViewportRect>()
             .init_resource::<OutlinerState>()
             .init_resource::<ViewportInteraction>()
+            .init_resource::<WidgetRects>()
             .add_systems(bevy_egui::EguiPrimaryContextPass, editor_ui)
             .add_systems(Update, fit_camera_viewport);
     }
