@@ -33,16 +33,37 @@ impl PendingImports {
     }
 }
 
-/// Starts an import for every file dropped on the window.
+/// Where files dropped on the window go: the pointer's position in the window when the drop
+/// arrived (`None` when the window system did not say, as X11 does not during a drag: the
+/// viewport's centre is used).
+#[derive(Resource, Default)]
+pub struct DropPositions(pub HashMap<PathBuf, Option<Vec2>>);
+
+/// Starts an import for every file dropped on the window, remembering where it was dropped.
 pub fn import_dropped_files(
     mut drops: MessageReader<FileDragAndDrop>,
     mut pending: ResMut<PendingImports>,
+    mut positions: ResMut<DropPositions>,
+    windows: Query<&Window>,
 ) {
     for drop in drops.read() {
-        if let FileDragAndDrop::DroppedFile { path_buf, .. } = drop {
+        if let FileDragAndDrop::DroppedFile { path_buf, window } = drop {
+            let at = windows.get(*window).ok().and_then(Window::cursor_position);
+            positions.0.insert(path_buf.clone(), at);
             pending.start(path_buf.clone());
         }
     }
+}
+
+/// Where a dropped scene's root goes: its bounds' bottom centre on `surface` by the placement rule
+/// (the file's own coordinates otherwise kept: the root only moves).
+pub fn drop_transform(bounds: (Vec3, Vec3), surface: crate::placement::Surface) -> Transform {
+    Transform::from_translation(crate::placement::place_on(
+        surface,
+        bounds.0,
+        bounds.1,
+        Vec3::ONE,
+    ))
 }
 
 /// Filter for entities that light the scene.
@@ -55,12 +76,16 @@ pub struct ParsedImports(pub HashMap<PathBuf, ImportedScene>);
 
 /// Hands each parsed file to the history as an import command (one undoable step), and frames
 /// the camera on it.
+#[allow(clippy::too_many_arguments)]
 pub fn finish_imports(
     mut pending: ResMut<PendingImports>,
     mut parsed: ResMut<ParsedImports>,
+    mut positions: ResMut<DropPositions>,
     mut requests: ResMut<crate::edit::EditRequests>,
     mut notices: ResMut<Notices>,
     mut orbit: Query<&mut OrbitCamera>,
+    cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
+    bvh: Res<treelight_scene::SceneBvh>,
 ) {
     let mut i = 0;
     while i < pending.0.len() {
@@ -75,7 +100,18 @@ pub fn finish_imports(
                 for w in &scene.warnings {
                     notices.warn(format!("{}: {w}", path.display()));
                 }
-                if let (Some((min, max)), Ok(mut o)) = (scene_bounds(&scene), orbit.single_mut()) {
+                // A dropped file stands where it was dropped, by the placement rule; a file opened
+                // otherwise keeps its coordinates and the camera frames it.
+                let bounds = scene_bounds(&scene);
+                let mut transform = None;
+                if let Some(at) = positions.0.remove(&path)
+                    && let (Some(b), Ok((camera, cam_gt))) = (bounds, cameras.single())
+                    && let Some(rect) = camera.logical_viewport_rect()
+                    && let Ok(ray) = camera.viewport_to_world(cam_gt, at.unwrap_or(rect.center()))
+                {
+                    let surface = crate::placement::surface_under(&bvh, ray, 5.0);
+                    transform = Some(drop_transform(b, surface).into());
+                } else if let (Some((min, max)), Ok(mut o)) = (bounds, orbit.single_mut()) {
                     o.focus = (min + max) * 0.5;
                     o.radius = (max - min).length().max(1e-3) * 1.4;
                 }
@@ -89,6 +125,7 @@ pub fn finish_imports(
                 requests.apply(crate::edit::EditCommand::Import {
                     file: path,
                     root: None,
+                    transform,
                 });
             }
         }
@@ -337,5 +374,28 @@ fn material(m: &ImportedMaterial) -> StandardMaterial {
             AlphaMode::Opaque
         },
         ..default()
+    }
+}
+
+#[cfg(test)]
+mod drop_tests {
+    use super::*;
+    use crate::placement::Surface;
+
+    #[test]
+    fn a_dropped_scene_stands_on_the_surface_where_it_was_dropped() {
+        // A scene floating two units up, dropped on the floor at (3, 0, 0).
+        let bounds = (Vec3::new(-1.0, 2.0, -1.0), Vec3::new(1.0, 4.0, 1.0));
+        let surface = Surface {
+            point: Vec3::new(3.0, 0.0, 0.0),
+            normal: Vec3::Y,
+        };
+        let t = drop_transform(bounds, surface);
+        let bottom_centre = t.transform_point(Vec3::new(0.0, 2.0, 0.0));
+        assert!(
+            bottom_centre.distance(surface.point) < 1e-6,
+            "{bottom_centre}"
+        );
+        assert_eq!(t.rotation, Quat::IDENTITY);
     }
 }

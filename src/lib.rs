@@ -68,6 +68,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
     .init_resource::<import::ParsedImports>()
+    .init_resource::<import::DropPositions>()
     .insert_resource(render_mode::ViewportRender {
         traced: cli.view.debug_view(),
         settings: treelight_render::PathTraced {

@@ -545,6 +545,7 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
             command: EditCommand::Import {
                 file: path.clone(),
                 root: None,
+                transform: None,
             },
             continuing: false,
         },

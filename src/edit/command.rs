@@ -300,6 +300,9 @@ pub enum EditCommand {
         /// The root's id; filled in on first use.
         #[serde(default)]
         root: Option<SceneId>,
+        /// The root's transform (none: the file's own coordinates).
+        #[serde(default)]
+        transform: Option<TransformValue>,
     },
     /// Adds a built-in shape with a grey material.
     AddPrimitive {
@@ -482,7 +485,12 @@ impl EditCommand {
                     entity(world, *id)?;
                 }
             }
-            EditCommand::Import { root, .. } => {
+            EditCommand::Import {
+                root, transform, ..
+            } => {
+                if let Some(t) = transform {
+                    check_finite(t)?;
+                }
                 if let Some(id) = root
                     && world.resource::<SceneIndex>().entity(*id).is_some()
                 {
@@ -639,7 +647,11 @@ impl EditCommand {
                 }
                 Undo::Despawn(made)
             }
-            EditCommand::Import { file, root } => {
+            EditCommand::Import {
+                file,
+                root,
+                transform,
+            } => {
                 let parsed = world
                     .get_resource_mut::<crate::import::ParsedImports>()
                     .and_then(|mut p| p.0.remove(file.as_path()));
@@ -652,6 +664,9 @@ impl EditCommand {
                     .map_err(EditError::Import)?;
                 if let Some(id) = root {
                     world.entity_mut(top[0]).insert(*id);
+                }
+                if let Some(t) = transform {
+                    world.entity_mut(top[0]).insert(Transform::from(*t));
                 }
                 let ids: Vec<SceneId> = top
                     .iter()
