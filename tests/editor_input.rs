@@ -311,3 +311,55 @@ fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
     assert_eq!(cubes(&st), 1, "escape removed the ghost");
     assert_eq!(st.history.0, head + 1, "escape left no step");
 }
+
+fn row_centre(st: &EditorState, id: treelight::scene_id::SceneId) -> (f32, f32) {
+    let name = format!("row {}", id.0);
+    st.widgets
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+        .unwrap_or_else(|| panic!("no outliner row for {id:?}: {:?}", st.widgets))
+}
+
+#[test]
+fn outliner_rows_reparent_by_dragging_and_rename_by_double_click() {
+    if skip_gpu_tests("outliner_rows_reparent_by_dragging_and_rename_by_double_click") {
+        return;
+    }
+    let mut s = Session::start("outliner", &[]);
+    let st = s.frames(1);
+    let sphere = object(&st, "Sphere").clone();
+    let short = object(&st, "Short box").clone();
+    let (head, _) = st.history;
+
+    // Dragging the sphere's row onto the short box's row puts it under the box, where it was.
+    s.drag(row_centre(&st, sphere.id), row_centre(&st, short.id), 5);
+    let st = s.frames(2);
+    let moved = object(&st, "Sphere");
+    assert_eq!(moved.parent, Some(short.id), "reparented");
+    assert_eq!(st.history.0, head + 1);
+    for k in 0..3 {
+        assert!(
+            (moved.world_translation[k] - sphere.world_translation[k]).abs() < 1e-4,
+            "the sphere moved: {:?} -> {:?}",
+            sphere.world_translation,
+            moved.world_translation
+        );
+    }
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    assert_eq!(object(&s.frames(2), "Sphere").parent, None, "undo");
+
+    // A double click on a row opens its name for editing; Return commits it.
+    let st = s.frames(1);
+    let (x, y) = row_centre(&st, short.id);
+    s.double_click(x, y);
+    s.key(&[], keysym::letter('x'));
+    s.key(&[], keysym::RETURN);
+    let st = s.frames(2);
+    let renamed = st.objects.iter().find(|o| o.id == short.id).unwrap();
+    assert!(
+        renamed.name != "Short box" && renamed.name.contains('x'),
+        "rename by double click: {:?}",
+        renamed.name
+    );
+}

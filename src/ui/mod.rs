@@ -337,6 +337,7 @@ pub fn editor_ui(
     let mut make_unique = false;
     let mut palette_click = None;
     let mut named_rects = Vec::new();
+    let mut row_rects = Vec::new();
     let f2 = ctx.input(|i| i.key_pressed(egui::Key::F2)) && !ctx.egui_wants_keyboard_input();
 
     let mut root = egui::Ui::new(
@@ -442,6 +443,7 @@ pub fn editor_ui(
                     state: &mut outliner,
                     commands: &mut panel_commands,
                     f2,
+                    row_rects: &mut row_rects,
                 },
                 inspected: edited.as_mut(),
                 make_unique: &mut make_unique,
@@ -465,6 +467,7 @@ pub fn editor_ui(
     }
     widgets.0 = named_rects
         .into_iter()
+        .chain(row_rects)
         .map(|(n, r)| (n, [r.min.x, r.min.y, r.width(), r.height()]))
         .collect();
     if *gizmo != gizmo_copy {

@@ -131,6 +131,8 @@ pub struct OutlinerPanel<'a> {
     pub commands: &'a mut Vec<EditCommand>,
     /// Whether F2 was pressed with the keyboard free.
     pub f2: bool,
+    /// Each laid-out row's label rectangle, named `row <id>`.
+    pub row_rects: &'a mut Vec<(String, egui::Rect)>,
 }
 
 /// Height of a row, points.
@@ -259,6 +261,8 @@ impl OutlinerPanel<'_> {
             let label = egui::Button::selectable(selected, format!("{}  {}", item.kind, item.name))
                 .sense(egui::Sense::click_and_drag());
             let response = ui.add(label);
+            self.row_rects
+                .push((format!("row {}", item.id.0), response.rect));
             if response.double_clicked() {
                 self.state.start_rename(item.entity, &item.name);
             } else if response.clicked() {

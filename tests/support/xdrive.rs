@@ -285,6 +285,17 @@ impl Session {
         self.release(1);
     }
 
+    /// A double click of the left button at `(x, y)`: both clicks sent at once, since a
+    /// double click must fit in a fraction of a second and a software-rendered frame may not.
+    pub fn double_click(&mut self, x: f32, y: f32) {
+        self.move_to(x, y);
+        for _ in 0..2 {
+            self.fake(xproto::BUTTON_PRESS_EVENT, 1, 0, 0);
+            self.fake(xproto::BUTTON_RELEASE_EVENT, 1, 0, 0);
+        }
+        self.frames(2);
+    }
+
     /// Drags with the left button from `from` to `to` in `steps` moves (a frame each), without
     /// releasing.
     pub fn drag_without_release(&mut self, from: (f32, f32), to: (f32, f32), steps: u32) {
