@@ -1,6 +1,8 @@
 //! The built-in default scene: a Cornell-box-like room with a few primitives and lights, built in code
 //! so it works from any working directory.
 
+use crate::edit::Primitive;
+use crate::edit::snapshot::PrimitiveShape;
 use crate::selection::SceneObject;
 use bevy::prelude::*;
 
@@ -41,82 +43,92 @@ pub fn spawn_default_scene(
     });
     let h = ROOM / 2.0;
     let t = 0.1;
-    let wall = |size: Vec3| Mesh::from(Cuboid::from_size(size));
-    let walls = [
+    // Built from the Add menu's unit shapes, scaled, so the scene saves as a project like any other.
+    let cube = meshes.add(Primitive::Cube.mesh());
+    let shaped = |name: &str,
+                  shape: Primitive,
+                  mesh: &Handle<Mesh>,
+                  material: &Handle<StandardMaterial>,
+                  transform: Transform| {
         (
-            "Floor",
-            wall(Vec3::new(ROOM, t, ROOM)),
-            Vec3::new(0.0, -t / 2.0, 0.0),
-            white.clone(),
-        ),
-        (
-            "Ceiling",
-            wall(Vec3::new(ROOM, t, ROOM)),
-            Vec3::new(0.0, ROOM + t / 2.0, 0.0),
-            white.clone(),
-        ),
-        (
-            "Back wall",
-            wall(Vec3::new(ROOM, ROOM, t)),
-            Vec3::new(0.0, h, -h - t / 2.0),
-            white.clone(),
-        ),
-        (
-            "Left wall",
-            wall(Vec3::new(t, ROOM, ROOM)),
-            Vec3::new(-h - t / 2.0, h, 0.0),
-            red,
-        ),
-        (
-            "Right wall",
-            wall(Vec3::new(t, ROOM, ROOM)),
-            Vec3::new(h + t / 2.0, h, 0.0),
-            green,
-        ),
-    ];
-    for (name, mesh, pos, mat) in walls {
-        commands.spawn((
-            Name::new(name),
+            Name::new(name.to_owned()),
             SceneObject,
-            Mesh3d(meshes.add(mesh)),
-            MeshMaterial3d(mat),
-            Transform::from_translation(pos),
-        ));
-    }
-    commands.spawn((
-        Name::new("Tall box"),
-        SceneObject,
-        Mesh3d(meshes.add(Cuboid::new(1.4, 3.0, 1.4))),
-        MeshMaterial3d(white.clone()),
-        Transform::from_xyz(-0.9, 1.5, -0.8).with_rotation(Quat::from_rotation_y(0.35)),
+            Mesh3d(mesh.clone()),
+            MeshMaterial3d(material.clone()),
+            transform,
+            PrimitiveShape(shape),
+        )
+    };
+    let slab = |pos: Vec3, size: Vec3| Transform::from_translation(pos).with_scale(size);
+    commands.spawn(shaped(
+        "Floor",
+        Primitive::Cube,
+        &cube,
+        &white,
+        slab(Vec3::new(0.0, -t / 2.0, 0.0), Vec3::new(ROOM, t, ROOM)),
     ));
-    commands.spawn((
-        Name::new("Short box"),
-        SceneObject,
-        Mesh3d(meshes.add(Cuboid::new(1.4, 1.4, 1.4))),
-        MeshMaterial3d(white),
-        Transform::from_xyz(1.0, 0.7, 0.7).with_rotation(Quat::from_rotation_y(-0.3)),
-    ));
-    commands.spawn((
-        Name::new("Sphere"),
-        SceneObject,
-        Mesh3d(
-            meshes.add(
-                Sphere::new(0.6)
-                    .mesh()
-                    .ico(4)
-                    .expect("a valid subdivision count"),
-            ),
+    commands.spawn(shaped(
+        "Ceiling",
+        Primitive::Cube,
+        &cube,
+        &white,
+        slab(
+            Vec3::new(0.0, ROOM + t / 2.0, 0.0),
+            Vec3::new(ROOM, t, ROOM),
         ),
-        MeshMaterial3d(metal),
-        Transform::from_xyz(1.0, 2.0, 0.7),
     ));
-    commands.spawn((
-        Name::new("Ceiling lamp"),
-        SceneObject,
-        Mesh3d(meshes.add(Cuboid::new(1.2, 0.02, 1.2))),
-        MeshMaterial3d(lamp),
-        Transform::from_xyz(0.0, ROOM - 0.01, 0.0),
+    commands.spawn(shaped(
+        "Back wall",
+        Primitive::Cube,
+        &cube,
+        &white,
+        slab(Vec3::new(0.0, h, -h - t / 2.0), Vec3::new(ROOM, ROOM, t)),
+    ));
+    commands.spawn(shaped(
+        "Left wall",
+        Primitive::Cube,
+        &cube,
+        &red,
+        slab(Vec3::new(-h - t / 2.0, h, 0.0), Vec3::new(t, ROOM, ROOM)),
+    ));
+    commands.spawn(shaped(
+        "Right wall",
+        Primitive::Cube,
+        &cube,
+        &green,
+        slab(Vec3::new(h + t / 2.0, h, 0.0), Vec3::new(t, ROOM, ROOM)),
+    ));
+    commands.spawn(shaped(
+        "Tall box",
+        Primitive::Cube,
+        &cube,
+        &white,
+        Transform::from_xyz(-0.9, 1.5, -0.8)
+            .with_rotation(Quat::from_rotation_y(0.35))
+            .with_scale(Vec3::new(1.4, 3.0, 1.4)),
+    ));
+    commands.spawn(shaped(
+        "Short box",
+        Primitive::Cube,
+        &cube,
+        &white,
+        Transform::from_xyz(1.0, 0.7, 0.7)
+            .with_rotation(Quat::from_rotation_y(-0.3))
+            .with_scale(Vec3::splat(1.4)),
+    ));
+    commands.spawn(shaped(
+        "Sphere",
+        Primitive::Sphere,
+        &meshes.add(Primitive::Sphere.mesh()),
+        &metal,
+        Transform::from_xyz(1.0, 2.0, 0.7).with_scale(Vec3::splat(1.2)),
+    ));
+    commands.spawn(shaped(
+        "Ceiling lamp",
+        Primitive::Cube,
+        &cube,
+        &lamp,
+        slab(Vec3::new(0.0, ROOM - 0.01, 0.0), Vec3::new(1.2, 0.02, 1.2)),
     ));
     commands.spawn((
         Name::new("Lamp light"),

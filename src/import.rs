@@ -132,6 +132,27 @@ pub fn finish_imports(
     }
 }
 
+/// Every key [`spawn_scene`] gives the objects of `scene`: the root's (empty), each node's, and
+/// each mesh's that is not on its node.
+pub fn source_keys(scene: &ImportedScene) -> Vec<String> {
+    let mut keys = vec![String::new()];
+    keys.extend(scene.nodes.iter().map(|n| n.key.clone()));
+    let mut per_node: HashMap<usize, usize> = HashMap::new();
+    for m in &scene.meshes {
+        if let Some(n) = m.node {
+            *per_node.entry(n).or_default() += 1;
+        }
+    }
+    for (i, m) in scene.meshes.iter().enumerate() {
+        match m.node {
+            Some(n) if per_node.get(&n) == Some(&1) => {}
+            Some(n) => keys.push(format!("{}/mesh {i}", scene.nodes[n].key)),
+            None => keys.push(format!("mesh {i}")),
+        }
+    }
+    keys
+}
+
 /// The world-space bounds of a parsed scene's triangles.
 pub fn scene_bounds(scene: &ImportedScene) -> Option<(Vec3, Vec3)> {
     let mut bounds: Option<(Vec3, Vec3)> = None;
@@ -145,22 +166,26 @@ pub fn scene_bounds(scene: &ImportedScene) -> Option<(Vec3, Vec3)> {
     bounds
 }
 
-/// Spawns a parsed scene into the world (what the import command does): the assembly, and a sun
-/// when the scene has no light yet. Returns the entities spawned at the top; fails only in a world
-/// without mesh, material or image assets.
+/// Spawns a parsed scene into the world (what the import command does): the assembly, and with
+/// `add_sun` a sun when the scene has no light yet. Returns the entities spawned at the top; fails
+/// only in a world without mesh, material or image assets.
 pub fn spawn_scene_in_world(
     world: &mut World,
     file: &Path,
     scene: &ImportedScene,
+    add_sun: bool,
 ) -> Result<Vec<Entity>, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
         bevy::ecs::system::SystemState::new(world);
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
     let root = spawn_scene(&mut commands, file, scene, &mut assets);
     state.apply(world);
+    if let Some(mut catalog) = world.get_resource_mut::<SourceCatalog>() {
+        catalog.0.insert(file.to_owned(), source_keys(scene));
+    }
     let mut top = vec![root];
     let mut lights = world.query_filtered::<(), AnyLight>();
-    if lights.iter(world).next().is_none() {
+    if add_sun && lights.iter(world).next().is_none() {
         top.push(
             world
                 .spawn((
@@ -199,6 +224,16 @@ pub struct SourceKey {
     /// The node's key in the file; the mesh's index (`mesh N`) for files without nodes.
     pub key: String,
 }
+
+/// Which file's mesh an object shows: its own node's for an imported mesh, the original's for a
+/// copy (which has no [`SourceKey`] of its own), so a project can find the geometry again.
+#[derive(Component, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct MeshSource(pub SourceKey);
+
+/// Every node key each imported file had when it was imported, so a project can tell which nodes
+/// the user deleted.
+#[derive(Resource, Default, Debug)]
+pub struct SourceCatalog(pub HashMap<PathBuf, Vec<String>>);
 
 /// Spawns the file as an assembly: one root named after the file, its node hierarchy beneath as
 /// parent and child entities with local transforms, each mesh on its node (or, for a node with
@@ -283,31 +318,39 @@ pub fn spawn_scene(
         match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
             // A node's only mesh lives on the node itself.
             Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
-                commands.entity(node).insert(shape);
+                let key = SourceKey {
+                    file: file.to_owned(),
+                    key: scene.nodes[n].key.clone(),
+                };
+                commands.entity(node).insert((shape, MeshSource(key)));
             }
             Some((n, node)) => {
+                let key = SourceKey {
+                    file: file.to_owned(),
+                    key: format!("{}/mesh {i}", scene.nodes[n].key),
+                };
                 commands.spawn((
                     Name::new(m.name.clone()),
                     SceneObject,
                     shape,
                     Transform::IDENTITY,
-                    SourceKey {
-                        file: file.to_owned(),
-                        key: format!("{}/mesh {i}", scene.nodes[n].key),
-                    },
+                    MeshSource(key.clone()),
+                    key,
                     ChildOf(node),
                 ));
             }
             None => {
+                let key = SourceKey {
+                    file: file.to_owned(),
+                    key: format!("mesh {i}"),
+                };
                 commands.spawn((
                     Name::new(m.name.clone()),
                     SceneObject,
                     shape,
                     Transform::from_matrix(m.transform),
-                    SourceKey {
-                        file: file.to_owned(),
-                        key: format!("mesh {i}"),
-                    },
+                    MeshSource(key.clone()),
+                    key,
                     ChildOf(root),
                 ));
             }

@@ -10,6 +10,7 @@ pub mod gizmo;
 pub mod import;
 pub mod notice;
 pub mod placement;
+pub mod project;
 pub mod render_mode;
 pub mod report;
 pub mod scene_id;
@@ -69,6 +70,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     .init_resource::<import::PendingImports>()
     .init_resource::<import::ParsedImports>()
     .init_resource::<import::DropPositions>()
+    .init_resource::<import::SourceCatalog>()
+    .init_resource::<project::ProjectState>()
     .insert_resource(render_mode::ViewportRender {
         traced: cli.view.debug_view(),
         settings: treelight_render::PathTraced {

@@ -150,7 +150,10 @@ impl Primitive {
     pub fn mesh(self) -> Mesh {
         match self {
             Primitive::Cube => Cuboid::new(1.0, 1.0, 1.0).into(),
-            Primitive::Sphere => Sphere::new(0.5).mesh().uv(32, 18),
+            Primitive::Sphere => Sphere::new(0.5)
+                .mesh()
+                .ico(4)
+                .expect("a valid subdivision count"),
             Primitive::Plane | Primitive::EmissivePanel => {
                 Plane3d::default().mesh().size(1.0, 1.0).into()
             }
@@ -660,7 +663,7 @@ impl EditCommand {
                     None => treelight_import::load_scene(file)
                         .map_err(|e| EditError::Import(e.to_string()))?,
                 };
-                let top = crate::import::spawn_scene_in_world(world, file, &scene)
+                let top = crate::import::spawn_scene_in_world(world, file, &scene, true)
                     .map_err(EditError::Import)?;
                 if let Some(id) = root {
                     world.entity_mut(top[0]).insert(*id);
@@ -768,6 +771,7 @@ impl EditCommand {
                     Mesh3d(mesh),
                     MeshMaterial3d(material),
                     Transform::from(*transform),
+                    super::snapshot::PrimitiveShape(*shape),
                 ));
                 Undo::Despawn(vec![new_id])
             }

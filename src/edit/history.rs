@@ -137,6 +137,16 @@ impl EditHistory {
         !self.previewed.is_empty() || !self.preview_made.is_empty()
     }
 
+    /// Marks the scene as it is now as saved.
+    pub fn mark_saved(&mut self) {
+        self.record.set_saved();
+    }
+
+    /// Whether the scene has changes since it was last saved or opened.
+    pub fn is_dirty(&self) -> bool {
+        !self.record.is_saved()
+    }
+
     /// The object a preview made, if any (the ghost of a palette item being dragged).
     pub fn preview_made(&self) -> Option<SceneId> {
         self.preview_made.first().copied()

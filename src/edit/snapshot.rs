@@ -2,10 +2,16 @@
 //! material, lights and source key, and its children's snapshots, so it can be spawned again as it
 //! was.
 
-use crate::import::SourceKey;
+use crate::edit::Primitive;
+use crate::import::{MeshSource, SourceKey};
 use crate::scene_id::{SceneId, SceneIndex};
 use crate::selection::SceneObject;
 use bevy::prelude::*;
+
+/// Which built-in shape an object's mesh is (added ones and their copies), so a project can make
+/// it again.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PrimitiveShape(pub Primitive);
 
 /// A scene object and its subtree, taken from the world.
 #[derive(Clone, Debug)]
@@ -20,6 +26,8 @@ pub struct ObjectSnapshot {
     point: Option<PointLight>,
     directional: Option<DirectionalLight>,
     source: Option<SourceKey>,
+    mesh_source: Option<MeshSource>,
+    shape: Option<PrimitiveShape>,
     /// Its parent's id when the parent is a scene object.
     pub parent: Option<SceneId>,
     children: Vec<ObjectSnapshot>,
@@ -51,6 +59,8 @@ impl ObjectSnapshot {
             point: entity.get::<PointLight>().copied(),
             directional: entity.get::<DirectionalLight>().copied(),
             source: entity.get::<SourceKey>().cloned(),
+            mesh_source: entity.get::<MeshSource>().cloned(),
+            shape: entity.get::<PrimitiveShape>().copied(),
             parent,
             children,
         })
@@ -115,6 +125,12 @@ impl ObjectSnapshot {
         }
         if let Some(s) = &self.source {
             e.insert(s.clone());
+        }
+        if let Some(s) = &self.mesh_source {
+            e.insert(s.clone());
+        }
+        if let Some(s) = self.shape {
+            e.insert(s);
         }
         if let Some(p) = parent {
             e.insert(ChildOf(p));

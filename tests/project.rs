@@ -1,0 +1,407 @@
+//! Projects on real files: a scene built from FlightHelmet (from `../shared/scenes`) with every kind
+//! of edit is saved and opened again in a fresh editor world, which must then hold the same objects
+//! (by stable id: names, transforms, parents, visibility, kinds, material values); a project never
+//! copies geometry; broken or hostile projects are refused with the file named and the open scene
+//! untouched; a missing source still opens and is kept by the next save.
+
+use bevy::asset::AssetPlugin;
+use bevy::mesh::MeshPlugin;
+use bevy::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use treelight::camera::OrbitCamera;
+use treelight::edit::{
+    EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue, Primitive,
+    TransformValue, apply_request,
+};
+use treelight::import::SourceCatalog;
+use treelight::project::{ProjectError, ProjectState, open_project, read_project, save_project};
+use treelight::scene_id::{SceneId, SceneIndex};
+use treelight::selection::Selection;
+
+fn editor_world() -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+    ))
+    .init_asset::<StandardMaterial>()
+    .init_asset::<Image>()
+    .init_resource::<SceneIndex>()
+    .init_resource::<EditHistory>()
+    .init_resource::<EditRequests>()
+    .init_resource::<Selection>()
+    .init_resource::<SourceCatalog>()
+    .init_resource::<ProjectState>();
+    app.world_mut()
+        .spawn((OrbitCamera::default(), Transform::default()));
+    app
+}
+
+fn helmet() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("treelight-project-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn apply(app: &mut App, command: EditCommand) {
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command,
+            continuing: false,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    app.update();
+}
+
+#[derive(Debug, PartialEq)]
+struct Object {
+    name: String,
+    parent: Option<SceneId>,
+    transform: [i64; 10],
+    visible: bool,
+    mesh: bool,
+    lights: (bool, bool),
+    material: Option<[i64; 9]>,
+}
+
+/// Numbers rounded to 1e-4, so a RON round trip of floats compares equal.
+fn q(v: f32) -> i64 {
+    (v as f64 * 1e4).round() as i64
+}
+
+fn state(world: &mut World) -> BTreeMap<SceneId, Object> {
+    let ids: BTreeMap<Entity, SceneId> = world
+        .query::<(Entity, &SceneId)>()
+        .iter(world)
+        .map(|(e, i)| (e, *i))
+        .collect();
+    let materials: BTreeMap<AssetId<StandardMaterial>, MaterialValue> = world
+        .resource::<Assets<StandardMaterial>>()
+        .iter()
+        .map(|(i, m)| (i, MaterialValue::of(m)))
+        .collect();
+    let mut query = world.query::<(
+        &SceneId,
+        Option<&Name>,
+        &Transform,
+        Option<&ChildOf>,
+        Option<&Visibility>,
+        Has<Mesh3d>,
+        Has<PointLight>,
+        Has<DirectionalLight>,
+        Option<&MeshMaterial3d<StandardMaterial>>,
+    )>();
+    query
+        .iter(world)
+        .map(|(id, name, t, parent, vis, mesh, p, d, mat)| {
+            let mut transform = [0; 10];
+            for (k, v) in t
+                .translation
+                .to_array()
+                .iter()
+                .chain(&t.rotation.to_array())
+                .chain(&t.scale.to_array())
+                .enumerate()
+            {
+                transform[k] = q(*v);
+            }
+            let material = mat.and_then(|m| materials.get(&m.0.id())).map(|m| {
+                let mut out = [0; 9];
+                for (k, v) in m
+                    .base_color
+                    .iter()
+                    .chain(&m.emissive)
+                    .chain([&m.metallic, &m.perceptual_roughness])
+                    .enumerate()
+                {
+                    out[k] = q(*v);
+                }
+                out
+            });
+            (
+                *id,
+                Object {
+                    name: name.map_or(String::new(), |n| n.as_str().to_owned()),
+                    parent: parent.and_then(|p| ids.get(&p.parent()).copied()),
+                    transform,
+                    visible: vis != Some(&Visibility::Hidden),
+                    mesh,
+                    lights: (p, d),
+                    material,
+                },
+            )
+        })
+        .collect()
+}
+
+fn ids_by_name(app: &mut App) -> BTreeMap<String, SceneId> {
+    state(app.world_mut())
+        .into_iter()
+        .map(|(id, o)| (o.name, id))
+        .collect()
+}
+
+/// FlightHelmet imported, then changed in every way a project keeps.
+fn edited_scene() -> App {
+    let mut app = editor_world();
+    apply(
+        &mut app,
+        EditCommand::Import {
+            file: helmet(),
+            root: None,
+            transform: None,
+        },
+    );
+    let named = ids_by_name(&mut app);
+    let part = |n: &str| {
+        *named
+            .iter()
+            .find(|(k, _)| k.contains(n))
+            .unwrap_or_else(|| panic!("no {n} in {named:?}"))
+            .1
+    };
+    let (lenses, leather, root) = (part("Lenses"), part("Leather"), named["FlightHelmet.gltf"]);
+    let t = |x: f32| {
+        TransformValue::from(Transform::from_xyz(x, 0.25, -0.5).with_scale(Vec3::splat(0.5)))
+    };
+    apply(
+        &mut app,
+        EditCommand::SetTransform {
+            id: lenses,
+            transform: t(0.3),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Rename {
+            id: lenses,
+            name: "Glass".into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::SetVisible {
+            id: leather,
+            visible: false,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Delete {
+            ids: vec![part("Hose")],
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Reparent {
+            ids: vec![lenses],
+            parent: None,
+        },
+    );
+    let mut m = MaterialValue::of(&StandardMaterial::default());
+    m.base_color = [0.1, 0.5, 0.9, 1.0];
+    m.emissive = [2.0, 0.0, 0.0];
+    apply(&mut app, EditCommand::MakeMaterialUnique { id: lenses });
+    apply(
+        &mut app,
+        EditCommand::SetMaterial {
+            id: lenses,
+            material: m,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Duplicate {
+            ids: vec![part("Wood")],
+            copies: vec![],
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddPrimitive {
+            shape: Primitive::Cylinder,
+            transform: t(1.0),
+            id: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddLight {
+            kind: LightKind::Point,
+            transform: t(2.0),
+            id: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Group {
+            ids: vec![root],
+            name: "Helmet group".into(),
+            group: None,
+        },
+    );
+    app
+}
+
+#[test]
+fn a_saved_project_opens_as_the_same_scene() {
+    let dir = temp("round-trip");
+    let path = dir.join("scene.treelight");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    assert!(app.world().resource::<EditHistory>().is_dirty());
+    let unsaved = save_project(app.world_mut(), &path).unwrap();
+    assert!(unsaved.is_empty(), "{unsaved:?}");
+    assert!(!app.world().resource::<EditHistory>().is_dirty(), "saved");
+    // Nothing but the project beside it: the temporary file was renamed over it.
+    let files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    // No geometry in the file: it is small next to the helmet's data.
+    let size = std::fs::metadata(&path).unwrap().len();
+    assert!(size < 64 * 1024, "{size} bytes");
+    let project = read_project(&path).unwrap();
+    assert_eq!(project.sources.len(), 1);
+    assert!(!project.deleted.is_empty(), "the deleted hose is recorded");
+
+    let mut fresh = editor_world();
+    let report = open_project(fresh.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources, vec![]);
+    assert_eq!(report.missing_nodes, 0);
+    fresh.update();
+    let after = state(fresh.world_mut());
+    assert_eq!(after, before);
+    assert!(!fresh.world().resource::<EditHistory>().is_dirty());
+    // Saving the opened project gives the same file.
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    assert_eq!(read_project(&again).unwrap().objects, project.objects);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The project text with the camera's radius made absurd.
+fn absurd_radius(text: &str) -> String {
+    let at = text.find("radius: ").expect("a camera") + "radius: ".len();
+    let end = at + text[at..].find(',').unwrap();
+    format!("{}1e38{}", &text[..at], &text[end..])
+}
+
+#[test]
+fn broken_projects_are_refused_and_the_scene_is_untouched() {
+    let dir = temp("broken");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    let good = dir.join("good.treelight");
+    save_project(app.world_mut(), &good).unwrap();
+    let text = std::fs::read_to_string(&good).unwrap();
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "garbage",
+            "this is not RON (".into(),
+            "not a Treelight project",
+        ),
+        (
+            "version",
+            text.replacen("version: 1", "version: 99", 1),
+            "version 99",
+        ),
+        ("absurd", absurd_radius(&text), "camera is out of range"),
+        (
+            "dir-source",
+            text.replace(&helmet().display().to_string(), &dir.display().to_string()),
+            "source 0",
+        ),
+        (
+            "device",
+            text.replace(&helmet().display().to_string(), "/dev/zero"),
+            "source 0",
+        ),
+    ];
+    for (name, body, expect) in cases {
+        let path = dir.join(format!("{name}.treelight"));
+        std::fs::write(&path, body).unwrap();
+        let e = open_project(app.world_mut(), &path).expect_err(name);
+        let text = e.to_string();
+        assert!(text.contains(&path.display().to_string()), "{name}: {text}");
+        assert!(text.contains(expect), "{name}: {text}");
+        assert_eq!(state(app.world_mut()), before, "{name} changed the scene");
+    }
+    // A directory in place of the project itself.
+    let e = open_project(app.world_mut(), &dir).unwrap_err();
+    assert!(matches!(e, ProjectError::Io(..)), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_missing_source_still_opens_and_a_save_keeps_it() {
+    let dir = temp("missing");
+    // The helmet's files copied next to the project, then removed after the save.
+    let src = dir.join("helmet");
+    std::fs::create_dir_all(&src).unwrap();
+    let from = helmet().parent().unwrap().to_owned();
+    for e in std::fs::read_dir(&from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), src.join(e.file_name())).unwrap();
+        }
+    }
+    let mut app = editor_world();
+    apply(
+        &mut app,
+        EditCommand::Import {
+            file: src.join("FlightHelmet.gltf"),
+            root: None,
+            transform: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddPrimitive {
+            shape: Primitive::Cube,
+            transform: Transform::from_xyz(0.0, 1.0, 0.0).into(),
+            id: None,
+        },
+    );
+    let path = dir.join("scene.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let saved = read_project(&path).unwrap();
+    // Inside the project's folder, the source is stored relative to it.
+    assert_eq!(
+        saved.sources,
+        vec![PathBuf::from("helmet/FlightHelmet.gltf")]
+    );
+    std::fs::remove_dir_all(&src).unwrap();
+
+    let mut fresh = editor_world();
+    let report = open_project(fresh.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources.len(), 1, "{report:?}");
+    fresh.update();
+    // The import's sun and the cube are there; the helmet's objects are kept by the project, not
+    // shown.
+    let names: Vec<String> = state(fresh.world_mut())
+        .into_values()
+        .map(|o| o.name)
+        .collect();
+    assert_eq!(names, vec!["Sun".to_string(), "Cube".to_string()]);
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    let resaved = read_project(&again).unwrap();
+    assert_eq!(
+        resaved.objects.len(),
+        saved.objects.len(),
+        "the missing objects were dropped"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
