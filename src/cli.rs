@@ -8,7 +8,8 @@ use std::path::PathBuf;
 #[derive(Parser, Debug, Clone, Default)]
 #[command(version, about)]
 pub struct Cli {
-    /// A scene file (.gltf, .glb, .obj or .ply) to open instead of the built-in default scene.
+    /// A project (.treelight) or a scene file (.gltf, .glb, .obj or .ply) to open instead of the
+    /// built-in default scene.
     pub scene: Option<PathBuf>,
     /// Save a screenshot of the whole window to this PNG file after `--frames` frames, then exit.
     #[arg(long, value_name = "PATH")]
@@ -37,6 +38,9 @@ pub struct Cli {
     /// editor).
     #[arg(long, value_name = "PATH")]
     pub state: Option<PathBuf>,
+    /// Save the scene as a project (.treelight) once it has loaded and the commands are applied.
+    #[arg(long, value_name = "PATH")]
+    pub save: Option<PathBuf>,
 }
 
 /// The viewport modes on the command line.

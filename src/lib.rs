@@ -6,6 +6,7 @@ pub mod capture;
 pub mod cli;
 pub mod default_scene;
 pub mod edit;
+pub mod files;
 pub mod gizmo;
 pub mod import;
 pub mod notice;
@@ -43,6 +44,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             resolution: bevy::window::WindowResolution::new(cli.width, cli.height),
             ..default()
         }),
+        // Closing asks first when there are unsaved changes (files::close_requested).
+        close_when_requested: false,
         ..default()
     }))
     .add_plugins((
@@ -64,6 +67,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         camera::CameraPlugin,
         ui::UiPlugin,
         settings::SettingsPlugin,
+        files::FilesPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()
@@ -93,7 +97,16 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             render_mode::apply_viewport_render,
         ),
     );
+    let is_project = |p: &std::path::Path| {
+        p.extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("treelight"))
+    };
     match &cli.scene {
+        Some(path) if is_project(path) => app
+            .world_mut()
+            .resource_mut::<files::ProjectRequests>()
+            .0
+            .push(files::ProjectRequest::Open(path.clone())),
         Some(path) => app
             .world_mut()
             .resource_mut::<import::PendingImports>()
@@ -101,6 +114,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         None => {
             app.add_systems(Startup, default_scene::spawn_default_scene);
         }
+    }
+    if let Some(path) = &cli.save {
+        app.insert_resource(files::SaveWhenSettled::new(path.clone()));
     }
     if let Some(script) = script {
         app.insert_resource(script)

@@ -68,6 +68,15 @@ pub struct EditorState {
     /// Named widgets (the palette's tiles) and their rectangles, as the viewport's.
     #[serde(default)]
     pub widgets: Vec<(String, [f32; 4])>,
+    /// The open project's file, if it has one.
+    #[serde(default)]
+    pub project: Option<PathBuf>,
+    /// Whether there are unsaved changes.
+    #[serde(default)]
+    pub dirty: bool,
+    /// The window's title.
+    #[serde(default)]
+    pub title: String,
 }
 
 /// Where the report goes.
@@ -121,6 +130,8 @@ pub fn write_state_report(
     parsed: Res<crate::import::ParsedImports>,
     scene: Res<SceneBvh>,
     widgets: Res<crate::ui::WidgetRects>,
+    project: Res<crate::project::ProjectState>,
+    window: Query<&Window, With<bevy::window::PrimaryWindow>>,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -188,6 +199,9 @@ pub fn write_state_report(
         gizmo_mode: gizmo.mode.label().to_owned(),
         viewport,
         widgets: widgets.0.clone(),
+        project: project.path.clone(),
+        dirty: history.is_dirty(),
+        title: window.single().map_or(String::new(), |w| w.title.clone()),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

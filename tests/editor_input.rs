@@ -363,3 +363,61 @@ fn outliner_rows_reparent_by_dragging_and_rename_by_double_click() {
         renamed.name
     );
 }
+
+#[test]
+fn ctrl_s_saves_a_project_and_quitting_with_changes_asks_first() {
+    if skip_gpu_tests("ctrl_s_saves_a_project_and_quitting_with_changes_asks_first") {
+        return;
+    }
+    let mut s = Session::start("save", &[]);
+    let st = s.frames(1);
+    assert_eq!(st.project, None);
+    assert!(st.title.starts_with("Untitled"), "{}", st.title);
+    // An edit makes the scene unsaved.
+    let sphere = object(&st, "Sphere").clone();
+    s.click(sphere.screen.unwrap()[0], sphere.screen.unwrap()[1]);
+    s.key(&[], keysym::DELETE);
+    let st = s.frames(2);
+    assert!(st.dirty && st.title.contains('*'), "{}", st.title);
+    // Ctrl+S on a scene never saved opens the save dialog with its name field ready: Return saves
+    // there (the editor's working folder).
+    s.key(&[keysym::CONTROL], keysym::letter('s'));
+    s.frames(2);
+    s.key(&[], keysym::RETURN);
+    let path = s.dir().join("scene.treelight");
+    let st = s.wait_until("the save", std::time::Duration::from_secs(30), |st| {
+        st.project.is_some() && !st.dirty
+    });
+    assert_eq!(st.project.as_deref(), Some(path.as_path()));
+    assert!(st.title.starts_with("scene.treelight") && !st.title.contains('*'));
+    let project = treelight::project::read_project(&path).expect("a valid project");
+    assert!(
+        project.objects.iter().all(|o| o.id != sphere.id),
+        "the deleted sphere is gone"
+    );
+    assert_eq!(project.objects.len(), st.objects.len());
+    // Ctrl+Z makes it unsaved again; Ctrl+Q then asks instead of quitting.
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    assert!(s.frames(2).dirty);
+    s.key(&[keysym::CONTROL], keysym::letter('q'));
+    s.frames(4);
+    assert!(!s.exited(), "quit with unsaved changes did not ask");
+    // Saved again (Ctrl+S, to the same file now), Ctrl+Q quits at once.
+    s.key(&[], keysym::ESCAPE);
+    s.key(&[keysym::CONTROL], keysym::letter('s'));
+    s.wait_until(
+        "the second save",
+        std::time::Duration::from_secs(30),
+        |st| !st.dirty,
+    );
+    s.key_event(keysym::CONTROL, true);
+    s.key_event(keysym::letter('q'), true);
+    let start = std::time::Instant::now();
+    while !s.exited() {
+        assert!(
+            start.elapsed().as_secs() < 30,
+            "Ctrl+Q did not quit a saved scene"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}

@@ -431,3 +431,47 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_scripted_scene_saves_as_a_project_that_opens_again() {
+    if skip_gpu_tests("a_scripted_scene_saves_as_a_project_that_opens_again") {
+        return;
+    }
+    use treelight::report::EditorState;
+    let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
+    let dir = temp_dir("save-cli");
+    let project = dir.join("edited.treelight");
+    let state = dir.join("state.ron");
+    let read_state =
+        || -> EditorState { ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap() };
+    run_editor(&[
+        "--commands",
+        example.to_str().unwrap(),
+        "--save",
+        project.to_str().unwrap(),
+        "--state",
+        state.to_str().unwrap(),
+        "--frames",
+        "20",
+    ]);
+    let edited = read_state();
+    let saved = treelight::project::read_project(&project).expect("--save wrote a project");
+    assert_eq!(saved.objects.len(), 12);
+    // Opened again, the project is the same scene: the same objects by id and name.
+    run_editor(&[
+        project.to_str().unwrap(),
+        "--state",
+        state.to_str().unwrap(),
+        "--frames",
+        "10",
+    ]);
+    let opened = read_state();
+    let names = |s: &EditorState| -> Vec<(u64, String)> {
+        s.objects.iter().map(|o| (o.id.0, o.name.clone())).collect()
+    };
+    assert_eq!(names(&opened), names(&edited));
+    assert!(names(&opened).iter().any(|(_, n)| n == "Golden sphere"));
+    assert_eq!(opened.project.as_deref(), Some(project.as_path()));
+    assert!(!opened.dirty);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -7,6 +7,9 @@ use bevy_egui::egui;
 
 /// The shortcuts and mouse controls the Help menu lists.
 pub const SHORTCUTS: &[(&str, &str)] = &[
+    ("Ctrl+N / Ctrl+O", "New scene / open a project"),
+    ("Ctrl+S / Ctrl+Shift+S", "Save / save as"),
+    ("Ctrl+Q", "Quit (asks first about unsaved changes)"),
     ("Ctrl+Z", "Undo"),
     ("Ctrl+Shift+Z, Ctrl+Y", "Redo"),
     ("Del", "Delete the selection"),
@@ -71,6 +74,8 @@ pub enum MenuAction {
     FrameSelection,
     /// View → Reset layout.
     ResetLayout,
+    /// An entry of the File menu.
+    File(crate::files::FileAction),
 }
 
 /// Draws the menu bar; returns what was chosen.
@@ -84,6 +89,27 @@ pub fn menu_bar(
 ) -> Option<MenuAction> {
     let mut action = None;
     egui::MenuBar::new().ui(ui, |ui| {
+        ui.menu_button("File", |ui| {
+            use crate::files::FileAction;
+            for (what, label, keys) in [
+                (FileAction::New, "New", "Ctrl+N"),
+                (FileAction::Open, "Open…", "Ctrl+O"),
+                (FileAction::Import, "Import…", ""),
+                (FileAction::Save, "Save", "Ctrl+S"),
+                (FileAction::SaveAs, "Save As…", "Ctrl+Shift+S"),
+                (FileAction::Quit, "Quit", "Ctrl+Q"),
+            ] {
+                if matches!(what, FileAction::Import | FileAction::Quit) {
+                    ui.separator();
+                }
+                if ui
+                    .add(egui::Button::new(label).shortcut_text(keys))
+                    .clicked()
+                {
+                    action = Some(MenuAction::File(what));
+                }
+            }
+        });
         ui.menu_button("Edit", |ui| {
             let undo = history.undo_label();
             let label = undo.as_ref().map_or("Undo".into(), |l| format!("Undo {l}"));

@@ -2,6 +2,7 @@
 //! bar. Every change to the scene leaves as an [`EditRequest`]; the selection and the camera are
 //! changed directly.
 
+pub mod file_dialog;
 pub mod inspector;
 pub mod menus;
 pub mod outliner;
@@ -205,6 +206,9 @@ pub struct EditAccess<'w, 's> {
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,
     outliner: ResMut<'w, OutlinerState>,
+    files: ResMut<'w, crate::files::FileUi>,
+    project: Res<'w, crate::project::ProjectState>,
+    project_requests: ResMut<'w, crate::files::ProjectRequests>,
 }
 
 /// What the viewport reads of the scene and keeps of its own.
@@ -250,6 +254,9 @@ pub fn editor_ui(
         mut requests,
         mut gesture,
         mut outliner,
+        mut files,
+        project,
+        mut project_requests,
     } = edits;
     let ViewportAccess {
         cameras,
@@ -461,6 +468,10 @@ pub fn editor_ui(
         });
 
     show_notices(&ctx, &mut notices);
+    if let Some(MenuAction::File(a)) = menu_action {
+        files.act(a, &project, history.is_dirty(), &mut project_requests);
+    }
+    files.show(&ctx, &project, &mut project_requests);
 
     if *render != render_copy {
         *render = render_copy;

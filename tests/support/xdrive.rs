@@ -122,6 +122,8 @@ impl Session {
                 .env("DISPLAY", format!(":{display}"))
                 .env("WGPU_BACKEND", "vulkan")
                 .env("TREELIGHT_CONFIG_DIR", dir.join("config"))
+                // Files the editor's dialogs offer are the test's own.
+                .current_dir(&dir)
                 .stdout(log.try_clone().unwrap())
                 .stderr(log)
                 .spawn()
@@ -150,6 +152,16 @@ impl Session {
             return session;
         }
         panic!("{last_error}");
+    }
+
+    /// The folder the editor runs in (its working directory).
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Whether the editor has exited.
+    pub fn exited(&mut self) -> bool {
+        matches!(self.editor.try_wait(), Ok(Some(_)))
     }
 
     /// The editor's log so far.

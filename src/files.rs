@@ -1,0 +1,407 @@
+//! The File menu's work: new, open, import, save and save as, through the editor's own file dialog;
+//! the window title (the project's name, `*` while unsaved); closing the window, New or Open with
+//! unsaved changes asks first (save, discard or cancel); `--save PATH` for scripts.
+
+use crate::edit::EditHistory;
+use crate::import::PendingImports;
+use crate::notice::Notices;
+use crate::project::{ProjectState, open_project, save_project};
+use crate::ui::file_dialog::{DialogPurpose, FileDialog};
+use bevy::prelude::*;
+use bevy::window::{PrimaryWindow, WindowCloseRequested};
+use bevy_egui::{EguiContexts, egui};
+use std::path::PathBuf;
+
+/// What the user (or the command line) asked of the project this frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProjectRequest {
+    /// An empty scene.
+    New,
+    /// Open a project.
+    Open(PathBuf),
+    /// Save the project here.
+    Save(PathBuf),
+    /// Import a scene file into the scene.
+    Import(PathBuf),
+    /// Close the editor.
+    Quit,
+}
+
+/// The frame's project requests, applied by [`apply_project_requests`].
+#[derive(Resource, Default, Debug)]
+pub struct ProjectRequests(pub Vec<ProjectRequest>);
+
+/// What waits on the user's answer about unsaved changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AfterSave {
+    /// Start an empty scene.
+    New,
+    /// Choose a project to open.
+    Open,
+    /// Close the editor.
+    Quit,
+}
+
+/// The File menu's dialogs.
+#[derive(Resource, Default)]
+pub struct FileUi {
+    /// The file dialog, while open.
+    pub dialog: Option<FileDialog>,
+    /// The question about unsaved changes, while asked.
+    pub confirm: Option<AfterSave>,
+    /// What to do once the save the user chose has happened.
+    pub then: Option<AfterSave>,
+}
+
+/// The menu's entries, chosen in the menu bar or by their keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileAction {
+    /// File → New.
+    New,
+    /// File → Open….
+    Open,
+    /// File → Import….
+    Import,
+    /// File → Save.
+    Save,
+    /// File → Save As….
+    SaveAs,
+    /// File → Quit.
+    Quit,
+}
+
+impl FileUi {
+    fn start_dir(state: &ProjectState) -> PathBuf {
+        state
+            .path
+            .as_ref()
+            .and_then(|p| p.parent().map(|d| d.to_owned()))
+            .filter(|d| !d.as_os_str().is_empty())
+            .or_else(|| std::env::current_dir().ok())
+            .unwrap_or_else(|| PathBuf::from("."))
+    }
+
+    fn dialog(&mut self, purpose: DialogPurpose, state: &ProjectState) {
+        let name = match purpose {
+            DialogPurpose::SaveAs => state
+                .path
+                .as_ref()
+                .and_then(|p| p.file_name())
+                .map_or("scene.treelight".into(), |n| {
+                    n.to_string_lossy().into_owned()
+                }),
+            _ => String::new(),
+        };
+        self.dialog = Some(FileDialog::new(purpose, Self::start_dir(state), name));
+    }
+
+    /// Acts on a menu entry: asks first when changes would be lost.
+    pub fn act(
+        &mut self,
+        action: FileAction,
+        state: &ProjectState,
+        dirty: bool,
+        requests: &mut ProjectRequests,
+    ) {
+        let ask = |after| if dirty { Some(after) } else { None };
+        match action {
+            FileAction::New => match ask(AfterSave::New) {
+                Some(q) => self.confirm = Some(q),
+                None => requests.0.push(ProjectRequest::New),
+            },
+            FileAction::Open => match ask(AfterSave::Open) {
+                Some(q) => self.confirm = Some(q),
+                None => self.dialog(DialogPurpose::Open, state),
+            },
+            FileAction::Quit => match ask(AfterSave::Quit) {
+                Some(q) => self.confirm = Some(q),
+                None => requests.0.push(ProjectRequest::Quit),
+            },
+            FileAction::Import => self.dialog(DialogPurpose::Import, state),
+            FileAction::Save => match &state.path {
+                Some(p) => requests.0.push(ProjectRequest::Save(p.clone())),
+                None => self.dialog(DialogPurpose::SaveAs, state),
+            },
+            FileAction::SaveAs => self.dialog(DialogPurpose::SaveAs, state),
+        }
+    }
+
+    /// What `after` does once its question is settled.
+    fn proceed(&mut self, after: AfterSave, state: &ProjectState, requests: &mut ProjectRequests) {
+        match after {
+            AfterSave::New => requests.0.push(ProjectRequest::New),
+            AfterSave::Open => self.dialog(DialogPurpose::Open, state),
+            AfterSave::Quit => requests.0.push(ProjectRequest::Quit),
+        }
+    }
+
+    /// Draws the dialog and the question, if open, and turns answers into requests.
+    pub fn show(
+        &mut self,
+        ctx: &egui::Context,
+        state: &ProjectState,
+        requests: &mut ProjectRequests,
+    ) {
+        if let Some(after) = self.confirm {
+            let name = state
+                .path
+                .as_ref()
+                .and_then(|p| p.file_name())
+                .map_or("the scene".into(), |n| n.to_string_lossy().into_owned());
+            let mut answer = None;
+            egui::Window::new("Unsaved changes")
+                .collapsible(false)
+                .resizable(false)
+                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+                .show(ctx, |ui| {
+                    ui.label(format!("Save the changes to {name} first?"));
+                    ui.horizontal(|ui| {
+                        if ui.button("Save").clicked() {
+                            answer = Some(0);
+                        }
+                        if ui.button("Discard").clicked() {
+                            answer = Some(1);
+                        }
+                        if ui.button("Cancel").clicked() {
+                            answer = Some(2);
+                        }
+                    });
+                });
+            match answer {
+                Some(0) => {
+                    self.confirm = None;
+                    self.then = Some(after);
+                    match &state.path {
+                        Some(p) => requests.0.push(ProjectRequest::Save(p.clone())),
+                        None => self.dialog(DialogPurpose::SaveAs, state),
+                    }
+                }
+                Some(1) => {
+                    self.confirm = None;
+                    self.proceed(after, state, requests);
+                }
+                Some(_) => self.confirm = None,
+                None => {}
+            }
+        }
+        if let Some(dialog) = self.dialog.as_mut()
+            && let Some(choice) = dialog.show(ctx)
+        {
+            let purpose = dialog.purpose;
+            self.dialog = None;
+            match (choice, purpose) {
+                (Some(p), DialogPurpose::Open) => requests.0.push(ProjectRequest::Open(p)),
+                (Some(p), DialogPurpose::Import) => requests.0.push(ProjectRequest::Import(p)),
+                (Some(p), DialogPurpose::SaveAs) => requests.0.push(ProjectRequest::Save(p)),
+                // A cancelled save also drops what was to follow it.
+                (None, _) => self.then = None,
+            }
+        }
+    }
+}
+
+/// Applies the frame's project requests.
+pub fn apply_project_requests(world: &mut World) {
+    let requests = std::mem::take(&mut world.resource_mut::<ProjectRequests>().0);
+    for request in requests {
+        match request {
+            ProjectRequest::New => new_scene(world),
+            ProjectRequest::Open(path) => match open_project(world, &path) {
+                Ok(report) => {
+                    let mut notices = world.resource_mut::<Notices>();
+                    notices.info(format!("opened {}", path.display()));
+                    for (file, why) in &report.missing_sources {
+                        notices.warn(format!(
+                            "{}: source {} is missing ({why}); its objects stay in the project",
+                            path.display(),
+                            file.display()
+                        ));
+                    }
+                    if report.missing_nodes > 0 {
+                        notices.warn(format!(
+                            "{}: {} objects name nodes their files no longer have; they stay in the project",
+                            path.display(),
+                            report.missing_nodes
+                        ));
+                    }
+                }
+                Err(e) => world.resource_mut::<Notices>().error(e.to_string()),
+            },
+            ProjectRequest::Save(path) => match save_project(world, &path) {
+                Ok(unsaved) => {
+                    let mut notices = world.resource_mut::<Notices>();
+                    notices.info(format!("saved {}", path.display()));
+                    if !unsaved.is_empty() {
+                        notices.warn(format!(
+                            "{}: not saved, their geometry has no source file: {}",
+                            path.display(),
+                            unsaved.join(", ")
+                        ));
+                    }
+                    let then = world.resource_mut::<FileUi>().then.take();
+                    if let Some(after) = then {
+                        world.resource_scope(|world, mut ui: Mut<FileUi>| {
+                            let state = world.resource::<ProjectState>();
+                            let mut more = ProjectRequests::default();
+                            ui.proceed(after, state, &mut more);
+                            world.resource_mut::<ProjectRequests>().0.extend(more.0);
+                        });
+                    }
+                }
+                Err(e) => {
+                    world.resource_mut::<FileUi>().then = None;
+                    world.resource_mut::<Notices>().error(e.to_string());
+                }
+            },
+            ProjectRequest::Import(path) => world.resource_mut::<PendingImports>().start(path),
+            ProjectRequest::Quit => {
+                world.write_message(AppExit::Success);
+            }
+        }
+    }
+}
+
+/// An empty scene with a fresh history, not saved anywhere.
+fn new_scene(world: &mut World) {
+    let mut q = world.query_filtered::<Entity, With<crate::selection::SceneObject>>();
+    for e in q.iter(world).collect::<Vec<_>>() {
+        if let Ok(entity) = world.get_entity_mut(e) {
+            entity.despawn();
+        }
+    }
+    *world.resource_mut::<EditHistory>() = EditHistory::default();
+    world.resource_mut::<crate::selection::Selection>().clear();
+    world
+        .resource_mut::<crate::import::SourceCatalog>()
+        .0
+        .clear();
+    world.insert_resource(ProjectState::default());
+}
+
+/// Ctrl+N, Ctrl+O, Ctrl+S, Ctrl+Shift+S and Ctrl+Q (not while a text field has the keyboard).
+pub fn file_shortcuts(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut contexts: EguiContexts,
+    mut ui: ResMut<FileUi>,
+    state: Res<ProjectState>,
+    history: Res<EditHistory>,
+    mut requests: ResMut<ProjectRequests>,
+) {
+    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
+    if !ctrl || !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
+        return;
+    }
+    let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
+    let action = if keys.just_pressed(KeyCode::KeyS) {
+        Some(if shift {
+            FileAction::SaveAs
+        } else {
+            FileAction::Save
+        })
+    } else if keys.just_pressed(KeyCode::KeyO) {
+        Some(FileAction::Open)
+    } else if keys.just_pressed(KeyCode::KeyN) {
+        Some(FileAction::New)
+    } else if keys.just_pressed(KeyCode::KeyQ) {
+        Some(FileAction::Quit)
+    } else {
+        None
+    };
+    if let Some(a) = action {
+        ui.act(a, &state, history.is_dirty(), &mut requests);
+    }
+}
+
+/// Closing the window asks first when there are unsaved changes.
+pub fn close_requested(
+    mut closes: MessageReader<WindowCloseRequested>,
+    mut ui: ResMut<FileUi>,
+    state: Res<ProjectState>,
+    history: Res<EditHistory>,
+    mut requests: ResMut<ProjectRequests>,
+) {
+    if closes.read().count() > 0 {
+        ui.act(FileAction::Quit, &state, history.is_dirty(), &mut requests);
+    }
+}
+
+/// Keeps the window title on the project's name, with `*` while there are unsaved changes.
+pub fn window_title(
+    state: Res<ProjectState>,
+    history: Res<EditHistory>,
+    mut window: Single<&mut Window, With<PrimaryWindow>>,
+) {
+    let name = state
+        .path
+        .as_ref()
+        .and_then(|p| p.file_name())
+        .map_or("Untitled".into(), |n| n.to_string_lossy().into_owned());
+    let star = if history.is_dirty() { " *" } else { "" };
+    let title = format!("{name}{star} — Treelight");
+    if window.title != title {
+        window.title = title;
+    }
+}
+
+/// `--save PATH`: saves the project once the scene has settled and the scripted commands are in.
+#[derive(Resource, Debug)]
+pub struct SaveWhenSettled {
+    /// Where.
+    pub path: PathBuf,
+    settled: u32,
+}
+
+impl SaveWhenSettled {
+    /// A save to `path`.
+    pub fn new(path: PathBuf) -> Self {
+        Self { path, settled: 0 }
+    }
+}
+
+/// Saves for `--save` once nothing is loading and no script waits.
+pub fn save_when_settled(world: &mut World) {
+    let loading = !world.resource::<PendingImports>().0.is_empty()
+        || !world
+            .resource::<crate::import::ParsedImports>()
+            .0
+            .is_empty()
+        || world
+            .get_resource::<crate::script::ScriptedEdits>()
+            .is_some_and(|s| s.commands.is_some());
+    let Some(mut save) = world.get_resource_mut::<SaveWhenSettled>() else {
+        return;
+    };
+    save.settled = if loading { 0 } else { save.settled + 1 };
+    if save.settled < 3 {
+        return;
+    }
+    let path = save.path.clone();
+    world.remove_resource::<SaveWhenSettled>();
+    match save_project(world, &path) {
+        Ok(unsaved) => {
+            info!("saved {}", path.display());
+            if !unsaved.is_empty() {
+                warn!("{}: not saved: {}", path.display(), unsaved.join(", "));
+            }
+        }
+        Err(e) => error!("{e}"),
+    }
+}
+
+/// The File menu's requests, dialogs, keys, title and close prompt.
+pub struct FilesPlugin;
+
+impl Plugin for FilesPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<ProjectRequests>()
+            .init_resource::<FileUi>()
+            .add_systems(
+                Update,
+                (
+                    (file_shortcuts, close_requested, apply_project_requests).chain(),
+                    window_title,
+                    save_when_settled.after(crate::edit::apply_edit_requests),
+                ),
+            );
+    }
+}
