@@ -25,6 +25,8 @@ pub enum ProjectRequest {
     Import(PathBuf),
     /// Close the editor.
     Quit,
+    /// Open a recovery copy: the scene it holds, unsaved, belonging to the project it was made for.
+    OpenRecovery(PathBuf),
 }
 
 /// The frame's project requests, applied by [`apply_project_requests`].
@@ -254,6 +256,23 @@ pub fn apply_project_requests(world: &mut World) {
                 }
             },
             ProjectRequest::Import(path) => world.resource_mut::<PendingImports>().start(path),
+            ProjectRequest::OpenRecovery(path) => {
+                let owner = world.resource::<ProjectState>().path.clone();
+                match open_project(world, &path) {
+                    Ok(_) => {
+                        // The recovered scene is unsaved work on the project it came from.
+                        world.resource_mut::<ProjectState>().path = owner;
+                        world.resource_mut::<EditHistory>().mark_unsaved();
+                        world
+                            .resource_mut::<crate::autosave::Autosave>()
+                            .adopt(path.clone());
+                        world
+                            .resource_mut::<Notices>()
+                            .info(format!("recovered {}", path.display()));
+                    }
+                    Err(e) => world.resource_mut::<Notices>().error(e.to_string()),
+                }
+            }
             ProjectRequest::Quit => {
                 world.write_message(AppExit::Success);
             }

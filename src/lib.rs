@@ -1,6 +1,7 @@
 //! Treelight, the editor: a Bevy scene editor whose viewport is a live path-traced preview.
 //! The binary `treelight` parses the command line and runs [`build_app`].
 
+pub mod autosave;
 pub mod camera;
 pub mod capture;
 pub mod cli;
@@ -68,6 +69,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         ui::UiPlugin,
         settings::SettingsPlugin,
         files::FilesPlugin,
+        autosave::AutosavePlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()

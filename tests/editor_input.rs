@@ -421,3 +421,48 @@ fn ctrl_s_saves_a_project_and_quitting_with_changes_asks_first() {
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
 }
+
+#[test]
+fn work_killed_mid_edit_is_offered_back_at_the_next_start() {
+    if skip_gpu_tests("work_killed_mid_edit_is_offered_back_at_the_next_start") {
+        return;
+    }
+    let cache = support::temp_dir("recovery-cache");
+    let cache_str = cache.to_str().unwrap().to_owned();
+    let env = [
+        ("TREELIGHT_CACHE_DIR", cache_str.as_str()),
+        ("TREELIGHT_AUTOSAVE_SECS", "1"),
+    ];
+    let recovery_files = || {
+        std::fs::read_dir(&cache)
+            .map(|d| d.flatten().count())
+            .unwrap_or(0)
+    };
+    {
+        let mut s = Session::start_with("recovery-1", &[], &env);
+        let st = s.frames(1);
+        let sphere = object(&st, "Sphere").clone();
+        s.click(sphere.screen.unwrap()[0], sphere.screen.unwrap()[1]);
+        s.key(&[], keysym::DELETE);
+        assert!(ids_named(&s.frames(2), "Sphere").is_empty());
+        let start = std::time::Instant::now();
+        while recovery_files() == 0 {
+            assert!(
+                start.elapsed().as_secs() < 30,
+                "no recovery copy was written"
+            );
+            s.frames(1);
+        }
+        // Dropping the session kills the editor (SIGKILL): no chance to save.
+    }
+    let mut s = Session::start_with("recovery-2", &[], &env);
+    // The offer's button has the keyboard: Return opens the copy.
+    s.key(&[], keysym::RETURN);
+    let st = s.wait_until(
+        "the recovered scene",
+        std::time::Duration::from_secs(30),
+        |st| st.objects.iter().all(|o| o.name != "Sphere") && st.dirty,
+    );
+    assert!(st.objects.iter().any(|o| o.name == "Tall box"));
+    std::fs::remove_dir_all(&cache).ok();
+}

@@ -142,6 +142,11 @@ impl EditHistory {
         self.record.set_saved();
     }
 
+    /// Marks the scene as having changes no file holds (a recovered copy).
+    pub fn mark_unsaved(&mut self) {
+        self.record.clear_saved();
+    }
+
     /// Whether the scene has changes since it was last saved or opened.
     pub fn is_dirty(&self) -> bool {
         !self.record.is_saved()

@@ -50,6 +50,7 @@ pub fn run_headless_with_config(exe: &Path, args: &[&str], config: &Path) -> Str
         .env("WGPU_BACKEND", "vulkan")
         // The user's own settings stay untouched by tests.
         .env("TREELIGHT_CONFIG_DIR", config)
+        .env("TREELIGHT_CACHE_DIR", config.join("cache"))
         .output()
         .unwrap_or_else(|e| {
             panic!("cannot run xvfb-run ({e}). Install the headless GPU test packages: apt-get install -y mesa-vulkan-drivers libvulkan1 xvfb xauth")

@@ -76,6 +76,11 @@ impl Session {
     /// Starts Xvfb and the editor with `args` (plus `--state`), and waits until the editor's scene
     /// has loaded and its BVH is idle.
     pub fn start(name: &str, args: &[&str]) -> Session {
+        Self::start_with(name, args, &[])
+    }
+
+    /// [`Session::start`] with extra environment variables for the editor.
+    pub fn start_with(name: &str, args: &[&str], env: &[(&str, &str)]) -> Session {
         let dir = crate::support::temp_dir(name);
         let mut last_error = String::new();
         for _ in 0..3 {
@@ -122,8 +127,10 @@ impl Session {
                 .env("DISPLAY", format!(":{display}"))
                 .env("WGPU_BACKEND", "vulkan")
                 .env("TREELIGHT_CONFIG_DIR", dir.join("config"))
+                .env("TREELIGHT_CACHE_DIR", dir.join("cache"))
                 // Files the editor's dialogs offer are the test's own.
                 .current_dir(&dir)
+                .envs(env.iter().copied())
                 .stdout(log.try_clone().unwrap())
                 .stderr(log)
                 .spawn()
