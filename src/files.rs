@@ -34,12 +34,14 @@ pub enum ProjectRequest {
 pub struct ProjectRequests(pub Vec<ProjectRequest>);
 
 /// What waits on the user's answer about unsaved changes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum AfterSave {
     /// Start an empty scene.
     New,
     /// Choose a project to open.
     Open,
+    /// Open this project.
+    OpenPath(PathBuf),
     /// Close the editor.
     Quit,
 }
@@ -56,8 +58,10 @@ pub struct FileUi {
 }
 
 /// The menu's entries, chosen in the menu bar or by their keys.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FileAction {
+    /// File → Open Recent → a project.
+    OpenRecent(PathBuf),
     /// File → New.
     New,
     /// File → Open….
@@ -115,6 +119,10 @@ impl FileUi {
                 Some(q) => self.confirm = Some(q),
                 None => self.dialog(DialogPurpose::Open, state),
             },
+            FileAction::OpenRecent(p) => match ask(AfterSave::OpenPath(p.clone())) {
+                Some(q) => self.confirm = Some(q),
+                None => requests.0.push(ProjectRequest::Open(p)),
+            },
             FileAction::Quit => match ask(AfterSave::Quit) {
                 Some(q) => self.confirm = Some(q),
                 None => requests.0.push(ProjectRequest::Quit),
@@ -133,6 +141,7 @@ impl FileUi {
         match after {
             AfterSave::New => requests.0.push(ProjectRequest::New),
             AfterSave::Open => self.dialog(DialogPurpose::Open, state),
+            AfterSave::OpenPath(p) => requests.0.push(ProjectRequest::Open(p)),
             AfterSave::Quit => requests.0.push(ProjectRequest::Quit),
         }
     }
@@ -144,7 +153,7 @@ impl FileUi {
         state: &ProjectState,
         requests: &mut ProjectRequests,
     ) {
-        if let Some(after) = self.confirm {
+        if let Some(after) = self.confirm.clone() {
             let name = state
                 .path
                 .as_ref()
@@ -202,6 +211,23 @@ impl FileUi {
     }
 }
 
+/// The projects opened or saved lately, newest first (kept in the settings file).
+#[derive(Resource, Debug, Default, Clone, PartialEq)]
+pub struct RecentProjects(pub Vec<PathBuf>);
+
+impl RecentProjects {
+    /// How many are kept.
+    pub const MAX: usize = 10;
+
+    /// Puts `path` first.
+    pub fn add(&mut self, path: &std::path::Path) {
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+        self.0.retain(|p| *p != path);
+        self.0.insert(0, path);
+        self.0.truncate(Self::MAX);
+    }
+}
+
 /// Applies the frame's project requests.
 pub fn apply_project_requests(world: &mut World) {
     let requests = std::mem::take(&mut world.resource_mut::<ProjectRequests>().0);
@@ -210,6 +236,7 @@ pub fn apply_project_requests(world: &mut World) {
             ProjectRequest::New => new_scene(world),
             ProjectRequest::Open(path) => match open_project(world, &path) {
                 Ok(report) => {
+                    world.resource_mut::<RecentProjects>().add(&path);
                     let mut notices = world.resource_mut::<Notices>();
                     notices.info(format!("opened {}", path.display()));
                     for (file, why) in &report.missing_sources {
@@ -231,6 +258,7 @@ pub fn apply_project_requests(world: &mut World) {
             },
             ProjectRequest::Save(path) => match save_project(world, &path) {
                 Ok(unsaved) => {
+                    world.resource_mut::<RecentProjects>().add(&path);
                     let mut notices = world.resource_mut::<Notices>();
                     notices.info(format!("saved {}", path.display()));
                     if !unsaved.is_empty() {
@@ -414,6 +442,7 @@ impl Plugin for FilesPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ProjectRequests>()
             .init_resource::<FileUi>()
+            .init_resource::<RecentProjects>()
             .add_systems(
                 Update,
                 (

@@ -4,6 +4,7 @@
 //! broken one gives them too, with a notice naming the file and the problem. Saved when changed,
 //! through a temporary file and a rename.
 
+use crate::files::RecentProjects;
 use crate::gizmo::GizmoSettings;
 use crate::notice::Notices;
 use crate::ui::{EditorDock, EditorTab};
@@ -28,6 +29,9 @@ pub struct EditorSettings {
     pub angle_step_deg: f32,
     /// Factor step for scaling while snapping.
     pub scale_step: f32,
+    /// Projects opened or saved lately, newest first.
+    #[serde(default)]
+    pub recent: Vec<PathBuf>,
 }
 
 /// Where the settings file is, if a config directory can be found.
@@ -61,11 +65,11 @@ pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
             settings.version
         ));
     }
-    // Every panel exactly once, or the user could lose one for good.
+    // No panel twice (a panel the file does not know, from an older editor, is added on load).
     let tabs: Vec<EditorTab> = settings.layout.iter_all_tabs().map(|(_, t)| *t).collect();
     for tab in EditorTab::ALL {
-        if tabs.iter().filter(|t| **t == tab).count() != 1 {
-            return Err(format!("the layout does not hold the {tab:?} panel once"));
+        if tabs.iter().filter(|t| **t == tab).count() > 1 {
+            return Err(format!("the layout holds the {tab:?} panel more than once"));
         }
     }
     let steps = [
@@ -107,13 +111,14 @@ pub struct SavedSettings {
     frames: u32,
 }
 
-fn current(dock: &EditorDock, gizmo: &GizmoSettings) -> EditorSettings {
+fn current(dock: &EditorDock, gizmo: &GizmoSettings, recent: &RecentProjects) -> EditorSettings {
     EditorSettings {
         version: VERSION,
         layout: dock.0.clone(),
         grid_step: gizmo.grid_step,
         angle_step_deg: gizmo.angle_step_deg,
         scale_step: gizmo.scale_step,
+        recent: recent.0.clone(),
     }
 }
 
@@ -122,6 +127,7 @@ pub fn load_settings(
     mut saved: ResMut<SavedSettings>,
     mut dock: ResMut<EditorDock>,
     mut gizmo: ResMut<GizmoSettings>,
+    mut recent: ResMut<RecentProjects>,
     mut notices: ResMut<Notices>,
 ) {
     let Some(path) = settings_path() else {
@@ -138,6 +144,8 @@ pub fn load_settings(
             gizmo.grid_step = s.grid_step;
             gizmo.angle_step_deg = s.angle_step_deg;
             gizmo.scale_step = s.scale_step;
+            recent.0 = s.recent;
+            recent.0.truncate(RecentProjects::MAX);
         }
         Ok(None) => {}
         Err(e) => notices.warn(format!(
@@ -145,7 +153,7 @@ pub fn load_settings(
             path.display()
         )),
     }
-    saved.text = ron::to_string(&current(&dock, &gizmo)).unwrap_or_default();
+    saved.text = ron::to_string(&current(&dock, &gizmo, &recent)).unwrap_or_default();
     saved.path = Some(path);
 }
 
@@ -155,6 +163,7 @@ pub fn save_settings(
     mut saved: ResMut<SavedSettings>,
     dock: Res<EditorDock>,
     gizmo: Res<GizmoSettings>,
+    recent: Res<RecentProjects>,
     exit: MessageReader<AppExit>,
     time: Res<Time>,
 ) {
@@ -167,7 +176,7 @@ pub fn save_settings(
     let Some(path) = saved.path.clone() else {
         return;
     };
-    let settings = current(&dock, &gizmo);
+    let settings = current(&dock, &gizmo, &recent);
     let Ok(text) = ron::to_string(&settings) else {
         return;
     };
@@ -211,11 +220,16 @@ mod tests {
         let d = dir("round-trip");
         let path = d.join("settings.ron");
         assert!(read_settings(&path).unwrap().is_none());
-        let mut settings = current(&EditorDock::default(), &GizmoSettings::default());
+        let mut settings = current(
+            &EditorDock::default(),
+            &GizmoSettings::default(),
+            &RecentProjects(vec![PathBuf::from("/work/house.treelight")]),
+        );
         settings.grid_step = 0.5;
         write_settings(&path, &settings).unwrap();
         let back = read_settings(&path).unwrap().unwrap();
         assert_eq!(back.grid_step, 0.5);
+        assert_eq!(back.recent, vec![PathBuf::from("/work/house.treelight")]);
         assert_eq!(back.layout.iter_all_tabs().count(), EditorTab::ALL.len());
         for (text, problem) in [("not ron at all {", ""), ("(version: 7)", "")] {
             std::fs::write(&path, text).unwrap();

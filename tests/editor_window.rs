@@ -311,6 +311,7 @@ fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
             grid_step: 0.5,
             angle_step_deg: 10.0,
             scale_step: 0.25,
+            recent: Vec::new(),
         },
     )
     .unwrap();

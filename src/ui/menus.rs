@@ -48,7 +48,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
 ];
 
 /// What the user chose in the menus this frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum MenuAction {
     /// Edit → Undo.
     Undo,
@@ -84,6 +84,7 @@ pub fn menu_bar(
     history: &EditHistory,
     has_selection: bool,
     can_paste: bool,
+    recent: &[std::path::PathBuf],
     render: &mut ViewportRender,
     gizmo: &mut GizmoSettings,
 ) -> Option<MenuAction> {
@@ -94,6 +95,33 @@ pub fn menu_bar(
             for (what, label, keys) in [
                 (FileAction::New, "New", "Ctrl+N"),
                 (FileAction::Open, "Open…", "Ctrl+O"),
+            ] {
+                if ui
+                    .add(egui::Button::new(label).shortcut_text(keys))
+                    .clicked()
+                {
+                    action = Some(MenuAction::File(what));
+                }
+            }
+            ui.add_enabled_ui(!recent.is_empty(), |ui| {
+                ui.menu_button("Open Recent", |ui| {
+                    for p in recent {
+                        let name = p.file_name().map_or_else(
+                            || p.display().to_string(),
+                            |n| n.to_string_lossy().into(),
+                        );
+                        let exists = p.is_file();
+                        let button = ui
+                            .add_enabled(exists, egui::Button::new(name))
+                            .on_hover_text(p.display().to_string())
+                            .on_disabled_hover_text(format!("{} is gone", p.display()));
+                        if button.clicked() {
+                            action = Some(MenuAction::File(FileAction::OpenRecent(p.clone())));
+                        }
+                    }
+                });
+            });
+            for (what, label, keys) in [
                 (FileAction::Import, "Import…", ""),
                 (FileAction::Save, "Save", "Ctrl+S"),
                 (FileAction::SaveAs, "Save As…", "Ctrl+Shift+S"),

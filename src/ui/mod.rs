@@ -209,6 +209,7 @@ pub struct EditAccess<'w, 's> {
     files: ResMut<'w, crate::files::FileUi>,
     project: Res<'w, crate::project::ProjectState>,
     project_requests: ResMut<'w, crate::files::ProjectRequests>,
+    recent: Res<'w, crate::files::RecentProjects>,
 }
 
 /// What the viewport reads of the scene and keeps of its own.
@@ -257,6 +258,7 @@ pub fn editor_ui(
         mut files,
         project,
         mut project_requests,
+        recent,
     } = edits;
     let ViewportAccess {
         cameras,
@@ -361,6 +363,7 @@ pub fn editor_ui(
             &history,
             !selection.is_empty(),
             !clipboard.0.is_empty(),
+            &recent.0,
             &mut render_copy,
             &mut gizmo_copy,
         );
@@ -468,7 +471,7 @@ pub fn editor_ui(
         });
 
     show_notices(&ctx, &mut notices);
-    if let Some(MenuAction::File(a)) = menu_action {
+    if let Some(MenuAction::File(a)) = menu_action.clone() {
         files.act(a, &project, history.is_dirty(), &mut project_requests);
     }
     files.show(&ctx, &project, &mut project_requests);
