@@ -173,10 +173,11 @@ fn drag(
         let spent = last.elapsed();
         frame_ms.push(spent.as_secs_f64() * 1e3);
         plugin_ms.push(app.world().resource::<PluginClock>().spent.as_secs_f64() * 1e3);
-        if first_follow.is_none() && k > 1 && tree_holds_everything(app, triangles) {
+        std::thread::sleep(FRAME.saturating_sub(spent));
+        // Caught up with this frame's move before the next frame's arrives?
+        if first_follow.is_none() && tree_holds_everything(app, triangles) {
             first_follow = Some(first.elapsed());
         }
-        std::thread::sleep(FRAME.saturating_sub(spent));
     }
     // The commit lands where the last preview was; wait (frames still at 60 Hz) until the tree
     // has it.
