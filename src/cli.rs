@@ -6,8 +6,11 @@ use std::path::PathBuf;
 
 /// Treelight: a Bevy scene editor with a live path-traced preview.
 #[derive(Parser, Debug, Clone, Default)]
-#[command(version, about)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
 pub struct Cli {
+    /// Something to do instead of opening the editor.
+    #[command(subcommand)]
+    pub command: Option<Command>,
     /// A project (.treelight) or a scene file (.gltf, .glb, .obj or .ply) to open instead of the
     /// built-in default scene.
     pub scene: Option<PathBuf>,
@@ -38,9 +41,20 @@ pub struct Cli {
     /// editor).
     #[arg(long, value_name = "PATH")]
     pub state: Option<PathBuf>,
-    /// Save the scene as a project (.treelight) once it has loaded and the commands are applied.
+    /// Save the scene as a project (.treelight) once it has loaded and the commands are applied,
+    /// then exit (after `--frames` frames, if given).
     #[arg(long, value_name = "PATH")]
     pub save: Option<PathBuf>,
+}
+
+/// What `treelight` can do without opening its window.
+#[derive(clap::Subcommand, Debug, Clone, PartialEq, Eq)]
+pub enum Command {
+    /// Print what a scene file (.gltf, .glb, .obj, .ply) or project (.treelight) holds, then exit.
+    Info {
+        /// The file.
+        file: PathBuf,
+    },
 }
 
 /// The viewport modes on the command line.

@@ -390,7 +390,8 @@ pub fn window_title(
     }
 }
 
-/// `--save PATH`: saves the project once the scene has settled and the scripted commands are in.
+/// `--save PATH`: saves the project once the scene has settled and the scripted commands are in,
+/// then exits (unless `--frames` asks for more frames).
 #[derive(Resource, Debug)]
 pub struct SaveWhenSettled {
     /// Where.
@@ -424,14 +425,22 @@ pub fn save_when_settled(world: &mut World) {
     }
     let path = save.path.clone();
     world.remove_resource::<SaveWhenSettled>();
-    match save_project(world, &path) {
+    let code = match save_project(world, &path) {
         Ok(unsaved) => {
             info!("saved {}", path.display());
             if !unsaved.is_empty() {
                 warn!("{}: not saved: {}", path.display(), unsaved.join(", "));
             }
+            AppExit::Success
         }
-        Err(e) => error!("{e}"),
+        Err(e) => {
+            error!("{e}");
+            AppExit::error()
+        }
+    };
+    // Without `--frames`, the job is done.
+    if !world.contains_resource::<crate::capture::CaptureRequest>() {
+        world.write_message(code);
     }
 }
 

@@ -10,6 +10,7 @@ pub mod edit;
 pub mod files;
 pub mod gizmo;
 pub mod import;
+pub mod info;
 pub mod notice;
 pub mod placement;
 pub mod project;

@@ -1,9 +1,22 @@
-//! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`
+//! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`, or
+//! `treelight info FILE`.
 
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
     let cli = treelight::cli::Cli::parse();
+    if let Some(treelight::cli::Command::Info { file }) = &cli.command {
+        return match treelight::info::describe(file) {
+            Ok(text) => {
+                print!("{text}");
+                std::process::ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("treelight: {e}");
+                std::process::ExitCode::from(1)
+            }
+        };
+    }
     let script = match &cli.commands {
         None => None,
         Some(path) => match treelight::script::read_commands(path) {

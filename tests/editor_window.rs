@@ -476,3 +476,76 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
     assert!(!opened.dirty);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn info_describes_scene_files_and_projects_without_a_display() {
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_treelight"))
+            .arg("info")
+            .args(args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    };
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let (ok, text) = run(&[helmet.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("triangles: 94722") && text.contains("textures: "),
+        "{text}"
+    );
+    // A file that is not there: the error names it and the exit status says so.
+    let (ok, text) = run(&["/nonexistent/scene.glb"]);
+    assert!(!ok && text.contains("/nonexistent/scene.glb"), "{text}");
+    // A project: its sources and objects.
+    let dir = temp_dir("info");
+    let project = dir.join("p.treelight");
+    std::fs::write(
+        &project,
+        format!(
+            "(version: 1, sources: [\"{}\", \"gone.obj\"], objects: [(id: (1), name: \"Cube\", \
+             transform: (translation: (0.0, 0.0, 0.0)), kind: Shape(Cube))])",
+            helmet.display()
+        ),
+    )
+    .unwrap();
+    let (ok, text) = run(&[project.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("sources: 2")
+            && text.contains("(present)")
+            && text.contains("gone.obj (missing)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("objects: 1 (0 source nodes, 0 copies of source meshes, 1 shapes"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn save_without_frames_imports_saves_and_exits() {
+    if skip_gpu_tests("save_without_frames_imports_saves_and_exits") {
+        return;
+    }
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let dir = temp_dir("save-exit");
+    let out = dir.join("box.treelight");
+    run_editor(&[file.to_str().unwrap(), "--save", out.to_str().unwrap()]);
+    let project = treelight::project::read_project(&out).expect("a saved project");
+    assert_eq!(project.sources.len(), 1);
+    assert!(!project.objects.is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -288,6 +288,11 @@ fn a_saved_project_opens_as_the_same_scene() {
     let again = dir.join("again.treelight");
     save_project(fresh.world_mut(), &again).unwrap();
     assert_eq!(read_project(&again).unwrap().objects, project.objects);
+    // Byte for byte: the same sources, objects, deletions and camera in the same order.
+    assert_eq!(
+        std::fs::read_to_string(&again).unwrap(),
+        std::fs::read_to_string(&path).unwrap()
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
