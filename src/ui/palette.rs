@@ -10,16 +10,6 @@ use bevy_egui::egui;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PaletteItem(pub Primitive);
 
-fn glyph(shape: Primitive) -> &'static str {
-    match shape {
-        Primitive::Cube => "⬛",
-        Primitive::Sphere => "⚫",
-        Primitive::Plane => "▬",
-        Primitive::Cylinder => "⛁",
-        Primitive::EmissivePanel => "☀",
-    }
-}
-
 /// Lays out the panel; returns a shape clicked (not dragged). Each tile's rectangle goes to
 /// `tiles`, named after its shape.
 pub fn palette_ui(ui: &mut egui::Ui, tiles: &mut Vec<(String, egui::Rect)>) -> Option<Primitive> {
@@ -31,12 +21,9 @@ pub fn palette_ui(ui: &mut egui::Ui, tiles: &mut Vec<(String, egui::Rect)>) -> O
         .show(ui, |ui| {
             ui.horizontal_wrapped(|ui| {
                 for shape in Primitive::ALL {
-                    let tile = egui::Button::new(
-                        egui::RichText::new(format!("{}\n{}", glyph(shape), shape.label()))
-                            .size(13.0),
-                    )
-                    .min_size(egui::vec2(84.0, 52.0))
-                    .sense(egui::Sense::click_and_drag());
+                    let tile = egui::Button::new(egui::RichText::new(shape.label()).size(13.0))
+                        .min_size(egui::vec2(84.0, 52.0))
+                        .sense(egui::Sense::click_and_drag());
                     let response = ui.add(tile);
                     tiles.push((shape.label().to_owned(), response.rect));
                     if response.drag_started() {
