@@ -634,9 +634,14 @@ pub fn open_project(world: &mut World, path: &Path) -> Result<OpenReport, Projec
                     file: resolved[n.source].clone(),
                     key: n.key.clone(),
                 };
-                world
+                let e = world
                     .spawn((SceneObject, mesh, material, MeshSource(source_key)))
-                    .id()
+                    .id();
+                // A copy shares its original's material until one of them was made unique.
+                if let Some(value) = &o.material {
+                    apply_node_material(world, e, value);
+                }
+                e
             }
             ObjectKind::Shape(shape) => {
                 let mesh = shape_meshes

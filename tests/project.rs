@@ -410,3 +410,114 @@ fn a_missing_source_still_opens_and_a_save_keeps_it() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A command for a random step: `kind` picks the edit, `a` and `b` the objects (by position among
+/// the current ids), `v` the numbers.
+fn random_command(
+    world: &mut World,
+    kind: u8,
+    a: usize,
+    b: usize,
+    v: [f32; 3],
+) -> Option<EditCommand> {
+    let ids: Vec<SceneId> = {
+        let mut q = world.query::<&SceneId>();
+        let mut ids: Vec<SceneId> = q.iter(world).copied().collect();
+        ids.sort();
+        ids
+    };
+    if ids.is_empty() {
+        return None;
+    }
+    let (x, y) = (ids[a % ids.len()], ids[b % ids.len()]);
+    let t = TransformValue::from(
+        Transform::from_translation(Vec3::from_array(v))
+            .with_rotation(Quat::from_rotation_y(v[0]))
+            .with_scale(Vec3::splat(1.0 + v[1].abs())),
+    );
+    let command = match kind % 12 {
+        0 => EditCommand::SetTransform {
+            id: x,
+            transform: t,
+        },
+        1 => EditCommand::Rename {
+            id: x,
+            name: format!("renamed {a}"),
+        },
+        2 => EditCommand::SetVisible {
+            id: x,
+            visible: v[2] > 0.0,
+        },
+        3 => EditCommand::Delete { ids: vec![x] },
+        4 => EditCommand::Duplicate {
+            ids: vec![x],
+            copies: vec![],
+        },
+        5 => EditCommand::Reparent {
+            ids: vec![x],
+            parent: (v[2] > -0.2).then_some(y),
+        },
+        6 => EditCommand::Group {
+            ids: vec![x, y],
+            name: "g".into(),
+            group: None,
+        },
+        7 => EditCommand::AddPrimitive {
+            shape: Primitive::ALL[a % Primitive::ALL.len()],
+            transform: t,
+            id: None,
+        },
+        8 => EditCommand::AddLight {
+            kind: if v[0] > 0.0 {
+                LightKind::Point
+            } else {
+                LightKind::Directional
+            },
+            transform: t,
+            id: None,
+        },
+        9 => {
+            let mut m = MaterialValue::of(&StandardMaterial::default());
+            m.base_color = [v[0].abs().min(1.0), 0.5, v[1].abs().min(1.0), 1.0];
+            m.perceptual_roughness = v[2].abs().min(1.0);
+            EditCommand::SetMaterial { id: x, material: m }
+        }
+        10 => EditCommand::MakeMaterialUnique { id: x },
+        _ => EditCommand::SetTransforms {
+            transforms: vec![(x, t)],
+        },
+    };
+    command.check(world).ok()?;
+    Some(command)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 10, .. Default::default() })]
+
+    /// Whatever the edits, a saved project opens as the same scene.
+    #[test]
+    fn any_edited_scene_round_trips_through_a_project(
+        steps in proptest::collection::vec(
+            (0u8..12, 0usize..64, 0usize..64, proptest::array::uniform3(-1.0f32..1.0)),
+            1..20,
+        )
+    ) {
+        let mut app = editor_world();
+        apply(&mut app, EditCommand::Import { file: helmet(), root: None, transform: None });
+        for (kind, a, b, v) in steps {
+            if let Some(c) = random_command(app.world_mut(), kind, a, b, v) {
+                apply(&mut app, c);
+            }
+        }
+        let before = state(app.world_mut());
+        let dir = temp("random");
+        let path = dir.join(format!("{}.treelight", before.len()));
+        save_project(app.world_mut(), &path).unwrap();
+        let mut fresh = editor_world();
+        let report = open_project(fresh.world_mut(), &path).unwrap();
+        proptest::prop_assert_eq!(report.missing_nodes, 0);
+        fresh.update();
+        proptest::prop_assert_eq!(state(fresh.world_mut()), before);
+        std::fs::remove_file(&path).ok();
+    }
+}
