@@ -27,6 +27,13 @@ pub enum ProjectRequest {
     Quit,
     /// Open a recovery copy: the scene it holds, unsaved, belonging to the project it was made for.
     OpenRecovery(PathBuf),
+    /// Point a missing source at another file.
+    Relink {
+        /// The source as the project names it (resolved).
+        from: PathBuf,
+        /// The file to use instead.
+        to: PathBuf,
+    },
 }
 
 /// The frame's project requests, applied by [`apply_project_requests`].
@@ -55,6 +62,10 @@ pub struct FileUi {
     pub confirm: Option<AfterSave>,
     /// What to do once the save the user chose has happened.
     pub then: Option<AfterSave>,
+    /// Whether the Relink window is open.
+    pub relink: bool,
+    /// The missing source the file dialog is choosing a file for.
+    relink_from: Option<PathBuf>,
 }
 
 /// The menu's entries, chosen in the menu bar or by their keys.
@@ -74,6 +85,8 @@ pub enum FileAction {
     SaveAs,
     /// File → Quit.
     Quit,
+    /// File → Relink….
+    Relink,
 }
 
 impl FileUi {
@@ -133,6 +146,7 @@ impl FileUi {
                 None => self.dialog(DialogPurpose::SaveAs, state),
             },
             FileAction::SaveAs => self.dialog(DialogPurpose::SaveAs, state),
+            FileAction::Relink => self.relink = true,
         }
     }
 
@@ -195,6 +209,40 @@ impl FileUi {
                 None => {}
             }
         }
+        if self.relink {
+            let missing = crate::project::missing_sources(state);
+            let mut open = true;
+            egui::Window::new("Relink missing sources")
+                .open(&mut open)
+                .collapsible(false)
+                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+                .show(ctx, |ui| {
+                    if missing.is_empty() {
+                        ui.label("Every source of the project is there.");
+                    }
+                    for p in &missing {
+                        ui.horizontal(|ui| {
+                            ui.monospace(p.display().to_string());
+                            if ui.button("Choose…").clicked() {
+                                self.relink_from = Some(p.clone());
+                                let dir = p
+                                    .parent()
+                                    .filter(|d| d.is_dir())
+                                    .map(|d| d.to_owned())
+                                    .unwrap_or_else(|| Self::start_dir(state));
+                                self.dialog = Some(FileDialog::new(
+                                    DialogPurpose::Relink,
+                                    dir,
+                                    String::new(),
+                                ));
+                            }
+                        });
+                    }
+                });
+            if !open {
+                self.relink = false;
+            }
+        }
         if let Some(dialog) = self.dialog.as_mut()
             && let Some(choice) = dialog.show(ctx)
         {
@@ -204,6 +252,11 @@ impl FileUi {
                 (Some(p), DialogPurpose::Open) => requests.0.push(ProjectRequest::Open(p)),
                 (Some(p), DialogPurpose::Import) => requests.0.push(ProjectRequest::Import(p)),
                 (Some(p), DialogPurpose::SaveAs) => requests.0.push(ProjectRequest::Save(p)),
+                (Some(to), DialogPurpose::Relink) => {
+                    if let Some(from) = self.relink_from.take() {
+                        requests.0.push(ProjectRequest::Relink { from, to });
+                    }
+                }
                 // A cancelled save also drops what was to follow it.
                 (None, _) => self.then = None,
             }
@@ -303,6 +356,26 @@ pub fn apply_project_requests(world: &mut World) {
             }
             ProjectRequest::Quit => {
                 world.write_message(AppExit::Success);
+            }
+            ProjectRequest::Relink { from, to } => {
+                match crate::project::relink_source(world, &from, &to) {
+                    Ok(report) => {
+                        let mut notices = world.resource_mut::<Notices>();
+                        notices.info(format!(
+                            "{} now stands for {}",
+                            to.display(),
+                            from.display()
+                        ));
+                        if report.missing_nodes > 0 {
+                            notices.warn(format!(
+                                "{}: {} objects name nodes it does not have; they stay in the project",
+                                to.display(),
+                                report.missing_nodes
+                            ));
+                        }
+                    }
+                    Err(e) => world.resource_mut::<Notices>().error(e.to_string()),
+                }
             }
         }
     }

@@ -469,6 +469,59 @@ pub fn save_project(world: &mut World, path: &Path) -> Result<Vec<String>, Proje
     Ok(unsaved)
 }
 
+/// The sources the open project is missing: files that held objects or deletions still kept.
+pub fn missing_sources(state: &ProjectState) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = Vec::new();
+    let mut add = |p: &Path| {
+        if !out.iter().any(|q| q == p) {
+            out.push(p.to_owned());
+        }
+    };
+    for o in &state.missing {
+        if let ObjectKind::Node(n) | ObjectKind::MeshOf(n) = &o.kind
+            && let Some(p) = state.missing_sources.get(n.source)
+        {
+            add(p);
+        }
+    }
+    for (p, _) in &state.missing_deleted {
+        add(p);
+    }
+    // Objects whose nodes are gone from a file that is there are not a missing source.
+    out.retain(|p| !p.is_file());
+    out
+}
+
+/// Points the project's source `from` at the file `to` and opens the scene again with it, so its
+/// kept objects find their nodes; the scene then has unsaved changes (and a fresh history).
+pub fn relink_source(
+    world: &mut World,
+    from: &Path,
+    to: &Path,
+) -> Result<OpenReport, ProjectError> {
+    let owner = world.resource::<ProjectState>().path.clone();
+    // Relative sources resolve against the project's folder, or the working folder for a scene
+    // never saved.
+    let base = owner.clone().unwrap_or_else(|| {
+        std::env::current_dir()
+            .unwrap_or_default()
+            .join("untitled.treelight")
+    });
+    let (mut project, _) = capture_project(world, &base);
+    for s in &mut project.sources {
+        if resolve_source(&base, s) == from {
+            *s = store_source(&base, to);
+        }
+    }
+    project
+        .validate()
+        .map_err(|e| ProjectError::Format(base.clone(), e))?;
+    let report = open_project_value(world, project, &base)?;
+    world.resource_mut::<ProjectState>().path = owner;
+    world.resource_mut::<EditHistory>().mark_unsaved();
+    Ok(report)
+}
+
 /// Gives a source node's material the saved values. A material the file shares between nodes is
 /// only changed for all of them when they agree; a node whose values differ gets its own copy (as
 /// "make unique" gave it).
@@ -508,6 +561,16 @@ fn apply_node_material(world: &mut World, e: Entity, value: &MaterialValue) {
 /// the report lists them and their objects stay in the project.
 pub fn open_project(world: &mut World, path: &Path) -> Result<OpenReport, ProjectError> {
     let project = read_project(path)?;
+    open_project_value(world, project, path)
+}
+
+/// [`open_project`] of a project already read and checked; `path` is where it lives (its sources
+/// resolve against its folder, errors name it).
+pub fn open_project_value(
+    world: &mut World,
+    project: ProjectFile,
+    path: &Path,
+) -> Result<OpenReport, ProjectError> {
     let mut report = OpenReport::default();
     // Sources: checked, then parsed, before the scene is touched.
     let mut parsed: Vec<Option<treelight_import::ImportedScene>> = Vec::new();

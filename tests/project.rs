@@ -403,6 +403,37 @@ fn a_missing_source_still_opens_and_a_save_keeps_it() {
     let again = dir.join("again.treelight");
     save_project(fresh.world_mut(), &again).unwrap();
     let resaved = read_project(&again).unwrap();
+    // Relinked to the files in their new place, the helmet comes back, as unsaved changes.
+    let moved = dir.join("moved");
+    std::fs::create_dir_all(&moved).unwrap();
+    for e in std::fs::read_dir(&from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), moved.join(e.file_name())).unwrap();
+        }
+    }
+    let lost = treelight::project::missing_sources(fresh.world().resource::<ProjectState>());
+    assert_eq!(lost, vec![src.join("FlightHelmet.gltf")]);
+    let report = treelight::project::relink_source(
+        fresh.world_mut(),
+        &lost[0],
+        &moved.join("FlightHelmet.gltf"),
+    )
+    .unwrap();
+    assert_eq!((report.missing_sources.len(), report.missing_nodes), (0, 0));
+    fresh.update();
+    let relinked = state(fresh.world_mut());
+    assert_eq!(relinked.len(), saved.objects.len(), "{relinked:?}");
+    assert!(fresh.world().resource::<EditHistory>().is_dirty());
+    assert_eq!(
+        fresh.world().resource::<ProjectState>().path.as_deref(),
+        Some(again.as_path())
+    );
+    save_project(fresh.world_mut(), &again).unwrap();
+    assert_eq!(
+        read_project(&again).unwrap().sources,
+        vec![PathBuf::from("moved/FlightHelmet.gltf")]
+    );
     assert_eq!(
         resaved.objects.len(),
         saved.objects.len(),

@@ -13,6 +13,8 @@ pub enum DialogPurpose {
     Import,
     /// Where to save the project.
     SaveAs,
+    /// The file a missing source has become.
+    Relink,
 }
 
 impl DialogPurpose {
@@ -21,6 +23,7 @@ impl DialogPurpose {
             DialogPurpose::Open => "Open project",
             DialogPurpose::Import => "Import a scene file",
             DialogPurpose::SaveAs => "Save project as",
+            DialogPurpose::Relink => "Choose the file for the missing source",
         }
     }
 
@@ -32,7 +35,7 @@ impl DialogPurpose {
             .map(str::to_ascii_lowercase);
         match self {
             DialogPurpose::Open | DialogPurpose::SaveAs => ext.as_deref() == Some("treelight"),
-            DialogPurpose::Import => {
+            DialogPurpose::Import | DialogPurpose::Relink => {
                 matches!(ext.as_deref(), Some("gltf" | "glb" | "obj" | "ply"))
             }
         }
@@ -168,6 +171,7 @@ impl FileDialog {
                         DialogPurpose::SaveAs => "Save",
                         DialogPurpose::Open => "Open",
                         DialogPurpose::Import => "Import",
+                        DialogPurpose::Relink => "Relink",
                     };
                     if ui
                         .add_enabled(!self.name.trim().is_empty(), egui::Button::new(ok))

@@ -78,16 +78,34 @@ pub enum MenuAction {
     File(crate::files::FileAction),
 }
 
+/// What decides which menu entries are enabled.
+pub struct MenuState<'a> {
+    /// The history, for Undo and Redo.
+    pub history: &'a EditHistory,
+    /// Whether anything is selected.
+    pub has_selection: bool,
+    /// Whether the clipboard holds objects.
+    pub can_paste: bool,
+    /// Projects opened or saved lately.
+    pub recent: &'a [std::path::PathBuf],
+    /// Whether the project has missing sources.
+    pub can_relink: bool,
+}
+
 /// Draws the menu bar; returns what was chosen.
 pub fn menu_bar(
     ui: &mut egui::Ui,
-    history: &EditHistory,
-    has_selection: bool,
-    can_paste: bool,
-    recent: &[std::path::PathBuf],
+    state: &MenuState,
     render: &mut ViewportRender,
     gizmo: &mut GizmoSettings,
 ) -> Option<MenuAction> {
+    let MenuState {
+        history,
+        has_selection,
+        can_paste,
+        recent,
+        can_relink,
+    } = *state;
     let mut action = None;
     egui::MenuBar::new().ui(ui, |ui| {
         ui.menu_button("File", |ui| {
@@ -120,6 +138,15 @@ pub fn menu_bar(
                         }
                     }
                 });
+            });
+            ui.add_enabled_ui(can_relink, |ui| {
+                if ui
+                    .button("Relink…")
+                    .on_hover_text("Point the project's missing source files at files that exist")
+                    .clicked()
+                {
+                    action = Some(MenuAction::File(FileAction::Relink));
+                }
             });
             for (what, label, keys) in [
                 (FileAction::Import, "Import…", ""),

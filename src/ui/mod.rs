@@ -358,15 +358,14 @@ pub fn editor_ui(
     );
     let mut menu_action = None;
     egui::Panel::top("menu-bar").show(&mut root, |ui| {
-        menu_action = menus::menu_bar(
-            ui,
-            &history,
-            !selection.is_empty(),
-            !clipboard.0.is_empty(),
-            &recent.0,
-            &mut render_copy,
-            &mut gizmo_copy,
-        );
+        let state = menus::MenuState {
+            history: &history,
+            has_selection: !selection.is_empty(),
+            can_paste: !clipboard.0.is_empty(),
+            recent: &recent.0,
+            can_relink: !crate::project::missing_sources(&project).is_empty(),
+        };
+        menu_action = menus::menu_bar(ui, &state, &mut render_copy, &mut gizmo_copy);
     });
     egui::Panel::bottom("status-bar").show(&mut root, |ui| {
         ui.horizontal(|ui| {
