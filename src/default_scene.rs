@@ -6,10 +6,30 @@ use crate::edit::snapshot::PrimitiveShape;
 use crate::selection::SceneObject;
 use bevy::prelude::*;
 
+/// The default scene as a project, embedded so the editor opens it from any working directory.
+/// `assets/default.treelight` is written from [`spawn_default_scene`] (see `tests/default_scene.rs`).
+pub const DEFAULT_PROJECT: &str = include_str!("../assets/default.treelight");
+
+/// Opens the embedded default scene as an untitled, unsaved-free scene.
+pub fn open_default_scene(world: &mut World) {
+    let name = std::path::Path::new("default.treelight");
+    let opened = crate::project::read_project_str(DEFAULT_PROJECT, name)
+        .and_then(|p| crate::project::open_project_value(world, p, name));
+    if let Err(e) = opened {
+        // Only a broken build can get here; the scene the file was made from is still at hand.
+        error!("the embedded default scene: {e}");
+        let _ = world.run_system_cached(spawn_default_scene);
+    }
+    world.resource_mut::<crate::project::ProjectState>().path = None;
+    world
+        .resource_mut::<crate::edit::EditHistory>()
+        .mark_saved();
+}
+
 /// Inside width, height and depth of the room.
 pub const ROOM: f32 = 5.0;
 
-/// Spawns the default scene.
+/// Spawns the default scene from code: what `assets/default.treelight` is made from.
 pub fn spawn_default_scene(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,

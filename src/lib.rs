@@ -115,7 +115,10 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             .resource_mut::<import::PendingImports>()
             .start(path.clone()),
         None => {
-            app.add_systems(Startup, default_scene::spawn_default_scene);
+            app.add_systems(
+                Startup,
+                default_scene::open_default_scene.after(setup_cameras),
+            );
         }
     }
     if let Some(path) = &cli.save {

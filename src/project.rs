@@ -46,6 +46,12 @@ pub struct LightValue {
     pub color: [f32; 3],
     /// Lumens for a point light, lux for a directional one.
     pub intensity: f32,
+    /// Whether it casts shadows in the rasterised view.
+    #[serde(default = "shown")]
+    pub shadows: bool,
+    /// A point light's range.
+    #[serde(default)]
+    pub range: Option<f32>,
 }
 
 /// What an object is.
@@ -207,7 +213,9 @@ impl ProjectFile {
                     ));
                 }
                 ObjectKind::Light(l)
-                    if !l.color.iter().all(|v| check(*v)) || !check(l.intensity) =>
+                    if !l.color.iter().all(|v| check(*v))
+                        || !check(l.intensity)
+                        || l.range.is_some_and(|r| !check(r)) =>
                 {
                     return Err(format!("object {} has a light out of range", o.id.0));
                 }
@@ -230,6 +238,16 @@ impl ProjectFile {
     }
 }
 
+/// Parses and checks a project's text; `path` names it in errors.
+pub fn read_project_str(text: &str, path: &Path) -> Result<ProjectFile, ProjectError> {
+    let project: ProjectFile =
+        ron::from_str(text).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
+    project
+        .validate()
+        .map_err(|e| ProjectError::Format(path.to_owned(), e))?;
+    Ok(project)
+}
+
 /// Reads and checks a project file (nothing in the scene changes).
 pub fn read_project(path: &Path) -> Result<ProjectFile, ProjectError> {
     let io = |e: std::io::Error| ProjectError::Io(path.to_owned(), e.to_string());
@@ -247,12 +265,7 @@ pub fn read_project(path: &Path) -> Result<ProjectFile, ProjectError> {
         ));
     }
     let text = std::fs::read_to_string(path).map_err(io)?;
-    let project: ProjectFile =
-        ron::from_str(&text).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
-    project
-        .validate()
-        .map_err(|e| ProjectError::Format(path.to_owned(), e))?;
-    Ok(project)
+    read_project_str(&text, path)
 }
 
 /// A source path as the project resolves it: relative ones against the project's folder.
@@ -355,12 +368,16 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
                 kind: LightKind::Point,
                 color: l.color.to_srgba().to_f32_array_no_alpha(),
                 intensity: l.intensity,
+                shadows: l.shadow_maps_enabled,
+                range: Some(l.range),
             })
         } else if let Some(l) = dir {
             ObjectKind::Light(LightValue {
                 kind: LightKind::Directional,
                 color: l.color.to_srgba().to_f32_array_no_alpha(),
                 intensity: l.illuminance,
+                shadows: l.shadow_maps_enabled,
+                range: None,
             })
         } else if *has_mesh {
             unsaved.push(name);
@@ -732,14 +749,14 @@ pub fn open_project_value(
                     LightKind::Point => e.insert(PointLight {
                         color,
                         intensity: l.intensity,
-                        range: 40.0,
-                        shadow_maps_enabled: true,
+                        range: l.range.filter(|r| *r > 0.0).unwrap_or(40.0),
+                        shadow_maps_enabled: l.shadows,
                         ..default()
                     }),
                     LightKind::Directional => e.insert(DirectionalLight {
                         color,
                         illuminance: l.intensity,
-                        shadow_maps_enabled: true,
+                        shadow_maps_enabled: l.shadows,
                         ..default()
                     }),
                 };
