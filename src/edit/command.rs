@@ -494,18 +494,10 @@ impl EditCommand {
                 if let Some(t) = transform {
                     check_finite(t)?;
                 }
-                if let Some(id) = root
-                    && world.resource::<SceneIndex>().entity(*id).is_some()
-                {
-                    return Err(EditError::Taken(*id));
-                }
+                check_free(world, *root)?;
             }
             EditCommand::AddLight { id, transform, .. } => {
-                if let Some(id) = id
-                    && world.resource::<SceneIndex>().entity(*id).is_some()
-                {
-                    return Err(EditError::Taken(*id));
-                }
+                check_free(world, *id)?;
                 check_finite(transform)?;
             }
             EditCommand::Group { ids, group, .. } => {
@@ -515,18 +507,10 @@ impl EditCommand {
                 for id in ids {
                     entity(world, *id)?;
                 }
-                if let Some(g) = group
-                    && world.resource::<SceneIndex>().entity(*g).is_some()
-                {
-                    return Err(EditError::Taken(*g));
-                }
+                check_free(world, *group)?;
             }
             EditCommand::AddPrimitive { id, transform, .. } => {
-                if let Some(id) = id
-                    && world.resource::<SceneIndex>().entity(*id).is_some()
-                {
-                    return Err(EditError::Taken(*id));
-                }
+                check_free(world, *id)?;
                 let t = transform;
                 if !t.translation.iter().chain(&t.scale).all(|v| v.is_finite()) {
                     return Err(EditError::NotFinite);
@@ -683,11 +667,7 @@ impl EditCommand {
                 transform,
                 id,
             } => {
-                let new_id = match id {
-                    Some(id) => *id,
-                    None => world.resource_mut::<SceneIndex>().allocate(),
-                };
-                *id = Some(new_id);
+                let new_id = take_id(world, id);
                 let mut e = world.spawn((
                     Name::new(kind.label()),
                     SceneObject,
@@ -723,11 +703,7 @@ impl EditCommand {
                     / entities.len() as f32;
                 let parent_world =
                     parent.map_or(bevy::math::Affine3A::IDENTITY, |p| world_affine(world, p));
-                let group_id = match group {
-                    Some(g) => *g,
-                    None => world.resource_mut::<SceneIndex>().allocate(),
-                };
-                *group = Some(group_id);
+                let group_id = take_id(world, group);
                 let mut g = world.spawn((
                     Name::new(name.clone()),
                     SceneObject,
@@ -755,11 +731,7 @@ impl EditCommand {
                 transform,
                 id,
             } => {
-                let new_id = match id {
-                    Some(id) => *id,
-                    None => world.resource_mut::<SceneIndex>().allocate(),
-                };
-                *id = Some(new_id);
+                let new_id = take_id(world, id);
                 let mesh = world.resource_mut::<Assets<Mesh>>().add(shape.mesh());
                 let material = world
                     .resource_mut::<Assets<StandardMaterial>>()
@@ -777,6 +749,22 @@ impl EditCommand {
             }
         })
     }
+}
+
+/// Refuses an id another object already has.
+fn check_free(world: &World, id: Option<SceneId>) -> Result<(), EditError> {
+    match id {
+        Some(id) if world.resource::<SceneIndex>().entity(id).is_some() => {
+            Err(EditError::Taken(id))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The id a command names for what it makes, or a fresh one, kept in the command so a redo makes
+/// the same object.
+fn take_id(world: &mut World, id: &mut Option<SceneId>) -> SceneId {
+    *id.get_or_insert_with(|| world.resource_mut::<SceneIndex>().allocate())
 }
 
 /// The material handle of object `id`.

@@ -88,8 +88,8 @@ pub struct MenuState<'a> {
     pub can_paste: bool,
     /// Projects opened or saved lately.
     pub recent: &'a [std::path::PathBuf],
-    /// Whether the project has missing sources.
-    pub can_relink: bool,
+    /// The open project (Relink… is offered when it misses sources).
+    pub project: &'a crate::project::ProjectState,
 }
 
 /// Draws the menu bar; returns what was chosen.
@@ -104,7 +104,7 @@ pub fn menu_bar(
         has_selection,
         can_paste,
         recent,
-        can_relink,
+        project,
     } = *state;
     let mut action = None;
     egui::MenuBar::new().ui(ui, |ui| {
@@ -139,6 +139,8 @@ pub fn menu_bar(
                     }
                 });
             });
+            // Looked up only while the menu is open: it asks the file system.
+            let can_relink = !crate::project::missing_sources(project).is_empty();
             ui.add_enabled_ui(can_relink, |ui| {
                 if ui
                     .button("Relink…")

@@ -363,7 +363,7 @@ pub fn editor_ui(
             has_selection: !selection.is_empty(),
             can_paste: !clipboard.0.is_empty(),
             recent: &recent.0,
-            can_relink: !crate::project::missing_sources(&project).is_empty(),
+            project: &project,
         };
         menu_action = menus::menu_bar(ui, &state, &mut render_copy, &mut gizmo_copy);
     });
