@@ -136,7 +136,12 @@ struct Surface {
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let tri = tris[hit.triangle];
     let attr = attrs[hit.triangle];
-    let obj = objects[attr.group & ~HAS_NORMALS];
+    // Groups sharing triangles share their attributes too; the instance says whose they are here.
+    var group = attr.group & ~HAS_NORMALS;
+    if hit.instance != NONE {
+        group = instances[hit.instance].group;
+    }
+    let obj = objects[group];
     var s: Surface;
     s.p = o + d * hit.t;
     var ng = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);

@@ -30,7 +30,8 @@ struct Instance {
     world_to_object: array<vec4<f32>, 3>,
     object_to_world: array<vec4<f32>, 3>,
     root: u32,
-    pad0: u32,
+    // The group the instance places: its object record holds the material and normal matrix.
+    group: u32,
     pad1: u32,
     pad2: u32,
 }

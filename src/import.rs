@@ -305,16 +305,21 @@ pub fn spawn_scene(
             *meshes_per_node.entry(n).or_default() += 1;
         }
     }
+    // A mesh the file places at several nodes becomes one asset: the scene BVH then holds its
+    // triangles once, each placement an instance.
+    let mut mesh_handles: Vec<Handle<Mesh>> = Vec::with_capacity(scene.meshes.len());
     for (i, m) in scene.meshes.iter().enumerate() {
         let mat = m
             .material
             .and_then(|k| handles.get(k))
             .cloned()
             .unwrap_or_else(|| fallback.clone());
-        let shape = (
-            Mesh3d(assets.meshes.add(to_bevy_mesh(m))),
-            MeshMaterial3d(mat),
-        );
+        let mesh = match m.same_as.and_then(|j| mesh_handles.get(j)) {
+            Some(h) => h.clone(),
+            None => assets.meshes.add(to_bevy_mesh(m)),
+        };
+        mesh_handles.push(mesh.clone());
+        let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
         match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
             // A node's only mesh lives on the node itself.
             Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {

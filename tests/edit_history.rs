@@ -484,6 +484,61 @@ fn a_duplicate_is_selected_and_a_refused_command_changes_nothing() {
         (a.mesh, a.material, a.parent, a.transform),
         (b.mesh, b.material, b.parent, b.transform)
     );
+    // The tree holds the mesh's triangles once: the copy is a second instance of them, traced
+    // and picked as itself once moved away.
+    let triangles = |app: &App| {
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count()
+    };
+    let before_triangles = triangles(&app);
+    settle(&mut app);
+    assert_eq!(triangles(&app), before_triangles);
+    let copy_entity = app.world().resource::<SceneIndex>().entity(copy).unwrap();
+    let moved = Transform::from_xyz(0.0, 0.0, 50.0);
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::SetTransform {
+                id: copy,
+                transform: moved.into(),
+            },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    settle(&mut app);
+    assert_eq!(triangles(&app), before_triangles);
+    let mesh = app.world().get::<Mesh3d>(copy_entity).unwrap().0.id();
+    let centre = app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(mesh)
+        .and_then(bevy::camera::primitives::MeshAabb::compute_aabb)
+        .map(|b| moved.transform_point(Vec3::from(b.center)))
+        .unwrap();
+    // Rays at the copy's centre from all sides, until one meets it.
+    let hit = [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ]
+    .into_iter()
+    .find_map(|d| {
+        cast_on(
+            &app.world().resource::<SceneBvh>().read_blocking(),
+            Ray3d::new(centre + d * 20.0, Dir3::new(-d).unwrap()),
+        )
+    })
+    .expect("the moved copy is traced");
+    assert_eq!(hit.entity, copy_entity);
+    check_rays(&mut app);
+    let after = world_state(app.world_mut());
     // A command naming no object is refused and leaves no step.
     let steps = head(&app);
     let refused = apply_request(

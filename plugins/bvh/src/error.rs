@@ -28,6 +28,10 @@ pub enum BvhError {
         /// The largest count accepted.
         limit: u32,
     },
+    /// Triangles shared by several groups ([`crate::Bvh::insert_instance`]) cannot be removed one by
+    /// one: the groups that use them would change too.
+    #[error("triangle {0} is shared by several groups")]
+    SharedTriangles(u32),
     /// A group handle that was removed or never existed.
     #[error("unknown or removed group")]
     UnknownGroup,

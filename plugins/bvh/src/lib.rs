@@ -7,7 +7,8 @@
 //!   [`Bvh::insert_triangles_parallel_search`] (IncrUP), [`Bvh::insert_triangles_block_parallel`] and
 //!   [`BlockStream`] (IncrUPB); references by [`Bvh::build_top_down`] ([`TopDown`]).
 //! * Edit: groups ([`Bvh::insert_group`], [`Bvh::set_group_transform`], [`Bvh::bake_group`],
-//!   [`Bvh::remove_group`]), triangles ([`Bvh::remove_triangles`], [`Bvh::set_triangles`]);
+//!   [`Bvh::remove_group`]), copies sharing a group's triangles ([`Bvh::insert_instance`],
+//!   [`Bvh::hit_group`]), triangles ([`Bvh::remove_triangles`], [`Bvh::set_triangles`]);
 //!   [`Bvh::reserve`] ahead of an edit whose latency matters.
 //! * Query: [`Bvh::closest_hit`], [`Bvh::any_hit`], [`Bvh::overlapping_triangles`].
 //! * Export: [`Bvh::gpu_node`] and [`Bvh::take_changes`] for GPUs, [`Bvh::write_tlbvh`] for files.

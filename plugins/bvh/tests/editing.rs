@@ -31,6 +31,12 @@ enum Op {
     RemoveGroup {
         pick: usize,
     },
+    /// A group sharing another's triangles (a duplicate of a mesh).
+    Instance {
+        pick: usize,
+        angle: f32,
+        offset: f32,
+    },
     MoveGroup {
         pick: usize,
         angle: f32,
@@ -81,6 +87,13 @@ fn op() -> impl Strategy<Value = Op> {
                 offset
             }),
         any::<usize>().prop_map(|pick| Op::RemoveGroup { pick }),
+        (any::<usize>(), -3.0f32..3.0, -8.0f32..8.0).prop_map(|(pick, angle, offset)| {
+            Op::Instance {
+                pick,
+                angle,
+                offset,
+            }
+        }),
         (any::<usize>(), -3.0f32..3.0, -8.0f32..8.0, 0.3f32..2.0).prop_map(
             |(pick, angle, offset, scale)| Op::MoveGroup {
                 pick,
@@ -228,6 +241,29 @@ fn run(ops: &[Op], config: BvhConfig) {
                     "a stale handle must be rejected"
                 );
             }
+            Op::Instance {
+                pick,
+                angle,
+                offset,
+            } if !groups.is_empty() => {
+                let (of, n) = groups[pick % groups.len()];
+                let before = bvh.triangle_count();
+                let g = bvh.insert_instance(of, xf(angle, offset, 1.0)).unwrap();
+                assert_eq!(
+                    bvh.triangle_count(),
+                    before,
+                    "a shared mesh adds no triangles"
+                );
+                assert_eq!(
+                    bvh.shared_triangles(g).unwrap(),
+                    bvh.shared_triangles(of).unwrap()
+                );
+                if n > 0 {
+                    assert!(bvh.is_group_shared(g).unwrap() && bvh.is_group_shared(of).unwrap());
+                    assert!(bvh.is_group_whole(of).unwrap());
+                }
+                groups.push((g, n));
+            }
             Op::MoveGroup {
                 pick,
                 angle,
@@ -241,7 +277,11 @@ fn run(ops: &[Op], config: BvhConfig) {
             Op::BakeGroup { pick } if !groups.is_empty() => {
                 let (g, _) = groups[pick % groups.len()];
                 bvh.bake_group(g).unwrap();
-                assert!(!bvh.is_group_whole(g).unwrap());
+                // Shared triangles stay in object space, under each group's instance.
+                assert_eq!(
+                    bvh.is_group_whole(g).unwrap(),
+                    bvh.is_group_shared(g).unwrap()
+                );
             }
             Op::EditGroupVertices { pick, seed } if !groups.is_empty() => {
                 let (g, _) = groups[pick % groups.len()];
@@ -250,7 +290,12 @@ fn run(ops: &[Op], config: BvhConfig) {
             }
             Op::RemoveTriangles { seed, count } => {
                 let live: Vec<u32> = (0..bvh.triangle_capacity())
-                    .filter(|&t| bvh.is_live_triangle(t))
+                    .filter(|&t| {
+                        bvh.is_live_triangle(t)
+                            && bvh
+                                .triangle_group(t)
+                                .is_none_or(|g| bvh.is_group_shared(g) == Ok(false))
+                    })
                     .collect();
                 if !live.is_empty() {
                     let mut r = Rng(seed | 1);
@@ -328,7 +373,9 @@ fn run(ops: &[Op], config: BvhConfig) {
     let mut found = Vec::new();
     bvh.overlapping_triangles(&q, &mut found);
     found.sort_unstable();
-    assert_eq!(found, bvh.brute_force_overlapping(&q));
+    let mut brute = bvh.brute_force_overlapping(&q);
+    brute.sort_unstable();
+    assert_eq!(found, brute);
     let total: usize = groups
         .iter()
         .map(|(g, _)| bvh.group_triangles(*g).unwrap().len())

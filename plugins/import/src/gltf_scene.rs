@@ -8,6 +8,7 @@ use crate::{
 };
 use glam::Mat4;
 use gltf::mesh::Mode;
+use std::collections::HashMap;
 use std::path::Path;
 
 /// Loads the default scene of a glTF file (or all root nodes of the first scene), with node
@@ -45,6 +46,9 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     }
     let default_material = scene.materials.len();
     let mut used_default = false;
+    // (mesh, primitive) -> the first entry of `scene.meshes` read from it: a mesh placed by
+    // several nodes is read once and marked as the same.
+    let mut read: HashMap<(usize, usize), usize> = HashMap::new();
     let root_scene = gltf
         .document
         .default_scene()
@@ -107,8 +111,21 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                     ));
                     continue;
                 }
-                match read_primitive(path, &prim, &name, &buffers)? {
+                let key = (mesh.index(), prim.index());
+                let first = read.get(&key).copied();
+                let m = match first {
+                    Some(i) => Some(ImportedMesh {
+                        name: name.clone(),
+                        same_as: Some(i),
+                        ..scene.meshes[i].clone()
+                    }),
+                    None => read_primitive(path, &prim, &name, &buffers)?,
+                };
+                match m {
                     Some(mut m) => {
+                        if first.is_none() {
+                            read.insert(key, scene.meshes.len());
+                        }
                         m.transform = world;
                         m.node = Some(index);
                         m.material = Some(prim.material().index().unwrap_or_else(|| {
@@ -252,6 +269,7 @@ fn read_primitive(
         uvs,
         indices,
         material: None,
+        same_as: None,
     }))
 }
 

@@ -107,6 +107,10 @@ pub struct ImportedMesh {
     pub indices: Vec<u32>,
     /// Index into [`ImportedScene::materials`].
     pub material: Option<usize>,
+    /// The earlier mesh in [`ImportedScene::meshes`] with the same vertex data, when the file
+    /// places one mesh at several nodes (glTF): a consumer may share that mesh's geometry instead
+    /// of keeping a second copy.
+    pub same_as: Option<usize>,
 }
 
 impl ImportedMesh {

@@ -61,6 +61,7 @@ pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
             uvs,
             indices: m.mesh.indices,
             material: Some(0),
+            same_as: None,
         });
     }
     Ok(scene)

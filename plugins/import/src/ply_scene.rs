@@ -197,6 +197,7 @@ pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
             uvs,
             indices,
             material: Some(0),
+            same_as: None,
         }],
         nodes: Vec::new(),
         materials: vec![ImportedMaterial::default()],

@@ -288,3 +288,44 @@ fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
     let node = s.meshes[0].node.unwrap();
     assert!(s.nodes[node].parent.is_some(), "{:?}", s.nodes);
 }
+
+#[test]
+fn a_mesh_placed_by_several_nodes_is_read_once_and_marked_the_same() {
+    // BoxTextured with a second node placing the same mesh elsewhere.
+    let dir = std::env::temp_dir().join(format!("treelight-reuse-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = scene("gltf/BoxTextured-glTF");
+    for f in std::fs::read_dir(&src).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    let path = dir.join("BoxTextured.gltf");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    let mesh_node = nodes.iter().position(|n| n.get("mesh").is_some()).unwrap();
+    nodes.push(serde_json::json!({"name": "copy", "mesh": nodes[mesh_node]["mesh"], "translation": [3.0, 0.0, 0.0]}));
+    let copy = nodes.len() - 1;
+    json["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(copy));
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+
+    let s = load_scene(&path).unwrap();
+    assert_eq!(s.meshes.len(), 2);
+    let (a, b) = (&s.meshes[0], &s.meshes[1]);
+    assert_eq!(a.same_as, None);
+    assert_eq!(b.same_as, Some(0));
+    assert_eq!((&a.positions, &a.indices), (&b.positions, &b.indices));
+    assert_eq!(a.material, b.material);
+    let copy = s.meshes.iter().find(|m| m.name == "copy").unwrap();
+    let other = s.meshes.iter().find(|m| m.name != "copy").unwrap();
+    assert!(
+        (copy.transform.w_axis - other.transform.w_axis).abs_diff_eq(glam::Vec4::X * 3.0, 1e-6),
+        "{} vs {}",
+        copy.transform,
+        other.transform
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,5 +1,6 @@
 //! The path-tracing kernel against a CPU reference path tracer written here, on a Cornell box with an
-//! emissive panel, a point light, a rough metal box kept whole under a transform, and an open front
+//! emissive panel, a point light, a rough metal box kept whole under a transform, a glowing copy of
+//! it that shares its triangles (a second instance with its own material), and an open front
 //! to a coloured sky. Both see the same tree, materials and BRDF model; the CPU samples directions
 //! differently (cosine-weighted only), so agreement checks the kernel's sampling and weights, not just
 //! its arithmetic. 32×32 pixels at 512 samples each, unbiased (no indirect clamp).
@@ -77,6 +78,7 @@ fn cornell() -> Scene {
     let mut add = |tris: Vec<Triangle>, t: Affine3A, whole: bool, m: SurfaceMaterial| {
         let g = bvh.insert_group(&tris, t, whole).unwrap();
         materials.insert(g, m);
+        g
     };
     let (l, h) = (-1.0f32, 1.0f32);
     let v = Vec3::new;
@@ -135,7 +137,7 @@ fn cornell() -> Scene {
         false,
         white,
     );
-    add(
+    let metal = add(
         cuboid(v(1.0, 1.0, 1.0)),
         Affine3A::from_scale_rotation_translation(
             v(0.3, 0.6, 0.3),
@@ -148,6 +150,25 @@ fn cornell() -> Scene {
             metallic: 1.0,
             perceptual_roughness: 0.5,
             ..Default::default()
+        },
+    );
+    // A duplicate of the metal box sharing its triangles, matte and glowing blue: its hits must
+    // take its own material and normals, not those of the box whose triangles it shares.
+    let copy = bvh
+        .insert_instance(
+            metal,
+            Affine3A::from_scale_rotation_translation(
+                v(0.2, 0.2, 0.2),
+                Quat::from_rotation_y(0.6),
+                v(0.55, -0.8, -0.55),
+            ),
+        )
+        .unwrap();
+    materials.insert(
+        copy,
+        SurfaceMaterial {
+            emissive: [0.3, 0.5, 1.5],
+            ..lambert(0.1, 0.2, 0.8)
         },
     );
     let lights = vec![SceneLight::Point {
@@ -237,8 +258,8 @@ fn cpu_radiance(scene: &Scene, mut o: Vec3, mut d: Vec3, rng: &mut Rng) -> Vec3 
             radiance += throughput * SKY;
             break;
         };
-        let tri = bvh.world_triangle(hit.triangle).unwrap();
-        let m = &scene.materials[&bvh.triangle_group(hit.triangle).unwrap()];
+        let tri = bvh.hit_world_triangle(&hit).unwrap();
+        let m = &scene.materials[&bvh.hit_group(&hit).unwrap()];
         let p = o + d * hit.t;
         let mut n = tri.normal().normalize();
         if n.dot(d) > 0.0 {

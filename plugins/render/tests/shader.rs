@@ -73,7 +73,7 @@ fn traversal_records_have_the_engine_s_layout() {
             wgsl_layout(&m, "Instance"),
             rust_layout!(
                 GpuInstance,
-                [world_to_object, object_to_world, root, pad0, pad1, pad2]
+                [world_to_object, object_to_world, root, group, pad1, pad2]
             )
         );
     }

@@ -5,7 +5,8 @@
 //! each mesh's bBVH in parallel and inserts it into the tree, so the main thread never waits.
 //!
 //! Watched: entities gaining [`Mesh3d`] (also when the asset finishes loading later), edits of mesh
-//! assets, [`GlobalTransform`] changes, visibility, removal and despawn. Published: the [`SceneBvh`]
+//! assets, [`GlobalTransform`] changes, visibility, removal and despawn. Entities showing the same
+//! mesh asset share its triangles in the tree, each one instance node (with its own material). Published: the [`SceneBvh`]
 //! resource, with the tree, its version, stats and [`SceneBvh::cast_ray`].
 
 // Every public item says what it is for: the crate is meant to be used from other apps.
@@ -32,7 +33,8 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
-use treelight_bvh::{Bvh, ChangeSet, GroupId, Ray};
+use treelight_bvh::glam::Affine3A;
+use treelight_bvh::{Bvh, BvhError, ChangeSet, GroupId, Hit, Ray};
 use worker::{Command, Shared, WorkerConfig};
 
 /// Settings of [`SceneBvhPlugin`].
@@ -100,6 +102,10 @@ impl Plugin for SceneBvhPlugin {
             waiting: HashMap::new(),
             traced: HashSet::new(),
             copying: HashMap::new(),
+            sent_mesh: HashMap::new(),
+            mesh_senders: HashMap::new(),
+            followers: HashMap::new(),
+            orphans: Vec::new(),
             budget: self.config.main_thread_budget,
         })
         .add_systems(
@@ -150,17 +156,56 @@ pub struct SceneTree {
     /// Groups inserted since a renderer last took the changes (bounded by the live groups: removed
     /// ones leave the set).
     fresh_groups: HashSet<GroupId>,
+    /// The mesh asset each traced entity shows, and the entities showing each: entities with the
+    /// same mesh share its triangles in the tree ([`Bvh::insert_instance`]).
+    entity_mesh: HashMap<Entity, AssetId<Mesh>>,
+    mesh_entities: HashMap<AssetId<Mesh>, Vec<Entity>>,
 }
 
 impl SceneTree {
-    pub(crate) fn bind(&mut self, e: Entity, g: GroupId, shading: Arc<TriangleShading>) {
+    pub(crate) fn bind(
+        &mut self,
+        e: Entity,
+        g: GroupId,
+        shading: Arc<TriangleShading>,
+        mesh: AssetId<Mesh>,
+    ) {
         self.group_entity.insert(g, e);
         self.entity_group.insert(e, g);
         self.shading.insert(g, shading);
         self.fresh_groups.insert(g);
+        self.entity_mesh.insert(e, mesh);
+        self.mesh_entities.entry(mesh).or_default().push(e);
+    }
+
+    /// Traces `e` with the triangles another entity of the same mesh brought.
+    pub(crate) fn share(
+        &mut self,
+        e: Entity,
+        mesh: AssetId<Mesh>,
+        transform: Affine3A,
+    ) -> Result<(), BvhError> {
+        let source = self
+            .mesh_entities
+            .get(&mesh)
+            .and_then(|list| list.iter().find_map(|s| self.entity_group.get(s)))
+            .copied()
+            .ok_or(BvhError::UnknownGroup)?;
+        let g = self.bvh.insert_instance(source, transform)?;
+        let shading = self.shading.get(&source).cloned().unwrap_or_default();
+        self.bind(e, g, shading, mesh);
+        Ok(())
     }
 
     pub(crate) fn remove_entity(&mut self, e: Entity) {
+        if let Some(mesh) = self.entity_mesh.remove(&e)
+            && let Some(list) = self.mesh_entities.get_mut(&mesh)
+        {
+            list.retain(|&x| x != e);
+            if list.is_empty() {
+                self.mesh_entities.remove(&mesh);
+            }
+        }
         if let Some(g) = self.entity_group.remove(&e) {
             self.group_entity.remove(&g);
             self.shading.remove(&g);
@@ -170,10 +215,18 @@ impl SceneTree {
         }
     }
 
-    /// The entity owning triangle `t`.
+    /// The entity owning triangle `t` (the one whose mesh brought it, while it is traced; entities
+    /// of the same mesh share it: see [`SceneTree::entity_of_hit`]).
     pub fn entity_of_triangle(&self, t: u32) -> Option<Entity> {
         self.bvh
             .triangle_group(t)
+            .and_then(|g| self.group_entity.get(&g).copied())
+    }
+
+    /// The entity a ray hit: the one whose instance it reached the triangle through.
+    pub fn entity_of_hit(&self, hit: &Hit) -> Option<Entity> {
+        self.bvh
+            .hit_group(hit)
             .and_then(|g| self.group_entity.get(&g).copied())
     }
 }
@@ -216,7 +269,23 @@ pub struct SceneBvh {
     traced: HashSet<Entity>,
     /// Meshes being copied out of the world, a budget's worth per frame.
     copying: HashMap<Entity, MeshCopy>,
+    /// The mesh whose triangles the worker has (or will have) for each entity, and how many
+    /// entities sent each mesh: a further entity of that mesh shares them instead of copying.
+    sent_mesh: HashMap<Entity, AssetId<Mesh>>,
+    mesh_senders: HashMap<AssetId<Mesh>, usize>,
+    /// Entities waiting for another entity's copy of the same mesh, with their latest transform.
+    followers: HashMap<Entity, Follower>,
+    /// Followers whose leader stopped copying: looked at again at the end of the frame.
+    orphans: Vec<Entity>,
     budget: Duration,
+}
+
+/// An entity whose mesh is being copied for another: it is sent as an instance once that copy is.
+struct Follower {
+    mesh: AssetId<Mesh>,
+    name: String,
+    transform: bevy::math::Affine3A,
+    started: Instant,
 }
 
 /// A mesh entity whose triangles are being copied for the worker.
@@ -244,7 +313,9 @@ impl SceneBvh {
 
     /// Whether every change sent so far has been applied.
     pub fn is_idle(&self) -> bool {
-        self.copying.is_empty() && self.shared.pending.load(Ordering::Acquire) == 0
+        self.copying.is_empty()
+            && self.followers.is_empty()
+            && self.shared.pending.load(Ordering::Acquire) == 0
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never
@@ -327,9 +398,57 @@ impl SceneBvh {
     /// Stops tracing `e`: the worker removes what it has of it. Nothing is sent for an entity the
     /// worker never heard of.
     fn untrace(&mut self, e: Entity) {
+        self.followers.remove(&e);
+        self.forget_mesh(e);
         if self.traced.remove(&e) {
             self.send(Command::Remove { entity: e });
         }
+    }
+
+    /// `e`'s triangles are going away (a removal, or a new version on its way).
+    fn forget_mesh(&mut self, e: Entity) {
+        if let Some(m) = self.sent_mesh.remove(&e)
+            && let Some(n) = self.mesh_senders.get_mut(&m)
+        {
+            *n -= 1;
+            if *n == 0 {
+                self.mesh_senders.remove(&m);
+            }
+        }
+    }
+
+    fn remember_mesh(&mut self, e: Entity, mesh: AssetId<Mesh>) {
+        self.sent_mesh.insert(e, mesh);
+        *self.mesh_senders.entry(mesh).or_default() += 1;
+    }
+
+    /// Stops `e`'s copy, if any; entities that waited for it are looked at again.
+    fn drop_copy(&mut self, e: Entity) {
+        if let Some(job) = self.copying.remove(&e) {
+            let waiting: Vec<Entity> = self
+                .followers
+                .iter()
+                .filter(|(_, f)| f.mesh == job.mesh)
+                .map(|(&f, _)| f)
+                .collect();
+            for f in waiting {
+                self.followers.remove(&f);
+                self.orphans.push(f);
+            }
+        }
+    }
+
+    /// Sends `e` as an instance of `mesh`, whose triangles the worker holds for another entity.
+    fn send_instance(&mut self, e: Entity, follower: Follower) {
+        self.traced.insert(e);
+        self.remember_mesh(e, follower.mesh);
+        self.send(Command::Instance {
+            entity: e,
+            mesh: follower.mesh,
+            name: follower.name,
+            transform: follower.transform,
+            sent: follower.started,
+        });
     }
 
     fn send(&self, c: Command) {
@@ -351,8 +470,8 @@ impl SceneBvh {
 pub fn cast_on(tree: &SceneTree, ray: Ray3d) -> Option<SceneHit> {
     let dir = Vec3::from(ray.direction);
     let hit = tree.bvh.closest_hit(&Ray::new(ray.origin, dir))?;
-    let entity = tree.entity_of_triangle(hit.triangle)?;
-    let tri = tree.bvh.world_triangle(hit.triangle)?;
+    let entity = tree.entity_of_hit(&hit)?;
+    let tri = tree.bvh.hit_world_triangle(&hit)?;
     let n = tri.normal().normalize_or_zero();
     Some(SceneHit {
         entity,
@@ -406,7 +525,7 @@ fn track_world(
         for list in scene.waiting.values_mut() {
             list.retain(|&w| w != e);
         }
-        scene.copying.remove(&e);
+        scene.drop_copy(e);
         scene.untrace(e);
         sent_now.insert(e);
     }
@@ -417,6 +536,12 @@ fn track_world(
             && let Some(list) = scene.waiting.remove(id)
         {
             ready.extend(list);
+        }
+        if let AssetEvent::Modified { id } = ev {
+            // Every entity of the mesh is sent again this frame (`Changed<Mesh3d>`): none of them
+            // may share the old triangles.
+            scene.sent_mesh.retain(|_, m| m != id);
+            scene.mesh_senders.remove(id);
         }
     }
     for item in &changed_mesh {
@@ -431,10 +556,18 @@ fn track_world(
             upsert(scene, &meshes, &mut sent_now, item);
         }
     }
+    // Entities whose leader's copy stopped: each becomes a leader or follows another.
+    for e in std::mem::take(&mut scene.orphans) {
+        if let Ok(item) = all.get(e) {
+            upsert(scene, &meshes, &mut sent_now, item);
+        }
+    }
     for (e, gt) in &moved {
         if let Some(job) = scene.copying.get_mut(&e) {
             // Not with the worker yet: it will get the latest transform with the triangles.
             job.transform = gt.affine();
+        } else if let Some(f) = scene.followers.get_mut(&e) {
+            f.transform = gt.affine();
         } else if !sent_now.contains(&e) && scene.traced.contains(&e) {
             scene.send(Command::Move {
                 entity: e,
@@ -483,21 +616,40 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
         let Some(job) = scene.copying.remove(&e) else {
             continue;
         };
+        let waiting: Vec<Entity> = scene
+            .followers
+            .iter()
+            .filter(|(_, f)| f.mesh == job.mesh)
+            .map(|(&f, _)| f)
+            .collect();
         match result {
             Ok(()) => {
                 let geometry = job.copy.finish();
+                scene.remember_mesh(e, job.mesh);
                 scene.send(Command::Upsert {
                     entity: e,
+                    mesh: job.mesh,
                     name: job.name,
                     triangles: Arc::new(geometry.triangles),
                     shading: Arc::new(geometry.shading),
                     transform: job.transform,
                     sent: job.started,
                 });
+                for f in waiting {
+                    if let Some(follower) = scene.followers.remove(&f) {
+                        scene.send_instance(f, follower);
+                    }
+                }
             }
             Err(why) => {
                 warn!("entity {e} ('{}') is not traced: {why}", job.name);
                 scene.untrace(e);
+                for f in waiting {
+                    if let Some(follower) = scene.followers.remove(&f) {
+                        warn!("entity {f} ('{}') is not traced: {why}", follower.name);
+                        scene.untrace(f);
+                    }
+                }
             }
         }
     }
@@ -512,7 +664,10 @@ fn upsert(
     (e, m, gt, vis, name): MeshEntity,
 ) {
     sent_now.insert(e);
-    scene.copying.remove(&e);
+    scene.drop_copy(e);
+    scene.followers.remove(&e);
+    // Whatever the worker holds of `e` is replaced (or removed) by what follows.
+    scene.forget_mesh(e);
     if vis.is_some_and(|v| !v.get()) {
         scene.untrace(e);
         return;
@@ -522,6 +677,23 @@ fn upsert(
         scene.waiting.entry(m.0.id()).or_default().push(e);
         return;
     };
+    let follower = Follower {
+        mesh: m.0.id(),
+        name: label.clone(),
+        transform: gt.affine(),
+        started: Instant::now(),
+    };
+    if scene.mesh_senders.contains_key(&follower.mesh) {
+        // Another entity of this mesh is traced: share its triangles.
+        scene.send_instance(e, follower);
+        return;
+    }
+    if scene.copying.values().any(|job| job.mesh == follower.mesh) {
+        // Another entity's copy of this mesh is under way: wait for it rather than copy twice.
+        scene.traced.insert(e);
+        scene.followers.insert(e, follower);
+        return;
+    }
     match GeometryCopy::new(mesh) {
         Ok(copy) => {
             // Traced from now on: a removal must reach the worker even if the copy never finishes.
@@ -548,7 +720,8 @@ fn upsert(
 fn publish(mut scene: ResMut<SceneBvh>) {
     let version = scene.shared.version.load(Ordering::Acquire);
     let mut stats = *scene.shared.stats.lock().unwrap_or_else(|p| p.into_inner());
-    stats.pending = scene.shared.pending.load(Ordering::Acquire) + scene.copying.len();
+    stats.pending =
+        scene.shared.pending.load(Ordering::Acquire) + scene.copying.len() + scene.followers.len();
     if scene.version != version || scene.stats != stats {
         scene.version = version;
         scene.stats = stats;

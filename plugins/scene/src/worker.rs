@@ -2,7 +2,9 @@
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
 use crate::{SceneStats, SceneTree, TriangleShading};
+use bevy::asset::AssetId;
 use bevy::log::warn;
+use bevy::mesh::Mesh;
 use bevy::prelude::Entity;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -18,9 +20,19 @@ pub(crate) enum Command {
     /// A new or edited mesh (object-space triangles) under a transform.
     Upsert {
         entity: Entity,
+        mesh: AssetId<Mesh>,
         name: String,
         triangles: Arc<Vec<Triangle>>,
         shading: Arc<TriangleShading>,
+        transform: Affine3A,
+        sent: Instant,
+    },
+    /// An entity whose mesh asset the tree already holds for another entity: it shares those
+    /// triangles under its own transform (one instance node, no copy).
+    Instance {
+        entity: Entity,
+        mesh: AssetId<Mesh>,
+        name: String,
         transform: Affine3A,
         sent: Instant,
     },
@@ -34,6 +46,7 @@ impl Command {
     fn entity(&self) -> Entity {
         match self {
             Command::Upsert { entity, .. }
+            | Command::Instance { entity, .. }
             | Command::Move { entity, .. }
             | Command::Remove { entity } => *entity,
         }
@@ -57,8 +70,10 @@ pub(crate) struct WorkerConfig {
     pub idle_updates: IdleUpdates,
 }
 
-/// Keeps only the last word on each entity, in first-mention order. A move after an upsert edits
-/// the upsert's transform; a removal supersedes everything.
+/// Keeps only the last word on each entity, in first-mention order. A move after an upsert or an
+/// instance edits its transform; a removal supersedes everything. Then new meshes come first,
+/// instances second and the rest after, so an instance finds the triangles it shares even when the
+/// entity that brought them arrives, or leaves, in the same batch.
 fn coalesce(batch: Vec<Command>) -> Vec<Command> {
     let mut order: Vec<Entity> = Vec::new();
     let mut last: HashMap<Entity, Command> = HashMap::new();
@@ -68,6 +83,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
             (
                 Some(Command::Upsert {
                     entity,
+                    mesh,
                     name,
                     triangles,
                     shading,
@@ -77,9 +93,26 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
                 Command::Move { transform, .. },
             ) => Command::Upsert {
                 entity,
+                mesh,
                 name,
                 triangles,
                 shading,
+                transform,
+                sent,
+            },
+            (
+                Some(Command::Instance {
+                    entity,
+                    mesh,
+                    name,
+                    sent,
+                    ..
+                }),
+                Command::Move { transform, .. },
+            ) => Command::Instance {
+                entity,
+                mesh,
+                name,
                 transform,
                 sent,
             },
@@ -91,7 +124,14 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
         };
         last.insert(e, merged);
     }
-    order.into_iter().filter_map(|e| last.remove(&e)).collect()
+    let mut out: Vec<Command> = order.into_iter().filter_map(|e| last.remove(&e)).collect();
+    // Stable: within each kind the order of first mention stays.
+    out.sort_by_key(|c| match c {
+        Command::Upsert { .. } => 0,
+        Command::Instance { .. } => 1,
+        _ => 2,
+    });
+    out
 }
 
 pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConfig) {
@@ -155,6 +195,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                     }
                     Command::Upsert {
                         entity,
+                        mesh,
                         sent,
                         shading,
                         ..
@@ -164,10 +205,28 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                             inserted_tris += p.len();
                             tree.remove_entity(entity);
                             match tree.bvh.insert_prepared(p) {
-                                Ok(g) => tree.bind(entity, g, shading),
+                                Ok(g) => tree.bind(entity, g, shading, mesh),
                                 Err(e) => warn!("entity {entity} is not traced: {e}"),
                             }
                             last_move.remove(&entity);
+                        }
+                        latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
+                    }
+                    Command::Instance {
+                        entity,
+                        mesh,
+                        name,
+                        transform,
+                        sent,
+                    } => {
+                        tree.remove_entity(entity);
+                        last_move.remove(&entity);
+                        match tree.share(entity, mesh, transform) {
+                            Ok(()) => {}
+                            Err(treelight_bvh::BvhError::UnknownGroup) => warn!(
+                                "entity {entity} ('{name}') is not traced: no traced entity holds its mesh"
+                            ),
+                            Err(e) => warn!("entity {entity} ('{name}') is not traced: {e}"),
                         }
                         latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
                     }

@@ -177,6 +177,25 @@ fn random_spawns_despawns_and_moves_match_brute_force() {
         }
         settle(&mut app);
         check(&mut app, &test_rays);
+        // Entities of one mesh share its triangles: the tree holds each used shape once.
+        let mut used: Vec<AssetId<Mesh>> = live
+            .iter()
+            .map(|&e| app.world().get::<Mesh3d>(e).unwrap().0.id())
+            .collect();
+        used.sort_unstable();
+        used.dedup();
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let expected: usize = used
+            .iter()
+            .map(|&m| mesh_triangles(meshes.get(m).unwrap()).unwrap().len())
+            .sum();
+        assert_eq!(tree_triangles(&app) as usize, expected);
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .validate()
+            .unwrap();
     }
     // Despawn everything: nothing may remain.
     for e in live.drain(..) {
@@ -221,14 +240,46 @@ fn meshes_loaded_later_and_edited_meshes_are_traced() {
     settle(&mut app);
     let hit = cast(&app, down).unwrap();
     assert!((hit.point.y - 2.0).abs() < 1e-4, "{hit:?}");
-    // One asset shared by two entities appears twice.
-    app.world_mut()
-        .spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)));
+    // One asset shared by two entities appears twice, its triangles stored once.
+    let second = app
+        .world_mut()
+        .spawn((Mesh3d(handle.clone()), Transform::from_xyz(5.0, 0.0, 0.0)))
+        .id();
     settle(&mut app);
-    assert_eq!(tree_triangles(&app), 24);
+    assert_eq!(tree_triangles(&app), 12);
     let stats = app.world().resource::<SceneBvh>().stats();
-    assert_eq!(stats.triangles, 24);
+    assert_eq!(stats.triangles, 12);
     assert!(stats.sah_cost > 0.0);
+    let over_second = Ray3d::new(Vec3::new(5.0, 10.0, 0.0), Dir3::NEG_Y);
+    assert_eq!(cast(&app, over_second).unwrap().entity, second);
+    assert_eq!(cast(&app, down).unwrap().entity, e);
+    // An edit of the shared asset reaches both.
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .insert(handle.id(), Cuboid::new(1.0, 6.0, 1.0).mesh().build())
+        .unwrap();
+    settle(&mut app);
+    for (ray, who) in [(down, e), (over_second, second)] {
+        let hit = cast(&app, ray).unwrap();
+        assert_eq!(hit.entity, who);
+        assert!((hit.point.y - 3.0).abs() < 1e-4, "{hit:?}");
+    }
+    assert_eq!(tree_triangles(&app), 12);
+    // The first entity goes; the second keeps the triangles, then takes them along.
+    app.world_mut().despawn(e);
+    settle(&mut app);
+    assert!(cast(&app, down).is_none());
+    assert_eq!(cast(&app, over_second).unwrap().entity, second);
+    assert_eq!(tree_triangles(&app), 12);
+    app.world_mut().despawn(second);
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 0);
+    app.world()
+        .resource::<SceneBvh>()
+        .read_blocking()
+        .bvh
+        .validate()
+        .unwrap();
 }
 
 #[test]
@@ -356,7 +407,16 @@ fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
     // Without the marker it is traced where it now stands.
     app.world_mut().entity_mut(helper).remove::<NotTraced>();
     settle(&mut app);
-    assert_eq!(tree_triangles(&app), 24);
+    // Traced as a second placement of the same cube mesh.
+    assert_eq!(tree_triangles(&app), 12);
+    let traced = |app: &App| {
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .entity_group
+            .len()
+    };
+    assert_eq!(traced(&app), 2);
     let hit = cast(&app, ray).expect("the helper is hit");
     assert_eq!(hit.entity, helper);
     assert!((hit.distance - 1.5).abs() < 1e-4, "{}", hit.distance);
@@ -364,5 +424,6 @@ fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
     app.world_mut().entity_mut(helper).insert(NotTraced);
     settle(&mut app);
     assert_eq!(tree_triangles(&app), 12);
+    assert_eq!(traced(&app), 1);
     assert_eq!(cast(&app, ray).map(|h| h.entity), Some(scene_mesh));
 }

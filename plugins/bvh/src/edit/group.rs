@@ -16,6 +16,10 @@ pub struct GroupId {
 }
 
 impl GroupId {
+    pub(crate) fn new(index: u32, generation: u32) -> Self {
+        Self { index, generation }
+    }
+
     /// The group's slot: dense, below the number of groups ever alive at once, and reused after
     /// removal (with a new generation). Renderers index per-group tables (transforms, materials) by it.
     pub fn index(self) -> u32 {
@@ -81,9 +85,9 @@ fn check_transform(t: &Affine3A) -> Result<(), BvhError> {
 }
 
 impl Bvh {
-    fn group(&self, id: GroupId) -> Result<&Group, BvhError> {
+    pub(crate) fn group(&self, id: GroupId) -> Result<&Group, BvhError> {
         match self.groups.get(id.index as usize) {
-            Some(g) if g.alive && g.generation == id.generation => Ok(g),
+            Some(g) if g.alive && !g.retired && g.generation == id.generation => Ok(g),
             _ => Err(BvhError::UnknownGroup),
         }
     }
@@ -102,20 +106,7 @@ impl Bvh {
     /// Inserts a group built elsewhere: its bBVH root goes in with one search (IncrUPB's insertion).
     pub fn insert_prepared(&mut self, g: PreparedGroup) -> Result<GroupId, BvhError> {
         self.check_room(g.object.len())?;
-        let index = match self.group_free.pop() {
-            Some(i) => i,
-            None => {
-                self.groups.push(Group {
-                    generation: 0,
-                    alive: false,
-                    triangles: Vec::new(),
-                    object: Vec::new(),
-                    transform: Affine3A::IDENTITY,
-                    instance: NONE,
-                });
-                self.groups.len() as u32 - 1
-            }
-        };
+        let index = self.take_group_slot();
         let ids: Vec<u32> = g
             .stored
             .iter()
@@ -138,13 +129,16 @@ impl Bvh {
         slot.object = g.object;
         slot.transform = g.transform;
         slot.instance = instance;
+        slot.source = NONE;
+        slot.users = 0;
+        slot.retired = false;
         Ok(GroupId {
             index,
             generation: slot.generation,
         })
     }
 
-    fn make_instance(&mut self, root: NodeRef, transform: Affine3A, group: u32) -> u32 {
+    pub(crate) fn make_instance(&mut self, root: NodeRef, transform: Affine3A, group: u32) -> u32 {
         let aabb = self.aabb(root).transformed(&transform);
         self.alloc_instance(Instance {
             aabb,
@@ -168,9 +162,18 @@ impl Bvh {
         }
     }
 
-    /// Removes a group and all its triangles.
+    /// Removes a group and all its triangles. A group whose triangles others share
+    /// ([`Bvh::insert_instance`]) leaves the tree at once; its triangles stay while they are used.
     pub fn remove_group(&mut self, id: GroupId) -> Result<(), BvhError> {
         let g = self.group(id)?;
+        if g.source != NONE {
+            self.remove_user(id.index);
+            return Ok(());
+        }
+        if g.users > 0 {
+            self.retire(id.index);
+            return Ok(());
+        }
         let (instance, triangles) = (g.instance, g.triangles.clone());
         if instance != NONE {
             let root = self.instances[instance as usize].root;
@@ -187,17 +190,26 @@ impl Bvh {
         } else {
             self.remove_leaves(&triangles);
         }
-        let slot = &mut self.groups[id.index as usize];
-        slot.alive = false;
-        slot.generation = slot.generation.wrapping_add(1);
-        slot.triangles = Vec::new();
-        slot.object = Vec::new();
-        self.group_free.push(id.index);
+        self.free_group_slot(id.index);
         Ok(())
     }
 
+    /// Marks slot `index` free and stales every handle to it.
+    pub(crate) fn free_group_slot(&mut self, index: u32) {
+        let slot = &mut self.groups[index as usize];
+        slot.alive = false;
+        slot.retired = false;
+        slot.generation = slot.generation.wrapping_add(1);
+        slot.triangles = Vec::new();
+        slot.object = Vec::new();
+        slot.instance = NONE;
+        slot.source = NONE;
+        slot.users = 0;
+        self.group_free.push(index);
+    }
+
     /// Unlinks an instance node from the global tree and frees the inner node it hung from.
-    fn detach_instance(&mut self, instance: u32) {
+    pub(crate) fn detach_instance(&mut self, instance: u32) {
         let p = self.unlink(NodeRef::instance(instance));
         if p != NONE {
             self.free_inner(p);
@@ -213,7 +225,7 @@ impl Bvh {
     ) -> Result<(), BvhError> {
         check_transform(&transform)?;
         let g = self.group(id)?;
-        if g.triangles.is_empty() {
+        if g.instance == NONE && g.triangles.is_empty() {
             self.groups[id.index as usize].transform = transform;
             return Ok(());
         }
@@ -249,26 +261,30 @@ impl Bvh {
     fn unbake(&mut self, index: u32) {
         let g = &self.groups[index as usize];
         let (triangles, object, transform) = (g.triangles.clone(), g.object.clone(), g.transform);
+        // The triangles keep the shape they have in the tree (a rigid transform away from the one
+        // they get in object space): far quicker than a build, and as good for a mesh's own parts.
+        let tree = self.induced_tree(&triangles);
         self.remove_leaves_keep_triangles(&triangles);
         for (&t, tri) in triangles.iter().zip(&object) {
             self.tri.items[t as usize] = *tri;
             self.tri.boxes[t as usize] = tri.aabb();
             self.changes.mark_triangle(t, self.tri.items.len());
         }
-        let boxes: Vec<Aabb> = object.iter().map(|t| t.aabb()).collect();
-        let tree = build_binned_parallel(&boxes);
         let root = self.graft(&tree, &triangles);
+        self.refit_subtree(root);
         let instance = self.make_instance(root, transform, index);
         // Left detached: the caller links it at its new position.
         self.groups[index as usize].instance = instance;
     }
 
     /// Moves a group's triangles to world space and replaces its instance node by its subtree, which
-    /// then takes part in global updates: the single-level tree the paper measures.
+    /// then takes part in global updates: the single-level tree the paper measures. Shared triangles
+    /// ([`Bvh::insert_instance`]) stay in object space: a group that shares them, or whose triangles
+    /// are shared, stays an instance.
     pub fn bake_group(&mut self, id: GroupId) -> Result<(), BvhError> {
         let g = self.group(id)?;
         let instance = g.instance;
-        if instance == NONE {
+        if instance == NONE || g.source != NONE || g.users > 0 {
             return Ok(());
         }
         let (triangles, transform) = (g.triangles.clone(), g.transform);
@@ -297,7 +313,9 @@ impl Bvh {
         Ok(())
     }
 
-    /// Replaces a group's vertices (same triangle count, object space) and refits.
+    /// Replaces a group's vertices (same triangle count, object space) and refits. Groups that share
+    /// these triangles move with them; a group that shares another's triangles has none of its own
+    /// to replace (its count is 0).
     pub fn update_group_vertices(
         &mut self,
         id: GroupId,
@@ -326,6 +344,7 @@ impl Bvh {
             self.refit_subtree(self.instances[instance as usize].root);
             self.groups[id.index as usize].object = object.to_vec();
             self.set_group_transform(id, transform)?;
+            self.refresh_users(id.index);
             return Ok(());
         }
         self.groups[id.index as usize].object = object.to_vec();
@@ -349,7 +368,8 @@ impl Bvh {
         self.groups.len() as u32
     }
 
-    /// The group's triangle ids.
+    /// The group's own triangle ids (none for a group that shares another's: see
+    /// [`Bvh::shared_triangles`]).
     pub fn group_triangles(&self, id: GroupId) -> Result<&[u32], BvhError> {
         Ok(&self.group(id)?.triangles)
     }
@@ -376,7 +396,8 @@ impl Bvh {
         })
     }
 
-    /// Triangle `t` in world space, whatever its group's state.
+    /// Triangle `t` in world space, whatever its group's state, placed by the group that owns it
+    /// (see [`Bvh::hit_world_triangle`] for triangles shared by several groups).
     pub fn world_triangle(&self, t: u32) -> Option<Triangle> {
         let tri = *self.triangle(t)?;
         let g = self.tri.group[t as usize];
@@ -402,6 +423,14 @@ impl Bvh {
             .collect();
         touched_groups.sort_unstable();
         touched_groups.dedup();
+        if let Some(&g) = touched_groups
+            .iter()
+            .find(|&&g| self.groups[g as usize].users > 0)
+        {
+            return Err(BvhError::SharedTriangles(
+                self.groups[g as usize].triangles[0],
+            ));
+        }
         for &g in &touched_groups {
             if self.groups[g as usize].instance != NONE {
                 let id = GroupId {

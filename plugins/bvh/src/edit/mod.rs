@@ -1,3 +1,5 @@
 //! Editing a built tree: groups kept whole or baked, triangle removal and refit.
 
 pub(crate) mod group;
+pub(crate) mod induced;
+pub(crate) mod shared;

@@ -59,8 +59,9 @@ pub struct GpuInstance {
     pub object_to_world: [[f32; 4]; 3],
     /// Root of the object-space subtree (a [`NodeRef`]).
     pub root: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// Slot of the group the instance places ([`crate::GroupId::index`]): groups that share
+    /// triangles tell their hits apart by it (materials, normals).
+    pub group: u32,
     /// Padding.
     pub pad1: u32,
     /// Padding to 112 bytes.
@@ -121,6 +122,7 @@ impl Bvh {
                 world_to_object: rows(&inst.inverse),
                 object_to_world: rows(&inst.transform),
                 root: inst.root.0,
+                group: inst.group,
                 ..Default::default()
             },
             None => GpuInstance {

@@ -61,6 +61,9 @@ pub struct Hit {
     pub u: f32,
     /// See `u`.
     pub v: f32,
+    /// The instance the ray reached the triangle through ([`crate::NONE`] for a triangle stored in
+    /// world space): it tells apart groups that share triangles ([`crate::Bvh::hit_group`]).
+    pub instance: u32,
 }
 
 /// Precomputed per-ray data for the watertight test and the slab test.

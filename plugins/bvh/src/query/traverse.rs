@@ -2,8 +2,8 @@
 //! Instance nodes carry the ray into their group's object space.
 
 use crate::query::ray::RayData;
-use crate::tree::node::{NodeKind, NodeRef};
-use crate::{Aabb, Bvh, Hit, Ray};
+use crate::tree::node::{NONE, NodeKind, NodeRef};
+use crate::{Aabb, Bvh, Hit, Ray, Triangle};
 
 /// Counters filled by [`Bvh::closest_hit_counted`], the CPU twin of the GPU heatmap view.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -63,22 +63,30 @@ impl Bvh {
     /// [`Bvh::closest_hit`], counting the work done.
     pub fn closest_hit_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
         let mut best = None;
-        self.traverse::<false>(self.root, ray, &mut best, stats);
+        self.traverse::<false>(self.root, ray, NONE, &mut best, stats);
         best
     }
 
     /// Some hit along the ray within its range, found as early as possible (for shadow and AO rays).
     pub fn any_hit(&self, ray: &Ray) -> Option<Hit> {
         let mut best = None;
-        self.traverse::<true>(self.root, ray, &mut best, &mut TraversalStats::default());
+        self.traverse::<true>(
+            self.root,
+            ray,
+            NONE,
+            &mut best,
+            &mut TraversalStats::default(),
+        );
         best
     }
 
-    /// Returns true when something was found and `ANY` asks to stop.
+    /// Returns true when something was found and `ANY` asks to stop. `instance` is the instance
+    /// `root` hangs under ([`NONE`] at the top).
     fn traverse<const ANY: bool>(
         &self,
         root: NodeRef,
         ray: &Ray,
+        instance: u32,
         best: &mut Option<Hit>,
         stats: &mut TraversalStats,
     ) -> bool {
@@ -130,6 +138,7 @@ impl Bvh {
                             t,
                             u,
                             v,
+                            instance,
                         });
                         if ANY {
                             return true;
@@ -141,7 +150,7 @@ impl Bvh {
                     let local = ray
                         .transformed(&inst.inverse)
                         .with_range(ray.t_min, t_max(best));
-                    if self.traverse::<ANY>(inst.root, &local, best, stats) && ANY {
+                    if self.traverse::<ANY>(inst.root, &local, n.index(), best, stats) && ANY {
                         return true;
                     }
                 }
@@ -151,7 +160,8 @@ impl Bvh {
         best.is_some()
     }
 
-    /// Ids of live triangles whose world-space bounding boxes overlap `query`, appended to `out`.
+    /// Ids of live triangles whose world-space bounding boxes overlap `query`, appended to `out` (a
+    /// triangle shared by several groups once for each instance that places it there).
     pub fn overlapping_triangles(&self, query: &Aabb, out: &mut Vec<u32>) {
         self.overlap_in(self.root, None, query, out);
     }
@@ -198,35 +208,65 @@ impl Bvh {
         }
     }
 
-    /// The nearest hit by testing every live triangle in world space: the independent reference
-    /// the tests hold the traversal to.
+    /// The nearest hit by testing every live triangle in world space, once for each group that
+    /// places it: the independent reference the tests hold the traversal to.
     pub fn brute_force_closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let rd = RayData::new(ray);
         let mut best: Option<Hit> = None;
-        for id in 0..self.tri.items.len() as u32 {
-            let Some(tri) = self.world_triangle(id) else {
-                continue;
-            };
+        for (tri, triangle, instance) in self.placed_triangles() {
             let t_max = best.map_or(ray.t_max, |h| h.t);
             if let Some((t, u, v)) = rd.hit_triangle(&tri, ray.t_min, t_max) {
                 best = Some(Hit {
-                    triangle: id,
+                    triangle,
                     t,
                     u,
                     v,
+                    instance,
                 });
             }
         }
         best
     }
 
-    /// Ids of live triangles whose world boxes overlap `query`, by testing every one.
+    /// Ids of live triangles whose world boxes overlap `query`, by testing every one (a shared
+    /// triangle once for each instance that places it there).
     pub fn brute_force_overlapping(&self, query: &Aabb) -> Vec<u32> {
-        (0..self.tri.items.len() as u32)
-            .filter(|&id| {
-                self.world_triangle(id)
-                    .is_some_and(|t| t.aabb().overlaps(query))
-            })
+        self.placed_triangles()
+            .filter(|(t, _, _)| t.aabb().overlaps(query))
+            .map(|(_, id, _)| id)
             .collect()
+    }
+
+    /// Every triangle as placed in world space, with its id and the instance placing it: triangles
+    /// stored in world space once, and the triangles under each instance once per instance.
+    fn placed_triangles(&self) -> impl Iterator<Item = (Triangle, u32, u32)> + '_ {
+        let world = (0..self.tri.items.len() as u32).filter_map(|id| {
+            let g = *self.tri.group.get(id as usize)?;
+            // Triangles kept whole are placed by the instances below (a retired owner's by its users').
+            let whole = g != NONE
+                && (self.groups[g as usize].instance != NONE || self.groups[g as usize].retired);
+            (!whole).then(|| self.triangle(id).map(|t| (*t, id, NONE)))?
+        });
+        let placed = (0..self.instances.len() as u32).flat_map(move |i| {
+            let inst = self.instance(i);
+            let tris: &[u32] = inst.map_or(&[], |inst| {
+                let g = &self.groups[inst.group as usize];
+                let owner = if g.source != NONE {
+                    g.source
+                } else {
+                    inst.group
+                };
+                &self.groups[owner as usize].triangles
+            });
+            tris.iter().map(move |&id| {
+                let inst = &self.instances[i as usize];
+                (
+                    self.tri.items[id as usize].transformed(&inst.transform),
+                    id,
+                    i,
+                )
+            })
+        });
+        world.chain(placed)
     }
 }

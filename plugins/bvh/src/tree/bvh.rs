@@ -75,6 +75,15 @@ pub(crate) struct Group {
     pub(crate) transform: Affine3A,
     /// The instance while kept whole, [`NONE`] while baked.
     pub(crate) instance: u32,
+    /// For a group made by [`Bvh::insert_instance`]: the slot of the group whose triangles it
+    /// shares (it then has none of its own). [`NONE`] for a group that owns its triangles.
+    pub(crate) source: u32,
+    /// For an owner: how many groups share its triangles. Shared triangles stay in object space
+    /// (the owner is never baked while it has users).
+    pub(crate) users: u32,
+    /// An owner whose own handle was removed while others still share its triangles: it has no
+    /// instance in the tree and its slot is freed with its last user.
+    pub(crate) retired: bool,
 }
 
 /// The triangles: leaves, where a leaf *is* its triangle id, in parallel arrays with a free list.

@@ -52,11 +52,35 @@ impl Bvh {
         if self.tri.live as usize != seen_tri.iter().filter(|&&c| c == 1).count() {
             return Err("live triangle count is off".into());
         }
+        let mut users = vec![0u32; self.groups.len()];
         for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
             for &t in g.triangle_ids() {
                 if self.tri.group[t as usize] != gi as u32 {
                     return Err(format!("triangle {t} of group {gi} names another group"));
                 }
+            }
+            if g.source != NONE {
+                let Some(owner) = self.groups.get(g.source as usize).filter(|o| o.is_alive())
+                else {
+                    return Err(format!("group {gi} shares the triangles of a dead group"));
+                };
+                if owner.source != NONE || !g.triangle_ids().is_empty() || g.instance == NONE {
+                    return Err(format!(
+                        "group {gi} shares triangles but is not an instance"
+                    ));
+                }
+                users[g.source as usize] += 1;
+            }
+            if g.retired && g.instance != NONE {
+                return Err(format!("removed group {gi} is still in the tree"));
+            }
+        }
+        for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
+            if g.users != users[gi] || (g.retired && g.users == 0) {
+                return Err(format!(
+                    "group {gi} counts {} users, {} share its triangles",
+                    g.users, users[gi]
+                ));
             }
         }
         Ok(())
@@ -134,7 +158,16 @@ impl Bvh {
                     if !inst.aabb.contains_box(&world, 1e-5) {
                         return Err(format!("instance {i} box does not contain its subtree"));
                     }
-                    self.validate_subtree(inst.root, seen_tri, seen_inner, seen_inst, true)?;
+                    // Groups that share triangles share one subtree: it is checked once.
+                    let r = inst.root.index() as usize;
+                    let seen = match inst.root.kind() {
+                        NodeKind::Inner => seen_inner.get(r).copied().unwrap_or(false),
+                        NodeKind::Leaf => seen_tri.get(r).is_some_and(|&c| c > 0),
+                        _ => false,
+                    };
+                    if !seen {
+                        self.validate_subtree(inst.root, seen_tri, seen_inner, seen_inst, true)?;
+                    }
                 }
                 NodeKind::None => return Err("null reference in the tree".into()),
             }
