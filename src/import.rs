@@ -258,6 +258,9 @@ pub fn spawn_scene(
                     .entry((r.texture, r.wrap))
                     .or_insert_with(|| assets.images.add(to_bevy_image(t, r.wrap)));
                 mat.base_color_texture = Some(image.clone());
+                // Bevy's rasteriser and the path tracer both read it (KHR_texture_transform).
+                let [x, y, t] = r.uv_transform;
+                mat.uv_transform = bevy::math::Affine2::from_cols(x.into(), y.into(), t.into());
             }
             assets.materials.add(mat)
         })

@@ -20,7 +20,9 @@ use thiserror::Error;
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;
 pub use ply_scene::load_ply;
-pub use texture::{ImportedTexture, MAX_TEXTURE_SIDE, TextureRef, WrapMode};
+pub use texture::{
+    ImportedTexture, MAX_TEXTURE_SIDE, TextureRef, UV_IDENTITY, WrapMode, uv_transform,
+};
 
 /// Most vertices or indices accepted in one file, so a hostile header cannot exhaust memory.
 pub const MAX_ELEMENTS: usize = 1 << 28;

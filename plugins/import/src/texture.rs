@@ -55,6 +55,23 @@ pub struct TextureRef {
     pub texture: usize,
     /// Wrap modes along u and v.
     pub wrap: [WrapMode; 2],
+    /// The map from the mesh's UVs to the texture's (`KHR_texture_transform`), as the columns of a
+    /// 2×3 affine matrix: x axis, y axis, translation. The identity without the extension.
+    pub uv_transform: [[f32; 2]; 3],
+}
+
+/// The identity UV map.
+pub const UV_IDENTITY: [[f32; 2]; 3] = [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]];
+
+/// `KHR_texture_transform`'s offset, rotation and scale as one affine map: translation × rotation ×
+/// scale, the rotation turning UVs counter-clockwise by `rotation` radians as the extension defines.
+pub fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [[f32; 2]; 3] {
+    let (sin, cos) = rotation.sin_cos();
+    [
+        [cos * scale[0], -sin * scale[0]],
+        [sin * scale[1], cos * scale[1]],
+        offset,
+    ]
 }
 
 /// Images decoded so far, by glTF image index (`None`: it failed and was reported).
@@ -85,11 +102,25 @@ impl ImageCache {
                 _ => None,
             })
             .unwrap_or_else(|| format!("image {}", image.index()));
-        if info.tex_coord() != 0 {
+        let transform = info.texture_transform();
+        let tex_coord = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        if tex_coord != 0 {
             warnings.push(format!(
-                "texture '{name}' uses texture coordinate set {}, only set 0 is read; its material \
-                 is drawn without it",
-                info.tex_coord()
+                "texture '{name}' uses texture coordinate set {tex_coord}, only set 0 is read; its \
+                 material is drawn without it"
+            ));
+            return None;
+        }
+        let map = transform.map_or(UV_IDENTITY, |t| {
+            uv_transform(t.offset(), t.rotation(), t.scale())
+        });
+        if map.iter().flatten().any(|v| !v.is_finite()) {
+            warnings.push(format!(
+                "texture '{name}' has a non-finite KHR_texture_transform; its material is drawn \
+                 without it"
             ));
             return None;
         }
@@ -113,6 +144,7 @@ impl ImageCache {
         Some(TextureRef {
             texture: index,
             wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+            uv_transform: map,
         })
     }
 }

@@ -329,3 +329,44 @@ fn a_mesh_placed_by_several_nodes_is_read_once_and_marked_the_same() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn texture_transforms_are_read_as_one_affine_map() {
+    let dir = std::env::temp_dir().join(format!("treelight-uvxf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = scene("gltf/BoxTextured-glTF");
+    for f in std::fs::read_dir(&src).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    let path = dir.join("BoxTextured.gltf");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
+    json["extensionsRequired"] = serde_json::json!(["KHR_texture_transform"]);
+    json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = serde_json::json!({
+        "KHR_texture_transform": {"offset": [0.25, 0.5], "rotation": 0.5, "scale": [2.0, 3.0]}
+    });
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+
+    let s = load_scene(&path).unwrap();
+    let t = s.materials[0].base_color_texture.unwrap();
+    let [x, y, o] = t.uv_transform;
+    // translation × rotation × scale, rotating UVs counter-clockwise (as Bevy's own glTF loader).
+    let (sin, cos) = 0.5f32.sin_cos();
+    let uv = glam::Vec2::new(0.3, 0.7);
+    let got = glam::Vec2::from(x) * uv.x + glam::Vec2::from(y) * uv.y + glam::Vec2::from(o);
+    let scaled = uv * glam::Vec2::new(2.0, 3.0);
+    let want = glam::Vec2::new(
+        cos * scaled.x + sin * scaled.y,
+        -sin * scaled.x + cos * scaled.y,
+    ) + glam::Vec2::new(0.25, 0.5);
+    assert!(got.abs_diff_eq(want, 1e-6), "{got} vs {want}");
+    // Without the extension the map is the identity.
+    let plain = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    assert_eq!(
+        plain.materials[0].base_color_texture.unwrap().uv_transform,
+        treelight_import::UV_IDENTITY
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
