@@ -1,5 +1,6 @@
 //! glTF 2.0 (.gltf with external or embedded buffers, and .glb).
 
+use crate::gltf_compressed::{self, read_floats};
 use crate::sandbox::read_uri;
 use crate::texture::ImageCache;
 use crate::{
@@ -7,6 +8,7 @@ use crate::{
     check_indices, check_positions,
 };
 use glam::Mat4;
+use gltf::Semantic;
 use gltf::mesh::Mode;
 use std::collections::HashMap;
 use std::path::Path;
@@ -15,9 +17,9 @@ use std::path::Path;
 /// transforms applied down the hierarchy.
 pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, e.to_string()))?;
-    let gltf =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| ImportError::new(path, describe(&e, &bytes)))?;
-    let buffers = load_buffers(path, &gltf)?;
+    let gltf = gltf_compressed::parse(path, &bytes, |e| describe(e, &bytes))?;
+    let mut buffers = load_buffers(path, &gltf)?;
+    gltf_compressed::decode_meshopt_views(path, &gltf.document, &mut buffers)?;
     let mut scene = ImportedScene::default();
     let mut images = ImageCache::default();
     for m in gltf.document.materials() {
@@ -49,6 +51,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     // (mesh, primitive) -> the first entry of `scene.meshes` read from it: a mesh placed by
     // several nodes is read once and marked as the same.
     let mut read: HashMap<(usize, usize), usize> = HashMap::new();
+    let mut first_error: Option<ImportError> = None;
     let root_scene = gltf
         .document
         .default_scene()
@@ -119,7 +122,16 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                         same_as: Some(i),
                         ..scene.meshes[i].clone()
                     }),
-                    None => read_primitive(path, &prim, &name, &buffers)?,
+                    None => match read_primitive(path, &prim, &name, &buffers) {
+                        Ok(m) => m,
+                        Err(e) => {
+                            // One bad mesh does not sink the file: the rest import, this one is
+                            // named (and the whole file fails only when no mesh is left).
+                            scene.warnings.push(format!("skipped: {}", e.problem));
+                            first_error.get_or_insert(e);
+                            None
+                        }
+                    },
                 };
                 match m {
                     Some(mut m) => {
@@ -144,6 +156,11 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
             stack.push((child, world, depth + 1, Some(index)));
         }
     }
+    if let Some(e) = first_error
+        && scene.meshes.is_empty()
+    {
+        return Err(e);
+    }
     if used_default {
         scene.materials.push(ImportedMaterial::default());
     }
@@ -159,7 +176,10 @@ fn describe(e: &gltf::Error, bytes: &[u8]) -> String {
                 .extensions_required
                 .iter()
                 .map(String::as_str)
-                .filter(|x| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(x))
+                .filter(|x| {
+                    !gltf::json::extensions::ENABLED_EXTENSIONS.contains(x)
+                        && !gltf_compressed::OWN_EXTENSIONS.contains(x)
+                })
                 .collect();
             if !unsupported.is_empty() {
                 return format!(
@@ -193,6 +213,21 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
+        if gltf_compressed::is_fallback(&buffer) {
+            // Filled by the compressed views that decode into it.
+            if buffer.length() > MAX_ELEMENTS * 16 {
+                return Err(ImportError::new(
+                    path,
+                    format!(
+                        "buffer {} declares {} bytes of compressed data",
+                        buffer.index(),
+                        buffer.length()
+                    ),
+                ));
+            }
+            out.push(vec![0u8; buffer.length()]);
+            continue;
+        }
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
                 ImportError::new(
@@ -232,20 +267,35 @@ fn read_primitive(
         check_accessor(path, name, &acc, buffers)?;
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-    let Some(positions) = reader.read_positions() else {
+    let Some(acc) = prim.get(&Semantic::Positions) else {
         return Ok(None);
     };
-    let positions: Vec<[f32; 3]> = positions.collect();
+    let positions = read_floats::<3>(&acc, buffers).ok_or_else(|| {
+        ImportError::new(
+            path,
+            format!(
+                "mesh '{name}': positions stored as {:?} {:?}",
+                acc.data_type(),
+                acc.dimensions()
+            ),
+        )
+    })?;
     check_positions(path, name, &positions)?;
     let n = positions.len();
-    let normals: Option<Vec<[f32; 3]>> = reader
-        .read_normals()
-        .map(|r| r.collect())
-        .filter(|v: &Vec<_>| v.len() == n);
-    let uvs: Option<Vec<[f32; 2]>> = reader
-        .read_tex_coords(0)
-        .map(|r| r.into_f32().collect())
-        .filter(|v: &Vec<_>| v.len() == n);
+    // Quantized normals are only near unit length.
+    let normals: Option<Vec<[f32; 3]>> = prim
+        .get(&Semantic::Normals)
+        .and_then(|a| read_floats::<3>(&a, buffers))
+        .filter(|v| v.len() == n)
+        .map(|v| {
+            v.into_iter()
+                .map(|c| glam::Vec3::from(c).normalize_or_zero().to_array())
+                .collect()
+        });
+    let uvs: Option<Vec<[f32; 2]>> = prim
+        .get(&Semantic::TexCoords(0))
+        .and_then(|a| read_floats::<2>(&a, buffers))
+        .filter(|v| v.len() == n);
     let indices: Vec<u32> = match reader.read_indices() {
         Some(r) => r.into_u32().collect(),
         None => (0..n as u32).collect(),

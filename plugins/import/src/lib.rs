@@ -7,6 +7,7 @@
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
+mod gltf_compressed;
 mod gltf_scene;
 mod obj_scene;
 mod ply_scene;
