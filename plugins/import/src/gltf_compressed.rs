@@ -1,6 +1,7 @@
 //! The glTF extensions this importer implements itself, because the `gltf` crate does not:
 //! `EXT_meshopt_compression` (buffer views stored compressed, decoded with meshoptimizer's own
-//! decoder) and `KHR_mesh_quantization` (vertex attributes stored as normalized or plain integers).
+//! decoder), `KHR_mesh_quantization` (vertex attributes stored as normalized or plain integers) and
+//! `KHR_draco_mesh_compression` (a primitive's geometry as one Draco stream).
 
 use crate::{ImportError, MAX_ELEMENTS};
 use gltf::accessor::{DataType, Dimensions};
@@ -8,7 +9,11 @@ use gltf::json::Value;
 use std::path::Path;
 
 /// Required extensions the importer handles; the rest are refused by name.
-pub(crate) const OWN_EXTENSIONS: &[&str] = &["EXT_meshopt_compression", "KHR_mesh_quantization"];
+pub(crate) const OWN_EXTENSIONS: &[&str] = &[
+    "EXT_meshopt_compression",
+    "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression",
+];
 
 const MESHOPT: &str = "EXT_meshopt_compression";
 
@@ -28,8 +33,31 @@ pub(crate) fn parse(
         .map_err(|e| ImportError::new(path, format!("not a readable glTF file: {e}")))?;
     root.extensions_required
         .retain(|x| !OWN_EXTENSIONS.contains(&x.as_str()));
-    let document =
-        gltf::Document::from_json(root).map_err(|e| ImportError::new(path, describe(&e)))?;
+    // The gltf crate asks every accessor for a buffer view; those of a Draco-compressed primitive
+    // have none (the stream holds their data). Validate a copy in which they name the stream's
+    // view, then keep the file as it is: every accessor read is checked against its buffer first.
+    let mut check = root.clone();
+    for prim in check.meshes.iter().flat_map(|m| &m.primitives) {
+        let Some(view) = prim
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get(DRACO))
+            .and_then(|d| d.get("bufferView"))
+            .and_then(Value::as_u64)
+            .and_then(|v| u32::try_from(v).ok())
+        else {
+            continue;
+        };
+        for a in prim.attributes.values().chain(prim.indices.iter()) {
+            if let Some(acc) = root.accessors.get(a.value())
+                && acc.buffer_view.is_none()
+            {
+                check.accessors[a.value()].buffer_view = Some(gltf::json::Index::new(view));
+            }
+        }
+    }
+    gltf::Document::from_json(check).map_err(|e| ImportError::new(path, describe(&e)))?;
+    let document = gltf::Document::from_json_without_validation(root);
     Ok(gltf::Gltf { document, blob })
 }
 
@@ -206,4 +234,78 @@ pub(crate) fn read_floats<const N: usize>(
             Some(out)
         })
         .collect()
+}
+
+const DRACO: &str = "KHR_draco_mesh_compression";
+
+/// A primitive's geometry decoded from its `KHR_draco_mesh_compression` stream (draco-core, a pure
+/// Rust decoder): positions, normals and UV set 0 per point, and triangle indices. `None` when the
+/// primitive is not Draco-compressed.
+pub(crate) struct DracoGeometry {
+    /// Positions per point.
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Option<Vec<[f32; 3]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub indices: Vec<u32>,
+}
+
+/// Decodes `prim`'s Draco stream, if it has one; every failure names the mesh.
+pub(crate) fn decode_draco(
+    path: &Path,
+    document: &gltf::Document,
+    prim: &gltf::Primitive,
+    name: &str,
+    buffers: &[Vec<u8>],
+) -> Result<Option<DracoGeometry>, ImportError> {
+    let Some(ext) = prim.extension_value(DRACO) else {
+        return Ok(None);
+    };
+    let bad = |what: &str| ImportError::new(path, format!("mesh '{name}' ({DRACO}): {what}"));
+    let view = ext
+        .get("bufferView")
+        .and_then(Value::as_u64)
+        .and_then(|i| document.views().nth(i as usize))
+        .ok_or_else(|| bad("its bufferView is missing or unknown"))?;
+    let bytes = buffers
+        .get(view.buffer().index())
+        .and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?))
+        .ok_or_else(|| bad("its bufferView lies past the end of its buffer"))?;
+    let mut mesh = draco_core::Mesh::new();
+    draco_core::MeshDecoder::new()
+        .decode(&mut draco_core::DecoderBuffer::new(bytes), &mut mesh)
+        .map_err(|e| bad(&format!("the stream does not decode ({e:?})")))?;
+    let points = mesh.num_points();
+    if points == 0 || points > MAX_ELEMENTS || mesh.num_faces() > MAX_ELEMENTS / 3 {
+        return Err(bad(&format!(
+            "{points} points and {} faces",
+            mesh.num_faces()
+        )));
+    }
+    let attribute = |semantic: &str, components: usize| -> Option<Vec<f32>> {
+        let id = ext.get("attributes")?.get(semantic)?.as_u64()?;
+        let a = mesh.attribute_by_unique_id(u32::try_from(id).ok()?)?;
+        Some(a.read_f32s(points, components))
+    };
+    let positions: Vec<[f32; 3]> = attribute("POSITION", 3)
+        .ok_or_else(|| bad("it has no POSITION attribute"))?
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let normals = attribute("NORMAL", 3).map(|v| {
+        v.chunks_exact(3)
+            .map(|c| {
+                glam::Vec3::new(c[0], c[1], c[2])
+                    .normalize_or_zero()
+                    .to_array()
+            })
+            .collect()
+    });
+    let uvs = attribute("TEXCOORD_0", 2).map(|v| v.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
+    let indices = mesh.faces().iter().flatten().map(|p| p.0).collect();
+    Ok(Some(DracoGeometry {
+        positions,
+        normals,
+        uvs,
+        indices,
+    }))
 }

@@ -122,7 +122,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                         same_as: Some(i),
                         ..scene.meshes[i].clone()
                     }),
-                    None => match read_primitive(path, &prim, &name, &buffers) {
+                    None => match read_primitive(path, &gltf.document, &prim, &name, &buffers) {
                         Ok(m) => m,
                         Err(e) => {
                             // One bad mesh does not sink the file: the rest import, this one is
@@ -253,53 +253,27 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
     Ok(out)
 }
 
-/// Reads one triangle primitive, validating sizes before the reader touches them.
+/// Reads one triangle primitive (from its accessors, or from its Draco stream), validating sizes
+/// before anything reads the buffers.
 fn read_primitive(
     path: &Path,
+    document: &gltf::Document,
     prim: &gltf::Primitive,
     name: &str,
     buffers: &[Vec<u8>],
 ) -> Result<Option<ImportedMesh>, ImportError> {
-    for (_, accessor) in prim.attributes() {
-        check_accessor(path, name, &accessor, buffers)?;
-    }
-    if let Some(acc) = prim.indices() {
-        check_accessor(path, name, &acc, buffers)?;
-    }
-    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-    let Some(acc) = prim.get(&Semantic::Positions) else {
-        return Ok(None);
-    };
-    let positions = read_floats::<3>(&acc, buffers).ok_or_else(|| {
-        ImportError::new(
-            path,
-            format!(
-                "mesh '{name}': positions stored as {:?} {:?}",
-                acc.data_type(),
-                acc.dimensions()
-            ),
-        )
-    })?;
+    let (positions, normals, uvs, indices) =
+        match gltf_compressed::decode_draco(path, document, prim, name, buffers)? {
+            Some(d) => (d.positions, d.normals, d.uvs, d.indices),
+            None => match read_accessors(path, prim, name, buffers)? {
+                Some(geometry) => geometry,
+                None => return Ok(None),
+            },
+        };
     check_positions(path, name, &positions)?;
     let n = positions.len();
-    // Quantized normals are only near unit length.
-    let normals: Option<Vec<[f32; 3]>> = prim
-        .get(&Semantic::Normals)
-        .and_then(|a| read_floats::<3>(&a, buffers))
-        .filter(|v| v.len() == n)
-        .map(|v| {
-            v.into_iter()
-                .map(|c| glam::Vec3::from(c).normalize_or_zero().to_array())
-                .collect()
-        });
-    let uvs: Option<Vec<[f32; 2]>> = prim
-        .get(&Semantic::TexCoords(0))
-        .and_then(|a| read_floats::<2>(&a, buffers))
-        .filter(|v| v.len() == n);
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(r) => r.into_u32().collect(),
-        None => (0..n as u32).collect(),
-    };
+    let normals = normals.filter(|v| v.len() == n);
+    let uvs = uvs.filter(|v| v.len() == n);
     if !indices.len().is_multiple_of(3) {
         return Err(ImportError::new(
             path,
@@ -321,6 +295,60 @@ fn read_primitive(
         material: None,
         same_as: None,
     }))
+}
+
+/// Positions, normals, UV set 0 and indices as a primitive's accessors store them.
+type Geometry = (
+    Vec<[f32; 3]>,
+    Option<Vec<[f32; 3]>>,
+    Option<Vec<[f32; 2]>>,
+    Vec<u32>,
+);
+
+/// A primitive's geometry from its accessors (`None` without positions).
+fn read_accessors(
+    path: &Path,
+    prim: &gltf::Primitive,
+    name: &str,
+    buffers: &[Vec<u8>],
+) -> Result<Option<Geometry>, ImportError> {
+    for (_, accessor) in prim.attributes() {
+        check_accessor(path, name, &accessor, buffers)?;
+    }
+    if let Some(acc) = prim.indices() {
+        check_accessor(path, name, &acc, buffers)?;
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+    let Some(acc) = prim.get(&Semantic::Positions) else {
+        return Ok(None);
+    };
+    let positions = read_floats::<3>(&acc, buffers).ok_or_else(|| {
+        ImportError::new(
+            path,
+            format!(
+                "mesh '{name}': positions stored as {:?} {:?}",
+                acc.data_type(),
+                acc.dimensions()
+            ),
+        )
+    })?;
+    // Quantized normals are only near unit length.
+    let normals: Option<Vec<[f32; 3]>> = prim
+        .get(&Semantic::Normals)
+        .and_then(|a| read_floats::<3>(&a, buffers))
+        .map(|v| {
+            v.into_iter()
+                .map(|c| glam::Vec3::from(c).normalize_or_zero().to_array())
+                .collect()
+        });
+    let uvs: Option<Vec<[f32; 2]>> = prim
+        .get(&Semantic::TexCoords(0))
+        .and_then(|a| read_floats::<2>(&a, buffers));
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(r) => r.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    Ok(Some((positions, normals, uvs, indices)))
 }
 
 fn check_accessor(

@@ -149,9 +149,82 @@ fn skinned_glb_loads() {
 
 #[test]
 fn unsupported_extensions_are_named() {
-    let e = load_scene(&scene("gltf/Box_Draco.glb")).unwrap_err();
-    assert!(e.to_string().contains("KHR_draco_mesh_compression"), "{e}");
-    assert!(e.to_string().contains("Box_Draco.glb"), "{e}");
+    let original = std::fs::read(scene("gltf/Box_Draco.glb")).unwrap();
+    let dir = std::env::temp_dir().join(format!("treelight-ext-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("Box_Future.glb");
+    let bytes = glb_with_json(&original, |j| {
+        j["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression", "EXT_future_mesh"]);
+        j["extensionsRequired"] =
+            serde_json::json!(["KHR_draco_mesh_compression", "EXT_future_mesh"]);
+    });
+    std::fs::write(&path, bytes).unwrap();
+    let e = load_scene(&path).unwrap_err().to_string();
+    assert!(e.contains("EXT_future_mesh"), "{e}");
+    assert!(
+        !e.contains("KHR_draco"),
+        "a supported extension is not named: {e}"
+    );
+    assert!(e.contains("Box_Future.glb"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn draco_box_decodes_to_the_uncompressed_box() {
+    let draco = load_scene(&scene("gltf/Box_Draco.glb")).unwrap();
+    let plain = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    let tris =
+        |s: &treelight_import::ImportedScene| -> Vec<[glam::Vec3; 3]> { s.world_triangles() };
+    let (a, b) = (tris(&draco), tris(&plain));
+    assert_eq!(a.len(), 12);
+    assert_eq!(a.len(), b.len());
+    // Each decoded triangle is one of the box's, up to the order of its corners (Draco reorders
+    // points and quantizes positions to 1/2^14 of the box).
+    let same = |x: &[glam::Vec3; 3], y: &[glam::Vec3; 3]| {
+        (0..3).any(|r| (0..3).all(|k| x[k].abs_diff_eq(y[(k + r) % 3], 1e-3)))
+    };
+    for t in &a {
+        assert!(
+            b.iter().any(|u| same(t, u)),
+            "{t:?} is not a face of the box"
+        );
+    }
+    for u in &b {
+        assert!(a.iter().any(|t| same(t, u)), "{u:?} is missing");
+    }
+    let normals = draco.meshes[0].normals.as_ref().expect("normals decoded");
+    assert!(
+        normals
+            .iter()
+            .all(|n| (glam::Vec3::from(*n).length() - 1.0).abs() < 1e-4)
+    );
+}
+
+#[test]
+fn broken_draco_streams_are_refused_with_the_mesh_named() {
+    let original = std::fs::read(scene("gltf/Box_Draco.glb")).unwrap();
+    let len = u32::from_le_bytes(original[12..16].try_into().unwrap()) as usize;
+    let bin = 20 + len + 8;
+    let dir = std::env::temp_dir().join(format!("treelight-draco-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, flip) in [("zeroed.glb", 0u8), ("flipped.glb", 0x5a)] {
+        let mut bytes = original.clone();
+        for b in &mut bytes[bin + 8..] {
+            *b = if flip == 0 { 0 } else { *b ^ flip };
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        // An error naming the file, or a mesh whose indices are all in range: never a crash.
+        match load_scene(&path) {
+            Err(e) => assert!(e.to_string().contains(name), "{e}"),
+            Ok(s) => {
+                for m in &s.meshes {
+                    assert!(m.indices.iter().all(|&i| (i as usize) < m.positions.len()));
+                }
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
