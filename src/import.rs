@@ -86,6 +86,7 @@ pub fn finish_imports(
     mut orbit: Query<&mut OrbitCamera>,
     cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
     bvh: Res<treelight_scene::SceneBvh>,
+    mut jobs: ResMut<crate::import_jobs::TracingImports>,
 ) {
     let mut i = 0;
     while i < pending.0.len() {
@@ -122,6 +123,8 @@ pub fn finish_imports(
                     scene.triangle_count()
                 ));
                 parsed.0.insert(path.clone(), scene);
+                jobs.awaiting
+                    .push((path.clone(), std::time::Instant::now()));
                 requests.apply(crate::edit::EditCommand::Import {
                     file: path,
                     root: None,

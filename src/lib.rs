@@ -10,6 +10,7 @@ pub mod edit;
 pub mod files;
 pub mod gizmo;
 pub mod import;
+pub mod import_jobs;
 pub mod info;
 pub mod notice;
 pub mod placement;
@@ -71,6 +72,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         settings::SettingsPlugin,
         files::FilesPlugin,
         autosave::AutosavePlugin,
+        import_jobs::ImportJobsPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()

@@ -680,3 +680,119 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     apply_request(world, EditRequest::Undo).unwrap();
     assert_eq!(keys(world), before);
 }
+
+/// The editor's import path without a window: parsing, the import command, the jobs that follow
+/// it into the tree (copied one chunk per frame, so an import takes many frames).
+fn importing_app() -> App {
+    use treelight::import::{DropPositions, ParsedImports, PendingImports, finish_imports};
+    let mut app = editing_app();
+    app.init_asset::<Image>()
+        .add_plugins((
+            VisibilityPlugin,
+            SceneBvhPlugin {
+                config: treelight_scene::SceneBvhConfig {
+                    main_thread_budget: Duration::ZERO,
+                    ..default()
+                },
+            },
+            treelight::import_jobs::ImportJobsPlugin,
+        ))
+        .init_resource::<treelight::notice::Notices>()
+        .init_resource::<PendingImports>()
+        .init_resource::<ParsedImports>()
+        .init_resource::<DropPositions>()
+        .add_systems(
+            Update,
+            (finish_imports, treelight::edit::apply_edit_requests).chain(),
+        );
+    app
+}
+
+#[test]
+fn a_cancelled_import_leaves_nothing_and_no_step() {
+    use treelight::import::PendingImports;
+    use treelight::import_jobs::{CancelImports, TracingImports};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let mut app = importing_app();
+    app.update();
+    let before = world_state(app.world_mut());
+
+    // Cancelled while parsing: nothing ever appears.
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(path.clone());
+    app.world_mut()
+        .resource_mut::<CancelImports>()
+        .0
+        .push(path.clone());
+    for _ in 0..20 {
+        app.update();
+    }
+    assert_eq!(world_state(app.world_mut()), before);
+    assert_eq!(head(&app), 0);
+
+    // Cancelled while the tree takes it in: its objects go, and no step is left to redo.
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(path.clone());
+    let start = Instant::now();
+    let fraction = loop {
+        app.update();
+        let jobs = app.world().resource::<TracingImports>();
+        if let Some(job) = jobs.jobs.first() {
+            break job.fraction();
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "never imported");
+    };
+    assert!(fraction < 1.0, "the tree took it all in one frame");
+    assert_eq!(head(&app), 1);
+    assert!(world_state(app.world_mut()).len() > before.len());
+    app.world_mut()
+        .resource_mut::<CancelImports>()
+        .0
+        .push(path.clone());
+    app.update();
+    assert_eq!(world_state(app.world_mut()), before);
+    assert_eq!(head(&app), 0);
+    let history = app.world().resource::<EditHistory>();
+    assert!(history.labels().is_empty() && history.redo_label().is_none());
+    apply_request(app.world_mut(), EditRequest::Redo).unwrap();
+    assert_eq!(world_state(app.world_mut()), before, "nothing to redo");
+    assert!(app.world().resource::<TracingImports>().jobs.is_empty());
+    settle(&mut app);
+    assert_eq!(
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count(),
+        0,
+        "nothing of it stays in the tree"
+    );
+
+    // Left alone, an import is followed until the tree holds all of it, then forgotten.
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(path.clone());
+    let start = Instant::now();
+    let mut seen = false;
+    loop {
+        app.update();
+        let jobs = app.world().resource::<TracingImports>();
+        seen |= !jobs.jobs.is_empty();
+        if seen && jobs.jobs.is_empty() {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "never finished");
+    }
+    assert_eq!(head(&app), 1);
+    assert!(
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .bvh
+            .triangle_count()
+            > 0
+    );
+}

@@ -119,6 +119,9 @@ pub struct EditHistory {
     previewed: Vec<(SceneId, Transform)>,
     /// Objects a preview made (a palette item dragged over the viewport), removed when it ends.
     preview_made: Vec<SceneId>,
+    /// The steps after the head were taken back by a cancel (an import stopped before it was
+    /// complete), not by Undo: they are not offered for redo, and the next step drops them.
+    redo_dropped: bool,
 }
 
 impl Default for EditHistory {
@@ -127,6 +130,7 @@ impl Default for EditHistory {
             record: Record::builder().limit(1000).build(),
             previewed: Vec::new(),
             preview_made: Vec::new(),
+            redo_dropped: false,
         }
     }
 }
@@ -167,12 +171,31 @@ impl EditHistory {
         }
     }
 
-    /// The steps' descriptions, oldest first.
+    /// The steps' descriptions, oldest first (those that can be redone included).
     pub fn labels(&self) -> Vec<String> {
         self.record
             .entries()
+            .take(self.steps())
             .map(|e| e.as_ref().label.clone())
             .collect()
+    }
+
+    /// Steps that exist: applied ones and those Redo would apply again.
+    fn steps(&self) -> usize {
+        if self.redo_dropped {
+            self.record.head()
+        } else {
+            self.record.len()
+        }
+    }
+
+    /// Takes back the last step as if it had never been made (a cancelled import): Undo, with
+    /// nothing left to redo.
+    pub fn cancel_last(&mut self, world: &mut World) {
+        self.end_preview(world);
+        if self.record.undo(world).is_some() {
+            self.redo_dropped = true;
+        }
     }
 
     /// Steps applied: the history's position (0 before the first step).
@@ -190,6 +213,9 @@ impl EditHistory {
 
     /// What Redo would apply again.
     pub fn redo_label(&self) -> Option<String> {
+        if self.redo_dropped {
+            return None;
+        }
         self.label(self.record.head())
     }
 
@@ -280,6 +306,7 @@ pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), Edit
             return Ok(());
         }
         history.end_preview(world);
+        let (dropped, steps) = (history.redo_dropped, history.steps());
         let record = &mut history.record;
         match request {
             EditRequest::Apply {
@@ -298,16 +325,18 @@ pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), Edit
                 };
                 record.edit(world, step);
                 select_what_was_made(world, record);
+                history.redo_dropped = false;
             }
             EditRequest::Undo => {
                 record.undo(world);
             }
+            EditRequest::Redo if dropped => {}
             EditRequest::Redo => {
                 record.redo(world);
                 select_what_was_made(world, record);
             }
             EditRequest::GoTo(i) => {
-                record.go_to(world, i.min(record.len()));
+                record.go_to(world, i.min(steps));
             }
             EditRequest::Preview(_) | EditRequest::CancelPreview => {}
         }

@@ -12,7 +12,6 @@ use crate::camera::{FrameRequest, OrbitCamera, world_bounds};
 use crate::edit::shortcuts::EditClipboard;
 use crate::edit::{EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue};
 use crate::gizmo::{ActiveDrag, GizmoSettings};
-use crate::import::PendingImports;
 use crate::notice::{Level, Notices};
 use crate::placement::{box_corners, place_transform, surface_under, surface_under_excluding};
 use crate::render_mode::ViewportRender;
@@ -243,7 +242,7 @@ pub fn editor_ui(
     window: Single<&Window, With<PrimaryWindow>>,
     all_entities: Query<()>,
     mut notices: ResMut<Notices>,
-    pending: Res<PendingImports>,
+    mut imports: crate::import_jobs::ImportAccess,
     scene: Res<SceneBvh>,
     mut render: ResMut<ViewportRender>,
     tracer: Res<PathTracerStats>,
@@ -424,11 +423,42 @@ pub fn editor_ui(
                 }
                 _ => {}
             }
-            for (path, _) in &pending.0 {
+            // Each import until the tree holds it: parsing (no measure of its own), then the
+            // share of its triangles traced; either can be cancelled.
+            let name = |p: &std::path::Path| {
+                p.file_name()
+                    .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into())
+            };
+            let mut cancel = Vec::new();
+            for (path, _) in &imports.pending.0 {
                 ui.separator();
                 ui.spinner();
-                ui.label(format!("Opening {}…", path.display()));
+                ui.label(format!("Opening {}…", name(path)));
+                if ui.small_button("Cancel").clicked() {
+                    cancel.push(path.clone());
+                }
             }
+            for job in &imports.tracing.jobs {
+                ui.separator();
+                ui.add(
+                    egui::ProgressBar::new(job.fraction())
+                        .desired_width(160.0)
+                        .text(format!(
+                            "{}: {:.0}% traced",
+                            name(&job.file),
+                            job.fraction() * 100.0
+                        )),
+                )
+                .on_hover_text(format!(
+                    "{} of {} triangles in the tree; nearest the camera first",
+                    job.traced,
+                    job.total()
+                ));
+                if ui.small_button("Cancel").clicked() {
+                    cancel.push(job.file.clone());
+                }
+            }
+            imports.cancel.0.extend(cancel);
         });
     });
     egui::CentralPanel::default()

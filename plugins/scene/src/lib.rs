@@ -24,6 +24,7 @@ pub use picking::SceneBvhPickingPlugin;
 pub use treelight_bvh::Preset;
 
 use bevy::asset::AssetEvent;
+use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::math::Ray3d;
 use bevy::prelude::*;
@@ -106,6 +107,7 @@ impl Plugin for SceneBvhPlugin {
             mesh_senders: HashMap::new(),
             followers: HashMap::new(),
             orphans: Vec::new(),
+            copy_order: Vec::new(),
             budget: self.config.main_thread_budget,
         })
         .add_systems(
@@ -277,6 +279,8 @@ pub struct SceneBvh {
     followers: HashMap<Entity, Follower>,
     /// Followers whose leader stopped copying: looked at again at the end of the frame.
     orphans: Vec<Entity>,
+    /// This frame's order of the copies: nearest the camera first.
+    copy_order: Vec<Entity>,
     budget: Duration,
 }
 
@@ -515,6 +519,8 @@ fn track_world(
         (Changed<GlobalTransform>, With<Mesh3d>, Without<NotTraced>),
     >,
     all: Query<MeshEntity, Without<NotTraced>>,
+    bounds: Query<(&GlobalTransform, Option<&Aabb>)>,
+    cameras: Query<(&Camera, &GlobalTransform), With<Camera3d>>,
     opted_out: Query<Entity, Added<NotTraced>>,
     mut opted_in: RemovedComponents<NotTraced>,
     mut removed: RemovedComponents<Mesh3d>,
@@ -575,6 +581,30 @@ fn track_world(
             });
         }
     }
+    // Meshes nearest the (first active 3D) camera are copied, and so traced, first: a big
+    // assembly fills the preview in from the front.
+    if scene.copying.len() > 1
+        && let Some(eye) = cameras
+            .iter()
+            .filter(|(c, _)| c.is_active)
+            .min_by_key(|(c, _)| c.order)
+            .map(|(_, gt)| gt.translation())
+    {
+        let mut order: Vec<(f32, Entity)> = scene
+            .copying
+            .keys()
+            .map(|&e| {
+                let centre = bounds.get(e).map_or(Vec3::ZERO, |(gt, aabb)| {
+                    gt.transform_point(aabb.map_or(Vec3::ZERO, |b| Vec3::from(b.center)))
+                });
+                (centre.distance_squared(eye), e)
+            })
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        scene.copy_order = order.into_iter().map(|(_, e)| e).collect();
+    } else {
+        scene.copy_order = scene.copying.keys().copied().collect();
+    }
     copy_meshes(scene, &meshes);
 }
 
@@ -586,7 +616,11 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
     }
     let deadline = Instant::now() + scene.budget;
     let mut finished: Vec<(Entity, Result<(), MeshSkip>)> = Vec::new();
-    'jobs: for (&e, job) in scene.copying.iter_mut() {
+    let order = std::mem::take(&mut scene.copy_order);
+    'jobs: for &e in &order {
+        let Some(job) = scene.copying.get_mut(&e) else {
+            continue;
+        };
         let Some(mesh) = meshes.get(job.mesh) else {
             // The asset went away; a new handle or a despawn will follow.
             finished.push((e, Err(MeshSkip::NoPositions)));

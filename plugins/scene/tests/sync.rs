@@ -427,3 +427,68 @@ fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
     assert_eq!(traced(&app), 1);
     assert_eq!(cast(&app, ray).map(|h| h.entity), Some(scene_mesh));
 }
+
+#[test]
+fn meshes_nearest_the_camera_are_traced_first() {
+    // One chunk of triangles copied per frame, so the order of the copies shows.
+    let mut app = headless_app(SceneBvhConfig {
+        main_thread_budget: Duration::ZERO,
+        ..default()
+    });
+    app.world_mut()
+        .spawn((Camera3d::default(), Transform::from_xyz(0.0, 0.0, 5.0)));
+    // Sixteen parts of an assembly (each its own mesh, so nothing is shared), spawned in a
+    // scrambled order at distances 7 to 37 from the camera.
+    let mut parts: Vec<(Entity, f32)> = Vec::new();
+    let mut r = Rng(0x51ed);
+    let mut slots: Vec<u32> = (0..16).collect();
+    for i in (1..slots.len()).rev() {
+        slots.swap(i, (r.next() % (i as u64 + 1)) as usize);
+    }
+    for k in slots {
+        let mesh = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(Sphere::new(0.5 + k as f32 * 0.001).mesh().uv(64, 32));
+        let z = -2.0 - 2.0 * k as f32;
+        let e = app
+            .world_mut()
+            .spawn((Mesh3d(mesh), Transform::from_xyz(0.0, 0.0, z)))
+            .id();
+        parts.push((e, 5.0 - z));
+    }
+    let mut traced_at: Vec<Option<usize>> = vec![None; parts.len()];
+    let start = Instant::now();
+    for frame in 0.. {
+        app.update();
+        let scene = app.world().resource::<SceneBvh>();
+        let tree = scene.read_blocking();
+        for (k, (e, _)) in parts.iter().enumerate() {
+            if traced_at[k].is_none() && tree.entity_group.contains_key(e) {
+                traced_at[k] = Some(frame);
+            }
+        }
+        if traced_at.iter().all(Option::is_some) {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "never traced");
+    }
+    let mut by_distance: Vec<(f32, usize)> = parts
+        .iter()
+        .zip(&traced_at)
+        .map(|((_, d), f)| (*d, f.unwrap()))
+        .collect();
+    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for w in by_distance.windows(2) {
+        assert!(
+            w[0].1 <= w[1].1,
+            "a part {} away was traced at frame {}, after one {} away at frame {}: {by_distance:?}",
+            w[0].0,
+            w[0].1,
+            w[1].0,
+            w[1].1
+        );
+    }
+    // And the nearest really came first, not all at once.
+    assert!(by_distance[0].1 < by_distance[15].1, "{by_distance:?}");
+}

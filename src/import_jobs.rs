@@ -1,0 +1,220 @@
+//! Imports in flight, from parsing until the scene BVH holds every mesh: what the status bar's
+//! progress shows, and cancelling one, which leaves nothing behind and no history step.
+
+use crate::edit::{EditCommand, EditHistory};
+use crate::import::{DropPositions, ParsedImports, PendingImports};
+use crate::notice::Notices;
+use crate::scene_id::{SceneId, SceneIndex};
+use bevy::prelude::*;
+use std::path::PathBuf;
+use std::time::Instant;
+use treelight_scene::SceneBvh;
+
+/// An import whose objects are in the scene while the tree takes in its meshes (nearest the
+/// camera first).
+#[derive(Clone, Debug)]
+pub struct TracingImport {
+    /// The file.
+    pub file: PathBuf,
+    /// Its root object.
+    pub root: SceneId,
+    /// The history's position just after its step: it can be cancelled while that is the head.
+    pub step: usize,
+    /// Its mesh objects and their triangle counts.
+    pub meshes: Vec<(Entity, u64)>,
+    /// Triangles of its meshes the tree holds, as of the last look.
+    pub traced: u64,
+    /// When its file was asked for.
+    pub started: Instant,
+}
+
+impl TracingImport {
+    /// Triangles in all its meshes.
+    pub fn total(&self) -> u64 {
+        self.meshes.iter().map(|m| m.1).sum()
+    }
+
+    /// The part of its triangles the tree holds, 0 to 1.
+    pub fn fraction(&self) -> f32 {
+        let total = self.total();
+        if total == 0 {
+            1.0
+        } else {
+            self.traced as f32 / total as f32
+        }
+    }
+}
+
+/// Imports past parsing, until the tree holds all of them.
+#[derive(Resource, Default)]
+pub struct TracingImports {
+    /// In the order they were opened.
+    pub jobs: Vec<TracingImport>,
+    /// Files whose import command was asked for and not yet seen in the history.
+    pub(crate) awaiting: Vec<(PathBuf, Instant)>,
+}
+
+/// What the status bar's Cancel buttons (and tests) ask: stop importing these files.
+#[derive(Resource, Default)]
+pub struct CancelImports(pub Vec<PathBuf>);
+
+/// What the status bar reads and writes about imports.
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct ImportAccess<'w> {
+    /// Files being parsed.
+    pub pending: Res<'w, PendingImports>,
+    /// Imports the tree is taking in.
+    pub tracing: Res<'w, TracingImports>,
+    /// Cancels asked for this frame.
+    pub cancel: ResMut<'w, CancelImports>,
+}
+
+/// Registers the resources and the systems that follow and cancel imports.
+pub struct ImportJobsPlugin;
+
+impl Plugin for ImportJobsPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<TracingImports>()
+            .init_resource::<CancelImports>()
+            .add_systems(
+                Update,
+                // Picked up first, so a cancel in the frame of its step still finds it.
+                (follow_imports, cancel_imports)
+                    .chain()
+                    .after(crate::edit::apply_edit_requests),
+            );
+    }
+}
+
+/// Mesh objects under `root` (itself included) with their triangle counts.
+fn meshes_under(world: &World, root: Entity) -> Vec<(Entity, u64)> {
+    let meshes = world.resource::<Assets<Mesh>>();
+    let mut out = Vec::new();
+    let mut stack = vec![root];
+    while let Some(e) = stack.pop() {
+        if let Some(m) = world.get::<Mesh3d>(e) {
+            let tris = meshes.get(&m.0).map_or(0, |mesh| {
+                mesh.indices()
+                    .map_or(mesh.count_vertices(), |i| i.len())
+                    .div_euclid(3) as u64
+            });
+            out.push((e, tris));
+        }
+        if let Some(children) = world.get::<Children>(e) {
+            stack.extend(children.iter());
+        }
+    }
+    out
+}
+
+/// Picks up each requested import once its step is in the history, and follows the tree taking
+/// in its meshes until it holds all of them.
+pub fn follow_imports(world: &mut World) {
+    let mut jobs = std::mem::take(&mut *world.resource_mut::<TracingImports>());
+    if !jobs.awaiting.is_empty() {
+        let history = world.resource::<EditHistory>();
+        let head = history.head();
+        let last = history.commands().pop();
+        jobs.awaiting.retain(|(file, started)| {
+            let Some(EditCommand::Import {
+                file: done,
+                root: Some(root),
+                ..
+            }) = &last
+            else {
+                return true;
+            };
+            if done != file {
+                return true;
+            }
+            if let Some(e) = world.resource::<SceneIndex>().entity(*root) {
+                jobs.jobs.push(TracingImport {
+                    file: file.clone(),
+                    root: *root,
+                    step: head,
+                    meshes: meshes_under(world, e),
+                    traced: 0,
+                    started: *started,
+                });
+            }
+            false
+        });
+        // An import the history refused never appears: it is not waited for past a few seconds.
+        jobs.awaiting
+            .retain(|(_, started)| started.elapsed().as_secs() < 30);
+    }
+    if !jobs.jobs.is_empty() {
+        let index = world.resource::<SceneIndex>();
+        let alive: Vec<bool> = jobs
+            .jobs
+            .iter()
+            .map(|j| index.entity(j.root).is_some())
+            .collect();
+        let mut finished = Vec::new();
+        if let Some(tree) = world.resource::<SceneBvh>().try_read() {
+            for (k, job) in jobs.jobs.iter_mut().enumerate() {
+                job.traced = job
+                    .meshes
+                    .iter()
+                    .filter(|(e, _)| tree.entity_group.contains_key(e))
+                    .map(|m| m.1)
+                    .sum();
+                if !alive[k] || job.traced >= job.total() {
+                    finished.push(k);
+                }
+            }
+        }
+        for k in finished.into_iter().rev() {
+            let job = jobs.jobs.remove(k);
+            if alive[k] {
+                world.resource_mut::<Notices>().info(format!(
+                    "{} is in the tree ({} triangles, {:.1} s)",
+                    job.file.display(),
+                    job.total(),
+                    job.started.elapsed().as_secs_f32()
+                ));
+            }
+        }
+    }
+    *world.resource_mut::<TracingImports>() = jobs;
+}
+
+/// Stops the imports asked for: a file still being parsed is dropped; one whose objects are in the
+/// scene is taken back with its step, as if never opened (while nothing was edited after it).
+pub fn cancel_imports(world: &mut World) {
+    let files = std::mem::take(&mut world.resource_mut::<CancelImports>().0);
+    for file in files {
+        let mut pending = world.resource_mut::<PendingImports>();
+        let before = pending.0.len();
+        pending.0.retain(|(p, _)| *p != file);
+        let parsing = pending.0.len() != before;
+        world.resource_mut::<ParsedImports>().0.remove(&file);
+        world.resource_mut::<DropPositions>().0.remove(&file);
+        let mut jobs = world.resource_mut::<TracingImports>();
+        jobs.awaiting.retain(|(p, _)| *p != file);
+        let job = jobs
+            .jobs
+            .iter()
+            .position(|j| j.file == file)
+            .map(|k| jobs.jobs.remove(k));
+        let message = match job {
+            Some(job) if world.resource::<EditHistory>().head() == job.step => {
+                world.resource_scope(|world, mut history: Mut<EditHistory>| {
+                    history.cancel_last(world);
+                });
+                format!("import of {} cancelled", file.display())
+            }
+            Some(job) => {
+                // Later edits build on it: taking it back is Undo's job.
+                world.resource_mut::<TracingImports>().jobs.push(job);
+                format!(
+                    "{} was edited after it was opened: use Undo to take it back",
+                    file.display()
+                )
+            }
+            None if parsing => format!("import of {} cancelled", file.display()),
+            None => continue,
+        };
+        world.resource_mut::<Notices>().info(message);
+    }
+}
