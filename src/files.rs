@@ -7,6 +7,7 @@ use crate::import::PendingImports;
 use crate::notice::Notices;
 use crate::project::{ProjectState, open_project, save_project};
 use crate::ui::file_dialog::{DialogPurpose, FileDialog};
+use crate::ui::native_dialog::{NativeDialog, native_dialogs};
 use bevy::prelude::*;
 use bevy::window::{PrimaryWindow, WindowCloseRequested};
 use bevy_egui::{EguiContexts, egui};
@@ -56,8 +57,10 @@ pub enum AfterSave {
 /// The File menu's dialogs.
 #[derive(Resource, Default)]
 pub struct FileUi {
-    /// The file dialog, while open.
+    /// The in-window file dialog, while open.
     pub dialog: Option<FileDialog>,
+    /// The desktop's file dialog, while open (where the desktop has one).
+    pub native: Option<NativeDialog>,
     /// The question about unsaved changes, while asked.
     pub confirm: Option<AfterSave>,
     /// What to do once the save the user chose has happened.
@@ -111,7 +114,49 @@ impl FileUi {
                 }),
             _ => String::new(),
         };
-        self.dialog = Some(FileDialog::new(purpose, Self::start_dir(state), name));
+        self.open_dialog(purpose, Self::start_dir(state), name);
+    }
+
+    /// The desktop's dialog where there is one, else the in-window one; never two at once.
+    fn open_dialog(&mut self, purpose: DialogPurpose, dir: PathBuf, name: String) {
+        if self.dialog.is_some() || self.native.is_some() {
+            return;
+        }
+        if native_dialogs() {
+            self.native = Some(NativeDialog::open(purpose, dir, name));
+        } else {
+            self.dialog = Some(FileDialog::new(purpose, dir, name));
+        }
+    }
+
+    /// Acts on a file chosen (or the dialog cancelled) for `purpose`.
+    fn chosen(
+        &mut self,
+        purpose: DialogPurpose,
+        choice: Option<PathBuf>,
+        requests: &mut ProjectRequests,
+    ) {
+        match (choice, purpose) {
+            (Some(p), DialogPurpose::Open) => requests.0.push(ProjectRequest::Open(p)),
+            (Some(p), DialogPurpose::Import) => requests.0.push(ProjectRequest::Import(p)),
+            (Some(mut p), DialogPurpose::SaveAs) => {
+                // A desktop dialog may return the name as typed.
+                if !p
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("treelight"))
+                {
+                    p.as_mut_os_string().push(".treelight");
+                }
+                requests.0.push(ProjectRequest::Save(p));
+            }
+            (Some(to), DialogPurpose::Relink) => {
+                if let Some(from) = self.relink_from.take() {
+                    requests.0.push(ProjectRequest::Relink { from, to });
+                }
+            }
+            // A cancelled save also drops what was to follow it.
+            (None, _) => self.then = None,
+        }
     }
 
     /// Acts on a menu entry: asks first when changes would be lost.
@@ -230,11 +275,7 @@ impl FileUi {
                                     .filter(|d| d.is_dir())
                                     .map(|d| d.to_owned())
                                     .unwrap_or_else(|| Self::start_dir(state));
-                                self.dialog = Some(FileDialog::new(
-                                    DialogPurpose::Relink,
-                                    dir,
-                                    String::new(),
-                                ));
+                                self.open_dialog(DialogPurpose::Relink, dir, String::new());
                             }
                         });
                     }
@@ -248,18 +289,14 @@ impl FileUi {
         {
             let purpose = dialog.purpose;
             self.dialog = None;
-            match (choice, purpose) {
-                (Some(p), DialogPurpose::Open) => requests.0.push(ProjectRequest::Open(p)),
-                (Some(p), DialogPurpose::Import) => requests.0.push(ProjectRequest::Import(p)),
-                (Some(p), DialogPurpose::SaveAs) => requests.0.push(ProjectRequest::Save(p)),
-                (Some(to), DialogPurpose::Relink) => {
-                    if let Some(from) = self.relink_from.take() {
-                        requests.0.push(ProjectRequest::Relink { from, to });
-                    }
-                }
-                // A cancelled save also drops what was to follow it.
-                (None, _) => self.then = None,
-            }
+            self.chosen(purpose, choice, requests);
+        }
+        if let Some(native) = self.native.as_mut()
+            && let Some(choice) = native.poll()
+        {
+            let purpose = native.purpose;
+            self.native = None;
+            self.chosen(purpose, choice, requests);
         }
     }
 }

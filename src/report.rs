@@ -77,6 +77,9 @@ pub struct EditorState {
     /// The window's title.
     #[serde(default)]
     pub title: String,
+    /// The file dialog open, if any: "builtin" or "native", then what it is for.
+    #[serde(default)]
+    pub dialog: Option<String>,
 }
 
 /// Where the report goes.
@@ -132,6 +135,7 @@ pub fn write_state_report(
     widgets: Res<crate::ui::WidgetRects>,
     project: Res<crate::project::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
+    files: Res<crate::files::FileUi>,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -202,6 +206,11 @@ pub fn write_state_report(
         project: project.path.clone(),
         dirty: history.is_dirty(),
         title: window.single().map_or(String::new(), |w| w.title.clone()),
+        dialog: match (&files.dialog, &files.native) {
+            (Some(d), _) => Some(format!("builtin {:?}", d.purpose)),
+            (_, Some(d)) => Some(format!("native {:?}", d.purpose)),
+            _ => None,
+        },
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

@@ -466,3 +466,67 @@ fn work_killed_mid_edit_is_offered_back_at_the_next_start() {
     assert!(st.objects.iter().any(|o| o.name == "Tall box"));
     std::fs::remove_dir_all(&cache).ok();
 }
+
+#[test]
+fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing() {
+    if skip_gpu_tests("the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing")
+    {
+        return;
+    }
+    // A stand-in for zenity, rfd's dialog where no desktop portal runs: it logs its arguments and
+    // answers from a file the test writes (a path, or nothing for a cancel).
+    let bin = support::temp_dir("fake-zenity");
+    let answer = bin.join("answer");
+    let log = bin.join("calls");
+    let script = bin.join("zenity");
+    std::fs::write(
+        &script,
+        format!(
+            "#!/bin/sh\necho \"$@\" >> '{}'\nif [ -s '{}' ]; then cat '{}'; exit 0; fi\nexit 1\n",
+            log.display(),
+            answer.display(),
+            answer.display()
+        ),
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut s = Session::start_with(
+        "native-dialog",
+        &[],
+        &[
+            ("TREELIGHT_FILE_DIALOG", ""),
+            ("PATH", &path),
+            ("DBUS_SESSION_BUS_ADDRESS", ""),
+        ],
+    );
+    s.frames(1);
+    // Save As: the desktop dialog's answer (typed without the extension) becomes the project.
+    std::fs::write(&answer, format!("{}\n", s.dir().join("mine").display())).unwrap();
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    let saved = s.dir().join("mine.treelight");
+    let st = s.wait_until("the save", std::time::Duration::from_secs(30), |st| {
+        st.project.as_deref() == Some(saved.as_path()) && !st.dirty
+    });
+    assert_eq!(st.dialog, None);
+    assert!(treelight::project::read_project(&saved).is_ok());
+    let calls = std::fs::read_to_string(&log).unwrap();
+    assert!(calls.contains("--save"), "{calls}");
+
+    // A cancel (zenity exits without a file): nothing opens, not even the in-window dialog.
+    std::fs::write(&answer, "").unwrap();
+    s.key(&[keysym::CONTROL], keysym::letter('o'));
+    s.wait_until(
+        "the dialog's answer",
+        std::time::Duration::from_secs(30),
+        |_| std::fs::read_to_string(&log).is_ok_and(|c| c.lines().count() >= 2),
+    );
+    let st = s.frames(5);
+    assert_eq!(st.dialog, None, "a cancel opened another dialog");
+    assert_eq!(st.project.as_deref(), Some(saved.as_path()));
+}

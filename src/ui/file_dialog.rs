@@ -18,7 +18,7 @@ pub enum DialogPurpose {
 }
 
 impl DialogPurpose {
-    fn title(self) -> &'static str {
+    pub(crate) fn title(self) -> &'static str {
         match self {
             DialogPurpose::Open => "Open project",
             DialogPurpose::Import => "Import a scene file",

@@ -5,6 +5,7 @@
 pub mod file_dialog;
 pub mod inspector;
 pub mod menus;
+pub mod native_dialog;
 pub mod outliner;
 pub mod palette;
 

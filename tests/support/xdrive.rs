@@ -128,6 +128,8 @@ impl Session {
                 .env("WGPU_BACKEND", "vulkan")
                 .env("TREELIGHT_CONFIG_DIR", dir.join("config"))
                 .env("TREELIGHT_CACHE_DIR", dir.join("cache"))
+                // The in-window dialog, whatever the machine has (a test may ask otherwise).
+                .env("TREELIGHT_FILE_DIALOG", "builtin")
                 // Files the editor's dialogs offer are the test's own.
                 .current_dir(&dir)
                 .envs(env.iter().copied())
