@@ -12,15 +12,12 @@
 //!
 //! Run: `cargo bench -p treelight --bench edit_frames` (release). Prints markdown tables.
 
-use bevy::asset::AssetPlugin;
-use bevy::camera::visibility::VisibilityPlugin;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
-use treelight::edit::{EditCommand, EditHistory, EditRequest, EditRequests, apply_edit_requests};
+use treelight::edit::{EditCommand, EditRequest, EditRequests};
 use treelight::scene_id::{SceneId, SceneIndex};
-use treelight::selection::{SceneObject, Selection};
-use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhPlugin, SceneBvhSystems};
+use treelight::selection::SceneObject;
+use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhSystems};
 
 #[derive(Resource, Default)]
 struct PluginClock {
@@ -39,28 +36,12 @@ fn stop_clock(mut c: ResMut<PluginClock>) {
 }
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-        VisibilityPlugin,
-        SceneBvhPlugin {
-            config: SceneBvhConfig {
-                preset: treelight_scene::Preset::Balanced,
-                ..default()
-            },
-        },
-    ))
-    .init_asset::<StandardMaterial>()
-    .init_resource::<SceneIndex>()
-    .init_resource::<EditHistory>()
-    .init_resource::<EditRequests>()
-    .init_resource::<Selection>()
-    .init_resource::<PluginClock>()
-    .add_systems(Update, apply_edit_requests)
-    .add_systems(
+    // The editor's own headless app (the one `--save` runs), timed around the scene plugin.
+    let mut app = treelight::headless::headless_app(SceneBvhConfig {
+        preset: treelight_scene::Preset::Balanced,
+        ..default()
+    });
+    app.init_resource::<PluginClock>().add_systems(
         PostUpdate,
         (
             start_clock.before(SceneBvhSystems),

@@ -9,6 +9,7 @@ pub mod default_scene;
 pub mod edit;
 pub mod files;
 pub mod gizmo;
+pub mod headless;
 pub mod import;
 pub mod import_jobs;
 pub mod info;
@@ -102,12 +103,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             render_mode::apply_viewport_render,
         ),
     );
-    let is_project = |p: &std::path::Path| {
-        p.extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("treelight"))
-    };
     match &cli.scene {
-        Some(path) if is_project(path) => app
+        Some(path) if is_project_file(path) => app
             .world_mut()
             .resource_mut::<files::ProjectRequests>()
             .0
@@ -144,6 +141,12 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         .add_systems(Last, capture::count_frames_and_capture);
     }
     app
+}
+
+/// Whether `path` names a project (`.treelight`) rather than a scene file to import.
+pub fn is_project_file(path: &std::path::Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("treelight"))
 }
 
 fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGlobalSettings>) {

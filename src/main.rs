@@ -30,7 +30,17 @@ fn main() -> std::process::ExitCode {
             }
         },
     };
-    match treelight::build_app_with(&cli, script).run() {
+    // Saving without screenshots or a report needs no window: it runs where there is no display.
+    let headless = cli.save.is_some()
+        && cli.screenshot.is_none()
+        && cli.frames.is_none()
+        && cli.state.is_none();
+    let mut app = if headless {
+        treelight::headless::save_app(&cli, script)
+    } else {
+        treelight::build_app_with(&cli, script)
+    };
+    match app.run() {
         bevy::app::AppExit::Success => std::process::ExitCode::SUCCESS,
         bevy::app::AppExit::Error(code) => std::process::ExitCode::from(code.get()),
     }

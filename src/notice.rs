@@ -49,6 +49,11 @@ impl Notices {
             ttl: Some(15.0),
         });
     }
+    /// Whether an error is among them.
+    pub fn has_errors(&self) -> bool {
+        self.0.iter().any(|n| n.level == Level::Error)
+    }
+
     /// Adds an error that stays until dismissed.
     pub fn error(&mut self, text: impl Into<String>) {
         let text = text.into();

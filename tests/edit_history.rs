@@ -4,45 +4,30 @@
 //! reaches the same world again; and the scene BVH's ray casts agree with brute force over the
 //! world's meshes along the way.
 
-use bevy::asset::AssetPlugin;
-use bevy::camera::visibility::VisibilityPlugin;
 use bevy::math::Ray3d;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use proptest::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 use treelight::edit::{
-    EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue, Primitive,
-    TransformValue, apply_request,
+    EditCommand, EditHistory, EditRequest, LightKind, MaterialValue, Primitive, TransformValue,
+    apply_request,
 };
 use treelight::import::to_bevy_mesh;
 use treelight::scene_id::{SceneId, SceneIndex};
 use treelight::selection::{SceneObject, Selection};
 use treelight_bvh::RayData;
-use treelight_scene::{SceneBvh, SceneBvhPlugin, cast_on, mesh_triangles};
+use treelight_scene::{SceneBvh, cast_on, mesh_triangles};
 
-/// A headless app with what edits need: assets, transforms, ids, the history and the selection.
+/// The editor's headless app (the one `--save` runs): assets, transforms, ids, the history, the
+/// selection, imports, projects and the scene BVH.
 fn editing_app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .init_asset::<StandardMaterial>()
-    .init_resource::<SceneIndex>()
-    .init_resource::<EditHistory>()
-    .init_resource::<EditRequests>()
-    .init_resource::<Selection>();
-    app
+    treelight::headless::headless_app(treelight_scene::SceneBvhConfig::default())
 }
 
 fn app_with_flight_helmet() -> App {
     let mut app = editing_app();
-    app.add_plugins((VisibilityPlugin, SceneBvhPlugin::default()));
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     let scene = treelight_import::load_scene(&path).expect("FlightHelmet loads");
@@ -587,7 +572,6 @@ fn a_drag_is_one_step() {
 fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     use treelight::import::SourceKey;
     let mut app = editing_app();
-    app.init_asset::<Image>();
     // A light already there: the import adds none of its own.
     app.world_mut()
         .spawn((PointLight::default(), Transform::default()));
@@ -681,31 +665,13 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     assert_eq!(keys(world), before);
 }
 
-/// The editor's import path without a window: parsing, the import command, the jobs that follow
-/// it into the tree (copied one chunk per frame, so an import takes many frames).
+/// The editor's import path without a window, the tree taking in one chunk of triangles per frame
+/// (so an import takes many frames).
 fn importing_app() -> App {
-    use treelight::import::{DropPositions, ParsedImports, PendingImports, finish_imports};
-    let mut app = editing_app();
-    app.init_asset::<Image>()
-        .add_plugins((
-            VisibilityPlugin,
-            SceneBvhPlugin {
-                config: treelight_scene::SceneBvhConfig {
-                    main_thread_budget: Duration::ZERO,
-                    ..default()
-                },
-            },
-            treelight::import_jobs::ImportJobsPlugin,
-        ))
-        .init_resource::<treelight::notice::Notices>()
-        .init_resource::<PendingImports>()
-        .init_resource::<ParsedImports>()
-        .init_resource::<DropPositions>()
-        .add_systems(
-            Update,
-            (finish_imports, treelight::edit::apply_edit_requests).chain(),
-        );
-    app
+    treelight::headless::headless_app(treelight_scene::SceneBvhConfig {
+        main_thread_budget: Duration::ZERO,
+        ..default()
+    })
 }
 
 #[test]

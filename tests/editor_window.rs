@@ -535,17 +535,60 @@ fn info_describes_scene_files_and_projects_without_a_display() {
 }
 
 #[test]
-fn save_without_frames_imports_saves_and_exits() {
-    if skip_gpu_tests("save_without_frames_imports_saves_and_exits") {
-        return;
-    }
+fn save_runs_without_a_display() {
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_treelight"))
+            .args(args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .env("TREELIGHT_CONFIG_DIR", test_config_dir())
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    };
+    let dir = temp_dir("save-headless");
+    // A scene file imported and saved as a project.
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
-    let dir = temp_dir("save-exit");
     let out = dir.join("box.treelight");
-    run_editor(&[file.to_str().unwrap(), "--save", out.to_str().unwrap()]);
+    let (ok, text) = run(&[file.to_str().unwrap(), "--save", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
     let project = treelight::project::read_project(&out).expect("a saved project");
     assert_eq!(project.sources.len(), 1);
     assert!(!project.objects.is_empty());
+    // The default scene with the README's example commands: the same project the windowed editor
+    // saves (twelve objects, the sphere renamed).
+    let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
+    let edited = dir.join("edited.treelight");
+    let (ok, text) = run(&[
+        "--commands",
+        example.to_str().unwrap(),
+        "--save",
+        edited.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let project = treelight::project::read_project(&edited).expect("a saved project");
+    assert_eq!(project.objects.len(), 12);
+    assert!(
+        project.objects.iter().any(|o| o.name == "Golden sphere"),
+        "{:?}",
+        project.objects
+    );
+    // A file that cannot be opened: an error naming it, a failed exit, and nothing saved.
+    let nothing = dir.join("nothing.treelight");
+    let (ok, text) = run(&[
+        "/nonexistent/scene.glb",
+        "--save",
+        nothing.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("/nonexistent/scene.glb"), "{text}");
+    assert!(!nothing.exists());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,37 +4,20 @@
 //! copies geometry; broken or hostile projects are refused with the file named and the open scene
 //! untouched; a missing source still opens and is kept by the next save.
 
-use bevy::asset::AssetPlugin;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use treelight::camera::OrbitCamera;
 use treelight::edit::{
-    EditCommand, EditHistory, EditRequest, EditRequests, LightKind, MaterialValue, Primitive,
-    TransformValue, apply_request,
+    EditCommand, EditHistory, EditRequest, LightKind, MaterialValue, Primitive, TransformValue,
+    apply_request,
 };
-use treelight::import::SourceCatalog;
 use treelight::project::{ProjectError, ProjectState, open_project, read_project, save_project};
-use treelight::scene_id::{SceneId, SceneIndex};
-use treelight::selection::Selection;
+use treelight::scene_id::SceneId;
 
 fn editor_world() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .init_asset::<StandardMaterial>()
-    .init_asset::<Image>()
-    .init_resource::<SceneIndex>()
-    .init_resource::<EditHistory>()
-    .init_resource::<EditRequests>()
-    .init_resource::<Selection>()
-    .init_resource::<SourceCatalog>()
-    .init_resource::<ProjectState>();
+    // The editor's headless app (the one `--save` runs), with the editor's camera to save.
+    let mut app = treelight::headless::headless_app(treelight_scene::SceneBvhConfig::default());
     app.world_mut()
         .spawn((OrbitCamera::default(), Transform::default()));
     app
