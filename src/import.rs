@@ -19,16 +19,37 @@ use treelight_import::{
     ImportError, ImportedMaterial, ImportedMesh, ImportedScene, ImportedTexture, WrapMode,
 };
 
+/// A file parsed, with its meshes already made into Bevy meshes (off the main thread, so the frame
+/// that adds them to the scene only moves them in).
+pub struct ParsedScene {
+    /// What the file holds.
+    pub scene: ImportedScene,
+    /// One Bevy mesh per mesh of the scene, `None` for one that repeats an earlier one (`same_as`)
+    /// and for those already taken.
+    pub meshes: Vec<Option<Mesh>>,
+}
+
+impl From<ImportedScene> for ParsedScene {
+    fn from(scene: ImportedScene) -> Self {
+        let meshes = scene
+            .meshes
+            .iter()
+            .map(|m| m.same_as.is_none().then(|| to_bevy_mesh(m)))
+            .collect();
+        Self { scene, meshes }
+    }
+}
+
 /// Files being parsed.
 #[derive(Resource, Default)]
-pub struct PendingImports(pub Vec<(PathBuf, Task<Result<ImportedScene, ImportError>>)>);
+pub struct PendingImports(pub Vec<(PathBuf, Task<Result<ParsedScene, ImportError>>)>);
 
 impl PendingImports {
-    /// Starts parsing `path` in the background.
+    /// Starts parsing `path` (and making its Bevy meshes) in the background.
     pub fn start(&mut self, path: PathBuf) {
         let p = path.clone();
-        let task =
-            AsyncComputeTaskPool::get().spawn(async move { treelight_import::load_scene(&p) });
+        let task = AsyncComputeTaskPool::get()
+            .spawn(async move { treelight_import::load_scene(&p).map(ParsedScene::from) });
         self.0.push((path, task));
     }
 }
@@ -72,14 +93,14 @@ pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
 /// Files parsed in the background and not yet in the scene: the import command takes its file's
 /// scene from here (and parses the file itself when a script names one that is not).
 #[derive(Resource, Default)]
-pub struct ParsedImports(pub HashMap<PathBuf, ImportedScene>);
+pub struct ParsedImports(pub HashMap<PathBuf, ParsedScene>);
 
 /// Hands each parsed file to the history as an import command (one undoable step), and frames
 /// the camera on it.
 #[allow(clippy::too_many_arguments)]
 pub fn finish_imports(
     mut pending: ResMut<PendingImports>,
-    mut parsed: ResMut<ParsedImports>,
+    mut parsed_imports: ResMut<ParsedImports>,
     mut positions: ResMut<DropPositions>,
     mut requests: ResMut<crate::edit::EditRequests>,
     mut notices: ResMut<Notices>,
@@ -97,13 +118,14 @@ pub fn finish_imports(
         let (path, _) = pending.0.swap_remove(i);
         match result {
             Err(e) => notices.error(e.to_string()),
-            Ok(scene) => {
+            Ok(parsed) => {
+                let scene = &parsed.scene;
                 for w in &scene.warnings {
                     notices.warn(format!("{}: {w}", path.display()));
                 }
                 // A dropped file stands where it was dropped, by the placement rule; a file opened
                 // otherwise keeps its coordinates and the camera frames it.
-                let bounds = scene_bounds(&scene);
+                let bounds = scene_bounds(scene);
                 let mut transform = None;
                 if let Some(at) = positions.0.remove(&path)
                     && let (Some(b), Ok((camera, cam_gt))) = (bounds, cameras.single())
@@ -122,7 +144,7 @@ pub fn finish_imports(
                     scene.meshes.len(),
                     scene.triangle_count()
                 ));
-                parsed.0.insert(path.clone(), scene);
+                parsed_imports.0.insert(path.clone(), parsed);
                 jobs.awaiting
                     .push((path.clone(), std::time::Instant::now()));
                 requests.apply(crate::edit::EditCommand::Import {
@@ -176,12 +198,13 @@ pub fn spawn_scene_in_world(
     world: &mut World,
     file: &Path,
     scene: &ImportedScene,
+    prebuilt: &mut [Option<Mesh>],
     add_sun: bool,
 ) -> Result<Vec<Entity>, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
         bevy::ecs::system::SystemState::new(world);
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
-    let root = spawn_scene(&mut commands, file, scene, &mut assets);
+    let root = spawn_scene(&mut commands, file, scene, prebuilt, &mut assets);
     state.apply(world);
     if let Some(mut catalog) = world.get_resource_mut::<SourceCatalog>() {
         catalog.0.insert(file.to_owned(), source_keys(scene));
@@ -245,6 +268,7 @@ pub fn spawn_scene(
     commands: &mut Commands,
     file: &Path,
     scene: &ImportedScene,
+    prebuilt: &mut [Option<Mesh>],
     assets: &mut SceneAssets,
 ) -> Entity {
     // One image per texture and sampler, shared by the materials that use it.
@@ -322,7 +346,12 @@ pub fn spawn_scene(
             .unwrap_or_else(|| fallback.clone());
         let mesh = match m.same_as.and_then(|j| mesh_handles.get(j)) {
             Some(h) => h.clone(),
-            None => assets.meshes.add(to_bevy_mesh(m)),
+            None => assets.meshes.add(
+                prebuilt
+                    .get_mut(i)
+                    .and_then(Option::take)
+                    .unwrap_or_else(|| to_bevy_mesh(m)),
+            ),
         };
         mesh_handles.push(mesh.clone());
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));

@@ -642,13 +642,20 @@ impl EditCommand {
                 let parsed = world
                     .get_resource_mut::<crate::import::ParsedImports>()
                     .and_then(|mut p| p.0.remove(file.as_path()));
-                let scene = match parsed {
+                let mut parsed = match parsed {
                     Some(s) => s,
                     None => treelight_import::load_scene(file)
+                        .map(crate::import::ParsedScene::from)
                         .map_err(|e| EditError::Import(e.to_string()))?,
                 };
-                let top = crate::import::spawn_scene_in_world(world, file, &scene, true)
-                    .map_err(EditError::Import)?;
+                let top = crate::import::spawn_scene_in_world(
+                    world,
+                    file,
+                    &parsed.scene,
+                    &mut parsed.meshes,
+                    true,
+                )
+                .map_err(EditError::Import)?;
                 if let Some(id) = root {
                     world.entity_mut(top[0]).insert(*id);
                 }

@@ -1,0 +1,302 @@
+//! What opening, saving and autosaving cost: the editor's import path and project files in its
+//! headless app (the one `--save` runs; no window, UI or renderer).
+//!
+//! 1. Import of the sample assemblies and of a generated 1M-triangle assembly (100 parts of 10k
+//!    triangles in a 10 × 10 grid): from the request until the tree holds the first part (what the
+//!    next path-traced frame shows) and all of it; the main thread's frame time (median and 99th
+//!    percentile, frames paced at 60 Hz) during the import, next to the same figures idle.
+//! 2. Save and autosave of that 100-part project after 100 moves: the save's time and size, and the
+//!    main thread's share of an autosave (capturing the project; the write runs on its own thread).
+//!
+//! Run: `cargo bench -p treelight --bench projects` (release). Prints markdown tables.
+
+use bevy::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use treelight::edit::{EditCommand, EditRequest, EditRequests, TransformValue};
+use treelight::import::PendingImports;
+use treelight::import_jobs::TracingImports;
+use treelight::project::{capture_project, save_project, write_project};
+use treelight::scene_id::SceneId;
+use treelight_scene::SceneBvhConfig;
+
+const FRAME: Duration = Duration::from_micros(16_667);
+
+fn shared(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes")
+        .join(rel)
+}
+
+/// A glTF file of `parts` separate meshes of `rows × rows × 2` triangles each (bumpy tiles), on a
+/// grid receding from the origin, written beside a `.bin` in `dir`. Returns the file and the
+/// number of triangles.
+fn generated_assembly(dir: &Path, parts: usize, rows: usize) -> (PathBuf, usize) {
+    let mut bin: Vec<u8> = Vec::new();
+    let (mut meshes, mut accessors, mut views, mut nodes) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let side = (parts as f32).sqrt().ceil() as usize;
+    for p in 0..parts {
+        let start = bin.len();
+        let n = rows + 1;
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for j in 0..n {
+            for i in 0..n {
+                let (x, z) = (i as f32 / rows as f32, j as f32 / rows as f32);
+                let y = 0.05 * ((x * 17.0 + p as f32).sin() * (z * 13.0).cos());
+                for (k, v) in [x, y, z].into_iter().enumerate() {
+                    lo[k] = lo[k].min(v);
+                    hi[k] = hi[k].max(v);
+                    bin.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        let positions_len = bin.len() - start;
+        let index_start = bin.len();
+        for j in 0..rows {
+            for i in 0..rows {
+                let a = (j * n + i) as u32;
+                for v in [
+                    a,
+                    a + 1,
+                    a + n as u32,
+                    a + 1,
+                    a + n as u32 + 1,
+                    a + n as u32,
+                ] {
+                    bin.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        let index_len = bin.len() - index_start;
+        views.push(format!(
+            r#"{{"buffer":0,"byteOffset":{start},"byteLength":{positions_len}}}"#
+        ));
+        views.push(format!(
+            r#"{{"buffer":0,"byteOffset":{index_start},"byteLength":{index_len}}}"#
+        ));
+        accessors.push(format!(
+            r#"{{"bufferView":{},"componentType":5126,"count":{},"type":"VEC3","min":[{},{},{}],"max":[{},{},{}]}}"#,
+            2 * p,
+            n * n,
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
+        ));
+        accessors.push(format!(
+            r#"{{"bufferView":{},"componentType":5125,"count":{},"type":"SCALAR"}}"#,
+            2 * p + 1,
+            rows * rows * 6
+        ));
+        meshes.push(format!(
+            r#"{{"primitives":[{{"attributes":{{"POSITION":{}}},"indices":{}}}]}}"#,
+            2 * p,
+            2 * p + 1
+        ));
+        let (gx, gz) = ((p % side) as f32 * 1.2, (p / side) as f32 * 1.2);
+        nodes.push(format!(
+            r#"{{"name":"part {p}","mesh":{p},"translation":[{gx},0,{}]}}"#,
+            -gz
+        ));
+    }
+    let bin_path = dir.join("assembly.bin");
+    std::fs::write(&bin_path, &bin).unwrap();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{}],"meshes":[{}],"accessors":[{}],"bufferViews":[{}],"buffers":[{{"uri":"assembly.bin","byteLength":{}}}]}}"#,
+        (0..parts)
+            .map(|p| p.to_string())
+            .collect::<Vec<_>>()
+            .join(","),
+        nodes.join(","),
+        meshes.join(","),
+        accessors.join(","),
+        views.join(","),
+        bin.len()
+    );
+    let path = dir.join("assembly.gltf");
+    std::fs::write(&path, json).unwrap();
+    (path, parts * rows * rows * 2)
+}
+
+fn app() -> App {
+    let mut app = treelight::headless::headless_app(SceneBvhConfig::default());
+    // The editor's camera looks at the grid's near corner, as after framing it.
+    app.world_mut().spawn((
+        Camera3d::default(),
+        Transform::from_xyz(-3.0, 4.0, 4.0).looking_at(Vec3::new(3.0, 0.0, -3.0), Vec3::Y),
+    ));
+    app
+}
+
+/// Runs one frame and paces it to 60 Hz; returns the frame's main-thread time.
+fn frame(app: &mut App) -> Duration {
+    let start = Instant::now();
+    app.update();
+    let spent = start.elapsed();
+    if let Some(rest) = FRAME.checked_sub(spent) {
+        std::thread::sleep(rest);
+    }
+    spent
+}
+
+fn percentile(v: &[Duration], q: f64) -> f64 {
+    let mut ms: Vec<f64> = v.iter().map(|d| d.as_secs_f64() * 1e3).collect();
+    ms.sort_by(f64::total_cmp);
+    ms[((ms.len() - 1) as f64 * q).round() as usize]
+}
+
+struct ImportFigures {
+    triangles: u64,
+    parts: usize,
+    first: Duration,
+    all: Duration,
+    frames: Vec<Duration>,
+}
+
+/// Imports `file` into a fresh app and follows it until the tree holds all of it.
+fn import(file: &Path) -> (App, ImportFigures) {
+    let mut app = app();
+    for _ in 0..30 {
+        frame(&mut app);
+    }
+    let started = Instant::now();
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(file.to_owned());
+    let (mut first, mut frames, mut seen) = (None, Vec::new(), false);
+    let (mut triangles, mut parts) = (0, 0);
+    loop {
+        frames.push(frame(&mut app));
+        let jobs = app.world().resource::<TracingImports>();
+        if let Some(job) = jobs.jobs.first() {
+            seen = true;
+            triangles = job.total();
+            parts = job.meshes.len();
+            if first.is_none() && job.traced > 0 {
+                first = Some(started.elapsed());
+            }
+        } else if seen {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(600),
+            "never imported"
+        );
+    }
+    let all = started.elapsed();
+    (
+        app,
+        ImportFigures {
+            triangles,
+            parts,
+            first: first.unwrap_or(all),
+            all,
+            frames,
+        },
+    )
+}
+
+fn main() {
+    let dir = std::env::temp_dir().join(format!("treelight-bench-projects-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (generated, _) = generated_assembly(&dir, 100, 71);
+
+    // Idle frames for comparison: the default-sized app with nothing to do.
+    let mut idle_app = app();
+    let idle: Vec<Duration> = (0..300).map(|_| frame(&mut idle_app)).collect();
+    println!("## Imports: until traced, and the main thread meanwhile\n");
+    println!(
+        "Idle frames (nothing imported): median {:.3} ms, p99 {:.3} ms.\n",
+        percentile(&idle, 0.5),
+        percentile(&idle, 0.99)
+    );
+    println!(
+        "| file | parts | triangles | first part in the tree (ms) | all in the tree (ms) | frames | frame median (ms) | frame p99 (ms) | frame max (ms) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let files = [
+        (
+            "FlightHelmet.gltf",
+            shared("gltf/FlightHelmet/FlightHelmet.gltf"),
+        ),
+        ("CesiumMan.glb", shared("gltf/CesiumMan.glb")),
+        ("pirate.glb (meshopt)", shared("gltf/pirate.glb")),
+        ("sibenik.obj", shared("obj/sibenik.obj")),
+        ("generated 100-part assembly", generated.clone()),
+    ];
+    let mut big = None;
+    for (name, file) in files {
+        let (app, f) = import(&file);
+        println!(
+            "| {name} | {} | {} | {:.0} | {:.0} | {} | {:.3} | {:.3} | {:.3} |",
+            f.parts,
+            f.triangles,
+            f.first.as_secs_f64() * 1e3,
+            f.all.as_secs_f64() * 1e3,
+            f.frames.len(),
+            percentile(&f.frames, 0.5),
+            percentile(&f.frames, 0.99),
+            percentile(&f.frames, 1.0)
+        );
+        big = Some(app);
+    }
+
+    // The 100-part project after 100 moves.
+    let mut app = big.unwrap();
+    let ids: Vec<SceneId> = {
+        let world = app.world_mut();
+        let mut q = world.query_filtered::<&SceneId, With<Mesh3d>>();
+        q.iter(world).copied().collect()
+    };
+    for (k, id) in ids.iter().enumerate() {
+        app.world_mut()
+            .resource_mut::<EditRequests>()
+            .0
+            .push(EditRequest::Apply {
+                command: EditCommand::SetTransform {
+                    id: *id,
+                    transform: TransformValue::from(Transform::from_xyz(k as f32, 1.0, 0.0)),
+                },
+                continuing: false,
+            });
+    }
+    app.update();
+    let project = dir.join("assembly.treelight");
+    let mut saves = Vec::new();
+    let mut captures = Vec::new();
+    let mut writes = Vec::new();
+    for _ in 0..20 {
+        let t = Instant::now();
+        save_project(app.world_mut(), &project).unwrap();
+        saves.push(t.elapsed());
+        let t = Instant::now();
+        let (file, _) = capture_project(app.world_mut(), &project);
+        captures.push(t.elapsed());
+        let t = Instant::now();
+        write_project(&dir.join("recovery.treelight"), &file).unwrap();
+        writes.push(t.elapsed());
+    }
+    let size = std::fs::metadata(&project).unwrap().len();
+    println!("\n## Save and autosave of the 100-part project after 100 moves\n");
+    println!("| what | median (ms) | max (ms) |");
+    println!("|---|---|---|");
+    for (what, v) in [
+        ("save (capture, write, rename)", &saves),
+        ("autosave, main thread (capture)", &captures),
+        ("autosave, its own thread (write, rename)", &writes),
+    ] {
+        println!(
+            "| {what} | {:.3} | {:.3} |",
+            percentile(v, 0.5),
+            percentile(v, 1.0)
+        );
+    }
+    println!(
+        "\nProject file: {size} bytes for {} objects.",
+        ids.len() + 1
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
