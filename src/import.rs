@@ -65,11 +65,16 @@ pub fn import_dropped_files(
     mut drops: MessageReader<FileDragAndDrop>,
     mut pending: ResMut<PendingImports>,
     mut positions: ResMut<DropPositions>,
-    windows: Query<&Window>,
+    windows: Query<(&Window, Option<&bevy::window::RawHandleWrapper>)>,
 ) {
     for drop in drops.read() {
         if let FileDragAndDrop::DroppedFile { path_buf, window } = drop {
-            let at = windows.get(*window).ok().and_then(Window::cursor_position);
+            // winit knows the pointer except during an X11 drag; then the X server is asked.
+            let at = windows.get(*window).ok().and_then(|(w, handle)| {
+                w.cursor_position().or_else(|| {
+                    handle.and_then(|h| crate::x11_pointer::pointer_in(h, w.scale_factor()))
+                })
+            });
             positions.0.insert(path_buf.clone(), at);
             pending.start(path_buf.clone());
         }

@@ -24,6 +24,7 @@ pub mod selection;
 pub mod settings;
 pub mod ui;
 pub mod viewport;
+pub mod x11_pointer;
 
 use bevy::camera::visibility::RenderLayers;
 use bevy::camera::{CameraOutputMode, ClearColorConfig};

@@ -530,3 +530,27 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
     assert_eq!(st.dialog, None, "a cancel opened another dialog");
     assert_eq!(st.project.as_deref(), Some(saved.as_path()));
 }
+
+#[test]
+fn the_x_server_says_where_a_desktop_drop_lands() {
+    if skip_gpu_tests("the_x_server_says_where_a_desktop_drop_lands") {
+        return;
+    }
+    // winit reports no pointer during an X11 drag-and-drop; the editor then asks the X server,
+    // which must give the pointer's place in the editor's window.
+    let mut s = Session::start("x11-pointer", &[]);
+    let st = s.frames(1);
+    let [vx, vy, vw, vh] = st.viewport;
+    for (fx, fy) in [(0.3, 0.4), (0.7, 0.6)] {
+        let (x, y) = (vx + vw * fx, vy + vh * fy);
+        s.move_to(x, y);
+        let at = treelight::x11_pointer::pointer_in_window(Some(&s.display_name()), s.window_id())
+            .expect("the X server answers");
+        assert_eq!(at, (x.round() as i16, y.round() as i16));
+    }
+    // A window that does not exist: no answer, no panic.
+    assert_eq!(
+        treelight::x11_pointer::pointer_in_window(Some(&s.display_name()), 0x7fff_fff0),
+        None
+    );
+}

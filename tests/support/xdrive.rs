@@ -48,6 +48,7 @@ pub struct Session {
     log_path: PathBuf,
     dir: PathBuf,
     keycodes: Vec<(u32, u8)>,
+    display: u32,
 }
 
 impl Drop for Session {
@@ -149,6 +150,7 @@ impl Session {
                 log_path,
                 dir,
                 keycodes,
+                display,
             };
             session.wait_until(
                 "the editor's scene settles",
@@ -273,6 +275,16 @@ impl Session {
             .xtest_fake_input(kind, detail, x11rb::CURRENT_TIME, self.root, x, y, 0)
             .unwrap();
         self.conn.flush().unwrap();
+    }
+
+    /// The X display the editor runs on (`:N`).
+    pub fn display_name(&self) -> String {
+        format!(":{}", self.display)
+    }
+
+    /// The editor window's X id.
+    pub fn window_id(&self) -> u32 {
+        self.window
     }
 
     /// Moves the pointer to window coordinates `(x, y)` and lets a frame pass.
