@@ -28,6 +28,8 @@ pub enum ProjectRequest {
     Quit,
     /// Open a recovery copy: the scene it holds, unsaved, belonging to the project it was made for.
     OpenRecovery(PathBuf),
+    /// Add a folder to the Assets panel.
+    AddAssetFolder(PathBuf),
     /// Point a missing source at another file.
     Relink {
         /// The source as the project names it (resolved).
@@ -90,6 +92,8 @@ pub enum FileAction {
     Quit,
     /// File → Relink….
     Relink,
+    /// Assets → Add folder….
+    AddAssetFolder,
 }
 
 impl FileUi {
@@ -154,6 +158,9 @@ impl FileUi {
                     requests.0.push(ProjectRequest::Relink { from, to });
                 }
             }
+            (Some(dir), DialogPurpose::AssetFolder) => {
+                requests.0.push(ProjectRequest::AddAssetFolder(dir))
+            }
             // A cancelled save also drops what was to follow it.
             (None, _) => self.then = None,
         }
@@ -192,6 +199,10 @@ impl FileUi {
             },
             FileAction::SaveAs => self.dialog(DialogPurpose::SaveAs, state),
             FileAction::Relink => self.relink = true,
+            FileAction::AddAssetFolder => {
+                let dir = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+                self.open_dialog(DialogPurpose::AssetFolder, dir, String::new());
+            }
         }
     }
 
@@ -393,6 +404,19 @@ pub fn apply_project_requests(world: &mut World) {
             }
             ProjectRequest::Quit => {
                 world.write_message(AppExit::Success);
+            }
+            ProjectRequest::AddAssetFolder(dir) => {
+                if dir.is_dir() {
+                    if let Some(mut library) =
+                        world.get_resource_mut::<crate::asset_library::AssetLibrary>()
+                    {
+                        library.add_folder(dir, false);
+                    }
+                } else {
+                    world
+                        .resource_mut::<Notices>()
+                        .error(format!("{}: not a folder", dir.display()));
+                }
             }
             ProjectRequest::Relink { from, to } => {
                 match crate::project::relink_source(world, &from, &to) {

@@ -58,15 +58,30 @@ pub struct TracingImports {
 #[derive(Resource, Default)]
 pub struct CancelImports(pub Vec<PathBuf>);
 
-/// What the status bar reads and writes about imports.
+/// What the status bar and the Assets panel read and write about imports.
 #[derive(bevy::ecs::system::SystemParam)]
 pub struct ImportAccess<'w> {
     /// Files being parsed.
-    pub pending: Res<'w, PendingImports>,
+    pub pending: ResMut<'w, PendingImports>,
+    /// Where files dropped on the viewport go.
+    pub drops: ResMut<'w, DropPositions>,
     /// Imports the tree is taking in.
     pub tracing: Res<'w, TracingImports>,
     /// Cancels asked for this frame.
     pub cancel: ResMut<'w, CancelImports>,
+    /// The Assets panel's folders and thumbnails.
+    pub library: ResMut<'w, crate::asset_library::AssetLibrary>,
+    /// The thumbnails as textures.
+    pub textures: ResMut<'w, crate::ui::palette::ThumbnailTextures>,
+}
+
+impl ImportAccess<'_> {
+    /// Imports `file`, placed by the placement rule at `at` in the viewport (its centre for
+    /// `None`).
+    pub fn import_at(&mut self, file: std::path::PathBuf, at: Option<Vec2>) {
+        self.drops.0.insert(file.clone(), at);
+        self.pending.start(file);
+    }
 }
 
 /// Registers the resources and the systems that follow and cancel imports.

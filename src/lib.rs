@@ -1,6 +1,7 @@
 //! Treelight, the editor: a Bevy scene editor whose viewport is a live path-traced preview.
 //! The binary `treelight` parses the command line and runs [`build_app`].
 
+pub mod asset_library;
 pub mod autosave;
 pub mod camera;
 pub mod capture;
@@ -18,6 +19,7 @@ pub mod placement;
 pub mod project;
 pub mod render_mode;
 pub mod report;
+pub mod samples;
 pub mod scene_id;
 pub mod script;
 pub mod selection;
@@ -75,6 +77,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         files::FilesPlugin,
         autosave::AutosavePlugin,
         import_jobs::ImportJobsPlugin,
+        asset_library::AssetLibraryPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()

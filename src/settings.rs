@@ -4,6 +4,7 @@
 //! broken one gives them too, with a notice naming the file and the problem. Saved when changed,
 //! through a temporary file and a rename.
 
+use crate::asset_library::AssetLibrary;
 use crate::files::RecentProjects;
 use crate::gizmo::GizmoSettings;
 use crate::notice::Notices;
@@ -32,6 +33,9 @@ pub struct EditorSettings {
     /// Projects opened or saved lately, newest first.
     #[serde(default)]
     pub recent: Vec<PathBuf>,
+    /// Folders the Assets panel lists, in the order they were added.
+    #[serde(default)]
+    pub asset_folders: Vec<PathBuf>,
 }
 
 /// Where the settings file is, if a config directory can be found.
@@ -111,7 +115,12 @@ pub struct SavedSettings {
     frames: u32,
 }
 
-fn current(dock: &EditorDock, gizmo: &GizmoSettings, recent: &RecentProjects) -> EditorSettings {
+fn current(
+    dock: &EditorDock,
+    gizmo: &GizmoSettings,
+    recent: &RecentProjects,
+    library: Option<&AssetLibrary>,
+) -> EditorSettings {
     EditorSettings {
         version: VERSION,
         layout: dock.0.clone(),
@@ -119,6 +128,7 @@ fn current(dock: &EditorDock, gizmo: &GizmoSettings, recent: &RecentProjects) ->
         angle_step_deg: gizmo.angle_step_deg,
         scale_step: gizmo.scale_step,
         recent: recent.0.clone(),
+        asset_folders: library.map_or_else(Vec::new, AssetLibrary::user_folders),
     }
 }
 
@@ -129,6 +139,7 @@ pub fn load_settings(
     mut gizmo: ResMut<GizmoSettings>,
     mut recent: ResMut<RecentProjects>,
     mut notices: ResMut<Notices>,
+    mut library: Option<ResMut<AssetLibrary>>,
 ) {
     let Some(path) = settings_path() else {
         return;
@@ -146,6 +157,12 @@ pub fn load_settings(
             gizmo.scale_step = s.scale_step;
             recent.0 = s.recent;
             recent.0.truncate(RecentProjects::MAX);
+            if let Some(library) = library.as_mut() {
+                // A folder gone since is listed with the reason, not dropped.
+                for folder in s.asset_folders {
+                    library.add_folder(folder, false);
+                }
+            }
         }
         Ok(None) => {}
         Err(e) => notices.warn(format!(
@@ -153,7 +170,8 @@ pub fn load_settings(
             path.display()
         )),
     }
-    saved.text = ron::to_string(&current(&dock, &gizmo, &recent)).unwrap_or_default();
+    saved.text =
+        ron::to_string(&current(&dock, &gizmo, &recent, library.as_deref())).unwrap_or_default();
     saved.path = Some(path);
 }
 
@@ -164,6 +182,7 @@ pub fn save_settings(
     dock: Res<EditorDock>,
     gizmo: Res<GizmoSettings>,
     recent: Res<RecentProjects>,
+    library: Option<Res<AssetLibrary>>,
     exit: MessageReader<AppExit>,
     time: Res<Time>,
 ) {
@@ -176,7 +195,7 @@ pub fn save_settings(
     let Some(path) = saved.path.clone() else {
         return;
     };
-    let settings = current(&dock, &gizmo, &recent);
+    let settings = current(&dock, &gizmo, &recent, library.as_deref());
     let Ok(text) = ron::to_string(&settings) else {
         return;
     };
@@ -224,6 +243,7 @@ mod tests {
             &EditorDock::default(),
             &GizmoSettings::default(),
             &RecentProjects(vec![PathBuf::from("/work/house.treelight")]),
+            None,
         );
         settings.grid_step = 0.5;
         write_settings(&path, &settings).unwrap();

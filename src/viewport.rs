@@ -76,6 +76,8 @@ pub struct ViewportActions {
     /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
     /// surface, and whether it was dropped this frame.
     pub palette: Option<(crate::ui::palette::PaletteItem, Vec2, bool, bool)>,
+    /// A scene file from the Assets panel dropped on the viewport, and where.
+    pub file_drop: Option<(std::path::PathBuf, Vec2)>,
 }
 
 /// Pixels within which a second click counts as the same spot.
@@ -321,10 +323,36 @@ impl ViewportPanel<'_> {
                 self.actions.palette = Some((*item, vec(p), modifiers.shift, false));
             }
         }
-        if let Some(item) = response.dnd_release_payload::<crate::ui::palette::PaletteItem>()
+        // Taking a payload drops one of another type: each kind is taken only when it is the one
+        // carried.
+        if egui::DragAndDrop::has_payload_of_type::<crate::ui::palette::PaletteItem>(ui.ctx())
+            && let Some(item) = response.dnd_release_payload::<crate::ui::palette::PaletteItem>()
             && let Some(p) = pointer.or(response.interact_pointer_pos())
         {
             self.actions.palette = Some((*item, vec(p), modifiers.shift, true));
+        }
+        // A file from the panel lands where it is dropped, by the placement rule, once it is read.
+        if let Some(file) = egui::DragAndDrop::payload::<crate::ui::palette::PaletteFile>(ui.ctx())
+            && let Some(p) = pointer
+            && rect.contains(p)
+        {
+            let name = file
+                .0
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            ui.painter().text(
+                p + egui::vec2(14.0, 18.0),
+                egui::Align2::LEFT_TOP,
+                format!("Drop to place {name}"),
+                egui::FontId::proportional(13.0),
+                egui::Color32::WHITE,
+            );
+        }
+        if egui::DragAndDrop::has_payload_of_type::<crate::ui::palette::PaletteFile>(ui.ctx())
+            && let Some(file) = response.dnd_release_payload::<crate::ui::palette::PaletteFile>()
+            && let Some(p) = pointer.or(response.interact_pointer_pos())
+        {
+            self.actions.file_drop = Some((file.0.clone(), vec(p)));
         }
 
         // The gizmo has the pointer first.

@@ -554,3 +554,57 @@ fn the_x_server_says_where_a_desktop_drop_lands() {
         None
     );
 }
+
+#[test]
+fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
+    if skip_gpu_tests("a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor") {
+        return;
+    }
+    let mut s = Session::start("palette-file", &[]);
+    let st = s.frames(1);
+    let tile_of = |st: &EditorState| {
+        st.widgets
+            .iter()
+            .find(|(n, _)| n == "stairs.obj")
+            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+    };
+    let cube = st
+        .widgets
+        .iter()
+        .find(|(n, _)| n == "Cube")
+        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+        .expect("the Assets panel");
+    // The samples sit below the shapes: scroll the panel until the tile is on screen.
+    s.move_to(cube.0, cube.1);
+    let [_, vy, _, vh] = st.viewport;
+    let mut tile = tile_of(&st).expect("the Samples folder lists stairs.obj");
+    for _ in 0..12 {
+        if tile.1 < vy + vh - 40.0 {
+            break;
+        }
+        s.press(5);
+        s.release(5);
+        tile = tile_of(&s.frames(2)).unwrap();
+    }
+    let floor = object(&st, "Floor").screen.unwrap();
+    let (head, _) = st.history;
+    // In front of both boxes, where only the floor is under the pointer.
+    s.drag_without_release(tile, (floor[0] - 60.0, floor[1] + 50.0), 6);
+    s.frames(2);
+    s.release(1);
+    let st = s.wait_until(
+        "the dropped file",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.objects.iter().any(|o| o.name == "stairs.obj"),
+    );
+    assert_eq!(st.history.0, head + 1, "the drop is one step");
+    // The stairs' lowest point (y = 0 in the file) stands on the floor's top (y = 0).
+    let stairs = object(&st, "stairs.obj");
+    assert!(
+        stairs.world_translation[1].abs() < 0.02,
+        "not on the floor: {:?}",
+        stairs.world_translation
+    );
+    // Where the pointer was: near the floor's middle, not at the file's own origin far away.
+    assert!(stairs.world_translation[0].abs() < 2.5 && stairs.world_translation[2].abs() < 2.5);
+}

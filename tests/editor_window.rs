@@ -312,6 +312,7 @@ fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
             angle_step_deg: 10.0,
             scale_step: 0.25,
             recent: Vec::new(),
+            asset_folders: Vec::new(),
         },
     )
     .unwrap();

@@ -15,6 +15,8 @@ pub enum DialogPurpose {
     SaveAs,
     /// The file a missing source has become.
     Relink,
+    /// A folder whose scene files the Assets panel lists.
+    AssetFolder,
 }
 
 impl DialogPurpose {
@@ -24,6 +26,7 @@ impl DialogPurpose {
             DialogPurpose::Import => "Import a scene file",
             DialogPurpose::SaveAs => "Save project as",
             DialogPurpose::Relink => "Choose the file for the missing source",
+            DialogPurpose::AssetFolder => "Add a folder to the Assets panel",
         }
     }
 
@@ -35,7 +38,7 @@ impl DialogPurpose {
             .map(str::to_ascii_lowercase);
         match self {
             DialogPurpose::Open | DialogPurpose::SaveAs => ext.as_deref() == Some("treelight"),
-            DialogPurpose::Import | DialogPurpose::Relink => {
+            DialogPurpose::Import | DialogPurpose::Relink | DialogPurpose::AssetFolder => {
                 matches!(ext.as_deref(), Some("gltf" | "glb" | "obj" | "ply"))
             }
         }
@@ -96,6 +99,14 @@ impl FileDialog {
 
     fn chosen(&self) -> Option<PathBuf> {
         let name = self.name.trim();
+        if self.purpose == DialogPurpose::AssetFolder {
+            // The folder shown, or one typed into it.
+            return Some(if name.is_empty() {
+                self.dir.clone()
+            } else {
+                self.dir.join(name)
+            });
+        }
         if name.is_empty() {
             return None;
         }
@@ -143,11 +154,14 @@ impl FileDialog {
                             if r.clicked() {
                                 if *is_dir {
                                     go_to = Some(self.dir.join(name));
-                                } else {
+                                } else if self.purpose != DialogPurpose::AssetFolder {
                                     self.name = name.clone();
                                 }
                             }
-                            if r.double_clicked() && !is_dir {
+                            if r.double_clicked()
+                                && !is_dir
+                                && self.purpose != DialogPurpose::AssetFolder
+                            {
                                 out = Some(self.chosen());
                             }
                         }
@@ -172,11 +186,11 @@ impl FileDialog {
                         DialogPurpose::Open => "Open",
                         DialogPurpose::Import => "Import",
                         DialogPurpose::Relink => "Relink",
+                        DialogPurpose::AssetFolder => "Add this folder",
                     };
-                    if ui
-                        .add_enabled(!self.name.trim().is_empty(), egui::Button::new(ok))
-                        .clicked()
-                    {
+                    let ready =
+                        !self.name.trim().is_empty() || self.purpose == DialogPurpose::AssetFolder;
+                    if ui.add_enabled(ready, egui::Button::new(ok)).clicked() {
                         out = Some(self.chosen());
                     }
                     if ui.button("Cancel").clicked() {

@@ -101,8 +101,12 @@ struct EditorTabs<'a> {
     history: (&'a [String], usize),
     /// A step the user clicked in the history panel.
     go_to: &'a mut Option<usize>,
-    /// A shape the user clicked in the palette.
-    palette_click: &'a mut Option<crate::edit::Primitive>,
+    /// What the user clicked in the Assets panel.
+    palette_click: &'a mut Option<palette::PaletteClick>,
+    /// The Assets panel's folders and thumbnails.
+    library: &'a crate::asset_library::AssetLibrary,
+    /// The thumbnails as textures.
+    textures: &'a mut palette::ThumbnailTextures,
     /// Where named widgets are this frame.
     named_rects: &'a mut Vec<(String, egui::Rect)>,
 }
@@ -142,8 +146,10 @@ impl TabViewer for EditorTabs<'_> {
             }
             EditorTab::History => self.history_ui(ui),
             EditorTab::Assets => {
-                if let Some(shape) = palette::palette_ui(ui, self.named_rects) {
-                    *self.palette_click = Some(shape);
+                if let Some(click) =
+                    palette::palette_ui(ui, self.named_rects, self.library, self.textures)
+                {
+                    *self.palette_click = Some(click);
                 }
             }
         }
@@ -490,6 +496,8 @@ pub fn editor_ui(
                 history: (&history_labels, history.head()),
                 go_to: &mut go_to,
                 palette_click: &mut palette_click,
+                library: &imports.library,
+                textures: &mut imports.textures,
                 named_rects: &mut named_rects,
             };
             DockArea::new(&mut dock.0)
@@ -602,7 +610,23 @@ pub fn editor_ui(
         Some(MenuAction::Add(shape)) => add_at_centre = Some(shape),
         _ => {}
     }
-    if let Some(shape) = add_at_centre.or(palette_click)
+    let mut palette_shape = None;
+    match palette_click {
+        Some(palette::PaletteClick::Shape(shape)) => palette_shape = Some(shape),
+        Some(palette::PaletteClick::File(file)) => imports.import_at(file, None),
+        Some(palette::PaletteClick::AddFolder) => files.act(
+            crate::files::FileAction::AddAssetFolder,
+            &project,
+            history.is_dirty(),
+            &mut project_requests,
+        ),
+        Some(palette::PaletteClick::RemoveFolder(dir)) => imports.library.remove_folder(&dir),
+        None => {}
+    }
+    if let Some((file, at)) = actions.file_drop.take() {
+        imports.import_at(file, Some(at));
+    }
+    if let Some(shape) = add_at_centre.or(palette_shape)
         && let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
         && let Some(rect) = camera.logical_viewport_rect()
         && let Ok(ray) = camera.viewport_to_world(cam_gt, rect.center())

@@ -67,6 +67,7 @@ impl NativeDialog {
                         .pick_file()
                         .await
                 }
+                DialogPurpose::AssetFolder => dialog.pick_folder().await,
                 DialogPurpose::SaveAs => {
                     dialog
                         .add_filter("Treelight project", &["treelight"])

@@ -162,6 +162,9 @@ pub struct SceneTree {
     /// same mesh share its triangles in the tree ([`Bvh::insert_instance`]).
     entity_mesh: HashMap<Entity, AssetId<Mesh>>,
     mesh_entities: HashMap<AssetId<Mesh>, Vec<Entity>>,
+    /// Entities holding an older version of their mesh than the last one sent (the asset was
+    /// edited, and their own new version is on its way): never a source for others.
+    stale: HashSet<Entity>,
 }
 
 impl SceneTree {
@@ -178,28 +181,52 @@ impl SceneTree {
         self.fresh_groups.insert(g);
         self.entity_mesh.insert(e, mesh);
         self.mesh_entities.entry(mesh).or_default().push(e);
+        self.stale.remove(&e);
     }
 
-    /// Traces `e` with the triangles another entity of the same mesh brought.
+    /// `e` brought new triangles for `mesh`: every other entity's are an older version.
+    pub(crate) fn supersede(&mut self, e: Entity, mesh: AssetId<Mesh>) {
+        if let Some(list) = self.mesh_entities.get(&mesh) {
+            self.stale.extend(list.iter().copied().filter(|x| *x != e));
+        }
+    }
+
+    /// Traces `e` with the triangles an entity of the same mesh brought (`e` itself among them:
+    /// its new instance is made before its old group goes, so the triangles never lapse). On
+    /// failure `e` is not traced.
     pub(crate) fn share(
         &mut self,
         e: Entity,
         mesh: AssetId<Mesh>,
         transform: Affine3A,
     ) -> Result<(), BvhError> {
-        let source = self
-            .mesh_entities
-            .get(&mesh)
-            .and_then(|list| list.iter().find_map(|s| self.entity_group.get(s)))
+        // Another entity's current version first, else `e`'s own, else whatever there is.
+        let holders: Vec<Entity> = self.mesh_entities.get(&mesh).cloned().unwrap_or_default();
+        let fresh = |x: &Entity| !self.stale.contains(x);
+        let made = holders
+            .iter()
+            .filter(|x| **x != e && fresh(x))
+            .chain(holders.iter().filter(|x| **x == e && fresh(x)))
+            .chain(holders.iter())
+            .find_map(|x| self.entity_group.get(x))
             .copied()
-            .ok_or(BvhError::UnknownGroup)?;
-        let g = self.bvh.insert_instance(source, transform)?;
+            .ok_or(BvhError::UnknownGroup)
+            .and_then(|source| Ok((self.bvh.insert_instance(source, transform)?, source)));
+        let (g, source) = match made {
+            Ok(m) => m,
+            Err(err) => {
+                self.remove_entity(e);
+                return Err(err);
+            }
+        };
         let shading = self.shading.get(&source).cloned().unwrap_or_default();
+        self.remove_entity(e);
         self.bind(e, g, shading, mesh);
         Ok(())
     }
 
     pub(crate) fn remove_entity(&mut self, e: Entity) {
+        self.stale.remove(&e);
         if let Some(mesh) = self.entity_mesh.remove(&e)
             && let Some(list) = self.mesh_entities.get_mut(&mesh)
         {
@@ -759,5 +786,56 @@ fn publish(mut scene: ResMut<SceneBvh>) {
     if scene.version != version || scene.stats != stats {
         scene.version = version;
         scene.stats = stats;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use treelight_bvh::Triangle;
+
+    fn quad(z: f32) -> Vec<Triangle> {
+        let v = |x: f32, y: f32| Vec3::new(x, y, z);
+        vec![
+            Triangle::new(v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)),
+            Triangle::new(v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)),
+        ]
+    }
+
+    #[test]
+    fn shared_meshes_take_their_triangles_from_a_current_holder() {
+        let mut world = World::new();
+        let [a, b, c] = [(); 3].map(|_| world.spawn_empty().id());
+        let mesh = AssetId::<Mesh>::default();
+        let mut tree = SceneTree::default();
+        let g = tree
+            .bvh
+            .insert_group(&quad(0.0), Affine3A::IDENTITY, false)
+            .unwrap();
+        tree.bind(a, g, Arc::default(), mesh);
+        // The order proptest found: `a` is sent again as an instance before the first copy of its
+        // mesh arrives, so it must share its own triangles.
+        tree.share(a, mesh, Affine3A::from_translation(Vec3::X))
+            .unwrap();
+        tree.share(b, mesh, Affine3A::from_translation(Vec3::Y))
+            .unwrap();
+        assert_eq!(tree.bvh.triangle_count(), 2);
+        assert_eq!(tree.entity_group.len(), 2);
+        tree.bvh.validate().unwrap();
+        // The mesh edited: `a` brings new triangles; `b` still holds the old ones, and a new copy
+        // shares `a`'s.
+        let fresh = tree
+            .bvh
+            .insert_group(&quad(5.0), Affine3A::IDENTITY, false)
+            .unwrap();
+        tree.remove_entity(a);
+        tree.bind(a, fresh, Arc::default(), mesh);
+        tree.supersede(a, mesh);
+        tree.share(c, mesh, Affine3A::IDENTITY).unwrap();
+        let shared =
+            |t: &SceneTree, e: Entity| t.bvh.shared_triangles(t.entity_group[&e]).unwrap().to_vec();
+        assert_eq!(shared(&tree, c), shared(&tree, a));
+        assert_ne!(shared(&tree, c), shared(&tree, b));
+        tree.bvh.validate().unwrap();
     }
 }

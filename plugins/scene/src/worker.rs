@@ -205,7 +205,10 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                             inserted_tris += p.len();
                             tree.remove_entity(entity);
                             match tree.bvh.insert_prepared(p) {
-                                Ok(g) => tree.bind(entity, g, shading, mesh),
+                                Ok(g) => {
+                                    tree.bind(entity, g, shading, mesh);
+                                    tree.supersede(entity, mesh);
+                                }
                                 Err(e) => warn!("entity {entity} is not traced: {e}"),
                             }
                             last_move.remove(&entity);
@@ -219,7 +222,6 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                         transform,
                         sent,
                     } => {
-                        tree.remove_entity(entity);
                         last_move.remove(&entity);
                         match tree.share(entity, mesh, transform) {
                             Ok(()) => {}

@@ -492,3 +492,38 @@ fn meshes_nearest_the_camera_are_traced_first() {
     // And the nearest really came first, not all at once.
     assert!(by_distance[0].1 < by_distance[15].1, "{by_distance:?}");
 }
+
+#[test]
+fn an_entity_sent_again_beside_a_new_copy_of_its_mesh_stays_traced() {
+    // In one frame a copy of a mesh appears and the original is sent again (its mesh handle set
+    // anew): both become instances of the original's triangles, which never lapse in between (the
+    // worker's order of the two is covered by the crate's own test of `SceneTree::share`).
+    let mut app = app(Duration::from_millis(20));
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0).mesh().build());
+    let original = app
+        .world_mut()
+        .spawn((Mesh3d(cube.clone()), Transform::default()))
+        .id();
+    settle(&mut app);
+    let copy = app
+        .world_mut()
+        .spawn((Mesh3d(cube.clone()), Transform::from_xyz(3.0, 0.0, 0.0)))
+        .id();
+    app.world_mut()
+        .entity_mut(original)
+        .insert(Mesh3d(cube.clone()));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 12);
+    let down = |x: f32| Ray3d::new(Vec3::new(x, 10.0, 0.0), Dir3::NEG_Y);
+    assert_eq!(cast(&app, down(0.0)).map(|h| h.entity), Some(original));
+    assert_eq!(cast(&app, down(3.0)).map(|h| h.entity), Some(copy));
+    app.world()
+        .resource::<SceneBvh>()
+        .read_blocking()
+        .bvh
+        .validate()
+        .unwrap();
+}
