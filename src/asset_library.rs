@@ -58,6 +58,8 @@ pub struct ThumbnailImage {
     pub rgba: Vec<u8>,
     /// Triangles in the file.
     pub triangles: usize,
+    /// The file as read, kept for the ghost a drag over the viewport shows.
+    pub scene: std::sync::Arc<treelight_import::ImportedScene>,
 }
 
 /// A file's thumbnail state.
@@ -229,6 +231,14 @@ impl AssetLibrary {
         changed
     }
 
+    /// The file as read for its thumbnail, once it has been.
+    pub fn parsed(&self, file: &Path) -> Option<std::sync::Arc<treelight_import::ImportedScene>> {
+        match self.thumbnails.get(file) {
+            Some(Thumbnail::Ready { image, .. }) => Some(image.scene.clone()),
+            _ => None,
+        }
+    }
+
     /// Whether thumbnails are still being made.
     pub fn busy(&self) -> bool {
         !self.jobs.is_empty()
@@ -298,6 +308,7 @@ pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {
     Ok(ThumbnailImage {
         rgba,
         triangles: triangles.len(),
+        scene: std::sync::Arc::new(scene),
     })
 }
 

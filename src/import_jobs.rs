@@ -65,6 +65,8 @@ pub struct ImportAccess<'w> {
     pub pending: ResMut<'w, PendingImports>,
     /// Where files dropped on the viewport go.
     pub drops: ResMut<'w, DropPositions>,
+    /// Files read and not yet in the scene.
+    pub parsed: ResMut<'w, ParsedImports>,
     /// Imports the tree is taking in.
     pub tracing: Res<'w, TracingImports>,
     /// Cancels asked for this frame.

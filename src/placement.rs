@@ -19,24 +19,25 @@ pub struct Surface {
 /// down; else a point `fallback_distance` along it, facing back along the ray. Waits for the tree
 /// if the worker holds it (a slice of idle work at most): a user's placement must not miss.
 pub fn surface_under(scene: &SceneBvh, ray: Ray3d, fallback_distance: f32) -> Surface {
-    surface_under_excluding(scene, ray, fallback_distance, None)
+    surface_under_excluding(scene, ray, fallback_distance, &[])
 }
 
-/// [`surface_under`], seeing through `exclude` (the object being placed).
+/// [`surface_under`], seeing through `exclude` (the objects being placed).
 pub fn surface_under_excluding(
     scene: &SceneBvh,
     ray: Ray3d,
     fallback_distance: f32,
-    exclude: Option<Entity>,
+    exclude: &[Entity],
 ) -> Surface {
     let tree = scene.read_blocking();
     let mut origin = ray.origin;
-    // Past the excluded object's surfaces, a few times at most (it may be hit front and back).
-    for _ in 0..8 {
+    // Past the excluded objects' surfaces, a bounded number of times (each may be hit front and
+    // back).
+    for _ in 0..32 {
         let Some(hit) = cast_on(&tree, Ray3d::new(origin, ray.direction)) else {
             break;
         };
-        if Some(hit.entity) != exclude {
+        if !exclude.contains(&hit.entity) {
             return Surface {
                 point: hit.point,
                 normal: hit.normal,

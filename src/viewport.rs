@@ -76,8 +76,9 @@ pub struct ViewportActions {
     /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
     /// surface, and whether it was dropped this frame.
     pub palette: Option<(crate::ui::palette::PaletteItem, Vec2, bool, bool)>,
-    /// A scene file from the Assets panel dropped on the viewport, and where.
-    pub file_drop: Option<(std::path::PathBuf, Vec2)>,
+    /// A scene file from the Assets panel over the viewport: the file, the pointer, whether Shift
+    /// aligns it to the surface, and whether it was dropped this frame.
+    pub palette_file: Option<(std::path::PathBuf, Vec2, bool, bool)>,
 }
 
 /// Pixels within which a second click counts as the same spot.
@@ -331,28 +332,22 @@ impl ViewportPanel<'_> {
         {
             self.actions.palette = Some((*item, vec(p), modifiers.shift, true));
         }
-        // A file from the panel lands where it is dropped, by the placement rule, once it is read.
+        // A file from the panel is shown where it would land, like a shape; Escape cancels it.
         if let Some(file) = egui::DragAndDrop::payload::<crate::ui::palette::PaletteFile>(ui.ctx())
-            && let Some(p) = pointer
-            && rect.contains(p)
         {
-            let name = file
-                .0
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            ui.painter().text(
-                p + egui::vec2(14.0, 18.0),
-                egui::Align2::LEFT_TOP,
-                format!("Drop to place {name}"),
-                egui::FontId::proportional(13.0),
-                egui::Color32::WHITE,
-            );
+            if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+                egui::DragAndDrop::clear_payload(ui.ctx());
+            } else if let Some(p) = pointer
+                && rect.contains(p)
+            {
+                self.actions.palette_file = Some((file.0.clone(), vec(p), modifiers.shift, false));
+            }
         }
         if egui::DragAndDrop::has_payload_of_type::<crate::ui::palette::PaletteFile>(ui.ctx())
             && let Some(file) = response.dnd_release_payload::<crate::ui::palette::PaletteFile>()
             && let Some(p) = pointer.or(response.interact_pointer_pos())
         {
-            self.actions.file_drop = Some((file.0.clone(), vec(p)));
+            self.actions.palette_file = Some((file.0.clone(), vec(p), modifiers.shift, true));
         }
 
         // The gizmo has the pointer first.

@@ -588,9 +588,18 @@ fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
     }
     let floor = object(&st, "Floor").screen.unwrap();
     let (head, _) = st.history;
-    // In front of both boxes, where only the floor is under the pointer.
+    // The samples' thumbnails (and with them the files, read) are made within a few frames.
+    s.frames(20);
+    // In front of both boxes, where only the floor is under the pointer. While the drag is over
+    // the viewport the stairs are already in the scene (and traced), with no step yet.
     s.drag_without_release(tile, (floor[0] - 60.0, floor[1] + 50.0), 6);
-    s.frames(2);
+    let during = s.frames(3);
+    assert_eq!(
+        ids_named(&during, "stairs.obj").len(),
+        1,
+        "the dragged file is shown"
+    );
+    assert_eq!(during.history.0, head, "no step while dragging");
     s.release(1);
     let st = s.wait_until(
         "the dropped file",
@@ -598,6 +607,11 @@ fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
         |st| st.settled && st.objects.iter().any(|o| o.name == "stairs.obj"),
     );
     assert_eq!(st.history.0, head + 1, "the drop is one step");
+    assert_eq!(
+        ids_named(&st, "stairs.obj").len(),
+        1,
+        "the ghost became the object"
+    );
     // The stairs' lowest point (y = 0 in the file) stands on the floor's top (y = 0).
     let stairs = object(&st, "stairs.obj");
     assert!(

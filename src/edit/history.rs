@@ -279,7 +279,7 @@ impl EditRequests {
 pub fn apply_request(world: &mut World, request: EditRequest) -> Result<(), EditError> {
     world.resource_scope(|world, mut history: Mut<EditHistory>| {
         if let EditRequest::Preview(mut command) = request {
-            if let EditCommand::AddPrimitive { .. } = command {
+            if let EditCommand::AddPrimitive { .. } | EditCommand::Import { .. } = command {
                 history.end_preview(world);
                 if let Undo::Despawn(made) = command.apply(world)? {
                     history.preview_made = made;

@@ -623,9 +623,6 @@ pub fn editor_ui(
         Some(palette::PaletteClick::RemoveFolder(dir)) => imports.library.remove_folder(&dir),
         None => {}
     }
-    if let Some((file, at)) = actions.file_drop.take() {
-        imports.import_at(file, Some(at));
-    }
     if let Some(shape) = add_at_centre.or(palette_shape)
         && let Some((camera, cam_gt)) = viewport_scene.camera.as_ref()
         && let Some(rect) = camera.logical_viewport_rect()
@@ -642,11 +639,77 @@ pub fn editor_ui(
     // A palette item over the viewport: its ghost (a preview, traced like any object) follows the
     // pointer by the placement rule; a drop makes it one step; anything else removes the ghost.
     let ghost = history.preview_made();
+    let ghost_root = ghost.and_then(|g| index.entity(g));
+    // The ghost and everything under it, which placement sees through.
+    let ghost_parts: Vec<Entity> = ghost_root.map_or_else(Vec::new, |root| {
+        objects
+            .iter()
+            .map(|o| o.0)
+            .filter(|&e| {
+                let mut at = Some(e);
+                while let Some(x) = at {
+                    if x == root {
+                        return true;
+                    }
+                    at = parent_of(x);
+                }
+                false
+            })
+            .collect()
+    });
+    let file_dragged = actions.palette_file.is_some();
+    if let (Some((file, at, _, dropped)), Some((camera, cam_gt))) =
+        (actions.palette_file.take(), viewport_scene.camera.as_ref())
+    {
+        let ray = camera.viewport_to_world(cam_gt, at).ok();
+        let read = imports.library.parsed(&file);
+        match (ray, read.as_deref().and_then(crate::import::scene_bounds)) {
+            (Some(ray), Some(bounds)) => {
+                // Stands where a dropped file would (its own orientation kept).
+                let surface = surface_under_excluding(&scene, ray, 5.0, &ghost_parts);
+                let transform = crate::import::drop_transform(bounds, surface);
+                match (dropped, ghost) {
+                    (false, Some(id)) => {
+                        requests
+                            .0
+                            .push(EditRequest::Preview(EditCommand::SetTransform {
+                                id,
+                                transform: transform.into(),
+                            }))
+                    }
+                    _ => {
+                        // The import command takes the file as the panel read it.
+                        if let Some(read) = &read {
+                            imports.parsed.0.insert(
+                                file.clone(),
+                                crate::import::ParsedScene::from((**read).clone()),
+                            );
+                        }
+                        let command = EditCommand::Import {
+                            file,
+                            root: None,
+                            transform: Some(transform.into()),
+                        };
+                        requests.0.push(if dropped {
+                            EditRequest::Apply {
+                                command,
+                                continuing: false,
+                            }
+                        } else {
+                            EditRequest::Preview(command)
+                        });
+                    }
+                }
+            }
+            // Not read yet: it is imported where it lands, without a ghost.
+            _ if dropped => imports.import_at(file, Some(at)),
+            _ => {}
+        }
+    }
     match (actions.palette, viewport_scene.camera.as_ref()) {
         (Some((item, at, aligned, dropped)), Some((camera, cam_gt))) => {
             if let Ok(ray) = camera.viewport_to_world(cam_gt, at) {
-                let ghost_entity = ghost.and_then(|g| index.entity(g));
-                let surface = surface_under_excluding(&scene, ray, 5.0, ghost_entity);
+                let surface = surface_under_excluding(&scene, ray, 5.0, &ghost_parts);
                 let (min, max) = item.0.bounds();
                 let transform = place_transform(surface, min, max, aligned);
                 let command = match (dropped, ghost) {
@@ -670,7 +733,9 @@ pub fn editor_ui(
                 });
             }
         }
-        _ if ghost.is_some() && drag.0.is_none() => requests.0.push(EditRequest::CancelPreview),
+        _ if ghost.is_some() && drag.0.is_none() && !file_dragged => {
+            requests.0.push(EditRequest::CancelPreview)
+        }
         _ => {}
     }
     requests.0.append(&mut actions.requests);
