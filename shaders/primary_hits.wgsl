@@ -43,21 +43,23 @@ fn primary_hits(@builtin(global_invocation_id) id: vec3<u32>) {
     hit_ids[id.y * camera.width + id.x] = hit.triangle;
 }
 
-// The paper's second quality measure: from each primary hit, `ao.rays` cosine-distributed shadow
-// rays of length `ao.length`. Writes the number of unoccluded rays per pixel (NONE for a miss).
-@compute @workgroup_size(8, 8, 1)
-fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.height {
-        return;
-    }
-    let pixel = id.y * camera.width + id.x;
-    let d = primary_ray_dir(id.x, id.y);
+// A primary hit seen from the camera: where secondary rays start, and the frame about its normal.
+struct SecondaryStart {
+    hit: bool,
+    p: vec3<f32>,
+    o: vec3<f32>,
+    n: vec3<f32>,
+}
+
+fn secondary_start(x: u32, y: u32) -> SecondaryStart {
+    var s: SecondaryStart;
+    let d = primary_ray_dir(x, y);
     let hit = closest_hit(camera.root, camera.origin, d, FAR);
-    if hit.triangle == NONE {
-        hit_ids[pixel] = NONE;
-        return;
+    s.hit = hit.triangle != NONE;
+    if !s.hit {
+        return s;
     }
-    let p = camera.origin + d * hit.t;
+    s.p = camera.origin + d * hit.t;
     let tri = tris[hit.triangle];
     var n = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);
     if hit.instance != NONE {
@@ -69,19 +71,95 @@ fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
     if dot(n, d) > 0.0 {
         n = -n;
     }
-    let frame = basis(n);
-    let o = offset(p, n);
+    s.n = n;
+    s.o = offset(s.p, n);
+    return s;
+}
+
+// Two uniform numbers in [0, 1) from the generator's state.
+fn next_pair(state: ptr<function, u32>) -> vec2<f32> {
+    *state = pcg(*state);
+    let u1 = f32(*state >> 8u) / 16777216.0;
+    *state = pcg(*state);
+    let u2 = f32(*state >> 8u) / 16777216.0;
+    return vec2<f32>(u1, u2);
+}
+
+// The paper's second quality measure: from each primary hit, `ao.rays` cosine-distributed shadow
+// rays of length `ao.length`. Writes the number of unoccluded rays per pixel (NONE for a miss).
+@compute @workgroup_size(8, 8, 1)
+fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let s = secondary_start(id.x, id.y);
+    if !s.hit {
+        hit_ids[pixel] = NONE;
+        return;
+    }
+    let frame = basis(s.n);
     var state = pcg(pixel);
     var open = 0u;
     for (var k = 0u; k < ao.rays; k += 1u) {
-        state = pcg(state);
-        let u1 = f32(state >> 8u) / 16777216.0;
-        state = pcg(state);
-        let u2 = f32(state >> 8u) / 16777216.0;
-        let dir = cosine_direction(frame, u1, u2);
-        if !occluded(camera.root, o, dir, ao.length) {
+        let u = next_pair(&state);
+        if !occluded(camera.root, s.o, cosine_direction(frame, u.x, u.y), ao.length) {
             open += 1u;
         }
     }
     hit_ids[pixel] = open;
+}
+
+// The path tracer's indirect rays: from each primary hit, `ao.rays` cosine-distributed rays to
+// their closest hit, however far. Writes how many hit something (NONE for a miss).
+@compute @workgroup_size(8, 8, 1)
+fn diffuse_bounces(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let s = secondary_start(id.x, id.y);
+    if !s.hit {
+        hit_ids[pixel] = NONE;
+        return;
+    }
+    let frame = basis(s.n);
+    var state = pcg(pixel);
+    var hits = 0u;
+    for (var k = 0u; k < ao.rays; k += 1u) {
+        let u = next_pair(&state);
+        let h = closest_hit(camera.root, s.o, cosine_direction(frame, u.x, u.y), FAR);
+        if h.triangle != NONE {
+            hits += 1u;
+        }
+    }
+    hit_ids[pixel] = hits;
+}
+
+// The path tracer's light rays: from each primary hit, `ao.rays` rays to points of a square light
+// above the camera (its side the image plane's height), stopping at the first occluder. Writes how
+// many reach the light (NONE for a miss).
+@compute @workgroup_size(8, 8, 1)
+fn shadow_rays(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let s = secondary_start(id.x, id.y);
+    if !s.hit {
+        hit_ids[pixel] = NONE;
+        return;
+    }
+    var state = pcg(pixel);
+    var lit = 0u;
+    for (var k = 0u; k < ao.rays; k += 1u) {
+        let u = next_pair(&state);
+        let light = camera.origin + camera.vertical * (1.0 + u.y) + camera.horizontal * (u.x - 0.5);
+        let to = light - s.p;
+        let dist = length(to);
+        if !occluded(camera.root, s.o, to / dist, dist * 0.999) {
+            lit += 1u;
+        }
+    }
+    hit_ids[pixel] = lit;
 }

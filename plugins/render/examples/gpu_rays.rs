@@ -1,5 +1,7 @@
-//! Rays per second on the adapter in use, through the WGSL traversal: primary rays and ambient-
-//! occlusion rays from their hits, over a tree built by the engine (IncrU, baked). Then the bytes an
+//! Rays per second on the adapter in use, through the WGSL traversal: primary rays, and from their
+//! hits shadow rays (to a square light above the camera, any hit), diffuse-bounce rays (cosine
+//! distributed, closest hit at any distance) and ambient-occlusion rays (short, any hit), over a tree
+//! built by the engine (IncrU, baked). Then the bytes an
 //! incremental upload writes when a 10k-triangle mesh joins the largest scene, next to the scene's
 //! full size.
 //!
@@ -24,8 +26,10 @@ fn main() {
         "give at least one scene (a file, or hairball:N, scatter:N:FILE, subdivide:K:FILE)",
     );
     let gpu = Gpu::new();
-    println!("| scene | triangles | primary Mrays/s | AO Mrays/s | AO rays per hit |");
-    println!("|---|---|---|---|---|");
+    println!(
+        "| scene | triangles | primary Mrays/s | shadow Mrays/s | diffuse Mrays/s | AO Mrays/s | rays per hit |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     let mut largest: Option<Bvh> = None;
     for spec in &specs {
         let scene = treelight_bench::scenes::load(spec, 1).unwrap_or_else(|e| {
@@ -59,6 +63,8 @@ fn main() {
         let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
         let primary = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");
         let occlusion = gpu.pipeline(PRIMARY_HITS_WGSL, "ambient_occlusion");
+        let diffuse = gpu.pipeline(PRIMARY_HITS_WGSL, "diffuse_bounces");
+        let shadow = gpu.pipeline(PRIMARY_HITS_WGSL, "shadow_rays");
         let [nb, tb, ib] = &buffers;
         // One warm-up dispatch each (shader compilation, first touch of the buffers), then the best
         // of the timed repeats.
@@ -77,17 +83,23 @@ fn main() {
             .iter()
             .filter(|&&h| h != u32::MAX)
             .count();
-        let t_ao = time(&occlusion, &[nb, tb, ib, &camera, &out, &ao]);
         let pixels = (resolution * resolution) as f64;
-        // AO time includes its primary rays; subtract them to rate the AO rays alone.
-        let ao_count = hits as f64 * ao_rays as f64;
-        let ao_secs = (t_ao - t_primary).max(1e-9);
+        // Each secondary kernel traces its primary rays again: subtract them to rate its own rays.
+        let secondary = hits as f64 * ao_rays as f64;
+        let rate = |pipeline: &wgpu::ComputePipeline| {
+            let t = time(pipeline, &[nb, tb, ib, &camera, &out, &ao]);
+            secondary / (t - t_primary).max(1e-9) / 1e6
+        };
+        let (shadow_rate, diffuse_rate, ao_rate) =
+            (rate(&shadow), rate(&diffuse), rate(&occlusion));
         println!(
-            "| {} | {} | {:.2} | {:.2} | {} |",
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
             scene.name,
             scene.triangles.len(),
             pixels / t_primary / 1e6,
-            ao_count / ao_secs / 1e6,
+            shadow_rate,
+            diffuse_rate,
+            ao_rate,
             ao_rays
         );
         if largest
