@@ -57,7 +57,8 @@ impl Bvh {
     /// SAH cost by a traversal from the root (what [`Bvh::sah_cost_with`] computes by other means
     /// when it can; kept public so tests can compare the two).
     pub fn sah_cost_traversed(&self, c_t: f32, c_i: f32) -> f32 {
-        self.cost_over_root(|| self.subtree_cost(self.root, c_t as f64, c_i as f64))
+        let mut shared = std::collections::HashMap::new();
+        self.cost_over_root(|| self.subtree_cost(self.root, c_t as f64, c_i as f64, &mut shared))
     }
 
     fn cost_over_root(&self, total: impl FnOnce() -> f64) -> f32 {
@@ -71,7 +72,15 @@ impl Bvh {
         (total() / s_root) as f32
     }
 
-    fn subtree_cost(&self, root: NodeRef, c_t: f64, c_i: f64) -> f64 {
+    /// `shared` keeps each object-space subtree's sum once computed: instances that share triangles
+    /// share a subtree, which is summed once however many place it.
+    fn subtree_cost(
+        &self,
+        root: NodeRef,
+        c_t: f64,
+        c_i: f64,
+        shared: &mut std::collections::HashMap<u32, f64>,
+    ) -> f64 {
         let mut sum = 0.0f64;
         let mut stack = vec![root];
         while let Some(n) = stack.pop() {
@@ -88,7 +97,15 @@ impl Bvh {
                     let object = self.aabb(inst.root).area() as f64;
                     sum += c_t * world;
                     if object > 0.0 {
-                        sum += self.subtree_cost(inst.root, c_t, c_i) * world / object;
+                        let below = match shared.get(&inst.root.0) {
+                            Some(&v) => v,
+                            None => {
+                                let v = self.subtree_cost(inst.root, c_t, c_i, shared);
+                                shared.insert(inst.root.0, v);
+                                v
+                            }
+                        };
+                        sum += below * world / object;
                     }
                 }
                 NodeKind::None => {}
