@@ -17,6 +17,9 @@ use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
 /// Side of a thumbnail, pixels.
 pub const THUMBNAIL: u32 = 72;
 
+/// Files up to this many triangles are kept as read, for a ghost while dragged.
+pub const GHOST_TRIANGLES: usize = 500_000;
+
 /// The extensions the panel lists.
 const SCENE_FILES: [&str; 4] = ["gltf", "glb", "obj", "ply"];
 
@@ -58,8 +61,9 @@ pub struct ThumbnailImage {
     pub rgba: Vec<u8>,
     /// Triangles in the file.
     pub triangles: usize,
-    /// The file as read, kept for the ghost a drag over the viewport shows.
-    pub scene: std::sync::Arc<treelight_import::ImportedScene>,
+    /// The file as read, kept for the ghost a drag over the viewport shows (not for files over
+    /// [`GHOST_TRIANGLES`], which are imported on drop without one rather than held in memory).
+    pub scene: Option<std::sync::Arc<treelight_import::ImportedScene>>,
 }
 
 /// A file's thumbnail state.
@@ -234,7 +238,7 @@ impl AssetLibrary {
     /// The file as read for its thumbnail, once it has been.
     pub fn parsed(&self, file: &Path) -> Option<std::sync::Arc<treelight_import::ImportedScene>> {
         match self.thumbnails.get(file) {
-            Some(Thumbnail::Ready { image, .. }) => Some(image.scene.clone()),
+            Some(Thumbnail::Ready { image, .. }) => image.scene.clone(),
             _ => None,
         }
     }
@@ -308,7 +312,7 @@ pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {
     Ok(ThumbnailImage {
         rgba,
         triangles: triangles.len(),
-        scene: std::sync::Arc::new(scene),
+        scene: (triangles.len() <= GHOST_TRIANGLES).then(|| std::sync::Arc::new(scene)),
     })
 }
 
