@@ -85,81 +85,63 @@ fn next_pair(state: ptr<function, u32>) -> vec2<f32> {
     return vec2<f32>(u1, u2);
 }
 
-// The paper's second quality measure: from each primary hit, `ao.rays` cosine-distributed shadow
-// rays of length `ao.length`. Writes the number of unoccluded rays per pixel (NONE for a miss).
+const RAYS_AO: u32 = 0u;
+const RAYS_DIFFUSE: u32 = 1u;
+const RAYS_SHADOW: u32 = 2u;
+
+// From the primary hit of pixel `id`, `ao.rays` secondary rays of one kind; writes how many of them
+// count (NONE for a miss):
+// - RAYS_AO, the paper's second quality measure: cosine-distributed rays of length `ao.length`,
+//   counted when unoccluded;
+// - RAYS_DIFFUSE, the path tracer's indirect rays: cosine-distributed rays to their closest hit,
+//   however far, counted when they hit something;
+// - RAYS_SHADOW, the path tracer's light rays: rays to points of a square light above the camera
+//   (its side the image plane's height), counted when they reach it.
+fn secondary_rays(id: vec3<u32>, kind: u32) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let s = secondary_start(id.x, id.y);
+    if !s.hit {
+        hit_ids[pixel] = NONE;
+        return;
+    }
+    let frame = basis(s.n);
+    var state = pcg(pixel);
+    var counted = 0u;
+    for (var k = 0u; k < ao.rays; k += 1u) {
+        let u = next_pair(&state);
+        var counts = false;
+        if kind == RAYS_SHADOW {
+            let light = camera.origin + camera.vertical * (1.0 + u.y) + camera.horizontal * (u.x - 0.5);
+            let to = light - s.p;
+            let dist = length(to);
+            counts = !occluded(camera.root, s.o, to / dist, dist * 0.999);
+        } else if kind == RAYS_DIFFUSE {
+            let dir = cosine_direction(frame, u.x, u.y);
+            counts = closest_hit(camera.root, s.o, dir, FAR).triangle != NONE;
+        } else {
+            counts = !occluded(camera.root, s.o, cosine_direction(frame, u.x, u.y), ao.length);
+        }
+        if counts {
+            counted += 1u;
+        }
+    }
+    hit_ids[pixel] = counted;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn ambient_occlusion(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.height {
-        return;
-    }
-    let pixel = id.y * camera.width + id.x;
-    let s = secondary_start(id.x, id.y);
-    if !s.hit {
-        hit_ids[pixel] = NONE;
-        return;
-    }
-    let frame = basis(s.n);
-    var state = pcg(pixel);
-    var open = 0u;
-    for (var k = 0u; k < ao.rays; k += 1u) {
-        let u = next_pair(&state);
-        if !occluded(camera.root, s.o, cosine_direction(frame, u.x, u.y), ao.length) {
-            open += 1u;
-        }
-    }
-    hit_ids[pixel] = open;
+    secondary_rays(id, RAYS_AO);
 }
 
-// The path tracer's indirect rays: from each primary hit, `ao.rays` cosine-distributed rays to
-// their closest hit, however far. Writes how many hit something (NONE for a miss).
 @compute @workgroup_size(8, 8, 1)
 fn diffuse_bounces(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.height {
-        return;
-    }
-    let pixel = id.y * camera.width + id.x;
-    let s = secondary_start(id.x, id.y);
-    if !s.hit {
-        hit_ids[pixel] = NONE;
-        return;
-    }
-    let frame = basis(s.n);
-    var state = pcg(pixel);
-    var hits = 0u;
-    for (var k = 0u; k < ao.rays; k += 1u) {
-        let u = next_pair(&state);
-        let h = closest_hit(camera.root, s.o, cosine_direction(frame, u.x, u.y), FAR);
-        if h.triangle != NONE {
-            hits += 1u;
-        }
-    }
-    hit_ids[pixel] = hits;
+    secondary_rays(id, RAYS_DIFFUSE);
 }
 
-// The path tracer's light rays: from each primary hit, `ao.rays` rays to points of a square light
-// above the camera (its side the image plane's height), stopping at the first occluder. Writes how
-// many reach the light (NONE for a miss).
 @compute @workgroup_size(8, 8, 1)
 fn shadow_rays(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.height {
-        return;
-    }
-    let pixel = id.y * camera.width + id.x;
-    let s = secondary_start(id.x, id.y);
-    if !s.hit {
-        hit_ids[pixel] = NONE;
-        return;
-    }
-    var state = pcg(pixel);
-    var lit = 0u;
-    for (var k = 0u; k < ao.rays; k += 1u) {
-        let u = next_pair(&state);
-        let light = camera.origin + camera.vertical * (1.0 + u.y) + camera.horizontal * (u.x - 0.5);
-        let to = light - s.p;
-        let dist = length(to);
-        if !occluded(camera.root, s.o, to / dist, dist * 0.999) {
-            lit += 1u;
-        }
-    }
-    hit_ids[pixel] = lit;
+    secondary_rays(id, RAYS_SHADOW);
 }

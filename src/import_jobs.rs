@@ -131,7 +131,7 @@ pub fn follow_imports(world: &mut World) {
     if !jobs.awaiting.is_empty() {
         let history = world.resource::<EditHistory>();
         let head = history.head();
-        let last = history.commands().pop();
+        let last = history.last_command();
         jobs.awaiting.retain(|(file, started)| {
             let Some(EditCommand::Import {
                 file: done,

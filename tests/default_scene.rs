@@ -2,35 +2,17 @@
 //! `default_scene.rs` makes. `TREELIGHT_REGENERATE=1 cargo test -p treelight --test default_scene`
 //! writes the file again after the code changed.
 
-use bevy::asset::AssetPlugin;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use std::path::Path;
 use treelight::camera::OrbitCamera;
 use treelight::default_scene::{DEFAULT_PROJECT, spawn_default_scene};
-use treelight::edit::{EditHistory, EditRequests};
-use treelight::import::SourceCatalog;
-use treelight::project::{ProjectState, capture_project, read_project_str, write_project};
-use treelight::scene_id::SceneIndex;
-use treelight::selection::Selection;
+use treelight::project::{capture_project, read_project_str, write_project};
 
 #[test]
 fn the_embedded_default_scene_is_what_the_code_makes() {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-    ))
-    .init_asset::<StandardMaterial>()
-    .init_resource::<SceneIndex>()
-    .init_resource::<EditHistory>()
-    .init_resource::<EditRequests>()
-    .init_resource::<Selection>()
-    .init_resource::<SourceCatalog>()
-    .init_resource::<ProjectState>()
-    .add_systems(Startup, spawn_default_scene);
+    // The editor's headless app, with the default scene spawned from code.
+    let mut app = treelight::headless::headless_app(treelight_scene::SceneBvhConfig::default());
+    app.add_systems(Startup, spawn_default_scene);
     app.world_mut()
         .spawn((OrbitCamera::default(), Transform::default()));
     app.update();

@@ -480,23 +480,7 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
 
 #[test]
 fn info_describes_scene_files_and_projects_without_a_display() {
-    let run = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_treelight"))
-            .arg("info")
-            .args(args)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .output()
-            .unwrap();
-        (
-            out.status.success(),
-            format!(
-                "{}{}",
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            ),
-        )
-    };
+    let run = |args: &[&str]| run_without_display(&[&["info"], args].concat());
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     let (ok, text) = run(&[helmet.to_str().unwrap()]);
@@ -537,23 +521,7 @@ fn info_describes_scene_files_and_projects_without_a_display() {
 
 #[test]
 fn save_runs_without_a_display() {
-    let run = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_treelight"))
-            .args(args)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .env("TREELIGHT_CONFIG_DIR", test_config_dir())
-            .output()
-            .unwrap();
-        (
-            out.status.success(),
-            format!(
-                "{}{}",
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            ),
-        )
-    };
+    let run = run_without_display;
     let dir = temp_dir("save-headless");
     // A scene file imported and saved as a project.
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

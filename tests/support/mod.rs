@@ -25,6 +25,26 @@ pub fn test_config_dir() -> PathBuf {
     std::env::temp_dir().join(format!("treelight-test-config-{}", std::process::id()))
 }
 
+/// Runs the editor with `args` where there is no display (and the test settings folder): whether it
+/// succeeded, and its combined output.
+pub fn run_without_display(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_treelight"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env("TREELIGHT_CONFIG_DIR", test_config_dir())
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
 /// Runs the editor with `args` under xvfb-run and returns its combined output.
 pub fn run_editor(args: &[&str]) -> String {
     run_headless(Path::new(env!("CARGO_BIN_EXE_treelight")), args)

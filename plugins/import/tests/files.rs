@@ -360,19 +360,24 @@ fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
     assert!(s.nodes[node].parent.is_some(), "{:?}", s.nodes);
 }
 
-#[test]
-fn a_mesh_placed_by_several_nodes_is_read_once_and_marked_the_same() {
-    // BoxTextured with a second node placing the same mesh elsewhere.
-    let dir = std::env::temp_dir().join(format!("treelight-reuse-{}", std::process::id()));
+/// A copy of BoxTextured (its .gltf, .bin and image) in a fresh folder named after `tag`: the folder,
+/// the .gltf's path and its JSON, to edit and write back.
+fn copy_box_textured(tag: &str) -> (PathBuf, PathBuf, serde_json::Value) {
+    let dir = std::env::temp_dir().join(format!("treelight-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let src = scene("gltf/BoxTextured-glTF");
-    for f in std::fs::read_dir(&src).unwrap() {
+    for f in std::fs::read_dir(scene("gltf/BoxTextured-glTF")).unwrap() {
         let f = f.unwrap().path();
         std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
     }
     let path = dir.join("BoxTextured.gltf");
-    let mut json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let json = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    (dir, path, json)
+}
+
+#[test]
+fn a_mesh_placed_by_several_nodes_is_read_once_and_marked_the_same() {
+    // BoxTextured with a second node placing the same mesh elsewhere.
+    let (dir, path, mut json) = copy_box_textured("reuse");
     let nodes = json["nodes"].as_array_mut().unwrap();
     let mesh_node = nodes.iter().position(|n| n.get("mesh").is_some()).unwrap();
     nodes.push(serde_json::json!({"name": "copy", "mesh": nodes[mesh_node]["mesh"], "translation": [3.0, 0.0, 0.0]}));
@@ -403,16 +408,7 @@ fn a_mesh_placed_by_several_nodes_is_read_once_and_marked_the_same() {
 
 #[test]
 fn texture_transforms_are_read_as_one_affine_map() {
-    let dir = std::env::temp_dir().join(format!("treelight-uvxf-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let src = scene("gltf/BoxTextured-glTF");
-    for f in std::fs::read_dir(&src).unwrap() {
-        let f = f.unwrap().path();
-        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
-    }
-    let path = dir.join("BoxTextured.gltf");
-    let mut json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let (dir, path, mut json) = copy_box_textured("uvxf");
     json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
     json["extensionsRequired"] = serde_json::json!(["KHR_texture_transform"]);
     json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = serde_json::json!({

@@ -456,17 +456,20 @@ impl SceneBvh {
     /// Stops `e`'s copy, if any; entities that waited for it are looked at again.
     fn drop_copy(&mut self, e: Entity) {
         if let Some(job) = self.copying.remove(&e) {
-            let waiting: Vec<Entity> = self
-                .followers
-                .iter()
-                .filter(|(_, f)| f.mesh == job.mesh)
-                .map(|(&f, _)| f)
-                .collect();
-            for f in waiting {
+            for f in self.followers_of(job.mesh) {
                 self.followers.remove(&f);
                 self.orphans.push(f);
             }
         }
+    }
+
+    /// The entities waiting for a copy of `mesh`.
+    fn followers_of(&self, mesh: AssetId<Mesh>) -> Vec<Entity> {
+        self.followers
+            .iter()
+            .filter(|(_, f)| f.mesh == mesh)
+            .map(|(&f, _)| f)
+            .collect()
     }
 
     /// Sends `e` as an instance of `mesh`, whose triangles the worker holds for another entity.
@@ -677,12 +680,7 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
         let Some(job) = scene.copying.remove(&e) else {
             continue;
         };
-        let waiting: Vec<Entity> = scene
-            .followers
-            .iter()
-            .filter(|(_, f)| f.mesh == job.mesh)
-            .map(|(&f, _)| f)
-            .collect();
+        let waiting = scene.followers_of(job.mesh);
         match result {
             Ok(()) => {
                 let geometry = job.copy.finish();
