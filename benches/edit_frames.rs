@@ -76,7 +76,7 @@ fn settle_traced(app: &mut App, triangles: u32, entities: usize) -> Duration {
         let scene = app.world().resource::<SceneBvh>();
         if scene.is_idle()
             && scene.stats().triangles == triangles
-            && scene.read_blocking().entity_group.len() == entities
+            && scene.read_blocking().entity_groups.len() == entities
         {
             return start.elapsed();
         }

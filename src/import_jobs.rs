@@ -170,11 +170,19 @@ pub fn follow_imports(world: &mut World) {
         let mut finished = Vec::new();
         if let Some(tree) = world.resource::<SceneBvh>().try_read() {
             for (k, job) in jobs.jobs.iter_mut().enumerate() {
+                // A huge mesh enters in chunks: its share grows with each one.
                 job.traced = job
                     .meshes
                     .iter()
-                    .filter(|(e, _)| tree.entity_group.contains_key(e))
-                    .map(|m| m.1)
+                    .map(|&(e, n)| {
+                        let groups = tree.groups_of(e);
+                        let in_tree: u64 = groups
+                            .iter()
+                            .filter_map(|&g| tree.bvh.shared_triangles(g).ok())
+                            .map(|t| t.len() as u64)
+                            .sum();
+                        n.min(in_tree)
+                    })
                     .sum();
                 if !alive[k] || job.traced >= job.total() {
                     finished.push(k);

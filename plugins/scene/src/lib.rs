@@ -12,6 +12,7 @@
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
+mod chunks;
 mod mesh;
 mod picking;
 mod worker;
@@ -51,6 +52,10 @@ pub struct SceneBvhConfig {
     /// The engine's policy by name: its configuration for the tree, and the global updates the
     /// worker runs in idle time after each edit ([`Preset::policy`]).
     pub preset: Preset,
+    /// A mesh of more triangles than this enters the tree in spatial chunks of at most this many,
+    /// each a group of the same entity, nearest the camera first: the first of a huge mesh is traced
+    /// long before its whole build would be done. Default 65,536.
+    pub chunk_triangles: usize,
 }
 
 impl Default for SceneBvhConfig {
@@ -60,6 +65,7 @@ impl Default for SceneBvhConfig {
             idle_tick: Duration::from_millis(50),
             main_thread_budget: Duration::from_micros(750),
             preset: Preset::Balanced,
+            chunk_triangles: 1 << 16,
         }
     }
 }
@@ -90,6 +96,7 @@ impl Plugin for SceneBvhPlugin {
             bake_after: self.config.bake_after,
             idle_tick: self.config.idle_tick,
             idle_updates: policy.idle,
+            chunk_triangles: self.config.chunk_triangles,
         };
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())
@@ -108,6 +115,7 @@ impl Plugin for SceneBvhPlugin {
             followers: HashMap::new(),
             orphans: Vec::new(),
             copy_order: Vec::new(),
+            eye: None,
             budget: self.config.main_thread_budget,
         })
         .add_systems(
@@ -150,8 +158,9 @@ pub struct SceneTree {
     pub bvh: Bvh,
     /// Which entity each group is.
     pub group_entity: HashMap<GroupId, Entity>,
-    /// Which group each traced entity is.
-    pub entity_group: HashMap<Entity, GroupId>,
+    /// Which groups each traced entity is: one, or one per chunk of a mesh that entered the tree in
+    /// spatial chunks ([`SceneBvhConfig::chunk_triangles`]).
+    pub entity_groups: HashMap<Entity, Vec<GroupId>>,
     /// Each group's normals and texture coordinates, in the order of its triangles
     /// ([`Bvh::group_triangles`]).
     pub shading: HashMap<GroupId, Arc<TriangleShading>>,
@@ -176,12 +185,38 @@ impl SceneTree {
         mesh: AssetId<Mesh>,
     ) {
         self.group_entity.insert(g, e);
-        self.entity_group.insert(e, g);
+        self.entity_groups.entry(e).or_default().push(g);
         self.shading.insert(g, shading);
         self.fresh_groups.insert(g);
-        self.entity_mesh.insert(e, mesh);
-        self.mesh_entities.entry(mesh).or_default().push(e);
+        match self.entity_mesh.insert(e, mesh) {
+            Some(old) if old == mesh => {}
+            old => {
+                if let Some(old) = old {
+                    self.unlist(e, old);
+                }
+                self.mesh_entities.entry(mesh).or_default().push(e);
+            }
+        }
         self.stale.remove(&e);
+    }
+
+    fn unlist(&mut self, e: Entity, mesh: AssetId<Mesh>) {
+        if let Some(list) = self.mesh_entities.get_mut(&mesh) {
+            list.retain(|&x| x != e);
+            if list.is_empty() {
+                self.mesh_entities.remove(&mesh);
+            }
+        }
+    }
+
+    /// The groups entity `e` is in the tree (none if it is not traced).
+    pub fn groups_of(&self, e: Entity) -> &[GroupId] {
+        self.entity_groups.get(&e).map_or(&[], Vec::as_slice)
+    }
+
+    /// Whether any of `e`'s triangles are in the tree.
+    pub fn is_traced(&self, e: Entity) -> bool {
+        self.entity_groups.contains_key(&e)
     }
 
     /// `e` brought new triangles for `mesh`: every other entity's are an older version.
@@ -203,45 +238,73 @@ impl SceneTree {
         // Another entity's current version first, else `e`'s own, else whatever there is.
         let holders: Vec<Entity> = self.mesh_entities.get(&mesh).cloned().unwrap_or_default();
         let fresh = |x: &Entity| !self.stale.contains(x);
-        let made = holders
+        let sources: Vec<GroupId> = holders
             .iter()
             .filter(|x| **x != e && fresh(x))
             .chain(holders.iter().filter(|x| **x == e && fresh(x)))
             .chain(holders.iter())
-            .find_map(|x| self.entity_group.get(x))
-            .copied()
-            .ok_or(BvhError::UnknownGroup)
-            .and_then(|source| Ok((self.bvh.insert_instance(source, transform)?, source)));
-        let (g, source) = match made {
-            Ok(m) => m,
-            Err(err) => {
-                self.remove_entity(e);
-                return Err(err);
+            .find_map(|x| self.entity_groups.get(x))
+            .cloned()
+            .unwrap_or_default();
+        if sources.is_empty() {
+            self.remove_entity(e);
+            return Err(BvhError::UnknownGroup);
+        }
+        // One instance per group of the source (one per chunk of a chunked mesh).
+        let mut made: Vec<(GroupId, GroupId)> = Vec::with_capacity(sources.len());
+        for &source in &sources {
+            match self.bvh.insert_instance(source, transform) {
+                Ok(g) => made.push((g, source)),
+                Err(err) => {
+                    for (g, _) in made {
+                        // Made just now by this tree, so removal cannot fail.
+                        let _ = self.bvh.remove_group(g);
+                    }
+                    self.remove_entity(e);
+                    return Err(err);
+                }
             }
-        };
-        let shading = self.shading.get(&source).cloned().unwrap_or_default();
+        }
         self.remove_entity(e);
-        self.bind(e, g, shading, mesh);
+        for (g, source) in made {
+            let shading = self.shading.get(&source).cloned().unwrap_or_default();
+            self.bind(e, g, shading, mesh);
+        }
         Ok(())
     }
 
     pub(crate) fn remove_entity(&mut self, e: Entity) {
         self.stale.remove(&e);
-        if let Some(mesh) = self.entity_mesh.remove(&e)
-            && let Some(list) = self.mesh_entities.get_mut(&mesh)
-        {
-            list.retain(|&x| x != e);
+        if let Some(mesh) = self.entity_mesh.remove(&e) {
+            self.unlist(e, mesh);
+        }
+        for g in self.entity_groups.remove(&e).unwrap_or_default() {
+            self.drop_group(g);
+        }
+    }
+
+    /// Removes some of `e`'s groups (an older version of its mesh, once all chunks of the new one
+    /// are in); `e` stays traced by the rest.
+    pub(crate) fn remove_groups(&mut self, e: Entity, old: &[GroupId]) {
+        if let Some(list) = self.entity_groups.get_mut(&e) {
+            list.retain(|g| !old.contains(g));
             if list.is_empty() {
-                self.mesh_entities.remove(&mesh);
+                self.remove_entity(e);
             }
         }
-        if let Some(g) = self.entity_group.remove(&e) {
-            self.group_entity.remove(&g);
-            self.shading.remove(&g);
-            self.fresh_groups.remove(&g);
-            // The handle came from this tree, so removal cannot fail.
-            let _ = self.bvh.remove_group(g);
+        for &g in old {
+            if self.group_entity.get(&g) == Some(&e) {
+                self.drop_group(g);
+            }
         }
+    }
+
+    fn drop_group(&mut self, g: GroupId) {
+        self.group_entity.remove(&g);
+        self.shading.remove(&g);
+        self.fresh_groups.remove(&g);
+        // The handle came from this tree, so removal cannot fail.
+        let _ = self.bvh.remove_group(g);
     }
 
     /// The entity owning triangle `t` (the one whose mesh brought it, while it is traced; entities
@@ -308,6 +371,9 @@ pub struct SceneBvh {
     orphans: Vec<Entity>,
     /// This frame's order of the copies: nearest the camera first.
     copy_order: Vec<Entity>,
+    /// Where the first active 3D camera is this frame: the worker inserts a huge mesh's chunks
+    /// nearest it first.
+    eye: Option<Vec3>,
     budget: Duration,
 }
 
@@ -613,12 +679,13 @@ fn track_world(
     }
     // Meshes nearest the (first active 3D) camera are copied, and so traced, first: a big
     // assembly fills the preview in from the front.
+    scene.eye = cameras
+        .iter()
+        .filter(|(c, _)| c.is_active)
+        .min_by_key(|(c, _)| c.order)
+        .map(|(_, gt)| gt.translation());
     if scene.copying.len() > 1
-        && let Some(eye) = cameras
-            .iter()
-            .filter(|(c, _)| c.is_active)
-            .min_by_key(|(c, _)| c.order)
-            .map(|(_, gt)| gt.translation())
+        && let Some(eye) = scene.eye
     {
         let mut order: Vec<(f32, Entity)> = scene
             .copying
@@ -692,6 +759,7 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
                     triangles: Arc::new(geometry.triangles),
                     shading: Arc::new(geometry.shading),
                     transform: job.transform,
+                    eye: scene.eye,
                     sent: job.started,
                 });
                 for f in waiting {
@@ -818,7 +886,7 @@ mod tests {
         tree.share(b, mesh, Affine3A::from_translation(Vec3::Y))
             .unwrap();
         assert_eq!(tree.bvh.triangle_count(), 2);
-        assert_eq!(tree.entity_group.len(), 2);
+        assert_eq!(tree.entity_groups.len(), 2);
         tree.bvh.validate().unwrap();
         // The mesh edited: `a` brings new triangles; `b` still holds the old ones, and a new copy
         // shares `a`'s.
@@ -831,7 +899,7 @@ mod tests {
         tree.supersede(a, mesh);
         tree.share(c, mesh, Affine3A::IDENTITY).unwrap();
         let shared =
-            |t: &SceneTree, e: Entity| t.bvh.shared_triangles(t.entity_group[&e]).unwrap().to_vec();
+            |t: &SceneTree, e: Entity| t.bvh.shared_triangles(t.groups_of(e)[0]).unwrap().to_vec();
         assert_eq!(shared(&tree, c), shared(&tree, a));
         assert_ne!(shared(&tree, c), shared(&tree, b));
         tree.bvh.validate().unwrap();

@@ -1,6 +1,7 @@
 //! The background worker that owns the write side of the global tree. Commands arrive over a
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
+use crate::chunks::spatial_chunks;
 use crate::{SceneStats, SceneTree, TriangleShading};
 use bevy::asset::AssetId;
 use bevy::log::warn;
@@ -12,8 +13,8 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
-use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{IdleUpdates, IdleWork, PreparedGroup, Triangle};
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_bvh::{GroupId, IdleUpdates, IdleWork, PreparedGroup, Triangle};
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
@@ -25,6 +26,8 @@ pub(crate) enum Command {
         triangles: Arc<Vec<Triangle>>,
         shading: Arc<TriangleShading>,
         transform: Affine3A,
+        /// The camera's position when it was sent: a mesh inserted in chunks starts nearest it.
+        eye: Option<Vec3>,
         sent: Instant,
     },
     /// An entity whose mesh asset the tree already holds for another entity: it shares those
@@ -68,6 +71,8 @@ pub(crate) struct WorkerConfig {
     pub idle_tick: Duration,
     /// The preset's global updates after each edit.
     pub idle_updates: IdleUpdates,
+    /// Meshes larger than this enter the tree in spatial chunks.
+    pub chunk_triangles: usize,
 }
 
 /// Keeps only the last word on each entity, in first-mention order. A move after an upsert or an
@@ -87,6 +92,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
                     name,
                     triangles,
                     shading,
+                    eye,
                     sent,
                     ..
                 }),
@@ -98,6 +104,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
                 triangles,
                 shading,
                 transform,
+                eye,
                 sent,
             },
             (
@@ -160,8 +167,23 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let mut batch = vec![first];
         batch.extend(rx.try_iter());
         let received = batch.len();
-        let commands = coalesce(batch);
+        let (chunked, commands): (Vec<Command>, Vec<Command>) =
+            coalesce(batch).into_iter().partition(|c| {
+                matches!(c, Command::Upsert { triangles, .. }
+                    if triangles.len() > config.chunk_triangles)
+            });
         let started = Instant::now();
+        // Huge meshes first, a chunk at a time, each published as soon as it is in (they are new
+        // meshes, which the instances of this batch may share, like any other upsert).
+        let mut inserted_tris = 0usize;
+        let mut latest_sent: Option<Instant> = None;
+        for c in chunked {
+            if let Command::Upsert { entity, sent, .. } = c {
+                last_move.remove(&entity);
+                inserted_tris += insert_in_chunks(&shared, &mut clock, received, config, c);
+                latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
+            }
+        }
         // The expensive part, in parallel and without the lock: world transforms and bBVH builds.
         let prepared: Vec<Option<PreparedGroup>> = commands
             .par_iter()
@@ -182,8 +204,6 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 _ => None,
             })
             .collect();
-        let mut inserted_tris = 0usize;
-        let mut latest_sent: Option<Instant> = None;
         {
             let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
             let tree = &mut *guard;
@@ -233,9 +253,11 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                         latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
                     }
                     Command::Move { entity, transform } => {
-                        if let Some(&g) = tree.entity_group.get(&entity) {
-                            if let Err(e) = tree.bvh.set_group_transform(g, transform) {
-                                warn!("entity {entity} cannot move in the tree: {e}");
+                        if let Some(groups) = tree.entity_groups.get(&entity) {
+                            for &g in groups {
+                                if let Err(e) = tree.bvh.set_group_transform(g, transform) {
+                                    warn!("entity {entity} cannot move in the tree: {e}");
+                                }
                             }
                             last_move.insert(entity, Instant::now());
                         }
@@ -259,6 +281,76 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         });
         shared.pending.fetch_sub(received, Ordering::AcqRel);
     }
+}
+
+/// Inserts a huge mesh (an `Upsert`) as spatial chunks, each a group of its entity, nearest the
+/// camera first. Each chunk is built outside the lock and published when it is in, so renderers and
+/// picking see the front of the mesh while the rest is built. The entity's previous version stays
+/// until the last chunk is in. Returns the triangles inserted.
+fn insert_in_chunks(
+    shared: &Shared,
+    clock: &mut CostClock,
+    in_flight: usize,
+    config: WorkerConfig,
+    upsert: Command,
+) -> usize {
+    let Command::Upsert {
+        entity,
+        mesh,
+        name,
+        triangles,
+        shading,
+        transform,
+        eye,
+        ..
+    } = upsert
+    else {
+        return 0;
+    };
+    let chunks = spatial_chunks(
+        &triangles,
+        &shading,
+        config.chunk_triangles,
+        &transform,
+        eye,
+    );
+    drop((triangles, shading));
+    let old: Vec<GroupId> = shared
+        .tree
+        .read()
+        .unwrap_or_else(|p| p.into_inner())
+        .groups_of(entity)
+        .to_vec();
+    let mut made: Vec<GroupId> = Vec::with_capacity(chunks.len());
+    let mut inserted = 0usize;
+    for chunk in chunks {
+        let built = PreparedGroup::build(chunk.triangles, transform, false);
+        let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
+        let tree = &mut *guard;
+        match built.and_then(|p| {
+            let n = p.len();
+            Ok((tree.bvh.insert_prepared(p)?, n))
+        }) {
+            Ok((g, n)) => {
+                tree.bind(entity, g, Arc::new(chunk.shading), mesh);
+                made.push(g);
+                inserted += n;
+            }
+            Err(e) => {
+                // The whole mesh or nothing: what came in goes, the previous version stays.
+                warn!("entity {entity} ('{name}') is not traced: {e}");
+                tree.remove_groups(entity, &made);
+                return inserted;
+            }
+        }
+        drop(guard);
+        shared.version.fetch_add(1, Ordering::Release);
+        publish_stats(shared, clock, in_flight, |_| {});
+    }
+    let mut tree = shared.tree.write().unwrap_or_else(|p| p.into_inner());
+    tree.remove_groups(entity, &old);
+    tree.supersede(entity, mesh);
+    inserted
 }
 
 /// Between commands: bake groups that stopped moving, then one short step of global updates (the
@@ -288,10 +380,10 @@ fn idle_work(
         let tree = &mut *guard;
         for e in still {
             last_move.remove(&e);
-            if let Some(&g) = tree.entity_group.get(&e)
-                && let Err(err) = tree.bvh.bake_group(g)
-            {
-                warn!("entity {e} could not be baked: {err}");
+            for &g in tree.entity_groups.get(&e).into_iter().flatten() {
+                if let Err(err) = tree.bvh.bake_group(g) {
+                    warn!("entity {e} could not be baked: {err}");
+                }
             }
         }
         idle.step(&config.idle_updates, &mut tree.bvh)

@@ -69,7 +69,7 @@ fn pointer_rays_hit_the_nearest_pickable_entity() {
         .world()
         .resource::<SceneBvh>()
         .read_blocking()
-        .entity_group
+        .entity_groups
         .len()
         < 4
     {

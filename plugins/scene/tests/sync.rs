@@ -128,8 +128,34 @@ fn check(app: &mut App, rays: &[Ray3d]) {
 
 #[test]
 fn random_spawns_despawns_and_moves_match_brute_force() {
-    let mut app = app(Duration::from_millis(30));
-    let mut r = Rng(0x9e3779b97f4a7c15);
+    let most_groups = random_edits(app(Duration::from_millis(30)), 0x9e3779b97f4a7c15);
+    assert_eq!(
+        most_groups, 1,
+        "no mesh is big enough to be cut into chunks"
+    );
+}
+
+#[test]
+fn random_edits_of_meshes_inserted_in_chunks_match_brute_force() {
+    // Spheres (320 triangles) and tori enter the tree in chunks of at most 100, cubes whole: each
+    // chunk a group of the same entity, moved, shared, baked and removed with it.
+    let app = headless_app(SceneBvhConfig {
+        bake_after: Duration::from_millis(30),
+        chunk_triangles: 100,
+        ..default()
+    });
+    let most_groups = random_edits(app, 0x2545f4914f6cdd1d);
+    assert!(
+        most_groups >= 4,
+        "spheres come in at least 4 chunks: {most_groups}"
+    );
+}
+
+/// Random spawns (some sharing a mesh), despawns and drags, each round checked against brute force
+/// over the ECS; ends with everything despawned. Returns the most groups one entity had.
+fn random_edits(mut app: App, seed: u64) -> usize {
+    let mut r = Rng(seed);
+    let mut most_groups = 0;
     let shapes: Vec<Handle<Mesh>> = {
         let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
         vec![
@@ -190,13 +216,23 @@ fn random_spawns_despawns_and_moves_match_brute_force() {
             .map(|&m| mesh_triangles(meshes.get(m).unwrap()).unwrap().len())
             .sum();
         assert_eq!(tree_triangles(&app) as usize, expected);
-        app.world()
-            .resource::<SceneBvh>()
-            .read_blocking()
-            .bvh
-            .validate()
-            .unwrap();
+        let scene = app.world().resource::<SceneBvh>();
+        let tree = scene.read_blocking();
+        tree.bvh.validate().unwrap();
+        // Every group belongs to a live entity, and each entity's groups are its own.
+        for (e, groups) in &tree.entity_groups {
+            assert!(live.contains(e));
+            most_groups = most_groups.max(groups.len());
+            for g in groups {
+                assert_eq!(tree.group_entity.get(g), Some(e));
+            }
+        }
+        assert_eq!(
+            tree.group_entity.len(),
+            tree.entity_groups.values().map(Vec::len).sum::<usize>()
+        );
     }
+
     // Despawn everything: nothing may remain.
     for e in live.drain(..) {
         app.world_mut().despawn(e);
@@ -205,8 +241,9 @@ fn random_spawns_despawns_and_moves_match_brute_force() {
     let scene = app.world().resource::<SceneBvh>();
     let tree = scene.read_blocking();
     assert_eq!(tree.bvh.triangle_count(), 0);
-    assert!(tree.entity_group.is_empty());
+    assert!(tree.entity_groups.is_empty());
     tree.bvh.validate().unwrap();
+    most_groups
 }
 
 #[test]
@@ -413,7 +450,7 @@ fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
         app.world()
             .resource::<SceneBvh>()
             .read_blocking()
-            .entity_group
+            .entity_groups
             .len()
     };
     assert_eq!(traced(&app), 2);
@@ -464,7 +501,7 @@ fn meshes_nearest_the_camera_are_traced_first() {
         let scene = app.world().resource::<SceneBvh>();
         let tree = scene.read_blocking();
         for (k, (e, _)) in parts.iter().enumerate() {
-            if traced_at[k].is_none() && tree.entity_group.contains_key(e) {
+            if traced_at[k].is_none() && tree.is_traced(*e) {
                 traced_at[k] = Some(frame);
             }
         }
@@ -526,4 +563,78 @@ fn an_entity_sent_again_beside_a_new_copy_of_its_mesh_stays_traced() {
         .bvh
         .validate()
         .unwrap();
+}
+
+#[test]
+fn a_huge_mesh_enters_the_tree_in_chunks_nearest_the_camera_first() {
+    // One mesh: a strip of 40,000 triangles running from just before the camera to 200 away, in
+    // chunks of at most 1,000; the triangles are listed far end first, so index order would be the
+    // wrong order.
+    let mut app = headless_app(SceneBvhConfig {
+        chunk_triangles: 1_000,
+        ..default()
+    });
+    app.world_mut()
+        .spawn((Camera3d::default(), Transform::from_xyz(0.0, 1.0, 5.0)));
+    let quads = 20_000;
+    let mut positions: Vec<[f32; 3]> = Vec::with_capacity(quads * 6);
+    for k in (0..quads).rev() {
+        let (z0, z1) = (-(k as f32) * 0.01, -(k as f32 + 1.0) * 0.01);
+        let [a, b, c, d] = [
+            [-1.0, 0.0, z0],
+            [1.0, 0.0, z0],
+            [1.0, 0.0, z1],
+            [-1.0, 0.0, z1],
+        ];
+        positions.extend([a, b, c, a, c, d]);
+    }
+    let strip = Mesh::new(
+        bevy::mesh::PrimitiveTopology::TriangleList,
+        bevy::asset::RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions);
+    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(strip);
+    let e = app
+        .world_mut()
+        .spawn((Mesh3d(mesh), Transform::default()))
+        .id();
+    // Rays straight down onto the strip at increasing distances from the camera.
+    let probes: Vec<(f32, Ray3d)> = [1.0f32, 40.0, 80.0, 120.0, 160.0, 199.0]
+        .iter()
+        .map(|&d| (d, Ray3d::new(Vec3::new(0.3, 2.0, -d), Dir3::NEG_Y)))
+        .collect();
+    let mut first_seen: Vec<Option<usize>> = vec![None; probes.len()];
+    let mut look = 0usize;
+    let start = Instant::now();
+    while first_seen.iter().any(Option::is_none) {
+        app.update();
+        // Look many times between frames: the worker publishes each chunk as it goes in.
+        for _ in 0..50 {
+            look += 1;
+            let scene = app.world().resource::<SceneBvh>();
+            let tree = scene.read_blocking();
+            for (k, (_, ray)) in probes.iter().enumerate() {
+                if first_seen[k].is_none() && treelight_scene::cast_on(&tree, *ray).is_some() {
+                    first_seen[k] = Some(look);
+                }
+            }
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "never traced");
+    }
+    let seen: Vec<usize> = first_seen.into_iter().map(Option::unwrap).collect();
+    assert!(
+        seen.windows(2).all(|w| w[0] <= w[1]),
+        "a farther part of the strip was traced before a nearer one: {seen:?}"
+    );
+    assert!(seen[0] < seen[seen.len() - 1], "all at once: {seen:?}");
+    settle(&mut app);
+    let scene = app.world().resource::<SceneBvh>();
+    let tree = scene.read_blocking();
+    assert!(tree.groups_of(e).len() >= 40, "{}", tree.groups_of(e).len());
+    assert_eq!(tree.bvh.triangle_count(), 40_000);
+    tree.bvh.validate().unwrap();
+    // Every chunk is the one entity.
+    for (_, ray) in &probes {
+        assert_eq!(treelight_scene::cast_on(&tree, *ray).unwrap().entity, e);
+    }
 }
