@@ -394,8 +394,9 @@ struct MeshCopy {
     copy: GeometryCopy,
 }
 
-/// Triangles copied between looks at the clock.
-const COPY_CHUNK: usize = 2048;
+/// Array elements (vertex attributes or indices) copied between looks at the clock: memory copies of
+/// a few tens of microseconds.
+const COPY_CHUNK: usize = 16 * 1024;
 
 impl SceneBvh {
     /// Version of the tree, raised by every change the worker applies.
@@ -724,11 +725,14 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
             continue;
         };
         loop {
+            let before = job.copy.copied();
             match job.copy.copy(mesh, COPY_CHUNK) {
                 Ok(true) => {
                     finished.push((e, Ok(())));
                     break;
                 }
+                // Its destination is still being made: the next mesh meanwhile.
+                Ok(false) if job.copy.copied() == before => break,
                 Ok(false) => {}
                 Err(why) => {
                     finished.push((e, Err(why)));
@@ -750,14 +754,12 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
         let waiting = scene.followers_of(job.mesh);
         match result {
             Ok(()) => {
-                let geometry = job.copy.finish();
                 scene.remember_mesh(e, job.mesh);
-                scene.send(Command::Upsert {
+                scene.send(Command::Copied {
                     entity: e,
                     mesh: job.mesh,
                     name: job.name,
-                    triangles: Arc::new(geometry.triangles),
-                    shading: Arc::new(geometry.shading),
+                    copy: Box::new(job.copy),
                     transform: job.transform,
                     eye: scene.eye,
                     sent: job.started,

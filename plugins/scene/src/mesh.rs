@@ -67,23 +67,60 @@ pub fn mesh_triangles(mesh: &Mesh) -> Result<Vec<Triangle>, MeshSkip> {
 /// The mesh's triangles with their normals and texture coordinates. Normals or UVs in another format,
 /// or with a count that does not match the positions, are left out rather than misread.
 pub fn mesh_geometry(mesh: &Mesh) -> Result<MeshGeometry, MeshSkip> {
-    let mut copy = GeometryCopy::new(mesh)?;
+    let mut copy = GeometryCopy::sized(mesh, false)?;
     copy.copy(mesh, usize::MAX)?;
     Ok(copy.finish())
 }
 
-/// Reads a mesh's geometry a range of triangles at a time, so that a mesh of millions of triangles
-/// can be copied out of the world over several frames, each within a time budget.
+/// Copies a mesh out of the world a slice of its arrays at a time, so that a mesh of millions of
+/// triangles is copied over several frames, each within a time budget. The arrays are copied as they
+/// are (positions, usable normals and UVs, indices: memory copies, with the indices checked); making
+/// triangles of them ([`GeometryCopy::finish`]) is left to whoever takes the copy, off the frame.
+/// The destination of a big mesh is allocated and first written on a thread of its own: touching
+/// fresh memory costs several times the copy itself.
 #[derive(Debug)]
 pub struct GeometryCopy {
-    geometry: MeshGeometry,
-    next: usize,
-    total: usize,
+    arrays: Destination,
+    indexed: bool,
     vertices: usize,
-    normals: bool,
-    uvs: bool,
-    corners: Vec<[u32; 3]>,
+    triangles: usize,
+    has_normals: bool,
+    has_uvs: bool,
+    /// Elements copied so far, over positions, normals, UVs and indices in that order.
+    next: usize,
 }
+
+/// The copy's destination: the mesh's arrays at full length.
+#[derive(Debug, Default)]
+struct Arrays {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    indices: Vec<u32>,
+}
+
+impl Arrays {
+    /// Allocated and zeroed (so every page is touched).
+    fn zeroed(sh: Shape) -> Self {
+        let per_vertex = |used: bool| if used { sh.vertices } else { 0 };
+        Self {
+            positions: vec![[0.0; 3]; sh.vertices],
+            normals: vec![[0.0; 3]; per_vertex(sh.normals)],
+            uvs: vec![[0.0; 2]; per_vertex(sh.uvs)],
+            indices: vec![0; if sh.indexed { 3 * sh.triangles } else { 0 }],
+        }
+    }
+}
+
+#[derive(Debug)]
+enum Destination {
+    Ready(Arrays),
+    /// Being allocated on another thread.
+    Coming(std::thread::JoinHandle<Arrays>, Shape),
+}
+
+/// Bytes from which a destination is allocated on a thread of its own.
+const BACKGROUND_BYTES: usize = 1 << 20;
 
 fn positions_of(mesh: &Mesh) -> Result<&[[f32; 3]], MeshSkip> {
     match mesh.try_attribute_option(Mesh::ATTRIBUTE_POSITION) {
@@ -94,25 +131,25 @@ fn positions_of(mesh: &Mesh) -> Result<&[[f32; 3]], MeshSkip> {
     }
 }
 
-fn triangle_count(mesh: &Mesh, vertices: usize) -> Result<usize, MeshSkip> {
-    Ok(
-        match mesh
-            .try_indices_option()
-            .map_err(|_| MeshSkip::RenderWorldOnly)?
-        {
-            Some(ix) => ix.len() / 3,
-            None => vertices / 3,
-        },
-    )
+/// What a copy is sized by: vertex count, triangle count, whether indexed, and whether normals and
+/// UVs are usable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Shape {
+    vertices: usize,
+    triangles: usize,
+    indexed: bool,
+    normals: bool,
+    uvs: bool,
 }
 
-/// Vertex count, triangle count, and whether normals and UVs are usable.
-fn shape(mesh: &Mesh) -> Result<(usize, usize, bool, bool), MeshSkip> {
+fn shape(mesh: &Mesh) -> Result<Shape, MeshSkip> {
     if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
         return Err(MeshSkip::Topology(mesh.primitive_topology()));
     }
     let vertices = positions_of(mesh)?.len();
-    let total = triangle_count(mesh, vertices)?;
+    let indices = mesh
+        .try_indices_option()
+        .map_err(|_| MeshSkip::RenderWorldOnly)?;
     let normals = matches!(
         mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL),
         Ok(Some(VertexAttributeValues::Float32x3(v))) if v.len() == vertices
@@ -121,107 +158,231 @@ fn shape(mesh: &Mesh) -> Result<(usize, usize, bool, bool), MeshSkip> {
         mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0),
         Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == vertices
     );
-    Ok((vertices, total, normals, uvs))
+    Ok(Shape {
+        vertices,
+        triangles: indices.map_or(vertices, Indices::len) / 3,
+        indexed: indices.is_some(),
+        normals,
+        uvs,
+    })
 }
 
 impl GeometryCopy {
-    /// Checks what can be checked without reading every triangle, and sizes the output.
+    /// Checks what can be checked without reading the arrays, and sizes the copy. A big mesh's
+    /// destination is made on a thread of its own; copying starts when it is there.
     pub fn new(mesh: &Mesh) -> Result<Self, MeshSkip> {
-        let (vertices, total, normals, uvs) = shape(mesh)?;
+        Self::sized(mesh, true)
+    }
+
+    /// `background`: whether a big destination may be made on a thread of its own.
+    fn sized(mesh: &Mesh, background: bool) -> Result<Self, MeshSkip> {
+        let sh = shape(mesh)?;
+        let bytes = 4
+            * (3 * sh.vertices * (1 + sh.normals as usize)
+                + 2 * sh.vertices * sh.uvs as usize
+                + 3 * sh.triangles * sh.indexed as usize);
+        let arrays = if background && bytes >= BACKGROUND_BYTES {
+            let spawned = std::thread::Builder::new()
+                .name("treelight-mesh-copy".into())
+                .spawn(move || Arrays::zeroed(sh));
+            match spawned {
+                Ok(handle) => Destination::Coming(handle, sh),
+                Err(_) => Destination::Ready(Arrays::zeroed(sh)),
+            }
+        } else {
+            Destination::Ready(Arrays::zeroed(sh))
+        };
         Ok(Self {
-            geometry: MeshGeometry {
-                triangles: Vec::with_capacity(total),
-                shading: TriangleShading {
-                    normals: Vec::with_capacity(if normals { total } else { 0 }),
-                    uvs: Vec::with_capacity(if uvs { total } else { 0 }),
-                },
-            },
+            arrays,
+            indexed: sh.indexed,
+            vertices: sh.vertices,
+            triangles: sh.triangles,
+            has_normals: sh.normals,
+            has_uvs: sh.uvs,
             next: 0,
-            total,
-            vertices,
-            normals,
-            uvs,
-            corners: Vec::new(),
         })
     }
 
-    /// Triangles in the mesh.
-    pub fn total(&self) -> usize {
-        self.total
+    fn shape(&self) -> Shape {
+        Shape {
+            vertices: self.vertices,
+            triangles: self.triangles,
+            indexed: self.indexed,
+            normals: self.has_normals,
+            uvs: self.has_uvs,
+        }
     }
 
-    /// Triangles copied so far.
+    /// Array elements to copy: positions, usable normals and UVs, and indices.
+    pub fn total(&self) -> usize {
+        let v = self.vertices;
+        v + (self.has_normals as usize) * v
+            + (self.has_uvs as usize) * v
+            + (self.indexed as usize) * 3 * self.triangles
+    }
+
+    /// Elements copied so far.
     pub fn copied(&self) -> usize {
         self.next
     }
 
-    /// Copies up to `max` more triangles from `mesh` (the mesh this copy was made for; the caller
-    /// starts a new copy when the asset changes). Returns whether the copy is complete.
+    /// Triangles in the mesh.
+    pub fn triangles(&self) -> usize {
+        self.triangles
+    }
+
+    /// Copies up to `max` more array elements from `mesh` (the mesh this copy was made for; the
+    /// caller starts a new copy when the asset changes). Returns whether the copy is complete.
     pub fn copy(&mut self, mesh: &Mesh, max: usize) -> Result<bool, MeshSkip> {
-        if shape(mesh)? != (self.vertices, self.total, self.normals, self.uvs) {
+        if shape(mesh)? != self.shape() {
             // Changed under us without the caller noticing: start over rather than mix versions.
             *self = GeometryCopy::new(mesh)?;
         }
-        let positions = positions_of(mesh)?;
-        let end = self.total.min(self.next.saturating_add(max));
-        self.corners.clear();
-        match mesh.try_indices_option() {
-            Ok(Some(Indices::U16(ix))) => self.corners.extend(
-                ix[3 * self.next..3 * end]
-                    .chunks_exact(3)
-                    .map(|f| [f[0] as u32, f[1] as u32, f[2] as u32]),
-            ),
-            Ok(Some(Indices::U32(ix))) => self.corners.extend(
-                ix[3 * self.next..3 * end]
-                    .chunks_exact(3)
-                    .map(|f| [f[0], f[1], f[2]]),
-            ),
-            Ok(None) => self
-                .corners
-                .extend((self.next as u32..end as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2])),
-            Err(_) => return Err(MeshSkip::RenderWorldOnly),
+        if let Destination::Coming(handle, _) = &self.arrays {
+            if !handle.is_finished() {
+                return Ok(false);
+            }
+            let placeholder = Destination::Ready(Arrays::default());
+            if let Destination::Coming(handle, sh) =
+                std::mem::replace(&mut self.arrays, placeholder)
+            {
+                self.arrays =
+                    Destination::Ready(handle.join().unwrap_or_else(|_| Arrays::zeroed(sh)));
+            }
         }
-        let vertices = self.vertices;
-        if let Some(&index) = self
-            .corners
-            .iter()
-            .flatten()
-            .find(|&&i| i as usize >= vertices)
-        {
-            return Err(MeshSkip::IndexOutOfRange { index, vertices });
+        let mut left = max.max(1);
+        let v = self.vertices;
+        // The sections in order, each with where it starts among the elements.
+        let sections = [
+            (true, v),
+            (self.has_normals, v),
+            (self.has_uvs, v),
+            (self.indexed, 3 * self.triangles),
+        ];
+        let mut start = 0usize;
+        for (k, (used, len)) in sections.into_iter().enumerate() {
+            if !used {
+                continue;
+            }
+            let end = start + len;
+            if self.next < end && left > 0 {
+                let from = self.next - start;
+                let to = len.min(from.saturating_add(left));
+                self.copy_section(mesh, k, from, to)?;
+                left -= to - from;
+                self.next = start + to;
+            }
+            start = end;
         }
-        let g = &mut self.geometry;
-        g.triangles.extend(self.corners.iter().map(|c| {
-            let [a, b, c] = c.map(|i| Vec3::from_array(positions[i as usize]));
-            Triangle::new(a, b, c)
-        }));
-        if self.normals
-            && let Ok(Some(VertexAttributeValues::Float32x3(v))) =
-                mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL)
-        {
-            g.shading.normals.extend(
-                self.corners
-                    .iter()
-                    .map(|c| c.map(|i| Vec3::from_array(v[i as usize]))),
-            );
-        }
-        if self.uvs
-            && let Ok(Some(VertexAttributeValues::Float32x2(v))) =
-                mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0)
-        {
-            g.shading.uvs.extend(
-                self.corners
-                    .iter()
-                    .map(|c| c.map(|i| Vec2::from_array(v[i as usize]))),
-            );
-        }
-        self.next = end;
-        Ok(end == self.total)
+        Ok(self.next == self.total())
     }
 
-    /// The geometry copied (complete once [`GeometryCopy::copy`] has returned `true`).
+    /// Elements `from..to` of section `k` (positions, normals, UVs, indices).
+    fn copy_section(
+        &mut self,
+        mesh: &Mesh,
+        k: usize,
+        from: usize,
+        to: usize,
+    ) -> Result<(), MeshSkip> {
+        let attribute = |id| match mesh.try_attribute_option(id) {
+            Ok(Some(values)) => Ok(values),
+            _ => Err(MeshSkip::RenderWorldOnly),
+        };
+        let Destination::Ready(a) = &mut self.arrays else {
+            return Ok(());
+        };
+        match k {
+            0 => a.positions[from..to].copy_from_slice(&positions_of(mesh)?[from..to]),
+            1 => {
+                if let VertexAttributeValues::Float32x3(n) = attribute(Mesh::ATTRIBUTE_NORMAL)? {
+                    a.normals[from..to].copy_from_slice(&n[from..to]);
+                }
+            }
+            2 => {
+                if let VertexAttributeValues::Float32x2(uv) = attribute(Mesh::ATTRIBUTE_UV_0)? {
+                    a.uvs[from..to].copy_from_slice(&uv[from..to]);
+                }
+            }
+            _ => {
+                let out = &mut a.indices[from..to];
+                match mesh.try_indices_option() {
+                    Ok(Some(Indices::U16(ix))) => {
+                        for (o, &i) in out.iter_mut().zip(&ix[from..to]) {
+                            *o = u32::from(i);
+                        }
+                    }
+                    Ok(Some(Indices::U32(ix))) => out.copy_from_slice(&ix[from..to]),
+                    _ => return Err(MeshSkip::RenderWorldOnly),
+                }
+                let vertices = self.vertices;
+                if let Some(&index) = out.iter().find(|&&i| i as usize >= vertices) {
+                    return Err(MeshSkip::IndexOutOfRange { index, vertices });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The triangles and their shading, made from the arrays copied (complete once
+    /// [`GeometryCopy::copy`] has returned `true`). Of a partial copy it gives the triangles whose
+    /// corners were copied, with normals and UVs only where those arrays were copied in full.
     pub fn finish(self) -> MeshGeometry {
-        self.geometry
+        let (copied, total) = (self.next, self.total());
+        let Destination::Ready(a) = self.arrays else {
+            return MeshGeometry::default();
+        };
+        // Only what was copied: the arrays are full length from the start.
+        let v = a.positions.len().min(copied);
+        let corners: Vec<[u32; 3]> = if self.indexed {
+            let done = copied.saturating_sub(total - a.indices.len());
+            a.indices[..done]
+                .chunks_exact(3)
+                .map(|f| [f[0], f[1], f[2]])
+                .collect()
+        } else {
+            (0..(v / 3) as u32)
+                .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+                .collect()
+        };
+        let corners: Vec<[u32; 3]> = corners
+            .into_iter()
+            .filter(|c| c.iter().all(|&i| (i as usize) < v))
+            .collect();
+        let per_corner = |all: &[[f32; 3]]| -> Vec<[Vec3; 3]> {
+            if all.len() != v || v == 0 {
+                return Vec::new();
+            }
+            corners
+                .iter()
+                .map(|c| c.map(|i| Vec3::from_array(all[i as usize])))
+                .collect()
+        };
+        let triangles = per_corner(&a.positions[..v])
+            .into_iter()
+            .map(|[a, b, c]| Triangle::new(a, b, c))
+            .collect();
+        // The sections' ends among the elements: positions, then normals, then UVs.
+        let full = a.positions.len();
+        let normals_end = full * (1 + self.has_normals as usize);
+        let uvs_end = normals_end + full * self.has_uvs as usize;
+        let normals = if self.has_normals && copied >= normals_end && v == full {
+            per_corner(&a.normals)
+        } else {
+            Vec::new()
+        };
+        let uvs = if self.has_uvs && copied >= uvs_end && v == full && v > 0 {
+            corners
+                .iter()
+                .map(|c| c.map(|i| Vec2::from_array(a.uvs[i as usize])))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        MeshGeometry {
+            triangles,
+            shading: TriangleShading { normals, uvs },
+        }
     }
 }
 
@@ -286,6 +447,7 @@ mod tests {
         let whole = mesh_geometry(&mesh).unwrap();
         assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
         let mut copy = GeometryCopy::new(&mesh).unwrap();
+        assert_eq!(copy.triangles(), whole.triangles.len());
         let mut calls = 0;
         while !copy.copy(&mesh, 7).unwrap() {
             calls += 1;
@@ -293,12 +455,36 @@ mod tests {
         }
         assert_eq!(calls, copy.total().div_ceil(7) - 1);
         assert_eq!(copy.finish(), whole);
+        // The triangles are the mesh's, corner by corner.
+        let VertexAttributeValues::Float32x3(p) = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap()
+        else {
+            unreachable!()
+        };
+        let ix: Vec<usize> = mesh.indices().unwrap().iter().collect();
+        for (t, f) in whole.triangles.iter().zip(ix.chunks_exact(3)) {
+            for k in 0..3 {
+                assert_eq!(t.v[k], Vec3::from_array(p[f[k]]));
+            }
+        }
         // A mesh swapped for another between chunks is read again from the start.
         let other = Cuboid::new(1.0, 2.0, 3.0).mesh().build();
         let mut copy = GeometryCopy::new(&mesh).unwrap();
         copy.copy(&mesh, 7).unwrap();
         while !copy.copy(&other, 5).unwrap() {}
         assert_eq!(copy.finish(), mesh_geometry(&other).unwrap());
+    }
+
+    #[test]
+    fn a_big_mesh_is_copied_once_its_destination_is_made() {
+        use bevy::math::primitives::Sphere;
+        let mesh = Sphere::new(1.0).mesh().uv(200, 100);
+        let mut copy = GeometryCopy::new(&mesh).unwrap();
+        assert!(matches!(copy.arrays, Destination::Coming(..)), "over 1 MB");
+        let start = std::time::Instant::now();
+        while !copy.copy(&mesh, 10_000).unwrap() {
+            assert!(start.elapsed().as_secs() < 30, "never copied");
+        }
+        assert_eq!(copy.finish(), mesh_geometry(&mesh).unwrap());
     }
 
     #[test]

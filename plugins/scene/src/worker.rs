@@ -2,7 +2,7 @@
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
 use crate::chunks::spatial_chunks;
-use crate::{SceneStats, SceneTree, TriangleShading};
+use crate::{GeometryCopy, SceneStats, SceneTree, TriangleShading};
 use bevy::asset::AssetId;
 use bevy::log::warn;
 use bevy::mesh::Mesh;
@@ -18,6 +18,17 @@ use treelight_bvh::{GroupId, IdleUpdates, IdleWork, PreparedGroup, Triangle};
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
+    /// A new or edited mesh as the main thread copied it (arrays, not yet triangles): the worker
+    /// makes its triangles, and it becomes an [`Command::Upsert`].
+    Copied {
+        entity: Entity,
+        mesh: AssetId<Mesh>,
+        name: String,
+        copy: Box<GeometryCopy>,
+        transform: Affine3A,
+        eye: Option<Vec3>,
+        sent: Instant,
+    },
     /// A new or edited mesh (object-space triangles) under a transform.
     Upsert {
         entity: Entity,
@@ -46,9 +57,38 @@ pub(crate) enum Command {
 }
 
 impl Command {
+    /// A copied mesh made into triangles (the rest as they are).
+    fn with_triangles(self) -> Command {
+        match self {
+            Command::Copied {
+                entity,
+                mesh,
+                name,
+                copy,
+                transform,
+                eye,
+                sent,
+            } => {
+                let geometry = copy.finish();
+                Command::Upsert {
+                    entity,
+                    mesh,
+                    name,
+                    triangles: Arc::new(geometry.triangles),
+                    shading: Arc::new(geometry.shading),
+                    transform,
+                    eye,
+                    sent,
+                }
+            }
+            c => c,
+        }
+    }
+
     fn entity(&self) -> Entity {
         match self {
             Command::Upsert { entity, .. }
+            | Command::Copied { entity, .. }
             | Command::Instance { entity, .. }
             | Command::Move { entity, .. }
             | Command::Remove { entity } => *entity,
@@ -167,6 +207,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let mut batch = vec![first];
         batch.extend(rx.try_iter());
         let received = batch.len();
+        // Copied meshes become triangles here, in parallel, rather than on the main thread.
+        let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
         let (chunked, commands): (Vec<Command>, Vec<Command>) =
             coalesce(batch).into_iter().partition(|c| {
                 matches!(c, Command::Upsert { triangles, .. }
@@ -209,6 +251,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             let tree = &mut *guard;
             for (c, p) in commands.into_iter().zip(prepared) {
                 match c {
+                    // Made into an upsert on arrival.
+                    Command::Copied { .. } => {}
                     Command::Remove { entity } => {
                         tree.remove_entity(entity);
                         last_move.remove(&entity);
