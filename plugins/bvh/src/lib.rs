@@ -47,6 +47,7 @@ pub use error::BvhError;
 pub use export::change::ChangeSet;
 pub use export::gpu::{GpuInstance, GpuNode, GpuTriangle};
 pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};
+pub use export::wide::{GpuWideNode, WideLayout};
 pub use glam;
 pub use incremental::incr_upb::{BlockStream, batch_coherence, coherent_batches, crowding};
 pub use incremental::insert::coherence;

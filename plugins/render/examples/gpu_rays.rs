@@ -1,7 +1,8 @@
 //! Rays per second on the adapter in use, through the WGSL traversal: primary rays, and from their
 //! hits shadow rays (to a square light above the camera, any hit), diffuse-bounce rays (cosine
 //! distributed, closest hit at any distance) and ambient-occlusion rays (short, any hit), over a tree
-//! built by the engine (IncrU, baked). Then the bytes an
+//! built by the engine (IncrU, baked), through each GPU layout: the binary records and their 4-wide
+//! collapse (`Bvh::gpu_wide_layout`). Then the bytes an
 //! incremental upload writes when a 10k-triangle mesh joins the largest scene, next to the scene's
 //! full size.
 //!
@@ -13,10 +14,10 @@
 mod support;
 
 use std::time::Instant;
-use support::{Gpu, PinholeView, arg, scene_args, tree_bytes};
+use support::{Gpu, PinholeView, arg, scene_args, tree_bytes, wide_tree_bytes};
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
-use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, UploadPlan};
+use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, UploadPlan};
 
 fn main() {
     let resolution = arg("--resolution", 512);
@@ -27,9 +28,9 @@ fn main() {
     );
     let gpu = Gpu::new();
     println!(
-        "| scene | triangles | primary Mrays/s | shadow Mrays/s | diffuse Mrays/s | AO Mrays/s | rays per hit |"
+        "| scene | triangles | layout | primary Mrays/s | shadow Mrays/s | diffuse Mrays/s | AO Mrays/s | rays per hit |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     let mut largest: Option<Bvh> = None;
     for spec in &specs {
         let scene = treelight_bench::scenes::load(spec, 1).unwrap_or_else(|e| {
@@ -47,61 +48,67 @@ fn main() {
             resolution,
             resolution,
         );
-        let [n, t, i] = tree_bytes(&bvh);
-        let buffers = [
-            gpu.storage("nodes", &n),
-            gpu.storage("triangles", &t),
-            gpu.storage("instances", &i),
+        let binary = (tree_bytes(&bvh), bvh.gpu_root());
+        let layouts = [
+            ("binary", binary, PRIMARY_HITS_WGSL),
+            ("4-wide", wide_tree_bytes(&bvh), PRIMARY_HITS_WIDE_WGSL),
         ];
-        let camera = gpu.uniform(&view.uniform(bvh.gpu_root()));
-        let ao = gpu.uniform(bytemuck::bytes_of(&GpuAoParams {
-            rays: ao_rays,
-            length: diag.length() * 0.05,
-            ..GpuAoParams::default()
-        }));
-        let out = gpu.zeroed((resolution * resolution * 4) as u64);
-        let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
-        let primary = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");
-        let occlusion = gpu.pipeline(PRIMARY_HITS_WGSL, "ambient_occlusion");
-        let diffuse = gpu.pipeline(PRIMARY_HITS_WGSL, "diffuse_bounces");
-        let shadow = gpu.pipeline(PRIMARY_HITS_WGSL, "shadow_rays");
-        let [nb, tb, ib] = &buffers;
-        // One warm-up dispatch each (shader compilation, first touch of the buffers), then the best
-        // of the timed repeats.
-        let time = |pipeline: &wgpu::ComputePipeline, bind: &[&wgpu::Buffer]| {
-            gpu.dispatch(pipeline, bind, groups);
-            (0..repeats)
-                .map(|_| {
-                    let t = Instant::now();
-                    gpu.dispatch(pipeline, bind, groups);
-                    t.elapsed().as_secs_f64()
-                })
-                .fold(f64::INFINITY, f64::min)
-        };
-        let t_primary = time(&primary, &[nb, tb, ib, &camera, &out]);
-        let hits = support::words(&gpu.read(&out))
-            .iter()
-            .filter(|&&h| h != u32::MAX)
-            .count();
-        let pixels = (resolution * resolution) as f64;
-        // Each secondary kernel traces its primary rays again: subtract them to rate its own rays.
-        let secondary = hits as f64 * ao_rays as f64;
-        let rate = |pipeline: &wgpu::ComputePipeline| {
-            let t = time(pipeline, &[nb, tb, ib, &camera, &out, &ao]);
-            secondary / (t - t_primary).max(1e-9) / 1e6
-        };
-        let (shadow_rate, diffuse_rate, ao_rate) =
-            (rate(&shadow), rate(&diffuse), rate(&occlusion));
-        println!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
-            scene.name,
-            scene.triangles.len(),
-            pixels / t_primary / 1e6,
-            shadow_rate,
-            diffuse_rate,
-            ao_rate,
-            ao_rays
-        );
+        for (layout, ([n, t, i], root), source) in layouts {
+            let buffers = [
+                gpu.storage("nodes", &n),
+                gpu.storage("triangles", &t),
+                gpu.storage("instances", &i),
+            ];
+            let camera = gpu.uniform(&view.uniform(root));
+            let ao = gpu.uniform(bytemuck::bytes_of(&GpuAoParams {
+                rays: ao_rays,
+                length: diag.length() * 0.05,
+                ..GpuAoParams::default()
+            }));
+            let out = gpu.zeroed((resolution * resolution * 4) as u64);
+            let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
+            let primary = gpu.pipeline(source, "primary_hits");
+            let occlusion = gpu.pipeline(source, "ambient_occlusion");
+            let diffuse = gpu.pipeline(source, "diffuse_bounces");
+            let shadow = gpu.pipeline(source, "shadow_rays");
+            let [nb, tb, ib] = &buffers;
+            // One warm-up dispatch each (shader compilation, first touch of the buffers), then the
+            // best of the timed repeats.
+            let time = |pipeline: &wgpu::ComputePipeline, bind: &[&wgpu::Buffer]| {
+                gpu.dispatch(pipeline, bind, groups);
+                (0..repeats)
+                    .map(|_| {
+                        let t = Instant::now();
+                        gpu.dispatch(pipeline, bind, groups);
+                        t.elapsed().as_secs_f64()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let t_primary = time(&primary, &[nb, tb, ib, &camera, &out]);
+            let hits = support::words(&gpu.read(&out))
+                .iter()
+                .filter(|&&h| h != u32::MAX)
+                .count();
+            let pixels = (resolution * resolution) as f64;
+            // Each secondary kernel traces its primary rays again: subtract them to rate its own.
+            let secondary = hits as f64 * ao_rays as f64;
+            let rate = |pipeline: &wgpu::ComputePipeline| {
+                let t = time(pipeline, &[nb, tb, ib, &camera, &out, &ao]);
+                secondary / (t - t_primary).max(1e-9) / 1e6
+            };
+            let (shadow_rate, diffuse_rate, ao_rate) =
+                (rate(&shadow), rate(&diffuse), rate(&occlusion));
+            println!(
+                "| {} | {} | {layout} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
+                scene.name,
+                scene.triangles.len(),
+                pixels / t_primary / 1e6,
+                shadow_rate,
+                diffuse_rate,
+                ao_rate,
+                ao_rays
+            );
+        }
         if largest
             .as_ref()
             .is_none_or(|l| l.triangle_count() < bvh.triangle_count())

@@ -44,13 +44,14 @@ use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-// Each kernel file declares the buffers; `traverse.wgsl` (BVH traversal) and `sampling.wgsl` (random
+// Each kernel file declares the buffers; `traverse.wgsl` (BVH traversal, with `traverse_common.wgsl`) and `sampling.wgsl` (random
 // numbers, frames, offsets) are appended to it, as WGSL resolves module-scope names in any order.
 
 /// WGSL: the path-tracing kernel (`path_trace`) with the traversal.
 pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/pathtrace.wgsl"),
     include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
@@ -60,6 +61,16 @@ pub const PATHTRACE_WGSL: &str = concat!(
 pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../../shaders/primary_hits.wgsl"),
     include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
+);
+
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over the 4-wide layout
+/// (`treelight_bvh::Bvh::gpu_wide_layout`) instead of the binary one, for comparing the two.
+pub const PRIMARY_HITS_WIDE_WGSL: &str = concat!(
+    include_str!("../../../shaders/primary_hits.wgsl"),
+    include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 

@@ -1,10 +1,11 @@
 //! The WGSL traversal on a real adapter (Mesa's llvmpipe in CI) finds the same primary-hit triangles
-//! as the engine's CPU traversal, for the same camera rays.
+//! as the engine's CPU traversal, for the same camera rays, through each layout: the binary records
+//! and their 4-wide collapse.
 
 mod support;
 
 use std::path::Path;
-use support::{PinholeView as View, gpu_hits, skip};
+use support::{PinholeView as View, gpu_hits, gpu_wide_hits, skip};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
 
@@ -59,15 +60,22 @@ fn sibenik_primary_hits_match_the_cpu() {
         128,
         128,
     );
-    let gpu = gpu_hits(&bvh, &view);
-    let hits = gpu.iter().filter(|&&g| g != u32::MAX).count();
-    assert!(hits > 128 * 128 / 2, "only {hits} pixels hit anything");
-    let a = agreement(&bvh, &view, &gpu);
-    assert!(
-        a >= 0.999,
-        "GPU and CPU agree on {:.3}% of pixels",
-        a * 100.0
-    );
+    for (layout, gpu) in [
+        ("binary", gpu_hits(&bvh, &view)),
+        ("4-wide", gpu_wide_hits(&bvh, &view)),
+    ] {
+        let hits = gpu.iter().filter(|&&g| g != u32::MAX).count();
+        assert!(
+            hits > 128 * 128 / 2,
+            "{layout}: only {hits} pixels hit anything"
+        );
+        let a = agreement(&bvh, &view, &gpu);
+        assert!(
+            a >= 0.999,
+            "{layout}: GPU and CPU agree on {:.3}% of pixels",
+            a * 100.0
+        );
+    }
 }
 
 #[test]
@@ -94,11 +102,15 @@ fn instanced_groups_are_traversed_in_object_space() {
         96,
         96,
     );
-    let gpu = gpu_hits(&bvh, &view);
-    let a = agreement(&bvh, &view, &gpu);
-    assert!(
-        a >= 0.999,
-        "GPU and CPU agree on {:.3}% of pixels",
-        a * 100.0
-    );
+    for (layout, gpu) in [
+        ("binary", gpu_hits(&bvh, &view)),
+        ("4-wide", gpu_wide_hits(&bvh, &view)),
+    ] {
+        let a = agreement(&bvh, &view, &gpu);
+        assert!(
+            a >= 0.999,
+            "{layout}: GPU and CPU agree on {:.3}% of pixels",
+            a * 100.0
+        );
+    }
 }

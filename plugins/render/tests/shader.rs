@@ -3,10 +3,10 @@
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
-use treelight_bvh::{GpuInstance, GpuNode, GpuTriangle};
+use treelight_bvh::{GpuInstance, GpuNode, GpuTriangle, GpuWideNode};
 use treelight_render::{
     GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuView,
-    PATHTRACE_WGSL, PRIMARY_HITS_WGSL, RESOLVE_WGSL,
+    PATHTRACE_WGSL, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, RESOLVE_WGSL,
 };
 
 fn module(source: &str) -> naga::Module {
@@ -76,6 +76,33 @@ fn traversal_records_have_the_engine_s_layout() {
                 [world_to_object, object_to_world, root, group, pad1, pad2]
             )
         );
+    }
+}
+
+#[test]
+fn wide_traversal_records_have_the_engine_s_layout() {
+    let m = module(PRIMARY_HITS_WIDE_WGSL);
+    assert_eq!(
+        wgsl_layout(&m, "Node"),
+        rust_layout!(
+            GpuWideNode,
+            [min_x, max_x, min_y, max_y, min_z, max_z, refs]
+        )
+    );
+    assert_eq!(
+        wgsl_layout(&m, "Instance"),
+        rust_layout!(
+            GpuInstance,
+            [world_to_object, object_to_world, root, group, pad1, pad2]
+        )
+    );
+    for entry in [
+        "primary_hits",
+        "ambient_occlusion",
+        "diffuse_bounces",
+        "shadow_rays",
+    ] {
+        assert!(has_entry(&m, entry), "{entry}");
     }
 }
 

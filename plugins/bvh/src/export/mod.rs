@@ -4,3 +4,4 @@
 pub(crate) mod change;
 pub(crate) mod gpu;
 pub(crate) mod tlbvh;
+pub(crate) mod wide;

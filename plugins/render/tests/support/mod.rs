@@ -470,6 +470,19 @@ pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
     ]
 }
 
+/// The tree as 4-wide records: nodes, triangles, instances, and the root reference.
+pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+    let wide = bvh.gpu_wide_layout();
+    let [_, triangles, _] = tree_bytes(bvh);
+    let mut nodes: Vec<u8> = bytemuck::cast_slice(&wide.nodes).to_vec();
+    if nodes.is_empty() {
+        // A storage buffer may not be empty.
+        nodes = bytemuck::bytes_of(&treelight_bvh::GpuWideNode::default()).to_vec();
+    }
+    let instances = wide.instances.iter().flat_map(instance_bytes).collect();
+    ([nodes, triangles, instances], wide.root)
+}
+
 pub fn words(bytes: &[u8]) -> Vec<u32> {
     bytes
         .chunks_exact(4)
@@ -564,6 +577,26 @@ pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
         bvh.gpu_root(),
         view,
     )
+}
+
+/// `primary_hits` through the 4-wide layout ([`wide_tree_bytes`]).
+pub fn gpu_wide_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    let gpu = Gpu::new();
+    let ([n, t, i], root) = wide_tree_bytes(bvh);
+    let buffers = [
+        gpu.storage("nodes", &n),
+        gpu.storage("triangles", &t),
+        gpu.storage("instances", &i),
+    ];
+    let camera = gpu.uniform(&view.uniform(root));
+    let out = gpu.zeroed((view.width * view.height * 4) as u64);
+    let pipeline = gpu.pipeline(treelight_render::PRIMARY_HITS_WIDE_WGSL, "primary_hits");
+    gpu.dispatch(
+        &pipeline,
+        &[&buffers[0], &buffers[1], &buffers[2], &camera, &out],
+        (view.width.div_ceil(8), view.height.div_ceil(8)),
+    );
+    words(&gpu.read(&out))
 }
 
 /// For the examples: the number after flag `name` on the command line, or `default`.
