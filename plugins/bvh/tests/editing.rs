@@ -521,3 +521,41 @@ fn export_round_trips_and_bakes_groups() {
     bad_link[20 + 24..20 + 28].copy_from_slice(&(-5i32).to_le_bytes());
     assert!(treelight_bvh::read_tlbvh(&mut bad_link.as_slice()).is_err());
 }
+
+#[test]
+fn a_mesh_in_chunks_moves_as_one_edit_and_bakes_without_a_batch() {
+    let tris = soup(20_000, 21);
+    let mut bvh = Bvh::default();
+    let chunks: Vec<GroupId> = tris
+        .chunks(2_500)
+        .map(|c| bvh.insert_group(c, Affine3A::IDENTITY, false).unwrap())
+        .collect();
+    // The eight chunks leave the baked tree together: their update batch runs once, at the end,
+    // over the nodes still in the tree (the freed ones left the update cache).
+    let before = bvh.update_ops();
+    let place = Affine3A::from_rotation_translation(Quat::from_rotation_x(0.3), Vec3::Y * 4.0);
+    bvh.batch(|bvh| {
+        for &g in &chunks {
+            bvh.set_group_transform(g, place).unwrap();
+            assert_eq!(bvh.update_ops(), before, "no batch inside");
+        }
+    });
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(500, 5, 15.0));
+    // Baked back without an update batch: nothing moves now, and nothing is left queued for later.
+    let before = bvh.update_ops();
+    bvh.without_updates(|bvh| {
+        for &g in &chunks {
+            bvh.bake_group(g).unwrap();
+        }
+    });
+    assert_eq!(bvh.update_ops(), before);
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(500, 6, 15.0));
+    // Edits after it run their batches as usual.
+    let more = soup(5_000, 22);
+    bvh.insert_triangles(&more).unwrap();
+    assert!(bvh.update_ops() > before, "updates run again");
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(500, 7, 15.0));
+}

@@ -1,13 +1,15 @@
-//! The 4-wide GPU layout (`Bvh::gpu_wide_layout`) holds the same tree: every node has two to four
-//! children whose boxes hold what lies under them, and a traversal of its records finds the same
-//! closest hits as brute force, through baked triangles, groups kept whole and shared instances.
+//! The other GPU layouts hold the same tree. The 4-wide one (`Bvh::gpu_wide_layout`): every node has
+//! two to four children whose boxes hold what lies under them. The depth-first one
+//! (`Bvh::gpu_depth_first_layout`): every live node once, siblings adjacent, the root first. A
+//! traversal of either's records finds the same closest hits as brute force, through baked
+//! triangles, groups kept whole and shared instances.
 
 mod support;
 
 use support::{Rng, rays, soup};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, GpuInstance, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout,
+    Aabb, Bvh, DepthFirstLayout, GpuInstance, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout,
 };
 
 fn apply(rows: &[[f32; 4]; 3], p: Vec3, w: f32) -> Vec3 {
@@ -20,20 +22,25 @@ fn stored(bvh: &Bvh, t: u32) -> Triangle {
     Triangle::new(g.v0.into(), g.v1.into(), g.v2.into())
 }
 
-/// Closest hit distance through the wide records (any order, no pruning but `t_max`), and checks
-/// on the way that each child box holds its triangles.
-fn wide_closest(bvh: &Bvh, w: &WideLayout, ray: &Ray) -> Option<f32> {
+/// Closest hit distance through a layout's records (every node visited: no pruning), given the
+/// root, the children of an inner record and the instances.
+fn closest(
+    bvh: &Bvh,
+    root: u32,
+    children: impl Fn(u32) -> Vec<u32>,
+    instances: &[GpuInstance],
+    ray: &Ray,
+) -> Option<f32> {
     let mut best: Option<f32> = None;
-    let mut stack: Vec<(u32, Option<&GpuInstance>)> = vec![(w.root, None)];
+    let mut stack: Vec<(u32, Option<&GpuInstance>)> = vec![(root, None)];
     while let Some((r, inst)) = stack.pop() {
         let r = NodeRef(r);
         match r.kind() {
             NodeKind::None => {}
             NodeKind::Inner => {
-                let n = &w.nodes[r.index() as usize];
-                for k in 0..4 {
-                    if n.refs[k] != NodeRef::NONE.0 {
-                        stack.push((n.refs[k], inst));
+                for c in children(r.index()) {
+                    if c != NodeRef::NONE.0 {
+                        stack.push((c, inst));
                     }
                 }
             }
@@ -53,12 +60,30 @@ fn wide_closest(bvh: &Bvh, w: &WideLayout, ray: &Ray) -> Option<f32> {
                 }
             }
             NodeKind::Instance => {
-                let i = &w.instances[r.index() as usize];
+                let i = &instances[r.index() as usize];
                 stack.push((i.root, Some(i)));
             }
         }
     }
     best
+}
+
+fn wide_closest(bvh: &Bvh, w: &WideLayout, ray: &Ray) -> Option<f32> {
+    closest(
+        bvh,
+        w.root,
+        |i| w.nodes[i as usize].refs.to_vec(),
+        &w.instances,
+        ray,
+    )
+}
+
+fn depth_first_closest(bvh: &Bvh, d: &DepthFirstLayout, ray: &Ray) -> Option<f32> {
+    let children = |i: u32| {
+        let n = &d.nodes[i as usize];
+        vec![n.a_ref, n.b_ref]
+    };
+    closest(bvh, d.root, children, &d.instances, ray)
 }
 
 /// Every wide node: two to four children, and each child's box holds the boxes below it.
@@ -125,13 +150,29 @@ fn the_wide_layout_finds_the_closest_hits_of_the_binary_tree() {
         bvh.inner_count()
     );
     check_boxes(&bvh, &w);
+    let d = bvh.gpu_depth_first_layout();
+    // Every live node once, the root first, and both children of a node in adjacent records.
+    assert_eq!(d.nodes.len() as u32, bvh.inner_count());
+    assert_eq!(d.root, NodeRef::inner(0).0);
+    for n in &d.nodes {
+        let (a, b) = (NodeRef(n.a_ref), NodeRef(n.b_ref));
+        if a.is_inner() && b.is_inner() {
+            assert_eq!(b.index(), a.index() + 1, "siblings apart");
+        }
+    }
     for ray in rays(2_000, 3, 30.0) {
         let expected = bvh.brute_force_closest_hit(&ray).map(|h| h.t);
-        let got = wide_closest(&bvh, &w, &ray);
-        match (got, expected) {
-            (None, None) => {}
-            (Some(a), Some(b)) => assert!((a - b).abs() <= 1e-4 * b.max(1.0), "{a} vs {b}"),
-            (a, b) => panic!("wide {a:?} vs brute force {b:?} for {ray:?}"),
+        for (layout, got) in [
+            ("wide", wide_closest(&bvh, &w, &ray)),
+            ("depth first", depth_first_closest(&bvh, &d, &ray)),
+        ] {
+            match (got, expected) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    assert!((a - b).abs() <= 1e-4 * b.max(1.0), "{layout}: {a} vs {b}")
+                }
+                (a, b) => panic!("{layout} {a:?} vs brute force {b:?} for {ray:?}"),
+            }
         }
     }
 }

@@ -1,8 +1,9 @@
 //! Rays per second on the adapter in use, through the WGSL traversal: primary rays, and from their
 //! hits shadow rays (to a square light above the camera, any hit), diffuse-bounce rays (cosine
 //! distributed, closest hit at any distance) and ambient-occlusion rays (short, any hit), over a tree
-//! built by the engine (IncrU, baked), through each GPU layout: the binary records and their 4-wide
-//! collapse (`Bvh::gpu_wide_layout`). Then the bytes an
+//! built by the engine (IncrU, baked), through each GPU layout: the binary records in the tree's
+//! order and renumbered depth first (`Bvh::gpu_depth_first_layout`), and their 4-wide collapse
+//! (`Bvh::gpu_wide_layout`). Then the bytes an
 //! incremental upload writes when a 10k-triangle mesh joins the largest scene, next to the scene's
 //! full size.
 //!
@@ -14,7 +15,9 @@
 mod support;
 
 use std::time::Instant;
-use support::{Gpu, PinholeView, arg, scene_args, tree_bytes, wide_tree_bytes};
+use support::{
+    Gpu, PinholeView, arg, depth_first_tree_bytes, scene_args, tree_bytes, wide_tree_bytes,
+};
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
 use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, UploadPlan};
@@ -51,6 +54,11 @@ fn main() {
         let binary = (tree_bytes(&bvh), bvh.gpu_root());
         let layouts = [
             ("binary", binary, PRIMARY_HITS_WGSL),
+            (
+                "binary, depth first",
+                depth_first_tree_bytes(&bvh),
+                PRIMARY_HITS_WGSL,
+            ),
             ("4-wide", wide_tree_bytes(&bvh), PRIMARY_HITS_WIDE_WGSL),
         ];
         for (layout, ([n, t, i], root), source) in layouts {

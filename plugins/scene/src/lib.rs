@@ -252,18 +252,22 @@ impl SceneTree {
         }
         // One instance per group of the source (one per chunk of a chunked mesh).
         let mut made: Vec<(GroupId, GroupId)> = Vec::with_capacity(sources.len());
-        for &source in &sources {
-            match self.bvh.insert_instance(source, transform) {
-                Ok(g) => made.push((g, source)),
-                Err(err) => {
-                    for (g, _) in made {
-                        // Made just now by this tree, so removal cannot fail.
-                        let _ = self.bvh.remove_group(g);
-                    }
-                    self.remove_entity(e);
-                    return Err(err);
+        let failed = self.bvh.batch(|bvh| {
+            for &source in &sources {
+                match bvh.insert_instance(source, transform) {
+                    Ok(g) => made.push((g, source)),
+                    Err(err) => return Some(err),
                 }
             }
+            None
+        });
+        if let Some(err) = failed {
+            for (g, _) in made {
+                // Made just now by this tree, so removal cannot fail.
+                let _ = self.bvh.remove_group(g);
+            }
+            self.remove_entity(e);
+            return Err(err);
         }
         self.remove_entity(e);
         for (g, source) in made {

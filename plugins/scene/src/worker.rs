@@ -298,11 +298,14 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                     }
                     Command::Move { entity, transform } => {
                         if let Some(groups) = tree.entity_groups.get(&entity) {
-                            for &g in groups {
-                                if let Err(e) = tree.bvh.set_group_transform(g, transform) {
-                                    warn!("entity {entity} cannot move in the tree: {e}");
+                            // The chunks of one mesh move as one edit.
+                            tree.bvh.batch(|bvh| {
+                                for &g in groups {
+                                    if let Err(e) = bvh.set_group_transform(g, transform) {
+                                        warn!("entity {entity} cannot move in the tree: {e}");
+                                    }
                                 }
-                            }
+                            });
                             last_move.insert(entity, Instant::now());
                         }
                     }
@@ -424,11 +427,18 @@ fn idle_work(
         let tree = &mut *guard;
         for e in still {
             last_move.remove(&e);
-            for &g in tree.entity_groups.get(&e).into_iter().flatten() {
-                if let Err(err) = tree.bvh.bake_group(g) {
-                    warn!("entity {e} could not be baked: {err}");
+            // The update batch a bake triggers covers the whole mesh, too long to hold the tree
+            // in one piece for a big one: the idle steps sweep the tree instead, in slices.
+            tree.bvh.without_updates(|bvh| {
+                for &g in tree.entity_groups.get(&e).into_iter().flatten() {
+                    if let Err(err) = bvh.bake_group(g) {
+                        warn!("entity {e} could not be baked: {err}");
+                    }
                 }
-            }
+            });
+        }
+        if baked {
+            idle.after_edit(&config.idle_updates, &tree.bvh);
         }
         idle.step(&config.idle_updates, &mut tree.bvh)
     };

@@ -10,13 +10,15 @@ impl Bvh {
     /// node with some of them under both children becomes a node, any other is passed through. Leaf
     /// `k` of the result is `triangles[k]`; boxes are left empty for the caller to refit. O(n + depth),
     /// no sorting, and as good as the tree it comes from, which updates kept close to the SAH.
-    pub(crate) fn induced_tree(&self, triangles: &[u32]) -> BuiltTree {
-        let mut local = vec![NONE; self.tri.items.len()];
+    pub(crate) fn induced_tree(&mut self, triangles: &[u32]) -> BuiltTree {
+        let mut local = std::mem::take(&mut self.scratch.induced_local);
+        let mut marked = std::mem::take(&mut self.scratch.induced_marked);
+        local.resize(self.tri.items.len(), NONE);
+        marked.resize(self.inner.len(), false);
         for (k, &t) in triangles.iter().enumerate() {
             local[t as usize] = k as u32;
         }
         // Every inner node above one of the triangles.
-        let mut marked = vec![false; self.inner.len()];
         for &t in triangles {
             let mut p = self.tri.parent[t as usize];
             while p != NONE && !marked[p as usize] {
@@ -24,6 +26,24 @@ impl Bvh {
                 p = self.inner[p as usize].parent;
             }
         }
+        let tree = self.induced_from(triangles, &local, &marked);
+        // Back to all NONE and false, touching only what was written.
+        for &t in triangles {
+            local[t as usize] = NONE;
+            let mut p = self.tri.parent[t as usize];
+            while p != NONE && marked[p as usize] {
+                marked[p as usize] = false;
+                p = self.inner[p as usize].parent;
+            }
+        }
+        self.scratch.induced_local = local;
+        self.scratch.induced_marked = marked;
+        tree
+    }
+
+    /// The induced tree, given each triangle's place in `triangles` (`local`) and the inner nodes
+    /// above them (`marked`).
+    fn induced_from(&self, triangles: &[u32], local: &[u32], marked: &[bool]) -> BuiltTree {
         let mut nodes: Vec<InnerNode> = Vec::with_capacity(triangles.len().saturating_sub(1));
         // Post-order over the marked nodes: (node, children done); results on their own stack.
         let mut stack: Vec<(NodeRef, bool)> = vec![(self.root, false)];

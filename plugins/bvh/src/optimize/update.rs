@@ -84,13 +84,43 @@ impl Bvh {
         }
     }
 
-    /// Runs a batch of updates if the node update cache holds N_u nodes.
+    /// Runs a batch of updates if the node update cache holds N_u nodes (at the end of a
+    /// [`Bvh::batch`] when inside one).
     pub(crate) fn maybe_update(&mut self) {
         if self.config.global_updates
+            && !self.cache.deferred
             && self.cache.nodes.len() >= self.config.update_cache_size as usize
         {
             self.run_update_batch();
         }
+    }
+
+    /// Makes edits whose update batches are left to a later, sliced optimisation (the worker's
+    /// `IdleWork` steps): the nodes they touch leave the update cache. For edits whose batch would
+    /// hold the tree too long in one piece, such as baking a mesh of a million triangles, whose
+    /// every node enters the cache.
+    pub fn without_updates<R>(&mut self, edits: impl FnOnce(&mut Self) -> R) -> R {
+        let outer = self.cache.deferred;
+        let kept = self.cache.nodes.len();
+        self.cache.deferred = true;
+        let r = edits(self);
+        self.cache.deferred = outer;
+        for i in self.cache.nodes.drain(kept..) {
+            self.cache.queued[i as usize] = false;
+        }
+        r
+    }
+
+    /// Makes several edits as one: the update batches they would trigger run once, after the last.
+    /// For edits of one object made of several groups (a mesh inserted in chunks), whose first
+    /// edits would otherwise pay for updating parts of the tree the next ones replace.
+    pub fn batch<R>(&mut self, edits: impl FnOnce(&mut Self) -> R) -> R {
+        let outer = self.cache.deferred;
+        self.cache.deferred = true;
+        let r = edits(self);
+        self.cache.deferred = outer;
+        self.maybe_update();
+        r
     }
 
     /// Updates the k_u fraction of the cached nodes with the highest inefficiency, then empties the cache.
@@ -99,9 +129,10 @@ impl Bvh {
         let mut cache = std::mem::take(&mut self.cache.nodes);
         let mut candidates = std::mem::take(&mut self.scratch.update_candidates);
         candidates.clear();
-        for &i in &cache {
-            self.cache.queued[i as usize] = false;
-        }
+        // Freed nodes left the cache (their flag is down); a slot freed and recorded again has
+        // two entries: the first is kept. All flags are down after.
+        let queued = &mut self.cache.queued;
+        cache.retain(|&i| std::mem::replace(&mut queued[i as usize], false));
         self.rank_cached(&cache, &mut candidates);
         let k = share(self.config.update_fraction, candidates.len());
         worst_first(&mut candidates, k);

@@ -113,6 +113,8 @@ pub(crate) struct UpdateCache {
     pub(crate) queued: Vec<bool>,
     /// Whether edits record their nodes (off while update moves run, so that moves queue none).
     pub(crate) recording: bool,
+    /// Inside [`Bvh::batch`]: update batches wait for its end.
+    pub(crate) deferred: bool,
 }
 
 impl Default for Bvh {
@@ -312,6 +314,11 @@ impl Bvh {
             n.children = [NodeRef::NONE; 2];
             n.parent = FREE;
         });
+        // Out of the update cache (its entry is dropped at the next batch): the slot may be reused
+        // where updates do not reach, inside a group kept whole.
+        if let Some(q) = self.cache.queued.get_mut(i as usize) {
+            *q = false;
+        }
         self.inner_free.push(i);
     }
 

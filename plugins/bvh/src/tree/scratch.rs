@@ -15,6 +15,10 @@ pub(crate) struct Scratch {
     pub(crate) update_candidates: Vec<(f32, u32)>,
     /// Node slots of the bBVH being grafted (IncrUPB grafts thousands).
     pub(crate) graft_slots: Vec<u32>,
+    /// `induced_tree`'s tables, one entry per triangle and per inner node, kept between calls and
+    /// reset where they were written: a call costs its group's size, not the tree's.
+    pub(crate) induced_local: Vec<u32>,
+    pub(crate) induced_marked: Vec<bool>,
     /// Treelet restructuring's tables (8 KiB), made on first use (see
     /// `Bvh::with_treelet_scratch`).
     pub(crate) treelet: Option<Box<TreeletScratch>>,

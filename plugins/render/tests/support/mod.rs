@@ -470,6 +470,19 @@ pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
     ]
 }
 
+/// The binary records renumbered depth first: nodes, triangles, instances, and the root reference.
+pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+    let d = bvh.gpu_depth_first_layout();
+    let [_, triangles, _] = tree_bytes(bvh);
+    let mut nodes: Vec<u8> = d.nodes.iter().flat_map(node_bytes).collect();
+    if nodes.is_empty() {
+        // A storage buffer may not be empty.
+        nodes = node_bytes(&treelight_bvh::GpuNode::default());
+    }
+    let instances = d.instances.iter().flat_map(instance_bytes).collect();
+    ([nodes, triangles, instances], d.root)
+}
+
 /// The tree as 4-wide records: nodes, triangles, instances, and the root reference.
 pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
     let wide = bvh.gpu_wide_layout();
@@ -577,6 +590,18 @@ pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
         bvh.gpu_root(),
         view,
     )
+}
+
+/// `primary_hits` through the binary records renumbered depth first ([`depth_first_tree_bytes`]).
+pub fn gpu_depth_first_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    let gpu = Gpu::new();
+    let ([n, t, i], root) = depth_first_tree_bytes(bvh);
+    let buffers = [
+        gpu.storage("nodes", &n),
+        gpu.storage("triangles", &t),
+        gpu.storage("instances", &i),
+    ];
+    hits_on(&gpu, [&buffers[0], &buffers[1], &buffers[2]], root, view)
 }
 
 /// `primary_hits` through the 4-wide layout ([`wide_tree_bytes`]).
