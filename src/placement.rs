@@ -4,7 +4,7 @@
 
 use bevy::math::Ray3d;
 use bevy::prelude::*;
-use treelight_scene::{SceneBvh, cast_on};
+use treelight_scene::{SceneBvh, cast_on_filtered};
 
 /// A point on a surface and the surface's unit normal there.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,20 +30,11 @@ pub fn surface_under_excluding(
     exclude: &[Entity],
 ) -> Surface {
     let tree = scene.read_blocking();
-    let mut origin = ray.origin;
-    // Past the excluded objects' surfaces, a bounded number of times (each may be hit front and
-    // back).
-    for _ in 0..32 {
-        let Some(hit) = cast_on(&tree, Ray3d::new(origin, ray.direction)) else {
-            break;
+    if let Some(hit) = cast_on_filtered(&tree, ray, |e| !exclude.contains(&e)) {
+        return Surface {
+            point: hit.point,
+            normal: hit.normal,
         };
-        if !exclude.contains(&hit.entity) {
-            return Surface {
-                point: hit.point,
-                normal: hit.normal,
-            };
-        }
-        origin = hit.point + Vec3::from(ray.direction) * 1e-4 * hit.distance.max(1.0);
     }
     drop(tree);
     let d = Vec3::from(ray.direction);

@@ -441,30 +441,13 @@ impl SceneBvh {
         self.cast_ray_filtered(ray, |_| true)
     }
 
-    /// The nearest hit on an entity that `accept` takes; others are seen through (up to
-    /// 16 of them along the ray).
+    /// The nearest hit on an entity that `accept` takes; others are seen through.
     pub fn cast_ray_filtered(
         &self,
         ray: Ray3d,
-        mut accept: impl FnMut(Entity) -> bool,
+        accept: impl FnMut(Entity) -> bool,
     ) -> Option<SceneHit> {
-        let tree = self.try_read()?;
-        let dir = Vec3::from(ray.direction);
-        let mut skipped = 0.0f32;
-        let mut origin = ray.origin;
-        for _ in 0..16 {
-            let mut hit = cast_on(&tree, Ray3d::new(origin, ray.direction))?;
-            if accept(hit.entity) {
-                hit.distance += skipped;
-                hit.point = ray.origin + dir * hit.distance;
-                return Some(hit);
-            }
-            // Continue just past the rejected surface, in steps relative to the distance so far.
-            let step = hit.distance + 1e-4 * (skipped + hit.distance).max(1.0);
-            skipped += step;
-            origin += dir * step;
-        }
-        None
+        cast_on_filtered(&*self.try_read()?, ray, accept)
     }
 
     /// For a renderer that mirrors the tree on the GPU: takes what changed since its last call and
@@ -573,8 +556,29 @@ impl SceneBvh {
 
 /// Closest hit on a tree, with entity and world-space geometry.
 pub fn cast_on(tree: &SceneTree, ray: Ray3d) -> Option<SceneHit> {
+    let hit = tree
+        .bvh
+        .closest_hit(&Ray::new(ray.origin, Vec3::from(ray.direction)))?;
+    scene_hit(tree, ray, hit)
+}
+
+/// Closest hit on a tree on an entity that `accept` takes; the others are seen through, however
+/// close to an accepted surface they lie (an object resting on a floor, say).
+pub fn cast_on_filtered(
+    tree: &SceneTree,
+    ray: Ray3d,
+    mut accept: impl FnMut(Entity) -> bool,
+) -> Option<SceneHit> {
+    let hit = tree
+        .bvh
+        .closest_hit_where(&Ray::new(ray.origin, Vec3::from(ray.direction)), |h| {
+            tree.entity_of_hit(h).is_some_and(&mut accept)
+        })?;
+    scene_hit(tree, ray, hit)
+}
+
+fn scene_hit(tree: &SceneTree, ray: Ray3d, hit: Hit) -> Option<SceneHit> {
     let dir = Vec3::from(ray.direction);
-    let hit = tree.bvh.closest_hit(&Ray::new(ray.origin, dir))?;
     let entity = tree.entity_of_hit(&hit)?;
     let tri = tree.bvh.hit_world_triangle(&hit)?;
     let n = tri.normal().normalize_or_zero();

@@ -412,6 +412,47 @@ fn filtered_rays_see_through_rejected_entities() {
 }
 
 #[test]
+fn filtered_rays_find_a_surface_that_touches_a_rejected_one() {
+    // A box resting on a floor: the box's bottom face and the floor's top lie in one plane. Seeing
+    // through the box must find the floor's top there, not its underside (the placement of an object
+    // dragged over the floor depends on it), whichever of the two the tree reaches first.
+    let mut app = app(Duration::from_millis(20));
+    let (floor, resting) = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        (
+            meshes.add(Cuboid::new(10.0, 0.1, 10.0).mesh().build()),
+            meshes.add(Cuboid::new(1.0, 1.0, 1.0).mesh().build()),
+        )
+    };
+    let floor = app
+        .world_mut()
+        .spawn((Mesh3d(floor), Transform::from_xyz(0.0, -0.05, 0.0)))
+        .id();
+    let resting = app
+        .world_mut()
+        .spawn((Mesh3d(resting), Transform::from_xyz(0.0, 0.5, 0.0)))
+        .id();
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 24, "both traced");
+    let scene = app.world().resource::<SceneBvh>();
+    for k in 0..25 {
+        let at = Vec3::new(-0.65 + 0.0325 * k as f32, 3.0, 0.3);
+        let ray = Ray3d::new(at, Dir3::new(Vec3::new(0.1, -1.0, -0.05)).unwrap());
+        let hit = scene.cast_ray(ray).expect("the box");
+        assert_eq!(hit.entity, resting, "{hit:?} {ray:?}");
+        let hit = scene
+            .cast_ray_filtered(ray, |e| e != resting)
+            .expect("the floor under the box");
+        assert_eq!(hit.entity, floor);
+        assert!(
+            hit.point.y.abs() < 1e-4,
+            "the floor's top, not {}",
+            hit.point
+        );
+    }
+}
+
+#[test]
 fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
     let mut app = app(Duration::from_millis(20));
     let cube = app

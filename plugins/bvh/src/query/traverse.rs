@@ -63,32 +63,54 @@ impl Bvh {
     /// [`Bvh::closest_hit`], counting the work done.
     pub fn closest_hit_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
         let mut best = None;
-        self.traverse::<false>(self.root, ray, NONE, &mut best, stats);
+        self.traverse::<false, _>(self.root, ray, NONE, &mut best, stats, &mut |_| true);
+        best
+    }
+
+    /// The nearest hit on a triangle that `accept` takes, given the candidate hit (its triangle and
+    /// the instance it was reached through: [`Bvh::hit_group`] names its group). The others are
+    /// seen through, however close to an accepted surface they lie.
+    pub fn closest_hit_where(
+        &self,
+        ray: &Ray,
+        mut accept: impl FnMut(&Hit) -> bool,
+    ) -> Option<Hit> {
+        let mut best = None;
+        self.traverse::<false, _>(
+            self.root,
+            ray,
+            NONE,
+            &mut best,
+            &mut TraversalStats::default(),
+            &mut accept,
+        );
         best
     }
 
     /// Some hit along the ray within its range, found as early as possible (for shadow and AO rays).
     pub fn any_hit(&self, ray: &Ray) -> Option<Hit> {
         let mut best = None;
-        self.traverse::<true>(
+        self.traverse::<true, _>(
             self.root,
             ray,
             NONE,
             &mut best,
             &mut TraversalStats::default(),
+            &mut |_| true,
         );
         best
     }
 
     /// Returns true when something was found and `ANY` asks to stop. `instance` is the instance
-    /// `root` hangs under ([`NONE`] at the top).
-    fn traverse<const ANY: bool>(
+    /// `root` hangs under ([`NONE`] at the top); only hits `accept` takes count.
+    fn traverse<const ANY: bool, F: FnMut(&Hit) -> bool>(
         &self,
         root: NodeRef,
         ray: &Ray,
         instance: u32,
         best: &mut Option<Hit>,
         stats: &mut TraversalStats,
+        accept: &mut F,
     ) -> bool {
         if root.is_none() {
             return false;
@@ -133,15 +155,18 @@ impl Bvh {
                     if let Some((t, u, v)) =
                         rd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max(best))
                     {
-                        *best = Some(Hit {
+                        let hit = Hit {
                             triangle: id,
                             t,
                             u,
                             v,
                             instance,
-                        });
-                        if ANY {
-                            return true;
+                        };
+                        if accept(&hit) {
+                            *best = Some(hit);
+                            if ANY {
+                                return true;
+                            }
                         }
                     }
                 }
@@ -150,7 +175,9 @@ impl Bvh {
                     let local = ray
                         .transformed(&inst.inverse)
                         .with_range(ray.t_min, t_max(best));
-                    if self.traverse::<ANY>(inst.root, &local, n.index(), best, stats) && ANY {
+                    if self.traverse::<ANY, F>(inst.root, &local, n.index(), best, stats, accept)
+                        && ANY
+                    {
                         return true;
                     }
                 }
