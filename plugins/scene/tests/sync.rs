@@ -508,7 +508,22 @@ fn not_traced_meshes_stay_out_of_the_tree_until_the_marker_goes() {
 
 #[test]
 fn meshes_nearest_the_camera_are_traced_first() {
-    // One chunk of triangles copied per frame, so the order of the copies shows.
+    // The order must hold in every run. That the parts arrive over several frames (not in one
+    // batch) depends on the worker keeping up, which a loaded machine (other tests sharing the
+    // rayon pool) can prevent: such a run says nothing, and is tried again.
+    for attempt in 1..=3 {
+        if traced_in_distance_order() {
+            return;
+        }
+        eprintln!("attempt {attempt}: every part arrived in one batch");
+    }
+    panic!("every part arrived at once in three runs");
+}
+
+/// Traces an assembly's parts, asserting that none is traced before a nearer one; returns whether
+/// the nearest came strictly before the farthest.
+fn traced_in_distance_order() -> bool {
+    // One chunk of array elements copied per frame, so the order of the copies shows.
     let mut app = headless_app(SceneBvhConfig {
         main_thread_budget: Duration::ZERO,
         ..default()
@@ -568,7 +583,7 @@ fn meshes_nearest_the_camera_are_traced_first() {
         );
     }
     // And the nearest really came first, not all at once.
-    assert!(by_distance[0].1 < by_distance[15].1, "{by_distance:?}");
+    by_distance[0].1 < by_distance[15].1
 }
 
 #[test]
