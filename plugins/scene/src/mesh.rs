@@ -90,7 +90,7 @@ pub struct GeometryCopy {
     next: usize,
 }
 
-/// The copy's destination: the mesh's arrays at full length.
+/// The copy's destination: room for the mesh's arrays, filled as the copy goes.
 #[derive(Debug, Default)]
 struct Arrays {
     positions: Vec<[f32; 3]>,
@@ -100,14 +100,23 @@ struct Arrays {
 }
 
 impl Arrays {
-    /// Allocated and zeroed (so every page is touched).
-    fn zeroed(sh: Shape) -> Self {
+    /// Room for every array; with `touch`, every page of it written once (and emptied again), so
+    /// the copy does not pay for first touching fresh memory.
+    fn reserved(sh: Shape, touch: bool) -> Self {
+        fn room<T: Copy>(n: usize, zero: T, touch: bool) -> Vec<T> {
+            let mut v = Vec::with_capacity(n);
+            if touch {
+                v.resize(n, zero);
+                v.clear();
+            }
+            v
+        }
         let per_vertex = |used: bool| if used { sh.vertices } else { 0 };
         Self {
-            positions: vec![[0.0; 3]; sh.vertices],
-            normals: vec![[0.0; 3]; per_vertex(sh.normals)],
-            uvs: vec![[0.0; 2]; per_vertex(sh.uvs)],
-            indices: vec![0; if sh.indexed { 3 * sh.triangles } else { 0 }],
+            positions: room(sh.vertices, [0.0; 3], touch),
+            normals: room(per_vertex(sh.normals), [0.0; 3], touch),
+            uvs: room(per_vertex(sh.uvs), [0.0; 2], touch),
+            indices: room(if sh.indexed { 3 * sh.triangles } else { 0 }, 0, touch),
         }
     }
 }
@@ -184,13 +193,14 @@ impl GeometryCopy {
         let arrays = if background && bytes >= BACKGROUND_BYTES {
             let spawned = std::thread::Builder::new()
                 .name("treelight-mesh-copy".into())
-                .spawn(move || Arrays::zeroed(sh));
+                .spawn(move || Arrays::reserved(sh, true));
             match spawned {
                 Ok(handle) => Destination::Coming(handle, sh),
-                Err(_) => Destination::Ready(Arrays::zeroed(sh)),
+                Err(_) => Destination::Ready(Arrays::reserved(sh, false)),
             }
         } else {
-            Destination::Ready(Arrays::zeroed(sh))
+            // Small: the copy's own writes touch its pages, a slice at a time within the budget.
+            Destination::Ready(Arrays::reserved(sh, false))
         };
         Ok(Self {
             arrays,
@@ -246,8 +256,11 @@ impl GeometryCopy {
             if let Destination::Coming(handle, sh) =
                 std::mem::replace(&mut self.arrays, placeholder)
             {
-                self.arrays =
-                    Destination::Ready(handle.join().unwrap_or_else(|_| Arrays::zeroed(sh)));
+                self.arrays = Destination::Ready(
+                    handle
+                        .join()
+                        .unwrap_or_else(|_| Arrays::reserved(sh, false)),
+                );
             }
         }
         let mut left = max.max(1);
@@ -293,30 +306,30 @@ impl GeometryCopy {
             return Ok(());
         };
         match k {
-            0 => a.positions[from..to].copy_from_slice(&positions_of(mesh)?[from..to]),
+            0 => a
+                .positions
+                .extend_from_slice(&positions_of(mesh)?[from..to]),
             1 => {
                 if let VertexAttributeValues::Float32x3(n) = attribute(Mesh::ATTRIBUTE_NORMAL)? {
-                    a.normals[from..to].copy_from_slice(&n[from..to]);
+                    a.normals.extend_from_slice(&n[from..to]);
                 }
             }
             2 => {
                 if let VertexAttributeValues::Float32x2(uv) = attribute(Mesh::ATTRIBUTE_UV_0)? {
-                    a.uvs[from..to].copy_from_slice(&uv[from..to]);
+                    a.uvs.extend_from_slice(&uv[from..to]);
                 }
             }
             _ => {
-                let out = &mut a.indices[from..to];
+                let at = a.indices.len();
                 match mesh.try_indices_option() {
                     Ok(Some(Indices::U16(ix))) => {
-                        for (o, &i) in out.iter_mut().zip(&ix[from..to]) {
-                            *o = u32::from(i);
-                        }
+                        a.indices.extend(ix[from..to].iter().map(|&i| u32::from(i)))
                     }
-                    Ok(Some(Indices::U32(ix))) => out.copy_from_slice(&ix[from..to]),
+                    Ok(Some(Indices::U32(ix))) => a.indices.extend_from_slice(&ix[from..to]),
                     _ => return Err(MeshSkip::RenderWorldOnly),
                 }
                 let vertices = self.vertices;
-                if let Some(&index) = out.iter().find(|&&i| i as usize >= vertices) {
+                if let Some(&index) = a.indices[at..].iter().find(|&&i| i as usize >= vertices) {
                     return Err(MeshSkip::IndexOutOfRange { index, vertices });
                 }
             }
@@ -328,15 +341,13 @@ impl GeometryCopy {
     /// [`GeometryCopy::copy`] has returned `true`). Of a partial copy it gives the triangles whose
     /// corners were copied, with normals and UVs only where those arrays were copied in full.
     pub fn finish(self) -> MeshGeometry {
-        let (copied, total) = (self.next, self.total());
         let Destination::Ready(a) = self.arrays else {
             return MeshGeometry::default();
         };
-        // Only what was copied: the arrays are full length from the start.
-        let v = a.positions.len().min(copied);
+        // The arrays hold what was copied.
+        let v = a.positions.len();
         let corners: Vec<[u32; 3]> = if self.indexed {
-            let done = copied.saturating_sub(total - a.indices.len());
-            a.indices[..done]
+            a.indices
                 .chunks_exact(3)
                 .map(|f| [f[0], f[1], f[2]])
                 .collect()
@@ -358,20 +369,17 @@ impl GeometryCopy {
                 .map(|c| c.map(|i| Vec3::from_array(all[i as usize])))
                 .collect()
         };
-        let triangles = per_corner(&a.positions[..v])
+        let triangles = per_corner(&a.positions)
             .into_iter()
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
-        // The sections' ends among the elements: positions, then normals, then UVs.
-        let full = a.positions.len();
-        let normals_end = full * (1 + self.has_normals as usize);
-        let uvs_end = normals_end + full * self.has_uvs as usize;
-        let normals = if self.has_normals && copied >= normals_end && v == full {
+        // Normals and UVs only when copied in full (`per_corner` checks the normals' count).
+        let normals = if self.has_normals {
             per_corner(&a.normals)
         } else {
             Vec::new()
         };
-        let uvs = if self.has_uvs && copied >= uvs_end && v == full && v > 0 {
+        let uvs = if self.has_uvs && a.uvs.len() == v && v > 0 {
             corners
                 .iter()
                 .map(|c| c.map(|i| Vec2::from_array(a.uvs[i as usize])))
