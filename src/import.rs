@@ -19,14 +19,24 @@ use treelight_import::{
     ImportError, ImportedMaterial, ImportedMesh, ImportedScene, ImportedTexture, WrapMode,
 };
 
-/// A file parsed, with its meshes already made into Bevy meshes (off the main thread, so the frame
-/// that adds them to the scene only moves them in).
+/// A file parsed, with its meshes and textures already made into Bevy assets (off the main thread,
+/// so the frame that adds them to the scene only moves them in).
 pub struct ParsedScene {
     /// What the file holds.
     pub scene: ImportedScene,
+    /// Its Bevy meshes and images.
+    pub parts: Prebuilt,
+}
+
+/// Bevy meshes and images made from a scene ahead of spawning it; [`spawn_scene`] takes them and
+/// makes whatever is missing.
+#[derive(Default)]
+pub struct Prebuilt {
     /// One Bevy mesh per mesh of the scene, `None` for one that repeats an earlier one (`same_as`)
     /// and for those already taken.
     pub meshes: Vec<Option<Mesh>>,
+    /// The base-colour images the materials use, by texture and wrap modes.
+    pub images: HashMap<(usize, [WrapMode; 2]), Image>,
 }
 
 impl From<ImportedScene> for ParsedScene {
@@ -36,7 +46,18 @@ impl From<ImportedScene> for ParsedScene {
             .iter()
             .map(|m| m.same_as.is_none().then(|| to_bevy_mesh(m)))
             .collect();
-        Self { scene, meshes }
+        let mut images = HashMap::new();
+        for r in scene.materials.iter().filter_map(|m| m.base_color_texture) {
+            if let Some(t) = scene.textures.get(r.texture) {
+                images
+                    .entry((r.texture, r.wrap))
+                    .or_insert_with(|| to_bevy_image(t, r.wrap));
+            }
+        }
+        Self {
+            scene,
+            parts: Prebuilt { meshes, images },
+        }
     }
 }
 
@@ -203,7 +224,7 @@ pub fn spawn_scene_in_world(
     world: &mut World,
     file: &Path,
     scene: &ImportedScene,
-    prebuilt: &mut [Option<Mesh>],
+    prebuilt: &mut Prebuilt,
     add_sun: bool,
 ) -> Result<Vec<Entity>, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
@@ -273,7 +294,7 @@ pub fn spawn_scene(
     commands: &mut Commands,
     file: &Path,
     scene: &ImportedScene,
-    prebuilt: &mut [Option<Mesh>],
+    prebuilt: &mut Prebuilt,
     assets: &mut SceneAssets,
 ) -> Entity {
     // One image per texture and sampler, shared by the materials that use it.
@@ -286,9 +307,12 @@ pub fn spawn_scene(
             if let Some(r) = m.base_color_texture
                 && let Some(t) = scene.textures.get(r.texture)
             {
-                let image = textures
-                    .entry((r.texture, r.wrap))
-                    .or_insert_with(|| assets.images.add(to_bevy_image(t, r.wrap)));
+                let image = textures.entry((r.texture, r.wrap)).or_insert_with(|| {
+                    let made = prebuilt.images.remove(&(r.texture, r.wrap));
+                    assets
+                        .images
+                        .add(made.unwrap_or_else(|| to_bevy_image(t, r.wrap)))
+                });
                 mat.base_color_texture = Some(image.clone());
                 // Bevy's rasteriser and the path tracer both read it (KHR_texture_transform).
                 let [x, y, t] = r.uv_transform;
@@ -353,6 +377,7 @@ pub fn spawn_scene(
             Some(h) => h.clone(),
             None => assets.meshes.add(
                 prebuilt
+                    .meshes
                     .get_mut(i)
                     .and_then(Option::take)
                     .unwrap_or_else(|| to_bevy_mesh(m)),

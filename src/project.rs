@@ -644,7 +644,14 @@ pub fn open_project_value(
     let mut nodes: HashMap<(usize, String), Entity> = HashMap::new();
     for (i, scene) in parsed.iter().enumerate() {
         let Some(scene) = scene else { continue };
-        if crate::import::spawn_scene_in_world(world, &resolved[i], scene, &mut [], false).is_err()
+        if crate::import::spawn_scene_in_world(
+            world,
+            &resolved[i],
+            scene,
+            &mut crate::import::Prebuilt::default(),
+            false,
+        )
+        .is_err()
         {
             continue;
         }

@@ -652,7 +652,7 @@ impl EditCommand {
                     world,
                     file,
                     &parsed.scene,
-                    &mut parsed.meshes,
+                    &mut parsed.parts,
                     true,
                 )
                 .map_err(EditError::Import)?;
