@@ -37,14 +37,28 @@ pub struct Prebuilt {
     pub meshes: Vec<Option<Mesh>>,
     /// The base-colour images the materials use, by texture and wrap modes.
     pub images: HashMap<(usize, [WrapMode; 2]), Image>,
+    /// Each mesh's bounds (of `meshes[i]`, or of the mesh it repeats), so that Bevy need not
+    /// compute them on the main thread when the objects are spawned.
+    pub bounds: Vec<Option<bevy::camera::primitives::Aabb>>,
 }
 
 impl From<ImportedScene> for ParsedScene {
     fn from(scene: ImportedScene) -> Self {
-        let meshes = scene
+        use bevy::camera::primitives::MeshAabb;
+        let meshes: Vec<Option<Mesh>> = scene
             .meshes
             .iter()
             .map(|m| m.same_as.is_none().then(|| to_bevy_mesh(m)))
+            .collect();
+        let own: Vec<_> = meshes
+            .iter()
+            .map(|m| m.as_ref().and_then(MeshAabb::compute_aabb))
+            .collect();
+        let bounds = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| own.get(m.same_as.unwrap_or(i)).copied().flatten())
             .collect();
         let mut images = HashMap::new();
         for r in scene.materials.iter().filter_map(|m| m.base_color_texture) {
@@ -56,7 +70,11 @@ impl From<ImportedScene> for ParsedScene {
         }
         Self {
             scene,
-            parts: Prebuilt { meshes, images },
+            parts: Prebuilt {
+                meshes,
+                images,
+                bounds,
+            },
         }
     }
 }
@@ -385,7 +403,8 @@ pub fn spawn_scene(
         };
         mesh_handles.push(mesh.clone());
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
-        match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
+        let bound = prebuilt.bounds.get(i).copied().flatten();
+        let spawned = match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
             // A node's only mesh lives on the node itself.
             Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
                 let key = SourceKey {
@@ -393,37 +412,50 @@ pub fn spawn_scene(
                     key: scene.nodes[n].key.clone(),
                 };
                 commands.entity(node).insert((shape, MeshSource(key)));
+                node
             }
             Some((n, node)) => {
                 let key = SourceKey {
                     file: file.to_owned(),
                     key: format!("{}/mesh {i}", scene.nodes[n].key),
                 };
-                commands.spawn((
-                    Name::new(m.name.clone()),
-                    SceneObject,
-                    shape,
-                    Transform::IDENTITY,
-                    MeshSource(key.clone()),
-                    key,
-                    ChildOf(node),
-                ));
+                commands
+                    .spawn((
+                        Name::new(m.name.clone()),
+                        SceneObject,
+                        shape,
+                        Transform::IDENTITY,
+                        MeshSource(key.clone()),
+                        key,
+                        ChildOf(node),
+                    ))
+                    .id()
             }
             None => {
                 let key = SourceKey {
                     file: file.to_owned(),
                     key: format!("mesh {i}"),
                 };
-                commands.spawn((
-                    Name::new(m.name.clone()),
-                    SceneObject,
-                    shape,
-                    Transform::from_matrix(m.transform),
-                    MeshSource(key.clone()),
-                    key,
-                    ChildOf(root),
-                ));
+                commands
+                    .spawn((
+                        Name::new(m.name.clone()),
+                        SceneObject,
+                        shape,
+                        Transform::from_matrix(m.transform),
+                        MeshSource(key.clone()),
+                        key,
+                        ChildOf(root),
+                    ))
+                    .id()
             }
+        };
+        // Bounds made with the mesh on the parsing task: Bevy would otherwise compute every new
+        // mesh's on the main thread in the frame that spawns them. The editor never edits an
+        // imported mesh's vertices, so they stay right.
+        if let Some(b) = bound {
+            commands
+                .entity(spawned)
+                .insert((b, bevy::camera::visibility::NoAutoAabb));
         }
     }
     root
