@@ -46,7 +46,7 @@ pub use edit::group::{GroupId, PreparedGroup};
 pub use error::BvhError;
 pub use export::change::ChangeSet;
 pub use export::depth_first::DepthFirstLayout;
-pub use export::gpu::{GpuInstance, GpuNode, GpuTriangle};
+pub use export::gpu::{GpuInstance, GpuLayout, GpuNode, GpuTriangle};
 pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};
 pub use export::wide::{GpuWideNode, WideLayout};
 pub use glam;

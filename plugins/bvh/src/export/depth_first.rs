@@ -3,19 +3,10 @@
 //! arrays keep their allocation order; this is the order a relayout would give them.
 
 use crate::tree::node::{NONE, NodeRef};
-use crate::{Bvh, GpuInstance, GpuNode};
+use crate::{Bvh, GpuLayout, GpuNode};
 
-/// Node records in depth-first order, the root reference and the instances with their roots
-/// renumbered (triangles are unchanged).
-#[derive(Clone, Debug, Default)]
-pub struct DepthFirstLayout {
-    /// Node records, the root's first.
-    pub nodes: Vec<GpuNode>,
-    /// The root reference.
-    pub root: u32,
-    /// Instance records, as [`Bvh::gpu_instance`] with each root renumbered.
-    pub instances: Vec<GpuInstance>,
-}
+/// The binary records in depth-first order.
+pub type DepthFirstLayout = GpuLayout<GpuNode>;
 
 impl Bvh {
     /// Renumbers the live node records depth first from the root, then from each instance's root;
@@ -34,9 +25,7 @@ impl Bvh {
         };
         let roots: Vec<NodeRef> = std::iter::once(self.root)
             .chain(
-                (0..self.instances.len() as u32)
-                    .map(|i| NodeRef(self.gpu_instance(i).root))
-                    .filter(|r| !r.is_none()),
+                (0..self.instances.len() as u32).filter_map(|i| self.instance(i).map(|x| x.root)),
             )
             .collect();
         for root in roots {
@@ -75,16 +64,8 @@ impl Bvh {
                 rec
             })
             .collect();
-        let instances = (0..self.instances.len() as u32)
-            .map(|i| {
-                let mut rec = self.gpu_instance(i);
-                if rec.root != NodeRef::NONE.0 {
-                    rec.root = rename(rec.root);
-                }
-                rec
-            })
-            .collect();
-        DepthFirstLayout {
+        let instances = self.gpu_instances_renamed(|r| rename(r.0));
+        GpuLayout {
             nodes,
             root: rename(self.root.0),
             instances,

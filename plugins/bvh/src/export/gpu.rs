@@ -78,7 +78,36 @@ fn rows(t: &Affine3A) -> [[f32; 4]; 3] {
     ]
 }
 
+/// The whole tree's records in a layout other than the engine's own arrays (`N` is the node record):
+/// nodes, the root reference, and the instances with their roots renamed to match. Triangles are
+/// [`Bvh::gpu_triangle`]'s, unchanged.
+#[derive(Clone, Debug, Default)]
+pub struct GpuLayout<N> {
+    /// Node records, the root's first.
+    pub nodes: Vec<N>,
+    /// The root reference (inner references name `nodes`).
+    pub root: u32,
+    /// Instance records, as [`Bvh::gpu_instance`] with each root renamed.
+    pub instances: Vec<GpuInstance>,
+}
+
 impl Bvh {
+    /// Every instance record with its root renamed by `rename` (a free slot keeps its null root).
+    pub(crate) fn gpu_instances_renamed(
+        &self,
+        mut rename: impl FnMut(NodeRef) -> u32,
+    ) -> Vec<GpuInstance> {
+        (0..self.instances.len() as u32)
+            .map(|i| {
+                let mut rec = self.gpu_instance(i);
+                if rec.root != NodeRef::NONE.0 {
+                    rec.root = rename(NodeRef(rec.root));
+                }
+                rec
+            })
+            .collect()
+    }
+
     /// The record of inner node `i` (a null record for a freed slot).
     pub fn gpu_node(&self, i: u32) -> GpuNode {
         let n = &self.inner[i as usize];

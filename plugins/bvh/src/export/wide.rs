@@ -6,7 +6,7 @@
 //! however many instances share it.
 
 use crate::tree::node::{NodeKind, NodeRef};
-use crate::{Bvh, GpuInstance};
+use crate::{Bvh, GpuLayout};
 use bytemuck::{Pod, Zeroable};
 use std::collections::HashMap;
 
@@ -47,17 +47,8 @@ impl Default for GpuWideNode {
     }
 }
 
-/// The tree as 4-wide records: nodes, the root reference and the instances with their roots
-/// renamed to wide records (triangles are the binary layout's, unchanged).
-#[derive(Clone, Debug, Default)]
-pub struct WideLayout {
-    /// Wide node records, the root's first.
-    pub nodes: Vec<GpuWideNode>,
-    /// The root reference (inner references name `nodes`).
-    pub root: u32,
-    /// Instance records, as [`Bvh::gpu_instance`] with each root collapsed.
-    pub instances: Vec<GpuInstance>,
-}
+/// The tree as 4-wide records (inner references name wide records).
+pub type WideLayout = GpuLayout<GpuWideNode>;
 
 impl Bvh {
     /// Collapses the whole tree into 4-wide records, breadth first from the root.
@@ -78,15 +69,7 @@ impl Bvh {
             NodeRef::inner(slot).0
         };
         out.root = name(self.root, &mut out.nodes, &mut queue);
-        out.instances = (0..self.instances.len() as u32)
-            .map(|i| {
-                let mut rec = self.gpu_instance(i);
-                if rec.root != NodeRef::NONE.0 {
-                    rec.root = name(NodeRef(rec.root), &mut out.nodes, &mut queue);
-                }
-                rec
-            })
-            .collect();
+        out.instances = self.gpu_instances_renamed(|r| name(r, &mut out.nodes, &mut queue));
         let mut next = 0;
         while next < queue.len() {
             let (binary, slot) = queue[next];
