@@ -24,29 +24,21 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
     if root == NONE {
         return hit;
     }
-    var o = world_o;
-    var d = world_d;
-    var inv = safe_inverse(d);
-    var m = ray_test(d);
+    var f = world_frame(world_o, world_d);
     var stack: array<u32, STACK_SIZE>;
     var sp = 0u;
     var current = root;
-    var inside = NONE;
     loop {
         if current == END_INSTANCE {
-            o = world_o;
-            d = world_d;
-            inv = safe_inverse(d);
-            m = ray_test(d);
-            inside = NONE;
+            f = world_frame(world_o, world_d);
         } else {
             let kind = current >> KIND_SHIFT;
             let index = current & INDEX_MASK;
             if kind == KIND_INNER {
                 let n = nodes[index];
                 hit.visited += 1u;
-                let ta = hit_box(o, inv, n.a_min, n.a_max, hit.t);
-                let tb = hit_box(o, inv, n.b_min, n.b_max, hit.t);
+                let ta = hit_box(f.o, f.inv, n.a_min, n.a_max, hit.t);
+                let tb = hit_box(f.o, f.inv, n.b_min, n.b_max, hit.t);
                 if ta < FAR && tb < FAR {
                     // Visit the nearer child next; the farther one waits on the stack.
                     var near = n.a_ref;
@@ -69,28 +61,15 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
                     continue;
                 }
             } else if kind == KIND_LEAF {
-                let r = hit_triangle(o, m, tris[index], hit.t);
-                if r.x >= 0.0 {
-                    hit.t = r.x;
-                    hit.triangle = index;
-                    hit.u = r.y;
-                    hit.v = r.z;
-                    hit.instance = inside;
-                    if first {
-                        return hit;
-                    }
+                if test_leaf(f, index, &hit) && first {
+                    return hit;
                 }
             } else if kind == KIND_INSTANCE {
-                let inst = instances[index];
                 if sp < STACK_SIZE {
                     stack[sp] = END_INSTANCE;
                     sp += 1u;
-                    o = xform_point(inst.world_to_object, world_o);
-                    d = xform_vector(inst.world_to_object, world_d);
-                    inv = safe_inverse(d);
-                    m = ray_test(d);
-                    inside = index;
-                    current = inst.root;
+                    f = instance_frame(index, world_o, world_d);
+                    current = instances[index].root;
                     continue;
                 }
             }
@@ -102,12 +81,4 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
         current = stack[sp];
     }
     return hit;
-}
-
-fn closest_hit(root: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
-    return trace(root, o, d, t_max, false);
-}
-
-fn occluded(root: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
-    return trace(root, o, d, t_max, true).triangle != NONE;
 }

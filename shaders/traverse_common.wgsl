@@ -1,6 +1,7 @@
 // What both GPU layouts' traversals share: the triangle and instance records, the hit, the box and
 // triangle tests. The crate appends it with one layout's file (traverse.wgsl, binary nodes, or
-// traverse_wide.wgsl, 4-wide nodes), which defines `Node`, `STACK_SIZE` and `trace`.
+// traverse_wide.wgsl, 4-wide nodes), which defines `Node`, `STACK_SIZE` and `trace`; `closest_hit` and
+// `occluded` below call that `trace`.
 //
 // A child reference carries its kind in its two high bits: 0 inner node, 1 leaf (the value is a
 // triangle id), 2 instance (a group kept whole under a transform, traversed in its object space).
@@ -133,3 +134,46 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(1.0) / select(d, vec3<f32>(1e-30), d == vec3<f32>(0.0));
 }
 
+// The ray as the traversal tests it, in the space it is in: world space, or an instance's object
+// space while inside one.
+struct Frame {
+    o: vec3<f32>,
+    inv: vec3<f32>,
+    m: RayTest,
+    // The instance the ray is inside; NONE in world space.
+    inside: u32,
+}
+
+fn world_frame(o: vec3<f32>, d: vec3<f32>) -> Frame {
+    return Frame(o, safe_inverse(d), ray_test(d), NONE);
+}
+
+// The world ray o + t d in the object space of instance `index` (t unchanged).
+fn instance_frame(index: u32, o: vec3<f32>, d: vec3<f32>) -> Frame {
+    let inst = instances[index];
+    let local_d = xform_vector(inst.world_to_object, d);
+    return Frame(xform_point(inst.world_to_object, o), safe_inverse(local_d), ray_test(local_d), index);
+}
+
+// Tests triangle `index` (a leaf); a nearer hit replaces `hit`. Returns whether it did.
+fn test_leaf(f: Frame, index: u32, hit: ptr<function, Hit>) -> bool {
+    let r = hit_triangle(f.o, f.m, tris[index], (*hit).t);
+    if r.x < 0.0 {
+        return false;
+    }
+    (*hit).t = r.x;
+    (*hit).triangle = index;
+    (*hit).u = r.y;
+    (*hit).v = r.z;
+    (*hit).instance = f.inside;
+    return true;
+}
+
+// The layout's `trace` as the kernels call it.
+fn closest_hit(root: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
+    return trace(root, o, d, t_max, false);
+}
+
+fn occluded(root: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    return trace(root, o, d, t_max, true).triangle != NONE;
+}
