@@ -81,11 +81,8 @@ pub fn mesh_geometry(mesh: &Mesh) -> Result<MeshGeometry, MeshSkip> {
 #[derive(Debug)]
 pub struct GeometryCopy {
     arrays: Destination,
-    indexed: bool,
-    vertices: usize,
-    triangles: usize,
-    has_normals: bool,
-    has_uvs: bool,
+    /// The mesh's sizes as the copy began (a different shape restarts it).
+    shape: Shape,
     /// Elements copied so far, over positions, normals, UVs and indices in that order.
     next: usize,
 }
@@ -125,7 +122,7 @@ impl Arrays {
 enum Destination {
     Ready(Arrays),
     /// Being allocated on another thread.
-    Coming(std::thread::JoinHandle<Arrays>, Shape),
+    Coming(std::thread::JoinHandle<Arrays>),
 }
 
 /// Bytes from which a destination is allocated on a thread of its own.
@@ -195,7 +192,7 @@ impl GeometryCopy {
                 .name("treelight-mesh-copy".into())
                 .spawn(move || Arrays::reserved(sh, true));
             match spawned {
-                Ok(handle) => Destination::Coming(handle, sh),
+                Ok(handle) => Destination::Coming(handle),
                 Err(_) => Destination::Ready(Arrays::reserved(sh, false)),
             }
         } else {
@@ -204,31 +201,27 @@ impl GeometryCopy {
         };
         Ok(Self {
             arrays,
-            indexed: sh.indexed,
-            vertices: sh.vertices,
-            triangles: sh.triangles,
-            has_normals: sh.normals,
-            has_uvs: sh.uvs,
+            shape: sh,
             next: 0,
         })
     }
 
-    fn shape(&self) -> Shape {
-        Shape {
-            vertices: self.vertices,
-            triangles: self.triangles,
-            indexed: self.indexed,
-            normals: self.has_normals,
-            uvs: self.has_uvs,
-        }
-    }
-
     /// Array elements to copy: positions, usable normals and UVs, and indices.
     pub fn total(&self) -> usize {
-        let v = self.vertices;
-        v + (self.has_normals as usize) * v
-            + (self.has_uvs as usize) * v
-            + (self.indexed as usize) * 3 * self.triangles
+        self.sections().iter().sum()
+    }
+
+    /// Elements in each section, in copy order: positions, normals, UVs, indices (0 for one that
+    /// is not copied).
+    fn sections(&self) -> [usize; 4] {
+        let sh = self.shape;
+        let v = sh.vertices;
+        [
+            v,
+            if sh.normals { v } else { 0 },
+            if sh.uvs { v } else { 0 },
+            if sh.indexed { 3 * sh.triangles } else { 0 },
+        ]
     }
 
     /// Elements copied so far.
@@ -238,24 +231,23 @@ impl GeometryCopy {
 
     /// Triangles in the mesh.
     pub fn triangles(&self) -> usize {
-        self.triangles
+        self.shape.triangles
     }
 
     /// Copies up to `max` more array elements from `mesh` (the mesh this copy was made for; the
     /// caller starts a new copy when the asset changes). Returns whether the copy is complete.
     pub fn copy(&mut self, mesh: &Mesh, max: usize) -> Result<bool, MeshSkip> {
-        if shape(mesh)? != self.shape() {
+        if shape(mesh)? != self.shape {
             // Changed under us without the caller noticing: start over rather than mix versions.
             *self = GeometryCopy::new(mesh)?;
         }
-        if let Destination::Coming(handle, _) = &self.arrays {
+        if let Destination::Coming(handle) = &self.arrays {
             if !handle.is_finished() {
                 return Ok(false);
             }
             let placeholder = Destination::Ready(Arrays::default());
-            if let Destination::Coming(handle, sh) =
-                std::mem::replace(&mut self.arrays, placeholder)
-            {
+            if let Destination::Coming(handle) = std::mem::replace(&mut self.arrays, placeholder) {
+                let sh = self.shape;
                 self.arrays = Destination::Ready(
                     handle
                         .join()
@@ -264,19 +256,8 @@ impl GeometryCopy {
             }
         }
         let mut left = max.max(1);
-        let v = self.vertices;
-        // The sections in order, each with where it starts among the elements.
-        let sections = [
-            (true, v),
-            (self.has_normals, v),
-            (self.has_uvs, v),
-            (self.indexed, 3 * self.triangles),
-        ];
         let mut start = 0usize;
-        for (k, (used, len)) in sections.into_iter().enumerate() {
-            if !used {
-                continue;
-            }
+        for (k, len) in self.sections().into_iter().enumerate() {
             let end = start + len;
             if self.next < end && left > 0 {
                 let from = self.next - start;
@@ -328,7 +309,7 @@ impl GeometryCopy {
                     Ok(Some(Indices::U32(ix))) => a.indices.extend_from_slice(&ix[from..to]),
                     _ => return Err(MeshSkip::RenderWorldOnly),
                 }
-                let vertices = self.vertices;
+                let vertices = self.shape.vertices;
                 if let Some(&index) = a.indices[at..].iter().find(|&&i| i as usize >= vertices) {
                     return Err(MeshSkip::IndexOutOfRange { index, vertices });
                 }
@@ -346,7 +327,7 @@ impl GeometryCopy {
         };
         // The arrays hold what was copied.
         let v = a.positions.len();
-        let corners: Vec<[u32; 3]> = if self.indexed {
+        let corners: Vec<[u32; 3]> = if self.shape.indexed {
             a.indices
                 .chunks_exact(3)
                 .map(|f| [f[0], f[1], f[2]])
@@ -374,12 +355,12 @@ impl GeometryCopy {
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
         // Normals and UVs only when copied in full (`per_corner` checks the normals' count).
-        let normals = if self.has_normals {
+        let normals = if self.shape.normals {
             per_corner(&a.normals)
         } else {
             Vec::new()
         };
-        let uvs = if self.has_uvs && a.uvs.len() == v && v > 0 {
+        let uvs = if self.shape.uvs && a.uvs.len() == v && v > 0 {
             corners
                 .iter()
                 .map(|c| c.map(|i| Vec2::from_array(a.uvs[i as usize])))
