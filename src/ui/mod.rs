@@ -690,14 +690,7 @@ pub fn editor_ui(
                             root: None,
                             transform: Some(transform.into()),
                         };
-                        requests.0.push(if dropped {
-                            EditRequest::Apply {
-                                command,
-                                continuing: false,
-                            }
-                        } else {
-                            EditRequest::Preview(command)
-                        });
+                        requests.0.push(drop_or_preview(command, dropped));
                     }
                 }
             }
@@ -723,14 +716,7 @@ pub fn editor_ui(
                         id: None,
                     },
                 };
-                requests.0.push(if dropped {
-                    EditRequest::Apply {
-                        command,
-                        continuing: false,
-                    }
-                } else {
-                    EditRequest::Preview(command)
-                });
+                requests.0.push(drop_or_preview(command, dropped));
             }
         }
         _ if ghost.is_some() && drag.0.is_none() && !file_dragged => {
@@ -964,5 +950,17 @@ impl Plugin for UiPlugin {
             .init_resource::<WidgetRects>()
             .add_systems(bevy_egui::EguiPrimaryContextPass, editor_ui)
             .add_systems(Update, fit_camera_viewport);
+    }
+}
+
+/// A drag from the Assets panel: a live preview while it moves, one step when it is dropped.
+fn drop_or_preview(command: EditCommand, dropped: bool) -> EditRequest {
+    if dropped {
+        EditRequest::Apply {
+            command,
+            continuing: false,
+        }
+    } else {
+        EditRequest::Preview(command)
     }
 }

@@ -307,18 +307,7 @@ impl OutlinerPanel<'_> {
                     1 => format!("Move {}", item.name),
                     n => format!("Move {n} objects"),
                 };
-                ui.ctx()
-                    .layer_painter(egui::LayerId::new(
-                        egui::Order::Tooltip,
-                        egui::Id::new("outliner-drag"),
-                    ))
-                    .text(
-                        p + egui::vec2(14.0, 4.0),
-                        egui::Align2::LEFT_TOP,
-                        text,
-                        egui::FontId::proportional(13.0),
-                        egui::Color32::WHITE,
-                    );
+                super::palette::paint_drag_label(ui.ctx(), p, &text);
             }
         });
         clicked

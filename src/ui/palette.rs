@@ -43,19 +43,24 @@ fn drag_label(ui: &egui::Ui, response: &egui::Response, text: &str) {
     if response.dragged()
         && let Some(p) = ui.ctx().pointer_interact_pos()
     {
-        ui.ctx()
-            .layer_painter(egui::LayerId::new(
-                egui::Order::Tooltip,
-                egui::Id::new("palette-drag"),
-            ))
-            .text(
-                p + egui::vec2(14.0, 4.0),
-                egui::Align2::LEFT_TOP,
-                text,
-                egui::FontId::proportional(13.0),
-                egui::Color32::WHITE,
-            );
+        paint_drag_label(ui.ctx(), p, text);
     }
+}
+
+/// What is being dragged, in a label beside the pointer at `at`, above every panel (the Assets
+/// panel's tiles and the outliner's rows).
+pub fn paint_drag_label(ctx: &egui::Context, at: egui::Pos2, text: &str) {
+    ctx.layer_painter(egui::LayerId::new(
+        egui::Order::Tooltip,
+        egui::Id::new("drag-label"),
+    ))
+    .text(
+        at + egui::vec2(14.0, 4.0),
+        egui::Align2::LEFT_TOP,
+        text,
+        egui::FontId::proportional(13.0),
+        egui::Color32::WHITE,
+    );
 }
 
 /// Lays out the panel; returns what was clicked (not dragged). Each tile's rectangle goes to
