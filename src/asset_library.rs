@@ -64,6 +64,8 @@ pub struct ThumbnailImage {
     /// The file as read, kept for the ghost a drag over the viewport shows (not for files over
     /// [`GHOST_TRIANGLES`], which are imported on drop without one rather than held in memory).
     pub scene: Option<std::sync::Arc<treelight_import::ImportedScene>>,
+    /// The file's world-space bounds, for placing it (made here, not in each frame of a drag).
+    pub bounds: (Vec3, Vec3),
 }
 
 /// A file's thumbnail state.
@@ -235,10 +237,18 @@ impl AssetLibrary {
         changed
     }
 
-    /// The file as read for its thumbnail, once it has been.
-    pub fn parsed(&self, file: &Path) -> Option<std::sync::Arc<treelight_import::ImportedScene>> {
+    /// The file as read for its thumbnail, once it has been, with its bounds.
+    pub fn parsed(
+        &self,
+        file: &Path,
+    ) -> Option<(
+        std::sync::Arc<treelight_import::ImportedScene>,
+        (Vec3, Vec3),
+    )> {
         match self.thumbnails.get(file) {
-            Some(Thumbnail::Ready { image, .. }) => image.scene.clone(),
+            Some(Thumbnail::Ready { image, .. }) => {
+                image.scene.clone().map(|scene| (scene, image.bounds))
+            }
             _ => None,
         }
     }
@@ -312,6 +322,7 @@ pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {
     Ok(ThumbnailImage {
         rgba,
         triangles: triangles.len(),
+        bounds: crate::import::scene_bounds(&scene).unwrap_or((b.min, b.max)),
         scene: (triangles.len() <= GHOST_TRIANGLES).then(|| std::sync::Arc::new(scene)),
     })
 }

@@ -20,7 +20,7 @@ use treelight_scene::{SceneBvhConfig, SceneBvhPlugin};
 pub fn headless_app(config: SceneBvhConfig) -> App {
     let mut app = App::new();
     app.add_plugins((
-        MinimalPlugins,
+        MinimalPlugins.set(crate::task_pools()),
         AssetPlugin::default(),
         MeshPlugin,
         TransformPlugin,

@@ -26,6 +26,8 @@ pub struct ParsedScene {
     pub scene: ImportedScene,
     /// Its Bevy meshes and images.
     pub parts: Prebuilt,
+    /// Its world-space bounds ([`scene_bounds`]), made with the rest off the main thread.
+    pub bounds: Option<(Vec3, Vec3)>,
 }
 
 /// Bevy meshes and images made from a scene ahead of spawning it; [`spawn_scene`] takes them and
@@ -69,6 +71,7 @@ impl From<ImportedScene> for ParsedScene {
             }
         }
         Self {
+            bounds: scene_bounds(&scene),
             scene,
             parts: Prebuilt {
                 meshes,
@@ -169,7 +172,7 @@ pub fn finish_imports(
                 }
                 // A dropped file stands where it was dropped, by the placement rule; a file opened
                 // otherwise keeps its coordinates and the camera frames it.
-                let bounds = scene_bounds(scene);
+                let bounds = parsed.bounds;
                 let mut transform = None;
                 if let Some(at) = positions.0.remove(&path)
                     && let (Some(b), Ok((camera, cam_gt))) = (bounds, cameras.single())

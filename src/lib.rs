@@ -35,6 +35,22 @@ use bevy::prelude::*;
 use bevy::render::render_resource::BlendState;
 use bevy_egui::{EguiGlobalSettings, EguiPlugin, PrimaryEguiContext};
 
+/// Bevy's task pools as the editor wants them: the async compute pool (parsing imports, making
+/// thumbnails) runs below the frame's priority, as the scene worker does, so that on a machine with
+/// few cores an import never takes the cores the frame's systems wait for.
+pub fn task_pools() -> TaskPoolPlugin {
+    let mut options = TaskPoolOptions::default();
+    options.async_compute.on_thread_spawn = Some(std::sync::Arc::new(|| {
+        treelight_scene::priority::lower_current_thread(BACKGROUND_NICE)
+    }));
+    TaskPoolPlugin {
+        task_pool_options: options,
+    }
+}
+
+/// Nice steps below the frame at which the editor's background work runs.
+const BACKGROUND_NICE: i32 = 10;
+
 /// The editor as a Bevy app, configured from the command line; `script` holds the commands of
 /// `--commands`, already read.
 pub fn build_app(cli: &cli::Cli) -> App {
@@ -45,7 +61,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
 /// start with its error).
 pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> App {
     let mut app = App::new();
-    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+    app.add_plugins(DefaultPlugins.set(task_pools()).set(WindowPlugin {
         primary_window: Some(Window {
             title: "Treelight".into(),
             resolution: bevy::window::WindowResolution::new(cli.width, cli.height),

@@ -663,7 +663,7 @@ pub fn editor_ui(
     {
         let ray = camera.viewport_to_world(cam_gt, at).ok();
         let read = imports.library.parsed(&file);
-        match (ray, read.as_deref().and_then(crate::import::scene_bounds)) {
+        match (ray, read.as_ref().map(|(_, bounds)| *bounds)) {
             (Some(ray), Some(bounds)) => {
                 // Stands where a dropped file would (its own orientation kept).
                 let surface = surface_under_excluding(&scene, ray, 5.0, &ghost_parts);
@@ -679,7 +679,7 @@ pub fn editor_ui(
                     }
                     _ => {
                         // The import command takes the file as the panel read it.
-                        if let Some(read) = &read {
+                        if let Some((read, _)) = &read {
                             imports.parsed.0.insert(
                                 file.clone(),
                                 crate::import::ParsedScene::from((**read).clone()),

@@ -15,6 +15,7 @@
 mod chunks;
 mod mesh;
 mod picking;
+pub mod priority;
 mod worker;
 
 pub use mesh::{
@@ -56,6 +57,9 @@ pub struct SceneBvhConfig {
     /// each a group of the same entity, nearest the camera first: the first of a huge mesh is traced
     /// long before its whole build would be done. Default 65,536.
     pub chunk_triangles: usize,
+    /// How many nice steps below the app's threads the worker and its thread pool run (0: the
+    /// same priority), so that on a busy machine the frame wins the cores. Default 10.
+    pub worker_nice: i32,
 }
 
 impl Default for SceneBvhConfig {
@@ -66,6 +70,7 @@ impl Default for SceneBvhConfig {
             main_thread_budget: Duration::from_micros(750),
             preset: Preset::Balanced,
             chunk_triangles: 1 << 16,
+            worker_nice: 10,
         }
     }
 }
@@ -97,10 +102,23 @@ impl Plugin for SceneBvhPlugin {
             idle_tick: self.config.idle_tick,
             idle_updates: policy.idle,
             chunk_triangles: self.config.chunk_triangles,
+            nice: self.config.worker_nice,
         };
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())
-            .spawn(move || worker::run(worker_shared, rx, cfg))
+            .spawn(move || {
+                // The worker's parallel builds run on a pool of its own, at its priority.
+                let nice = cfg.nice;
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .thread_name(|i| format!("treelight-bvh-{i}"))
+                    .start_handler(move |_| priority::lower_current_thread(nice))
+                    .build();
+                priority::lower_current_thread(nice);
+                match pool {
+                    Ok(pool) => pool.install(|| worker::run(worker_shared, rx, cfg)),
+                    Err(_) => worker::run(worker_shared, rx, cfg),
+                }
+            })
             .expect("cannot start the scene BVH worker thread");
         app.insert_resource(SceneBvh {
             shared,

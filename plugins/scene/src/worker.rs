@@ -113,6 +113,8 @@ pub(crate) struct WorkerConfig {
     pub idle_updates: IdleUpdates,
     /// Meshes larger than this enter the tree in spatial chunks.
     pub chunk_triangles: usize,
+    /// Nice steps below the app's threads ([`crate::priority::lower_current_thread`]).
+    pub nice: i32,
 }
 
 /// Keeps only the last word on each entity, in first-mention order. A move after an upsert or an
