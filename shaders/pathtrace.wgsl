@@ -83,11 +83,13 @@ struct View {
 @group(0) @binding(6) var base_color_textures: texture_2d_array<f32>;
 @group(0) @binding(7) var texture_sampler: sampler;
 // Group 1, the view: its uniform; per pixel the running sum of its samples (rgb) and their count
-// (w); and `aux`: per pixel the depth of its first sample's primary hit, then per preview block one
-// sample (rgb) and its depth, four floats each (one buffer, as WebGPU allows a stage eight).
+// (w); and `aux` (one buffer, as WebGPU allows a stage eight; words, floats by their bits), in four parts: per pixel the depth of
+// its first sample's primary hit; per pixel that hit's object slot (the bits of a u32, NONE where the
+// ray escaped); per preview block one sample (rgb) and its depth, four floats each, room made for the
+// finest scale; per preview block its sample's object slot. The resolve outlines objects by the slots.
 @group(1) @binding(0) var<uniform> view: View;
 @group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> aux: array<f32>;
+@group(1) @binding(2) var<storage, read_write> aux: array<u32>;
 
 const MODE_PATH: u32 = 0u;
 const MODE_ALBEDO: u32 = 1u;
@@ -101,6 +103,8 @@ const HEATMAP_MAX: f32 = 160.0;
 var<private> rng_state: u32;
 // The depth of the current sample's primary hit (0, the far plane, when it escapes).
 var<private> primary_depth: f32;
+// The object slot of the current sample's primary hit (NONE when it escapes).
+var<private> primary_object: u32;
 
 fn rand() -> f32 {
     rng_state = pcg(rng_state);
@@ -133,15 +137,19 @@ struct Surface {
     reflectance: f32,
 }
 
+// The slot of the group a hit belongs to: groups sharing triangles share their attributes too, so
+// the instance, when there is one, says whose they are here.
+fn object_slot(hit: Hit) -> u32 {
+    if hit.instance != NONE {
+        return instances[hit.instance].group;
+    }
+    return attrs[hit.triangle].group & ~HAS_NORMALS;
+}
+
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let tri = tris[hit.triangle];
     let attr = attrs[hit.triangle];
-    // Groups sharing triangles share their attributes too; the instance says whose they are here.
-    var group = attr.group & ~HAS_NORMALS;
-    if hit.instance != NONE {
-        group = instances[hit.instance].group;
-    }
-    let obj = objects[group];
+    let obj = objects[object_slot(hit)];
     var s: Surface;
     s.p = o + d * hit.t;
     var ng = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);
@@ -338,6 +346,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         }
         if bounce == 0u {
             primary_depth = clip_depth(o + d * hit.t);
+            primary_object = object_slot(hit);
         }
         let s = surface_at(hit, o, d);
         let wo = -d;
@@ -384,6 +393,7 @@ fn debug_value(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let hit = closest_hit(view.root, o, d, FAR);
     if hit.triangle != NONE {
         primary_depth = clip_depth(o + d * hit.t);
+        primary_object = object_slot(hit);
     }
     if view.mode == MODE_HEATMAP {
         return heat(f32(hit.visited) / HEATMAP_MAX);
@@ -441,6 +451,7 @@ fn mul_mod(a: u32, b: u32, m: u32) -> u32 {
 // primary_depth.
 fn trace_sample(at: vec2<f32>) -> vec3<f32> {
     primary_depth = 0.0;
+    primary_object = NONE;
     let ray = camera_ray(at / vec2<f32>(f32(view.width), f32(view.height)));
     if view.mode == MODE_PATH {
         let l = path_radiance(ray[0], ray[1]);
@@ -488,11 +499,13 @@ fn path_trace(
         let lo = vec2<f32>(q * k);
         let hi = min(vec2<f32>((q + 1u) * k), vec2<f32>(f32(view.width), f32(view.height)));
         let value = trace_sample(lo + (hi - lo) * sub);
-        let at = view.width * view.height + 4u * block;
-        aux[at] = value.r;
-        aux[at + 1u] = value.g;
-        aux[at + 2u] = value.b;
-        aux[at + 3u] = primary_depth;
+        let pixels = view.width * view.height;
+        let at = 2u * pixels + 4u * block;
+        aux[at] = bitcast<u32>(value.r);
+        aux[at + 1u] = bitcast<u32>(value.g);
+        aux[at + 2u] = bitcast<u32>(value.b);
+        aux[at + 3u] = bitcast<u32>(primary_depth);
+        aux[block_objects_start(view.width, view.height) + block] = primary_object;
         return;
     }
     let linear = group.y * groups.x + group.x;
@@ -517,7 +530,8 @@ fn path_trace(
         }
         sum += trace_sample(vec2<f32>(p) + sub);
         if first + k == 0u {
-            aux[pixel] = primary_depth;
+            aux[pixel] = bitcast<u32>(primary_depth);
+            aux[view.width * view.height + pixel] = primary_object;
         }
     }
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));

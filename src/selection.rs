@@ -2,6 +2,7 @@
 //! change the selection. The outliner and the viewport share the one [`Selection`].
 
 use bevy::prelude::*;
+use treelight_render::Outlined;
 
 /// Marks entities that are part of the edited scene (listed in the outliner), as opposed to the
 /// editor's own camera and UI. Each has a stable [`SceneId`](crate::scene_id::SceneId).
@@ -161,6 +162,63 @@ pub fn clear_selection_on_escape(
     selection.clear();
 }
 
+/// The meshes a selection outlines, each with how: those of the selected objects and of everything
+/// under them, the active object's as [`Outlined::Active`].
+pub fn outlined_meshes(
+    selection: &Selection,
+    children: impl Fn(Entity) -> Vec<Entity>,
+    is_mesh: impl Fn(Entity) -> bool,
+) -> std::collections::HashMap<Entity, Outlined> {
+    let mut out = std::collections::HashMap::new();
+    let active = selection.active();
+    for &top in selection.entities() {
+        let how = if Some(top) == active {
+            Outlined::Active
+        } else {
+            Outlined::Selected
+        };
+        let mut stack = vec![top];
+        while let Some(e) = stack.pop() {
+            if is_mesh(e) {
+                let v = out.entry(e).or_insert(how);
+                if how == Outlined::Active {
+                    *v = how;
+                }
+            }
+            stack.extend(children(e));
+        }
+    }
+    out
+}
+
+/// Keeps [`Outlined`] on exactly the meshes the selection outlines, so every path-traced view draws
+/// their silhouettes (complete in each frame, from the primary hits it traces anyway).
+pub fn outline_selected_meshes(
+    mut commands: Commands,
+    selection: Res<Selection>,
+    children: Query<&Children>,
+    meshes: Query<(), With<Mesh3d>>,
+    outlined: Query<(Entity, &Outlined)>,
+) {
+    let want = outlined_meshes(
+        &selection,
+        |e| children.get(e).map_or_else(|_| Vec::new(), |c| c.to_vec()),
+        |e| meshes.contains(e),
+    );
+    for (e, how) in &outlined {
+        if !want.contains_key(&e) {
+            commands.entity(e).remove::<Outlined>();
+        } else if want[&e] != *how {
+            commands.entity(e).insert(want[&e]);
+        }
+    }
+    for (&e, &how) in &want {
+        if !outlined.contains(e) {
+            commands.entity(e).insert(how);
+        }
+    }
+}
+
 /// The shared selection and what keeps it valid.
 pub struct SelectionPlugin;
 
@@ -171,6 +229,9 @@ impl Plugin for SelectionPlugin {
             (
                 drop_stale_selection,
                 clear_selection_on_escape.after(crate::gizmo::cancel_drag_on_escape),
+                outline_selected_meshes
+                    .after(drop_stale_selection)
+                    .after(clear_selection_on_escape),
             ),
         );
     }
@@ -191,6 +252,44 @@ mod tests {
 
     fn e(i: u32) -> Entity {
         Entity::from_raw_u32(i).unwrap()
+    }
+
+    #[test]
+    fn a_selection_outlines_its_meshes_and_those_under_it() {
+        // 3 holds 2 holds 1; 3 and 1 are meshes, 2 an empty group; 4 a mesh alone; 5 a light.
+        let children = |x: Entity| match x.index_u32() {
+            3 => vec![e(2)],
+            2 => vec![e(1)],
+            _ => vec![],
+        };
+        let is_mesh = |x: Entity| matches!(x.index_u32(), 1 | 3 | 4);
+        let mut s = Selection::default();
+        assert!(outlined_meshes(&s, children, is_mesh).is_empty());
+        s.set_all([e(2)]);
+        let o = outlined_meshes(&s, children, is_mesh);
+        assert_eq!(o.len(), 1, "the empty group outlines the mesh under it");
+        assert_eq!(o[&e(1)], Outlined::Active);
+        s.set_all([e(3), e(4)]);
+        let o = outlined_meshes(&s, children, is_mesh);
+        assert_eq!(o.len(), 3);
+        assert_eq!(o[&e(3)], Outlined::Selected);
+        assert_eq!(o[&e(1)], Outlined::Selected);
+        assert_eq!(
+            o[&e(4)],
+            Outlined::Active,
+            "the last selected is the active one"
+        );
+        // Selected twice over (the top and a mesh under it): the active mark wins.
+        s.set_all([e(3), e(1)]);
+        assert_eq!(
+            outlined_meshes(&s, children, is_mesh)[&e(1)],
+            Outlined::Active
+        );
+        s.set_all([e(5)]);
+        assert!(
+            outlined_meshes(&s, children, is_mesh).is_empty(),
+            "a light has no mesh"
+        );
     }
 
     #[test]

@@ -339,7 +339,17 @@ pub fn editor_ui(
     // What the viewport draws and drags.
     let camera_entity = cameras.single().ok().map(|(e, ..)| e);
     let camera = cameras.single().ok().map(|(_, c, g)| (c.clone(), *g));
-    let viewport_scene = viewport_scene(&selection, &objects, &boxes, &children, camera, parent_of);
+    // The path tracer outlines the selected meshes' silhouettes itself (selection::outline_selected_meshes);
+    // the rasteriser gets their boxes.
+    let boxes_shown = render.traced.is_none();
+    let viewport_scene = viewport_scene(
+        &selection,
+        &objects,
+        (&boxes, boxes_shown),
+        &children,
+        camera,
+        parent_of,
+    );
 
     let mut orbit_copy = orbit.single().ok().copied();
     let mut viewport = egui::Rect::NOTHING;
@@ -773,11 +783,12 @@ pub fn editor_ui(
     Ok(())
 }
 
-/// Gathers what the viewport draws (the selection's outlines, icons) and what a drag moves.
+/// Gathers what the viewport draws (the selection's boxes, when `show_boxes`; icons) and what a
+/// drag moves.
 fn viewport_scene(
     selection: &Selection,
     objects: &Query<ObjectItem, With<SceneObject>>,
-    boxes: &Query<(&Aabb, &GlobalTransform)>,
+    (boxes, show_boxes): (&Query<(&Aabb, &GlobalTransform)>, bool),
     children: &Query<&Children>,
     camera: Option<(Camera, GlobalTransform)>,
     parent_of: impl Fn(Entity) -> Option<Entity>,
@@ -787,7 +798,7 @@ fn viewport_scene(
         ..default()
     };
     let active = selection.active();
-    for &e in selection.entities() {
+    for &e in selection.entities().iter().filter(|_| show_boxes) {
         let Ok((_, _, _, _, _, mesh, ..)) = objects.get(e) else {
             continue;
         };

@@ -2,9 +2,14 @@
 //! compared with what was sent before. Runs on the main thread during extraction, so it never waits:
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
-use crate::records::{SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes};
+use crate::Outlined;
+use crate::records::{
+    SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes, outline_words,
+    set_outline,
+};
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
+use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::light::{DirectionalLight, PointLight};
 use bevy::math::Mat3;
@@ -30,6 +35,12 @@ pub(crate) struct PendingUpload {
     /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
     /// pixel's samples valid).
     pub geometry_changed: bool,
+    /// The outline buffer's new words and the slots they cover (0: nothing outlined), when they
+    /// changed.
+    pub outlines: Option<(Vec<u32>, u32)>,
+    /// World-space bounds of the outlined meshes this frame; `None` when some mesh's are unknown
+    /// (then the whole view is searched for outlines).
+    pub outline_bounds: Option<[Vec3; 2]>,
 }
 
 impl PendingUpload {
@@ -47,6 +58,8 @@ pub(crate) struct SceneSync {
     /// Object records as last written, by group slot.
     objects: Vec<Option<Vec<u8>>>,
     lights: Option<Vec<u8>>,
+    /// The outline words as last sent.
+    outlines: Vec<u32>,
     pub pending: PendingUpload,
 }
 
@@ -96,6 +109,7 @@ fn extract_scene(
     handles: Extract<MaterialQuery>,
     materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
     images: Extract<Option<Res<Assets<Image>>>>,
+    outlined: Extract<Query<(Entity, &Outlined, Option<&Aabb>, Option<&GlobalTransform>)>>,
     points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
     suns: Extract<
         Query<(
@@ -120,6 +134,26 @@ fn extract_scene(
     if taken.is_some() {
         sync.synced = true;
     }
+    // The outlined meshes' group slots (when the worker holds the tree, the next frame looks).
+    if let Some(tree) = scene.try_read() {
+        let slots = tree.bvh.group_slots();
+        let mut words = vec![0u32; outline_words(slots as usize)];
+        for (e, o, ..) in &outlined {
+            for g in tree.groups_of(e) {
+                set_outline(&mut words, g.index(), o.shader_value());
+            }
+        }
+        if words != sync.outlines {
+            let covered = if words.iter().any(|&w| w != 0) {
+                slots
+            } else {
+                0
+            };
+            sync.pending.outlines = Some((words.clone(), covered));
+            sync.outlines = words;
+        }
+    }
+    sync.pending.outline_bounds = outlined_bounds(&outlined);
     let mut lights: Vec<SceneLight> = Vec::new();
     for (l, gt, vis) in &points {
         if vis.is_none_or(|v| v.get()) {
@@ -155,6 +189,27 @@ fn extract_scene(
         }
         sync.lights = Some(bytes);
     }
+}
+
+/// The union of the outlined meshes' world-space boxes; `None` when one has no box or transform.
+fn outlined_bounds(
+    outlined: &Query<(Entity, &Outlined, Option<&Aabb>, Option<&GlobalTransform>)>,
+) -> Option<[Vec3; 2]> {
+    let mut out = [Vec3::INFINITY, Vec3::NEG_INFINITY];
+    for (_, _, aabb, gt) in outlined {
+        let (aabb, gt) = (aabb?, gt?);
+        let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
+        for k in 0..8 {
+            let s = Vec3::new(
+                if k & 1 == 0 { -1.0 } else { 1.0 },
+                if k & 2 == 0 { -1.0 } else { 1.0 },
+                if k & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            let p = gt.transform_point(c + h * s);
+            out = [out[0].min(p), out[1].max(p)];
+        }
+    }
+    out[0].is_finite().then_some(out)
 }
 
 /// The writes for one change set, plus every object record whose transform or material changed.

@@ -29,9 +29,9 @@ pub use budget::{
 };
 pub use records::{
     ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
-    GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, SceneLight, SurfaceMaterial, TextureWrap,
-    TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal, light_bytes,
-    object_bytes, resolve_bytes,
+    GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, ResolveParams, SceneLight, SurfaceMaterial,
+    TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal,
+    light_bytes, object_bytes, outline_words, set_outline,
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
@@ -52,7 +52,8 @@ pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/pathtrace.wgsl"),
     include_str!("../../../shaders/traverse.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
-    include_str!("../../../shaders/sampling.wgsl")
+    include_str!("../../../shaders/sampling.wgsl"),
+    include_str!("../../../shaders/aux_layout.wgsl")
 );
 
 /// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), and ambient
@@ -78,7 +79,10 @@ pub const PRIMARY_HITS_WIDE_WGSL: &str = concat!(
 pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../../shaders/texture_layer.wgsl");
 
 /// WGSL: the pass that draws the accumulated average into the view target.
-pub const RESOLVE_WGSL: &str = include_str!("../../../shaders/resolve.wgsl");
+pub const RESOLVE_WGSL: &str = concat!(
+    include_str!("../../../shaders/resolve.wgsl"),
+    include_str!("../../../shaders/aux_layout.wgsl")
+);
 
 /// What a path-traced camera shows.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
@@ -161,6 +165,53 @@ pub struct PathTraced {
     /// `frame_budget_ms`: on a slow adapter the preview keeps up while the frame rate stays within
     /// `1 / (1 + share)` of what the rest of the frame allows.
     pub frame_budget_share: f32,
+    /// How [`Outlined`] meshes are outlined in this view.
+    pub outline: OutlineStyle,
+}
+
+/// How a path-traced view outlines [`Outlined`] meshes.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct OutlineStyle {
+    /// The colour around [`Outlined::Selected`] meshes: linear HDR, as the image is before
+    /// tonemapping (so the camera's tonemapping applies to it too).
+    pub selected: LinearRgba,
+    /// The colour around [`Outlined::Active`] meshes.
+    pub active: LinearRgba,
+    /// The line's width in target pixels (at most 8; 0 draws none).
+    pub width: f32,
+}
+
+impl Default for OutlineStyle {
+    fn default() -> Self {
+        Self {
+            selected: LinearRgba::rgb(0.9, 0.16, 0.0),
+            active: LinearRgba::rgb(1.5, 0.36, 0.0),
+            width: 2.0,
+        }
+    }
+}
+
+/// Marks a mesh entity that every path-traced view outlines: a line of [`OutlineStyle`]'s width
+/// around its visible silhouette, drawn from the object ids of the primary hits the views trace
+/// anyway, so it is complete in every frame and costs no extra rays. Meant for selections: an
+/// editor puts it on the meshes of what is selected (the component is not inherited by children).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+pub enum Outlined {
+    /// Part of the selection.
+    #[default]
+    Selected,
+    /// The selection's active object, drawn in [`OutlineStyle::active`].
+    Active,
+}
+
+impl Outlined {
+    /// The value the resolve shader reads (1 or 2).
+    pub fn shader_value(self) -> u32 {
+        match self {
+            Outlined::Selected => 1,
+            Outlined::Active => 2,
+        }
+    }
 }
 
 impl Default for PathTraced {
@@ -175,6 +226,7 @@ impl Default for PathTraced {
             view: DebugView::PathTraced,
             frame_budget_ms: 4.0,
             frame_budget_share: 1.0,
+            outline: OutlineStyle::default(),
         }
     }
 }
@@ -242,6 +294,7 @@ impl Plugin for PathTracerPlugin {
     fn build(&self, app: &mut App) {
         let stats = PathTracerStats::default();
         app.register_type::<PathTraced>()
+            .register_type::<Outlined>()
             .insert_resource(stats.clone())
             .add_plugins(ExtractComponentPlugin::<PathTraced>::default());
         let shaders = {

@@ -38,7 +38,8 @@ pub(crate) struct PathTracerPipelines {
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
     pub view_layout: BindGroupLayoutDescriptor,
-    /// The resolve pass's group: the accumulation, the depth and preview, and its uniform.
+    /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform and
+    /// the scene's outline bits.
     pub resolve_layout: BindGroupLayoutDescriptor,
     pub trace: CachedComputePipelineId,
     resolve_shader: Handle<Shader>,
@@ -87,6 +88,7 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 uniform_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );

@@ -6,11 +6,11 @@
 use crate::budget::{FrameBudget, TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::extract::SceneSync;
 use crate::pipelines::PathTracerPipelines;
-use crate::records::{TraceWork, VIEW_BYTES, ViewParams, resolve_bytes};
+use crate::records::{ResolveParams, TraceWork, VIEW_BYTES, ViewParams};
 use crate::texture_layers::TextureLayers;
 use crate::timing::TraceTimer;
 use crate::upload::{BufferKind, grown_capacity};
-use crate::{DebugView, PathTraced, PathTracerStats, TraceFigures};
+use crate::{DebugView, OutlineStyle, PathTraced, PathTracerStats, TraceFigures};
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::{
@@ -62,6 +62,25 @@ pub(crate) struct GpuScene {
     pub bind_group: Option<BindGroup>,
     /// The texture array's version the bind group was made with.
     bound_array: u64,
+    /// Two bits of outline per object slot, read by the views' resolve passes.
+    outlines: Buffer,
+    /// Words `outlines` holds.
+    outline_capacity: u64,
+    /// Slots the outline words cover; 0 when nothing is outlined.
+    pub outline_slots: u32,
+    /// Raised when `outlines` is replaced by a bigger buffer: views make their resolve groups again.
+    outline_version: u64,
+    /// World-space bounds of the outlined meshes; `None` when unknown.
+    outline_bounds: Option<[Vec3; 2]>,
+}
+
+fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some("treelight outlines"),
+        size: words * 4,
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
 fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
@@ -100,6 +119,11 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
         tree_generation: 0,
         bind_group: None,
         bound_array: 0,
+        outlines: outline_buffer(&device, 64),
+        outline_capacity: 64,
+        outline_slots: 0,
+        outline_version: 0,
+        outline_bounds: None,
     });
 }
 
@@ -165,6 +189,20 @@ fn apply_scene_uploads(
     if let Some(n) = pending.light_count {
         scene.light_count = n;
     }
+    if let Some((words, covered)) = &pending.outlines {
+        let need = words.len() as u64;
+        if need > scene.outline_capacity {
+            // Written whole each time it changes, so nothing needs copying over.
+            scene.outline_capacity = need.next_power_of_two();
+            scene.outlines = outline_buffer(&device, scene.outline_capacity);
+            scene.outline_version += 1;
+        }
+        if !words.is_empty() {
+            queue.write_buffer(&scene.outlines, 0, bytemuck::cast_slice(words));
+        }
+        scene.outline_slots = *covered;
+    }
+    scene.outline_bounds = pending.outline_bounds;
     if pending.geometry_changed {
         scene.generation += 1;
     }
@@ -247,17 +285,20 @@ pub(crate) struct ViewFrame {
 }
 
 /// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
-/// count), the primary hits' depth with the preview after it, the uniforms and the bind groups over
-/// them.
+/// count), the primary hits' depth and object slots with the preview after them, the uniforms and
+/// the bind groups over them.
 pub(crate) struct ViewBuffers {
     /// Cleared by the node when the accumulation restarts.
     pub accum: Buffer,
+    aux: Buffer,
     view_uniform: Buffer,
     resolve_uniform: Buffer,
     /// Group 1 of the trace kernel.
     pub trace_bind_group: BindGroup,
     /// The resolve pass's group.
     pub resolve_bind_group: BindGroup,
+    /// The scene's outline buffer version the resolve group was made with.
+    outline_version: u64,
     size: UVec2,
 }
 
@@ -303,20 +344,41 @@ fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
     })
 }
 
+fn resolve_group(
+    device: &RenderDevice,
+    pipelines: &PathTracerPipelines,
+    cache: &PipelineCache,
+    (accum, aux, uniform): (&Buffer, &Buffer, &Buffer),
+    scene: &GpuScene,
+) -> BindGroup {
+    device.create_bind_group(
+        "treelight resolve",
+        &cache.get_bind_group_layout(&pipelines.resolve_layout),
+        &BindGroupEntries::sequential((
+            accum.as_entire_binding(),
+            aux.as_entire_binding(),
+            uniform.as_entire_binding(),
+            scene.outlines.as_entire_binding(),
+        )),
+    )
+}
+
 fn view_buffers(
     device: &RenderDevice,
     pipelines: &PathTracerPipelines,
     cache: &PipelineCache,
     size: UVec2,
+    scene: &GpuScene,
 ) -> ViewBuffers {
     let pixels = size.x as u64 * size.y as u64;
     let accum = storage(device, "treelight accumulation", pixels * 16);
-    // Depth per pixel, then the preview, whose finest scale halves each axis.
+    // Depth and object slot per pixel, then the preview (whose finest scale halves each axis):
+    // four words a block, then a slot a block (aux_layout.wgsl).
     let blocks = size.x.div_ceil(2) as u64 * size.y.div_ceil(2) as u64;
     let aux = storage(
         device,
-        "treelight depth and preview",
-        pixels * 4 + blocks * 16,
+        "treelight depth, objects and preview",
+        pixels * 8 + blocks * 20,
     );
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
     let resolve_uniform = uniform(
@@ -333,21 +395,21 @@ fn view_buffers(
             aux.as_entire_binding(),
         )),
     );
-    let resolve_bind_group = device.create_bind_group(
-        "treelight resolve",
-        &cache.get_bind_group_layout(&pipelines.resolve_layout),
-        &BindGroupEntries::sequential((
-            accum.as_entire_binding(),
-            aux.as_entire_binding(),
-            resolve_uniform.as_entire_binding(),
-        )),
+    let resolve_bind_group = resolve_group(
+        device,
+        pipelines,
+        cache,
+        (&accum, &aux, &resolve_uniform),
+        scene,
     );
     ViewBuffers {
         accum,
+        aux,
         view_uniform,
         resolve_uniform,
         trace_bind_group,
         resolve_bind_group,
+        outline_version: scene.outline_version,
         size,
     }
 }
@@ -468,6 +530,8 @@ fn prepare_views(
                 max_samples: 0,
                 frame_budget_ms: 0.0,
                 frame_budget_share: 0.0,
+                // The outline is drawn by the resolve, over the samples.
+                outline: OutlineStyle::default(),
                 ..*settings
             },
             exposure: camera.exposure,
@@ -475,15 +539,26 @@ fn prepare_views(
         };
         let state = states.0.entry(entity).or_insert_with(|| {
             ViewState::new(
-                view_buffers(&device, &pipelines, &pipeline_cache, size),
+                view_buffers(&device, &pipelines, &pipeline_cache, size, &scene),
                 TraceTimer::new(&device, &queue),
             )
         });
         if state.buffers.size != size {
             // What a sample costs survives a resize; the tiles and the accumulation do not.
-            state.buffers = view_buffers(&device, &pipelines, &pipeline_cache, size);
+            state.buffers = view_buffers(&device, &pipelines, &pipeline_cache, size, &scene);
             state.order = TileOrder::new(size.x, size.y);
             state.key = None;
+        }
+        if state.buffers.outline_version != scene.outline_version {
+            let b = &mut state.buffers;
+            b.resolve_bind_group = resolve_group(
+                &device,
+                &pipelines,
+                &pipeline_cache,
+                (&b.accum, &b.aux, &b.resolve_uniform),
+                &scene,
+            );
+            b.outline_version = scene.outline_version;
         }
         state.seen = true;
         state.frame = None;
@@ -552,12 +627,21 @@ fn prepare_views(
         queue.write_buffer(
             &state.buffers.resolve_uniform,
             0,
-            &resolve_bytes(
-                Vec2::new(viewport.x as f32, viewport.y as f32),
-                Vec2::new(viewport.z as f32, viewport.w as f32),
-                [size.x, size.y],
-                shown_preview,
-            ),
+            &ResolveParams {
+                origin: Vec2::new(viewport.x as f32, viewport.y as f32),
+                viewport: Vec2::new(viewport.z as f32, viewport.w as f32),
+                size: [size.x, size.y],
+                preview_scale: shown_preview,
+                outline_slots: scene.outline_slots,
+                outline: settings.outline,
+                outline_rect: outline_rect(
+                    scene.outline_bounds,
+                    clip_from_world,
+                    viewport,
+                    settings.outline.width + viewport.z as f32 / size.x as f32 + 1.0,
+                ),
+            }
+            .to_bytes(),
         );
         let msaa = target
             .sampled_main_texture()
@@ -588,6 +672,39 @@ fn prepare_views(
     }
 }
 
+/// Where the outlined objects can show in the target (pixels): their bounds' corners projected,
+/// widened by `margin`; the whole viewport when a corner is behind the camera or the bounds are
+/// unknown.
+fn outline_rect(
+    bounds: Option<[Vec3; 2]>,
+    clip_from_world: Mat4,
+    viewport: UVec4,
+    margin: f32,
+) -> [Vec2; 2] {
+    let origin = Vec2::new(viewport.x as f32, viewport.y as f32);
+    let size = Vec2::new(viewport.z as f32, viewport.w as f32);
+    let whole = [origin, origin + size];
+    let Some([lo, hi]) = bounds else {
+        return whole;
+    };
+    let (mut min, mut max) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = clip_from_world * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return whole;
+        }
+        let ndc = Vec2::new(c.x, c.y) / c.w;
+        let at = origin + Vec2::new(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * size;
+        (min, max) = (min.min(at), max.max(at));
+    }
+    [min - Vec2::splat(margin), max + Vec2::splat(margin)]
+}
+
 /// After the frame's submission: asks for the timestamps its passes wrote.
 fn request_timings(mut states: ResMut<ViewStates>) {
     for state in states.0.values_mut() {
@@ -602,4 +719,46 @@ fn forget_views(mut states: ResMut<ViewStates>) {
     states
         .0
         .retain(|_, s| std::mem::replace(&mut s.seen, false));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_outline_rectangle_covers_the_projected_bounds_or_the_whole_view() {
+        let clip_from_world = Mat4::perspective_infinite_reverse_rh(1.0, 1.0, 0.1)
+            * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
+        let viewport = UVec4::new(100, 50, 400, 400);
+        let whole = [Vec2::new(100.0, 50.0), Vec2::new(500.0, 450.0)];
+        // A unit box at the origin: centred in the view, inside it, widened by the margin.
+        let [min, max] = outline_rect(
+            Some([Vec3::splat(-0.5), Vec3::splat(0.5)]),
+            clip_from_world,
+            viewport,
+            3.0,
+        );
+        let centre = (min + max) * 0.5;
+        assert!(
+            (centre - Vec2::new(300.0, 250.0)).length() < 1e-3,
+            "{centre}"
+        );
+        assert!(min.cmpgt(whole[0]).all() && max.cmplt(whole[1]).all());
+        let [tight_min, _] = outline_rect(
+            Some([Vec3::splat(-0.5), Vec3::splat(0.5)]),
+            clip_from_world,
+            viewport,
+            0.0,
+        );
+        assert_eq!(tight_min - min, Vec2::splat(3.0));
+        // A box reaching behind the camera, or unknown bounds: the whole view is searched.
+        let behind = outline_rect(
+            Some([Vec3::splat(-0.5), Vec3::new(0.5, 0.5, 9.0)]),
+            clip_from_world,
+            viewport,
+            3.0,
+        );
+        assert_eq!(behind, whole);
+        assert_eq!(outline_rect(None, clip_from_world, viewport, 3.0), whole);
+    }
 }

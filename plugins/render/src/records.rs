@@ -124,8 +124,80 @@ pub struct GpuResolve {
     pub size: [u32; 2],
     /// Pixels per preview block, shown where a pixel has no sample yet; 0: no preview.
     pub preview_scale: u32,
+    /// Object slots the outline buffer covers; 0 when nothing is outlined.
+    pub outline_slots: u32,
+    /// The outline's colours (linear HDR, before tonemapping), for outline values 1 and 2.
+    pub outline_colours: [[f32; 4]; 2],
+    /// The outline's width in target pixels.
+    pub outline_width: f32,
     /// Padding.
-    pub pad: u32,
+    pub pad0: u32,
+    /// The corner of the target rectangle outside which no outline is drawn (the outlined objects'
+    /// projected bounds, widened by the line): fragments outside it skip the search.
+    pub outline_min: [f32; 2],
+    /// The opposite corner.
+    pub outline_max: [f32; 2],
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// What the resolve pass is told about a view: where its pixels go and how outlines look.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResolveParams {
+    /// The viewport's origin in target pixels.
+    pub origin: Vec2,
+    /// The viewport's size in target pixels.
+    pub viewport: Vec2,
+    /// The accumulation buffer's size.
+    pub size: [u32; 2],
+    /// Pixels per preview block shown where a pixel has no sample yet; 0: no preview.
+    pub preview_scale: u32,
+    /// Object slots the outline buffer covers; 0 when nothing is outlined.
+    pub outline_slots: u32,
+    /// The outline's look.
+    pub outline: crate::OutlineStyle,
+    /// Where the outlined objects can be in the target (pixels, min and max corners), from their
+    /// projected bounds; outside it nothing is outlined. The whole target when unknown.
+    pub outline_rect: [Vec2; 2],
+}
+
+impl ResolveParams {
+    /// The `Resolve` uniform's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let colour = |c: bevy::color::LinearRgba| [c.red, c.green, c.blue, c.alpha];
+        let record = GpuResolve {
+            origin: self.origin.to_array(),
+            viewport: self.viewport.to_array(),
+            size: self.size,
+            preview_scale: self.preview_scale,
+            outline_slots: self.outline_slots,
+            outline_colours: [colour(self.outline.selected), colour(self.outline.active)],
+            outline_width: self.outline.width.clamp(0.0, 8.0),
+            pad0: 0,
+            outline_min: self.outline_rect[0].to_array(),
+            outline_max: self.outline_rect[1].to_array(),
+            pad1: 0,
+            pad2: 0,
+        };
+        bytemuck::bytes_of(&record).to_vec()
+    }
+}
+
+/// Words of the outline buffer for `slots` object slots: two bits a slot, sixteen slots a word.
+pub fn outline_words(slots: usize) -> usize {
+    slots.div_ceil(16)
+}
+
+/// Sets slot `slot`'s outline value (0 none, 1 [`crate::Outlined::Selected`], 2
+/// [`crate::Outlined::Active`]) in `words`, keeping the stronger of the two when set twice.
+pub fn set_outline(words: &mut [u32], slot: u32, value: u32) {
+    let (w, shift) = ((slot / 16) as usize, (slot % 16) * 2);
+    if let Some(word) = words.get_mut(w) {
+        let old = (*word >> shift) & 3;
+        *word = (*word & !(3 << shift)) | (old.max(value & 3) << shift);
+    }
 }
 
 /// `PrimaryCamera` of `primary_hits.wgsl`: pixel (x, y) looks along `lower_left + (x + 0.5) /
@@ -470,19 +542,6 @@ impl ViewParams {
             }
         }
     }
-}
-
-/// The resolve pass's uniform: where the view sits in its target, the accumulation's size, and the
-/// scale of the preview shown where a pixel has no sample yet (0: none).
-pub fn resolve_bytes(origin: Vec2, viewport: Vec2, size: [u32; 2], preview_scale: u32) -> Vec<u8> {
-    let record = GpuResolve {
-        origin: origin.to_array(),
-        viewport: viewport.to_array(),
-        size,
-        preview_scale,
-        pad: 0,
-    };
-    bytemuck::bytes_of(&record).to_vec()
 }
 
 #[cfg(test)]

@@ -1,7 +1,9 @@
 //! The frame budget on the kernel: tracing an image a few tiles at a time, in the plugin's tile order
 //! and in uneven runs, gives the image an unbudgeted trace gives (same samples per pixel, at most
 //! 1/255 apart per channel, every pixel counted, so no seams between tiles); the preview covers the
-//! image; and the depth the resolve writes is the CPU's closest hit projected by the camera.
+//! image; the depth the resolve writes is the CPU's closest hit projected by the camera; each pixel
+//! and preview block records the object its primary ray hits, and the resolve outlines exactly the
+//! marked objects' silhouettes from those records.
 
 mod support;
 
@@ -11,8 +13,9 @@ use support::{Gpu, floats, put_record, skip};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
-    TileCursor, TileOrder, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, DebugView, OBJECT_BYTES, OutlineStyle, PATHTRACE_WGSL, ResolveParams,
+    SceneLight, SurfaceMaterial, TileCursor, TileOrder, TraceWork, ViewParams, attribute_bytes,
+    light_bytes, object_bytes, outline_words, set_outline,
 };
 
 // Not a multiple of the tile size, so edge tiles are partly outside the image.
@@ -319,4 +322,291 @@ fn the_preview_covers_the_image_in_blocks() {
             blocks.len()
         );
     }
+}
+
+/// The ray the kernel casts through image point `at` (pixels, continuous).
+fn camera_ray(at: Vec2) -> Ray {
+    let wfc = world_from_clip();
+    let ndc = Vec2::new(
+        at.x / WIDTH as f32 * 2.0 - 1.0,
+        1.0 - at.y / HEIGHT as f32 * 2.0,
+    );
+    let near = wfc.project_point3(ndc.extend(1.0));
+    let mid = wfc.project_point3(ndc.extend(0.5));
+    Ray::new(near, (mid - near).normalize())
+}
+
+/// The usual scene plus a copy of the tall box sharing its triangles (an instance, so the kernel
+/// must name the instance's group, not the triangles' owner); also the tall box's and the copy's
+/// groups.
+fn scene_with_a_copy() -> (Scene, GroupId, GroupId) {
+    let mut scene = scene();
+    let tall = *scene
+        .materials
+        .iter()
+        .find(|(_, m)| m.base_color[0] == 0.8)
+        .unwrap()
+        .0;
+    let copy = scene
+        .bvh
+        .insert_instance(tall, Affine3A::from_translation(Vec3::new(1.3, 0.0, -0.6)))
+        .unwrap();
+    scene.materials.insert(copy, scene.materials[&tall]);
+    (scene, tall, copy)
+}
+
+/// The group slot the CPU's closest hit through image point `at` names (`u32::MAX`: none).
+fn cpu_object(scene: &Scene, at: Vec2) -> u32 {
+    scene
+        .bvh
+        .closest_hit(&camera_ray(at))
+        .map_or(u32::MAX, |h| scene.bvh.hit_group(&h).unwrap().index())
+}
+
+#[test]
+fn each_pixel_and_preview_block_records_the_object_its_primary_ray_hits() {
+    if skip() {
+        return;
+    }
+    let (scene, tall, copy) = scene_with_a_copy();
+    let tracer = Tracer::new(&scene);
+    let expected = |at: Vec2| cpu_object(&scene, at);
+
+    // Whole pixels: the triangle-id view casts through pixel centres.
+    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
+    let params = tracer.params(
+        DebugView::TriangleId,
+        1,
+        TraceWork::Tiles {
+            start: 0,
+            count: TileOrder::new(WIDTH, HEIGHT).total,
+        },
+    );
+    tracer.gpu.path_trace(
+        &tracer.pipeline,
+        &tracer.buffers,
+        &params,
+        &target,
+        &tracer.layers,
+    );
+    let objects = tracer.gpu.read_objects(&target);
+    let mut seen = std::collections::HashSet::new();
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let want = expected(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            assert_eq!(objects[(y * WIDTH + x) as usize], want, "pixel ({x}, {y})");
+            seen.insert(want);
+        }
+    }
+    assert!(
+        seen.contains(&copy.index()) && seen.contains(&tall.index()) && seen.contains(&u32::MAX),
+        "the view shows the box, its copy and the sky: {seen:?}"
+    );
+
+    // Preview blocks: one ray through each block's centre.
+    for scale in [2, 3] {
+        let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
+        let work = TraceWork::Preview { scale, seed: 1 };
+        let params = tracer.params(DebugView::TriangleId, 1, work);
+        tracer.gpu.path_trace(
+            &tracer.pipeline,
+            &tracer.buffers,
+            &params,
+            &target,
+            &tracer.layers,
+        );
+        let blocks = tracer.gpu.read_preview_objects(&target);
+        let (pw, ph) = (WIDTH.div_ceil(scale), HEIGHT.div_ceil(scale));
+        for by in 0..ph {
+            for bx in 0..pw {
+                let lo = Vec2::new((bx * scale) as f32, (by * scale) as f32);
+                let hi = Vec2::new(
+                    ((bx + 1) * scale).min(WIDTH) as f32,
+                    ((by + 1) * scale).min(HEIGHT) as f32,
+                );
+                assert_eq!(
+                    blocks[(by * pw + bx) as usize],
+                    expected((lo + hi) * 0.5),
+                    "scale {scale}, block ({bx}, {by})"
+                );
+            }
+        }
+    }
+}
+
+/// What the resolve should draw at each pixel, from the CPU's objects per pixel: 0 no outline, else
+/// the strongest outline value within `width` pixels, where the pixel itself shows no outlined
+/// object.
+fn expected_outline(objects: &[u32], value: impl Fn(u32) -> u32, width: f32) -> Vec<u32> {
+    let at = |x: i32, y: i32| value(objects[(y as u32 * WIDTH + x as u32) as usize]);
+    let r = width.ceil() as i32;
+    let mut out = vec![0; objects.len()];
+    for y in 0..HEIGHT as i32 {
+        for x in 0..WIDTH as i32 {
+            if at(x, y) != 0 {
+                continue;
+            }
+            let mut best = 0;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (nx, ny) = (x + dx, y + dy);
+                    let inside =
+                        (0..WIDTH as i32).contains(&nx) && (0..HEIGHT as i32).contains(&ny);
+                    if inside && ((dx * dx + dy * dy) as f32) <= width * width + 0.25 {
+                        best = best.max(at(nx, ny));
+                    }
+                }
+            }
+            out[(y as u32 * WIDTH + x as u32) as usize] = best;
+        }
+    }
+    out
+}
+
+#[test]
+fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
+    if skip() {
+        return;
+    }
+    let (scene, tall, copy) = scene_with_a_copy();
+    let tracer = Tracer::new(&scene);
+    // The tall box selected, its copy the active object, the rest not outlined.
+    let mut words = vec![0u32; outline_words(scene.bvh.group_slots() as usize)];
+    set_outline(&mut words, tall.index(), 1);
+    set_outline(&mut words, copy.index(), 2);
+    let value = |slot: u32| {
+        if slot == tall.index() {
+            1
+        } else if slot == copy.index() {
+            2
+        } else {
+            0
+        }
+    };
+    // Colours no id colour can take, so every pixel says which it is.
+    let style = OutlineStyle {
+        selected: bevy::color::LinearRgba::rgb(10.0, 20.0, 30.0),
+        active: bevy::color::LinearRgba::rgb(40.0, 50.0, 60.0),
+        width: 2.0,
+    };
+    let drawn = |image: &[[f32; 4]]| -> Vec<u32> {
+        image
+            .iter()
+            .map(|p| match p[0] {
+                10.0 => 1,
+                40.0 => 2,
+                _ => 0,
+            })
+            .collect()
+    };
+    let params = |preview_scale: u32| ResolveParams {
+        origin: Vec2::ZERO,
+        viewport: Vec2::new(WIDTH as f32, HEIGHT as f32),
+        size: [WIDTH, HEIGHT],
+        preview_scale,
+        outline_slots: scene.bvh.group_slots(),
+        outline: style,
+        outline_rect: [Vec2::ZERO, Vec2::new(WIDTH as f32, HEIGHT as f32)],
+    };
+
+    // Every pixel traced (pixel centres, as the triangle-id view casts them).
+    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
+    let work = TraceWork::Tiles {
+        start: 0,
+        count: TileOrder::new(WIDTH, HEIGHT).total,
+    };
+    let view = tracer.params(DebugView::TriangleId, 1, work);
+    tracer.gpu.path_trace(
+        &tracer.pipeline,
+        &tracer.buffers,
+        &view,
+        &target,
+        &tracer.layers,
+    );
+    let objects: Vec<u32> = (0..WIDTH * HEIGHT)
+        .map(|i| {
+            cpu_object(
+                &scene,
+                Vec2::new((i % WIDTH) as f32 + 0.5, (i / WIDTH) as f32 + 0.5),
+            )
+        })
+        .collect();
+    let want = expected_outline(&objects, value, style.width);
+    let got = drawn(
+        &tracer
+            .gpu
+            .resolve(&target, (WIDTH, HEIGHT), &params(0), &words),
+    );
+    assert!(
+        want.iter().filter(|&&v| v == 1).count() > 10
+            && want.iter().filter(|&&v| v == 2).count() > 10,
+        "both objects are in sight"
+    );
+    assert_eq!(got, want, "outlines over traced pixels");
+
+    // Outside the rectangle the prepare pass projects the outlined objects' bounds to, nothing is
+    // searched or drawn; inside it, the same lines.
+    let half = WIDTH as f32 / 2.0;
+    let clipped = ResolveParams {
+        outline_rect: [Vec2::new(half, 0.0), Vec2::new(WIDTH as f32, HEIGHT as f32)],
+        ..params(0)
+    };
+    let got = drawn(
+        &tracer
+            .gpu
+            .resolve(&target, (WIDTH, HEIGHT), &clipped, &words),
+    );
+    for (i, (&g, &w)) in got.iter().zip(&want).enumerate() {
+        let inside = (i as u32 % WIDTH) as f32 + 0.5 >= half;
+        assert_eq!(
+            g,
+            if inside { w } else { 0 },
+            "pixel {i} with the rectangle"
+        );
+    }
+
+    // Nothing marked: nothing drawn, though the slots are covered.
+    let none = vec![0u32; words.len()];
+    let got = drawn(
+        &tracer
+            .gpu
+            .resolve(&target, (WIDTH, HEIGHT), &params(0), &none),
+    );
+    assert!(got.iter().all(|&v| v == 0), "no outline without marks");
+
+    // Only the preview traced (as right after the camera or an object moved): the outline follows
+    // the preview blocks' objects, so it is complete in that frame too.
+    let scale = 3;
+    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
+    let view = tracer.params(
+        DebugView::TriangleId,
+        1,
+        TraceWork::Preview { scale, seed: 1 },
+    );
+    tracer.gpu.path_trace(
+        &tracer.pipeline,
+        &tracer.buffers,
+        &view,
+        &target,
+        &tracer.layers,
+    );
+    let objects: Vec<u32> = (0..WIDTH * HEIGHT)
+        .map(|i| {
+            let (bx, by) = ((i % WIDTH) / scale, (i / WIDTH) / scale);
+            let lo = Vec2::new((bx * scale) as f32, (by * scale) as f32);
+            let hi = Vec2::new(
+                ((bx + 1) * scale).min(WIDTH) as f32,
+                ((by + 1) * scale).min(HEIGHT) as f32,
+            );
+            cpu_object(&scene, (lo + hi) * 0.5)
+        })
+        .collect();
+    let want = expected_outline(&objects, value, style.width);
+    let got = drawn(
+        &tracer
+            .gpu
+            .resolve(&target, (WIDTH, HEIGHT), &params(scale), &words),
+    );
+    assert!(want.iter().any(|&v| v != 0), "outlined in the preview");
+    assert_eq!(got, want, "outlines over the preview");
 }

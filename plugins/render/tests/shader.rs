@@ -186,7 +186,23 @@ fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
     );
     assert_eq!(
         wgsl_layout(&r, "Resolve"),
-        rust_layout!(GpuResolve, [origin, viewport, size, preview_scale, pad])
+        rust_layout!(
+            GpuResolve,
+            [
+                origin,
+                viewport,
+                size,
+                preview_scale,
+                outline_slots,
+                outline_colours,
+                outline_width,
+                pad0,
+                outline_min,
+                outline_max,
+                pad1,
+                pad2
+            ]
+        )
     );
 }
 

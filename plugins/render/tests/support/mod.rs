@@ -347,14 +347,16 @@ impl Gpu {
         ]
     }
 
-    /// A view's buffers for the trace kernel, zeroed: accumulation, then depth and preview.
+    /// A view's buffers for the trace kernel, zeroed: accumulation, then depth, objects and
+    /// preview.
     pub fn trace_target(&self, width: u32, height: u32) -> TraceTarget {
         let pixels = (width * height) as usize;
         let blocks = (width.div_ceil(2) * height.div_ceil(2)) as usize;
         TraceTarget {
             accum: self.storage("accum", &vec![0u8; pixels * 16]),
-            aux: self.storage("depth and preview", &vec![0u8; pixels * 4 + blocks * 16]),
+            aux: self.storage("aux", &vec![0u8; pixels * 8 + blocks * 20]),
             pixels,
+            blocks,
         }
     }
 
@@ -388,11 +390,13 @@ impl Gpu {
 pub struct TraceTarget {
     /// Per pixel: the sum of its samples (rgb) and their count (w).
     pub accum: wgpu::Buffer,
-    /// Per pixel the depth of its first sample's primary hit, then per preview block one sample
-    /// (rgb) and its depth.
+    /// Per pixel the depth of its first sample's primary hit and that hit's object slot, then per
+    /// preview block one sample (rgb) and its depth, then per block its sample's object slot.
     pub aux: wgpu::Buffer,
-    /// Pixels in the image: where the preview starts in `aux`.
+    /// Pixels in the image.
     pub pixels: usize,
+    /// Preview blocks at the finest scale: the room the preview has in `aux`.
+    pub blocks: usize,
 }
 
 impl Gpu {
@@ -403,7 +407,19 @@ impl Gpu {
 
     /// Per preview block, its sample (rgb) and depth.
     pub fn read_preview(&self, target: &TraceTarget) -> Vec<f32> {
-        floats(&self.read(&target.aux))[target.pixels..].to_vec()
+        let start = 2 * target.pixels;
+        floats(&self.read(&target.aux))[start..start + 4 * target.blocks].to_vec()
+    }
+
+    /// Per pixel, the object slot of its first sample's primary hit (`u32::MAX` where it escaped).
+    pub fn read_objects(&self, target: &TraceTarget) -> Vec<u32> {
+        words(&self.read(&target.aux))[target.pixels..2 * target.pixels].to_vec()
+    }
+
+    /// Per preview block, the object slot of its sample's primary hit.
+    pub fn read_preview_objects(&self, target: &TraceTarget) -> Vec<u32> {
+        let start = 2 * target.pixels + 4 * target.blocks;
+        words(&self.read(&target.aux))[start..start + target.blocks].to_vec()
     }
 }
 
@@ -649,4 +665,141 @@ pub fn scene_args(usage: &str) -> Vec<String> {
         std::process::exit(2);
     }
     specs
+}
+
+impl Gpu {
+    /// The plugin's resolve pass (`fragment`) over `target` into a fresh `width` × `height`
+    /// RGBA32F image, with `params` as its uniform and `outlines` as the outline words; returns the
+    /// image's pixels, rows from the top.
+    pub fn resolve(
+        &self,
+        target: &TraceTarget,
+        (width, height): (u32, u32),
+        params: &treelight_render::ResolveParams,
+        outlines: &[u32],
+    ) -> Vec<[f32; 4]> {
+        let format = wgpu::TextureFormat::Rgba32Float;
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("resolve"),
+                source: wgpu::ShaderSource::Wgsl(treelight_render::RESOLVE_WGSL.into()),
+            });
+        let pipeline = self
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("resolve"),
+                layout: None,
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vertex"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fragment"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(format.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("resolved"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let uniform = self.uniform(&params.to_bytes());
+        let words: Vec<u8> = outlines.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let outline_buffer = self.storage("outlines", &words);
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                (0, target.accum.as_entire_binding()),
+                (1, target.aux.as_entire_binding()),
+                (2, uniform.as_entire_binding()),
+                (3, outline_buffer.as_entire_binding()),
+            ]
+            .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
+        });
+        let view = texture.create_view(&Default::default());
+        let row = (width * 16).next_multiple_of(256);
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("resolved readback"),
+            size: (row * height) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("resolve"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+        readback
+            .slice(..)
+            .map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
+        self.wait();
+        let data = readback.slice(..).get_mapped_range().to_vec();
+        data.chunks_exact(row as usize)
+            .flat_map(|r| {
+                floats(&r[..(width * 16) as usize])
+                    .chunks_exact(4)
+                    .map(|c| [c[0], c[1], c[2], c[3]])
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
 }
