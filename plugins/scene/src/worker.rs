@@ -222,9 +222,28 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let mut inserted_tris = 0usize;
         let mut latest_sent: Option<Instant> = None;
         for c in chunked {
-            if let Command::Upsert { entity, sent, .. } = c {
+            if let Command::Upsert {
+                entity,
+                mesh,
+                name,
+                triangles,
+                shading,
+                transform,
+                eye,
+                sent,
+            } = c
+            {
                 last_move.remove(&entity);
-                inserted_tris += insert_in_chunks(&shared, &mut clock, received, config, c);
+                let huge = HugeMesh {
+                    entity,
+                    mesh,
+                    name,
+                    triangles,
+                    shading,
+                    transform,
+                    eye,
+                };
+                inserted_tris += insert_in_chunks(&shared, &mut clock, received, config, huge);
                 latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
             }
         }
@@ -319,7 +338,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let latency = latest_sent.map(|sent| sent.elapsed());
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(&shared, &mut clock, received, |s| {
+        publish_stats(&shared, &mut clock, InFlight::Done(received), |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =
                     inserted_tris as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
@@ -328,22 +347,32 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 s.last_latency = latency;
             }
         });
-        shared.pending.fetch_sub(received, Ordering::AcqRel);
     }
 }
 
-/// Inserts a huge mesh (an `Upsert`) as spatial chunks, each a group of its entity, nearest the
-/// camera first. Each chunk is built outside the lock and published when it is in, so renderers and
-/// picking see the front of the mesh while the rest is built. The entity's previous version stays
-/// until the last chunk is in. Returns the triangles inserted.
+/// A mesh over `chunk_triangles`: what [`insert_in_chunks`] takes of its `Upsert`.
+struct HugeMesh {
+    entity: Entity,
+    mesh: AssetId<Mesh>,
+    name: String,
+    triangles: Arc<Vec<Triangle>>,
+    shading: Arc<TriangleShading>,
+    transform: Affine3A,
+    eye: Option<Vec3>,
+}
+
+/// Inserts a huge mesh as spatial chunks, each a group of its entity, nearest the camera first.
+/// Each chunk is built outside the lock and published when it is in, so renderers and picking see
+/// the front of the mesh while the rest is built. The entity's previous version stays until the last
+/// chunk is in. Returns the triangles inserted.
 fn insert_in_chunks(
     shared: &Shared,
     clock: &mut CostClock,
     in_flight: usize,
     config: WorkerConfig,
-    upsert: Command,
+    huge: HugeMesh,
 ) -> usize {
-    let Command::Upsert {
+    let HugeMesh {
         entity,
         mesh,
         name,
@@ -351,11 +380,7 @@ fn insert_in_chunks(
         shading,
         transform,
         eye,
-        ..
-    } = upsert
-    else {
-        return 0;
-    };
+    } = huge;
     let chunks = spatial_chunks(
         &triangles,
         &shading,
@@ -394,7 +419,7 @@ fn insert_in_chunks(
         }
         drop(guard);
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(shared, clock, in_flight, |_| {});
+        publish_stats(shared, clock, InFlight::Finishing(in_flight), |_| {});
     }
     let mut tree = shared.tree.write().unwrap_or_else(|p| p.into_inner());
     tree.remove_groups(entity, &old);
@@ -419,7 +444,7 @@ fn idle_work(
     if still.is_empty() && !idle.is_pending() {
         if clock.stale {
             // The last edits were published without their cost; it is due by now.
-            publish_stats(shared, clock, 0, |_| {});
+            publish_stats(shared, clock, InFlight::Finishing(0), |_| {});
         }
         return;
     }
@@ -446,7 +471,7 @@ fn idle_work(
     };
     if baked || moves > 0 {
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(shared, clock, 0, |_| {});
+        publish_stats(shared, clock, InFlight::Finishing(0), |_| {});
     }
 }
 
@@ -460,15 +485,25 @@ pub(crate) struct CostClock {
     stale: bool,
 }
 
-/// Publishes the tree's figures. `in_flight` is how many of the pending commands the caller is still
-/// finishing (any more are waiting).
+/// What the caller of [`publish_stats`] is doing with the pending commands.
+#[derive(Clone, Copy)]
+enum InFlight {
+    /// Still finishing this many of them (any more are waiting).
+    Finishing(usize),
+    /// Done with this many: they leave `pending` as soon as the counts are out, before the cost
+    /// pass, so whoever waits for the edit does not wait for the cost too.
+    Done(usize),
+}
+
+/// Publishes the tree's figures.
 fn publish_stats(
     shared: &Shared,
     clock: &mut CostClock,
-    in_flight: usize,
+    in_flight: InFlight,
     edit: impl FnOnce(&mut SceneStats),
 ) {
-    let waiting = shared.pending.load(Ordering::Acquire) > in_flight;
+    let (InFlight::Finishing(count) | InFlight::Done(count)) = in_flight;
+    let waiting = shared.pending.load(Ordering::Acquire) > count;
     let (triangles, nodes) = {
         let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
         (tree.bvh.triangle_count(), tree.bvh.inner_count())
@@ -478,6 +513,9 @@ fn publish_stats(
         s.triangles = triangles;
         s.inner_nodes = nodes;
         edit(&mut s);
+    }
+    if let InFlight::Done(n) = in_flight {
+        shared.pending.fetch_sub(n, Ordering::AcqRel);
     }
     // The counts are out; the cost, a pass over the tree, follows when it is due.
     let due = !waiting
