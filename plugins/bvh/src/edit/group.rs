@@ -505,12 +505,19 @@ impl Bvh {
         }
     }
 
-    /// Removes `ids` from the global tree in one post-order pass: an inner node with one surviving
-    /// child is replaced by that child, one with none disappears.
+    /// Removes `ids` from the global tree in one post-order pass over the subtrees that hold them
+    /// (their ancestors, marked first; the rest of the tree is not visited): an inner node with one
+    /// surviving child is replaced by that child, one with none disappears.
     fn prune_leaves(&mut self, ids: &[u32]) {
         let mut doomed = vec![false; self.tri.items.len()];
+        let mut touched = vec![false; self.inner.len()];
         for &t in ids {
             doomed[t as usize] = true;
+            let mut p = self.tri.parent[t as usize];
+            while p != NONE && !touched[p as usize] {
+                touched[p as usize] = true;
+                p = self.inner[p as usize].parent;
+            }
             self.tri.parent[t as usize] = NONE;
         }
         let root = self.root;
@@ -523,6 +530,8 @@ impl Bvh {
         let mut results: Vec<(NodeRef, bool)> = Vec::new();
         while let Some((n, visited)) = stack.pop() {
             match n.kind() {
+                // No doomed leaf below: kept as it is.
+                NodeKind::Inner if !touched[n.index() as usize] => results.push((n, false)),
                 NodeKind::Inner if !visited => {
                     stack.push((n, true));
                     let [a, b] = self.inner[n.index() as usize].children;
