@@ -149,7 +149,19 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     }
     if let Some(path) = &cli.state {
         app.insert_resource(report::StateReport::new(path.clone()))
-            .add_systems(Last, report::write_state_report);
+            .init_resource::<report::MainThreadClock>()
+            .add_systems(First, report::start_frame_clock)
+            .add_systems(
+                bevy_egui::EguiPrimaryContextPass,
+                (
+                    report::start_ui_clock.before(ui::editor_ui),
+                    report::stop_ui_clock.after(ui::editor_ui),
+                ),
+            )
+            .add_systems(
+                Last,
+                (report::stop_frame_clock, report::write_state_report).chain(),
+            );
     }
     if cli.screenshot.is_some() || cli.frames.is_some() {
         app.insert_resource(capture::CaptureRequest {

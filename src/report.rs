@@ -80,6 +80,47 @@ pub struct EditorState {
     /// The file dialog open, if any: "builtin" or "native", then what it is for.
     #[serde(default)]
     pub dialog: Option<String>,
+    /// This frame's main-world schedules, `First` to `Last` (everything but rendering and this
+    /// report), in milliseconds of wall time on the main thread.
+    #[serde(default)]
+    pub main_ms: f32,
+    /// Of that, the editor's UI system (panels, menus, the viewport's input and overlay).
+    #[serde(default)]
+    pub ui_ms: f32,
+}
+
+/// Times the main world's frame and the editor's UI for the report.
+#[derive(Resource, Debug, Default)]
+pub struct MainThreadClock {
+    frame_start: Option<std::time::Instant>,
+    ui_start: Option<std::time::Instant>,
+    main: std::time::Duration,
+    ui: std::time::Duration,
+}
+
+/// Starts timing the frame (in `First`).
+pub fn start_frame_clock(mut clock: ResMut<MainThreadClock>) {
+    clock.frame_start = Some(std::time::Instant::now());
+    clock.ui = std::time::Duration::ZERO;
+}
+
+/// Stops timing the frame (in `Last`, before the report).
+pub fn stop_frame_clock(mut clock: ResMut<MainThreadClock>) {
+    if let Some(t) = clock.frame_start.take() {
+        clock.main = t.elapsed();
+    }
+}
+
+/// Starts timing the editor's UI.
+pub fn start_ui_clock(mut clock: ResMut<MainThreadClock>) {
+    clock.ui_start = Some(std::time::Instant::now());
+}
+
+/// Stops timing the editor's UI.
+pub fn stop_ui_clock(mut clock: ResMut<MainThreadClock>) {
+    if let Some(t) = clock.ui_start.take() {
+        clock.ui += t.elapsed();
+    }
 }
 
 /// Where the report goes.
@@ -136,6 +177,7 @@ pub fn write_state_report(
     project: Res<crate::project::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
     files: Res<crate::files::FileUi>,
+    clock: Option<Res<MainThreadClock>>,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -211,6 +253,8 @@ pub fn write_state_report(
             (_, Some(d)) => Some(format!("native {:?}", d.purpose)),
             _ => None,
         },
+        main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
+        ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

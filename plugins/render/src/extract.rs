@@ -63,6 +63,18 @@ pub(crate) struct SceneSync {
     pub pending: PendingUpload,
 }
 
+/// The meshes to outline, with what their world-space boxes are made from.
+type OutlinedQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Outlined,
+        Option<&'static Aabb>,
+        Option<&'static GlobalTransform>,
+    ),
+>;
+
 type MaterialQuery<'w, 's> = Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>>;
 
 /// Main-world assets a material is read from.
@@ -109,7 +121,7 @@ fn extract_scene(
     handles: Extract<MaterialQuery>,
     materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
     images: Extract<Option<Res<Assets<Image>>>>,
-    outlined: Extract<Query<(Entity, &Outlined, Option<&Aabb>, Option<&GlobalTransform>)>>,
+    outlined: Extract<OutlinedQuery>,
     points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
     suns: Extract<
         Query<(
@@ -192,9 +204,7 @@ fn extract_scene(
 }
 
 /// The union of the outlined meshes' world-space boxes; `None` when one has no box or transform.
-fn outlined_bounds(
-    outlined: &Query<(Entity, &Outlined, Option<&Aabb>, Option<&GlobalTransform>)>,
-) -> Option<[Vec3; 2]> {
+fn outlined_bounds(outlined: &OutlinedQuery) -> Option<[Vec3; 2]> {
     let mut out = [Vec3::INFINITY, Vec3::NEG_INFINITY];
     for (_, _, aabb, gt) in outlined {
         let (aabb, gt) = (aabb?, gt?);
