@@ -31,7 +31,7 @@ use bevy_egui::{EguiContexts, EguiTextureHandle, egui};
 use egui_dock::{DockArea, DockState, NodeIndex, Style, TabViewer};
 use inspector::{InspectorState, MaterialView};
 use menus::MenuAction;
-use outliner::{OutlinerItem, OutlinerPanel, OutlinerRow, OutlinerState};
+use outliner::{OutlinerCache, OutlinerItem, OutlinerPanel, OutlinerState};
 use treelight_render::PathTracerStats;
 use treelight_scene::{SceneBvh, cast_on};
 
@@ -212,6 +212,7 @@ pub struct EditAccess<'w, 's> {
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,
     outliner: ResMut<'w, OutlinerState>,
+    outliner_cache: ResMut<'w, OutlinerCache>,
     files: ResMut<'w, crate::files::FileUi>,
     project: Res<'w, crate::project::ProjectState>,
     project_requests: ResMut<'w, crate::files::ProjectRequests>,
@@ -261,6 +262,7 @@ pub fn editor_ui(
         mut requests,
         mut gesture,
         mut outliner,
+        mut outliner_cache,
         mut files,
         project,
         mut project_requests,
@@ -292,22 +294,25 @@ pub fn editor_ui(
             .filter(|p| objects.contains(*p))
     };
 
-    // The outliner's rows.
-    let items: Vec<OutlinerItem> = objects
-        .iter()
-        .map(
-            |(entity, id, name, _, _, mesh, point, dir, vis, _)| OutlinerItem {
-                entity,
-                id: *id,
-                parent: parent_of(entity),
-                name: name.as_str().to_owned(),
-                kind: kind_of(mesh.is_some(), point, dir),
-                visible: vis != Some(&Visibility::Hidden),
-            },
-        )
-        .collect();
+    // The outliner's rows, made again only when the scene or the outliner's state changed.
     outliner.collapsed.retain(|e| objects.contains(*e));
-    let rows: Vec<OutlinerRow> = outliner::rows(&items, &outliner);
+    if outliner_cache.stale_for(&outliner) {
+        let items: Vec<OutlinerItem> = objects
+            .iter()
+            .map(
+                |(entity, id, name, _, _, mesh, point, dir, vis, _)| OutlinerItem {
+                    entity,
+                    id: *id,
+                    parent: parent_of(entity),
+                    name: name.as_str().to_owned(),
+                    kind: kind_of(mesh.is_some(), point, dir),
+                    visible: vis != Some(&Visibility::Hidden),
+                },
+            )
+            .collect();
+        outliner_cache.remake(items, &outliner);
+    }
+    let (items, rows) = (&outliner_cache.items, &outliner_cache.rows);
 
     // The inspector's copy of the active object.
     let original = selection.active().and_then(|e| {
@@ -493,8 +498,8 @@ pub fn editor_ui(
                     actions: &mut actions,
                 },
                 outliner: OutlinerPanel {
-                    items: &items,
-                    rows: &rows,
+                    items,
+                    rows,
                     selection: &mut selection,
                     state: &mut outliner,
                     commands: &mut panel_commands,
@@ -959,7 +964,11 @@ impl Plugin for UiPlugin {
             .init_resource::<OutlinerState>()
             .init_resource::<ViewportInteraction>()
             .init_resource::<WidgetRects>()
-            .add_systems(bevy_egui::EguiPrimaryContextPass, editor_ui)
+            .init_resource::<OutlinerCache>()
+            .add_systems(
+                bevy_egui::EguiPrimaryContextPass,
+                (outliner::invalidate_outliner, editor_ui).chain(),
+            )
             .add_systems(Update, fit_camera_viewport);
     }
 }

@@ -57,6 +57,60 @@ impl OutlinerState {
     }
 }
 
+/// The outliner's objects and rows as last made, kept between frames: they are made again only
+/// when a scene object was added, removed, renamed, reparented or shown/hidden
+/// ([`invalidate_outliner`]), or the filter or the folding changed.
+#[derive(Resource, Default)]
+pub struct OutlinerCache {
+    /// The objects, as [`rows`] takes them.
+    pub items: Vec<OutlinerItem>,
+    /// Their rows.
+    pub rows: Vec<OutlinerRow>,
+    /// Whether `items` and `rows` still describe the scene.
+    pub valid: bool,
+    /// The filter and the folded rows they were made with.
+    made_with: (String, HashSet<Entity>),
+}
+
+impl OutlinerCache {
+    /// Whether the rows must be made again for `state`'s filter and folding.
+    pub fn stale_for(&self, state: &OutlinerState) -> bool {
+        !self.valid || self.made_with.0 != state.filter || self.made_with.1 != state.collapsed
+    }
+
+    /// Keeps `items` and the rows made from them under `state`.
+    pub fn remake(&mut self, items: Vec<OutlinerItem>, state: &OutlinerState) {
+        self.rows = rows(&items, state);
+        self.items = items;
+        self.valid = true;
+        self.made_with = (state.filter.clone(), state.collapsed.clone());
+    }
+}
+
+/// What the outliner lists changed: a scene object came or went, or its name, parent, visibility
+/// or kind changed.
+type OutlinerChanges = Or<(
+    Added<crate::selection::SceneObject>,
+    Changed<Name>,
+    Changed<ChildOf>,
+    Changed<Visibility>,
+    Changed<Mesh3d>,
+    Changed<SceneId>,
+)>;
+
+/// Marks the outliner's cache stale when what it lists changed (runs before the UI).
+pub fn invalidate_outliner(
+    mut cache: ResMut<OutlinerCache>,
+    changed: Query<(), (With<crate::selection::SceneObject>, OutlinerChanges)>,
+    mut removed: RemovedComponents<crate::selection::SceneObject>,
+    mut unparented: RemovedComponents<ChildOf>,
+) {
+    let gone = removed.read().count() + unparented.read().count() > 0;
+    if gone || !changed.is_empty() {
+        cache.valid = false;
+    }
+}
+
 /// The objects dragged onto another row.
 #[derive(Clone, Debug)]
 struct DraggedObjects(Vec<SceneId>);
@@ -359,6 +413,48 @@ mod tests {
         rows.iter()
             .map(|r| (items[r.item].name.clone(), r.depth))
             .collect()
+    }
+
+    #[test]
+    fn the_cache_goes_stale_exactly_when_what_it_lists_changes() {
+        let mut app = App::new();
+        app.init_resource::<OutlinerCache>()
+            .add_systems(Update, invalidate_outliner);
+        fn settle(app: &mut App) -> bool {
+            app.update();
+            let stale = !app.world().resource::<OutlinerCache>().valid;
+            app.world_mut().resource_mut::<OutlinerCache>().valid = true;
+            stale
+        }
+        fn world(app: &mut App) -> &mut World {
+            app.world_mut()
+        }
+        let parent = world(&mut app)
+            .spawn((crate::selection::SceneObject, Name::new("Parent")))
+            .id();
+        let child = world(&mut app)
+            .spawn((
+                crate::selection::SceneObject,
+                Name::new("Child"),
+                ChildOf(parent),
+            ))
+            .id();
+        assert!(settle(&mut app), "objects added");
+        assert!(!settle(&mut app), "nothing changed");
+        world(&mut app)
+            .entity_mut(child)
+            .insert(Name::new("Renamed"));
+        assert!(settle(&mut app), "a rename");
+        world(&mut app).entity_mut(child).insert(Visibility::Hidden);
+        assert!(settle(&mut app), "hidden");
+        world(&mut app).entity_mut(child).remove::<ChildOf>();
+        assert!(settle(&mut app), "moved to the top level");
+        assert!(!settle(&mut app), "nothing changed");
+        world(&mut app).entity_mut(parent).despawn();
+        assert!(settle(&mut app), "an object removed");
+        // Entities that are not scene objects (the editor's own) do not count.
+        world(&mut app).spawn(Name::new("Camera"));
+        assert!(!settle(&mut app), "not a scene object");
     }
 
     #[test]
