@@ -398,7 +398,9 @@ fn insert_in_chunks(
     let mut made: Vec<GroupId> = Vec::with_capacity(chunks.len());
     let mut inserted = 0usize;
     for chunk in chunks {
-        let built = PreparedGroup::build(chunk.triangles, transform, false);
+        // Kept whole (an instance over its own subtree), and never baked: a first move or copy of
+        // the mesh is then one node per chunk, not a pass over a million triangles.
+        let built = PreparedGroup::build(chunk.triangles, transform, true);
         let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
         let tree = &mut *guard;
         match built.and_then(|p| {
@@ -456,8 +458,13 @@ fn idle_work(
             last_move.remove(&e);
             // The update batch a bake triggers covers the whole mesh, too long to hold the tree
             // in one piece for a big one: the idle steps sweep the tree instead, in slices.
+            let groups = tree.entity_groups.get(&e).map_or(&[][..], Vec::as_slice);
+            if groups.len() > 1 {
+                // A mesh in chunks stays instances (see insert_in_chunks).
+                continue;
+            }
             tree.bvh.without_updates(|bvh| {
-                for &g in tree.entity_groups.get(&e).into_iter().flatten() {
+                for &g in groups {
                     if let Err(err) = bvh.bake_group(g) {
                         warn!("entity {e} could not be baked: {err}");
                     }

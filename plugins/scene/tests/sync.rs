@@ -694,3 +694,76 @@ fn a_huge_mesh_enters_the_tree_in_chunks_nearest_the_camera_first() {
         assert_eq!(treelight_scene::cast_on(&tree, *ray).unwrap().entity, e);
     }
 }
+
+#[test]
+fn a_mesh_in_chunks_stays_instances_so_its_first_copy_is_one_node_per_chunk() {
+    // A sphere of 960 triangles in chunks of at most 100, still long past `bake_after`, beside a
+    // cube that is baked once still.
+    let mut app = headless_app(SceneBvhConfig {
+        bake_after: Duration::from_millis(20),
+        chunk_triangles: 100,
+        ..default()
+    });
+    let sphere = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Sphere::new(1.0).mesh().uv(24, 20));
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0).mesh().build());
+    let big = app
+        .world_mut()
+        .spawn((Mesh3d(sphere.clone()), Transform::default()))
+        .id();
+    let small = app
+        .world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(4.0, 0.0, 0.0)))
+        .id();
+    settle(&mut app);
+    // Moved, then still: the cube is baked, the sphere's chunks stay whole.
+    for e in [big, small] {
+        app.world_mut()
+            .get_mut::<Transform>(e)
+            .unwrap()
+            .translation
+            .y += 1.0;
+    }
+    settle(&mut app);
+    std::thread::sleep(Duration::from_millis(200));
+    settle(&mut app);
+    {
+        let scene = app.world().resource::<SceneBvh>();
+        let tree = scene.read_blocking();
+        let chunks = tree.groups_of(big);
+        assert!(chunks.len() >= 4, "{} chunks", chunks.len());
+        for &g in chunks {
+            assert!(tree.bvh.is_group_whole(g).unwrap(), "a chunk was baked");
+        }
+        for &g in tree.groups_of(small) {
+            assert!(
+                !tree.bvh.is_group_whole(g).unwrap(),
+                "the cube was not baked"
+            );
+        }
+    }
+    // A copy shares the chunks' triangles: the tree's triangle count does not change, and a ray
+    // finds the copy where it stands.
+    let before = app
+        .world()
+        .resource::<SceneBvh>()
+        .read_blocking()
+        .bvh
+        .triangle_count();
+    let copy = app
+        .world_mut()
+        .spawn((Mesh3d(sphere), Transform::from_xyz(0.0, 0.0, -6.0)))
+        .id();
+    settle(&mut app);
+    let scene = app.world().resource::<SceneBvh>();
+    let tree = scene.read_blocking();
+    assert_eq!(tree.bvh.triangle_count(), before);
+    tree.bvh.validate().unwrap();
+    let down = Ray3d::new(Vec3::new(0.0, 5.0, -6.0), Dir3::NEG_Y);
+    assert_eq!(treelight_scene::cast_on(&tree, down).unwrap().entity, copy);
+}
