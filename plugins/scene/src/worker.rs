@@ -30,17 +30,7 @@ pub(crate) enum Command {
         sent: Instant,
     },
     /// A new or edited mesh (object-space triangles) under a transform.
-    Upsert {
-        entity: Entity,
-        mesh: AssetId<Mesh>,
-        name: String,
-        triangles: Arc<Vec<Triangle>>,
-        shading: Arc<TriangleShading>,
-        transform: Affine3A,
-        /// The camera's position when it was sent: a mesh inserted in chunks starts nearest it.
-        eye: Option<Vec3>,
-        sent: Instant,
-    },
+    Upsert(NewMesh),
     /// An entity whose mesh asset the tree already holds for another entity: it shares those
     /// triangles under its own transform (one instance node, no copy).
     Instance {
@@ -54,6 +44,19 @@ pub(crate) enum Command {
     Move { entity: Entity, transform: Affine3A },
     /// A despawned or hidden entity, or one whose mesh was removed.
     Remove { entity: Entity },
+}
+
+/// What an [`Command::Upsert`] carries.
+pub(crate) struct NewMesh {
+    entity: Entity,
+    mesh: AssetId<Mesh>,
+    name: String,
+    triangles: Arc<Vec<Triangle>>,
+    shading: Arc<TriangleShading>,
+    transform: Affine3A,
+    /// The camera's position when it was sent: a mesh inserted in chunks starts nearest it.
+    eye: Option<Vec3>,
+    sent: Instant,
 }
 
 impl Command {
@@ -70,7 +73,7 @@ impl Command {
                 sent,
             } => {
                 let geometry = copy.finish();
-                Command::Upsert {
+                Command::Upsert(NewMesh {
                     entity,
                     mesh,
                     name,
@@ -79,7 +82,7 @@ impl Command {
                     transform,
                     eye,
                     sent,
-                }
+                })
             }
             c => c,
         }
@@ -87,8 +90,8 @@ impl Command {
 
     fn entity(&self) -> Entity {
         match self {
-            Command::Upsert { entity, .. }
-            | Command::Copied { entity, .. }
+            Command::Upsert(m) => m.entity,
+            Command::Copied { entity, .. }
             | Command::Instance { entity, .. }
             | Command::Move { entity, .. }
             | Command::Remove { entity } => *entity,
@@ -127,28 +130,9 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
     for c in batch {
         let e = c.entity();
         let merged = match (last.remove(&e), c) {
-            (
-                Some(Command::Upsert {
-                    entity,
-                    mesh,
-                    name,
-                    triangles,
-                    shading,
-                    eye,
-                    sent,
-                    ..
-                }),
-                Command::Move { transform, .. },
-            ) => Command::Upsert {
-                entity,
-                mesh,
-                name,
-                triangles,
-                shading,
-                transform,
-                eye,
-                sent,
-            },
+            (Some(Command::Upsert(m)), Command::Move { transform, .. }) => {
+                Command::Upsert(NewMesh { transform, ..m })
+            }
             (
                 Some(Command::Instance {
                     entity,
@@ -176,7 +160,7 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
     let mut out: Vec<Command> = order.into_iter().filter_map(|e| last.remove(&e)).collect();
     // Stable: within each kind the order of first mention stays.
     out.sort_by_key(|c| match c {
-        Command::Upsert { .. } => 0,
+        Command::Upsert(_) => 0,
         Command::Instance { .. } => 1,
         _ => 2,
     });
@@ -212,37 +196,18 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         // Copied meshes become triangles here, in parallel, rather than on the main thread.
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
         let (chunked, commands): (Vec<Command>, Vec<Command>) =
-            coalesce(batch).into_iter().partition(|c| {
-                matches!(c, Command::Upsert { triangles, .. }
-                    if triangles.len() > config.chunk_triangles)
-            });
+            coalesce(batch).into_iter().partition(
+                |c| matches!(c, Command::Upsert(m) if m.triangles.len() > config.chunk_triangles),
+            );
         let started = Instant::now();
         // Huge meshes first, a chunk at a time, each published as soon as it is in (they are new
         // meshes, which the instances of this batch may share, like any other upsert).
         let mut inserted_tris = 0usize;
         let mut latest_sent: Option<Instant> = None;
         for c in chunked {
-            if let Command::Upsert {
-                entity,
-                mesh,
-                name,
-                triangles,
-                shading,
-                transform,
-                eye,
-                sent,
-            } = c
-            {
-                last_move.remove(&entity);
-                let huge = HugeMesh {
-                    entity,
-                    mesh,
-                    name,
-                    triangles,
-                    shading,
-                    transform,
-                    eye,
-                };
+            if let Command::Upsert(huge) = c {
+                last_move.remove(&huge.entity);
+                let sent = huge.sent;
                 inserted_tris += insert_in_chunks(&shared, &mut clock, received, config, huge);
                 latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
             }
@@ -251,13 +216,13 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let prepared: Vec<Option<PreparedGroup>> = commands
             .par_iter()
             .map(|c| match c {
-                Command::Upsert {
+                Command::Upsert(NewMesh {
                     name,
                     triangles,
                     transform,
                     entity,
                     ..
-                } => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
+                }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
                     Ok(p) => Some(p),
                     Err(e) => {
                         warn!("entity {entity} ('{name}') is not traced: {e}");
@@ -278,13 +243,13 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                         tree.remove_entity(entity);
                         last_move.remove(&entity);
                     }
-                    Command::Upsert {
+                    Command::Upsert(NewMesh {
                         entity,
                         mesh,
                         sent,
                         shading,
                         ..
-                    } => {
+                    }) => {
                         // A mesh that failed to build keeps its previous version, if any.
                         if let Some(p) = p {
                             inserted_tris += p.len();
@@ -350,17 +315,6 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
     }
 }
 
-/// A mesh over `chunk_triangles`: what [`insert_in_chunks`] takes of its `Upsert`.
-struct HugeMesh {
-    entity: Entity,
-    mesh: AssetId<Mesh>,
-    name: String,
-    triangles: Arc<Vec<Triangle>>,
-    shading: Arc<TriangleShading>,
-    transform: Affine3A,
-    eye: Option<Vec3>,
-}
-
 /// Inserts a huge mesh as spatial chunks, each a group of its entity, nearest the camera first.
 /// Each chunk is built outside the lock and published when it is in, so renderers and picking see
 /// the front of the mesh while the rest is built. The entity's previous version stays until the last
@@ -370,9 +324,9 @@ fn insert_in_chunks(
     clock: &mut CostClock,
     in_flight: usize,
     config: WorkerConfig,
-    huge: HugeMesh,
+    huge: NewMesh,
 ) -> usize {
-    let HugeMesh {
+    let NewMesh {
         entity,
         mesh,
         name,
@@ -380,6 +334,7 @@ fn insert_in_chunks(
         shading,
         transform,
         eye,
+        ..
     } = huge;
     let chunks = spatial_chunks(
         &triangles,
