@@ -9,7 +9,7 @@ mod support;
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
-use support::{Gpu, floats, put_record, skip};
+use support::{Gpu, TraceTarget, floats, put_record, skip};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
@@ -160,6 +160,20 @@ impl Tracer {
         }
     }
 
+    /// One dispatch of `work` in `mode`, `samples` per pixel, into `target`.
+    fn dispatch(&self, mode: DebugView, samples: u32, work: TraceWork, target: &TraceTarget) {
+        let params = self.params(mode, samples, work);
+        self.gpu
+            .path_trace(&self.pipeline, &self.buffers, &params, target, &self.layers);
+    }
+
+    /// `work` in `mode`, one sample per pixel, into fresh buffers.
+    fn fresh(&self, mode: DebugView, work: TraceWork) -> TraceTarget {
+        let target = self.gpu.trace_target(WIDTH, HEIGHT);
+        self.dispatch(mode, 1, work, &target);
+        target
+    }
+
     /// Traces `runs` (samples per pixel per dispatch, tiles) in the plugin's order into fresh
     /// buffers; returns each pixel's (rgb sum, count) and depth.
     fn trace(&self, mode: DebugView, runs: &[(u32, u32)]) -> (Vec<[f32; 4]>, Vec<f32>) {
@@ -168,15 +182,7 @@ impl Tracer {
         let mut cursor = TileCursor::default();
         for &(samples, count) in runs {
             let start = cursor.take(&order, count);
-            let work = TraceWork::Tiles { start, count };
-            let params = self.params(mode, samples, work);
-            self.gpu.path_trace(
-                &self.pipeline,
-                &self.buffers,
-                &params,
-                &target,
-                &self.layers,
-            );
+            self.dispatch(mode, samples, TraceWork::Tiles { start, count }, &target);
         }
         let accum = floats(&self.gpu.read(&target.accum))
             .chunks_exact(4)
@@ -290,16 +296,7 @@ fn the_preview_covers_the_image_in_blocks() {
     let scene = scene();
     let tracer = Tracer::new(&scene);
     for scale in [2, 3, 7] {
-        let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
-        let work = TraceWork::Preview { scale, seed: 1 };
-        let params = tracer.params(DebugView::Normals, 1, work);
-        tracer.gpu.path_trace(
-            &tracer.pipeline,
-            &tracer.buffers,
-            &params,
-            &target,
-            &tracer.layers,
-        );
+        let target = tracer.fresh(DebugView::Normals, TraceWork::Preview { scale, seed: 1 });
         let preview = tracer.gpu.read_preview(&target);
         let (pw, ph) = (WIDTH.div_ceil(scale), HEIGHT.div_ceil(scale));
         // Normals map to 0..1 per channel; the sky to black: every block was written with a
@@ -322,6 +319,25 @@ fn the_preview_covers_the_image_in_blocks() {
             blocks.len()
         );
     }
+}
+
+/// Every tile of the image in one dispatch.
+fn whole_image() -> TraceWork {
+    TraceWork::Tiles {
+        start: 0,
+        count: TileOrder::new(WIDTH, HEIGHT).total,
+    }
+}
+
+/// Where a non-jittered view's preview casts block (`bx`, `by`)'s one ray, at `scale` pixels a
+/// block: the centre of the block's part inside the image.
+fn block_centre(bx: u32, by: u32, scale: u32) -> Vec2 {
+    let lo = Vec2::new((bx * scale) as f32, (by * scale) as f32);
+    let hi = Vec2::new(
+        ((bx + 1) * scale).min(WIDTH) as f32,
+        ((by + 1) * scale).min(HEIGHT) as f32,
+    );
+    (lo + hi) * 0.5
 }
 
 /// The ray the kernel casts through image point `at` (pixels, continuous).
@@ -373,22 +389,7 @@ fn each_pixel_and_preview_block_records_the_object_its_primary_ray_hits() {
     let expected = |at: Vec2| cpu_object(&scene, at);
 
     // Whole pixels: the triangle-id view casts through pixel centres.
-    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
-    let params = tracer.params(
-        DebugView::TriangleId,
-        1,
-        TraceWork::Tiles {
-            start: 0,
-            count: TileOrder::new(WIDTH, HEIGHT).total,
-        },
-    );
-    tracer.gpu.path_trace(
-        &tracer.pipeline,
-        &tracer.buffers,
-        &params,
-        &target,
-        &tracer.layers,
-    );
+    let target = tracer.fresh(DebugView::TriangleId, whole_image());
     let objects = tracer.gpu.read_objects(&target);
     let mut seen = std::collections::HashSet::new();
     for y in 0..HEIGHT {
@@ -405,28 +406,14 @@ fn each_pixel_and_preview_block_records_the_object_its_primary_ray_hits() {
 
     // Preview blocks: one ray through each block's centre.
     for scale in [2, 3] {
-        let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
-        let work = TraceWork::Preview { scale, seed: 1 };
-        let params = tracer.params(DebugView::TriangleId, 1, work);
-        tracer.gpu.path_trace(
-            &tracer.pipeline,
-            &tracer.buffers,
-            &params,
-            &target,
-            &tracer.layers,
-        );
+        let target = tracer.fresh(DebugView::TriangleId, TraceWork::Preview { scale, seed: 1 });
         let blocks = tracer.gpu.read_preview_objects(&target);
         let (pw, ph) = (WIDTH.div_ceil(scale), HEIGHT.div_ceil(scale));
         for by in 0..ph {
             for bx in 0..pw {
-                let lo = Vec2::new((bx * scale) as f32, (by * scale) as f32);
-                let hi = Vec2::new(
-                    ((bx + 1) * scale).min(WIDTH) as f32,
-                    ((by + 1) * scale).min(HEIGHT) as f32,
-                );
                 assert_eq!(
                     blocks[(by * pw + bx) as usize],
-                    expected((lo + hi) * 0.5),
+                    expected(block_centre(bx, by, scale)),
                     "scale {scale}, block ({bx}, {by})"
                 );
             }
@@ -510,19 +497,7 @@ fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
     };
 
     // Every pixel traced (pixel centres, as the triangle-id view casts them).
-    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
-    let work = TraceWork::Tiles {
-        start: 0,
-        count: TileOrder::new(WIDTH, HEIGHT).total,
-    };
-    let view = tracer.params(DebugView::TriangleId, 1, work);
-    tracer.gpu.path_trace(
-        &tracer.pipeline,
-        &tracer.buffers,
-        &view,
-        &target,
-        &tracer.layers,
-    );
+    let target = tracer.fresh(DebugView::TriangleId, whole_image());
     let objects: Vec<u32> = (0..WIDTH * HEIGHT)
         .map(|i| {
             cpu_object(
@@ -577,28 +552,11 @@ fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
     // Only the preview traced (as right after the camera or an object moved): the outline follows
     // the preview blocks' objects, so it is complete in that frame too.
     let scale = 3;
-    let target = tracer.gpu.trace_target(WIDTH, HEIGHT);
-    let view = tracer.params(
-        DebugView::TriangleId,
-        1,
-        TraceWork::Preview { scale, seed: 1 },
-    );
-    tracer.gpu.path_trace(
-        &tracer.pipeline,
-        &tracer.buffers,
-        &view,
-        &target,
-        &tracer.layers,
-    );
+    let target = tracer.fresh(DebugView::TriangleId, TraceWork::Preview { scale, seed: 1 });
     let objects: Vec<u32> = (0..WIDTH * HEIGHT)
         .map(|i| {
             let (bx, by) = ((i % WIDTH) / scale, (i / WIDTH) / scale);
-            let lo = Vec2::new((bx * scale) as f32, (by * scale) as f32);
-            let hi = Vec2::new(
-                ((bx + 1) * scale).min(WIDTH) as f32,
-                ((by + 1) * scale).min(HEIGHT) as f32,
-            );
-            cpu_object(&scene, (lo + hi) * 0.5)
+            cpu_object(&scene, block_centre(bx, by, scale))
         })
         .collect();
     let want = expected_outline(&objects, value, style.width);
