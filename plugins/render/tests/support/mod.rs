@@ -281,17 +281,29 @@ impl Gpu {
 
     /// One layer's texels, RGBA8, rows top to bottom.
     pub fn read_layer(&self, layers: &Layers, layer: u32) -> Vec<u8> {
-        let row = (layers.size * 4).next_multiple_of(256);
+        self.read_texture(&layers.texture, layer, (layers.size, layers.size), 4)
+    }
+
+    /// Layer `layer` of `texture` (`width` × `height` texels of `texel_bytes` each), rows top to
+    /// bottom, without the copy's row padding.
+    pub fn read_texture(
+        &self,
+        texture: &wgpu::Texture,
+        layer: u32,
+        (width, height): (u32, u32),
+        texel_bytes: u32,
+    ) -> Vec<u8> {
+        let row = (width * texel_bytes).next_multiple_of(256);
         let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("layer readback"),
-            size: (row * layers.size) as u64,
+            label: Some("texture readback"),
+            size: (row * height) as u64,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
-                texture: &layers.texture,
+                texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d {
                     x: 0,
@@ -305,12 +317,12 @@ impl Gpu {
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(row),
-                    rows_per_image: Some(layers.size),
+                    rows_per_image: Some(height),
                 },
             },
             wgpu::Extent3d {
-                width: layers.size,
-                height: layers.size,
+                width,
+                height,
                 depth_or_array_layers: 1,
             },
         );
@@ -321,7 +333,7 @@ impl Gpu {
         self.wait();
         let data = buffer.slice(..).get_mapped_range().to_vec();
         data.chunks_exact(row as usize)
-            .flat_map(|r| r[..(layers.size * 4) as usize].to_vec())
+            .flat_map(|r| r[..(width * texel_bytes) as usize].to_vec())
             .collect()
     }
 }
@@ -737,13 +749,6 @@ impl Gpu {
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });
         let view = texture.create_view(&Default::default());
-        let row = (width * 16).next_multiple_of(256);
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("resolved readback"),
-            size: (row * height) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let mut encoder = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -766,40 +771,10 @@ impl Gpu {
             pass.set_bind_group(0, &group, &[]);
             pass.draw(0..3, 0..1);
         }
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
         self.queue.submit([encoder.finish()]);
-        readback
-            .slice(..)
-            .map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
-        self.wait();
-        let data = readback.slice(..).get_mapped_range().to_vec();
-        data.chunks_exact(row as usize)
-            .flat_map(|r| {
-                floats(&r[..(width * 16) as usize])
-                    .chunks_exact(4)
-                    .map(|c| [c[0], c[1], c[2], c[3]])
-                    .collect::<Vec<_>>()
-            })
+        floats(&self.read_texture(&texture, 0, (width, height), 16))
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
             .collect()
     }
 }
