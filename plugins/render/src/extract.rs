@@ -207,17 +207,11 @@ fn extract_scene(
 fn outlined_bounds(outlined: &OutlinedQuery) -> Option<[Vec3; 2]> {
     let mut out = [Vec3::INFINITY, Vec3::NEG_INFINITY];
     for (_, _, aabb, gt) in outlined {
-        let (aabb, gt) = (aabb?, gt?);
-        let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
-        for k in 0..8 {
-            let s = Vec3::new(
-                if k & 1 == 0 { -1.0 } else { 1.0 },
-                if k & 2 == 0 { -1.0 } else { 1.0 },
-                if k & 4 == 0 { -1.0 } else { 1.0 },
-            );
-            let p = gt.transform_point(c + h * s);
-            out = [out[0].min(p), out[1].max(p)];
-        }
+        let (aabb, affine) = (aabb?, gt?.affine());
+        // The transformed box's bounds: its centre moved, its half extents through |M|.
+        let centre = Vec3::from(affine.transform_point3a(aabb.center));
+        let half = Vec3::from(affine.matrix3.abs() * aabb.half_extents);
+        out = [out[0].min(centre - half), out[1].max(centre + half)];
     }
     out[0].is_finite().then_some(out)
 }
