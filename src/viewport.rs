@@ -585,3 +585,112 @@ pub fn set_transforms(transforms: Vec<(SceneId, Transform)>) -> EditCommand {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::selection::Selection;
+
+    /// A pinhole camera at (0, 0, 10) looking down -z, 800 × 600 logical pixels, 60° vertical field.
+    struct Pinhole;
+
+    const FOCAL: f32 = 300.0 / 0.577_350_26; // 300 / tan(30°)
+
+    impl ViewProjection for Pinhole {
+        fn project(&self, w: Vec3) -> Option<Vec2> {
+            let v = w - Vec3::new(0.0, 0.0, 10.0);
+            (v.z < -1e-4).then(|| Vec2::new(400.0 + FOCAL * v.x / -v.z, 300.0 - FOCAL * v.y / -v.z))
+        }
+        fn ray(&self, s: Vec2) -> Option<Ray3d> {
+            let d = Vec3::new((s.x - 400.0) / FOCAL, -(s.y - 300.0) / FOCAL, -1.0);
+            Some(Ray3d::new(Vec3::new(0.0, 0.0, 10.0), Dir3::new(d).ok()?))
+        }
+    }
+
+    fn at(x: f32, y: f32, z: f32) -> Affine3A {
+        Affine3A::from_translation(Vec3::new(x, y, z))
+    }
+
+    /// Three selected objects, the third a child of the first: a drag moves the first two about
+    /// their median, and the child follows its parent instead of moving twice.
+    fn selection_of_three() -> (Vec<DragTarget>, Option<Affine3A>) {
+        let (a, b, child) = (
+            Entity::from_bits(1 << 32 | 1),
+            Entity::from_bits(1 << 32 | 2),
+            Entity::from_bits(1 << 32 | 3),
+        );
+        let mut selection = Selection::default();
+        selection.set_all([a, child, b]);
+        let world = move |e: Entity| match e {
+            e if e == a => Some((SceneId(1), at(-2.0, 0.0, 0.0))),
+            e if e == b => Some((SceneId(2), at(2.0, 1.0, 0.0))),
+            e if e == child => Some((SceneId(3), at(-2.0, 1.0, 0.0))),
+            _ => None,
+        };
+        let parent = move |e: Entity| (e == child).then_some(a);
+        drag_targets(&selection, world, parent)
+    }
+
+    #[test]
+    fn a_multiple_selection_turns_about_one_pivot_and_children_follow_their_parent() {
+        let (targets, active) = selection_of_three();
+        let ids: Vec<_> = targets.iter().map(|t| t.id).collect();
+        assert_eq!(
+            ids,
+            vec![SceneId(1), SceneId(2)],
+            "the child is not a target"
+        );
+        assert_eq!(
+            active,
+            Some(at(2.0, 1.0, 0.0)),
+            "the last selected is active"
+        );
+        let settings = GizmoSettings {
+            mode: GizmoMode::Rotate,
+            ..default()
+        };
+        let frame = gizmo_frame(&targets, active, &settings, &Pinhole).unwrap();
+        assert!(frame.pivot.distance(Vec3::new(0.0, 0.5, 0.0)) < 1e-6);
+        // A half turn on screen about the z ring (facing the camera) swaps the two objects.
+        let c = Pinhole.project(frame.pivot).unwrap();
+        let drag = GizmoDrag::start(
+            Handle::Ring(2),
+            frame,
+            c + Vec2::new(90.0, 0.0),
+            &Pinhole,
+            targets,
+        )
+        .unwrap();
+        let turned = drag
+            .result(c + Vec2::new(-90.0, 0.001), &Pinhole, &settings, false)
+            .unwrap();
+        let moved = drag.transforms(turned.delta);
+        assert!(moved[0].1.translation.distance(Vec3::new(2.0, 1.0, 0.0)) < 1e-3);
+        assert!(moved[1].1.translation.distance(Vec3::new(-2.0, 0.0, 0.0)) < 1e-3);
+    }
+
+    #[test]
+    fn a_plane_drag_moves_in_its_plane_with_the_grabbed_point_under_the_pointer() {
+        let (targets, active) = selection_of_three();
+        let settings = GizmoSettings::default();
+        let frame = gizmo_frame(&targets, active, &settings, &Pinhole).unwrap();
+        // The plane normal to y, seen at a slant: grab a point on it and move the pointer.
+        let grab = frame.pivot + Vec3::new(0.3, 0.0, 0.3) * frame.size;
+        let from = Pinhole.project(grab).unwrap();
+        let to = from + Vec2::new(60.0, 25.0);
+        let drag = GizmoDrag::start(Handle::Plane(1), frame, from, &Pinhole, targets).unwrap();
+        let r = drag.result(to, &Pinhole, &settings, false).unwrap();
+        let moved = Vec3::from(r.delta.translation);
+        assert_eq!(moved.y, 0.0, "{moved}");
+        assert!(moved.length() > 0.1);
+        // The grabbed point, moved, is where the pointer now is.
+        let now = Pinhole.project(grab + moved).unwrap();
+        assert!(now.distance(to) < 1e-2, "{now} vs {to}");
+        // Snapped: both in-plane components on the grid.
+        let r = drag.result(to, &Pinhole, &settings, true).unwrap();
+        for c in [r.delta.translation.x, r.delta.translation.z] {
+            let step = settings.grid_step;
+            assert!(((c / step).round() * step - c).abs() < 1e-5, "{c}");
+        }
+    }
+}
