@@ -86,6 +86,12 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
         "box select took the tall box"
     );
 
+    // A light has no geometry: its icon in the viewport is what a click selects.
+    let lamp = object(&start, "Lamp light").clone();
+    let at = lamp.screen.expect("the lamp's light is in view");
+    s.click(at[0], at[1]);
+    assert_eq!(s.frames(2).selection, vec![lamp.id], "click on the light's icon");
+
     // Del deletes the selection; Ctrl+Z brings the same object back; Ctrl+D copies it.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
     let (head, _) = s.frames(1).history;
