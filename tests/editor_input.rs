@@ -115,6 +115,19 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     assert_eq!(st.selection, vec![copy], "the copy is selected");
     s.key(&[keysym::CONTROL], keysym::letter('z'));
     assert_eq!(ids_named(&s.frames(2), "Tall box"), vec![tall.id]);
+    // Ctrl+C copies; after the selection is cleared, Ctrl+V pastes a copy, selected.
+    s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
+    s.key(&[keysym::CONTROL], keysym::letter('c'));
+    s.key(&[], keysym::ESCAPE);
+    assert!(s.frames(1).selection.is_empty());
+    s.key(&[keysym::CONTROL], keysym::letter('v'));
+    let st = s.frames(2);
+    let copies = ids_named(&st, "Tall box");
+    assert_eq!(copies.len(), 2, "paste");
+    let pasted = *copies.iter().find(|id| **id != tall.id).unwrap();
+    assert_eq!(st.selection, vec![pasted], "the pasted copy is selected");
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    assert_eq!(ids_named(&s.frames(2), "Tall box"), vec![tall.id]);
 
     // The gizmo: a drag along the x arrow moves the tall box along x only, as one step.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
