@@ -52,6 +52,7 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
         )
             .chain(),
     );
+    crate::run_schedules_on_one_thread(&mut app);
     app
 }
 

@@ -48,6 +48,19 @@ pub fn task_pools() -> TaskPoolPlugin {
     }
 }
 
+/// Runs the main world's schedules on the thread that updates the app. The editor's main-world
+/// systems take a fraction of a millisecond; spread over the compute pool, every hand-off between
+/// threads is a wake-up, and while the scene worker or an import holds the cores each wake-up can
+/// wait for a core until the scheduler's next tick. Sub-apps (the renderer) keep their executors.
+pub fn run_schedules_on_one_thread(app: &mut App) {
+    let mut schedules = app
+        .world_mut()
+        .resource_mut::<bevy::ecs::schedule::Schedules>();
+    for (_, schedule) in schedules.iter_mut() {
+        schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
+    }
+}
+
 /// Nice steps below the frame at which the editor's background work runs.
 const BACKGROUND_NICE: i32 = 10;
 
@@ -172,6 +185,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         })
         .add_systems(Last, capture::count_frames_and_capture);
     }
+    run_schedules_on_one_thread(&mut app);
     app
 }
 

@@ -90,7 +90,11 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     let lamp = object(&start, "Lamp light").clone();
     let at = lamp.screen.expect("the lamp's light is in view");
     s.click(at[0], at[1]);
-    assert_eq!(s.frames(2).selection, vec![lamp.id], "click on the light's icon");
+    assert_eq!(
+        s.frames(2).selection,
+        vec![lamp.id],
+        "click on the light's icon"
+    );
 
     // Del deletes the selection; Ctrl+Z brings the same object back; Ctrl+D copies it.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);

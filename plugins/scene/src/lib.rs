@@ -60,6 +60,10 @@ pub struct SceneBvhConfig {
     /// How many nice steps below the app's threads the worker and its thread pool run (0: the
     /// same priority), so that on a busy machine the frame wins the cores. Default 10.
     pub worker_nice: i32,
+    /// Threads in the worker's pool for its parallel builds; 0 (the default): one fewer than the
+    /// machine's cores, at least one. The core left over keeps the frame's thread from waiting for a
+    /// core while big imports build (on a busy core it can wait until the scheduler's next tick).
+    pub worker_threads: usize,
 }
 
 impl Default for SceneBvhConfig {
@@ -71,6 +75,7 @@ impl Default for SceneBvhConfig {
             preset: Preset::Balanced,
             chunk_triangles: 1 << 16,
             worker_nice: 10,
+            worker_threads: 0,
         }
     }
 }
@@ -104,13 +109,20 @@ impl Plugin for SceneBvhPlugin {
             chunk_triangles: self.config.chunk_triangles,
             nice: self.config.worker_nice,
         };
+        let worker_threads = self.config.worker_threads;
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())
             .spawn(move || {
                 // The worker's parallel builds run on a pool of its own, at its priority.
                 let nice = cfg.nice;
+                let threads = match worker_threads {
+                    0 => std::thread::available_parallelism()
+                        .map_or(1, |n| n.get().saturating_sub(1).max(1)),
+                    n => n,
+                };
                 let pool = rayon::ThreadPoolBuilder::new()
                     .thread_name(|i| format!("treelight-bvh-{i}"))
+                    .num_threads(threads)
                     .start_handler(move |_| priority::lower_current_thread(nice))
                     .build();
                 priority::lower_current_thread(nice);
