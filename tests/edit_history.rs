@@ -2,7 +2,8 @@
 //! sequences applied through the history, then all undone, give back the world as it was (objects
 //! compared by stable id: names, transforms, parents, visibility, meshes, materials); redoing all
 //! reaches the same world again; and the scene BVH's ray casts agree with brute force over the
-//! world's meshes along the way.
+//! world's meshes along the way. Also imports (a 1M-triangle assembly streams in front to back; a
+//! cancel leaves nothing) and the placement rule's fallbacks.
 
 use bevy::math::Ray3d;
 use bevy::prelude::*;
@@ -19,6 +20,9 @@ use treelight::scene_id::{SceneId, SceneIndex};
 use treelight::selection::{SceneObject, Selection};
 use treelight_bvh::RayData;
 use treelight_scene::{SceneBvh, cast_on, mesh_triangles};
+
+#[path = "support/assembly.rs"]
+mod assembly;
 
 /// The editor's headless app (the one `--save` runs): assets, transforms, ids, the history, the
 /// selection, imports, projects and the scene BVH.
@@ -761,4 +765,125 @@ fn a_cancelled_import_leaves_nothing_and_no_step() {
             .triangle_count()
             > 0
     );
+}
+
+/// The middle of a tile of the generated assembly, in the world.
+fn tile_middle(world: &mut World, e: Entity) -> Option<Vec3> {
+    let mut q = world.query::<&GlobalTransform>();
+    q.get(world, e)
+        .ok()
+        .map(|t| t.transform_point(Vec3::new(0.5, 0.0, 0.5)))
+}
+
+/// The tiles among `tiles` that a primary ray from `eye` towards their middle hits first.
+fn tiles_hit(world: &mut World, eye: Vec3, tiles: &[Entity]) -> Vec<Entity> {
+    let middles: Vec<(Entity, Vec3)> = tiles
+        .iter()
+        .filter_map(|e| Some((*e, tile_middle(world, *e)?)))
+        .collect();
+    let tree = world.resource::<SceneBvh>().read_blocking();
+    middles
+        .into_iter()
+        .filter(|(e, m)| {
+            let ray = Ray3d::new(eye, Dir3::new(*m - eye).unwrap());
+            cast_on(&tree, ray).is_some_and(|h| h.entity == *e)
+        })
+        .map(|(e, _)| e)
+        .collect()
+}
+
+#[test]
+fn a_big_assembly_streams_in_front_to_back() {
+    use treelight::import::PendingImports;
+    use treelight::import_jobs::TracingImports;
+    let dir = std::env::temp_dir().join(format!("treelight-test-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // 100 parts of 10,082 triangles on a grid: 1,008,200 triangles.
+    let (file, triangles) = assembly::generated_assembly(&dir, 100, 71);
+    assert!(triangles > 1_000_000);
+    // The editor's settings, frames paced as a window's would be.
+    let mut app = editing_app();
+    // Beyond the grid's far corner, looking back: the file lists the parts farthest first.
+    let eye = Vec3::new(15.0, 4.0, -15.0);
+    app.world_mut().spawn((
+        Camera3d::default(),
+        Transform::from_translation(eye).looking_at(Vec3::new(6.0, 0.0, -6.0), Vec3::Y),
+    ));
+    app.update();
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(file.clone());
+    // Each frame, a primary ray from the camera towards every part's middle: the frame of its
+    // first hit on that part.
+    let mut first_hit: BTreeMap<Entity, usize> = BTreeMap::new();
+    let mut tiles: Vec<Entity> = Vec::new();
+    let (start, mut seen) = (Instant::now(), false);
+    for frame in 0.. {
+        assert!(start.elapsed() < Duration::from_secs(120), "never imported");
+        app.update();
+        std::thread::sleep(Duration::from_millis(8));
+        let world = app.world_mut();
+        match world.resource::<TracingImports>().jobs.first() {
+            Some(job) => {
+                seen = true;
+                tiles = job.meshes.iter().map(|(e, _)| *e).collect();
+            }
+            // The job ends in the frame its last part is traced; that frame is looked at too.
+            None if !seen => continue,
+            None => {}
+        }
+        for e in tiles_hit(world, eye, &tiles) {
+            first_hit.entry(e).or_insert(frame);
+        }
+        if !world.resource::<TracingImports>().jobs.is_empty() {
+            continue;
+        }
+        break;
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let world = app.world_mut();
+    let mut parts: Vec<(Entity, f32)> = tiles
+        .iter()
+        .map(|e| (*e, tile_middle(world, *e).unwrap().distance(eye)))
+        .collect();
+    assert_eq!(parts.len(), 100, "the assembly's parts");
+    assert_eq!(first_hit.len(), 100, "every part is hit once imported");
+    parts.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let frames: Vec<usize> = parts.iter().map(|(e, _)| first_hit[e]).collect();
+    // The nearest quarter is all hit before any of the farthest quarter.
+    let near_last = frames[..25].iter().max().unwrap();
+    let far_first = frames[75..].iter().min().unwrap();
+    assert!(
+        near_last < far_first,
+        "near parts hit by frame {near_last}, far ones from frame {far_first}: {frames:?}"
+    );
+}
+
+#[test]
+fn placement_lands_on_a_surface_else_the_ground_else_a_plane_facing_the_camera() {
+    use treelight::placement::surface_under;
+    let mut app = editing_app();
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(2.0, 2.0, 2.0).mesh().build());
+    app.world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(0.0, 3.0, 0.0)));
+    settle(&mut app);
+    let scene = app.world().resource::<SceneBvh>();
+    let eye = Vec3::new(0.0, 10.0, 0.0);
+    // Straight down onto the cube's top (y = 4).
+    let s = surface_under(scene, Ray3d::new(eye, Dir3::NEG_Y), 5.0);
+    assert!(s.point.distance(Vec3::new(0.0, 4.0, 0.0)) < 1e-4, "{s:?}");
+    assert!(s.normal.distance(Vec3::Y) < 1e-4);
+    // Down past the cube: the ground plane.
+    let d = Dir3::new(Vec3::new(1.0, -1.0, 0.0)).unwrap();
+    let s = surface_under(scene, Ray3d::new(eye, d), 5.0);
+    assert!(s.point.distance(Vec3::new(10.0, 0.0, 0.0)) < 1e-4, "{s:?}");
+    assert_eq!(s.normal, Vec3::Y);
+    // Up into the sky: a plane facing the camera, 5 along the ray.
+    let d = Dir3::new(Vec3::new(1.0, 0.5, 0.0)).unwrap();
+    let s = surface_under(scene, Ray3d::new(eye, d), 5.0);
+    assert!(s.point.distance(eye + *d * 5.0) < 1e-4, "{s:?}");
+    assert!(s.normal.distance(-*d) < 1e-6);
 }
