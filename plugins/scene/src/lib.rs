@@ -53,10 +53,11 @@ pub struct SceneBvhConfig {
     /// The engine's policy by name: its configuration for the tree, and the global updates the
     /// worker runs in idle time after each edit ([`Preset::policy`]).
     pub preset: Preset,
-    /// A mesh of more triangles than this enters the tree in spatial chunks of at most this many,
-    /// each a group of the same entity, nearest the camera first: the first of a huge mesh is traced
-    /// long before its whole build would be done. Default 65,536.
-    pub chunk_triangles: usize,
+    /// Which meshes enter the tree in spatial chunks, each a group of the same entity kept whole,
+    /// nearest the camera first (the first of a huge mesh is traced long before its whole build would
+    /// be done), and how big the chunks are: the engine's [`PieceRule`](treelight_bvh::PieceRule),
+    /// by default meshes over 262,144 triangles in chunks of at most 65,536.
+    pub chunks: treelight_bvh::PieceRule,
     /// How many nice steps below the app's threads the worker and its thread pool run (0: the
     /// same priority), so that on a busy machine the frame wins the cores. Default 10.
     pub worker_nice: i32,
@@ -73,7 +74,7 @@ impl Default for SceneBvhConfig {
             idle_tick: Duration::from_millis(50),
             main_thread_budget: Duration::from_micros(750),
             preset: Preset::Balanced,
-            chunk_triangles: 1 << 16,
+            chunks: treelight_bvh::PieceRule::default(),
             worker_nice: 10,
             worker_threads: 0,
         }
@@ -106,7 +107,7 @@ impl Plugin for SceneBvhPlugin {
             bake_after: self.config.bake_after,
             idle_tick: self.config.idle_tick,
             idle_updates: policy.idle,
-            chunk_triangles: self.config.chunk_triangles,
+            chunks: self.config.chunks,
             nice: self.config.worker_nice,
         };
         let worker_threads = self.config.worker_threads;
@@ -189,7 +190,7 @@ pub struct SceneTree {
     /// Which entity each group is.
     pub group_entity: HashMap<GroupId, Entity>,
     /// Which groups each traced entity is: one, or one per chunk of a mesh that entered the tree in
-    /// spatial chunks ([`SceneBvhConfig::chunk_triangles`]).
+    /// spatial chunks ([`SceneBvhConfig::chunks`]).
     pub entity_groups: HashMap<Entity, Vec<GroupId>>,
     /// Each group's normals and texture coordinates, in the order of its triangles
     /// ([`Bvh::group_triangles`]).

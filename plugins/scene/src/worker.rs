@@ -115,7 +115,7 @@ pub(crate) struct WorkerConfig {
     /// The preset's global updates after each edit.
     pub idle_updates: IdleUpdates,
     /// Meshes larger than this enter the tree in spatial chunks.
-    pub chunk_triangles: usize,
+    pub chunks: treelight_bvh::PieceRule,
     /// Nice steps below the app's threads ([`crate::priority::lower_current_thread`]).
     pub nice: i32,
 }
@@ -197,7 +197,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
         let (chunked, commands): (Vec<Command>, Vec<Command>) =
             coalesce(batch).into_iter().partition(
-                |c| matches!(c, Command::Upsert(m) if m.triangles.len() > config.chunk_triangles),
+                |c| matches!(c, Command::Upsert(m) if config.chunks.cuts(m.triangles.len())),
             );
         let started = Instant::now();
         // Huge meshes first, a chunk at a time, each published as soon as it is in (they are new
@@ -336,13 +336,7 @@ fn insert_in_chunks(
         eye,
         ..
     } = huge;
-    let chunks = spatial_chunks(
-        &triangles,
-        &shading,
-        config.chunk_triangles,
-        &transform,
-        eye,
-    );
+    let chunks = spatial_chunks(&triangles, &shading, config.chunks, &transform, eye);
     drop((triangles, shading));
     let old: Vec<GroupId> = shared
         .tree

@@ -141,7 +141,10 @@ fn random_edits_of_meshes_inserted_in_chunks_match_brute_force() {
     // chunk a group of the same entity, moved, shared, baked and removed with it.
     let app = headless_app(SceneBvhConfig {
         bake_after: Duration::from_millis(30),
-        chunk_triangles: 100,
+        chunks: treelight_bvh::PieceRule {
+            cut_above: 100,
+            piece: 100,
+        },
         ..default()
     });
     let most_groups = random_edits(app, 0x2545f4914f6cdd1d);
@@ -627,7 +630,10 @@ fn a_huge_mesh_enters_the_tree_in_chunks_nearest_the_camera_first() {
     // chunks of at most 1,000; the triangles are listed far end first, so index order would be the
     // wrong order.
     let mut app = headless_app(SceneBvhConfig {
-        chunk_triangles: 1_000,
+        chunks: treelight_bvh::PieceRule {
+            cut_above: 1_000,
+            piece: 1_000,
+        },
         ..default()
     });
     app.world_mut()
@@ -701,7 +707,10 @@ fn a_mesh_in_chunks_stays_instances_so_its_first_copy_is_one_node_per_chunk() {
     // cube that is baked once still.
     let mut app = headless_app(SceneBvhConfig {
         bake_after: Duration::from_millis(20),
-        chunk_triangles: 100,
+        chunks: treelight_bvh::PieceRule {
+            cut_above: 100,
+            piece: 100,
+        },
         ..default()
     });
     let sphere = app

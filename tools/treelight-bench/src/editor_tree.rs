@@ -1,5 +1,6 @@
-//! The tree the editor traces: each mesh of a scene inserted as a group of its own, as the scene
-//! plugin's worker does (every mesh's bBVH built in parallel, then the bBVHs inserted one by one),
+//! The tree the editor traces: each mesh of a scene inserted as the scene plugin's worker does, by
+//! the engine's rule ([`MeshPieces`]: a group of its own, or pieces kept whole for a big mesh; every
+//! bBVH built in parallel, then inserted one by one),
 //! then the idle updates of the editor's preset, through the same engine calls the worker makes,
 //! measured after fixed amounts of idle time.
 
@@ -7,7 +8,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Instant;
 use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{Bvh, IdleWork, PreparedGroup, Preset, Triangle};
+use treelight_bvh::{Bvh, IdleWork, MeshPieces, PieceRule, Preset, Triangle};
 
 /// Idle time, in seconds of update steps, after which the tree is measured.
 pub const IDLE_CHECKPOINTS: [f64; 4] = [0.0, 0.1, 1.0, 10.0];
@@ -47,9 +48,23 @@ pub fn run(
     let policy = preset.policy();
     let mut bvh = Bvh::new(policy.config);
     let start = Instant::now();
+    // The engine's rule for the editor's tree: a big mesh in pieces kept whole, others baked.
+    let pieces: Vec<MeshPieces> = meshes
+        .par_iter()
+        .map(|span| {
+            MeshPieces::cut(
+                &tris[span.clone()],
+                PieceRule::default(),
+                &Affine3A::IDENTITY,
+                None,
+            )
+        })
+        .collect();
     let prepared = meshes
         .par_iter()
-        .map(|span| PreparedGroup::build(tris[span.clone()].to_vec(), Affine3A::IDENTITY, false))
+        .zip(&pieces)
+        .flat_map(|(span, p)| (0..p.len()).into_par_iter().map(move |k| (span, p, k)))
+        .map(|(span, p, k)| p.build(k, &tris[span.clone()], Affine3A::IDENTITY))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| e.to_string())?;
     for group in prepared {

@@ -2,4 +2,5 @@
 
 pub(crate) mod group;
 pub(crate) mod induced;
+pub(crate) mod pieces;
 pub(crate) mod shared;

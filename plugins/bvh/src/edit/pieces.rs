@@ -1,0 +1,204 @@
+//! How the tree the editor traces takes a mesh in, the one rule the scene plugin's worker and the
+//! bench's `--editor` runs follow ([`PieceRule`]): a mesh of at most `cut_above` triangles is one
+//! group, built and baked into the tree, where idle updates improve it; a bigger one is cut into
+//! spatial pieces of at most `piece` triangles, nearest the eye first, each a group kept whole (an
+//! instance over its own subtree, never baked), so the first piece is traced long before the whole
+//! would be built, and a first move or copy is one node per piece.
+
+use crate::{Aabb, BvhError, PreparedGroup, Triangle};
+use glam::{Affine3A, Vec3};
+
+/// Which meshes are cut into pieces, and how big the pieces are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PieceRule {
+    /// A mesh of more triangles than this is cut. Default 262,144: a smaller mesh builds whole in
+    /// about the time of a few pieces, and baked it gains the idle updates.
+    pub cut_above: usize,
+    /// Most triangles in one piece of a cut mesh. Default 65,536.
+    pub piece: usize,
+}
+
+impl Default for PieceRule {
+    fn default() -> Self {
+        Self {
+            cut_above: 1 << 18,
+            piece: 1 << 16,
+        }
+    }
+}
+
+impl PieceRule {
+    /// Whether a mesh of `triangles` triangles is cut.
+    pub fn cuts(&self, triangles: usize) -> bool {
+        triangles > self.cut_above.max(1)
+    }
+}
+
+/// A mesh's pieces: each a list of its triangles' indices, nearest the eye first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshPieces {
+    pieces: Vec<Vec<u32>>,
+}
+
+impl MeshPieces {
+    /// A mesh's pieces under `rule`: if it cuts the mesh, pieces of at most `rule.piece` triangles
+    /// (median splits of the triangles' centroids along the widest axis, so pieces are compact and
+    /// about equal) ordered by the distance from `eye` to their world-space boxes under
+    /// `transform`, nearest first (without an eye, in the order of the splits); else one piece.
+    pub fn cut(
+        triangles: &[Triangle],
+        rule: PieceRule,
+        transform: &Affine3A,
+        eye: Option<Vec3>,
+    ) -> Self {
+        let max = rule.piece.max(1);
+        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+        if !rule.cuts(triangles.len()) || triangles.len() <= max {
+            return Self {
+                pieces: vec![order],
+            };
+        }
+        let centroids: Vec<Vec3> = triangles
+            .iter()
+            .map(|t| (t.v[0] + t.v[1] + t.v[2]) / 3.0)
+            .collect();
+        let mut ranges: Vec<(usize, usize)> = Vec::new();
+        // An explicit stack rather than recursion: the depth is log2(n / max), but no stack is cheaper.
+        let mut todo = vec![(0usize, order.len())];
+        while let Some((start, end)) = todo.pop() {
+            if end - start <= max {
+                ranges.push((start, end));
+                continue;
+            }
+            let part = &mut order[start..end];
+            let (lo, hi) = part.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), &t| {
+                    let c = centroids[t as usize];
+                    (lo.min(c), hi.max(c))
+                },
+            );
+            let extent = hi - lo;
+            let axis = if extent.x >= extent.y && extent.x >= extent.z {
+                0
+            } else if extent.y >= extent.z {
+                1
+            } else {
+                2
+            };
+            let mid = part.len() / 2;
+            part.select_nth_unstable_by(mid, |&a, &b| {
+                centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+            });
+            todo.push((start + mid, end));
+            todo.push((start, start + mid));
+        }
+        let mut pieces: Vec<(f32, Vec<u32>)> = ranges
+            .into_iter()
+            .map(|(start, end)| {
+                let ids = order[start..end].to_vec();
+                let bounds = ids
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &t| b.union(&triangles[t as usize].aabb()))
+                    .transformed(transform);
+                let distance = eye.map_or(0.0, |eye| {
+                    eye.distance_squared(eye.clamp(bounds.min, bounds.max))
+                });
+                (distance, ids)
+            })
+            .collect();
+        // Stable: equal distances (and no eye) keep the split order.
+        pieces.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Self {
+            pieces: pieces.into_iter().map(|(_, ids)| ids).collect(),
+        }
+    }
+
+    /// Number of pieces.
+    pub fn len(&self) -> usize {
+        self.pieces.len()
+    }
+
+    /// Whether there are no pieces (never: an empty mesh is one empty piece).
+    pub fn is_empty(&self) -> bool {
+        self.pieces.is_empty()
+    }
+
+    /// Whether the pieces are kept whole as instances (a cut mesh) rather than baked.
+    pub fn keep_whole(&self) -> bool {
+        self.pieces.len() > 1
+    }
+
+    /// Each piece's triangle indices, nearest the eye first.
+    pub fn ids(&self) -> impl Iterator<Item = &[u32]> {
+        self.pieces.iter().map(Vec::as_slice)
+    }
+
+    /// Piece `k`'s group, built (off the tree's thread) from the mesh's `triangles` under
+    /// `transform`, kept whole or to be baked as [`MeshPieces::keep_whole`] says.
+    pub fn build(
+        &self,
+        k: usize,
+        triangles: &[Triangle],
+        transform: Affine3A,
+    ) -> Result<PreparedGroup, BvhError> {
+        let piece: Vec<Triangle> = self.pieces[k]
+            .iter()
+            .map(|&t| triangles[t as usize])
+            .collect();
+        PreparedGroup::build(piece, transform, self.keep_whole())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pieces_hold_every_triangle_once_nearest_first() {
+        // A 30 × 30 grid of triangles.
+        let triangles: Vec<Triangle> = (0..900)
+            .map(|k| {
+                let p = Vec3::new((k % 30) as f32, 0.0, (k / 30) as f32);
+                Triangle::new(p, p + Vec3::X, p + Vec3::Z)
+            })
+            .collect();
+        let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
+        let eye = Vec3::new(100.0, 5.0, -10.0);
+        let rule = PieceRule {
+            cut_above: 300,
+            piece: 64,
+        };
+        let pieces = MeshPieces::cut(&triangles, rule, &transform, Some(eye));
+        assert!(pieces.len() >= 900 / 64 && pieces.keep_whole());
+        let mut seen = [false; 900];
+        let mut last = 0.0f32;
+        for ids in pieces.ids() {
+            assert!(!ids.is_empty() && ids.len() <= 64);
+            for &t in ids {
+                assert!(!seen[t as usize], "triangle {t} in two pieces");
+                seen[t as usize] = true;
+            }
+            let b = ids
+                .iter()
+                .fold(Aabb::EMPTY, |b, &t| b.union(&triangles[t as usize].aabb()))
+                .transformed(&transform);
+            let d = eye.distance(eye.clamp(b.min, b.max));
+            assert!(d >= last - 1e-4, "a piece {d} away after one {last} away");
+            last = d;
+        }
+        assert!(seen.into_iter().all(|s| s));
+        // Piece 0 builds kept whole, in object space under the transform.
+        let g = pieces.build(0, &triangles, transform).unwrap();
+        assert_eq!(g.len(), pieces.ids().next().unwrap().len());
+        // Small enough: one piece, baked.
+        let rule = PieceRule {
+            cut_above: 900,
+            ..rule
+        };
+        let one = MeshPieces::cut(&triangles, rule, &transform, Some(eye));
+        assert_eq!(one.len(), 1);
+        assert!(!one.keep_whole());
+        assert_eq!(one.ids().next().unwrap().len(), 900);
+    }
+}
