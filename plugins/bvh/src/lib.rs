@@ -43,7 +43,7 @@ pub(crate) fn test_random(mut seed: u64) -> impl FnMut() -> f32 {
 
 pub use config::{BvhConfig, Inefficiency};
 pub use edit::group::{GroupId, PreparedGroup};
-pub use edit::pieces::{MeshPieces, PieceRule};
+pub use edit::pieces::{MeshPieces, PieceRule, Refinement};
 pub use error::BvhError;
 pub use export::change::ChangeSet;
 pub use export::depth_first::DepthFirstLayout;

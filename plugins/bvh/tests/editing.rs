@@ -559,3 +559,45 @@ fn a_mesh_in_chunks_moves_as_one_edit_and_bakes_without_a_batch() {
     bvh.validate().unwrap();
     assert_hits_match(&bvh, &rays(500, 7, 15.0));
 }
+
+#[test]
+fn a_baked_group_rebuilt_by_full_sweep_from_its_object_copy_traces_the_same() {
+    // The scene worker's idle refinement: a moved-then-baked group's object triangles and
+    // transform, built again by full-sweep SAH and swapped in for the group.
+    let object = soup(2_000, 21);
+    let mut bvh = Bvh::default();
+    let g = bvh
+        .insert_group(&object, Affine3A::IDENTITY, false)
+        .unwrap();
+    bvh.set_group_transform(g, xf(0.7, 2.0, 1.3)).unwrap();
+    bvh.bake_group(g).unwrap();
+    assert_eq!(bvh.group_object(g).unwrap(), &object[..]);
+    let before: Vec<_> = rays(300, 9, 12.0)
+        .iter()
+        .map(|r| bvh.closest_hit(r).map(|h| h.t))
+        .collect();
+    let binned_cost = bvh.sah_cost_with(1.0, 1.0);
+    let rebuilt = treelight_bvh::Refinement::build(
+        bvh.group_object(g).unwrap().to_vec(),
+        bvh.group_transform(g).unwrap(),
+    )
+    .unwrap();
+    let g2 = bvh.swap_group(g, rebuilt).unwrap();
+    assert!(bvh.group_triangles(g).is_err(), "the old group is gone");
+    bvh.validate().unwrap();
+    assert!(
+        !bvh.is_group_whole(g2).unwrap(),
+        "baked, like the group it replaces"
+    );
+    let after: Vec<_> = rays(300, 9, 12.0)
+        .iter()
+        .map(|r| bvh.closest_hit(r).map(|h| h.t))
+        .collect();
+    assert_eq!(before, after);
+    assert_hits_match(&bvh, &rays(300, 9, 12.0));
+    let sweep_cost = bvh.sah_cost_with(1.0, 1.0);
+    assert!(
+        sweep_cost <= binned_cost * 1.001,
+        "{sweep_cost} vs {binned_cost}"
+    );
+}

@@ -16,6 +16,7 @@ mod chunks;
 mod mesh;
 mod picking;
 pub mod priority;
+mod refine;
 mod worker;
 
 pub use mesh::{
@@ -180,6 +181,9 @@ pub struct SceneStats {
     pub insertion_mtris_per_s: f64,
     /// From sending the last mesh to its appearance in the tree.
     pub last_latency: Duration,
+    /// Still meshes whose binned build the worker has replaced in idle time by a full-sweep SAH
+    /// build of the same triangles, so far.
+    pub meshes_refined: u64,
 }
 
 /// The tree and the entity each group belongs to.
@@ -332,6 +336,25 @@ impl SceneTree {
                 self.drop_group(g);
             }
         }
+    }
+
+    /// `e`'s group `old` was swapped in the tree for `new` ([`Bvh::swap_group`]): the same
+    /// triangles, so the same shading.
+    pub(crate) fn replace_group(
+        &mut self,
+        e: Entity,
+        old: GroupId,
+        new: GroupId,
+        shading: Arc<TriangleShading>,
+        mesh: AssetId<Mesh>,
+    ) {
+        self.group_entity.remove(&old);
+        self.shading.remove(&old);
+        self.fresh_groups.remove(&old);
+        if let Some(list) = self.entity_groups.get_mut(&e) {
+            list.retain(|g| *g != old);
+        }
+        self.bind(e, new, shading, mesh);
     }
 
     fn drop_group(&mut self, g: GroupId) {

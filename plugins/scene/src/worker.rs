@@ -2,6 +2,7 @@
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
 use crate::chunks::spatial_chunks;
+use crate::refine::Refiner;
 use crate::{GeometryCopy, SceneStats, SceneTree, TriangleShading};
 use bevy::asset::AssetId;
 use bevy::log::warn;
@@ -171,6 +172,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
     let mut idle = IdleWork::default();
     let mut clock = CostClock::default();
+    let mut refiner = Refiner::start(config.nice, config.bake_after);
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
         let first = if idle.is_pending() {
@@ -187,7 +189,14 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             }
         };
         let Some(first) = first else {
-            idle_work(&shared, &mut last_move, config, &mut idle, &mut clock);
+            idle_work(
+                &shared,
+                &mut last_move,
+                config,
+                &mut idle,
+                &mut clock,
+                &mut refiner,
+            );
             continue;
         };
         let mut batch = vec![first];
@@ -195,6 +204,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let received = batch.len();
         // Copied meshes become triangles here, in parallel, rather than on the main thread.
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
+        for c in &batch {
+            refiner.touched(c.entity());
+        }
         let (chunked, commands): (Vec<Command>, Vec<Command>) =
             coalesce(batch).into_iter().partition(
                 |c| matches!(c, Command::Upsert(m) if config.chunks.cuts(m.triangles.len())),
@@ -258,6 +270,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                                 Ok(g) => {
                                     tree.bind(entity, g, shading, mesh);
                                     tree.supersede(entity, mesh);
+                                    refiner.offer(g);
                                 }
                                 Err(e) => warn!("entity {entity} is not traced: {e}"),
                             }
@@ -386,13 +399,14 @@ fn idle_work(
     config: WorkerConfig,
     idle: &mut IdleWork,
     clock: &mut CostClock,
+    refiner: &mut Refiner,
 ) {
     let still: Vec<Entity> = last_move
         .iter()
         .filter(|(_, t)| t.elapsed() >= config.bake_after)
         .map(|(e, _)| *e)
         .collect();
-    if still.is_empty() && !idle.is_pending() {
+    if still.is_empty() && !idle.is_pending() && !refiner.has_work() {
         if clock.stale {
             // The last edits were published without their cost; it is due by now.
             publish_stats(shared, clock, InFlight::Finishing(0), |_| {});
@@ -400,7 +414,7 @@ fn idle_work(
         return;
     }
     let baked = !still.is_empty();
-    let moves = {
+    let (moves, refined) = {
         let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
         let tree = &mut *guard;
         for e in still {
@@ -414,20 +428,26 @@ fn idle_work(
             }
             tree.bvh.without_updates(|bvh| {
                 for &g in groups {
-                    if let Err(err) = bvh.bake_group(g) {
-                        warn!("entity {e} could not be baked: {err}");
+                    match bvh.bake_group(g) {
+                        Ok(()) => refiner.offer(g),
+                        Err(err) => warn!("entity {e} could not be baked: {err}"),
                     }
                 }
             });
         }
-        if baked {
+        // A full-sweep rebuild finished off the lock goes in; the next one starts.
+        let refined = refiner.finish(tree, last_move);
+        refiner.start_next(tree, last_move);
+        if baked || refined {
             idle.after_edit(&config.idle_updates, &tree.bvh);
         }
-        idle.step(&config.idle_updates, &mut tree.bvh)
+        (idle.step(&config.idle_updates, &mut tree.bvh), refined)
     };
-    if baked || moves > 0 {
+    if baked || refined || moves > 0 {
         shared.version.fetch_add(1, Ordering::Release);
-        publish_stats(shared, clock, InFlight::Finishing(0), |_| {});
+        publish_stats(shared, clock, InFlight::Finishing(0), |s| {
+            s.meshes_refined += u64::from(refined);
+        });
     }
 }
 

@@ -776,3 +776,66 @@ fn a_mesh_in_chunks_stays_instances_so_its_first_copy_is_one_node_per_chunk() {
     let down = Ray3d::new(Vec3::new(0.0, 5.0, -6.0), Dir3::NEG_Y);
     assert_eq!(treelight_scene::cast_on(&tree, down).unwrap().entity, copy);
 }
+
+#[test]
+fn a_still_mesh_is_rebuilt_by_full_sweep_in_idle_time_and_traces_the_same() {
+    let mut app = app(Duration::from_millis(20));
+    // A sphere of about 4,500 triangles (worth a rebuild) beside a cube (too small for one).
+    let (sphere, cube) = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        (
+            meshes.add(Sphere::new(4.0).mesh().uv(72, 32)),
+            meshes.add(Cuboid::new(2.0, 2.0, 2.0).mesh().build()),
+        )
+    };
+    let big = app
+        .world_mut()
+        .spawn((Mesh3d(sphere), Transform::from_xyz(1.0, 2.0, 0.0)))
+        .id();
+    let small = app
+        .world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(-8.0, 0.0, 0.0)))
+        .id();
+    settle(&mut app);
+    let groups = |app: &App, e: Entity| {
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .groups_of(e)
+            .to_vec()
+    };
+    let cube_group = groups(&app, small);
+    let refined = |app: &App| app.world().resource::<SceneBvh>().stats().meshes_refined;
+    let start = Instant::now();
+    while refined(&app) == 0 {
+        app.update();
+        assert!(start.elapsed() < Duration::from_secs(30), "never rebuilt");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let rebuilt = groups(&app, big);
+    settle(&mut app);
+    assert_eq!(rebuilt.len(), 1, "still one group");
+    assert_eq!(groups(&app, small), cube_group, "the cube is left as built");
+    {
+        let scene = app.world().resource::<SceneBvh>();
+        let tree = scene.read_blocking();
+        let g = rebuilt[0];
+        assert_eq!(tree.bvh.is_group_whole(g), Ok(false), "baked");
+        let n = tree.bvh.group_triangles(g).unwrap().len();
+        assert!(n >= 4096, "{n} triangles");
+        assert_eq!(tree.shading[&g].normals.len(), n, "its shading came along");
+        tree.bvh.validate().unwrap();
+    }
+    check(&mut app, &rays(100, 0x5eed));
+    // It still moves like any mesh; baked again once still, it is not rebuilt again.
+    app.world_mut()
+        .entity_mut(big)
+        .insert(Transform::from_xyz(3.0, -1.0, 0.0).with_rotation(Quat::from_rotation_y(0.4)));
+    settle(&mut app);
+    check(&mut app, &rays(100, 0x5eed));
+    std::thread::sleep(Duration::from_millis(200));
+    settle(&mut app);
+    assert_eq!(groups(&app, big), rebuilt);
+    assert_eq!(refined(&app), 1);
+    check(&mut app, &rays(100, 0x5eed));
+}

@@ -1,16 +1,17 @@
 //! The tree the editor traces: each mesh of a scene inserted as the scene plugin's worker does, by
 //! the engine's rule ([`MeshPieces`]: a group of its own, or pieces kept whole for a big mesh; every
 //! bBVH built in parallel, then inserted one by one),
-//! then the idle updates of the editor's preset, through the same engine calls the worker makes,
-//! measured after fixed amounts of idle time.
+//! then the idle updates of the editor's preset and the full-sweep rebuilds of still meshes
+//! ([`Refinement`]), through the same engine calls the worker makes, measured after fixed amounts
+//! of idle time.
 
 use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Instant;
 use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{Bvh, IdleWork, MeshPieces, PieceRule, Preset, Triangle};
+use treelight_bvh::{Bvh, IdleWork, MeshPieces, PieceRule, Preset, Refinement, Triangle};
 
-/// Idle time, in seconds of update steps, after which the tree is measured.
+/// Idle time, in seconds of update steps and rebuilds, after which the tree is measured.
 pub const IDLE_CHECKPOINTS: [f64; 4] = [0.0, 0.1, 1.0, 10.0];
 
 /// The tree at one checkpoint.
@@ -19,8 +20,10 @@ pub struct IdlePoint {
     pub idle_s: f64,
     /// Idle time spent in update steps so far (less than asked once the steps ran out).
     pub spent_s: f64,
-    /// Update steps so far.
+    /// Update steps and full-sweep rebuilds so far.
     pub steps: u64,
+    /// Meshes rebuilt by full-sweep SAH so far ([`Refinement`]).
+    pub refined: u32,
     /// Eq. 1 with c_T = c_I = 1.
     pub sah_cost: f32,
     /// Primary and AO rays per second (millions) through the tree as it is.
@@ -67,18 +70,38 @@ pub fn run(
         .map(|(span, p, k)| p.build(k, &tris[span.clone()], Affine3A::IDENTITY))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| e.to_string())?;
+    // Baked groups big enough are rebuilt by full sweep once the updates are done, as the
+    // worker does once the edits pause.
+    let mut to_refine = Vec::new();
     for group in prepared {
-        bvh.insert_prepared(group).map_err(|e| e.to_string())?;
+        let g = bvh.insert_prepared(group).map_err(|e| e.to_string())?;
+        let n = bvh.group_triangles(g).map_or(0, <[u32]>::len);
+        if !bvh.is_group_whole(g).unwrap_or(true) && Refinement::is_worth(n) {
+            to_refine.push(g);
+        }
     }
     let insert_s = start.elapsed().as_secs_f64();
     let mut work = IdleWork::default();
     work.after_edit(&policy.idle, &bvh);
-    let (mut spent_s, mut steps) = (0.0, 0);
+    let (mut spent_s, mut steps, mut refined) = (0.0, 0, 0);
     let mut points = Vec::with_capacity(IDLE_CHECKPOINTS.len());
     for idle_s in IDLE_CHECKPOINTS {
-        while work.is_pending() && spent_s < idle_s {
+        while spent_s < idle_s {
             let step = Instant::now();
-            work.step(&policy.idle, &mut bvh);
+            if work.is_pending() {
+                work.step(&policy.idle, &mut bvh);
+            } else if let Some(g) = to_refine.pop() {
+                let (object, transform) = (
+                    bvh.group_object(g).map_err(|e| e.to_string())?.to_vec(),
+                    bvh.group_transform(g).map_err(|e| e.to_string())?,
+                );
+                let rebuilt = Refinement::build(object, transform).map_err(|e| e.to_string())?;
+                bvh.swap_group(g, rebuilt).map_err(|e| e.to_string())?;
+                work.after_edit(&policy.idle, &bvh);
+                refined += 1;
+            } else {
+                break;
+            }
             spent_s += step.elapsed().as_secs_f64();
             steps += 1;
         }
@@ -86,6 +109,7 @@ pub fn run(
             idle_s,
             spent_s,
             steps,
+            refined,
             sah_cost: bvh.sah_cost_with(1.0, 1.0),
             rays: trace(&bvh),
         });
@@ -106,18 +130,19 @@ pub fn markdown(
 ) -> String {
     let mut out = format!(
         "\n### The editor's tree over idle time (`{preset}` preset, each mesh a group)\n\n\
-         | scene | meshes | insertion [ms] | idle [s] | steps (time in them [s]) | SAH cost | cost / SAH | primary [MRays/s] | AO [MRays/s] |\n\
-         |---|---|---|---|---|---|---|---|---|\n"
+         | scene | meshes | insertion [ms] | idle [s] | steps (time in them [s]) | meshes rebuilt | SAH cost | cost / SAH | primary [MRays/s] | AO [MRays/s] |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n"
     );
     for (scene, run) in runs {
         for p in &run.points {
             out += &format!(
-                "| {scene} | {} | {:.1} | {} | {} ({:.3}) | {:.2} | {} | {:.2} | {:.2} |\n",
+                "| {scene} | {} | {:.1} | {} | {} ({:.3}) | {} | {:.2} | {} | {:.2} | {:.2} |\n",
                 run.meshes,
                 run.insert_s * 1e3,
                 p.idle_s,
                 p.steps,
                 p.spent_s,
+                p.refined,
                 p.sah_cost,
                 sah(scene).map_or("–".into(), |s| format!("{:.3}", p.sah_cost / s)),
                 p.rays.0,

@@ -1,7 +1,7 @@
 //! Groups: a mesh's triangles inserted as one bBVH subtree, removable as a unit, and movable without
 //! touching its triangles while it is kept whole under a transform (an instance node).
 
-use crate::top_down::{BuiltTree, build_binned_parallel};
+use crate::top_down::{BuiltTree, TopDown, build_binned_parallel};
 use crate::tree::bvh::{AreaSum, Group};
 use crate::tree::node::{NONE, NodeKind, NodeRef};
 use crate::tree::triangle::validate_triangles;
@@ -46,6 +46,17 @@ impl PreparedGroup {
         transform: Affine3A,
         keep_whole: bool,
     ) -> Result<Self, BvhError> {
+        Self::build_with(object, transform, keep_whole, TopDown::BinnedSah)
+    }
+
+    /// [`PreparedGroup::build`] with another top-down builder (binned SAH runs in parallel for
+    /// large meshes): full-sweep SAH, for one, costs about twice the time for a better tree.
+    pub fn build_with(
+        object: Vec<Triangle>,
+        transform: Affine3A,
+        keep_whole: bool,
+        builder: TopDown,
+    ) -> Result<Self, BvhError> {
         validate_triangles(&object)?;
         check_transform(&transform)?;
         let stored: Vec<Triangle> = if keep_whole {
@@ -55,7 +66,10 @@ impl PreparedGroup {
         };
         validate_triangles(&stored)?;
         let boxes: Vec<Aabb> = stored.iter().map(|t| t.aabb()).collect();
-        let tree = build_binned_parallel(&boxes);
+        let tree = match builder {
+            TopDown::BinnedSah => build_binned_parallel(&boxes),
+            other => other.build(&boxes),
+        };
         Ok(Self {
             object,
             transform,
@@ -160,6 +174,16 @@ impl Bvh {
         for i in nodes {
             self.record(i);
         }
+    }
+
+    /// Puts `new` in `old`'s place: inserts it, then removes `old` (the triangles never lapse). The
+    /// new group's triangles are `new`'s in its order, so data kept per triangle in group order (a
+    /// mesh's shading) still fits when `new` was built from `old`'s [`Bvh::group_object`].
+    pub fn swap_group(&mut self, old: GroupId, new: PreparedGroup) -> Result<GroupId, BvhError> {
+        self.group(old)?;
+        let id = self.insert_prepared(new)?;
+        self.remove_group(old)?;
+        Ok(id)
     }
 
     /// Removes a group and all its triangles. A group whose triangles others share
@@ -372,6 +396,12 @@ impl Bvh {
     /// [`Bvh::shared_triangles`]).
     pub fn group_triangles(&self, id: GroupId) -> Result<&[u32], BvhError> {
         Ok(&self.group(id)?.triangles)
+    }
+
+    /// The group's triangles in object space, in the order of [`Bvh::group_triangles`] (what it
+    /// was built from, before its transform; none for a group that shares another's).
+    pub fn group_object(&self, id: GroupId) -> Result<&[Triangle], BvhError> {
+        Ok(&self.group(id)?.object)
     }
 
     /// The group's current transform.

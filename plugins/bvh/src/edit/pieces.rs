@@ -5,7 +5,7 @@
 //! instance over its own subtree, never baked), so the first piece is traced long before the whole
 //! would be built, and a first move or copy is one node per piece.
 
-use crate::{Aabb, BvhError, PreparedGroup, Triangle};
+use crate::{Aabb, BvhError, PreparedGroup, TopDown, Triangle};
 use glam::{Affine3A, Vec3};
 
 /// Which meshes are cut into pieces, and how big the pieces are.
@@ -147,6 +147,28 @@ impl MeshPieces {
             .map(|&t| triangles[t as usize])
             .collect();
         PreparedGroup::build(piece, transform, self.keep_whole())
+    }
+}
+
+/// The editor's idle refinement: a still, baked mesh's binned build replaced by a full-sweep SAH
+/// build of the same triangles (about twice the build time, for a better tree), made off the tree's
+/// thread once the edits pause, then swapped in with [`Bvh::swap_group`](crate::Bvh::swap_group).
+pub struct Refinement;
+
+impl Refinement {
+    /// Groups of fewer triangles are left as built: binned SAH's 32 bins already find nearly every
+    /// split a full sweep would, and each swap costs an upload and a round of global updates.
+    pub const MIN_TRIANGLES: usize = 4096;
+
+    /// Whether a baked group of `triangles` triangles is worth rebuilding.
+    pub fn is_worth(triangles: usize) -> bool {
+        triangles >= Self::MIN_TRIANGLES
+    }
+
+    /// The full-sweep build of a group from its object triangles and transform
+    /// ([`Bvh::group_object`](crate::Bvh::group_object), [`Bvh::group_transform`](crate::Bvh::group_transform)), baked.
+    pub fn build(object: Vec<Triangle>, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
+        PreparedGroup::build_with(object, transform, false, TopDown::SweepSah)
     }
 }
 
