@@ -850,12 +850,18 @@ fn a_big_assembly_streams_in_front_to_back() {
     assert_eq!(first_hit.len(), 100, "every part is hit once imported");
     parts.sort_by(|a, b| a.1.total_cmp(&b.1));
     let frames: Vec<usize> = parts.iter().map(|(e, _)| first_hit[e]).collect();
-    // The nearest quarter is all hit before any of the farthest quarter.
-    let near_last = frames[..25].iter().max().unwrap();
-    let far_first = frames[75..].iter().min().unwrap();
+    // Near parts come in earlier frames than far ones: the nearest quarter's median frame is
+    // before the farthest quarter's, and the nearest part before the farthest. (How many parts
+    // share a frame depends on how busy the machine is: the worker takes what has arrived.)
+    let median = |q: &[usize]| {
+        let mut q = q.to_vec();
+        q.sort_unstable();
+        q[q.len() / 2]
+    };
+    let (near, far) = (median(&frames[..25]), median(&frames[75..]));
     assert!(
-        near_last < far_first,
-        "near parts hit by frame {near_last}, far ones from frame {far_first}: {frames:?}"
+        near < far && frames[0] < frames[99],
+        "near quarter's median frame {near}, far quarter's {far}: {frames:?}"
     );
 }
 
