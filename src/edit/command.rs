@@ -44,7 +44,11 @@ impl From<TransformValue> for Transform {
         let rotation = Quat::from_array(t.rotation);
         Transform {
             translation: Vec3::from_array(t.translation),
-            rotation: if rotation.is_finite() && rotation.length_squared() > 0.0 {
+            // A unit quaternion (within glam's tolerance) is kept bit for bit, so a transform
+            // saved and read back is the same; others (hand-edited files) are made unit.
+            rotation: if rotation.is_normalized() {
+                rotation
+            } else if rotation.is_finite() && rotation.length_squared() > 0.0 {
                 rotation.normalize()
             } else {
                 Quat::IDENTITY
