@@ -40,83 +40,129 @@ pub struct EditorRun {
     pub points: Vec<IdlePoint>,
 }
 
-/// Inserts each span of `tris` in `meshes` as a group under `preset`'s policy, then runs its idle
-/// updates, measuring the tree with `trace` (clock stopped) at each checkpoint.
-pub fn run(
-    tris: &[Triangle],
-    meshes: &[Range<usize>],
-    preset: Preset,
-    trace: impl Fn(&Bvh) -> (f64, f64),
-) -> Result<EditorRun, String> {
-    let policy = preset.policy();
-    let mut bvh = Bvh::new(policy.config);
-    let start = Instant::now();
-    // The engine's rule for the editor's tree: a big mesh in pieces kept whole, others baked.
-    let pieces: Vec<MeshPieces> = meshes
-        .par_iter()
-        .map(|span| {
-            MeshPieces::cut(
-                &tris[span.clone()],
-                PieceRule::default(),
-                &Affine3A::IDENTITY,
-                None,
-            )
-        })
-        .collect();
-    let prepared = meshes
-        .par_iter()
-        .zip(&pieces)
-        .flat_map(|(span, p)| (0..p.len()).into_par_iter().map(move |k| (span, p, k)))
-        .map(|(span, p, k)| p.build(k, &tris[span.clone()], Affine3A::IDENTITY))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| e.to_string())?;
-    // Baked groups big enough are rebuilt by full sweep once the updates are done, as the
-    // worker does once the edits pause.
-    let mut to_refine = Vec::new();
-    for group in prepared {
-        let g = bvh.insert_prepared(group).map_err(|e| e.to_string())?;
-        let n = bvh.group_triangles(g).map_or(0, <[u32]>::len);
-        if !bvh.is_group_whole(g).unwrap_or(true) && Refinement::is_worth(n) {
-            to_refine.push(g);
+/// The editor's tree under construction: its meshes inserted as the worker inserts them, then
+/// idle work run on demand (updates, and full-sweep rebuilds once they are done), with the idle
+/// time it took.
+pub struct EditorTree {
+    /// The tree.
+    pub bvh: Bvh,
+    /// Time to build the bBVHs and insert them.
+    pub insert_s: f64,
+    /// Idle time spent in update steps and rebuilds so far.
+    pub spent_s: f64,
+    /// Update steps and rebuilds so far.
+    pub steps: u64,
+    /// Meshes rebuilt by full sweep so far.
+    pub refined: u32,
+    policy: treelight_bvh::Policy,
+    work: IdleWork,
+    to_refine: Vec<treelight_bvh::GroupId>,
+}
+
+impl EditorTree {
+    /// Inserts each span of `tris` in `meshes` as a group under `preset`'s policy, by the engine's
+    /// rule for the editor's tree ([`MeshPieces`]).
+    pub fn insert(
+        tris: &[Triangle],
+        meshes: &[Range<usize>],
+        preset: Preset,
+    ) -> Result<Self, String> {
+        let policy = preset.policy();
+        let mut bvh = Bvh::new(policy.config);
+        let start = Instant::now();
+        let pieces: Vec<MeshPieces> = meshes
+            .par_iter()
+            .map(|span| {
+                MeshPieces::cut(
+                    &tris[span.clone()],
+                    PieceRule::default(),
+                    &Affine3A::IDENTITY,
+                    None,
+                )
+            })
+            .collect();
+        let prepared = meshes
+            .par_iter()
+            .zip(&pieces)
+            .flat_map(|(span, p)| (0..p.len()).into_par_iter().map(move |k| (span, p, k)))
+            .map(|(span, p, k)| p.build(k, &tris[span.clone()], Affine3A::IDENTITY))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        // Baked groups big enough are rebuilt by full sweep once the updates are done, as the
+        // worker does once the edits pause.
+        let mut to_refine = Vec::new();
+        for group in prepared {
+            let g = bvh.insert_prepared(group).map_err(|e| e.to_string())?;
+            let n = bvh.group_triangles(g).map_or(0, <[u32]>::len);
+            if !bvh.is_group_whole(g).unwrap_or(true) && Refinement::is_worth(n) {
+                to_refine.push(g);
+            }
         }
+        let insert_s = start.elapsed().as_secs_f64();
+        let mut work = IdleWork::default();
+        work.after_edit(&policy.idle, &bvh);
+        Ok(Self {
+            bvh,
+            insert_s,
+            spent_s: 0.0,
+            steps: 0,
+            refined: 0,
+            policy,
+            work,
+            to_refine,
+        })
     }
-    let insert_s = start.elapsed().as_secs_f64();
-    let mut work = IdleWork::default();
-    work.after_edit(&policy.idle, &bvh);
-    let (mut spent_s, mut steps, mut refined) = (0.0, 0, 0);
-    let mut points = Vec::with_capacity(IDLE_CHECKPOINTS.len());
-    for idle_s in IDLE_CHECKPOINTS {
-        while spent_s < idle_s {
+
+    /// Runs idle work until `idle_s` seconds of it are spent in all, or none is left.
+    pub fn idle_until(&mut self, idle_s: f64) -> Result<(), String> {
+        while self.spent_s < idle_s {
             let step = Instant::now();
-            if work.is_pending() {
-                work.step(&policy.idle, &mut bvh);
-            } else if let Some(g) = to_refine.pop() {
+            if self.work.is_pending() {
+                self.work.step(&self.policy.idle, &mut self.bvh);
+            } else if let Some(g) = self.to_refine.pop() {
+                let bvh = &mut self.bvh;
                 let (object, transform) = (
                     bvh.group_object(g).map_err(|e| e.to_string())?.to_vec(),
                     bvh.group_transform(g).map_err(|e| e.to_string())?,
                 );
                 let rebuilt = Refinement::build(object, transform).map_err(|e| e.to_string())?;
                 bvh.swap_group(g, rebuilt).map_err(|e| e.to_string())?;
-                work.after_edit(&policy.idle, &bvh);
-                refined += 1;
+                self.work.after_edit(&self.policy.idle, bvh);
+                self.refined += 1;
             } else {
-                break;
+                return Ok(());
             }
-            spent_s += step.elapsed().as_secs_f64();
-            steps += 1;
+            self.spent_s += step.elapsed().as_secs_f64();
+            self.steps += 1;
         }
+        Ok(())
+    }
+}
+
+/// Inserts each span of `tris` in `meshes` as a group under `preset`'s policy, then runs its idle
+/// work, measuring the tree with `trace` (clock stopped) at each checkpoint.
+pub fn run(
+    tris: &[Triangle],
+    meshes: &[Range<usize>],
+    preset: Preset,
+    trace: impl Fn(&Bvh) -> (f64, f64),
+) -> Result<EditorRun, String> {
+    let mut tree = EditorTree::insert(tris, meshes, preset)?;
+    let mut points = Vec::with_capacity(IDLE_CHECKPOINTS.len());
+    for idle_s in IDLE_CHECKPOINTS {
+        tree.idle_until(idle_s)?;
         points.push(IdlePoint {
             idle_s,
-            spent_s,
-            steps,
-            refined,
-            sah_cost: bvh.sah_cost_with(1.0, 1.0),
-            rays: trace(&bvh),
+            spent_s: tree.spent_s,
+            steps: tree.steps,
+            refined: tree.refined,
+            sah_cost: tree.bvh.sah_cost_with(1.0, 1.0),
+            rays: trace(&tree.bvh),
         });
     }
     Ok(EditorRun {
         meshes: meshes.len(),
-        insert_s,
+        insert_s: tree.insert_s,
         points,
     })
 }

@@ -5,6 +5,7 @@
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
+pub mod editor_tree;
 pub mod peers;
 pub mod rng;
 pub mod scenes;

@@ -1,7 +1,6 @@
 //! `treelight-bench`: the paper's Table 1 for our scenes, every tree costed by the same Eq. 1 code and
 //! traced by the same traversal, so only the tree differs between rows.
 
-mod editor_tree;
 mod latency;
 mod plots;
 
@@ -288,9 +287,12 @@ fn run(args: &Args) -> Result<(), String> {
             bar.set_message(format!("{} the editor's tree", scene.name));
             let pool = &pools[0];
             let run = pool.install(|| {
-                editor_tree::run(&scene.triangles, &scene.meshes, EDITOR_PRESET, |bvh| {
-                    trace(bvh, &camera, &bounds, w, h, args)
-                })
+                treelight_bench::editor_tree::run(
+                    &scene.triangles,
+                    &scene.meshes,
+                    EDITOR_PRESET,
+                    |bvh| trace(bvh, &camera, &bounds, w, h, args),
+                )
             })?;
             editor_runs.push((scene.name.clone(), run));
         }
@@ -392,7 +394,7 @@ fn run(args: &Args) -> Result<(), String> {
     if !editor_runs.is_empty() {
         print!(
             "{}",
-            editor_tree::markdown(EDITOR_PRESET, &editor_runs, |scene| {
+            treelight_bench::editor_tree::markdown(EDITOR_PRESET, &editor_runs, |scene| {
                 rows.iter()
                     .find(|r| r.scene == scene && r.method == "sah")
                     .map(|r| r.sah_cost)

@@ -1,13 +1,13 @@
 //! The bench's `--editor`, end to end: the editor's tree (each mesh a group, then the `balanced`
-//! preset's idle updates) measured at 0, 0.1, 1 and 10 s of idle time, for a real multi-mesh file
-//! and a generated assembly.
+//! preset's idle updates and full-sweep rebuilds of the meshes worth one) measured at 0, 0.1, 1 and
+//! 10 s of idle time, for a real multi-mesh file and a generated assembly.
 
 mod support;
 
 use support::bench_ok;
 
-/// The editor table's rows: scene, meshes, idle seconds, steps, SAH cost.
-fn editor_rows(table: &str) -> Vec<(String, usize, f64, u64, f32)> {
+/// The editor table's rows: scene, meshes, idle seconds, steps, SAH cost, meshes rebuilt.
+fn editor_rows(table: &str) -> Vec<(String, usize, f64, u64, f32, u32)> {
     let start = table
         .find("The editor's tree over idle time")
         .expect("no editor table");
@@ -22,6 +22,7 @@ fn editor_rows(table: &str) -> Vec<(String, usize, f64, u64, f32)> {
                 c[2].parse().unwrap(),
                 c[4].parse().unwrap(),
                 steps.parse().unwrap(),
+                c[7].parse().unwrap(),
                 c[6].parse().unwrap(),
             )
         })
@@ -67,5 +68,19 @@ fn the_editor_s_tree_is_measured_over_idle_time_mesh_by_mesh() {
             assert!(w[1].3 >= w[0].3 && w[1].4 <= w[0].4, "{scene_rows:?}");
         }
         assert!(scene_rows[3].4 < scene_rows[0].4, "{scene_rows:?}");
+        // Rebuilds come after the updates, never before anything ran.
+        assert_eq!(scene_rows[0].5, 0);
+        assert!(scene_rows.windows(2).all(|w| w[1].5 >= w[0].5));
     }
+    // Every helmet mesh big enough is rebuilt by full sweep within the 10 s; the hairball's tubes
+    // are too small for it.
+    assert_eq!(rows[3].5 as usize, {
+        let scene = treelight_import::load_scene(std::path::Path::new(helmet)).unwrap();
+        scene
+            .meshes
+            .iter()
+            .filter(|m| treelight_bvh::Refinement::is_worth(m.indices.len() / 3))
+            .count()
+    });
+    assert_eq!(rows[7].5, 0);
 }
