@@ -6,7 +6,8 @@
 //!    next path-traced frame shows) and all of it; the main thread's frame time (median and 99th
 //!    percentile, frames paced at 60 Hz) during the import, next to the same figures idle, and the
 //!    99th percentile less the time the main thread waited, runnable, for a core. Each
-//!    file is imported five times (fresh apps): the times are medians, the frames pooled.
+//!    file is imported five times (fresh apps): the times are medians, the frames pooled. Then the
+//!    same frame figures for the 2 s after each import, while still meshes are rebuilt.
 //! 2. Save and autosave of that 100-part project after 100 moves: the save's time and size, and the
 //!    main thread's share of an autosave (capturing the project; the write runs on its own thread).
 //!
@@ -27,6 +28,8 @@ mod assembly;
 use assembly::generated_assembly;
 
 const FRAME: Duration = Duration::from_micros(16_667);
+/// Frames (at 60 Hz) followed after each import: 2 s.
+const AFTER_FRAMES: usize = 120;
 /// Imports of each file, their frames pooled.
 const REPEATS: usize = 5;
 
@@ -100,6 +103,10 @@ struct ImportFigures {
     first: Duration,
     all: Duration,
     frames: Vec<Frame>,
+    /// Frames in the seconds after the import.
+    after: Vec<Frame>,
+    /// Meshes rebuilt by full sweep by the end of those.
+    refined: u64,
 }
 
 /// Imports `file` into a fresh app and follows it until the tree holds all of it.
@@ -133,6 +140,13 @@ fn import(file: &Path) -> (App, ImportFigures) {
         );
     }
     let all = started.elapsed();
+    // Then the idle time after it, while the worker rebuilds the still meshes by full sweep.
+    let after: Vec<Frame> = (0..AFTER_FRAMES).map(|_| frame(&mut app)).collect();
+    let refined = app
+        .world()
+        .resource::<treelight_scene::SceneBvh>()
+        .stats()
+        .meshes_refined;
     (
         app,
         ImportFigures {
@@ -141,6 +155,8 @@ fn import(file: &Path) -> (App, ImportFigures) {
             first: first.unwrap_or(all),
             all,
             frames,
+            after,
+            refined,
         },
     )
 }
@@ -175,10 +191,12 @@ fn main() {
         ("generated 100-part assembly", generated.clone()),
     ];
     let mut big = None;
+    let mut afterwards = Vec::new();
     for (name, file) in files {
         // Each file is imported several times into fresh apps, its frames pooled, so that the
         // 99th percentile is not simply the worst frame of one import.
         let (mut firsts, mut alls, mut frames) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut after, mut refined) = (Vec::new(), 0);
         let (mut parts, mut triangles) = (0, 0);
         for _ in 0..REPEATS {
             // The previous app and its worker go first, so no two imports overlap.
@@ -188,6 +206,8 @@ fn main() {
             firsts.push(f.first);
             alls.push(f.all);
             frames.extend(f.frames);
+            after.extend(f.after);
+            refined = f.refined;
             (parts, triangles) = (f.parts, f.triangles);
             big = Some(app);
         }
@@ -200,6 +220,25 @@ fn main() {
             percentile(&spent(&frames), 0.99),
             percentile(&spent(&frames), 1.0),
             percentile(&on_core(&frames), 0.99)
+        );
+        afterwards.push((name, refined, after));
+    }
+    println!(
+        "\n## The {} s after each import: idle, while the worker rebuilds still meshes by full sweep\n",
+        AFTER_FRAMES / 60
+    );
+    println!(
+        "| file | meshes rebuilt | frames | frame median (ms) | frame p99 (ms) | frame max (ms) | p99 less the wait for a core (ms) |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for (name, refined, after) in &afterwards {
+        println!(
+            "| {name} | {refined} | {} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            after.len(),
+            percentile(&spent(after), 0.5),
+            percentile(&spent(after), 0.99),
+            percentile(&spent(after), 1.0),
+            percentile(&on_core(after), 0.99)
         );
     }
 

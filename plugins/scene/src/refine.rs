@@ -31,6 +31,8 @@ pub(crate) struct Refiner {
     /// user to pause, so they never take the cores from a stream of edits or an import.
     last_edit: Instant,
     quiet: std::time::Duration,
+    /// Rebuilds swapped in since the global updates last ran for them.
+    swapped: bool,
 }
 
 impl Refiner {
@@ -62,6 +64,7 @@ impl Refiner {
             refined: HashSet::new(),
             last_edit: Instant::now(),
             quiet,
+            swapped: false,
         }
     }
 
@@ -172,6 +175,17 @@ impl Refiner {
         };
         tree.replace_group(e, g, new, shading, mesh);
         self.refined.insert(new);
+        self.swapped = true;
         true
+    }
+
+    /// Whether the rebuilds swapped in are due their global updates: once no more are coming (a
+    /// round of updates after each would sweep the whole tree once per mesh).
+    pub(crate) fn updates_due(&mut self) -> bool {
+        let due = self.swapped && !self.has_work();
+        if due {
+            self.swapped = false;
+        }
+        due
     }
 }

@@ -435,10 +435,14 @@ fn idle_work(
                 }
             });
         }
-        // A full-sweep rebuild finished off the lock goes in; the next one starts.
+        // A full-sweep rebuild finished off the lock goes in. Rebuilds start only while no
+        // updates run, so the two never hold two cores at once (the frame keeps one), and the
+        // updates follow the last rebuild of a series.
         let refined = refiner.finish(tree, last_move);
-        refiner.start_next(tree, last_move);
-        if baked || refined {
+        if !idle.is_pending() {
+            refiner.start_next(tree, last_move);
+        }
+        if baked || refiner.updates_due() {
             idle.after_edit(&config.idle_updates, &tree.bvh);
         }
         (idle.step(&config.idle_updates, &mut tree.bvh), refined)

@@ -127,7 +127,10 @@ impl EditorTree {
                 );
                 let rebuilt = Refinement::build(object, transform).map_err(|e| e.to_string())?;
                 bvh.swap_group(g, rebuilt).map_err(|e| e.to_string())?;
-                self.work.after_edit(&self.policy.idle, bvh);
+                // As the worker: the updates follow the last rebuild of the series.
+                if self.to_refine.is_empty() {
+                    self.work.after_edit(&self.policy.idle, bvh);
+                }
                 self.refined += 1;
             } else {
                 return Ok(());
