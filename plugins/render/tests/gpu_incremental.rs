@@ -160,4 +160,25 @@ fn incremental_upload_traces_like_a_full_one() {
         written * 10 < full_bytes,
         "{written} bytes uploaded for a change to a {full_bytes}-byte scene"
     );
+
+    // The baked mesh swapped for a full-sweep rebuild of itself (the scene worker's idle
+    // refinement): the patched copy still traces like a fresh one.
+    let rebuilt = treelight_bvh::Refinement::build(
+        bvh.group_object(baked).unwrap().to_vec(),
+        bvh.group_transform(baked).unwrap(),
+    )
+    .unwrap();
+    bvh.swap_group(baked, rebuilt).unwrap();
+    let changes = bvh.take_changes();
+    let plan = UploadPlan::new(&bvh, &changes, mirror.capacities);
+    mirror.apply(&gpu, &plan);
+    let patched = hits_on(
+        &gpu,
+        [&mirror.buffers[0], &mirror.buffers[1], &mirror.buffers[2]],
+        plan.root,
+        &view,
+    );
+    let fresh = gpu_hits(&bvh, &view);
+    let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{differ} pixels differ after the swap");
 }

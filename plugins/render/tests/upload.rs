@@ -123,6 +123,19 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     );
     assert!(gpu.uploaded > before);
 
+    // Baked, then swapped for a full-sweep rebuild of the same triangles (the scene worker's
+    // idle refinement): the patched buffers still equal a full export.
+    bvh.bake_group(g).unwrap();
+    let rebuilt = treelight_bvh::Refinement::build(
+        bvh.group_object(g).unwrap().to_vec(),
+        bvh.group_transform(g).unwrap(),
+    )
+    .unwrap();
+    let g = bvh.swap_group(g, rebuilt).unwrap();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    gpu.check(&bvh);
+
     // Removal.
     bvh.remove_group(g).unwrap();
     let c = bvh.take_changes();
