@@ -99,6 +99,16 @@ impl Mirror {
         gpu.wait();
         bytes
     }
+
+    /// Takes the tree's changes, patches the buffers with them and traces `view` through the
+    /// patched copy: the bytes written and the triangle hit at each pixel.
+    fn follow(&mut self, gpu: &Gpu, bvh: &mut Bvh, view: &PinholeView) -> (u64, Vec<u32>) {
+        let changes = bvh.take_changes();
+        let plan = UploadPlan::new(bvh, &changes, self.capacities);
+        let written = self.apply(gpu, &plan);
+        let [n, t, i] = &self.buffers;
+        (written, hits_on(gpu, [n, t, i], plan.root, view))
+    }
 }
 
 #[test]
@@ -129,16 +139,7 @@ fn incremental_upload_traces_like_a_full_one() {
         Affine3A::from_rotation_translation(Quat::from_rotation_x(0.3), eye.lerp(c, 0.6) + Vec3::Y),
     )
     .unwrap();
-    let changes = bvh.take_changes();
-    let plan = UploadPlan::new(&bvh, &changes, mirror.capacities);
-    let written = mirror.apply(&gpu, &plan);
-
-    let patched = hits_on(
-        &gpu,
-        [&mirror.buffers[0], &mirror.buffers[1], &mirror.buffers[2]],
-        plan.root,
-        &view,
-    );
+    let (written, patched) = mirror.follow(&gpu, &mut bvh, &view);
     let fresh = gpu_hits(&bvh, &view);
     let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
     assert_eq!(
@@ -169,15 +170,7 @@ fn incremental_upload_traces_like_a_full_one() {
     )
     .unwrap();
     bvh.swap_group(baked, rebuilt).unwrap();
-    let changes = bvh.take_changes();
-    let plan = UploadPlan::new(&bvh, &changes, mirror.capacities);
-    mirror.apply(&gpu, &plan);
-    let patched = hits_on(
-        &gpu,
-        [&mirror.buffers[0], &mirror.buffers[1], &mirror.buffers[2]],
-        plan.root,
-        &view,
-    );
+    let (_, patched) = mirror.follow(&gpu, &mut bvh, &view);
     let fresh = gpu_hits(&bvh, &view);
     let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
     assert_eq!(differ, 0, "{differ} pixels differ after the swap");

@@ -339,28 +339,27 @@ impl SceneTree {
     }
 
     /// `e`'s group `old` was swapped in the tree for `new` ([`Bvh::swap_group`]): the same
-    /// triangles, so the same shading.
-    pub(crate) fn replace_group(
-        &mut self,
-        e: Entity,
-        old: GroupId,
-        new: GroupId,
-        shading: Arc<TriangleShading>,
-        mesh: AssetId<Mesh>,
-    ) {
-        self.group_entity.remove(&old);
-        self.shading.remove(&old);
-        self.fresh_groups.remove(&old);
+    /// triangles in the same order, so the same shading and mesh.
+    pub(crate) fn replace_group(&mut self, e: Entity, old: GroupId, new: GroupId) {
+        let shading = self.shading.get(&old).cloned().unwrap_or_default();
+        self.forget_group(old);
         if let Some(list) = self.entity_groups.get_mut(&e) {
             list.retain(|g| *g != old);
         }
-        self.bind(e, new, shading, mesh);
+        if let Some(&mesh) = self.entity_mesh.get(&e) {
+            self.bind(e, new, shading, mesh);
+        }
     }
 
-    fn drop_group(&mut self, g: GroupId) {
+    /// Forgets what this tree keeps about group `g` (the engine's tree is the caller's).
+    fn forget_group(&mut self, g: GroupId) {
         self.group_entity.remove(&g);
         self.shading.remove(&g);
         self.fresh_groups.remove(&g);
+    }
+
+    fn drop_group(&mut self, g: GroupId) {
+        self.forget_group(g);
         // The handle came from this tree, so removal cannot fail.
         let _ = self.bvh.remove_group(g);
     }

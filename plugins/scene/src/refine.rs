@@ -164,16 +164,11 @@ impl Refiner {
         if self.stale || sent != Some((e, g)) {
             return false;
         }
-        let (Some(shading), Some(&mesh)) =
-            (tree.shading.get(&g).cloned(), tree.entity_mesh.get(&e))
-        else {
-            return false;
-        };
         // Same triangle order, so the shading fits.
         let Ok(new) = tree.bvh.swap_group(g, p) else {
             return false;
         };
-        tree.replace_group(e, g, new, shading, mesh);
+        tree.replace_group(e, g, new);
         self.refined.insert(new);
         self.swapped = true;
         true

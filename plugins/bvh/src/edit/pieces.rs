@@ -11,8 +11,8 @@ use glam::{Affine3A, Vec3};
 /// Which meshes are cut into pieces, and how big the pieces are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PieceRule {
-    /// A mesh of more triangles than this is cut. Default 262,144: a smaller mesh builds whole in
-    /// about the time of a few pieces, and baked it gains the idle updates.
+    /// A mesh of more triangles than this (and than `piece`) is cut. Default 262,144: a smaller
+    /// mesh builds whole in about the time of a few pieces, and baked it gains the idle updates.
     pub cut_above: usize,
     /// Most triangles in one piece of a cut mesh. Default 65,536.
     pub piece: usize,
@@ -30,7 +30,7 @@ impl Default for PieceRule {
 impl PieceRule {
     /// Whether a mesh of `triangles` triangles is cut.
     pub fn cuts(&self, triangles: usize) -> bool {
-        triangles > self.cut_above.max(1)
+        triangles > self.cut_above.max(self.piece).max(1)
     }
 }
 
@@ -53,7 +53,7 @@ impl MeshPieces {
     ) -> Self {
         let max = rule.piece.max(1);
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        if !rule.cuts(triangles.len()) || triangles.len() <= max {
+        if !rule.cuts(triangles.len()) {
             return Self {
                 pieces: vec![order],
             };
