@@ -1,8 +1,8 @@
 // The path tracer: each dispatch traces a run of 8×8 tiles (as many as the frame's budget allows),
 // each pixel adding `view.samples` samples to its running sum, or a coarse preview after a restart. Bevy's StandardMaterial is approximated by a
 // Lambert lobe plus a GGX lobe; punctual lights are sampled directly (next-event estimation), emissive
-// surfaces and the sky are found by the BSDF samples. The crate appends traverse.wgsl and
-// sampling.wgsl.
+// surfaces and the sky are found by the BSDF samples. The crate appends a traversal
+// (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
 struct Attr {
     // Object-space corner normals, octahedral, snorm16x2 each.
@@ -97,8 +97,9 @@ const MODE_NORMALS: u32 = 2u;
 const MODE_TRIANGLE_ID: u32 = 3u;
 const MODE_HEATMAP: u32 = 4u;
 const HAS_NORMALS: u32 = 0x80000000u;
-// Nodes visited that the heatmap shows as its hottest colour.
-const HEATMAP_MAX: f32 = 160.0;
+// Node records visited (4-wide: about half the binary nodes a ray would visit) that the heatmap shows
+// as its hottest colour.
+const HEATMAP_MAX: f32 = 80.0;
 
 var<private> rng_state: u32;
 // The depth of the current sample's primary hit (0, the far plane, when it escapes).

@@ -1,6 +1,6 @@
 // One primary ray per pixel from a pinhole camera; writes the closest triangle id (NONE for a miss).
-// The crate appends traverse.wgsl and sampling.wgsl. The tests compare it with the engine's CPU
-// traversal.
+// The crate appends a traversal (any layout's) and sampling.wgsl. The tests compare it with the
+// engine's CPU traversal.
 
 // Pixel (x, y) looks along lower_left + (x+0.5)/width * horizontal + (y+0.5)/height * vertical.
 struct PrimaryCamera {

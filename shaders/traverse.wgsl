@@ -2,17 +2,16 @@
 // declares the `nodes`, `tris` and `instances` bindings this code reads (WGSL resolves module-scope
 // names in any order), and the crate appends this file and traverse_common.wgsl to it.
 //
-// Node records hold both children's boxes and references.
+// A node record holds both children's boxes and references. The crate appends one record file:
+// binary_float.wgsl (`GpuNode`, float boxes) or binary_compressed.wgsl (`GpuCompressedBinaryNode`,
+// boxes in bytes), each defining `Node` (with `a_ref` and `b_ref`) and `child_boxes`.
 
-struct Node {
+// Both children's boxes of a record.
+struct ChildBoxes {
     a_min: vec3<f32>,
-    a_ref: u32,
     a_max: vec3<f32>,
-    b_ref: u32,
     b_min: vec3<f32>,
-    pad0: u32,
     b_max: vec3<f32>,
-    pad1: u32,
 }
 
 const STACK_SIZE: u32 = 96u;
@@ -37,8 +36,9 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
             if kind == KIND_INNER {
                 let n = nodes[index];
                 hit.visited += 1u;
-                let ta = hit_box(f.o, f.inv, n.a_min, n.a_max, hit.t);
-                let tb = hit_box(f.o, f.inv, n.b_min, n.b_max, hit.t);
+                let c = child_boxes(n);
+                let ta = hit_box(f.o, f.inv, c.a_min, c.a_max, hit.t);
+                let tb = hit_box(f.o, f.inv, c.b_min, c.b_max, hit.t);
                 if ta < FAR && tb < FAR {
                     // Visit the nearer child next; the farther one waits on the stack.
                     var near = n.a_ref;

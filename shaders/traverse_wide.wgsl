@@ -1,19 +1,26 @@
-// BVH traversal over treelight_bvh's 4-wide GPU layout (`Bvh::gpu_wide_layout`), with the same
-// entry points as traverse.wgsl (`trace`, `closest_hit`, `occluded`), so a kernel takes either file.
+// BVH traversal over treelight_bvh's 4-wide GPU layouts, with the same entry points as traverse.wgsl
+// (`trace`, `closest_hit`, `occluded`), so a kernel takes either file. The crate appends one record
+// file to it: wide_float.wgsl (`Bvh::gpu_wide_layout`, float boxes) or wide_compressed.wgsl
+// (`Bvh::gpu_compressed_layout`, boxes in bytes), each defining `Node` and `child_entries`.
 //
-// A node record holds up to four children's boxes as rows (all minimum x, then all maximum x, ...),
-// so one slab test covers the four, and their references, tagged as in the binary layout (inner
-// references name wide records). Hit children are visited nearest first: the others wait on the
-// stack, farthest deepest.
+// A record holds up to four children's boxes and their references, tagged as in the binary layout
+// (inner references name wide records). Hit children are visited nearest first: the others wait on
+// the stack, farthest deepest.
 
-struct Node {
-    min_x: vec4<f32>,
-    max_x: vec4<f32>,
-    min_y: vec4<f32>,
-    max_y: vec4<f32>,
-    min_z: vec4<f32>,
-    max_z: vec4<f32>,
-    refs: vec4<u32>,
+// Where the ray enters each of a record's four child boxes within [0, t_max], FAR for a miss or an
+// empty slot: one slab test over the four boxes as rows.
+fn slab_entries(f: Frame, min_x: vec4<f32>, max_x: vec4<f32>, min_y: vec4<f32>, max_y: vec4<f32>,
+                min_z: vec4<f32>, max_z: vec4<f32>, refs: vec4<u32>, t_max: f32) -> vec4<f32> {
+    let tx0 = (min_x - vec4<f32>(f.o.x)) * f.inv.x;
+    let tx1 = (max_x - vec4<f32>(f.o.x)) * f.inv.x;
+    let ty0 = (min_y - vec4<f32>(f.o.y)) * f.inv.y;
+    let ty1 = (max_y - vec4<f32>(f.o.y)) * f.inv.y;
+    let tz0 = (min_z - vec4<f32>(f.o.z)) * f.inv.z;
+    let tz1 = (max_z - vec4<f32>(f.o.z)) * f.inv.z;
+    let enter = max(max(min(tx0, tx1), min(ty0, ty1)), max(min(tz0, tz1), vec4<f32>(0.0)));
+    let exit = min(min(max(tx0, tx1), max(ty0, ty1)), min(max(tz0, tz1), vec4<f32>(t_max)));
+    let entered = (enter <= exit * 1.0000004) & (refs != vec4<u32>(NONE));
+    return select(vec4<f32>(FAR), enter, entered);
 }
 
 const STACK_SIZE: u32 = 128u;
@@ -38,21 +45,13 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
             if kind == KIND_INNER {
                 let n = nodes[index];
                 hit.visited += 1u;
-                let tx0 = (n.min_x - vec4<f32>(f.o.x)) * f.inv.x;
-                let tx1 = (n.max_x - vec4<f32>(f.o.x)) * f.inv.x;
-                let ty0 = (n.min_y - vec4<f32>(f.o.y)) * f.inv.y;
-                let ty1 = (n.max_y - vec4<f32>(f.o.y)) * f.inv.y;
-                let tz0 = (n.min_z - vec4<f32>(f.o.z)) * f.inv.z;
-                let tz1 = (n.max_z - vec4<f32>(f.o.z)) * f.inv.z;
-                let enter = max(max(min(tx0, tx1), min(ty0, ty1)), max(min(tz0, tz1), vec4<f32>(0.0)));
-                let exit = min(min(max(tx0, tx1), max(ty0, ty1)), min(max(tz0, tz1), vec4<f32>(hit.t)));
-                let entered = (enter <= exit * 1.0000004) & (n.refs != vec4<u32>(NONE));
+                let enter = child_entries(n, f, hit.t);
                 // Nearest first: a sorting network on the four (distance, reference) pairs, misses
                 // at FAR; no indexing by a variable, which would keep the pairs in memory.
-                var t0 = select(FAR, enter.x, entered.x);
-                var t1 = select(FAR, enter.y, entered.y);
-                var t2 = select(FAR, enter.z, entered.z);
-                var t3 = select(FAR, enter.w, entered.w);
+                var t0 = enter.x;
+                var t1 = enter.y;
+                var t2 = enter.z;
+                var t3 = enter.w;
                 var r0 = n.refs.x;
                 var r1 = n.refs.y;
                 var r2 = n.refs.z;

@@ -46,6 +46,7 @@ pub use edit::group::{GroupId, PreparedGroup};
 pub use edit::pieces::{MeshPieces, PieceRule, Refinement};
 pub use error::BvhError;
 pub use export::change::ChangeSet;
+pub use export::compressed::{GpuCompressedBinaryNode, GpuCompressedNode};
 pub use export::depth_first::DepthFirstLayout;
 pub use export::gpu::{GpuInstance, GpuLayout, GpuNode, GpuTriangle};
 pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};

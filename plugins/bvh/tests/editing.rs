@@ -2,10 +2,13 @@
 //! only from the change sets equals a full export.
 
 mod support;
+use bytemuck::Zeroable;
 use proptest::prelude::*;
 use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
-use treelight_bvh::{Aabb, Bvh, BvhConfig, GpuInstance, GpuNode, GpuTriangle, GroupId};
+use treelight_bvh::{
+    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId,
+};
 
 #[derive(Clone, Debug)]
 enum Op {
@@ -124,6 +127,8 @@ fn xf(angle: f32, offset: f32, scale: f32) -> Affine3A {
 #[derive(Default)]
 struct Mirror {
     nodes: Vec<GpuNode>,
+    /// The path tracer's records (`Bvh::gpu_wide_node`), patched through `Bvh::gpu_wide_ranges`.
+    wide: Vec<GpuCompressedNode>,
     tris: Vec<GpuTriangle>,
     instances: Vec<GpuInstance>,
     root: u32,
@@ -138,9 +143,16 @@ impl Mirror {
             .resize(c.triangle_capacity as usize, GpuTriangle::default());
         self.instances
             .resize(c.instance_capacity as usize, GpuInstance::default());
+        self.wide
+            .resize(c.inner_capacity as usize, GpuCompressedNode::zeroed());
         for r in &c.inner_ranges {
             for i in r.clone() {
                 self.nodes[i as usize] = bvh.gpu_node(i);
+            }
+        }
+        for r in bvh.gpu_wide_ranges(&c) {
+            for i in r {
+                self.wide[i as usize] = bvh.gpu_wide_node(i);
             }
         }
         for &t in c.written_triangles.iter().chain(&c.removed_triangles) {
@@ -160,6 +172,13 @@ impl Mirror {
             panic!(
                 "node record {i} drifted from the change log: {:?} vs {:?}",
                 self.nodes[i], full[i]
+            );
+        }
+        let full = bvh.gpu_wide_nodes();
+        if let Some(i) = (0..full.len()).find(|&i| self.wide[i] != full[i]) {
+            panic!(
+                "wide record {i} drifted from the change log: {:?} vs {:?}",
+                self.wide[i], full[i]
             );
         }
         for t in 0..bvh.triangle_capacity() {

@@ -2,14 +2,18 @@
 //! two to four children whose boxes hold what lies under them. The depth-first one
 //! (`Bvh::gpu_depth_first_layout`): every live node once, siblings adjacent, the root first. A
 //! traversal of either's records finds the same closest hits as brute force, through baked
-//! triangles, groups kept whole and shared instances.
+//! triangles, groups kept whole and shared instances. The path tracer's (`Bvh::gpu_wide_node`): each
+//! inner node's record holds its grandchildren, each box as decoded holding the engine's and at most
+//! a step wider on each side; so does the binary record with its boxes in bytes.
 
 mod support;
 
+use proptest::prelude::*;
 use support::{Rng, rays, soup};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, DepthFirstLayout, GpuInstance, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout,
+    Aabb, Bvh, DepthFirstLayout, GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode,
+    GpuWideNode, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout,
 };
 
 fn apply(rows: &[[f32; 4]; 3], p: Vec3, w: f32) -> Vec3 {
@@ -122,6 +126,153 @@ fn check_boxes(bvh: &Bvh, w: &WideLayout) {
     }
 }
 
+/// `c` as decoded holds each of `w`'s child boxes exactly or a little wider (under 2/255 of the
+/// record's extent on the axis, the coarsest step it can have, per side), with the same references.
+fn check_compressed(w: &GpuWideNode, c: &GpuCompressedNode) {
+    assert_eq!(w.refs, c.refs);
+    let rows = [(w.min_x, w.max_x), (w.min_y, w.max_y), (w.min_z, w.max_z)];
+    for (axis, (lo, hi)) in rows.into_iter().enumerate() {
+        let used: Vec<usize> = (0..4).filter(|&k| w.refs[k] != NodeRef::NONE.0).collect();
+        let bottom = used.iter().map(|&k| lo[k]).fold(f32::INFINITY, f32::min);
+        let top = used
+            .iter()
+            .map(|&k| hi[k])
+            .fold(f32::NEG_INFINITY, f32::max);
+        let slack = (top - bottom) * 2.0 / 255.0 + f32::MIN_POSITIVE * 256.0;
+        for &k in &used {
+            let [a, b] = c.child_bounds(k, axis);
+            assert!(
+                a <= lo[k] && b >= hi[k],
+                "child {k} axis {axis}: [{a}, {b}] does not hold [{}, {}]",
+                lo[k],
+                hi[k]
+            );
+            assert!(
+                lo[k] - a <= slack && b - hi[k] <= slack,
+                "child {k} axis {axis}: [{a}, {b}] loose around [{}, {}] (record {bottom}..{top})",
+                lo[k],
+                hi[k]
+            );
+        }
+    }
+}
+
+/// The same for a binary record: `c` as decoded holds `n`'s two boxes, at most a step wider.
+fn check_binary_compressed(n: &GpuNode, c: &GpuCompressedBinaryNode) {
+    assert_eq!((n.a_ref, n.b_ref), (c.a_ref, c.b_ref));
+    for axis in 0..3 {
+        let want = [
+            [n.a_min[axis], n.a_max[axis]],
+            [n.b_min[axis], n.b_max[axis]],
+        ];
+        let bottom = want[0][0].min(want[1][0]);
+        let top = want[0][1].max(want[1][1]);
+        let slack = (top - bottom) * 2.0 / 255.0 + f32::MIN_POSITIVE * 256.0;
+        for (k, [want_lo, want_hi]) in want.into_iter().enumerate() {
+            let [lo, hi] = c.child_bounds(k, axis);
+            assert!(
+                lo <= want_lo && hi >= want_hi,
+                "child {k} axis {axis}: [{lo}, {hi}] does not hold [{want_lo}, {want_hi}]"
+            );
+            assert!(
+                want_lo - lo <= slack && hi - want_hi <= slack,
+                "child {k} axis {axis}: [{lo}, {hi}] loose around [{want_lo}, {want_hi}]"
+            );
+        }
+    }
+}
+
+/// Each inner node's record of `Bvh::gpu_wide_node`: its grandchildren (a child that is not inner
+/// standing in for its own two), each box as decoded holding the engine's; none for a freed slot.
+fn check_wide_nodes(bvh: &Bvh) {
+    let mut records = 0;
+    for i in 0..bvh.inner_capacity() {
+        let rec = bvh.gpu_wide_node(i);
+        let node = bvh.gpu_node(i);
+        if node.a_ref == NodeRef::NONE.0 {
+            assert_eq!(rec.refs, [NodeRef::NONE.0; 4], "freed slot {i}");
+            continue;
+        }
+        let mut want = GpuWideNode::default();
+        let mut k = 0;
+        for c in [node.a_ref, node.b_ref].map(NodeRef) {
+            let slots = if c.is_inner() {
+                let n = bvh.gpu_node(c.index());
+                vec![n.a_ref, n.b_ref]
+            } else {
+                vec![c.0]
+            };
+            for r in slots {
+                let b = bvh.aabb(NodeRef(r));
+                want.min_x[k] = b.min.x;
+                want.max_x[k] = b.max.x;
+                want.min_y[k] = b.min.y;
+                want.max_y[k] = b.max.y;
+                want.min_z[k] = b.min.z;
+                want.max_z[k] = b.max.z;
+                want.refs[k] = r;
+                k += 1;
+            }
+        }
+        check_compressed(&want, &rec);
+        records += 1;
+    }
+    assert!(records > 0);
+}
+
+fn wide_node(boxes: &[([f32; 3], [f32; 3])]) -> GpuWideNode {
+    let mut n = GpuWideNode::default();
+    for (k, (lo, size)) in boxes.iter().enumerate() {
+        n.min_x[k] = lo[0];
+        n.max_x[k] = lo[0] + size[0];
+        n.min_y[k] = lo[1];
+        n.max_y[k] = lo[1] + size[1];
+        n.min_z[k] = lo[2];
+        n.max_z[k] = lo[2] + size[2];
+        n.refs[k] = NodeRef::leaf(k as u32).0;
+    }
+    n
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, .. ProptestConfig::default() })]
+
+    /// Boxes anywhere from the origin to far away, from flat to huge, two to four per record.
+    #[test]
+    fn quantized_boxes_hold_their_children(
+        scale in prop::sample::select(vec![1e-3f32, 1.0, 1e3, 1e6]),
+        far in prop::sample::select(vec![0.0f32, 1.0, 1e4, -1e7]),
+        boxes in prop::collection::vec(
+            (prop::array::uniform3(-1.0f32..1.0), prop::array::uniform3(prop_oneof![Just(0.0f32), 0.0f32..2.0])),
+            2..=4,
+        ),
+    ) {
+        let boxes: Vec<([f32; 3], [f32; 3])> = boxes
+            .into_iter()
+            .map(|(lo, size)| (lo.map(|v| far + v * scale), size.map(|v| v * scale)))
+            .collect();
+        let w = wide_node(&boxes);
+        check_compressed(&w, &GpuCompressedNode::quantize(&w));
+        let corner = |k: usize, max: bool| {
+            if max {
+                [w.max_x[k], w.max_y[k], w.max_z[k]]
+            } else {
+                [w.min_x[k], w.min_y[k], w.min_z[k]]
+            }
+        };
+        let n = GpuNode {
+            a_min: corner(0, false),
+            a_max: corner(0, true),
+            b_min: corner(1, false),
+            b_max: corner(1, true),
+            a_ref: 1,
+            b_ref: 2,
+            ..GpuNode::default()
+        };
+        check_binary_compressed(&n, &GpuCompressedBinaryNode::quantize(&n));
+    }
+}
+
 #[test]
 fn the_wide_layout_finds_the_closest_hits_of_the_binary_tree() {
     let mut bvh = Bvh::default();
@@ -150,6 +301,10 @@ fn the_wide_layout_finds_the_closest_hits_of_the_binary_tree() {
         bvh.inner_count()
     );
     check_boxes(&bvh, &w);
+    check_wide_nodes(&bvh);
+    for node in bvh.gpu_nodes() {
+        check_binary_compressed(&node, &GpuCompressedBinaryNode::quantize(&node));
+    }
     let d = bvh.gpu_depth_first_layout();
     // Every live node once, the root first, and both children of a node in adjacent records.
     assert_eq!(d.nodes.len() as u32, bvh.inner_count());

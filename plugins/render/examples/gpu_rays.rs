@@ -3,25 +3,35 @@
 //! distributed, closest hit at any distance) and ambient-occlusion rays (short, any hit), over the
 //! trees `--trees` names (default `incru`: IncrU, baked; `sah`: full-sweep SAH; `editor`: the tree
 //! the editor traces, `treelight_bench::editor_tree` after its idle work), through each GPU layout:
-//! the binary records in the tree's order and renumbered depth first
-//! (`Bvh::gpu_depth_first_layout`), and their 4-wide collapse (`Bvh::gpu_wide_layout`). Then the
+//! the path tracer's (compressed 4-wide records, one per inner node: `Bvh::gpu_wide_node`), the
+//! binary records in the tree's order and renumbered depth first (`Bvh::gpu_depth_first_layout`),
+//! the binary records with their boxes in bytes (`GpuCompressedBinaryNode`), and the float 4-wide
+//! collapse (`Bvh::gpu_wide_layout`). Then the
 //! bytes an incremental upload writes when a 10k-triangle mesh joins the largest scene, next to the
 //! scene's full size.
 //!
 //! `cargo run --release -p treelight_render --example gpu_rays -- [--resolution 512] [--ao-rays 8]
-//!  [--repeats 5] [--trees incru,sah,editor] SCENE...` where SCENE is a file or a generator of
-//! `treelight-bench` (`hairball:N`, `scatter:N:FILE`, `subdivide:K:FILE`).
+//!  [--repeats 5] [--trees incru,sah,editor] [--layouts wide,binary,depth-first,binary-compressed,wide-float]
+//!  SCENE...` where SCENE is a file or a generator of
+//! `treelight-bench` (`hairball:N`, `scatter:N:FILE`, `subdivide:K:FILE`). A scene's trees and
+//! layouts take turns within each repeat (each kernel once per tree and layout), and each kernel's
+//! time is the median over the repeats: a machine whose speed drifts (a shared one, a software
+//! adapter) slows them all alike.
 
 #[path = "../tests/support/mod.rs"]
 mod support;
 
 use std::time::Instant;
 use support::{
-    Gpu, PinholeView, arg, depth_first_tree_bytes, scene_args, tree_bytes, wide_tree_bytes,
+    Gpu, PinholeView, arg, binary_compressed_tree_bytes, binary_tree_bytes, depth_first_tree_bytes,
+    scene_args, tree_bytes, wide_tree_bytes,
 };
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Preset, TopDown, Triangle};
-use treelight_render::{GpuAoParams, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, UploadPlan};
+use treelight_render::{
+    GpuAoParams, PRIMARY_HITS_BINARY_COMPRESSED_WGSL, PRIMARY_HITS_BINARY_WGSL, PRIMARY_HITS_WGSL,
+    PRIMARY_HITS_WIDE_WGSL, UploadPlan,
+};
 
 fn main() {
     let resolution = arg("--resolution", 512);
@@ -34,6 +44,18 @@ fn main() {
         .split(',')
         .map(str::to_owned)
         .collect();
+    let wanted: Vec<String> = std::env::args()
+        .skip_while(|a| a != "--layouts")
+        .nth(1)
+        .map_or_else(
+            || LAYOUTS.iter().map(|l| l.0.to_owned()).collect(),
+            |v| v.split(',').map(str::to_owned).collect(),
+        );
+    if let Some(w) = wanted.iter().find(|w| !LAYOUTS.iter().any(|l| l.0 == *w)) {
+        let keys: Vec<&str> = LAYOUTS.iter().map(|l| l.0).collect();
+        eprintln!("unknown layout '{w}' ({})", keys.join(", "));
+        std::process::exit(2);
+    }
     let specs = scene_args(
         "give at least one scene (a file, or hairball:N, scatter:N:FILE, subdivide:K:FILE)",
     );
@@ -48,6 +70,10 @@ fn main() {
             eprintln!("{e}");
             std::process::exit(1);
         });
+        // Every tree's layouts of this scene, built first so that they take turns below.
+        let mut runs: Vec<LayoutRun> = Vec::new();
+        let mut ao: Option<wgpu::Buffer> = None;
+        let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
         for tree in &trees {
             let bvh = build(tree, &scene).unwrap_or_else(|e| {
                 eprintln!("{}: {e}", scene.name);
@@ -61,72 +87,42 @@ fn main() {
                 resolution,
                 resolution,
             );
-            let binary = (tree_bytes(&bvh), bvh.gpu_root());
-            let layouts = [
-                ("binary", binary, PRIMARY_HITS_WGSL),
-                (
-                    "binary, depth first",
-                    depth_first_tree_bytes(&bvh),
-                    PRIMARY_HITS_WGSL,
-                ),
-                ("4-wide", wide_tree_bytes(&bvh), PRIMARY_HITS_WIDE_WGSL),
-            ];
-            for (layout, ([n, t, i], root), source) in layouts {
-                let buffers = [
-                    gpu.storage("nodes", &n),
-                    gpu.storage("triangles", &t),
-                    gpu.storage("instances", &i),
-                ];
-                let camera = gpu.uniform(&view.uniform(root));
-                let ao = gpu.uniform(bytemuck::bytes_of(&GpuAoParams {
+            let ao = &*ao.get_or_insert_with(|| {
+                gpu.uniform(bytemuck::bytes_of(&GpuAoParams {
                     rays: ao_rays,
                     length: diag.length() * 0.05,
                     ..GpuAoParams::default()
-                }));
-                let out = gpu.zeroed((resolution * resolution * 4) as u64);
-                let groups = (resolution.div_ceil(8), resolution.div_ceil(8));
-                let primary = gpu.pipeline(source, "primary_hits");
-                let occlusion = gpu.pipeline(source, "ambient_occlusion");
-                let diffuse = gpu.pipeline(source, "diffuse_bounces");
-                let shadow = gpu.pipeline(source, "shadow_rays");
-                let [nb, tb, ib] = &buffers;
-                // One warm-up dispatch each (shader compilation, first touch of the buffers), then the
-                // best of the timed repeats.
-                let time = |pipeline: &wgpu::ComputePipeline, bind: &[&wgpu::Buffer]| {
-                    gpu.dispatch(pipeline, bind, groups);
-                    (0..repeats)
-                        .map(|_| {
-                            let t = Instant::now();
-                            gpu.dispatch(pipeline, bind, groups);
-                            t.elapsed().as_secs_f64()
-                        })
-                        .fold(f64::INFINITY, f64::min)
+                }))
+            });
+            for &(_, layout, bytes, source) in
+                LAYOUTS.iter().filter(|l| wanted.iter().any(|w| w == l.0))
+            {
+                let ([n, t, i], root) = bytes(&bvh);
+                let mut run = LayoutRun {
+                    tree: tree.clone(),
+                    cost: bvh.sah_cost_with(1.0, 1.0),
+                    layout,
+                    buffers: [
+                        gpu.storage("nodes", &n),
+                        gpu.storage("triangles", &t),
+                        gpu.storage("instances", &i),
+                        gpu.uniform(&view.uniform(root)),
+                        gpu.zeroed((resolution * resolution * 4) as u64),
+                    ],
+                    kernels: KERNELS.map(|k| gpu.pipeline(source, k)),
+                    hits: 0,
+                    times: Default::default(),
                 };
-                let t_primary = time(&primary, &[nb, tb, ib, &camera, &out]);
-                let hits = support::words(&gpu.read(&out))
+                // A warm-up dispatch of each kernel (shader compilation, first touch of the
+                // buffers); the primary one last, to count its hits.
+                for k in (0..KERNELS.len()).rev() {
+                    run.dispatch(&gpu, k, ao, groups);
+                }
+                run.hits = support::words(&gpu.read(&run.buffers[4]))
                     .iter()
                     .filter(|&&h| h != u32::MAX)
                     .count();
-                let pixels = (resolution * resolution) as f64;
-                // Each secondary kernel traces its primary rays again: subtract them to rate its own.
-                let secondary = hits as f64 * ao_rays as f64;
-                let rate = |pipeline: &wgpu::ComputePipeline| {
-                    let t = time(pipeline, &[nb, tb, ib, &camera, &out, &ao]);
-                    secondary / (t - t_primary).max(1e-9) / 1e6
-                };
-                let (shadow_rate, diffuse_rate, ao_rate) =
-                    (rate(&shadow), rate(&diffuse), rate(&occlusion));
-                println!(
-                    "| {} | {} | {tree} | {:.2} | {layout} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
-                    scene.name,
-                    scene.triangles.len(),
-                    bvh.sah_cost_with(1.0, 1.0),
-                    pixels / t_primary / 1e6,
-                    shadow_rate,
-                    diffuse_rate,
-                    ao_rate,
-                    ao_rays
-                );
+                runs.push(run);
             }
             if largest
                 .as_ref()
@@ -134,6 +130,37 @@ fn main() {
             {
                 largest = Some(bvh);
             }
+        }
+        let Some(ao) = ao else { continue };
+        // One dispatch of each kernel per repeat, the trees' layouts taking turns.
+        for _ in 0..repeats {
+            for run in &mut runs {
+                for k in 0..KERNELS.len() {
+                    let start = Instant::now();
+                    run.dispatch(&gpu, k, &ao, groups);
+                    run.times[k].push(start.elapsed().as_secs_f64());
+                }
+            }
+        }
+        let pixels = (resolution * resolution) as f64;
+        for run in &runs {
+            let [primary, shadow, diffuse, occlusion] = run.times.each_ref().map(|v| median(v));
+            // Each secondary kernel traces its primary rays again: subtract them to rate its own.
+            let secondary = run.hits as f64 * ao_rays as f64;
+            let rate = |t: f64| secondary / (t - primary).max(1e-9) / 1e6;
+            println!(
+                "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
+                scene.name,
+                scene.triangles.len(),
+                run.tree,
+                run.cost,
+                run.layout,
+                pixels / primary / 1e6,
+                rate(shadow),
+                rate(diffuse),
+                rate(occlusion),
+                ao_rays
+            );
         }
     }
     if let Some(mut bvh) = largest {
@@ -160,10 +187,94 @@ fn main() {
             plan.upload_bytes(),
             plan.upload_bytes() as f64 / full as f64 * 100.0,
             full,
-            changes.inner_count(),
+            bvh.gpu_wide_ranges(&changes)
+                .iter()
+                .map(|r| r.len())
+                .sum::<usize>(),
             changes.written_triangles.len()
         );
     }
+}
+
+/// A layout: its `--layouts` key, its name in the table, its buffers (nodes, triangles, instances)
+/// and root for a tree, and the kernels' WGSL.
+type Layout = (
+    &'static str,
+    &'static str,
+    fn(&Bvh) -> ([Vec<u8>; 3], u32),
+    &'static str,
+);
+
+const LAYOUTS: [Layout; 5] = [
+    (
+        "wide",
+        "compressed 4-wide per node (the path tracer's)",
+        |b| (tree_bytes(b), b.gpu_root()),
+        PRIMARY_HITS_WGSL,
+    ),
+    (
+        "binary",
+        "binary",
+        binary_tree_bytes,
+        PRIMARY_HITS_BINARY_WGSL,
+    ),
+    (
+        "depth-first",
+        "binary, depth first",
+        depth_first_tree_bytes,
+        PRIMARY_HITS_BINARY_WGSL,
+    ),
+    (
+        "binary-compressed",
+        "binary compressed",
+        binary_compressed_tree_bytes,
+        PRIMARY_HITS_BINARY_COMPRESSED_WGSL,
+    ),
+    (
+        "wide-float",
+        "4-wide",
+        wide_tree_bytes,
+        PRIMARY_HITS_WIDE_WGSL,
+    ),
+];
+
+/// The kernels timed, in the order of the table's columns.
+const KERNELS: [&str; 4] = [
+    "primary_hits",
+    "shadow_rays",
+    "diffuse_bounces",
+    "ambient_occlusion",
+];
+
+/// One tree in one layout: its buffers (nodes, triangles, instances, camera, output), its kernels'
+/// pipelines, its primary hits and each kernel's dispatch times.
+struct LayoutRun {
+    tree: String,
+    cost: f32,
+    layout: &'static str,
+    buffers: [wgpu::Buffer; 5],
+    kernels: [wgpu::ComputePipeline; 4],
+    hits: usize,
+    times: [Vec<f64>; 4],
+}
+
+impl LayoutRun {
+    /// Dispatches kernel `k` and waits for it.
+    fn dispatch(&self, gpu: &Gpu, k: usize, ao: &wgpu::Buffer, groups: (u32, u32)) {
+        let [n, t, i, camera, out] = &self.buffers;
+        let mut bind = vec![n, t, i, camera, out];
+        if k > 0 {
+            // The secondary kernels also read the AO parameters (rays per hit, AO length).
+            bind.push(ao);
+        }
+        gpu.dispatch(&self.kernels[k], &bind, groups);
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
 }
 
 /// The tree named `kind` over `scene`.

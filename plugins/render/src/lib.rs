@@ -44,33 +44,58 @@ use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-// Each kernel file declares the buffers; `traverse.wgsl` (BVH traversal, with `traverse_common.wgsl`) and `sampling.wgsl` (random
-// numbers, frames, offsets) are appended to it, as WGSL resolves module-scope names in any order.
+// Each kernel file declares the buffers; a traversal (`traverse_wide.wgsl` or `traverse.wgsl`, with
+// its record file and `traverse_common.wgsl`) and `sampling.wgsl` (random numbers, frames, offsets)
+// are appended to it, as WGSL resolves module-scope names in any order.
 
-/// WGSL: the path-tracing kernel (`path_trace`) with the traversal.
+/// WGSL: the path-tracing kernel (`path_trace`) with the traversal (the compressed 4-wide records
+/// of `treelight_bvh::Bvh::gpu_wide_node`).
 pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/pathtrace.wgsl"),
-    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/wide_compressed.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
     include_str!("../../../shaders/sampling.wgsl"),
     include_str!("../../../shaders/aux_layout.wgsl")
 );
 
-/// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), and ambient
-/// occlusion from those hits (`ambient_occlusion`), with the traversal. The tests compare
-/// `primary_hits` with the engine's CPU traversal.
+/// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), and from those
+/// hits shadow, diffuse-bounce and ambient-occlusion rays, through the path tracer's traversal. The
+/// tests compare `primary_hits` with the engine's CPU traversal.
 pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../../shaders/primary_hits.wgsl"),
-    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/wide_compressed.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
-/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over the 4-wide layout
-/// (`treelight_bvh::Bvh::gpu_wide_layout`) instead of the binary one, for comparing the two.
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over the binary records (`treelight_bvh::GpuNode`),
+/// for comparing layouts.
+pub const PRIMARY_HITS_BINARY_WGSL: &str = concat!(
+    include_str!("../../../shaders/primary_hits.wgsl"),
+    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/binary_float.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
+);
+
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over the binary records with boxes in bytes
+/// (`treelight_bvh::GpuCompressedBinaryNode`), for comparing layouts.
+pub const PRIMARY_HITS_BINARY_COMPRESSED_WGSL: &str = concat!(
+    include_str!("../../../shaders/primary_hits.wgsl"),
+    include_str!("../../../shaders/traverse.wgsl"),
+    include_str!("../../../shaders/binary_compressed.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
+);
+
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over the 4-wide records with float boxes
+/// (`treelight_bvh::Bvh::gpu_wide_layout`), for comparing layouts.
 pub const PRIMARY_HITS_WIDE_WGSL: &str = concat!(
     include_str!("../../../shaders/primary_hits.wgsl"),
     include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/wide_float.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );

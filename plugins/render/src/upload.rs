@@ -1,10 +1,11 @@
 //! From a [`ChangeSet`] to the buffer writes a renderer issues: only changed records, buffers grown by
 //! doubling (the old contents copied on the GPU), and a byte count for the figure the UI shows.
 
-use treelight_bvh::{Bvh, ChangeSet, GpuInstance, GpuNode, GpuTriangle};
+use treelight_bvh::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle};
 
-/// Bytes of one node record.
-pub const NODE_BYTES: u64 = size_of::<GpuNode>() as u64;
+/// Bytes of one node record (the compressed 4-wide record of `Bvh::gpu_wide_node`, one per inner
+/// node).
+pub const NODE_BYTES: u64 = size_of::<GpuCompressedNode>() as u64;
 /// Bytes of one triangle record.
 pub const TRIANGLE_BYTES: u64 = size_of::<GpuTriangle>() as u64;
 /// Bytes of one instance record.
@@ -88,7 +89,7 @@ pub fn grown_capacity(current: u64, needed: u64) -> u64 {
 }
 
 /// The 64 bytes of a node record.
-pub fn node_bytes(n: &GpuNode) -> Vec<u8> {
+pub fn node_bytes(n: &GpuCompressedNode) -> Vec<u8> {
     bytemuck::bytes_of(n).to_vec()
 }
 
@@ -104,7 +105,8 @@ pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
 
 impl UploadPlan {
     /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
-    /// Consecutive changed records become one write each.
+    /// Consecutive changed records become one write each. A node record holds its children's binary
+    /// records, so the changed nodes' parents are rewritten with them (`Bvh::gpu_wide_ranges`).
     pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
         let mut plan = UploadPlan {
             root: bvh.gpu_root(),
@@ -120,10 +122,10 @@ impl UploadPlan {
                 plan.grow.push((kind, grown_capacity(cap, need)));
             }
         }
-        for r in &changes.inner_ranges {
+        for r in bvh.gpu_wide_ranges(changes) {
             let bytes = r
                 .clone()
-                .flat_map(|i| node_bytes(&bvh.gpu_node(i)))
+                .flat_map(|i| node_bytes(&bvh.gpu_wide_node(i)))
                 .collect();
             plan.writes.push(BufferWrite {
                 buffer: BufferKind::Nodes,

@@ -1,11 +1,15 @@
 //! The WGSL traversal on a real adapter (Mesa's llvmpipe in CI) finds the same primary-hit triangles
-//! as the engine's CPU traversal, for the same camera rays, through each layout: the binary records,
-//! the same renumbered depth first, and their 4-wide collapse.
+//! as the engine's CPU traversal, for the same camera rays, through each layout: the path tracer's
+//! (compressed 4-wide records, one per inner node), the binary records, the same renumbered depth
+//! first, the binary records with boxes in bytes, and the float 4-wide collapse.
 
 mod support;
 
 use std::path::Path;
-use support::{PinholeView as View, gpu_depth_first_hits, gpu_hits, gpu_wide_hits, skip};
+use support::{
+    PinholeView as View, gpu_binary_compressed_hits, gpu_binary_hits, gpu_depth_first_hits,
+    gpu_hits, gpu_wide_hits, skip,
+};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
 
@@ -61,8 +65,13 @@ fn sibenik_primary_hits_match_the_cpu() {
         128,
     );
     for (layout, gpu) in [
-        ("binary", gpu_hits(&bvh, &view)),
+        (
+            "the path tracer's (compressed 4-wide per node)",
+            gpu_hits(&bvh, &view),
+        ),
+        ("binary", gpu_binary_hits(&bvh, &view)),
         ("depth first", gpu_depth_first_hits(&bvh, &view)),
+        ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
         ("4-wide", gpu_wide_hits(&bvh, &view)),
     ] {
         let hits = gpu.iter().filter(|&&g| g != u32::MAX).count();
@@ -104,8 +113,13 @@ fn instanced_groups_are_traversed_in_object_space() {
         96,
     );
     for (layout, gpu) in [
-        ("binary", gpu_hits(&bvh, &view)),
+        (
+            "the path tracer's (compressed 4-wide per node)",
+            gpu_hits(&bvh, &view),
+        ),
+        ("binary", gpu_binary_hits(&bvh, &view)),
         ("depth first", gpu_depth_first_hits(&bvh, &view)),
+        ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
         ("4-wide", gpu_wide_hits(&bvh, &view)),
     ] {
         let a = agreement(&bvh, &view, &gpu);

@@ -3,10 +3,13 @@
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
-use treelight_bvh::{GpuInstance, GpuNode, GpuTriangle, GpuWideNode};
+use treelight_bvh::{
+    GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GpuWideNode,
+};
 use treelight_render::{
     GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuView,
-    PATHTRACE_WGSL, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, RESOLVE_WGSL,
+    PATHTRACE_WGSL, PRIMARY_HITS_BINARY_COMPRESSED_WGSL, PRIMARY_HITS_BINARY_WGSL,
+    PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, RESOLVE_WGSL,
 };
 
 fn module(source: &str) -> naga::Module {
@@ -61,8 +64,16 @@ fn traversal_records_have_the_engine_s_layout() {
         assert_eq!(
             wgsl_layout(&m, "Node"),
             rust_layout!(
-                GpuNode,
-                [a_min, a_ref, a_max, b_ref, b_min, pad0, b_max, pad1]
+                GpuCompressedNode,
+                [
+                    origin,
+                    exponents,
+                    quantized_x,
+                    quantized_y,
+                    quantized_z,
+                    pad,
+                    refs
+                ]
             )
         );
         assert_eq!(
@@ -104,6 +115,32 @@ fn wide_traversal_records_have_the_engine_s_layout() {
     ] {
         assert!(has_entry(&m, entry), "{entry}");
     }
+}
+
+#[test]
+fn binary_compressed_traversal_records_have_the_engine_s_layout() {
+    let m = module(PRIMARY_HITS_BINARY_COMPRESSED_WGSL);
+    assert_eq!(
+        wgsl_layout(&m, "Node"),
+        rust_layout!(
+            GpuCompressedBinaryNode,
+            [origin, exponents, quantized, a_ref, b_ref, pad]
+        )
+    );
+    assert!(has_entry(&m, "diffuse_bounces"));
+}
+
+#[test]
+fn binary_traversal_records_have_the_engine_s_layout() {
+    let m = module(PRIMARY_HITS_BINARY_WGSL);
+    assert_eq!(
+        wgsl_layout(&m, "Node"),
+        rust_layout!(
+            GpuNode,
+            [a_min, a_ref, a_max, b_ref, b_min, pad0, b_max, pad1]
+        )
+    );
+    assert!(has_entry(&m, "diffuse_bounces"));
 }
 
 #[test]

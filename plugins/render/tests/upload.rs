@@ -47,7 +47,7 @@ impl FakeGpu {
             let at = i as usize * 64;
             assert_eq!(
                 &self.buffers[0][at..at + 64],
-                node_bytes(&bvh.gpu_node(i)).as_slice(),
+                node_bytes(&bvh.gpu_wide_node(i)).as_slice(),
                 "node {i}"
             );
         }

@@ -2,6 +2,7 @@
 //! TLBVH1 file.
 
 pub(crate) mod change;
+pub(crate) mod compressed;
 pub(crate) mod depth_first;
 pub(crate) mod gpu;
 pub(crate) mod tlbvh;

@@ -487,7 +487,7 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
     [
         (0..bvh.inner_capacity())
-            .flat_map(|i| node_bytes(&bvh.gpu_node(i)))
+            .flat_map(|i| node_bytes(&bvh.gpu_wide_node(i)))
             .collect(),
         (0..bvh.triangle_capacity())
             .flat_map(|t| triangle_bytes(&bvh.gpu_triangle(t)))
@@ -498,14 +498,25 @@ pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
     ]
 }
 
+/// The binary records (`Bvh::gpu_node`): nodes, triangles, instances, and the root reference.
+pub fn binary_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+    let [_, triangles, instances] = tree_bytes(bvh);
+    let mut nodes: Vec<u8> = bytemuck::cast_slice(&bvh.gpu_nodes()).to_vec();
+    if nodes.is_empty() {
+        // A storage buffer may not be empty.
+        nodes = vec![0; size_of::<treelight_bvh::GpuNode>()];
+    }
+    ([nodes, triangles, instances], bvh.gpu_root())
+}
+
 /// The binary records renumbered depth first: nodes, triangles, instances, and the root reference.
 pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
     let d = bvh.gpu_depth_first_layout();
     let [_, triangles, _] = tree_bytes(bvh);
-    let mut nodes: Vec<u8> = d.nodes.iter().flat_map(node_bytes).collect();
+    let mut nodes: Vec<u8> = bytemuck::cast_slice(&d.nodes).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
-        nodes = node_bytes(&treelight_bvh::GpuNode::default());
+        nodes = vec![0; size_of::<treelight_bvh::GpuNode>()];
     }
     let instances = d.instances.iter().flat_map(instance_bytes).collect();
     ([nodes, triangles, instances], d.root)
@@ -522,6 +533,22 @@ pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
     }
     let instances = wide.instances.iter().flat_map(instance_bytes).collect();
     ([nodes, triangles, instances], wide.root)
+}
+
+/// The binary records with boxes in bytes: nodes, triangles, instances, and the root reference.
+pub fn binary_compressed_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+    let [_, triangles, instances] = tree_bytes(bvh);
+    let nodes = bvh
+        .gpu_nodes()
+        .iter()
+        .map(treelight_bvh::GpuCompressedBinaryNode::quantize)
+        .collect::<Vec<_>>();
+    let mut nodes: Vec<u8> = bytemuck::cast_slice(&nodes).to_vec();
+    if nodes.is_empty() {
+        // A storage buffer may not be empty.
+        nodes = vec![0; size_of::<treelight_bvh::GpuCompressedBinaryNode>()];
+    }
+    ([nodes, triangles, instances], bvh.gpu_root())
 }
 
 pub fn words(bytes: &[u8]) -> Vec<u32> {
@@ -620,22 +647,49 @@ pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
     )
 }
 
+/// `primary_hits` through the binary records ([`binary_tree_bytes`]).
+pub fn gpu_binary_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    hits_through(
+        treelight_render::PRIMARY_HITS_BINARY_WGSL,
+        binary_tree_bytes(bvh),
+        view,
+    )
+}
+
 /// `primary_hits` through the binary records renumbered depth first ([`depth_first_tree_bytes`]).
 pub fn gpu_depth_first_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
-    let gpu = Gpu::new();
-    let ([n, t, i], root) = depth_first_tree_bytes(bvh);
-    let buffers = [
-        gpu.storage("nodes", &n),
-        gpu.storage("triangles", &t),
-        gpu.storage("instances", &i),
-    ];
-    hits_on(&gpu, [&buffers[0], &buffers[1], &buffers[2]], root, view)
+    hits_through(
+        treelight_render::PRIMARY_HITS_BINARY_WGSL,
+        depth_first_tree_bytes(bvh),
+        view,
+    )
 }
 
 /// `primary_hits` through the 4-wide layout ([`wide_tree_bytes`]).
 pub fn gpu_wide_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    hits_through(
+        treelight_render::PRIMARY_HITS_WIDE_WGSL,
+        wide_tree_bytes(bvh),
+        view,
+    )
+}
+
+/// `primary_hits` through the binary records with boxes in bytes ([`binary_compressed_tree_bytes`]).
+pub fn gpu_binary_compressed_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
+    hits_through(
+        treelight_render::PRIMARY_HITS_BINARY_COMPRESSED_WGSL,
+        binary_compressed_tree_bytes(bvh),
+        view,
+    )
+}
+
+/// `primary_hits` of kernel `source` over a layout's buffers and root.
+fn hits_through(
+    source: &str,
+    ([n, t, i], root): ([Vec<u8>; 3], u32),
+    view: &PinholeView,
+) -> Vec<u32> {
     let gpu = Gpu::new();
-    let ([n, t, i], root) = wide_tree_bytes(bvh);
     let buffers = [
         gpu.storage("nodes", &n),
         gpu.storage("triangles", &t),
@@ -643,7 +697,7 @@ pub fn gpu_wide_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
     ];
     let camera = gpu.uniform(&view.uniform(root));
     let out = gpu.zeroed((view.width * view.height * 4) as u64);
-    let pipeline = gpu.pipeline(treelight_render::PRIMARY_HITS_WIDE_WGSL, "primary_hits");
+    let pipeline = gpu.pipeline(source, "primary_hits");
     gpu.dispatch(
         &pipeline,
         &[&buffers[0], &buffers[1], &buffers[2], &camera, &out],

@@ -1,0 +1,261 @@
+//! GPU records with their child boxes quantized to bytes (after Ylitie, Karras, Laine 2017): a record
+//! holds the minimum corner of its children's boxes and a power-of-two step per axis, and each
+//! child's box as whole steps from that corner, rounded outwards so it still holds the child.
+//!
+//! The path tracer's record is 4-wide, one per inner node ([`Bvh::gpu_wide_node`]): 64 bytes for four
+//! children where the binary record takes 64 for two, indexed as the inner nodes so that an edit
+//! re-encodes only the records it touched and their parents. The binary record with its boxes in
+//! bytes ([`GpuCompressedBinaryNode`], 48 bytes) is kept for measuring layouts.
+
+use crate::tree::node::{FREE, NONE};
+use crate::{Bvh, ChangeSet, GpuNode, GpuWideNode, NodeRef};
+use bytemuck::{Pod, Zeroable};
+use std::ops::Range;
+
+/// One compressed 4-wide node for the GPU, 64 bytes. Child `k`'s box on axis `a` is
+/// `origin[a] + q * step(a)` for byte `k` of the axis's minimum and maximum words, where
+/// `step(a)` is the float whose exponent bits are byte `a` of `exponents` (a power of two).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuCompressedNode {
+    /// The minimum corner of the union of the children's boxes.
+    pub origin: [f32; 3],
+    /// The steps' biased exponents, x in the low byte, then y and z.
+    pub exponents: u32,
+    /// Quantized boxes on x, four children per word (child 0 in the low byte): minima, maxima.
+    pub quantized_x: [u32; 2],
+    /// The same on y.
+    pub quantized_y: [u32; 2],
+    /// The same on z.
+    pub quantized_z: [u32; 2],
+    /// Unused; keeps `refs` 16-byte aligned as WGSL lays out the record.
+    pub pad: [u32; 2],
+    /// Child references (as in [`GpuWideNode`]; `NONE` for an empty slot).
+    pub refs: [u32; 4],
+}
+
+/// One compressed binary node for the GPU, 48 bytes: [`GpuNode`] with its two boxes in bytes.
+/// `quantized` holds, a byte each from the low byte of word 0: the left child's minimum x, y, z and
+/// maximum x, y, z, then the right child's the same; a coordinate is `origin + q * step` as in
+/// [`GpuCompressedNode`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuCompressedBinaryNode {
+    /// The minimum corner of the union of the children's boxes.
+    pub origin: [f32; 3],
+    /// The steps' biased exponents, x in the low byte, then y and z.
+    pub exponents: u32,
+    /// The twelve quantized coordinates.
+    pub quantized: [u32; 3],
+    /// Left child reference.
+    pub a_ref: u32,
+    /// Right child reference.
+    pub b_ref: u32,
+    /// Padding to 48 bytes, the record's size in a WGSL array.
+    pub pad: [u32; 3],
+}
+
+impl Bvh {
+    /// The compressed 4-wide record of inner node `i`, kept in step with the binary tree: its slots
+    /// hold `i`'s grandchildren (a child that is a leaf or an instance takes a slot itself), and an
+    /// inner grandchild's reference names its own record, at its own index. So the records are
+    /// indexed as the inner nodes are, and an edit rewrites the records of the nodes it changed and
+    /// of their parents ([`Bvh::gpu_wide_ranges`]). A freed slot's record has no children.
+    pub fn gpu_wide_node(&self, i: u32) -> GpuCompressedNode {
+        let mut wide = GpuWideNode::default();
+        let n = &self.inner[i as usize];
+        if n.parent == FREE {
+            return GpuCompressedNode::quantize(&wide);
+        }
+        let mut k = 0;
+        let mut put = |r: NodeRef| {
+            let b = self.aabb(r);
+            wide.min_x[k] = b.min.x;
+            wide.max_x[k] = b.max.x;
+            wide.min_y[k] = b.min.y;
+            wide.max_y[k] = b.max.y;
+            wide.min_z[k] = b.min.z;
+            wide.max_z[k] = b.max.z;
+            wide.refs[k] = r.0;
+            k += 1;
+        };
+        for c in n.children {
+            if c.is_inner() {
+                for g in self.inner[c.index() as usize].children {
+                    put(g);
+                }
+            } else {
+                put(c);
+            }
+        }
+        GpuCompressedNode::quantize(&wide)
+    }
+
+    /// The records of [`Bvh::gpu_wide_node`] that `changes` touches, as sorted disjoint ranges: the
+    /// changed inner nodes and their parents (a record holds its children's binary records).
+    pub fn gpu_wide_ranges(&self, changes: &ChangeSet) -> Vec<Range<u32>> {
+        let mut ids: Vec<u32> = Vec::with_capacity(changes.inner_count() as usize * 2);
+        for r in &changes.inner_ranges {
+            for i in r.clone() {
+                ids.push(i);
+                let parent = self.inner.get(i as usize).map_or(FREE, |n| n.parent);
+                if parent != FREE && parent != NONE {
+                    ids.push(parent);
+                }
+            }
+        }
+        ids.sort_unstable();
+        ids.dedup();
+        let mut out: Vec<Range<u32>> = Vec::new();
+        for i in ids {
+            match out.last_mut() {
+                Some(r) if r.end == i => r.end += 1,
+                _ => out.push(i..i + 1),
+            }
+        }
+        out
+    }
+
+    /// Every inner node's record of [`Bvh::gpu_wide_node`], for a first full upload.
+    pub fn gpu_wide_nodes(&self) -> Vec<GpuCompressedNode> {
+        (0..self.inner.len() as u32)
+            .map(|i| self.gpu_wide_node(i))
+            .collect()
+    }
+}
+
+fn step(exponent: u32) -> f32 {
+    f32::from_bits(exponent << 23)
+}
+
+/// One axis of a record: the boxes' `[min, max]` on it in, the origin, the biased exponent and each
+/// box's quantized `[min, max]` out.
+fn quantize_axis<const N: usize>(boxes: [[f32; 2]; N]) -> (f32, u32, [[u32; 2]; N]) {
+    let origin = boxes.iter().map(|b| b[0]).fold(f32::INFINITY, f32::min);
+    let top = boxes.iter().map(|b| b[1]).fold(f32::NEG_INFINITY, f32::max);
+    if !origin.is_finite() || !top.is_finite() {
+        return (0.0, 1, [[0, 0]; N]);
+    }
+    let top = top.max(origin);
+    // The smallest step for which 255 of them reach `top` in f32 arithmetic: start just below the
+    // exponent of extent / 255 and walk up. `q * step` is exact, so the kernel's sum rounds as this
+    // one does, monotonically: a bound checked here holds there.
+    let mut e = (((top - origin) / 255.0).to_bits() >> 23 & 0xff)
+        .saturating_sub(1)
+        .max(1);
+    while e < 254 && origin + step(e) * 255.0 < top {
+        e += 1;
+    }
+    let s = step(e);
+    let q = boxes.map(|[lo, hi]| {
+        let mut a = (((lo - origin) / s).floor().max(0.0) as u32).min(255);
+        while a > 0 && origin + a as f32 * s > lo {
+            a -= 1;
+        }
+        let mut b = (((hi - origin) / s).ceil().max(0.0) as u32).min(255);
+        while b < 255 && origin + b as f32 * s < hi {
+            b += 1;
+        }
+        [a, b]
+    });
+    (origin, e, q)
+}
+
+impl GpuCompressedNode {
+    /// Child `k`'s box on `axis` (0 to 2) as the kernel decodes it: `[min, max]`.
+    pub fn child_bounds(&self, k: usize, axis: usize) -> [f32; 2] {
+        let s = step(self.exponents >> (8 * axis) & 0xff);
+        let [lo, hi] = [self.quantized_x, self.quantized_y, self.quantized_z][axis];
+        let byte = |w: u32| (w >> (8 * k) & 0xff) as f32;
+        [
+            self.origin[axis] + byte(lo) * s,
+            self.origin[axis] + byte(hi) * s,
+        ]
+    }
+
+    /// `node`'s children quantized outwards (empty slots decode as empty boxes at the origin; the
+    /// kernel skips them by their references).
+    pub fn quantize(node: &GpuWideNode) -> Self {
+        let used = |k: usize| node.refs[k] != NodeRef::NONE.0;
+        let rows = [
+            (node.min_x, node.max_x),
+            (node.min_y, node.max_y),
+            (node.min_z, node.max_z),
+        ];
+        let mut out = Self {
+            origin: [0.0; 3],
+            exponents: 0,
+            quantized_x: [0; 2],
+            quantized_y: [0; 2],
+            quantized_z: [0; 2],
+            pad: [0; 2],
+            refs: node.refs,
+        };
+        for (axis, (lo, hi)) in rows.into_iter().enumerate() {
+            let boxes: [[f32; 2]; 4] = std::array::from_fn(|k| {
+                if used(k) {
+                    [lo[k], hi[k]]
+                } else {
+                    [f32::INFINITY, f32::NEG_INFINITY]
+                }
+            });
+            let (origin, e, q) = quantize_axis(boxes);
+            let (mut qlo, mut qhi) = (0u32, 0u32);
+            for (k, [a, b]) in q.into_iter().enumerate() {
+                if used(k) {
+                    qlo |= a << (8 * k);
+                    qhi |= b << (8 * k);
+                }
+            }
+            out.origin[axis] = origin;
+            out.exponents |= e << (8 * axis);
+            *[
+                &mut out.quantized_x,
+                &mut out.quantized_y,
+                &mut out.quantized_z,
+            ][axis] = [qlo, qhi];
+        }
+        out
+    }
+}
+
+impl GpuCompressedBinaryNode {
+    /// The left (`k` 0) or right (1) child's box on `axis` as the kernel decodes it: `[min, max]`.
+    pub fn child_bounds(&self, k: usize, axis: usize) -> [f32; 2] {
+        let s = step(self.exponents >> (8 * axis) & 0xff);
+        let byte = |i: usize| (self.quantized[i / 4] >> (8 * (i % 4)) & 0xff) as f32;
+        [
+            self.origin[axis] + byte(6 * k + axis) * s,
+            self.origin[axis] + byte(6 * k + 3 + axis) * s,
+        ]
+    }
+
+    /// `node`'s boxes quantized outwards (a freed slot, with null children, keeps them null).
+    pub fn quantize(node: &GpuNode) -> Self {
+        let mut out = Self {
+            origin: [0.0; 3],
+            exponents: 0,
+            quantized: [0; 3],
+            a_ref: node.a_ref,
+            b_ref: node.b_ref,
+            pad: [0; 3],
+        };
+        for axis in 0..3 {
+            let (origin, e, [a, b]) = quantize_axis([
+                [node.a_min[axis], node.a_max[axis]],
+                [node.b_min[axis], node.b_max[axis]],
+            ]);
+            out.origin[axis] = origin;
+            out.exponents |= e << (8 * axis);
+            for (i, q) in [
+                (axis, a[0]),
+                (3 + axis, a[1]),
+                (6 + axis, b[0]),
+                (9 + axis, b[1]),
+            ] {
+                out.quantized[i / 4] |= q << (8 * (i % 4));
+            }
+        }
+        out
+    }
+}
