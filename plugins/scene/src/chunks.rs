@@ -3,35 +3,53 @@
 //! waiting for the whole mesh's build.
 
 use crate::TriangleShading;
+use std::sync::Arc;
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{MeshPieces, PieceRule, Triangle};
+use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup, Triangle};
 
-/// One piece of a mesh: object-space triangles and their shading, in the same order.
-pub(crate) struct Chunk {
-    pub triangles: Vec<Triangle>,
-    pub shading: TriangleShading,
+/// A mesh cut by the engine's rule ([`MeshPieces::cut`]: pieces nearest `eye` first under the
+/// transform). Each chunk is gathered when it is built, so the mesh is not held twice.
+pub(crate) struct MeshChunks {
+    pieces: MeshPieces,
+    triangles: Arc<Vec<Triangle>>,
+    shading: Arc<TriangleShading>,
 }
 
-/// Cuts a mesh by the engine's rule ([`MeshPieces::cut`]: pieces nearest `eye` first under
-/// `transform`), each with its triangles' shading.
-pub(crate) fn spatial_chunks(
-    triangles: &[Triangle],
-    shading: &TriangleShading,
-    rule: PieceRule,
-    transform: &Affine3A,
-    eye: Option<Vec3>,
-) -> Vec<Chunk> {
-    let whole = triangles.len();
-    MeshPieces::cut(triangles, rule, transform, eye)
-        .ids()
-        .map(|ids| Chunk {
-            triangles: ids.iter().map(|&t| triangles[t as usize]).collect(),
-            shading: TriangleShading {
-                normals: gather(&shading.normals, ids, whole),
-                uvs: gather(&shading.uvs, ids, whole),
-            },
-        })
-        .collect()
+impl MeshChunks {
+    pub fn cut(
+        triangles: Arc<Vec<Triangle>>,
+        shading: Arc<TriangleShading>,
+        rule: PieceRule,
+        transform: &Affine3A,
+        eye: Option<Vec3>,
+    ) -> Self {
+        Self {
+            pieces: MeshPieces::cut(&triangles, rule, transform, eye),
+            triangles,
+            shading,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.pieces.len()
+    }
+
+    /// Chunk `k`'s group under `transform`, built off the tree's thread ([`MeshPieces::build`]: a
+    /// mesh in pieces is kept whole, an instance over its own subtree, so a first move or copy of it
+    /// is one node per chunk).
+    pub fn build(&self, k: usize, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
+        self.pieces.build(k, &self.triangles, transform)
+    }
+
+    /// Chunk `k`'s triangles' shading, in the order of its triangles.
+    pub fn shading(&self, k: usize) -> TriangleShading {
+        let ids = self.pieces.ids().nth(k).unwrap_or_default();
+        let whole = self.triangles.len();
+        TriangleShading {
+            normals: gather(&self.shading.normals, ids, whole),
+            uvs: gather(&self.shading.uvs, ids, whole),
+        }
+    }
 }
 
 /// The entries of `ids` from a per-triangle array. Shading arrays hold one entry per triangle or
@@ -67,18 +85,26 @@ mod tests {
         }
         let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
         let eye = Vec3::new(100.0, 5.0, -10.0);
-        let chunks = spatial_chunks(&triangles, &shading, RULE, &transform, Some(eye));
+        let chunks = MeshChunks::cut(
+            Arc::new(triangles),
+            Arc::new(shading),
+            RULE,
+            &transform,
+            Some(eye),
+        );
         assert!(chunks.len() >= 900 / 64);
         let mut seen = vec![false; 900];
-        for c in &chunks {
-            assert!(!c.triangles.is_empty() && c.triangles.len() <= 64);
-            assert_eq!(c.shading.normals.len(), c.triangles.len());
-            assert_eq!(c.shading.uvs.len(), c.triangles.len());
-            for (t, n) in c.triangles.iter().zip(&c.shading.normals) {
-                let k = n[0].x as usize;
-                assert_eq!(*t, triangles[k], "shading follows its triangle");
-                assert!(!seen[k], "triangle {k} in two chunks");
-                seen[k] = true;
+        for k in 0..chunks.len() {
+            let group = chunks.build(k, transform).unwrap();
+            let shading = chunks.shading(k);
+            assert!(!group.is_empty() && group.len() <= 64);
+            assert_eq!(shading.normals.len(), group.len());
+            assert_eq!(shading.uvs.len(), group.len());
+            for (n, uv) in shading.normals.iter().zip(&shading.uvs) {
+                let t = n[0].x as usize;
+                assert_eq!(uv[0].x as usize, t, "normals and UVs of one triangle");
+                assert!(!seen[t], "triangle {t} in two chunks");
+                seen[t] = true;
             }
         }
         assert!(seen.into_iter().all(|s| s));
@@ -87,8 +113,11 @@ mod tests {
             normals: vec![[Vec3::ZERO; 3]; 10],
             uvs: Vec::new(),
         };
-        for c in spatial_chunks(&triangles, &short, RULE, &transform, None) {
-            assert!(c.shading.normals.is_empty() && c.shading.uvs.is_empty());
+        let triangles = chunks.triangles.clone();
+        let chunks = MeshChunks::cut(triangles, Arc::new(short), RULE, &transform, None);
+        for k in 0..chunks.len() {
+            let shading = chunks.shading(k);
+            assert!(shading.normals.is_empty() && shading.uvs.is_empty());
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The background worker that owns the write side of the global tree. Commands arrive over a
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
-use crate::chunks::spatial_chunks;
+use crate::chunks::MeshChunks;
 use crate::refine::Refiner;
 use crate::{GeometryCopy, SceneStats, SceneTree, TriangleShading};
 use bevy::asset::AssetId;
@@ -349,8 +349,7 @@ fn insert_in_chunks(
         eye,
         ..
     } = huge;
-    let chunks = spatial_chunks(&triangles, &shading, config.chunks, &transform, eye);
-    drop((triangles, shading));
+    let chunks = MeshChunks::cut(triangles, shading, config.chunks, &transform, eye);
     let old: Vec<GroupId> = shared
         .tree
         .read()
@@ -359,10 +358,10 @@ fn insert_in_chunks(
         .to_vec();
     let mut made: Vec<GroupId> = Vec::with_capacity(chunks.len());
     let mut inserted = 0usize;
-    for chunk in chunks {
-        // Kept whole (an instance over its own subtree), and never baked: a first move or copy of
-        // the mesh is then one node per chunk, not a pass over a million triangles.
-        let built = PreparedGroup::build(chunk.triangles, transform, true);
+    for k in 0..chunks.len() {
+        // Kept whole and never baked (`MeshChunks::build`).
+        let built = chunks.build(k, transform);
+        let shading = chunks.shading(k);
         let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
         let tree = &mut *guard;
         match built.and_then(|p| {
@@ -370,7 +369,7 @@ fn insert_in_chunks(
             Ok((tree.bvh.insert_prepared(p)?, n))
         }) {
             Ok((g, n)) => {
-                tree.bind(entity, g, Arc::new(chunk.shading), mesh);
+                tree.bind(entity, g, Arc::new(shading), mesh);
                 made.push(g);
                 inserted += n;
             }
