@@ -202,15 +202,8 @@ fn check_wide_nodes(bvh: &Bvh) {
             } else {
                 vec![c.0]
             };
-            for r in slots {
-                let b = bvh.aabb(NodeRef(r));
-                want.min_x[k] = b.min.x;
-                want.max_x[k] = b.max.x;
-                want.min_y[k] = b.min.y;
-                want.max_y[k] = b.max.y;
-                want.min_z[k] = b.min.z;
-                want.max_z[k] = b.max.z;
-                want.refs[k] = r;
+            for r in slots.into_iter().map(NodeRef) {
+                want.set_child(k, &bvh.aabb(r), r);
                 k += 1;
             }
         }
@@ -223,13 +216,8 @@ fn check_wide_nodes(bvh: &Bvh) {
 fn wide_node(boxes: &[([f32; 3], [f32; 3])]) -> GpuWideNode {
     let mut n = GpuWideNode::default();
     for (k, (lo, size)) in boxes.iter().enumerate() {
-        n.min_x[k] = lo[0];
-        n.max_x[k] = lo[0] + size[0];
-        n.min_y[k] = lo[1];
-        n.max_y[k] = lo[1] + size[1];
-        n.min_z[k] = lo[2];
-        n.max_z[k] = lo[2] + size[2];
-        n.refs[k] = NodeRef::leaf(k as u32).0;
+        let (lo, size) = (Vec3::from(*lo), Vec3::from(*size));
+        n.set_child(k, &Aabb::new(lo, lo + size), NodeRef::leaf(k as u32));
     }
     n
 }

@@ -57,6 +57,18 @@ fn has_entry(module: &naga::Module, name: &str) -> bool {
     module.entry_points.iter().any(|e| e.name == name)
 }
 
+/// The measuring kernels every traversal's `primary_hits.wgsl` module has.
+fn assert_ray_kernels(m: &naga::Module) {
+    for entry in [
+        "primary_hits",
+        "ambient_occlusion",
+        "diffuse_bounces",
+        "shadow_rays",
+    ] {
+        assert!(has_entry(m, entry), "{entry}");
+    }
+}
+
 #[test]
 fn traversal_records_have_the_engine_s_layout() {
     for source in [PATHTRACE_WGSL, PRIMARY_HITS_WGSL] {
@@ -107,14 +119,7 @@ fn wide_traversal_records_have_the_engine_s_layout() {
             [world_to_object, object_to_world, root, group, pad1, pad2]
         )
     );
-    for entry in [
-        "primary_hits",
-        "ambient_occlusion",
-        "diffuse_bounces",
-        "shadow_rays",
-    ] {
-        assert!(has_entry(&m, entry), "{entry}");
-    }
+    assert_ray_kernels(&m);
 }
 
 #[test]
@@ -127,7 +132,7 @@ fn binary_compressed_traversal_records_have_the_engine_s_layout() {
             [origin, exponents, quantized, a_ref, b_ref, pad]
         )
     );
-    assert!(has_entry(&m, "diffuse_bounces"));
+    assert_ray_kernels(&m);
 }
 
 #[test]
@@ -140,7 +145,7 @@ fn binary_traversal_records_have_the_engine_s_layout() {
             [a_min, a_ref, a_max, b_ref, b_min, pad0, b_max, pad1]
         )
     );
-    assert!(has_entry(&m, "diffuse_bounces"));
+    assert_ray_kernels(&m);
 }
 
 #[test]

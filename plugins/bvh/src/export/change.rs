@@ -131,7 +131,7 @@ fn mark_appended(dirty: &mut Vec<bool>, list: &mut Vec<u32>, ids: Range<u32>) {
 }
 
 /// Turns sorted ids into ranges of consecutive ids.
-fn coalesce(ids: &[u32]) -> Vec<Range<u32>> {
+pub(crate) fn coalesce(ids: &[u32]) -> Vec<Range<u32>> {
     let mut out: Vec<Range<u32>> = Vec::new();
     for &i in ids {
         match out.last_mut() {

@@ -7,6 +7,7 @@
 //! re-encodes only the records it touched and their parents. The binary record with its boxes in
 //! bytes ([`GpuCompressedBinaryNode`], 48 bytes) is kept for measuring layouts.
 
+use crate::export::change::coalesce;
 use crate::tree::node::{FREE, NONE};
 use crate::{Bvh, ChangeSet, GpuNode, GpuWideNode, NodeRef};
 use bytemuck::{Pod, Zeroable};
@@ -69,14 +70,7 @@ impl Bvh {
         }
         let mut k = 0;
         let mut put = |r: NodeRef| {
-            let b = self.aabb(r);
-            wide.min_x[k] = b.min.x;
-            wide.max_x[k] = b.max.x;
-            wide.min_y[k] = b.min.y;
-            wide.max_y[k] = b.max.y;
-            wide.min_z[k] = b.min.z;
-            wide.max_z[k] = b.max.z;
-            wide.refs[k] = r.0;
+            wide.set_child(k, &self.aabb(r), r);
             k += 1;
         };
         for c in n.children {
@@ -106,14 +100,7 @@ impl Bvh {
         }
         ids.sort_unstable();
         ids.dedup();
-        let mut out: Vec<Range<u32>> = Vec::new();
-        for i in ids {
-            match out.last_mut() {
-                Some(r) if r.end == i => r.end += 1,
-                _ => out.push(i..i + 1),
-            }
-        }
-        out
+        coalesce(&ids)
     }
 
     /// Every inner node's record of [`Bvh::gpu_wide_node`], for a first full upload.

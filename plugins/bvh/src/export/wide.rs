@@ -6,7 +6,7 @@
 //! however many instances share it.
 
 use crate::tree::node::{NodeKind, NodeRef};
-use crate::{Bvh, GpuLayout};
+use crate::{Aabb, Bvh, GpuLayout};
 use bytemuck::{Pod, Zeroable};
 use std::collections::HashMap;
 
@@ -44,6 +44,19 @@ impl Default for GpuWideNode {
             max_z: hi,
             refs: [NodeRef::NONE.0; 4],
         }
+    }
+}
+
+impl GpuWideNode {
+    /// Puts child `r`, with box `b`, in slot `k`.
+    pub fn set_child(&mut self, k: usize, b: &Aabb, r: NodeRef) {
+        self.min_x[k] = b.min.x;
+        self.max_x[k] = b.max.x;
+        self.min_y[k] = b.min.y;
+        self.max_y[k] = b.max.y;
+        self.min_z[k] = b.min.z;
+        self.max_z[k] = b.max.z;
+        self.refs[k] = r.0;
     }
 }
 
@@ -88,14 +101,8 @@ impl Bvh {
             }
             let mut rec = GpuWideNode::default();
             for (k, &kid) in kids.iter().enumerate() {
-                let b = self.aabb(kid);
-                rec.min_x[k] = b.min.x;
-                rec.max_x[k] = b.max.x;
-                rec.min_y[k] = b.min.y;
-                rec.max_y[k] = b.max.y;
-                rec.min_z[k] = b.min.z;
-                rec.max_z[k] = b.max.z;
-                rec.refs[k] = name(kid, &mut out.nodes, &mut queue);
+                let named = NodeRef(name(kid, &mut out.nodes, &mut queue));
+                rec.set_child(k, &self.aabb(kid), named);
             }
             out.nodes[slot as usize] = rec;
         }

@@ -613,15 +613,21 @@ impl PinholeView {
 }
 
 /// Runs `primary_hits` on buffers holding a tree: one triangle id (or u32::MAX) per pixel.
-pub fn hits_on(
+pub fn hits_on(gpu: &Gpu, buffers: [&wgpu::Buffer; 3], root: u32, view: &PinholeView) -> Vec<u32> {
+    kernel_hits_on(gpu, PRIMARY_HITS_WGSL, buffers, root, view)
+}
+
+/// [`hits_on`] through the `primary_hits` of kernel `source` (a layout's).
+fn kernel_hits_on(
     gpu: &Gpu,
+    source: &str,
     [nodes, tris, insts]: [&wgpu::Buffer; 3],
     root: u32,
     view: &PinholeView,
 ) -> Vec<u32> {
     let camera = gpu.uniform(&view.uniform(root));
     let out = gpu.zeroed((view.width * view.height * 4) as u64);
-    let pipeline = gpu.pipeline(PRIMARY_HITS_WGSL, "primary_hits");
+    let pipeline = gpu.pipeline(source, "primary_hits");
     gpu.dispatch(
         &pipeline,
         &[nodes, tris, insts, &camera, &out],
@@ -632,19 +638,7 @@ pub fn hits_on(
 
 /// `primary_hits` on a complete upload of the tree.
 pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
-    let gpu = Gpu::new();
-    let [n, t, i] = tree_bytes(bvh);
-    let buffers = [
-        gpu.storage("nodes", &n),
-        gpu.storage("triangles", &t),
-        gpu.storage("instances", &i),
-    ];
-    hits_on(
-        &gpu,
-        [&buffers[0], &buffers[1], &buffers[2]],
-        bvh.gpu_root(),
-        view,
-    )
+    hits_through(PRIMARY_HITS_WGSL, (tree_bytes(bvh), bvh.gpu_root()), view)
 }
 
 /// `primary_hits` through the binary records ([`binary_tree_bytes`]).
@@ -695,15 +689,13 @@ fn hits_through(
         gpu.storage("triangles", &t),
         gpu.storage("instances", &i),
     ];
-    let camera = gpu.uniform(&view.uniform(root));
-    let out = gpu.zeroed((view.width * view.height * 4) as u64);
-    let pipeline = gpu.pipeline(source, "primary_hits");
-    gpu.dispatch(
-        &pipeline,
-        &[&buffers[0], &buffers[1], &buffers[2], &camera, &out],
-        (view.width.div_ceil(8), view.height.div_ceil(8)),
-    );
-    words(&gpu.read(&out))
+    kernel_hits_on(
+        &gpu,
+        source,
+        [&buffers[0], &buffers[1], &buffers[2]],
+        root,
+        view,
+    )
 }
 
 /// For the examples: the number after flag `name` on the command line, or `default`.
