@@ -90,8 +90,19 @@ impl PendingImports {
     /// Starts parsing `path` (and making its Bevy meshes) in the background.
     pub fn start(&mut self, path: PathBuf) {
         let p = path.clone();
-        let task = AsyncComputeTaskPool::get()
-            .spawn(async move { treelight_import::load_scene(&p).map(ParsedScene::from) });
+        let task = AsyncComputeTaskPool::get().spawn(async move {
+            // A bug in the importer ends this import with an error, not the editor.
+            crate::contain::contain(
+                || format!("importing {}", p.display()),
+                || treelight_import::load_scene(&p).map(ParsedScene::from),
+            )
+            .unwrap_or_else(|e| {
+                Err(ImportError {
+                    file: p.clone(),
+                    problem: e,
+                })
+            })
+        });
         self.0.push((path, task));
     }
 }
@@ -385,6 +396,7 @@ pub fn spawn_scene(
             *meshes_per_node.entry(n).or_default() += 1;
         }
     }
+    let keys = mesh_object_keys(scene);
     // A mesh the file places at several nodes becomes one asset: the scene BVH then holds its
     // triangles once, each placement an instance.
     let mut mesh_handles: Vec<Handle<Mesh>> = Vec::with_capacity(scene.meshes.len());
@@ -412,15 +424,15 @@ pub fn spawn_scene(
             Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
                 let key = SourceKey {
                     file: file.to_owned(),
-                    key: scene.nodes[n].key.clone(),
+                    key: keys[i].clone(),
                 };
                 commands.entity(node).insert((shape, MeshSource(key)));
                 node
             }
-            Some((n, node)) => {
+            Some((_, node)) => {
                 let key = SourceKey {
                     file: file.to_owned(),
-                    key: format!("{}/mesh {i}", scene.nodes[n].key),
+                    key: keys[i].clone(),
                 };
                 commands
                     .spawn((
@@ -437,7 +449,7 @@ pub fn spawn_scene(
             None => {
                 let key = SourceKey {
                     file: file.to_owned(),
-                    key: format!("mesh {i}"),
+                    key: keys[i].clone(),
                 };
                 commands
                     .spawn((
@@ -464,18 +476,40 @@ pub fn spawn_scene(
     root
 }
 
+/// The source key of the object that shows each of `scene`'s meshes: a node's only mesh lives on
+/// the node (its key); each of several meshes of one node is a child (`NODE/mesh I`); a mesh of a
+/// file without nodes is `mesh I`.
+pub fn mesh_object_keys(scene: &ImportedScene) -> Vec<String> {
+    let mut per_node: HashMap<usize, usize> = HashMap::new();
+    for n in scene.meshes.iter().filter_map(|m| m.node) {
+        *per_node.entry(n).or_default() += 1;
+    }
+    scene
+        .meshes
+        .iter()
+        .enumerate()
+        .map(
+            |(i, m)| match m.node.and_then(|n| Some((n, scene.nodes.get(n)?))) {
+                Some((n, node)) if per_node.get(&n) == Some(&1) => node.key.clone(),
+                Some((_, node)) => format!("{}/mesh {i}", node.key),
+                None => format!("mesh {i}"),
+            },
+        )
+        .collect()
+}
+
 /// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).
 pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
     let mut mesh = Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
     )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.positions.clone())
-    .with_inserted_indices(Indices::U32(m.indices.clone()));
-    if let Some(uvs) = &m.uvs {
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.geometry.positions.clone())
+    .with_inserted_indices(Indices::U32(m.geometry.indices.clone()));
+    if let Some(uvs) = &m.geometry.uvs {
         mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
     }
-    match &m.normals {
+    match &m.geometry.normals {
         Some(n) => mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, n.clone()),
         None => mesh.compute_smooth_normals(),
     }

@@ -3,6 +3,7 @@
 //! decoder), `KHR_mesh_quantization` (vertex attributes stored as normalized or plain integers) and
 //! `KHR_draco_mesh_compression` (a primitive's geometry as one Draco stream).
 
+use crate::budget::Budget;
 use crate::{ImportError, MAX_ELEMENTS};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::json::Value;
@@ -17,27 +18,58 @@ pub(crate) const OWN_EXTENSIONS: &[&str] = &[
 
 const MESHOPT: &str = "EXT_meshopt_compression";
 
-/// Parses a .gltf or .glb, accepting the extensions in [`OWN_EXTENSIONS`] as required ones.
+/// Bytes charged per JSON object (`{`) and array (`[`) before a document is parsed: the most a
+/// parsed glTF object or array takes beside its text (the largest `gltf_json` struct, with room).
+const PARSED_OBJECT_BYTES: u64 = 768;
+const PARSED_ARRAY_BYTES: u64 = 64;
+
+/// Parses a .gltf or .glb from its bytes, accepting the extensions in [`OWN_EXTENSIONS`] as
+/// required ones. A GLB's binary chunk becomes the blob in place (the file's bytes are held once).
 pub(crate) fn parse(
     path: &Path,
-    bytes: &[u8],
-    describe: impl Fn(&gltf::Error) -> String,
+    mut bytes: Vec<u8>,
+    budget: &mut Budget,
 ) -> Result<gltf::Gltf, ImportError> {
     let (json, blob) = if bytes.starts_with(b"glTF") {
-        let glb = gltf::Glb::from_slice(bytes).map_err(|e| ImportError::new(path, describe(&e)))?;
-        (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
+        let glb = gltf::Glb::from_slice(&bytes)
+            .map_err(|e| ImportError::new(path, format!("not a readable GLB file: {e}")))?;
+        let json = range_in(&bytes, &glb.json);
+        let bin = glb.bin.as_deref().map(|b| range_in(&bytes, b));
+        let root = parse_json(path, &bytes[json], budget)?;
+        let blob = bin.map(|bin| {
+            bytes.truncate(bin.end);
+            bytes.drain(..bin.start);
+            bytes
+        });
+        (root, blob)
     } else {
-        (bytes.to_vec(), None)
+        (parse_json(path, &bytes, budget)?, None)
     };
-    let mut root: gltf::json::Root = gltf::json::deserialize::from_slice(&json)
-        .map_err(|e| ImportError::new(path, format!("not a readable glTF file: {e}")))?;
+    let mut root = json;
+    let unsupported: Vec<&str> = root
+        .extensions_required
+        .iter()
+        .map(String::as_str)
+        .filter(|x| {
+            !gltf::json::extensions::ENABLED_EXTENSIONS.contains(x) && !OWN_EXTENSIONS.contains(x)
+        })
+        .collect();
+    if !unsupported.is_empty() {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "requires unsupported glTF extension(s): {}",
+                unsupported.join(", ")
+            ),
+        ));
+    }
     root.extensions_required
         .retain(|x| !OWN_EXTENSIONS.contains(&x.as_str()));
     // The gltf crate asks every accessor for a buffer view; those of a Draco-compressed primitive
-    // have none (the stream holds their data). Validate a copy in which they name the stream's
-    // view, then keep the file as it is: every accessor read is checked against its buffer first.
-    let mut check = root.clone();
-    for prim in check.meshes.iter().flat_map(|m| &m.primitives) {
+    // have none (the stream holds their data). They name the stream's view while the document is
+    // validated, and none again after: every accessor read is checked against its buffer first.
+    let mut patched = Vec::new();
+    for prim in root.meshes.iter().flat_map(|m| &m.primitives) {
         let Some(view) = prim
             .extensions
             .as_ref()
@@ -49,16 +81,104 @@ pub(crate) fn parse(
             continue;
         };
         for a in prim.attributes.values().chain(prim.indices.iter()) {
-            if let Some(acc) = root.accessors.get(a.value())
-                && acc.buffer_view.is_none()
+            if root
+                .accessors
+                .get(a.value())
+                .is_some_and(|acc| acc.buffer_view.is_none())
             {
-                check.accessors[a.value()].buffer_view = Some(gltf::json::Index::new(view));
+                patched.push((a.value(), view));
             }
         }
     }
-    gltf::Document::from_json(check).map_err(|e| ImportError::new(path, describe(&e)))?;
+    guard_validation(path, &root)?;
+    for &(a, view) in &patched {
+        root.accessors[a].buffer_view = Some(gltf::json::Index::new(view));
+    }
+    let mut root = gltf::Document::from_json(root)
+        .map_err(|e| ImportError::new(path, describe(&e)))?
+        .into_json();
+    for &(a, _) in &patched {
+        root.accessors[a].buffer_view = None;
+    }
     let document = gltf::Document::from_json_without_validation(root);
     Ok(gltf::Gltf { document, blob })
+}
+
+/// What the `gltf` crate would panic on instead of reporting: a primitive's accessor index out of
+/// range (its validation reads POSITION's accessor before checking the index), and an image with
+/// neither a URI nor a buffer view and MIME type.
+fn guard_validation(path: &Path, root: &gltf::json::Root) -> Result<(), ImportError> {
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim
+                .attributes
+                .values()
+                .chain(prim.indices.iter())
+                .map(|a| a.value());
+            if let Some(a) = named.into_iter().find(|&a| a >= accessors) {
+                return Err(ImportError::new(
+                    path,
+                    format!(
+                        "mesh {m}, primitive {p} names accessor {a}, and the file has {accessors}"
+                    ),
+                ));
+            }
+        }
+    }
+    for (i, image) in root.images.iter().enumerate() {
+        let whole = match (&image.buffer_view, &image.uri) {
+            (Some(_), _) => image.mime_type.is_some(),
+            (None, uri) => uri.is_some(),
+        };
+        if !whole {
+            return Err(ImportError::new(
+                path,
+                format!(
+                    "image {i} has neither a URI nor a buffer view with a MIME type, so it \
+                     cannot be read"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Where `part`, a slice borrowed from `whole`, lies in it.
+fn range_in(whole: &[u8], part: &[u8]) -> std::ops::Range<usize> {
+    let start = part.as_ptr() as usize - whole.as_ptr() as usize;
+    start..start + part.len()
+}
+
+/// The glTF JSON, charged to `budget` before it is parsed (objects cost more parsed than as text).
+fn parse_json(
+    path: &Path,
+    json: &[u8],
+    budget: &mut Budget,
+) -> Result<gltf::json::Root, ImportError> {
+    let objects = json.iter().filter(|&&b| b == b'{').count() as u64;
+    let arrays = json.iter().filter(|&&b| b == b'[').count() as u64;
+    budget.charge(
+        objects
+            .saturating_mul(PARSED_OBJECT_BYTES)
+            .saturating_add(arrays.saturating_mul(PARSED_ARRAY_BYTES)),
+        || format!("parsing its JSON ({objects} objects)"),
+    )?;
+    gltf::json::deserialize::from_slice(json)
+        .map_err(|e| ImportError::new(path, format!("not a readable glTF file: {e}")))
+}
+
+/// A validation failure, its first few problems named.
+fn describe(e: &gltf::Error) -> String {
+    if let gltf::Error::Validation(errors) = e {
+        let list: Vec<String> = errors
+            .iter()
+            .take(3)
+            .map(|(p, err)| format!("{}: {err}", p.as_str()))
+            .collect();
+        return format!("invalid glTF: {}", list.join("; "));
+    }
+    format!("not a readable glTF file: {e}")
 }
 
 /// Whether `buffer` is the placeholder that `EXT_meshopt_compression` decodes into (it has no data
@@ -78,6 +198,7 @@ pub(crate) fn decode_meshopt_views(
     path: &Path,
     document: &gltf::Document,
     buffers: &mut [Vec<u8>],
+    budget: &mut Budget,
 ) -> Result<(), ImportError> {
     for view in document.views() {
         let Some(ext) = view.extension_value(MESHOPT) else {
@@ -113,6 +234,7 @@ pub(crate) fn decode_meshopt_views(
             .get(source as usize)
             .and_then(|b| b.get(offset as usize..offset.checked_add(length)? as usize))
             .ok_or_else(|| bad("its compressed bytes lie past the end of their buffer"))?;
+        budget.charge(size as u64, || format!("decoding buffer view {i}"))?;
         let mut out = vec![0u8; size];
         // SAFETY: `out` holds count × stride bytes, `src` is a live slice, and the sizes and
         // strides meshoptimizer asserts on are checked just before each call.
@@ -185,6 +307,7 @@ pub(crate) fn read_floats<const N: usize>(
     acc: &gltf::Accessor,
     buffers: &[Vec<u8>],
 ) -> Option<Vec<[f32; N]>> {
+    // Callers charge `count × N × 4` bytes to the budget before.
     let dims = match acc.dimensions() {
         Dimensions::Scalar => 1,
         Dimensions::Vec2 => 2,
@@ -238,6 +361,11 @@ pub(crate) fn read_floats<const N: usize>(
 
 const DRACO: &str = "KHR_draco_mesh_compression";
 
+/// What a decoded Draco point costs, inside the decoder and copied out (position, normal, UV).
+const DRACO_BYTES_PER_POINT: u64 = 2 * (12 + 12 + 8) + 16;
+/// What a decoded Draco face costs: its indices, and the decoder's corner tables.
+const DRACO_BYTES_PER_FACE: u64 = 12 + 64;
+
 /// A primitive's geometry decoded from its `KHR_draco_mesh_compression` stream (draco-core, a pure
 /// Rust decoder): positions, normals and UV set 0 per point, and triangle indices. `None` when the
 /// primitive is not Draco-compressed.
@@ -256,6 +384,7 @@ pub(crate) fn decode_draco(
     prim: &gltf::Primitive,
     name: &str,
     buffers: &[Vec<u8>],
+    budget: &mut Budget,
 ) -> Result<Option<DracoGeometry>, ImportError> {
     let Some(ext) = prim.extension_value(DRACO) else {
         return Ok(None);
@@ -270,17 +399,42 @@ pub(crate) fn decode_draco(
         .get(view.buffer().index())
         .and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?))
         .ok_or_else(|| bad("its bufferView lies past the end of its buffer"))?;
+    // The decoder's own ceilings come from what is left of the budget: what it decodes (the
+    // attribute values, and per face its connectivity tables) and then what is copied out of it.
+    let left = budget.remaining();
+    let mut limits = draco_core::DecodeLimits::default();
+    limits.max_decoded_bytes = left / 4;
+    limits.max_points = (left / DRACO_BYTES_PER_POINT).min(MAX_ELEMENTS as u64);
+    limits.max_faces = (left / DRACO_BYTES_PER_FACE).min(MAX_ELEMENTS as u64 / 3);
     let mut mesh = draco_core::Mesh::new();
     draco_core::MeshDecoder::new()
-        .decode(&mut draco_core::DecoderBuffer::new(bytes), &mut mesh)
-        .map_err(|e| bad(&format!("the stream does not decode ({e:?})")))?;
+        .decode(
+            &mut draco_core::DecoderBuffer::new(bytes).with_limits(limits),
+            &mut mesh,
+        )
+        .map_err(|e| {
+            if e.kind() == draco_core::ErrorKind::LimitExceeded {
+                ImportError::new(
+                    path,
+                    format!(
+                        "mesh '{name}' ({DRACO}) decodes to more than the import's memory budget \
+                         allows ({:.1} MiB left)",
+                        left as f64 / (1u64 << 20) as f64
+                    ),
+                )
+            } else {
+                bad(&format!("the stream does not decode ({e:?})"))
+            }
+        })?;
     let points = mesh.num_points();
-    if points == 0 || points > MAX_ELEMENTS || mesh.num_faces() > MAX_ELEMENTS / 3 {
-        return Err(bad(&format!(
-            "{points} points and {} faces",
-            mesh.num_faces()
-        )));
+    let faces = mesh.num_faces();
+    if points == 0 || points > MAX_ELEMENTS || faces > MAX_ELEMENTS / 3 {
+        return Err(bad(&format!("{points} points and {faces} faces")));
     }
+    budget.charge(
+        points as u64 * DRACO_BYTES_PER_POINT + faces as u64 * DRACO_BYTES_PER_FACE,
+        || format!("mesh '{name}' decoded"),
+    )?;
     let attribute = |semantic: &str, components: usize| -> Option<Vec<f32>> {
         let id = ext.get("attributes")?.get(semantic)?.as_u64()?;
         let a = mesh.attribute_by_unique_id(u32::try_from(id).ok()?)?;

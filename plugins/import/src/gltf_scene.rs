@@ -1,31 +1,55 @@
 //! glTF 2.0 (.gltf with external or embedded buffers, and .glb).
 
+use crate::budget::{Budget, ImportOptions};
 use crate::gltf_compressed::{self, read_floats};
-use crate::sandbox::read_uri;
+use crate::sandbox::{read_scene_file, read_uri};
 use crate::texture::ImageCache;
 use crate::{
     ImportError, ImportedMaterial, ImportedMesh, ImportedNode, ImportedScene, MAX_ELEMENTS,
-    check_indices, check_positions,
+    MeshGeometry, check_indices, check_positions,
 };
 use glam::Mat4;
 use gltf::Semantic;
+use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Arc;
+
+/// Most node instances one file may place (the hierarchy is a forest, so at most its node count).
+pub const MAX_NODES: usize = 1 << 24;
+
+/// Deepest node hierarchy accepted.
+const MAX_DEPTH: usize = 256;
 
 /// Loads the default scene of a glTF file (or all root nodes of the first scene), with node
-/// transforms applied down the hierarchy.
+/// transforms applied down the hierarchy, within the default memory budget.
 pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
-    let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, e.to_string()))?;
-    let gltf = gltf_compressed::parse(path, &bytes, |e| describe(e, &bytes))?;
-    let mut buffers = load_buffers(path, &gltf)?;
-    gltf_compressed::decode_meshopt_views(path, &gltf.document, &mut buffers)?;
+    read_gltf(path, &mut Budget::new(path, &ImportOptions::default()))
+}
+
+pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScene, ImportError> {
+    let bytes = read_scene_file(path, budget)?;
+    let gltf::Gltf { document, blob } = gltf_compressed::parse(path, bytes, budget)?;
+    let mut buffers = load_buffers(path, &document, blob, budget)?;
+    gltf_compressed::decode_meshopt_views(path, &document, &mut buffers, budget)?;
     let mut scene = ImportedScene::default();
     let mut images = ImageCache::default();
-    for m in gltf.document.materials() {
+    for m in document.materials() {
         let pbr = m.pbr_metallic_roughness();
         let e = m.emissive_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
+        let base_color_texture = match pbr.base_color_texture() {
+            Some(info) => images.base_color(
+                path,
+                &buffers,
+                &info,
+                &mut scene.textures,
+                &mut scene.warnings,
+                budget,
+            )?,
+            None => None,
+        };
         scene.materials.push(ImportedMaterial {
             name: m.name().map_or_else(
                 || format!("material {}", m.index().unwrap_or(0)),
@@ -35,30 +59,24 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
             emissive: [e[0] * strength, e[1] * strength, e[2] * strength],
-            base_color_texture: pbr.base_color_texture().and_then(|info| {
-                images.base_color(
-                    path,
-                    &buffers,
-                    &info,
-                    &mut scene.textures,
-                    &mut scene.warnings,
-                )
-            }),
+            base_color_texture,
         });
     }
     let default_material = scene.materials.len();
     let mut used_default = false;
     // (mesh, primitive) -> the first entry of `scene.meshes` read from it: a mesh placed by
-    // several nodes is read once and marked as the same.
+    // several nodes is read once and its geometry shared.
     let mut read: HashMap<(usize, usize), usize> = HashMap::new();
     let mut first_error: Option<ImportError> = None;
-    let root_scene = gltf
-        .document
+    let root_scene = document
         .default_scene()
-        .or_else(|| gltf.document.scenes().next());
+        .or_else(|| document.scenes().next());
     let Some(root_scene) = root_scene else {
         return Err(ImportError::new(path, "the file has no scene"));
     };
+    // Each node is visited once: a node reached again (listed under two parents, twice as a
+    // root, or on a cycle) would make the walk grow without end, so it is refused.
+    let mut seen = vec![false; document.nodes().len()];
     // (node, parent's world transform, depth, parent's index in scene.nodes). Popped depth first,
     // so a node is always listed after its parent.
     let mut stack: Vec<(gltf::Node, Mat4, usize, Option<usize>)> = root_scene
@@ -66,10 +84,26 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
         .map(|n| (n, Mat4::IDENTITY, 0, None))
         .collect();
     while let Some((node, parent, depth, parent_index)) = stack.pop() {
-        if depth > 256 {
+        let label = node_label(&node);
+        if std::mem::replace(&mut seen[node.index()], true) {
             return Err(ImportError::new(
                 path,
-                "the node hierarchy is deeper than 256 levels (a cycle?)",
+                format!(
+                    "{label} is reached twice (it has two parents, is a root twice, or lies on a \
+                     cycle); a glTF node hierarchy must be a forest"
+                ),
+            ));
+        }
+        if depth > MAX_DEPTH {
+            return Err(ImportError::new(
+                path,
+                format!("the node hierarchy is deeper than {MAX_DEPTH} levels at {label}"),
+            ));
+        }
+        if scene.nodes.len() >= MAX_NODES {
+            return Err(ImportError::new(
+                path,
+                format!("the file places more than {MAX_NODES} nodes"),
             ));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
@@ -77,7 +111,7 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
         if !world.is_finite() {
             return Err(ImportError::new(
                 path,
-                format!("node {} has a non-finite transform", node.index()),
+                format!("{label} has a non-finite transform"),
             ));
         }
         let step = node
@@ -87,11 +121,16 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
             Some(p) => format!("{}/{step}", scene.nodes[p].key),
             None => step,
         };
+        let name = node
+            .name()
+            .map_or_else(|| format!("node {}", node.index()), str::to_owned);
+        budget.charge(
+            (std::mem::size_of::<ImportedNode>() + key.len() + name.len()) as u64,
+            || label.clone(),
+        )?;
         let index = scene.nodes.len();
         scene.nodes.push(ImportedNode {
-            name: node
-                .name()
-                .map_or_else(|| format!("node {}", node.index()), str::to_owned),
+            name,
             parent: parent_index,
             local,
             key,
@@ -114,42 +153,46 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
                     ));
                     continue;
                 }
+                budget.charge(
+                    (std::mem::size_of::<ImportedMesh>() + name.len()) as u64,
+                    || format!("mesh '{name}'"),
+                )?;
                 let key = (mesh.index(), prim.index());
                 let first = read.get(&key).copied();
-                let m = match first {
-                    Some(i) => Some(ImportedMesh {
-                        name: name.clone(),
-                        same_as: Some(i),
-                        ..scene.meshes[i].clone()
-                    }),
-                    None => match read_primitive(path, &gltf.document, &prim, &name, &buffers) {
-                        Ok(m) => m,
+                let geometry = match first {
+                    Some(i) => Some(scene.meshes[i].geometry.clone()),
+                    None => match read_primitive(path, &document, &prim, &name, &buffers, budget) {
+                        Ok(g) => g.map(Arc::new),
+                        Err(e) if budget.refused() => return Err(e),
                         Err(e) => {
                             // One bad mesh does not sink the file: the rest import, this one is
                             // named (and the whole file fails only when no mesh is left).
                             scene.warnings.push(format!("skipped: {}", e.problem));
                             first_error.get_or_insert(e);
-                            None
+                            continue;
                         }
                     },
                 };
-                match m {
-                    Some(mut m) => {
-                        if first.is_none() {
-                            read.insert(key, scene.meshes.len());
-                        }
-                        m.transform = world;
-                        m.node = Some(index);
-                        m.material = Some(prim.material().index().unwrap_or_else(|| {
-                            used_default = true;
-                            default_material
-                        }));
-                        scene.meshes.push(m);
-                    }
-                    None => scene
+                let Some(geometry) = geometry else {
+                    scene
                         .warnings
-                        .push(format!("'{name}' has no positions, skipped")),
+                        .push(format!("'{name}' has no positions, skipped"));
+                    continue;
+                };
+                if first.is_none() {
+                    read.insert(key, scene.meshes.len());
                 }
+                scene.meshes.push(ImportedMesh {
+                    name,
+                    transform: world,
+                    node: Some(index),
+                    geometry,
+                    material: Some(prim.material().index().unwrap_or_else(|| {
+                        used_default = true;
+                        default_material
+                    })),
+                    same_as: first,
+                });
             }
         }
         for child in node.children() {
@@ -167,84 +210,57 @@ pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
     Ok(scene)
 }
 
-fn describe(e: &gltf::Error, bytes: &[u8]) -> String {
-    if let gltf::Error::Validation(errors) = e {
-        // Name the extension the file requires, which is the usual reason for refusal.
-        if let Ok(json) = gltf::json::deserialize::from_slice::<gltf::json::Root>(json_chunk(bytes))
-        {
-            let unsupported: Vec<&str> = json
-                .extensions_required
-                .iter()
-                .map(String::as_str)
-                .filter(|x| {
-                    !gltf::json::extensions::ENABLED_EXTENSIONS.contains(x)
-                        && !gltf_compressed::OWN_EXTENSIONS.contains(x)
-                })
-                .collect();
-            if !unsupported.is_empty() {
-                return format!(
-                    "requires unsupported glTF extension(s): {}",
-                    unsupported.join(", ")
-                );
-            }
-        }
-        let list: Vec<String> = errors
-            .iter()
-            .take(3)
-            .map(|(p, err)| format!("{}: {err}", p.as_str()))
-            .collect();
-        return format!("invalid glTF: {}", list.join("; "));
+/// `node N ('name')`, for messages.
+fn node_label(node: &gltf::Node) -> String {
+    match node.name() {
+        Some(name) => format!("node {} ('{name}')", node.index()),
+        None => format!("node {}", node.index()),
     }
-    format!("not a readable glTF file: {e}")
 }
 
-/// The JSON part of a .glb, or the whole slice for a .gltf.
-fn json_chunk(bytes: &[u8]) -> &[u8] {
-    if bytes.len() >= 20 && &bytes[..4] == b"glTF" {
-        let len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
-        if let Some(chunk) = bytes.get(20..20 + len) {
-            return chunk;
-        }
-    }
-    bytes
-}
-
-fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportError> {
+/// Every buffer's bytes: the GLB's binary chunk (moved, not copied), a data URI, or a regular file
+/// beside the opened one read up to its declared length; a meshopt fallback buffer zeroed to be
+/// decoded into.
+fn load_buffers(
+    path: &Path,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+    budget: &mut Budget,
+) -> Result<Vec<Vec<u8>>, ImportError> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
-    for buffer in gltf.document.buffers() {
+    for buffer in document.buffers() {
+        let declared = buffer.length();
         if gltf_compressed::is_fallback(&buffer) {
             // Filled by the compressed views that decode into it.
-            if buffer.length() > MAX_ELEMENTS * 16 {
-                return Err(ImportError::new(
-                    path,
-                    format!(
-                        "buffer {} declares {} bytes of compressed data",
-                        buffer.index(),
-                        buffer.length()
-                    ),
-                ));
-            }
-            out.push(vec![0u8; buffer.length()]);
+            budget.charge(declared as u64, || {
+                format!("buffer {} (compressed data, decoded)", buffer.index())
+            })?;
+            out.push(vec![0u8; declared]);
             continue;
         }
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 ImportError::new(
                     path,
-                    "a buffer refers to the GLB binary chunk, which is missing",
+                    format!(
+                        "buffer {} refers to the GLB binary chunk, which is missing (or taken by \
+                         another buffer)",
+                        buffer.index()
+                    ),
                 )
             })?,
-            gltf::buffer::Source::Uri(uri) => read_uri(path, dir, uri, "buffer")?,
+            gltf::buffer::Source::Uri(uri) => {
+                read_uri(path, dir, uri, "buffer", declared as u64, budget)?
+            }
         };
-        if data.len() < buffer.length() {
+        if data.len() < declared {
             return Err(ImportError::new(
                 path,
                 format!(
-                    "buffer {} holds {} bytes, the file declares {}",
+                    "buffer {} holds {} bytes, the file declares {declared}",
                     buffer.index(),
                     data.len(),
-                    buffer.length()
                 ),
             ));
         }
@@ -253,25 +269,37 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, ImportEr
     Ok(out)
 }
 
-/// Reads one triangle primitive (from its accessors, or from its Draco stream), validating sizes
-/// before anything reads the buffers.
+/// Reads one triangle primitive (from its accessors, or from its Draco stream), validating types
+/// and sizes before anything reads the buffers.
 fn read_primitive(
     path: &Path,
     document: &gltf::Document,
     prim: &gltf::Primitive,
     name: &str,
     buffers: &[Vec<u8>],
-) -> Result<Option<ImportedMesh>, ImportError> {
-    let (positions, normals, uvs, indices) =
-        match gltf_compressed::decode_draco(path, document, prim, name, buffers)? {
-            Some(d) => (d.positions, d.normals, d.uvs, d.indices),
-            None => match read_accessors(path, prim, name, buffers)? {
-                Some(geometry) => geometry,
-                None => return Ok(None),
-            },
-        };
-    check_positions(path, name, &positions)?;
-    let n = positions.len();
+    budget: &mut Budget,
+) -> Result<Option<MeshGeometry>, ImportError> {
+    let geometry = match gltf_compressed::decode_draco(path, document, prim, name, buffers, budget)?
+    {
+        Some(d) => MeshGeometry {
+            positions: d.positions,
+            normals: d.normals,
+            uvs: d.uvs,
+            indices: d.indices,
+        },
+        None => match read_accessors(path, prim, name, buffers, budget)? {
+            Some(geometry) => geometry,
+            None => return Ok(None),
+        },
+    };
+    check_positions(path, name, &geometry.positions)?;
+    let n = geometry.positions.len();
+    let MeshGeometry {
+        positions,
+        normals,
+        uvs,
+        indices,
+    } = geometry;
     let normals = normals.filter(|v| v.len() == n);
     let uvs = uvs.filter(|v| v.len() == n);
     if !indices.len().is_multiple_of(3) {
@@ -284,26 +312,95 @@ fn read_primitive(
         ));
     }
     check_indices(path, name, &indices, n)?;
-    Ok(Some(ImportedMesh {
-        name: name.to_owned(),
-        transform: Mat4::IDENTITY,
-        node: None,
+    Ok(Some(MeshGeometry {
         positions,
         normals,
         uvs,
         indices,
-        material: None,
-        same_as: None,
     }))
 }
 
-/// Positions, normals, UV set 0 and indices as a primitive's accessors store them.
-type Geometry = (
-    Vec<[f32; 3]>,
-    Option<Vec<[f32; 3]>>,
-    Option<Vec<[f32; 2]>>,
-    Vec<u32>,
-);
+/// What an attribute the importer reads may be stored as (glTF 2.0 with `KHR_mesh_quantization`).
+struct AttributeRule {
+    what: &'static str,
+    dims: Dimensions,
+    /// Component types allowed, each with whether it must be normalized.
+    types: &'static [(DataType, Option<bool>)],
+    expected: &'static str,
+}
+
+const POSITION: AttributeRule = AttributeRule {
+    what: "POSITION",
+    dims: Dimensions::Vec3,
+    types: &[
+        (DataType::F32, Some(false)),
+        (DataType::I8, None),
+        (DataType::U8, None),
+        (DataType::I16, None),
+        (DataType::U16, None),
+    ],
+    expected: "3 floats, or 3 8- or 16-bit integers (KHR_mesh_quantization)",
+};
+
+const NORMAL: AttributeRule = AttributeRule {
+    what: "NORMAL",
+    dims: Dimensions::Vec3,
+    types: &[
+        (DataType::F32, Some(false)),
+        (DataType::I8, Some(true)),
+        (DataType::I16, Some(true)),
+    ],
+    expected: "3 floats, or 3 normalized signed 8- or 16-bit integers",
+};
+
+const TEXCOORD: AttributeRule = AttributeRule {
+    what: "TEXCOORD_0",
+    dims: Dimensions::Vec2,
+    types: &[
+        (DataType::F32, Some(false)),
+        (DataType::I8, None),
+        (DataType::U8, None),
+        (DataType::I16, None),
+        (DataType::U16, None),
+    ],
+    expected: "2 floats, or 2 8- or 16-bit integers",
+};
+
+/// Refuses an accessor whose shape or component type does not fit what it is read as.
+fn check_type(
+    path: &Path,
+    name: &str,
+    acc: &gltf::Accessor,
+    rule: &AttributeRule,
+) -> Result<(), ImportError> {
+    let fits = acc.dimensions() == rule.dims
+        && rule
+            .types
+            .iter()
+            .any(|&(t, norm)| t == acc.data_type() && norm.is_none_or(|n| n == acc.normalized()));
+    if fits {
+        return Ok(());
+    }
+    Err(ImportError::new(
+        path,
+        format!(
+            "mesh '{name}': its {} accessor {} holds {}, where {} are expected",
+            rule.what,
+            acc.index(),
+            describe_type(acc),
+            rule.expected
+        ),
+    ))
+}
+
+fn describe_type(acc: &gltf::Accessor) -> String {
+    format!(
+        "{:?} {:?}{}",
+        acc.dimensions(),
+        acc.data_type(),
+        if acc.normalized() { " normalized" } else { "" }
+    )
+}
 
 /// A primitive's geometry from its accessors (`None` without positions).
 fn read_accessors(
@@ -311,44 +408,105 @@ fn read_accessors(
     prim: &gltf::Primitive,
     name: &str,
     buffers: &[Vec<u8>],
-) -> Result<Option<Geometry>, ImportError> {
+    budget: &mut Budget,
+) -> Result<Option<MeshGeometry>, ImportError> {
     for (_, accessor) in prim.attributes() {
         check_accessor(path, name, &accessor, buffers)?;
     }
     if let Some(acc) = prim.indices() {
         check_accessor(path, name, &acc, buffers)?;
+        let fits = acc.dimensions() == Dimensions::Scalar
+            && matches!(
+                acc.data_type(),
+                DataType::U8 | DataType::U16 | DataType::U32
+            );
+        if !fits {
+            return Err(ImportError::new(
+                path,
+                format!(
+                    "mesh '{name}': its index accessor {} holds {}, where unsigned 8-, 16- or \
+                     32-bit scalars are expected",
+                    acc.index(),
+                    describe_type(&acc)
+                ),
+            ));
+        }
     }
-    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
     let Some(acc) = prim.get(&Semantic::Positions) else {
         return Ok(None);
     };
-    let positions = read_floats::<3>(&acc, buffers).ok_or_else(|| {
+    check_type(path, name, &acc, &POSITION)?;
+    let normals_acc = prim.get(&Semantic::Normals);
+    if let Some(a) = &normals_acc {
+        check_type(path, name, a, &NORMAL)?;
+    }
+    let uvs_acc = prim.get(&Semantic::TexCoords(0));
+    if let Some(a) = &uvs_acc {
+        check_type(path, name, a, &TEXCOORD)?;
+    }
+    let vertices = acc.count();
+    let index_count = prim.indices().map_or(vertices, |a| a.count());
+    budget.charge_elements(
+        vertices,
+        12 + normals_acc.as_ref().map_or(0, |_| 12) + uvs_acc.as_ref().map_or(0, |_| 8),
+        || format!("mesh '{name}''s {vertices} vertices"),
+    )?;
+    budget.charge_elements(index_count, 4, || {
+        format!("mesh '{name}''s {index_count} indices")
+    })?;
+    let unreadable = || {
         ImportError::new(
             path,
-            format!(
-                "mesh '{name}': positions stored as {:?} {:?}",
-                acc.data_type(),
-                acc.dimensions()
-            ),
+            format!("mesh '{name}': an accessor could not be read"),
         )
-    })?;
+    };
+    let positions = read_floats::<3>(&acc, buffers).ok_or_else(unreadable)?;
     // Quantized normals are only near unit length.
-    let normals: Option<Vec<[f32; 3]>> = prim
-        .get(&Semantic::Normals)
-        .and_then(|a| read_floats::<3>(&a, buffers))
-        .map(|v| {
-            v.into_iter()
+    let normals = match normals_acc {
+        Some(a) => Some(
+            read_floats::<3>(&a, buffers)
+                .ok_or_else(unreadable)?
+                .into_iter()
                 .map(|c| glam::Vec3::from(c).normalize_or_zero().to_array())
-                .collect()
-        });
-    let uvs: Option<Vec<[f32; 2]>> = prim
-        .get(&Semantic::TexCoords(0))
-        .and_then(|a| read_floats::<2>(&a, buffers));
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(r) => r.into_u32().collect(),
+                .collect(),
+        ),
+        None => None,
+    };
+    let uvs = match uvs_acc {
+        Some(a) => Some(read_floats::<2>(&a, buffers).ok_or_else(unreadable)?),
+        None => None,
+    };
+    let indices = match prim.indices() {
+        Some(a) => read_indices(&a, buffers).ok_or_else(unreadable)?,
         None => (0..positions.len() as u32).collect(),
     };
-    Ok(Some((positions, normals, uvs, indices)))
+    Ok(Some(MeshGeometry {
+        positions,
+        normals,
+        uvs,
+        indices,
+    }))
+}
+
+/// An index accessor's values (unsigned scalars of 1, 2 or 4 bytes, checked before); its range
+/// must have been checked against `buffers`.
+fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Option<Vec<u32>> {
+    let view = acc.view()?;
+    let data = buffers.get(view.buffer().index())?;
+    let width = acc.data_type().size();
+    let stride = view.stride().unwrap_or(width);
+    let start = view.offset() + acc.offset();
+    (0..acc.count())
+        .map(|k| {
+            let at = start + k * stride;
+            let b = data.get(at..at + width)?;
+            Some(match width {
+                1 => u32::from(b[0]),
+                2 => u32::from(u16::from_le_bytes([b[0], b[1]])),
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            })
+        })
+        .collect()
 }
 
 fn check_accessor(

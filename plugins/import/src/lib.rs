@@ -7,6 +7,7 @@
 // Every public item says what it is for: the crate is meant to be used from other apps.
 #![warn(missing_docs)]
 
+mod budget;
 mod gltf_compressed;
 mod gltf_scene;
 mod obj_scene;
@@ -16,7 +17,10 @@ mod texture;
 
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
+
+pub use budget::{BUDGET_VARIABLE, ImportOptions, available_memory, default_memory_budget};
 
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;
@@ -91,6 +95,19 @@ pub struct ImportedNode {
     pub key: String,
 }
 
+/// A mesh's vertex data, in object space.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshGeometry {
+    /// Vertex positions, all finite.
+    pub positions: Vec<[f32; 3]>,
+    /// Vertex normals, one per position, if the file has them.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Texture coordinates, one per position, if the file has them.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Triangle list indices into the vertex arrays, all in range.
+    pub indices: Vec<u32>,
+}
+
 /// One triangle mesh placed in the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImportedMesh {
@@ -100,33 +117,28 @@ pub struct ImportedMesh {
     pub transform: Mat4,
     /// The node it hangs under, in [`ImportedScene::nodes`] (`None` for OBJ and PLY meshes).
     pub node: Option<usize>,
-    /// Vertex positions, object space.
-    pub positions: Vec<[f32; 3]>,
-    /// Vertex normals, if the file has them.
-    pub normals: Option<Vec<[f32; 3]>>,
-    /// Texture coordinates, if the file has them.
-    pub uvs: Option<Vec<[f32; 2]>>,
-    /// Triangle list indices into the vertex arrays, all in range.
-    pub indices: Vec<u32>,
+    /// Its vertex data, shared (not copied) by every node that places the same mesh.
+    pub geometry: Arc<MeshGeometry>,
     /// Index into [`ImportedScene::materials`].
     pub material: Option<usize>,
     /// The earlier mesh in [`ImportedScene::meshes`] with the same vertex data, when the file
-    /// places one mesh at several nodes (glTF): a consumer may share that mesh's geometry instead
-    /// of keeping a second copy.
+    /// places one mesh at several nodes (glTF): both hold the same [`MeshGeometry`], and a
+    /// consumer may share its own copy of that mesh too.
     pub same_as: Option<usize>,
 }
 
 impl ImportedMesh {
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
-        self.indices.len() / 3
+        self.geometry.indices.len() / 3
     }
 
     /// Triangles in world space, in index order.
     pub fn world_triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
         let m = self.transform;
-        self.indices.chunks_exact(3).map(move |f| {
-            [f[0], f[1], f[2]].map(|i| m.transform_point3(Vec3::from(self.positions[i as usize])))
+        let g = &self.geometry;
+        g.indices.chunks_exact(3).map(move |f| {
+            [f[0], f[1], f[2]].map(|i| m.transform_point3(Vec3::from(g.positions[i as usize])))
         })
     }
 }
@@ -161,16 +173,23 @@ impl ImportedScene {
     }
 }
 
-/// Loads a scene by its extension: `.gltf`, `.glb`, `.obj` or `.ply`.
+/// Loads a scene by its extension: `.gltf`, `.glb`, `.obj` or `.ply`, within the default memory
+/// budget ([`ImportOptions::default`]).
 pub fn load_scene(path: &Path) -> Result<ImportedScene, ImportError> {
+    load_scene_with(path, &ImportOptions::default())
+}
+
+/// Loads a scene by its extension, as [`load_scene`], with the given options.
+pub fn load_scene_with(path: &Path, options: &ImportOptions) -> Result<ImportedScene, ImportError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    let mut budget = budget::Budget::new(path, options);
     match ext.as_deref() {
-        Some("gltf") | Some("glb") => load_gltf(path),
-        Some("obj") => load_obj(path),
-        Some("ply") => load_ply(path),
+        Some("gltf") | Some("glb") => gltf_scene::read_gltf(path, &mut budget),
+        Some("obj") => obj_scene::read_obj(path, &mut budget),
+        Some("ply") => ply_scene::read_ply(path, &mut budget),
         _ => Err(ImportError::new(
             path,
             "unsupported file type (expected .gltf, .glb, .obj or .ply)",

@@ -1,20 +1,38 @@
 //! OBJ through tobj, polygons fan-triangulated in file order.
 
+use crate::budget::{Budget, ImportOptions};
+use crate::sandbox::open_regular;
 use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, check_indices, check_positions,
+    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MeshGeometry, check_indices,
+    check_positions,
 };
 use glam::Mat4;
+use std::io::Read;
 use std::path::Path;
+use std::sync::Arc;
 
-/// Loads an OBJ file. Materials from .mtl files are not read (only the geometry is).
+/// Most bytes tobj's arrays may take per byte of OBJ text: a corner (`1/1/1 `, 6 bytes) can make a
+/// vertex of 32 bytes and 4 of index, and growing arrays double.
+const BYTES_PER_TEXT_BYTE: u64 = 16;
+
+/// Loads an OBJ file within the default memory budget. Materials from .mtl files are not read
+/// (only the geometry is).
 pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
+    read_obj(path, &mut Budget::new(path, &ImportOptions::default()))
+}
+
+pub(crate) fn read_obj(path: &Path, budget: &mut Budget) -> Result<ImportedScene, ImportError> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let file = std::fs::File::open(path).map_err(|e| ImportError::new(path, e.to_string()))?;
-    let mut reader = std::io::BufReader::new(file);
+    let (file, len) = open_regular(path, path, "file")?;
+    budget.charge(len.saturating_mul(BYTES_PER_TEXT_BYTE), || {
+        "reading its OBJ text".to_owned()
+    })?;
+    // Read no more than the length checked above, should the file grow meanwhile.
+    let mut reader = std::io::BufReader::new(file.take(len));
     // Material libraries are ignored so that no other file is opened.
     let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
         .map_err(|e| ImportError::new(path, format!("not a readable OBJ file: {e}")))?;
@@ -23,6 +41,9 @@ pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
         ..Default::default()
     };
     for m in models {
+        budget.charge_elements(m.mesh.positions.len(), 12, || {
+            format!("object '{}'", m.name)
+        })?;
         let positions: Vec<[f32; 3]> = m
             .mesh
             .positions
@@ -56,10 +77,12 @@ pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
             name: m.name,
             transform: Mat4::IDENTITY,
             node: None,
-            positions,
-            normals,
-            uvs,
-            indices: m.mesh.indices,
+            geometry: Arc::new(MeshGeometry {
+                positions,
+                normals,
+                uvs,
+                indices: m.mesh.indices,
+            }),
             material: Some(0),
             same_as: None,
         });

@@ -1,15 +1,19 @@
 //! PLY, the format scanners write (ASCII or binary): vertex positions, and normals and texture
 //! coordinates when every vertex has them; polygons fan-triangulated in file order.
 
+use crate::budget::{Budget, ImportOptions};
+use crate::sandbox::open_regular;
 use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, check_indices,
-    check_positions,
+    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, MeshGeometry,
+    check_indices, check_positions,
 };
 use glam::Mat4;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, Property, PropertyAccess, PropertyAccessResult};
 use std::io::BufReader;
+use std::io::Read;
 use std::path::Path;
+use std::sync::Arc;
 
 /// One vertex; which optional attributes it had is tracked so that partial ones are left out.
 #[derive(Default)]
@@ -97,11 +101,22 @@ impl PropertyAccess for PlyFace {
     }
 }
 
-/// Loads a PLY file as one mesh named after the file.
+/// Most bytes the parsed elements may take per byte of the file: an ASCII face `3 0 0 0` (8 bytes)
+/// becomes a list of its own (about 48 bytes), and growing arrays double.
+const BYTES_PER_FILE_BYTE: u64 = 16;
+
+/// Loads a PLY file as one mesh named after the file, within the default memory budget.
 pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
-    let file = std::fs::File::open(path).map_err(|e| ImportError::new(path, e.to_string()))?;
-    let file_len = file.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
-    let mut reader = Reader::new(BufReader::new(file));
+    read_ply(path, &mut Budget::new(path, &ImportOptions::default()))
+}
+
+pub(crate) fn read_ply(path: &Path, budget: &mut Budget) -> Result<ImportedScene, ImportError> {
+    let (file, file_len) = open_regular(path, path, "file")?;
+    budget.charge(file_len.saturating_mul(BYTES_PER_FILE_BYTE), || {
+        "reading its PLY elements".to_owned()
+    })?;
+    // Read no more than the length checked above, should the file grow meanwhile.
+    let mut reader = Reader::new(BufReader::new(file.take(file_len)));
     let vertices_parser = Parser::<PlyVertex>::new();
     let faces_parser = Parser::<PlyFace>::new();
     let other_parser = Parser::<DefaultElement>::new();
@@ -158,6 +173,14 @@ pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
     let name = path
         .file_stem()
         .map_or_else(|| "mesh".to_owned(), |s| s.to_string_lossy().into_owned());
+    let corners: usize = faces
+        .iter()
+        .map(|f| f.indices.len().saturating_sub(2) * 3)
+        .sum();
+    budget.charge_elements(vertices.len(), 12 + 12 + 8, || {
+        format!("mesh '{name}''s {} vertices", vertices.len())
+    })?;
+    budget.charge_elements(corners, 4, || format!("mesh '{name}''s {corners} indices"))?;
     let positions: Vec<[f32; 3]> = vertices.iter().map(|v| v.position).collect();
     check_positions(path, &name, &positions)?;
     let mut indices = Vec::new();
@@ -192,10 +215,12 @@ pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
             name,
             transform: Mat4::IDENTITY,
             node: None,
-            positions,
-            normals,
-            uvs,
-            indices,
+            geometry: Arc::new(MeshGeometry {
+                positions,
+                normals,
+                uvs,
+                indices,
+            }),
             material: Some(0),
             same_as: None,
         }],

@@ -3,6 +3,7 @@
 //! so one bad PNG does not cost the user the whole assembly.
 
 use crate::ImportError;
+use crate::budget::Budget;
 use crate::sandbox::read_uri;
 use gltf::texture::WrappingMode;
 use std::collections::HashMap;
@@ -82,6 +83,8 @@ pub(crate) struct ImageCache {
 
 impl ImageCache {
     /// The texture reference for a material's base-colour slot, decoding its image on first use.
+    /// A texture that cannot be used is a warning (`Ok(None)`); one that would pass the import's
+    /// memory budget refuses the file.
     pub fn base_color(
         &mut self,
         path: &Path,
@@ -89,7 +92,8 @@ impl ImageCache {
         info: &gltf::texture::Info,
         textures: &mut Vec<ImportedTexture>,
         warnings: &mut Vec<String>,
-    ) -> Option<TextureRef> {
+        budget: &mut Budget,
+    ) -> Result<Option<TextureRef>, ImportError> {
         let texture = info.texture();
         let image = texture.source();
         let name = image
@@ -112,7 +116,7 @@ impl ImageCache {
                 "texture '{name}' uses texture coordinate set {tex_coord}, only set 0 is read; its \
                  material is drawn without it"
             ));
-            return None;
+            return Ok(None);
         }
         let map = transform.map_or(UV_IDENTITY, |t| {
             uv_transform(t.offset(), t.rotation(), t.scale())
@@ -122,30 +126,38 @@ impl ImageCache {
                 "texture '{name}' has a non-finite KHR_texture_transform; its material is drawn \
                  without it"
             ));
-            return None;
+            return Ok(None);
         }
-        let slot = self.decoded.entry(image.index()).or_insert_with(|| {
-            match decode(path, buffers, &image, &name) {
-                Ok(t) => {
-                    textures.push(t);
-                    Some(textures.len() - 1)
-                }
-                Err(e) => {
-                    warnings.push(format!(
-                        "texture '{name}': {}; its materials are drawn without it",
-                        e.problem
-                    ));
-                    None
-                }
+        let slot = match self.decoded.get(&image.index()) {
+            Some(&slot) => slot,
+            None => {
+                let slot = match decode(path, buffers, &image, &name, budget) {
+                    Ok(t) => {
+                        textures.push(t);
+                        Some(textures.len() - 1)
+                    }
+                    Err(e) if budget.refused() => return Err(e),
+                    Err(e) => {
+                        warnings.push(format!(
+                            "texture '{name}': {}; its materials are drawn without it",
+                            e.problem
+                        ));
+                        None
+                    }
+                };
+                self.decoded.insert(image.index(), slot);
+                slot
             }
-        });
-        let index = (*slot)?;
+        };
+        let Some(index) = slot else {
+            return Ok(None);
+        };
         let sampler = texture.sampler();
-        Some(TextureRef {
+        Ok(Some(TextureRef {
             texture: index,
             wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
             uv_transform: map,
-        })
+        }))
     }
 }
 
@@ -163,49 +175,71 @@ fn decode(
     buffers: &[Vec<u8>],
     image: &gltf::Image,
     name: &str,
+    budget: &mut Budget,
 ) -> Result<ImportedTexture, ImportError> {
-    let bytes: Vec<u8> = match image.source() {
+    match image.source() {
         gltf::image::Source::View { view, .. } => {
             let start = view.offset();
             let end = start.checked_add(view.length());
-            buffers
+            let bytes = buffers
                 .get(view.buffer().index())
                 .and_then(|b| b.get(start..end?))
-                .ok_or_else(|| ImportError::new(path, "its buffer view reads past the buffer"))?
-                .to_vec()
+                .ok_or_else(|| ImportError::new(path, "its buffer view reads past the buffer"))?;
+            decode_bytes(path, bytes, name, budget)
         }
         gltf::image::Source::Uri { uri, .. } => {
             let dir = path.parent().unwrap_or(Path::new("."));
-            read_uri(path, dir, uri, "image")?
+            let bytes = read_uri(path, dir, uri, "image", u64::MAX, budget)?;
+            decode_bytes(path, &bytes, name, budget)
         }
-    };
-    decode_bytes(path, &bytes, name)
+    }
 }
 
-/// Decodes PNG or JPEG bytes under size limits.
+/// Decodes PNG or JPEG bytes: the header's dimensions are checked against [`MAX_TEXTURE_SIDE`]
+/// and the decoded size charged to `budget` before any pixel is decoded.
 pub(crate) fn decode_bytes(
     path: &Path,
     bytes: &[u8],
     name: &str,
+    budget: &mut Budget,
 ) -> Result<ImportedTexture, ImportError> {
-    let mut reader = image::ImageReader::new(Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))?;
-    if reader.format().is_none() {
+    let open = || {
+        image::ImageReader::new(Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))
+    };
+    let probe = open()?;
+    if probe.format().is_none() {
         return Err(ImportError::new(
             path,
             "not a PNG or JPEG image (KTX2 and other formats are not supported)",
         ));
     }
+    let (width, height) = probe
+        .into_dimensions()
+        .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))?;
+    if width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "its header declares {width}×{height} pixels, over the limit of \
+                 {MAX_TEXTURE_SIDE} a side"
+            ),
+        ));
+    }
+    // The decoder's image (up to 16-bit RGBA) and the RGBA8 copy made of any other layout.
+    let pixels = u64::from(width) * u64::from(height);
+    budget.charge(pixels * 12, || format!("image '{name}' ({width}×{height})"))?;
+    let mut reader = open()?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_SIDE);
     limits.max_image_height = Some(MAX_TEXTURE_SIDE);
-    limits.max_alloc = Some(4 * MAX_TEXTURE_SIDE as u64 * MAX_TEXTURE_SIDE as u64);
+    limits.max_alloc = Some(pixels * 12 + (1 << 20));
     reader.limits(limits);
     let decoded = reader
         .decode()
         .map_err(|e| ImportError::new(path, format!("cannot decode: {e}")))?;
-    let rgba = decoded.to_rgba8();
+    let rgba = decoded.into_rgba8();
     let (width, height) = rgba.dimensions();
     if width == 0 || height == 0 {
         return Err(ImportError::new(path, "the image is empty"));

@@ -80,12 +80,12 @@ fn ascii_and_binary_give_the_same_fan_triangulated_mesh() {
     let m = &a.meshes[0];
     assert_eq!(m.name, "a");
     // The 4-gon becomes (0,1,2) and (0,2,3), in file order, then the triangle.
-    assert_eq!(m.indices, vec![0, 1, 2, 0, 2, 3, 0, 1, 4]);
-    assert_eq!(m.normals.as_ref().unwrap()[4], [0.0, 1.0, 0.0]);
-    assert_eq!(m.uvs.as_ref().unwrap()[2], [1.0, 1.0]);
+    assert_eq!(m.geometry.indices, vec![0, 1, 2, 0, 2, 3, 0, 1, 4]);
+    assert_eq!(m.geometry.normals.as_ref().unwrap()[4], [0.0, 1.0, 0.0]);
+    assert_eq!(m.geometry.uvs.as_ref().unwrap()[2], [1.0, 1.0]);
     assert_eq!(a.triangle_count(), 3);
     assert_eq!(a.world_triangles(), b.world_triangles());
-    assert_eq!(m.normals, b.meshes[0].normals);
+    assert_eq!(m.geometry.normals, b.meshes[0].geometry.normals);
     std::fs::remove_dir_all(&d).ok();
 }
 

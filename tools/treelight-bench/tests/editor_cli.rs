@@ -79,7 +79,7 @@ fn the_editor_s_tree_is_measured_over_idle_time_mesh_by_mesh() {
         scene
             .meshes
             .iter()
-            .filter(|m| treelight_bvh::Refinement::is_worth(m.indices.len() / 3))
+            .filter(|m| treelight_bvh::Refinement::is_worth(m.triangle_count()))
             .count()
     });
     assert_eq!(rows[7].5, 0);
