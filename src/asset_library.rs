@@ -209,8 +209,14 @@ impl AssetLibrary {
                         .entry(file.clone())
                         .or_insert(Thumbnail::Pending);
                     let p = file.clone();
-                    let task =
-                        AsyncComputeTaskPool::get().spawn(async move { render_thumbnail(&p) });
+                    // A file that crashes the reader is marked failed, not fatal.
+                    let task = AsyncComputeTaskPool::get().spawn(async move {
+                        crate::contain::contain(
+                            || format!("reading {}", p.display()),
+                            || render_thumbnail(&p),
+                        )
+                        .unwrap_or_else(Err)
+                    });
                     self.jobs.push((file.clone(), modified, task));
                 }
             }

@@ -4,8 +4,10 @@
 
 use crate::edit::EditHistory;
 use crate::import::PendingImports;
+use crate::key_chords::{KeyChords, Modifiers};
 use crate::notice::Notices;
-use crate::project::{ProjectState, open_project, save_project};
+use crate::project::{ProjectState, save_project};
+use crate::project_open::{OpenKind, OpeningProjects};
 use crate::ui::file_dialog::{DialogPurpose, FileDialog};
 use crate::ui::native_dialog::{NativeDialog, native_dialogs};
 use bevy::prelude::*;
@@ -37,6 +39,8 @@ pub enum ProjectRequest {
         /// The file to use instead.
         to: PathBuf,
     },
+    /// Tell the user that something failed (a dialog that crashed).
+    Report(String),
 }
 
 /// The frame's project requests, applied by [`apply_project_requests`].
@@ -67,6 +71,9 @@ pub struct FileUi {
     pub confirm: Option<AfterSave>,
     /// What to do once the save the user chose has happened.
     pub then: Option<AfterSave>,
+    /// A file that Save As chose and that already exists, while the user is asked whether to
+    /// replace it.
+    pub replace: Option<PathBuf>,
     /// Whether the Relink window is open.
     pub relink: bool,
     /// The missing source the file dialog is choosing a file for.
@@ -151,7 +158,13 @@ impl FileUi {
                 {
                     p.as_mut_os_string().push(".treelight");
                 }
-                requests.0.push(ProjectRequest::Save(p));
+                // An existing file (or link, or anything else there) is replaced only when the
+                // user says so.
+                if std::fs::symlink_metadata(&p).is_ok() {
+                    self.replace = Some(p);
+                } else {
+                    requests.0.push(ProjectRequest::Save(p));
+                }
             }
             (Some(to), DialogPurpose::Relink) => {
                 if let Some(from) = self.relink_from.take() {
@@ -265,6 +278,52 @@ impl FileUi {
                 None => {}
             }
         }
+        if let Some(path) = self.replace.clone() {
+            let name = path
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            let folder = path
+                .parent()
+                .map_or(String::new(), |d| d.display().to_string());
+            let mut answer = None;
+            egui::Window::new("Replace the file?")
+                .collapsible(false)
+                .resizable(false)
+                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+                .show(ctx, |ui| {
+                    ui.label(format!(
+                        "{name} already exists in {folder}.\nReplacing it overwrites what it holds."
+                    ));
+                    ui.horizontal(|ui| {
+                        if ui.button("Replace").clicked() {
+                            answer = Some(true);
+                        }
+                        // The keyboard's default is the answer that loses nothing.
+                        let cancel = ui.button("Cancel");
+                        if !ctx.memory(|m| m.focused().is_some()) {
+                            cancel.request_focus();
+                        }
+                        if cancel.clicked() {
+                            answer = Some(false);
+                        }
+                    });
+                });
+            if ctx.input(|i| i.key_pressed(egui::Key::Escape)) {
+                answer = Some(false);
+            }
+            match answer {
+                Some(true) => {
+                    self.replace = None;
+                    requests.0.push(ProjectRequest::Save(path));
+                }
+                Some(false) => {
+                    // A cancelled save also drops what was to follow it.
+                    self.replace = None;
+                    self.then = None;
+                }
+                None => {}
+            }
+        }
         if self.relink {
             let missing = crate::project::missing_sources(state);
             let mut open = true;
@@ -303,11 +362,17 @@ impl FileUi {
             self.chosen(purpose, choice, requests);
         }
         if let Some(native) = self.native.as_mut()
-            && let Some(choice) = native.poll()
+            && let Some(answer) = native.poll()
         {
             let purpose = native.purpose;
             self.native = None;
-            self.chosen(purpose, choice, requests);
+            match answer {
+                Ok(choice) => self.chosen(purpose, choice, requests),
+                Err(e) => {
+                    self.then = None;
+                    requests.0.push(ProjectRequest::Report(e));
+                }
+            }
         }
     }
 }
@@ -335,28 +400,9 @@ pub fn apply_project_requests(world: &mut World) {
     for request in requests {
         match request {
             ProjectRequest::New => new_scene(world),
-            ProjectRequest::Open(path) => match open_project(world, &path) {
-                Ok(report) => {
-                    world.resource_mut::<RecentProjects>().add(&path);
-                    let mut notices = world.resource_mut::<Notices>();
-                    notices.info(format!("opened {}", path.display()));
-                    for (file, why) in &report.missing_sources {
-                        notices.warn(format!(
-                            "{}: source {} is missing ({why}); its objects stay in the project",
-                            path.display(),
-                            file.display()
-                        ));
-                    }
-                    if report.missing_nodes > 0 {
-                        notices.warn(format!(
-                            "{}: {} objects name nodes their files no longer have; they stay in the project",
-                            path.display(),
-                            report.missing_nodes
-                        ));
-                    }
-                }
-                Err(e) => world.resource_mut::<Notices>().error(e.to_string()),
-            },
+            ProjectRequest::Open(path) => world
+                .resource_mut::<OpeningProjects>()
+                .start(path, OpenKind::Project),
             ProjectRequest::Save(path) => match save_project(world, &path) {
                 Ok(unsaved) => {
                     world.resource_mut::<RecentProjects>().add(&path);
@@ -387,22 +433,17 @@ pub fn apply_project_requests(world: &mut World) {
             ProjectRequest::Import(path) => world.resource_mut::<PendingImports>().start(path),
             ProjectRequest::OpenRecovery(path) => {
                 let owner = world.resource::<ProjectState>().path.clone();
-                match open_project(world, &path) {
-                    Ok(_) => {
-                        // The recovered scene is unsaved work on the project it came from.
-                        world.resource_mut::<ProjectState>().path = owner;
-                        world.resource_mut::<EditHistory>().mark_unsaved();
-                        world
-                            .resource_mut::<crate::autosave::Autosave>()
-                            .adopt(path.clone());
-                        world
-                            .resource_mut::<Notices>()
-                            .info(format!("recovered {}", path.display()));
-                    }
-                    Err(e) => world.resource_mut::<Notices>().error(e.to_string()),
-                }
+                world
+                    .resource_mut::<OpeningProjects>()
+                    .start(path, OpenKind::Recovery { owner });
             }
+            ProjectRequest::Report(e) => world.resource_mut::<Notices>().error(e),
             ProjectRequest::Quit => {
+                // Quitting with unsaved changes means the user chose to discard them: their
+                // recovery copy goes too, or the next start would offer them back.
+                if let Some(mut auto) = world.get_resource_mut::<crate::autosave::Autosave>() {
+                    auto.remove_copy();
+                }
                 world.write_message(AppExit::Success);
             }
             ProjectRequest::AddAssetFolder(dir) => {
@@ -461,29 +502,26 @@ fn new_scene(world: &mut World) {
 
 /// Ctrl+N, Ctrl+O, Ctrl+S, Ctrl+Shift+S and Ctrl+Q (not while a text field has the keyboard).
 pub fn file_shortcuts(
-    keys: Res<ButtonInput<KeyCode>>,
+    chords: Res<KeyChords>,
     mut contexts: EguiContexts,
     mut ui: ResMut<FileUi>,
     state: Res<ProjectState>,
     history: Res<EditHistory>,
     mut requests: ResMut<ProjectRequests>,
 ) {
-    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
-    if !ctrl || !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
+    if chords.current.is_none() || !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
         return;
     }
-    let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
-    let action = if keys.just_pressed(KeyCode::KeyS) {
-        Some(if shift {
-            FileAction::SaveAs
-        } else {
-            FileAction::Save
-        })
-    } else if keys.just_pressed(KeyCode::KeyO) {
+    let ctrl = |key| chords.pressed(key, Modifiers::CTRL);
+    let action = if ctrl(KeyCode::KeyS) {
+        Some(FileAction::Save)
+    } else if chords.pressed(KeyCode::KeyS, Modifiers::CTRL_SHIFT) {
+        Some(FileAction::SaveAs)
+    } else if ctrl(KeyCode::KeyO) {
         Some(FileAction::Open)
-    } else if keys.just_pressed(KeyCode::KeyN) {
+    } else if ctrl(KeyCode::KeyN) {
         Some(FileAction::New)
-    } else if keys.just_pressed(KeyCode::KeyQ) {
+    } else if ctrl(KeyCode::KeyQ) {
         Some(FileAction::Quit)
     } else {
         None
@@ -547,6 +585,7 @@ pub fn save_when_settled(world: &mut World) {
             .resource::<crate::import::ParsedImports>()
             .0
             .is_empty()
+        || world.resource::<OpeningProjects>().busy()
         || world
             .get_resource::<crate::script::ScriptedEdits>()
             .is_some_and(|s| s.commands.is_some());
@@ -559,6 +598,15 @@ pub fn save_when_settled(world: &mut World) {
     }
     let path = save.path.clone();
     world.remove_resource::<SaveWhenSettled>();
+    // A scene whose script could not run is not what was asked to be saved.
+    let not_applied = world
+        .get_resource::<crate::script::ScriptedEdits>()
+        .and_then(|s| s.failed.clone());
+    if let Some(why) = not_applied {
+        error!("{}: not saved: {why}", path.display());
+        world.write_message(AppExit::error());
+        return;
+    }
     let code = match save_project(world, &path) {
         Ok(unsaved) => {
             info!("saved {}", path.display());
@@ -586,10 +634,17 @@ impl Plugin for FilesPlugin {
         app.init_resource::<ProjectRequests>()
             .init_resource::<FileUi>()
             .init_resource::<RecentProjects>()
+            .init_resource::<OpeningProjects>()
             .add_systems(
                 Update,
                 (
-                    (file_shortcuts, close_requested, apply_project_requests).chain(),
+                    (
+                        file_shortcuts,
+                        close_requested,
+                        apply_project_requests,
+                        crate::project_open::finish_opening,
+                    )
+                        .chain(),
                     window_title,
                     save_when_settled.after(crate::edit::apply_edit_requests),
                 ),

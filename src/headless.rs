@@ -43,11 +43,13 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
     .init_resource::<ProjectRequests>()
     .init_resource::<FileUi>()
     .init_resource::<RecentProjects>()
+    .init_resource::<crate::project_open::OpeningProjects>()
     .add_systems(
         Update,
         (
             finish_imports,
             crate::files::apply_project_requests,
+            crate::project_open::finish_opening,
             apply_edit_requests,
         )
             .chain(),

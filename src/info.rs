@@ -1,6 +1,7 @@
 //! `treelight info FILE`: what a scene file or a project holds, as text, without a window.
 
-use crate::project::{ObjectKind, read_project, resolve_source};
+use crate::project::{ObjectKind, ProjectFile, read_project, resolve_source};
+use std::collections::HashMap;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -39,6 +40,7 @@ pub fn describe(path: &Path) -> Result<String, String> {
             count(&|k| matches!(k, ObjectKind::Empty)),
         );
         let _ = writeln!(out, "deleted source nodes: {}", p.deleted.len());
+        let _ = writeln!(out, "triangles: {}", project_triangles(&p, path)?);
         if let Some(c) = p.camera {
             let _ = writeln!(
                 out,
@@ -72,4 +74,40 @@ pub fn describe(path: &Path) -> Result<String, String> {
         let _ = writeln!(out, "  {w}");
     }
     Ok(out)
+}
+
+/// The triangles the project's objects show, its sources read as an open reads them (a missing or
+/// unreadable source's objects count none).
+fn project_triangles(p: &ProjectFile, path: &Path) -> Result<usize, String> {
+    let sources = crate::project::parse_sources(p, path, None).map_err(|e| e.to_string())?;
+    // Per source, the triangles of the mesh each object key shows.
+    let by_key: Vec<HashMap<String, usize>> = sources
+        .scenes()
+        .iter()
+        .map(|scene| match scene {
+            Some(scene) => crate::import::mesh_object_keys(scene)
+                .into_iter()
+                .zip(&scene.meshes)
+                .map(|(k, m)| (k, m.triangle_count()))
+                .collect(),
+            None => HashMap::new(),
+        })
+        .collect();
+    let mut shapes: HashMap<crate::edit::Primitive, usize> = HashMap::new();
+    let mut total = 0;
+    for o in &p.objects {
+        total += match &o.kind {
+            ObjectKind::Node(n) | ObjectKind::MeshOf(n) => by_key
+                .get(n.source)
+                .and_then(|m| m.get(&n.key))
+                .copied()
+                .unwrap_or(0),
+            ObjectKind::Shape(s) => *shapes.entry(*s).or_insert_with(|| {
+                let mesh = s.mesh();
+                mesh.indices().map_or(mesh.count_vertices(), |i| i.len()) / 3
+            }),
+            ObjectKind::Light(_) | ObjectKind::Empty => 0,
+        };
+    }
+    Ok(total)
 }

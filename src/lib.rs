@@ -2,10 +2,13 @@
 //! The binary `treelight` parses the command line and runs [`build_app`].
 
 pub mod asset_library;
+pub mod atomic_file;
 pub mod autosave;
 pub mod camera;
 pub mod capture;
 pub mod cli;
+pub mod contain;
+pub mod crash_report;
 pub mod default_scene;
 pub mod edit;
 pub mod files;
@@ -14,9 +17,11 @@ pub mod headless;
 pub mod import;
 pub mod import_jobs;
 pub mod info;
+pub mod key_chords;
 pub mod notice;
 pub mod placement;
 pub mod project;
+pub mod project_open;
 pub mod render_mode;
 pub mod report;
 pub mod samples;
@@ -26,6 +31,7 @@ pub mod selection;
 pub mod settings;
 pub mod ui;
 pub mod viewport;
+pub mod worker_watch;
 pub mod x11_pointer;
 
 use bevy::camera::visibility::RenderLayers;
@@ -97,6 +103,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         treelight_render::PathTracerPlugin,
     ))
     .add_plugins((
+        key_chords::KeyChordsPlugin,
         edit::EditPlugin,
         selection::SelectionPlugin,
         gizmo::GizmoPlugin,
@@ -107,6 +114,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         autosave::AutosavePlugin,
         import_jobs::ImportJobsPlugin,
         asset_library::AssetLibraryPlugin,
+        worker_watch::WorkerWatchPlugin,
+        crash_report::CrashReportPlugin,
     ))
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .init_resource::<notice::Notices>()

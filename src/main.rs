@@ -35,6 +35,8 @@ fn main() -> std::process::ExitCode {
         && cli.screenshot.is_none()
         && cli.frames.is_none()
         && cli.state.is_none();
+    // A crash of the editor leaves its report for the next start.
+    treelight::crash_report::install_hook();
     let mut app = if headless {
         treelight::headless::save_app(&cli, script)
     } else {

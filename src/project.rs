@@ -6,6 +6,7 @@
 //! flushes it and renames it over the target.
 
 use crate::camera::OrbitCamera;
+use crate::edit::command::in_range;
 use crate::edit::snapshot::PrimitiveShape;
 use crate::edit::{EditHistory, LightKind, MaterialValue, Primitive, TransformValue};
 use crate::import::{MeshSource, SourceCatalog, SourceKey};
@@ -25,8 +26,6 @@ const MAX_PROJECT_BYTES: u64 = 256 << 20;
 const MAX_OBJECTS: usize = 2_000_000;
 /// Most source files a project may name.
 const MAX_SOURCES: usize = 100_000;
-/// Largest magnitude of a number in a transform, material or camera.
-const MAX_VALUE: f32 = 1.0e9;
 
 /// A node of one of the project's sources.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -164,10 +163,6 @@ pub struct OpenReport {
     pub missing_nodes: usize,
 }
 
-fn check(v: f32) -> bool {
-    v.is_finite() && v.abs() <= MAX_VALUE
-}
-
 impl ProjectFile {
     /// Checks what a file could get wrong: version, sizes, numbers, ids, references.
     pub fn validate(&self) -> Result<(), String> {
@@ -182,28 +177,21 @@ impl ProjectFile {
         }
         let mut ids = HashSet::new();
         for o in &self.objects {
-            if o.id == SceneId::NEW || !ids.insert(o.id) {
-                return Err(format!("object id {} is zero or used twice", o.id.0));
+            if !o.id.is_valid() {
+                return Err(format!(
+                    "object id {} is outside the range of ids (1 to {})",
+                    o.id.0,
+                    SceneId::MAX.0
+                ));
             }
-            let t = &o.transform;
-            if !t
-                .translation
-                .iter()
-                .chain(&t.rotation)
-                .chain(&t.scale)
-                .all(|v| check(*v))
-            {
+            if !ids.insert(o.id) {
+                return Err(format!("object id {} is used twice", o.id.0));
+            }
+            if !o.transform.is_valid() {
                 return Err(format!("object {} has a transform out of range", o.id.0));
             }
-            if let Some(m) = &o.material {
-                let values = m
-                    .base_color
-                    .iter()
-                    .chain(&m.emissive)
-                    .chain([&m.metallic, &m.perceptual_roughness]);
-                if !values.clone().all(|v| check(*v)) || m.emissive.iter().any(|v| *v < 0.0) {
-                    return Err(format!("object {} has a material out of range", o.id.0));
-                }
+            if o.material.as_ref().is_some_and(|m| !m.is_valid()) {
+                return Err(format!("object {} has a material out of range", o.id.0));
             }
             match &o.kind {
                 ObjectKind::Node(n) | ObjectKind::MeshOf(n) if n.source >= self.sources.len() => {
@@ -213,15 +201,16 @@ impl ProjectFile {
                     ));
                 }
                 ObjectKind::Light(l)
-                    if !l.color.iter().all(|v| check(*v))
-                        || !check(l.intensity)
-                        || l.range.is_some_and(|r| !check(r)) =>
+                    if !l.color.iter().all(|v| in_range(*v))
+                        || !in_range(l.intensity)
+                        || l.range.is_some_and(|r| !in_range(r)) =>
                 {
                     return Err(format!("object {} has a light out of range", o.id.0));
                 }
                 _ => {}
             }
         }
+        self.check_parents(&ids)?;
         if self.deleted.iter().any(|d| d.source >= self.sources.len()) {
             return Err("a deleted node names a source the project does not list".into());
         }
@@ -230,9 +219,56 @@ impl ProjectFile {
                 .focus
                 .iter()
                 .chain([&c.radius, &c.yaw, &c.pitch])
-                .all(|v| check(*v))
+                .all(|v| in_range(*v))
         {
             return Err("the camera is out of range".into());
+        }
+        Ok(())
+    }
+}
+
+impl ProjectFile {
+    /// Refuses parents that are the object itself, that no object of the file has, or that
+    /// lead round in a cycle: the objects must form a forest, as the scene they make does.
+    fn check_parents(&self, ids: &HashSet<SceneId>) -> Result<(), String> {
+        let parent: HashMap<SceneId, SceneId> = self
+            .objects
+            .iter()
+            .filter_map(|o| Some((o.id, o.parent?)))
+            .collect();
+        for (&child, &p) in &parent {
+            if p == child {
+                return Err(format!("object {} is its own parent", child.0));
+            }
+            if !ids.contains(&p) {
+                return Err(format!(
+                    "object {} names parent {}, which the project does not hold",
+                    child.0, p.0
+                ));
+            }
+        }
+        // Walk up from each object; what a finished walk reached is known to end at a root.
+        let mut done: HashSet<SceneId> = HashSet::new();
+        for o in &self.objects {
+            let mut path: Vec<SceneId> = Vec::new();
+            let mut on_path = HashSet::new();
+            let mut at = o.id;
+            while !done.contains(&at) {
+                if !on_path.insert(at) {
+                    let start = path.iter().position(|x| *x == at).unwrap_or(0);
+                    let ring: Vec<String> = path[start..].iter().map(|x| x.0.to_string()).collect();
+                    return Err(format!(
+                        "the parents of objects {} form a cycle",
+                        ring.join(", ")
+                    ));
+                }
+                path.push(at);
+                match parent.get(&at) {
+                    Some(&p) => at = p,
+                    None => break,
+                }
+            }
+            done.extend(path);
         }
         Ok(())
     }
@@ -453,27 +489,18 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     (project, unsaved)
 }
 
-/// Writes `project` to `path` atomically: a temporary file beside it, flushed, then renamed.
+/// A project as the text of its file.
+pub fn project_text(project: &ProjectFile) -> Result<String, ron::Error> {
+    ron::ser::to_string_pretty(project, ron::ser::PrettyConfig::default())
+}
+
+/// Writes `project` to `path` atomically ([`crate::atomic_file`]: a temporary file of a unique
+/// name beside it, flushed, renamed over it, the folder flushed; a link's destination written).
 pub fn write_project(path: &Path, project: &ProjectFile) -> Result<(), ProjectError> {
-    let io = |e: std::io::Error| ProjectError::Io(path.to_owned(), e.to_string());
-    let text = ron::ser::to_string_pretty(project, ron::ser::PrettyConfig::default())
-        .map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
-    let name = path
-        .file_name()
-        .map_or("project".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.saving"));
-    let written = (|| {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(text.as_bytes())?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = written {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
-    }
-    Ok(())
+    let text =
+        project_text(project).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
+    crate::atomic_file::write_atomically(path, text.as_bytes())
+        .map_err(|e| ProjectError::Io(path.to_owned(), e.to_string()))
 }
 
 /// Saves the scene to `path` (atomically) and makes it the open project; returns the names of
@@ -581,22 +608,58 @@ pub fn open_project(world: &mut World, path: &Path) -> Result<OpenReport, Projec
     open_project_value(world, project, path)
 }
 
-/// [`open_project`] of a project already read and checked; `path` is where it lives (its sources
-/// resolve against its folder, errors name it).
-pub fn open_project_value(
-    world: &mut World,
-    project: ProjectFile,
+/// How far the parsing of a project's sources has got, shared with the thread doing it, and a way
+/// to stop it between sources.
+#[derive(Debug, Default)]
+pub struct OpenProgress {
+    /// Sources read so far.
+    pub done: std::sync::atomic::AtomicUsize,
+    /// Sources to read.
+    pub total: std::sync::atomic::AtomicUsize,
+    /// Set to stop before the next source.
+    pub cancelled: std::sync::atomic::AtomicBool,
+}
+
+/// A project's sources, read: what [`open_project_parsed`] puts in the scene.
+pub struct ParsedSources {
+    resolved: Vec<PathBuf>,
+    parsed: Vec<Option<treelight_import::ImportedScene>>,
+    report: OpenReport,
+}
+
+impl ParsedSources {
+    /// Each source's scene, in the project's order (`None` for a missing or unreadable one).
+    pub fn scenes(&self) -> &[Option<treelight_import::ImportedScene>] {
+        &self.parsed
+    }
+}
+
+/// Checks and parses the sources of `project` (at `path`), touching no scene: the slow part of
+/// opening one, which the editor runs off its main thread. A source that is not a scene file fails
+/// the open; a missing or unreadable one is reported and its objects kept.
+pub fn parse_sources(
+    project: &ProjectFile,
     path: &Path,
-) -> Result<OpenReport, ProjectError> {
+    progress: Option<&OpenProgress>,
+) -> Result<ParsedSources, ProjectError> {
+    use std::sync::atomic::Ordering;
     let mut report = OpenReport::default();
-    // Sources: checked, then parsed, before the scene is touched.
     let mut parsed: Vec<Option<treelight_import::ImportedScene>> = Vec::new();
     let resolved: Vec<PathBuf> = project
         .sources
         .iter()
         .map(|s| resolve_source(path, s))
         .collect();
+    if let Some(p) = progress {
+        p.total.store(resolved.len(), Ordering::Relaxed);
+    }
     for (i, file) in resolved.iter().enumerate() {
+        if progress.is_some_and(|p| p.cancelled.load(Ordering::Relaxed)) {
+            return Err(ProjectError::Io(
+                path.to_owned(),
+                "opening cancelled".into(),
+            ));
+        }
         match check_source(file) {
             Err(problem) => {
                 return Err(ProjectError::Source(
@@ -620,7 +683,40 @@ pub fn open_project_value(
                 }
             },
         }
+        if let Some(p) = progress {
+            p.done.store(i + 1, Ordering::Relaxed);
+        }
     }
+    Ok(ParsedSources {
+        resolved,
+        parsed,
+        report,
+    })
+}
+
+/// [`open_project`] of a project already read and checked; `path` is where it lives (its sources
+/// resolve against its folder, errors name it).
+pub fn open_project_value(
+    world: &mut World,
+    project: ProjectFile,
+    path: &Path,
+) -> Result<OpenReport, ProjectError> {
+    let sources = parse_sources(&project, path, None)?;
+    open_project_parsed(world, project, path, sources)
+}
+
+/// Puts a project whose sources were parsed ([`parse_sources`]) in place of the scene.
+pub fn open_project_parsed(
+    world: &mut World,
+    project: ProjectFile,
+    path: &Path,
+    sources: ParsedSources,
+) -> Result<OpenReport, ProjectError> {
+    let ParsedSources {
+        resolved,
+        parsed,
+        mut report,
+    } = sources;
 
     // The new scene replaces the old one, with a fresh history.
     let mut q = world.query_filtered::<Entity, (With<SceneObject>, Without<ChildOf>)>();
@@ -635,11 +731,13 @@ pub fn open_project_value(
     world.resource_mut::<Selection>().clear();
     world.resource_mut::<SourceCatalog>().0.clear();
     // Fresh ids for the sources' nodes never collide with the project's.
-    let top = project.objects.iter().map(|o| o.id.0).max().unwrap_or(0);
-    {
-        let mut index = world.resource_mut::<SceneIndex>();
-        while index.allocate().0 <= top {}
-    }
+    let top = project
+        .objects
+        .iter()
+        .map(|o| o.id)
+        .max()
+        .unwrap_or(SceneId::NEW);
+    world.resource_mut::<SceneIndex>().reserve_through(top);
 
     let mut nodes: HashMap<(usize, String), Entity> = HashMap::new();
     for (i, scene) in parsed.iter().enumerate() {

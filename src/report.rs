@@ -77,7 +77,8 @@ pub struct EditorState {
     /// The window's title.
     #[serde(default)]
     pub title: String,
-    /// The file dialog open, if any: "builtin" or "native", then what it is for.
+    /// The file dialog open, if any: "builtin" or "native", then what it is for; or "replace" and
+    /// the file Save As asks about replacing.
     #[serde(default)]
     pub dialog: Option<String>,
     /// This frame's main-world schedules, `First` to `Last` (everything but rendering and this
@@ -170,8 +171,11 @@ pub fn write_state_report(
     selection: Res<Selection>,
     history: Res<EditHistory>,
     gizmo: Res<GizmoSettings>,
-    pending: Res<PendingImports>,
-    parsed: Res<crate::import::ParsedImports>,
+    (pending, parsed, opening): (
+        Res<PendingImports>,
+        Res<crate::import::ParsedImports>,
+        Res<crate::project_open::OpeningProjects>,
+    ),
     scene: Res<SceneBvh>,
     widgets: Res<crate::ui::WidgetRects>,
     project: Res<crate::project::ProjectState>,
@@ -233,7 +237,7 @@ pub fn write_state_report(
         .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
     let state = EditorState {
         frame: report.frame,
-        settled: pending.0.is_empty() && parsed.0.is_empty() && scene.is_idle(),
+        settled: pending.0.is_empty() && parsed.0.is_empty() && !opening.busy() && scene.is_idle(),
         objects: list,
         selection: selection
             .entities()
@@ -248,9 +252,10 @@ pub fn write_state_report(
         project: project.path.clone(),
         dirty: history.is_dirty(),
         title: window.single().map_or(String::new(), |w| w.title.clone()),
-        dialog: match (&files.dialog, &files.native) {
-            (Some(d), _) => Some(format!("builtin {:?}", d.purpose)),
-            (_, Some(d)) => Some(format!("native {:?}", d.purpose)),
+        dialog: match (&files.dialog, &files.native, &files.replace) {
+            (Some(d), _, _) => Some(format!("builtin {:?}", d.purpose)),
+            (_, Some(d), _) => Some(format!("native {:?}", d.purpose)),
+            (_, _, Some(p)) => Some(format!("replace {}", p.display())),
             _ => None,
         },
         main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),

@@ -20,6 +20,15 @@ pub struct SceneId(pub u64);
 impl SceneId {
     /// Asks for the next free id when inserted.
     pub const NEW: SceneId = SceneId(0);
+
+    /// The largest id an object may have: far beyond what a session makes (one a microsecond for
+    /// ten days), and far enough below `u64::MAX` that counting up from it never overflows.
+    pub const MAX: SceneId = SceneId(1 << 40);
+
+    /// Whether this is an id an object may have: 1 to [`SceneId::MAX`].
+    pub fn is_valid(self) -> bool {
+        (1..=Self::MAX.0).contains(&self.0)
+    }
 }
 
 impl Default for SceneId {
@@ -39,6 +48,11 @@ impl std::fmt::Display for SceneId {
 pub struct SceneIndex {
     entities: HashMap<SceneId, Entity>,
     next: u64,
+    /// Ids that left the index (deleted objects, which an undo brings back) or that objects not in
+    /// the scene hold (a project's kept objects): never given out again.
+    retired: std::collections::HashSet<SceneId>,
+    /// Where the search for an unused id starts, once the count has reached [`SceneId::MAX`].
+    low: u64,
 }
 
 impl SceneIndex {
@@ -57,12 +71,34 @@ impl SceneIndex {
         self.entities.is_empty()
     }
 
-    /// Takes a fresh id.
+    /// Makes every id up to `id` taken, so fresh ones come after it.
+    pub fn reserve_through(&mut self, id: SceneId) {
+        self.next = self.next.max(id.0.saturating_add(1));
+    }
+
+    /// Keeps `id` from being given out: an object that is not in the scene holds it.
+    pub fn retire(&mut self, id: SceneId) {
+        self.retired.insert(id);
+    }
+
+    /// Takes a fresh id: the one after the largest given or named so far, or, once that would
+    /// pass [`SceneId::MAX`] (a file or script named an id at the top of the range), the lowest
+    /// id never used, so that every id stays one a project can hold.
     pub fn allocate(&mut self) -> SceneId {
         self.next = self.next.max(1);
-        let id = SceneId(self.next);
-        self.next += 1;
-        id
+        if self.next <= SceneId::MAX.0 {
+            let id = SceneId(self.next);
+            self.next += 1;
+            return id;
+        }
+        loop {
+            self.low = self.low.max(1);
+            let id = SceneId(self.low);
+            self.low += 1;
+            if !self.entities.contains_key(&id) && !self.retired.contains(&id) {
+                return id;
+            }
+        }
     }
 }
 
@@ -84,7 +120,7 @@ fn index_id(mut world: DeferredWorld, ctx: HookContext) {
     };
     let mut index = world.resource_mut::<SceneIndex>();
     // An explicit id (an undone delete, a loaded project) is never given out again.
-    index.next = index.next.max(id.0 + 1);
+    index.next = index.next.max(id.0.saturating_add(1));
     index.entities.insert(id, ctx.entity);
 }
 
@@ -96,6 +132,7 @@ fn unindex_id(mut world: DeferredWorld, ctx: HookContext) {
         && index.entities.get(&id) == Some(&ctx.entity)
     {
         index.entities.remove(&id);
+        index.retired.insert(id);
     }
 }
 

@@ -50,6 +50,8 @@ pub struct ScriptedEdits {
     pub commands: Option<Vec<EditCommand>>,
     /// Frames in a row the scene has been settled.
     settled: u32,
+    /// Why the commands were not applied, when they could not be.
+    pub failed: Option<String>,
 }
 
 impl ScriptedEdits {
@@ -59,6 +61,7 @@ impl ScriptedEdits {
             path,
             commands: Some(commands),
             settled: 0,
+            failed: None,
         }
     }
 }
@@ -72,10 +75,25 @@ pub fn run_scripted_edits(world: &mut World) {
         || !world
             .resource::<crate::import::ParsedImports>()
             .0
-            .is_empty();
+            .is_empty()
+        || world
+            .resource::<crate::project_open::OpeningProjects>()
+            .busy();
     let idle = world.resource::<SceneBvh>().is_idle();
+    let failure = world.resource::<SceneBvh>().worker_failure();
     let mut script = world.resource_mut::<ScriptedEdits>();
     if script.commands.is_none() {
+        return;
+    }
+    if let Some(why) = failure {
+        // The tree will never settle: the script is not applied, and says so.
+        let path = script.path.clone();
+        script.commands = None;
+        script.failed = Some(format!(
+            "{}: not applied: the scene BVH worker crashed ({why})",
+            path.display()
+        ));
+        error!("{}", script.failed.as_deref().unwrap_or_default());
         return;
     }
     script.settled = if idle && !loading {

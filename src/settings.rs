@@ -90,21 +90,14 @@ pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
     Ok(Some(settings))
 }
 
-/// Writes `settings` to `path` through a temporary file beside it.
+/// Writes `settings` to `path` atomically ([`crate::atomic_file`]).
 pub fn write_settings(path: &Path, settings: &EditorSettings) -> std::io::Result<()> {
     let text = ron::ser::to_string_pretty(settings, ron::ser::PrettyConfig::default())
         .map_err(std::io::Error::other)?;
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    let tmp = path.with_extension("ron.tmp");
-    {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(text.as_bytes())?;
-        f.sync_all()?;
-    }
-    std::fs::rename(&tmp, path)
+    crate::atomic_file::write_atomically(path, text.as_bytes())
 }
 
 /// The settings as last read or written, to save only changes.

@@ -306,17 +306,27 @@ fn broken_projects_are_refused_and_the_scene_is_untouched() {
             "version 99",
         ),
         ("absurd", absurd_radius(&text), "camera is out of range"),
+        // A folder and a device with a scene file's name: past the extension check, refused as
+        // not regular files.
         (
             "dir-source",
-            text.replace(&helmet().display().to_string(), &dir.display().to_string()),
-            "source 0",
+            text.replace(
+                &helmet().display().to_string(),
+                &dir.join("folder.gltf").display().to_string(),
+            ),
+            "source 0 ('",
         ),
         (
             "device",
-            text.replace(&helmet().display().to_string(), "/dev/zero"),
-            "source 0",
+            text.replace(
+                &helmet().display().to_string(),
+                &dir.join("zero.glb").display().to_string(),
+            ),
+            "source 0 ('",
         ),
     ];
+    std::fs::create_dir_all(dir.join("folder.gltf")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.glb")).unwrap();
     for (name, body, expect) in cases {
         let path = dir.join(format!("{name}.treelight"));
         std::fs::write(&path, body).unwrap();
@@ -324,11 +334,119 @@ fn broken_projects_are_refused_and_the_scene_is_untouched() {
         let text = e.to_string();
         assert!(text.contains(&path.display().to_string()), "{name}: {text}");
         assert!(text.contains(expect), "{name}: {text}");
+        if name == "dir-source" || name == "device" {
+            assert!(text.contains("is not a regular file"), "{name}: {text}");
+        }
         assert_eq!(state(app.world_mut()), before, "{name} changed the scene");
     }
     // A directory in place of the project itself.
     let e = open_project(app.world_mut(), &dir).unwrap_err();
     assert!(matches!(e, ProjectError::Io(..)), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn objects_must_form_a_forest_and_ids_stay_in_range() {
+    let dir = temp("forest");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    let good = dir.join("good.treelight");
+    save_project(app.world_mut(), &good).unwrap();
+    let project = read_project(&good).unwrap();
+    let ids: Vec<SceneId> = project.objects.iter().map(|o| o.id).collect();
+    let (a, b, c) = (ids[0], ids[1], ids[2]);
+    let with = |edit: &dyn Fn(&mut treelight::project::ProjectFile)| {
+        let mut p = project.clone();
+        edit(&mut p);
+        p
+    };
+    let set_parent = |p: &mut treelight::project::ProjectFile, id: SceneId, parent: SceneId| {
+        p.objects.iter_mut().find(|o| o.id == id).unwrap().parent = Some(parent);
+    };
+    let cases: Vec<(&str, treelight::project::ProjectFile, String)> = vec![
+        (
+            "self-parent",
+            with(&|p| set_parent(p, a, a)),
+            format!("object {} is its own parent", a.0),
+        ),
+        (
+            "missing-parent",
+            with(&|p| set_parent(p, a, SceneId(9_999_999))),
+            format!(
+                "object {} names parent 9999999, which the project does not hold",
+                a.0
+            ),
+        ),
+        (
+            "cycle",
+            with(&|p| {
+                set_parent(p, a, b);
+                set_parent(p, b, c);
+                set_parent(p, c, a);
+            }),
+            "form a cycle".into(),
+        ),
+        (
+            "huge-id",
+            with(&|p| {
+                let leaf = p
+                    .objects
+                    .iter()
+                    .position(|o| p.objects.iter().all(|c| c.parent != Some(o.id)))
+                    .unwrap();
+                p.objects[leaf].id = SceneId(u64::MAX - 1);
+            }),
+            format!("object id {} is outside the range of ids", u64::MAX - 1),
+        ),
+    ];
+    for (name, body, expect) in cases {
+        let path = dir.join(format!("{name}.treelight"));
+        let text = ron::ser::to_string_pretty(&body, ron::ser::PrettyConfig::default()).unwrap();
+        std::fs::write(&path, text).unwrap();
+        let e = open_project(app.world_mut(), &path).expect_err(name);
+        let text = e.to_string();
+        assert!(text.contains(&path.display().to_string()), "{name}: {text}");
+        assert!(text.contains(&expect), "{name}: {text}");
+        assert_eq!(state(app.world_mut()), before, "{name} changed the scene");
+    }
+    // A command naming an id past the range makes nothing, so no project can come of it.
+    let e = apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::AddPrimitive {
+                shape: Primitive::Cube,
+                transform: TransformValue::from(Transform::IDENTITY),
+                id: Some(SceneId(u64::MAX)),
+            },
+            continuing: false,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("outside the range of ids"), "{e}");
+    // The largest id in range opens, and the ids given after it stay in range, taken by none.
+    let leaf = project
+        .objects
+        .iter()
+        .position(|o| project.objects.iter().all(|c| c.parent != Some(o.id)))
+        .unwrap();
+    let top = with(&|p| p.objects[leaf].id = SceneId::MAX);
+    let path = dir.join("top.treelight");
+    let text = ron::ser::to_string_pretty(&top, ron::ser::PrettyConfig::default()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    let start = std::time::Instant::now();
+    open_project(app.world_mut(), &path).unwrap();
+    assert!(start.elapsed().as_secs() < 30);
+    for _ in 0..3 {
+        let fresh = app
+            .world_mut()
+            .resource_mut::<treelight::scene_id::SceneIndex>()
+            .allocate();
+        assert!(fresh.is_valid(), "{fresh}");
+        assert!(
+            top.objects.iter().all(|o| o.id != fresh),
+            "{fresh} is taken"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -534,4 +652,65 @@ proptest::proptest! {
         proptest::prop_assert_eq!(state(fresh.world_mut()), before);
         std::fs::remove_file(&path).ok();
     }
+}
+
+#[test]
+fn a_failed_autosave_is_shown_and_retried_and_a_save_leaves_no_copy() {
+    use treelight::autosave::{Autosave, autosave, recovery_beside};
+    let dir = temp("autosave");
+    let mut app = edited_scene();
+    // The project's folder is a file for now, so the recovery copy cannot be written beside it.
+    let folder = dir.join("work");
+    std::fs::write(&folder, "not a folder").unwrap();
+    let project = folder.join("house.treelight");
+    let copy = recovery_beside(&project);
+    let world = app.world_mut();
+    world.resource_mut::<ProjectState>().path = Some(project.clone());
+    let mut auto = Autosave::default();
+    auto.interval = std::time::Duration::from_millis(20);
+    world.insert_resource(auto);
+    let run_until = |world: &mut World, what: &str, done: &dyn Fn(&World) -> bool| {
+        let start = std::time::Instant::now();
+        while !done(world) {
+            assert!(start.elapsed().as_secs() < 30, "{what} never happened");
+            autosave(world);
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    };
+    run_until(world, "the failure", &|w| {
+        w.resource::<Autosave>().failing.is_some()
+    });
+    let notices = world.resource::<treelight::notice::Notices>();
+    assert!(
+        notices
+            .0
+            .iter()
+            .any(|n| n.text.contains("autosave failed") && n.text.contains("work")),
+        "{:?}",
+        notices.0
+    );
+    assert!(!copy.exists());
+    // Once the folder can hold it, the next try writes the copy.
+    std::fs::remove_file(&folder).unwrap();
+    std::fs::create_dir_all(&folder).unwrap();
+    run_until(world, "the retry", &|w| {
+        w.resource::<Autosave>().failing.is_none() && copy.exists()
+    });
+    // A save makes the copy stale: it is removed.
+    world.resource_mut::<EditHistory>().mark_saved();
+    autosave(world);
+    assert!(!copy.exists(), "the stale copy was left");
+    // Unsaved again, copied again; quitting with the changes discarded removes the copy too.
+    world.resource_mut::<EditHistory>().mark_unsaved();
+    run_until(world, "the second copy", &|_| copy.exists());
+    world
+        .resource_mut::<treelight::files::ProjectRequests>()
+        .0
+        .push(treelight::files::ProjectRequest::Quit);
+    app.update();
+    assert!(
+        !copy.exists(),
+        "a discarded scene's copy was left to be offered"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -21,6 +21,26 @@ pub struct TransformValue {
     pub scale: [f32; 3],
 }
 
+/// Largest magnitude of a number in a transform, material, light or camera, for commands and
+/// projects alike: past it, products overflow to infinity in the engine's arithmetic.
+pub const MAX_VALUE: f32 = 1.0e9;
+
+/// Whether `v` is a number the scene accepts: finite, within [`MAX_VALUE`].
+pub fn in_range(v: f32) -> bool {
+    v.is_finite() && v.abs() <= MAX_VALUE
+}
+
+impl TransformValue {
+    /// Whether every number is [`in_range`].
+    pub fn is_valid(&self) -> bool {
+        self.translation
+            .iter()
+            .chain(&self.rotation)
+            .chain(&self.scale)
+            .all(|v| in_range(*v))
+    }
+}
+
 fn identity_rotation() -> [f32; 4] {
     [0.0, 0.0, 0.0, 1.0]
 }
@@ -104,12 +124,13 @@ impl MaterialValue {
         };
     }
 
-    fn is_valid(&self) -> bool {
+    /// Whether every value is [`in_range`] and the emission is not negative.
+    pub fn is_valid(&self) -> bool {
         self.base_color
             .iter()
             .chain(&self.emissive)
             .chain([&self.metallic, &self.perceptual_roughness])
-            .all(|v| v.is_finite())
+            .all(|v| in_range(*v))
             && self.emissive.iter().all(|v| *v >= 0.0)
     }
 }
@@ -335,9 +356,12 @@ pub enum EditError {
     /// A command with nothing to do.
     #[error("the command names no objects")]
     Empty,
-    /// A transform with a NaN or infinite number.
-    #[error("the transform has a number that is not finite")]
+    /// A transform with a NaN, infinite or huge number.
+    #[error("the transform has a number that is not finite or is larger than {MAX_VALUE:e}")]
     NotFinite,
+    /// An id for a new object outside the range ids take.
+    #[error("id {0} is outside the range of ids (1 to {max})", max = SceneId::MAX.0)]
+    IdOutOfRange(SceneId),
     /// An object without a material, for a material command.
     #[error("{0} has no material")]
     NoMaterial(SceneId),
@@ -345,7 +369,7 @@ pub enum EditError {
     #[error("{0}")]
     Import(String),
     /// Material values out of range.
-    #[error("a material value is not finite, or the emission is negative")]
+    #[error("a material value is not finite or too large, or the emission is negative")]
     BadMaterial,
     /// A command that cannot be shown as a live preview (only transforms can).
     #[error("only transform commands can be previewed")]
@@ -515,16 +539,12 @@ impl EditCommand {
             }
             EditCommand::AddPrimitive { id, transform, .. } => {
                 check_free(world, *id)?;
-                let t = transform;
-                if !t.translation.iter().chain(&t.scale).all(|v| v.is_finite()) {
-                    return Err(EditError::NotFinite);
-                }
+                check_finite(transform)?;
             }
         }
         if let EditCommand::Duplicate { copies, .. } = self {
-            let index = world.resource::<SceneIndex>();
-            if let Some(taken) = copies.iter().find(|c| index.entity(**c).is_some()) {
-                return Err(EditError::Taken(*taken));
+            for c in copies {
+                check_free(world, Some(*c))?;
             }
         }
         Ok(())
@@ -762,9 +782,10 @@ impl EditCommand {
     }
 }
 
-/// Refuses an id another object already has.
+/// Refuses an id for a new object that another object already has, or that is out of range.
 fn check_free(world: &World, id: Option<SceneId>) -> Result<(), EditError> {
     match id {
+        Some(id) if !id.is_valid() => Err(EditError::IdOutOfRange(id)),
         Some(id) if world.resource::<SceneIndex>().entity(id).is_some() => {
             Err(EditError::Taken(id))
         }
@@ -788,13 +809,7 @@ fn material_of(world: &World, id: SceneId) -> Result<Handle<StandardMaterial>, E
 }
 
 fn check_finite(t: &TransformValue) -> Result<(), EditError> {
-    let finite = t
-        .translation
-        .iter()
-        .chain(&t.rotation)
-        .chain(&t.scale)
-        .all(|v| v.is_finite());
-    if finite {
+    if t.is_valid() {
         Ok(())
     } else {
         Err(EditError::NotFinite)

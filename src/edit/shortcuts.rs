@@ -3,6 +3,7 @@
 //! fires while a text field has the keyboard.
 
 use super::{EditCommand, EditRequest, EditRequests};
+use crate::key_chords::{KeyChords, Modifiers};
 use crate::scene_id::SceneId;
 use crate::selection::Selection;
 use bevy::prelude::*;
@@ -15,31 +16,27 @@ pub fn keyboard_is_free(contexts: &mut EguiContexts) -> bool {
         .map_or(true, |ctx| !ctx.egui_wants_keyboard_input())
 }
 
-/// What a frame's keys ask for, given the modifiers held; `None` for nothing.
-pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: &[SceneId]) -> Option<EditRequest> {
-    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
-    let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
-    if ctrl && keys.just_pressed(KeyCode::KeyZ) {
-        return Some(if shift {
-            EditRequest::Redo
-        } else {
-            EditRequest::Undo
-        });
+/// What the frame's chord asks for, given the selection; `None` for nothing.
+pub fn shortcut(chords: &KeyChords, selected: &[SceneId]) -> Option<EditRequest> {
+    if chords.pressed(KeyCode::KeyZ, Modifiers::CTRL) {
+        return Some(EditRequest::Undo);
     }
-    if ctrl && keys.just_pressed(KeyCode::KeyY) {
+    if chords.pressed(KeyCode::KeyZ, Modifiers::CTRL_SHIFT)
+        || chords.pressed(KeyCode::KeyY, Modifiers::CTRL)
+    {
         return Some(EditRequest::Redo);
     }
     if selected.is_empty() {
         return None;
     }
     let ids = selected.to_vec();
-    if keys.just_pressed(KeyCode::Delete) {
+    if chords.pressed(KeyCode::Delete, Modifiers::NONE) {
         return Some(EditRequest::Apply {
             command: EditCommand::Delete { ids },
             continuing: false,
         });
     }
-    if ctrl && keys.just_pressed(KeyCode::KeyD) {
+    if chords.pressed(KeyCode::KeyD, Modifiers::CTRL) {
         return Some(EditRequest::Apply {
             command: EditCommand::Duplicate {
                 ids,
@@ -48,7 +45,7 @@ pub fn shortcut(keys: &ButtonInput<KeyCode>, selected: &[SceneId]) -> Option<Edi
             continuing: false,
         });
     }
-    if ctrl && keys.just_pressed(KeyCode::KeyG) {
+    if chords.pressed(KeyCode::KeyG, Modifiers::CTRL) {
         return Some(EditRequest::Apply {
             command: EditCommand::Group {
                 ids,
@@ -86,7 +83,7 @@ impl EditClipboard {
 
 /// Turns the frame's shortcuts into requests.
 pub fn edit_shortcuts(
-    keys: Res<ButtonInput<KeyCode>>,
+    chords: Res<KeyChords>,
     mut contexts: EguiContexts,
     selection: Res<Selection>,
     ids: Query<&SceneId>,
@@ -102,17 +99,15 @@ pub fn edit_shortcuts(
         .iter()
         .filter_map(|e| ids.get(*e).ok().copied())
         .collect();
-    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
-    if ctrl && keys.just_pressed(KeyCode::KeyC) && !selected.is_empty() {
+    if chords.pressed(KeyCode::KeyC, Modifiers::CTRL) && !selected.is_empty() {
         clipboard.0 = selected.clone();
     }
-    if ctrl
-        && keys.just_pressed(KeyCode::KeyV)
+    if chords.pressed(KeyCode::KeyV, Modifiers::CTRL)
         && let Some(r) = clipboard.paste(&index)
     {
         requests.0.push(r);
     }
-    if let Some(r) = shortcut(&keys, &selected) {
+    if let Some(r) = shortcut(&chords, &selected) {
         requests.0.push(r);
     }
 }
@@ -121,14 +116,19 @@ pub fn edit_shortcuts(
 mod tests {
     use super::*;
 
-    fn press(held: &[KeyCode], key: KeyCode) -> ButtonInput<KeyCode> {
-        let mut keys = ButtonInput::default();
+    fn press(held: &[KeyCode], key: KeyCode) -> KeyChords {
+        use bevy::input::ButtonState;
+        let mut chords = KeyChords::default();
         for k in held {
-            keys.press(*k);
+            chords.take(*k, ButtonState::Pressed, false);
         }
-        keys.clear();
-        keys.press(key);
-        keys
+        chords.take(key, ButtonState::Pressed, false);
+        // The modifiers are let go before the frame looks: the chord keeps them.
+        for k in held {
+            chords.take(*k, ButtonState::Released, false);
+        }
+        chords.next_frame();
+        chords
     }
 
     #[test]

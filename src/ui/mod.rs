@@ -217,6 +217,8 @@ pub struct EditAccess<'w, 's> {
     project: Res<'w, crate::project::ProjectState>,
     project_requests: ResMut<'w, crate::files::ProjectRequests>,
     recent: Res<'w, crate::files::RecentProjects>,
+    health: Res<'w, crate::worker_watch::WorkerHealth>,
+    opening: ResMut<'w, crate::project_open::OpeningProjects>,
 }
 
 /// What the viewport reads of the scene and keeps of its own.
@@ -266,6 +268,8 @@ pub fn editor_ui(
         mut files,
         project,
         mut project_requests,
+        health,
+        mut opening,
         recent,
     } = edits;
     let ViewportAccess {
@@ -430,7 +434,17 @@ pub fn editor_ui(
                     trace.traced_per_frame, figures.last_upload_bytes, figures.total_upload_bytes
                 ));
             }
-            if stats.pending > 0 {
+            if let Some(line) = health.status() {
+                ui.separator();
+                ui.colored_label(egui::Color32::from_rgb(255, 110, 100), line).on_hover_text(
+                    [&health.worker, &health.refinement]
+                        .into_iter()
+                        .flatten()
+                        .cloned()
+                        .collect::<Vec<_>>()
+                        .join("\n"),
+                );
+            } else if stats.pending > 0 {
                 ui.spinner();
                 ui.label(format!("{} changes pending", stats.pending));
             }
@@ -451,6 +465,14 @@ pub fn editor_ui(
                 p.file_name()
                     .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into())
             };
+            if let (Some((done, total)), Some(o)) = (opening.progress(), opening.0.as_ref()) {
+                ui.separator();
+                ui.spinner();
+                ui.label(format!("Opening {}: {done} of {total} sources read", name(&o.path)));
+                if ui.small_button("Cancel").clicked() {
+                    opening.cancel();
+                }
+            }
             let mut cancel = Vec::new();
             for (path, _) in &imports.pending.0 {
                 ui.separator();

@@ -44,7 +44,7 @@ fn on_path(program: &str) -> bool {
 pub struct NativeDialog {
     /// What the chosen file is for.
     pub purpose: DialogPurpose,
-    task: Task<Option<PathBuf>>,
+    task: Task<Result<Option<PathBuf>, String>>,
 }
 
 impl NativeDialog {
@@ -54,35 +54,43 @@ impl NativeDialog {
             .set_title(purpose.title())
             .set_directory(dir);
         let task = AsyncComputeTaskPool::get().spawn(async move {
-            let handle = match purpose {
-                DialogPurpose::Open => {
-                    dialog
-                        .add_filter("Treelight project", &["treelight"])
-                        .pick_file()
-                        .await
-                }
-                DialogPurpose::Import | DialogPurpose::Relink => {
-                    dialog
-                        .add_filter("Scene files", &["gltf", "glb", "obj", "ply"])
-                        .pick_file()
-                        .await
-                }
-                DialogPurpose::AssetFolder => dialog.pick_folder().await,
-                DialogPurpose::SaveAs => {
-                    dialog
-                        .add_filter("Treelight project", &["treelight"])
-                        .set_file_name(name)
-                        .save_file()
-                        .await
-                }
+            use bevy::tasks::futures_lite::FutureExt;
+            let chosen = async move {
+                let handle = match purpose {
+                    DialogPurpose::Open => {
+                        dialog
+                            .add_filter("Treelight project", &["treelight"])
+                            .pick_file()
+                            .await
+                    }
+                    DialogPurpose::Import | DialogPurpose::Relink => {
+                        dialog
+                            .add_filter("Scene files", &["gltf", "glb", "obj", "ply"])
+                            .pick_file()
+                            .await
+                    }
+                    DialogPurpose::AssetFolder => dialog.pick_folder().await,
+                    DialogPurpose::SaveAs => {
+                        dialog
+                            .add_filter("Treelight project", &["treelight"])
+                            .set_file_name(name)
+                            .save_file()
+                            .await
+                    }
+                };
+                handle.map(|h| h.path().to_owned())
             };
-            handle.map(|h| h.path().to_owned())
+            // A desktop dialog that crashes ends as an error, not the editor.
+            std::panic::AssertUnwindSafe(chosen)
+                .catch_unwind()
+                .await
+                .map_err(|p| crate::contain::crashed("the desktop file dialog".into(), &*p))
         });
         Self { purpose, task }
     }
 
     /// The answer, once given: a file, or `None` for a cancel.
-    pub fn poll(&mut self) -> Option<Option<PathBuf>> {
+    pub fn poll(&mut self) -> Option<Result<Option<PathBuf>, String>> {
         block_on(poll_once(&mut self.task))
     }
 }

@@ -101,6 +101,8 @@ impl Plugin for SceneBvhPlugin {
             stats: Mutex::new(SceneStats::default()),
             version: AtomicU64::new(0),
             pending: AtomicUsize::new(0),
+            failure: Mutex::new(None),
+            refine_failure: Arc::new(Mutex::new(None)),
         });
         let (tx, rx) = std::sync::mpsc::channel();
         let worker_shared = shared.clone();
@@ -128,9 +130,17 @@ impl Plugin for SceneBvhPlugin {
                     .start_handler(move |_| priority::lower_current_thread(nice))
                     .build();
                 priority::lower_current_thread(nice);
-                match pool {
+                // A bug in the worker stops the tree's updates, not the app: the panic is kept
+                // for the app to report (SceneBvh::worker_failure).
+                let shared = worker_shared.clone();
+                let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match pool {
                     Ok(pool) => pool.install(|| worker::run(worker_shared, rx, cfg)),
                     Err(_) => worker::run(worker_shared, rx, cfg),
+                }));
+                if let Err(payload) = ran {
+                    let why = panic_message(&*payload);
+                    error!("the scene BVH worker stopped: {why}");
+                    *shared.failure.lock().unwrap_or_else(|p| p.into_inner()) = Some(why);
                 }
             })
             .expect("cannot start the scene BVH worker thread");
@@ -157,6 +167,17 @@ impl Plugin for SceneBvhPlugin {
                 .in_set(SceneBvhSystems)
                 .after(TransformSystems::Propagate),
         );
+    }
+}
+
+/// A panic's message, when it has one.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic without a message".into()
     }
 }
 
@@ -466,11 +487,42 @@ impl SceneBvh {
         self.stats
     }
 
-    /// Whether every change sent so far has been applied.
+    /// Why the worker stopped, if it has (a panic, with its message): the tree then no longer
+    /// follows the world, and [`SceneBvh::is_idle`] stays false.
+    pub fn worker_failure(&self) -> Option<String> {
+        self.shared
+            .failure
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// Why background refinement stopped, if it has (a panic); the tree keeps its first builds.
+    pub fn refinement_failure(&self) -> Option<String> {
+        self.shared
+            .refine_failure
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// Makes the worker panic, as a bug in it would: how an app's tests check that it survives
+    /// and reports one.
+    #[doc(hidden)]
+    pub fn crash_worker_for_tests(&self) {
+        let _ = self
+            .sender
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .send(Command::Crash);
+    }
+
+    /// Whether every change sent so far has been applied (never, once the worker has stopped).
     pub fn is_idle(&self) -> bool {
         self.copying.is_empty()
             && self.followers.is_empty()
             && self.shared.pending.load(Ordering::Acquire) == 0
+            && self.worker_failure().is_none()
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never

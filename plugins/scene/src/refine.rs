@@ -38,7 +38,13 @@ pub(crate) struct Refiner {
 impl Refiner {
     /// Starts the refinement thread at `nice` steps below the app's threads; rebuilds start once
     /// no edit came for `quiet`.
-    pub(crate) fn start(nice: i32, quiet: std::time::Duration) -> Self {
+    /// A panic in a rebuild stops the thread and is written to `failure`; the tree keeps its
+    /// binned builds.
+    pub(crate) fn start(
+        nice: i32,
+        quiet: std::time::Duration,
+        failure: std::sync::Arc<std::sync::Mutex<Option<String>>>,
+    ) -> Self {
         let (jobs, job_rx) = channel::<Job>();
         let (built_tx, built) = channel::<Built>();
         let spawned = std::thread::Builder::new()
@@ -46,7 +52,18 @@ impl Refiner {
             .spawn(move || {
                 crate::priority::lower_current_thread(nice);
                 for (g, object, transform) in job_rx {
-                    let p = Refinement::build(object, transform);
+                    let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        Refinement::build(object, transform)
+                    }));
+                    let p = match built {
+                        Ok(p) => p,
+                        Err(payload) => {
+                            let why = crate::panic_message(&*payload);
+                            bevy::log::error!("background refinement stopped: {why}");
+                            *failure.lock().unwrap_or_else(|p| p.into_inner()) = Some(why);
+                            return;
+                        }
+                    };
                     if built_tx.send((g, p)).is_err() {
                         return;
                     }

@@ -45,6 +45,8 @@ pub(crate) enum Command {
     Move { entity: Entity, transform: Affine3A },
     /// A despawned or hidden entity, or one whose mesh was removed.
     Remove { entity: Entity },
+    /// Panic, as a bug in the worker would: how tests check that the app survives one.
+    Crash,
 }
 
 /// What an [`Command::Upsert`] carries.
@@ -96,6 +98,7 @@ impl Command {
             | Command::Instance { entity, .. }
             | Command::Move { entity, .. }
             | Command::Remove { entity } => *entity,
+            Command::Crash => Entity::PLACEHOLDER,
         }
     }
 }
@@ -106,6 +109,10 @@ pub(crate) struct Shared {
     pub stats: Mutex<SceneStats>,
     pub version: AtomicU64,
     pub pending: AtomicUsize,
+    /// Why the worker stopped, once it has (it panicked).
+    pub failure: Mutex<Option<String>>,
+    /// Why background refinement stopped, once it has; the tree keeps its binned builds.
+    pub refine_failure: Arc<Mutex<Option<String>>>,
 }
 
 /// Worker settings.
@@ -172,7 +179,11 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
     let mut idle = IdleWork::default();
     let mut clock = CostClock::default();
-    let mut refiner = Refiner::start(config.nice, config.bake_after);
+    let mut refiner = Refiner::start(
+        config.nice,
+        config.bake_after,
+        shared.refine_failure.clone(),
+    );
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
         let first = if idle.is_pending() {
@@ -201,6 +212,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         };
         let mut batch = vec![first];
         batch.extend(rx.try_iter());
+        if batch.iter().any(|c| matches!(c, Command::Crash)) {
+            panic!("the scene worker was asked to crash");
+        }
         let received = batch.len();
         // Copied meshes become triangles here, in parallel, rather than on the main thread.
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
@@ -249,8 +263,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             let tree = &mut *guard;
             for (c, p) in commands.into_iter().zip(prepared) {
                 match c {
-                    // Made into an upsert on arrival.
-                    Command::Copied { .. } => {}
+                    // Made into an upsert on arrival; a crash never gets this far.
+                    Command::Copied { .. } | Command::Crash => {}
                     Command::Remove { entity } => {
                         tree.remove_entity(entity);
                         last_move.remove(&entity);

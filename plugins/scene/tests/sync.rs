@@ -839,3 +839,40 @@ fn a_still_mesh_is_rebuilt_by_full_sweep_in_idle_time_and_traces_the_same() {
     assert_eq!(refined(&app), 1);
     check(&mut app, &rays(100, 0x5eed));
 }
+
+#[test]
+fn a_crashed_worker_is_reported_and_the_app_goes_on() {
+    let mut app = app(Duration::from_millis(50));
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0));
+    app.world_mut()
+        .spawn((Mesh3d(mesh.clone()), Transform::default()));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), 12);
+    assert_eq!(app.world().resource::<SceneBvh>().worker_failure(), None);
+    app.world().resource::<SceneBvh>().crash_worker_for_tests();
+    let start = Instant::now();
+    let why = loop {
+        app.update();
+        if let Some(why) = app.world().resource::<SceneBvh>().worker_failure() {
+            break why;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no failure reported"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    };
+    assert!(why.contains("asked to crash"), "{why}");
+    // The app keeps running frames and taking edits; the tree it had still answers rays.
+    app.world_mut()
+        .spawn((Mesh3d(mesh), Transform::from_xyz(3.0, 0.0, 0.0)));
+    for _ in 0..10 {
+        app.update();
+    }
+    let down = Ray3d::new(Vec3::new(0.0, 5.0, 0.0), Dir3::NEG_Y);
+    assert!(cast(&app, down).is_some());
+    assert!(!app.world().resource::<SceneBvh>().is_idle());
+}

@@ -47,12 +47,9 @@ struct Args {
     #[arg(long, default_value = "as-is", value_delimiter = ',')]
     order: Vec<String>,
     /// The paper's methods and references (sah, binned, median, incr, incru, incrup, incrupb) and
-    /// peers (obvhs-fastest, obvhs-medium, obvhs-slowest, bvh), comma list.
-    #[arg(
-        long,
-        default_value = "sah,median,incr,incru,incrup,incrupb",
-        value_delimiter = ','
-    )]
+    /// peers (obvhs-fastest, obvhs-medium, obvhs-slowest, bvh), comma list. Without it and without
+    /// --preset: sah,median,incr,incru,incrup,incrupb.
+    #[arg(long, value_delimiter = ',')]
     method: Vec<String>,
     /// The engine's presets (fast, balanced, best), comma list: each row is a whole policy.
     #[arg(long, value_delimiter = ',')]
@@ -201,13 +198,17 @@ fn run(args: &Args) -> Result<(), String> {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .ok_or("--resolution must look like 512x384")?;
-    // Presets are rows like the methods, named by the preset.
-    let methods: Vec<String> = args
-        .method
-        .iter()
-        .cloned()
-        .chain(args.preset.iter().map(|p| p.name().to_owned()))
-        .collect();
+    // Presets are rows like the methods, named by the preset; the default methods apply only when
+    // neither is given.
+    let methods: Vec<String> = if args.method.is_empty() && args.preset.is_empty() {
+        DEFAULT_METHODS.iter().map(|m| (*m).to_owned()).collect()
+    } else {
+        args.method
+            .iter()
+            .cloned()
+            .chain(args.preset.iter().map(|p| p.name().to_owned()))
+            .collect()
+    };
     if args.export_bvh.is_some()
         && (args.scene.len() != 1 || methods.len() != 1 || args.order.len() != 1)
     {
@@ -410,6 +411,9 @@ fn run(args: &Args) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// The rows built when neither `--method` nor `--preset` is given.
+const DEFAULT_METHODS: [&str; 6] = ["sah", "median", "incr", "incru", "incrup", "incrupb"];
 
 /// The paper's incremental methods, which `--update-fraction` and its sweep tune.
 fn is_paper_incremental(method: &str) -> bool {

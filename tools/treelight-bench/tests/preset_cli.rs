@@ -4,7 +4,7 @@
 
 mod support;
 
-use support::{bench, bench_csv, bench_refused, csv_rows};
+use support::{bench, bench_csv, bench_ok, bench_refused, csv_rows};
 
 /// Each row's method, settings label and SAH cost, from the CSV of a run with `extra`.
 fn rows(name: &str, extra: &[&str]) -> Vec<(String, String, f32)> {
@@ -73,4 +73,31 @@ fn the_help_fits_on_one_screen() {
     for flag in ["--preset", "--method", "--update-fraction", "--csv"] {
         assert!(help.contains(flag), "{flag} missing:\n{help}");
     }
+}
+
+#[test]
+fn a_preset_alone_exports_its_tree() {
+    // `--preset` without `--method` builds that preset's row only, so its tree can be written.
+    let dir = std::env::temp_dir().join(format!("treelight-preset-export-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("best.tlbvh");
+    let table = bench_ok(&[
+        "--scene",
+        "hairball:2000",
+        "--preset",
+        "best",
+        "--export-bvh",
+        file.to_str().unwrap(),
+        "--ao-rays",
+        "0",
+        "--resolution",
+        "8x8",
+    ]);
+    assert!(
+        !table.contains("incrupb"),
+        "the default methods ran too:\n{table}"
+    );
+    let tree = treelight_bvh::read_tlbvh(&mut std::fs::File::open(&file).unwrap()).unwrap();
+    assert!(tree.triangle_count > 0 && !tree.nodes.is_empty());
+    std::fs::remove_dir_all(&dir).ok();
 }
