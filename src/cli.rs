@@ -45,6 +45,10 @@ pub struct Cli {
     /// then exit (after `--frames` frames, if given).
     #[arg(long, value_name = "PATH")]
     pub save: Option<PathBuf>,
+    /// Hold the frame rate at or below this many frames a second (to save power, or to try the
+    /// editor as a slow adapter runs it).
+    #[arg(long, value_name = "FPS")]
+    pub max_fps: Option<f32>,
 }
 
 /// What `treelight` can do without opening its window.

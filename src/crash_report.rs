@@ -24,11 +24,16 @@ fn contained_here() -> bool {
         .is_some_and(|n| n.starts_with("treelight-") || n.starts_with("Async Compute Task Pool"))
 }
 
-/// Installs the hook that writes the report (then runs the default hook, which prints it).
+/// Installs the hook that writes the report into the cache folder (then runs the default hook,
+/// which prints it).
 pub fn install_hook() {
-    let Some(dir) = cache_dir() else {
-        return;
-    };
+    if let Some(dir) = cache_dir() {
+        install_hook_in(dir);
+    }
+}
+
+/// [`install_hook`] writing into `dir`.
+pub fn install_hook_in(dir: PathBuf) {
     let default = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         if !contained_here() {

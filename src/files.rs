@@ -229,13 +229,15 @@ impl FileUi {
         }
     }
 
-    /// Draws the dialog and the question, if open, and turns answers into requests.
+    /// Draws the dialog and the questions, if open, and turns answers into requests. Returns the
+    /// questions' buttons by name, with where they were laid out (for the state report).
     pub fn show(
         &mut self,
         ctx: &egui::Context,
         state: &ProjectState,
         requests: &mut ProjectRequests,
-    ) {
+    ) -> Vec<(String, egui::Rect)> {
+        let mut buttons = Vec::new();
         if let Some(after) = self.confirm.clone() {
             let name = state
                 .path
@@ -295,11 +297,14 @@ impl FileUi {
                         "{name} already exists in {folder}.\nReplacing it overwrites what it holds."
                     ));
                     ui.horizontal(|ui| {
-                        if ui.button("Replace").clicked() {
+                        let replace = ui.button("Replace");
+                        buttons.push(("Replace".to_owned(), replace.rect));
+                        if replace.clicked() {
                             answer = Some(true);
                         }
                         // The keyboard's default is the answer that loses nothing.
                         let cancel = ui.button("Cancel");
+                        buttons.push(("Cancel".to_owned(), cancel.rect));
                         if !ctx.memory(|m| m.focused().is_some()) {
                             cancel.request_focus();
                         }
@@ -374,6 +379,7 @@ impl FileUi {
                 }
             }
         }
+        buttons
     }
 }
 

@@ -29,6 +29,7 @@ pub mod scene_id;
 pub mod script;
 pub mod selection;
 pub mod settings;
+pub mod system_errors;
 pub mod ui;
 pub mod viewport;
 pub mod worker_watch;
@@ -65,6 +66,25 @@ pub fn run_schedules_on_one_thread(app: &mut App) {
     for (_, schedule) in schedules.iter_mut() {
         schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
     }
+}
+
+/// The shortest time between frames (`--max-fps`), if capped.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameCap(pub Option<std::time::Duration>);
+
+/// Sleeps out the rest of the frame's share of time under `--max-fps`; input arriving meanwhile
+/// waits for the next frame, as it does on a slow adapter.
+fn cap_frame_rate(cap: Res<FrameCap>, mut last: Local<Option<std::time::Instant>>) {
+    let Some(period) = cap.0 else {
+        return;
+    };
+    if let Some(at) = *last {
+        let spent = at.elapsed();
+        if spent < period {
+            std::thread::sleep(period - spent);
+        }
+    }
+    *last = Some(std::time::Instant::now());
 }
 
 /// Nice steps below the frame at which the editor's background work runs.
@@ -117,7 +137,16 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         worker_watch::WorkerWatchPlugin,
         crash_report::CrashReportPlugin,
     ))
+    // Errors of systems and commands are reported, not fatal (`system_errors`).
+    .set_error_handler(system_errors::report_error)
+    .add_systems(Last, system_errors::show_system_errors)
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
+    .insert_resource(FrameCap(
+        cli.max_fps
+            .filter(|f| f.is_finite() && *f > 0.0)
+            .map(|f| std::time::Duration::from_secs_f32(1.0 / f)),
+    ))
+    .add_systems(Last, cap_frame_rate)
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
     .init_resource::<import::ParsedImports>()

@@ -205,16 +205,18 @@ pub fn outline_selected_meshes(
         |e| children.get(e).map_or_else(|_| Vec::new(), |c| c.to_vec()),
         |e| meshes.contains(e),
     );
+    // `try_`: an edit later in the frame (an undo typed in the same frame) may despawn the mesh
+    // before these commands apply; that must not take the editor down.
     for (e, how) in &outlined {
         if !want.contains_key(&e) {
-            commands.entity(e).remove::<Outlined>();
+            commands.entity(e).try_remove::<Outlined>();
         } else if want[&e] != *how {
-            commands.entity(e).insert(want[&e]);
+            commands.entity(e).try_insert(want[&e]);
         }
     }
     for (&e, &how) in &want {
         if !outlined.contains(e) {
-            commands.entity(e).insert(how);
+            commands.entity(e).try_insert(how);
         }
     }
 }

@@ -6,7 +6,6 @@ mod support;
 #[path = "support/xdrive.rs"]
 mod xdrive;
 
-use support::skip_gpu_tests;
 use treelight::report::EditorState;
 use xdrive::{Session, handle, keysym, object};
 
@@ -41,9 +40,6 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
 
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
-    if skip_gpu_tests("clicks_keys_and_the_gizmo_edit_the_default_scene") {
-        return;
-    }
     let mut s = Session::start("input", &[]);
     let start = s.frames(1);
     let tall = object(&start, "Tall box").clone();
@@ -229,11 +225,6 @@ fn object_names(state: &EditorState) -> Vec<&str> {
 
 #[test]
 fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world_axis() {
-    if skip_gpu_tests(
-        "the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world_axis",
-    ) {
-        return;
-    }
     let dir = support::temp_dir("gizmo-child");
     let commands = dir.join("setup.ron");
     std::fs::write(
@@ -291,9 +282,6 @@ fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world
 
 #[test]
 fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
-    if skip_gpu_tests("a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer") {
-        return;
-    }
     let mut s = Session::start("palette", &[]);
     let st = s.frames(1);
     let tile = st
@@ -347,9 +335,6 @@ fn row_centre(st: &EditorState, id: treelight::scene_id::SceneId) -> (f32, f32) 
 
 #[test]
 fn outliner_rows_reparent_by_dragging_and_rename_by_double_click() {
-    if skip_gpu_tests("outliner_rows_reparent_by_dragging_and_rename_by_double_click") {
-        return;
-    }
     let mut s = Session::start("outliner", &[]);
     let st = s.frames(1);
     let sphere = object(&st, "Sphere").clone();
@@ -390,9 +375,6 @@ fn outliner_rows_reparent_by_dragging_and_rename_by_double_click() {
 
 #[test]
 fn ctrl_s_saves_a_project_and_quitting_with_changes_asks_first() {
-    if skip_gpu_tests("ctrl_s_saves_a_project_and_quitting_with_changes_asks_first") {
-        return;
-    }
     let mut s = Session::start("save", &[]);
     let st = s.frames(1);
     assert_eq!(st.project, None);
@@ -448,9 +430,6 @@ fn ctrl_s_saves_a_project_and_quitting_with_changes_asks_first() {
 
 #[test]
 fn work_killed_mid_edit_is_offered_back_at_the_next_start() {
-    if skip_gpu_tests("work_killed_mid_edit_is_offered_back_at_the_next_start") {
-        return;
-    }
     let cache = support::temp_dir("recovery-cache");
     let cache_str = cache.to_str().unwrap().to_owned();
     let env = [
@@ -459,7 +438,15 @@ fn work_killed_mid_edit_is_offered_back_at_the_next_start() {
     ];
     let recovery_files = || {
         std::fs::read_dir(&cache)
-            .map(|d| d.flatten().count())
+            .map(|d| {
+                d.flatten()
+                    .filter(|e| {
+                        e.file_name()
+                            .to_string_lossy()
+                            .ends_with(".recovery.treelight")
+                    })
+                    .count()
+            })
             .unwrap_or(0)
     };
     {
@@ -493,10 +480,6 @@ fn work_killed_mid_edit_is_offered_back_at_the_next_start() {
 
 #[test]
 fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing() {
-    if skip_gpu_tests("the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing")
-    {
-        return;
-    }
     // A stand-in for zenity, rfd's dialog where no desktop portal runs: it logs its arguments and
     // answers from a file the test writes (a path, or nothing for a cancel).
     let bin = support::temp_dir("fake-zenity");
@@ -557,9 +540,6 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
 
 #[test]
 fn the_x_server_says_where_a_desktop_drop_lands() {
-    if skip_gpu_tests("the_x_server_says_where_a_desktop_drop_lands") {
-        return;
-    }
     // winit reports no pointer during an X11 drag-and-drop; the editor then asks the X server,
     // which must give the pointer's place in the editor's window.
     let mut s = Session::start("x11-pointer", &[]);
@@ -581,9 +561,6 @@ fn the_x_server_says_where_a_desktop_drop_lands() {
 
 #[test]
 fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
-    if skip_gpu_tests("a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor") {
-        return;
-    }
     let mut s = Session::start("palette-file", &[]);
     let st = s.frames(1);
     let tile_of = |st: &EditorState| {
@@ -646,4 +623,158 @@ fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
     );
     // Where the pointer was: near the floor's middle, not at the file's own origin far away.
     assert!(stairs.world_translation[0].abs() < 2.5 && stairs.world_translation[2].abs() < 2.5);
+}
+
+#[test]
+fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
+    let mut s = Session::start("replace", &[]);
+    let st = s.frames(1);
+    let sphere = object(&st, "Sphere").clone();
+    s.click(sphere.screen.unwrap()[0], sphere.screen.unwrap()[1]);
+    s.key(&[], keysym::DELETE);
+    assert!(s.frames(2).dirty);
+    // A file of the name the dialog offers is already there.
+    let path = s.dir().join("scene.treelight");
+    std::fs::write(&path, "precious work").unwrap();
+    let button = |st: &EditorState, name: &str| {
+        st.widgets
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+    };
+    // Return in the name field asks; Return again answers with the question's default, Cancel.
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    s.frames(2);
+    s.key(&[], keysym::RETURN);
+    let st = s.wait_until("the question", std::time::Duration::from_secs(30), |st| {
+        st.dialog
+            .as_deref()
+            .is_some_and(|d| d.starts_with("replace"))
+    });
+    assert!(button(&st, "Replace").is_some() && button(&st, "Cancel").is_some());
+    s.key(&[], keysym::RETURN);
+    let st = s.wait_until("the cancel", std::time::Duration::from_secs(30), |st| {
+        st.dialog.is_none()
+    });
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "precious work");
+    assert_eq!(st.project, None);
+    assert!(st.dirty);
+    // Escape cancels too; the Save button asks like Return does.
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    s.frames(2);
+    s.key(&[], keysym::RETURN);
+    s.wait_until(
+        "the question again",
+        std::time::Duration::from_secs(30),
+        |st| {
+            st.dialog
+                .as_deref()
+                .is_some_and(|d| d.starts_with("replace"))
+        },
+    );
+    s.key(&[], keysym::ESCAPE);
+    s.wait_until("the escape", std::time::Duration::from_secs(30), |st| {
+        st.dialog.is_none()
+    });
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "precious work");
+    // Replace, clicked, replaces it with the project.
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    s.frames(2);
+    s.key(&[], keysym::RETURN);
+    let st = s.wait_until(
+        "the third question",
+        std::time::Duration::from_secs(30),
+        |st| {
+            st.dialog
+                .as_deref()
+                .is_some_and(|d| d.starts_with("replace"))
+        },
+    );
+    let (x, y) = button(&st, "Replace").unwrap();
+    s.click(x, y);
+    let st = s.wait_until("the save", std::time::Duration::from_secs(30), |st| {
+        st.project.is_some() && !st.dirty
+    });
+    assert_eq!(st.project.as_deref(), Some(path.as_path()));
+    assert!(treelight::project::read_project(&path).is_ok());
+}
+
+#[test]
+fn quick_chords_count_once_each_at_three_frames_a_second() {
+    let mut s = Session::start("slow-keys", &["--max-fps", "3"]);
+    let st = s.frames(1);
+    let sphere = object(&st, "Sphere").clone();
+    s.click(sphere.screen.unwrap()[0], sphere.screen.unwrap()[1]);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![sphere.id], "the sphere is selected");
+    let head = st.history.0;
+    // Each chord typed within a few milliseconds, well inside one frame (a third of a second).
+    let chord = |s: &mut Session, modifiers: &[u32], sym: u32| {
+        for m in modifiers {
+            s.key_event(*m, true);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(3));
+        s.key_event(sym, true);
+        std::thread::sleep(std::time::Duration::from_millis(3));
+        s.key_event(sym, false);
+        for m in modifiers.iter().rev() {
+            s.key_event(*m, false);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(3));
+    };
+    let wait = |s: &mut Session, what: &str, f: &dyn Fn(&EditorState) -> bool| {
+        s.wait_until(what, std::time::Duration::from_secs(60), |st| f(st))
+    };
+    chord(&mut s, &[], keysym::DELETE);
+    let st = wait(&mut s, "the delete", &|st| {
+        ids_named(st, "Sphere").is_empty()
+    });
+    assert_eq!(st.history.0, head + 1);
+    chord(&mut s, &[keysym::CONTROL], keysym::letter('z'));
+    let st = wait(&mut s, "the undo", &|st| {
+        !ids_named(st, "Sphere").is_empty()
+    });
+    assert_eq!(st.history.0, head);
+    chord(
+        &mut s,
+        &[keysym::CONTROL, keysym::SHIFT],
+        keysym::letter('z'),
+    );
+    let st = wait(&mut s, "the redo", &|st| ids_named(st, "Sphere").is_empty());
+    assert_eq!(st.history.0, head + 1);
+    chord(&mut s, &[keysym::CONTROL], keysym::letter('z'));
+    wait(&mut s, "the second undo", &|st| {
+        !ids_named(st, "Sphere").is_empty()
+    });
+    // Selected again, Ctrl+D copies it, once.
+    s.click(sphere.screen.unwrap()[0], sphere.screen.unwrap()[1]);
+    wait(&mut s, "the selection", &|st| {
+        st.selection == vec![sphere.id]
+    });
+    chord(&mut s, &[keysym::CONTROL], keysym::letter('d'));
+    wait(&mut s, "the copy", &|st| ids_named(st, "Sphere").len() > 1);
+    let st = s.frames(3);
+    assert_eq!(ids_named(&st, "Sphere").len(), 2, "Ctrl+D copied once");
+    // All four chords in a row inside one frame: each acts once, in order.
+    let copies = ids_named(&st, "Sphere").len();
+    let head = st.history.0;
+    chord(&mut s, &[keysym::CONTROL], keysym::letter('z'));
+    chord(
+        &mut s,
+        &[keysym::CONTROL, keysym::SHIFT],
+        keysym::letter('z'),
+    );
+    chord(&mut s, &[keysym::CONTROL], keysym::letter('z'));
+    chord(
+        &mut s,
+        &[keysym::CONTROL, keysym::SHIFT],
+        keysym::letter('z'),
+    );
+    let st = s.frames(8);
+    assert_eq!(
+        st.history.0, head,
+        "undo, redo, undo, redo ends where it began"
+    );
+    assert_eq!(ids_named(&st, "Sphere").len(), copies);
+    assert_eq!(st.history.1, head, "no step was added or lost");
 }

@@ -5,9 +5,6 @@ use support::*;
 
 #[test]
 fn screenshot_shows_the_scene_and_the_panels() {
-    if skip_gpu_tests("screenshot_shows_the_scene_and_the_panels") {
-        return;
-    }
     let dir = temp_dir("window");
     let shot = dir.join("shot.png");
     run_editor(&[
@@ -47,17 +44,11 @@ fn screenshot_shows_the_scene_and_the_panels() {
 
 #[test]
 fn frames_without_screenshot_exits_cleanly() {
-    if skip_gpu_tests("frames_without_screenshot_exits_cleanly") {
-        return;
-    }
     run_editor(&["--frames", "3"]);
 }
 
 #[test]
 fn opening_a_file_spawns_its_meshes() {
-    if skip_gpu_tests("opening_a_file_spawns_its_meshes") {
-        return;
-    }
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
@@ -69,9 +60,6 @@ fn opening_a_file_spawns_its_meshes() {
 
 #[test]
 fn imported_textures_reach_the_traced_viewport() {
-    if skip_gpu_tests("imported_textures_reach_the_traced_viewport") {
-        return;
-    }
     // The textured box, and the same file with its image gone: that one must load with a warning and
     // show the box flat, which is what the textured run is compared with.
     let source = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -133,9 +121,6 @@ fn imported_textures_reach_the_traced_viewport() {
 
 #[test]
 fn a_broken_file_is_reported_not_fatal() {
-    if skip_gpu_tests("a_broken_file_is_reported_not_fatal") {
-        return;
-    }
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/broken_gltf/MissingBin/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
@@ -147,9 +132,6 @@ fn a_broken_file_is_reported_not_fatal() {
 
 #[test]
 fn bvh_picking_example_runs_and_hits() {
-    if skip_gpu_tests("bvh_picking_example_runs_and_hits") {
-        return;
-    }
     let text = run_example("bvh_picking", &["--frames", "40"]);
     assert!(text.contains("scripted ray hits object"), "{text}");
     // It runs its 40 frames, then waits for the scripted hit for at most 20 times as many.
@@ -164,9 +146,6 @@ fn bvh_picking_example_runs_and_hits() {
 
 #[test]
 fn path_traced_example_draws_the_traced_scene() {
-    if skip_gpu_tests("path_traced_example_draws_the_traced_scene") {
-        return;
-    }
     let dir = temp_dir("path_traced_app");
     let traced = dir.join("traced.png");
     let text = run_example(
@@ -220,9 +199,6 @@ fn path_traced_example_draws_the_traced_scene() {
 
 #[test]
 fn a_commands_file_edits_the_scene_once_it_has_loaded() {
-    if skip_gpu_tests("a_commands_file_edits_the_scene_once_it_has_loaded") {
-        return;
-    }
     let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
     let dir = temp_dir("commands");
     let edited = dir.join("edited.png");
@@ -278,9 +254,6 @@ fn a_bad_commands_file_stops_the_start_with_its_name() {
 
 #[test]
 fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
-    if skip_gpu_tests("the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored") {
-        return;
-    }
     use treelight::report::EditorState;
     use treelight::settings::{EditorSettings, write_settings};
     use treelight::ui::EditorTab;
@@ -337,9 +310,6 @@ fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
 
 #[test]
 fn a_material_edit_changes_exactly_that_materials_pixels() {
-    if skip_gpu_tests("a_material_edit_changes_exactly_that_materials_pixels") {
-        return;
-    }
     let dir = temp_dir("material");
     // The sphere (#8) has a material of its own. Hiding it shows which pixels are its; giving
     // it a blue, rough material must change those pixels and no others.
@@ -436,9 +406,6 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
 
 #[test]
 fn a_scripted_scene_saves_as_a_project_that_opens_again() {
-    if skip_gpu_tests("a_scripted_scene_saves_as_a_project_that_opens_again") {
-        return;
-    }
     use treelight::report::EditorState;
     let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
     let dir = temp_dir("save-cli");
@@ -492,15 +459,24 @@ fn info_describes_scene_files_and_projects_without_a_display() {
     // A file that is not there: the error names it and the exit status says so.
     let (ok, text) = run(&["/nonexistent/scene.glb"]);
     assert!(!ok && text.contains("/nonexistent/scene.glb"), "{text}");
-    // A project: its sources and objects.
+    // A project: its sources and objects, and the triangles they show (a helmet part and a copy
+    // of it, a cube; a missing source's object shows none).
+    let scene = treelight_import::load_scene(&helmet).unwrap();
+    let keys = treelight::import::mesh_object_keys(&scene);
+    let part = scene.meshes[0].triangle_count();
     let dir = temp_dir("info");
     let project = dir.join("p.treelight");
     std::fs::write(
         &project,
         format!(
             "(version: 1, sources: [\"{}\", \"gone.obj\"], objects: [(id: (1), name: \"Cube\", \
-             transform: (translation: (0.0, 0.0, 0.0)), kind: Shape(Cube))])",
-            helmet.display()
+             transform: (translation: (0.0, 0.0, 0.0)), kind: Shape(Cube)), (id: (2), name: \"Part\", \
+             transform: (translation: (0.0, 0.0, 0.0)), kind: Node((source: 0, key: \"{key}\"))), \
+             (id: (3), name: \"Copy\", transform: (translation: (1.0, 0.0, 0.0)), \
+             kind: MeshOf((source: 0, key: \"{key}\"))), (id: (4), name: \"Lost\", \
+             transform: (translation: (0.0, 0.0, 0.0)), kind: Node((source: 1, key: \"mesh 0\")))])",
+            helmet.display(),
+            key = keys[0]
         ),
     )
     .unwrap();
@@ -513,8 +489,12 @@ fn info_describes_scene_files_and_projects_without_a_display() {
         "{text}"
     );
     assert!(
-        text.contains("objects: 1 (0 source nodes, 0 copies of source meshes, 1 shapes"),
+        text.contains("objects: 4 (2 source nodes, 1 copies of source meshes, 1 shapes"),
         "{text}"
+    );
+    assert!(
+        text.contains(&format!("triangles: {}", 12 + 2 * part)),
+        "{part} a part: {text}"
     );
     std::fs::remove_dir_all(&dir).ok();
 }

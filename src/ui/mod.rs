@@ -549,7 +549,7 @@ pub fn editor_ui(
     if let Some(MenuAction::File(a)) = menu_action.clone() {
         files.act(a, &project, history.is_dirty(), &mut project_requests);
     }
-    files.show(&ctx, &project, &mut project_requests);
+    named_rects.extend(files.show(&ctx, &project, &mut project_requests));
 
     if *render != render_copy {
         *render = render_copy;

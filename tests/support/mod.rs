@@ -4,15 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Whether GPU tests were explicitly turned into skips (`TREELIGHT_SKIP_GPU_TESTS=1`; CI never sets it).
-pub fn skip_gpu_tests(test: &str) -> bool {
-    if std::env::var("TREELIGHT_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        eprintln!("SKIPPED {test}: TREELIGHT_SKIP_GPU_TESTS=1");
-        return true;
-    }
-    false
-}
-
 /// A fresh temporary folder for one test.
 pub fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("treelight-test-{name}-{}", std::process::id()));
@@ -86,8 +77,8 @@ pub fn run_headless_with_config(exe: &Path, args: &[&str], config: &Path) -> Str
             || text.contains("adapter") && text.contains("panicked")
         {
             panic!(
-                "no GPU adapter was found. Install Mesa's software Vulkan (apt-get install -y mesa-vulkan-drivers libvulkan1), \
-                 or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests. Output:\n{text}"
+                "no GPU adapter was found. Install Mesa's software Vulkan (apt-get install -y mesa-vulkan-drivers libvulkan1). \
+                 Output:\n{text}"
             );
         }
         panic!("{} exited with {}:\n{text}", exe.display(), out.status);

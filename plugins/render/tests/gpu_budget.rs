@@ -9,7 +9,7 @@ mod support;
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
-use support::{Gpu, TraceTarget, floats, put_record, skip};
+use support::{Gpu, TraceTarget, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
@@ -220,9 +220,6 @@ fn worst_difference(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
 
 #[test]
 fn tiled_accumulation_under_a_budget_gives_the_unbudgeted_image() {
-    if skip() {
-        return;
-    }
     let scene = scene();
     let tracer = Tracer::new(&scene);
     let total = TileOrder::new(WIDTH, HEIGHT).total;
@@ -255,9 +252,6 @@ fn tiled_accumulation_under_a_budget_gives_the_unbudgeted_image() {
 
 #[test]
 fn depth_is_the_closest_hit_projected_by_the_camera() {
-    if skip() {
-        return;
-    }
     let scene = scene();
     let tracer = Tracer::new(&scene);
     // The triangle-id view samples pixel centres, so the CPU can cast the same rays.
@@ -290,9 +284,6 @@ fn depth_is_the_closest_hit_projected_by_the_camera() {
 
 #[test]
 fn the_preview_covers_the_image_in_blocks() {
-    if skip() {
-        return;
-    }
     let scene = scene();
     let tracer = Tracer::new(&scene);
     for scale in [2, 3, 7] {
@@ -381,9 +372,6 @@ fn cpu_object(scene: &Scene, at: Vec2) -> u32 {
 
 #[test]
 fn each_pixel_and_preview_block_records_the_object_its_primary_ray_hits() {
-    if skip() {
-        return;
-    }
     let (scene, tall, copy) = scene_with_a_copy();
     let tracer = Tracer::new(&scene);
     let expected = |at: Vec2| cpu_object(&scene, at);
@@ -452,9 +440,6 @@ fn expected_outline(objects: &[u32], value: impl Fn(u32) -> u32, width: f32) -> 
 
 #[test]
 fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
-    if skip() {
-        return;
-    }
     let (scene, tall, copy) = scene_with_a_copy();
     let tracer = Tracer::new(&scene);
     // The tall box selected, its copy the active object, the rest not outlined.

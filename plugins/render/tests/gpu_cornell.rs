@@ -12,7 +12,7 @@ mod support;
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
-use support::{Gpu, Rng, floats, put_record, skip};
+use support::{Gpu, Rng, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
@@ -342,9 +342,6 @@ fn blocks(img: &[Vec3]) -> Vec<f32> {
 
 #[test]
 fn path_tracer_matches_a_cpu_reference_on_a_cornell_box() {
-    if skip() {
-        return;
-    }
     let scene = cornell();
     let gpu = gpu_image(&scene);
     let cpu = cpu_image(&scene);

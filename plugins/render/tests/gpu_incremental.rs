@@ -4,7 +4,7 @@
 mod support;
 
 use std::path::Path;
-use support::{Gpu, PinholeView, gpu_hits, hits_on, skip, tree_bytes};
+use support::{Gpu, PinholeView, gpu_hits, hits_on, tree_bytes};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
 use treelight_render::{BufferKind, UploadPlan};
@@ -113,9 +113,6 @@ impl Mirror {
 
 #[test]
 fn incremental_upload_traces_like_a_full_one() {
-    if skip() {
-        return;
-    }
     let gpu = Gpu::new();
     let mut bvh = Bvh::new(BvhConfig::incr_u());
     bvh.insert_triangles(&sibenik()).unwrap();

@@ -8,7 +8,7 @@ mod support;
 use std::path::Path;
 use support::{
     PinholeView as View, gpu_binary_compressed_hits, gpu_binary_hits, gpu_depth_first_hits,
-    gpu_hits, gpu_wide_hits, skip,
+    gpu_hits, gpu_wide_hits,
 };
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
@@ -49,9 +49,6 @@ fn sibenik() -> Vec<Triangle> {
 
 #[test]
 fn sibenik_primary_hits_match_the_cpu() {
-    if skip() {
-        return;
-    }
     let tris = sibenik();
     let mut bvh = Bvh::new(BvhConfig::incr_u());
     bvh.insert_triangles(&tris).unwrap();
@@ -90,9 +87,6 @@ fn sibenik_primary_hits_match_the_cpu() {
 
 #[test]
 fn instanced_groups_are_traversed_in_object_space() {
-    if skip() {
-        return;
-    }
     let tris = sibenik();
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&tris[..30_000]).unwrap();

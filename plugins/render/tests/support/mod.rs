@@ -11,15 +11,6 @@ use treelight_render::{
 };
 use wgpu::util::DeviceExt;
 
-/// Whether GPU tests are switched off for this run.
-pub fn skip() -> bool {
-    if std::env::var("TREELIGHT_SKIP_GPU_TESTS").as_deref() == Ok("1") {
-        eprintln!("SKIPPED: TREELIGHT_SKIP_GPU_TESTS=1");
-        return true;
-    }
-    false
-}
-
 /// A device and its queue.
 pub struct Gpu {
     pub device: wgpu::Device,
@@ -35,7 +26,7 @@ impl Gpu {
         .unwrap_or_else(|e| {
             panic!(
                 "no GPU adapter was found ({e}). Install Mesa's software Vulkan (apt-get install -y \
-                 mesa-vulkan-drivers libvulkan1), or set TREELIGHT_SKIP_GPU_TESTS=1 to skip GPU tests."
+                 mesa-vulkan-drivers libvulkan1)."
             )
         });
         eprintln!("adapter: {:?}", adapter.get_info().name);
