@@ -374,3 +374,41 @@ fn what_the_gltf_crate_would_panic_on_is_refused() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_decoded_image_is_charged_to_the_budget_before_it_is_decoded() {
+    let dir = folder("image-budget");
+    // A 2048 × 2048 PNG of one colour: a few kilobytes on disk, 16 MiB decoded.
+    let png = dir.join("flat.png");
+    image::RgbaImage::from_pixel(2048, 2048, image::Rgba([200, 100, 50, 255]))
+        .save(&png)
+        .unwrap();
+    assert!(std::fs::metadata(&png).unwrap().len() < 1 << 20);
+    let mut g = triangle_gltf();
+    g["images"] = json!([{"uri": "flat.png"}]);
+    g["textures"] = json!([{"source": 0}]);
+    g["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    g["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let path = write(&dir, "textured.gltf", &g);
+    let e = load_scene_with(
+        &path,
+        &ImportOptions {
+            memory_budget: 24 << 20,
+        },
+    )
+    .unwrap_err();
+    assert!(
+        e.problem.contains("image 'flat.png' (2048×2048)")
+            && e.problem.contains("of the budget of 24.0 MiB"),
+        "{e}"
+    );
+    let s = load_scene_with(
+        &path,
+        &ImportOptions {
+            memory_budget: 256 << 20,
+        },
+    )
+    .unwrap();
+    assert_eq!((s.textures[0].width, s.textures[0].height), (2048, 2048));
+    std::fs::remove_dir_all(&dir).ok();
+}
