@@ -64,9 +64,10 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     }
     let default_material = scene.materials.len();
     let mut used_default = false;
-    // (mesh, primitive) -> the first entry of `scene.meshes` read from it: a mesh placed by
-    // several nodes is read once and its geometry shared.
-    let mut read: HashMap<(usize, usize), usize> = HashMap::new();
+    // What a primitive's geometry is read from -> the first entry of `scene.meshes` read from it:
+    // a mesh placed by several nodes, or primitives over the same accessors, are read once and
+    // share the geometry (so a small file cannot make the importer decode one accessor many times).
+    let mut read: HashMap<GeometrySource, usize> = HashMap::new();
     let mut first_error: Option<ImportError> = None;
     let root_scene = document
         .default_scene()
@@ -157,7 +158,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
                     (std::mem::size_of::<ImportedMesh>() + name.len()) as u64,
                     || format!("mesh '{name}'"),
                 )?;
-                let key = (mesh.index(), prim.index());
+                let key = GeometrySource::of(&mesh, &prim);
                 let first = read.get(&key).copied();
                 let geometry = match first {
                     Some(i) => Some(scene.meshes[i].geometry.clone()),
@@ -210,6 +211,29 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     Ok(scene)
 }
 
+/// Where a primitive's geometry comes from: its Draco stream (named by mesh and primitive), or its
+/// accessors (positions, normals, UV set 0, indices).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum GeometrySource {
+    Draco(usize, usize),
+    Accessors([Option<usize>; 4]),
+}
+
+impl GeometrySource {
+    fn of(mesh: &gltf::Mesh, prim: &gltf::Primitive) -> Self {
+        if prim.extension_value("KHR_draco_mesh_compression").is_some() {
+            return Self::Draco(mesh.index(), prim.index());
+        }
+        let at = |s: Semantic| prim.get(&s).map(|a| a.index());
+        Self::Accessors([
+            at(Semantic::Positions),
+            at(Semantic::Normals),
+            at(Semantic::TexCoords(0)),
+            prim.indices().map(|a| a.index()),
+        ])
+    }
+}
+
 /// `node N ('name')`, for messages.
 fn node_label(node: &gltf::Node) -> String {
     match node.name() {
@@ -232,11 +256,19 @@ fn load_buffers(
     for buffer in document.buffers() {
         let declared = buffer.length();
         if gltf_compressed::is_fallback(&buffer) {
-            // Filled by the compressed views that decode into it.
-            budget.charge(declared as u64, || {
+            // Filled by the compressed views that decode into it: as long as the views over it
+            // reach, not as long as it claims.
+            let reach = document
+                .views()
+                .filter(|v| v.buffer().index() == buffer.index())
+                .map(|v| v.offset().saturating_add(v.length()))
+                .max()
+                .unwrap_or(0)
+                .min(declared);
+            budget.charge(reach as u64, || {
                 format!("buffer {} (compressed data, decoded)", buffer.index())
             })?;
-            out.push(vec![0u8; declared]);
+            out.push(vec![0u8; reach]);
             continue;
         }
         let data = match buffer.source() {

@@ -122,8 +122,8 @@ pub struct ImportedMesh {
     /// Index into [`ImportedScene::materials`].
     pub material: Option<usize>,
     /// The earlier mesh in [`ImportedScene::meshes`] with the same vertex data, when the file
-    /// places one mesh at several nodes (glTF): both hold the same [`MeshGeometry`], and a
-    /// consumer may share its own copy of that mesh too.
+    /// places one mesh at several nodes or primitives share their accessors (glTF): both hold the
+    /// same [`MeshGeometry`], and a consumer may share its own copy of that mesh too.
     pub same_as: Option<usize>,
 }
 

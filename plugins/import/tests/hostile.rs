@@ -412,3 +412,24 @@ fn a_decoded_image_is_charged_to_the_budget_before_it_is_decoded() {
     assert_eq!((s.textures[0].width, s.textures[0].height), (2048, 2048));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn primitives_over_the_same_accessors_are_read_once() {
+    // 256 meshes, each a primitive over the one triangle's accessors: a small file must not make
+    // the importer decode the same bytes 256 times.
+    let dir = folder("same-accessors");
+    let mut g = triangle_gltf();
+    let meshes: Vec<Value> = (0..256)
+        .map(|_| json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}))
+        .collect();
+    g["meshes"] = Value::Array(meshes);
+    g["nodes"] = json!((0..256).map(|k| json!({"mesh": k})).collect::<Vec<_>>());
+    g["scenes"][0]["nodes"] = json!((0..256).collect::<Vec<_>>());
+    let path = write(&dir, "shared.gltf", &g);
+    let s = load_scene(&path).unwrap();
+    assert_eq!(s.meshes.len(), 256);
+    for m in &s.meshes[1..] {
+        assert!(Arc::ptr_eq(&m.geometry, &s.meshes[0].geometry));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
