@@ -545,8 +545,65 @@ fn run(path: &Path) -> Option<String> {
     }
 }
 
+/// A GLB of one triangle whose binary chunk also carries `extra` bytes no accessor reads.
+fn big_glb(extra: usize) -> Vec<u8> {
+    let mut bin = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        for c in p {
+            bin.extend(c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0] {
+        bin.extend(i.to_le_bytes());
+    }
+    bin.resize(44 + extra, 7);
+    let json = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 8},
+            {"buffer": 0, "byteOffset": 44, "byteLength": extra}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    join_glb(&json, &bin)
+}
+
+/// The peak bytes allocated while importing `path` (the memory budget generous).
+fn peak_of(path: &Path) -> u64 {
+    let base = LIVE.load(Ordering::Relaxed);
+    PEAK.store(base, Ordering::Relaxed);
+    let options = ImportOptions {
+        memory_budget: 1 << 30,
+    };
+    assert!(load_scene_with(path, &options).is_ok());
+    (PEAK.load(Ordering::Relaxed) - base) as u64
+}
+
 #[test]
 fn mutations_of_the_real_files_never_panic_hang_or_pass_the_budget() {
+    // First, while nothing else allocates in this binary: a GLB's bytes are held once (its binary
+    // chunk is taken from the file's bytes, not copied), so importing a 64 MiB GLB peaks near
+    // 64 MiB, not at twice or three times that.
+    let glb_dir = std::env::temp_dir().join(format!("treelight-glb-once-{}", std::process::id()));
+    std::fs::create_dir_all(&glb_dir).unwrap();
+    let glb = glb_dir.join("big.glb");
+    std::fs::write(&glb, big_glb(64 << 20)).unwrap();
+    let peak = peak_of(&glb);
+    assert!(
+        peak < (64 << 20) + (16 << 20),
+        "importing a 64 MiB GLB allocated {peak} bytes at its peak"
+    );
+    std::fs::remove_dir_all(&glb_dir).ok();
     let corpus = seeds();
     // Panics are caught and reported below; the default hook would print each one.
     let default_hook = std::panic::take_hook();
