@@ -35,17 +35,9 @@ pub fn recovery_beside(project: &Path) -> PathBuf {
     project.with_file_name(format!(".{stem}.recovery.treelight"))
 }
 
-/// Where unsaved scenes' recovery copies and the editors' locks go: `$TREELIGHT_CACHE_DIR`, else
-/// `$XDG_CACHE_HOME/treelight`, else `~/.cache/treelight`.
+/// Where unsaved scenes' recovery copies and the editors' locks go ([`crate::folders::cache_dir`]).
 pub fn cache_dir() -> Option<PathBuf> {
-    let var = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    var("TREELIGHT_CACHE_DIR")
-        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("treelight")))
-        .or_else(|| var("HOME").map(|h| h.join(".cache").join("treelight")))
+    crate::folders::cache_dir()
 }
 
 /// The recovery copy of an unsaved scene of this editor process.

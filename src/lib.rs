@@ -12,6 +12,7 @@ pub mod crash_report;
 pub mod default_scene;
 pub mod edit;
 pub mod files;
+pub mod folders;
 pub mod gizmo;
 pub mod headless;
 pub mod import;

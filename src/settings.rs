@@ -1,6 +1,5 @@
 //! The editor's settings between runs: the panel layout and the gizmo's snapping steps, in
-//! `settings.ron` in the user's config directory (`$TREELIGHT_CONFIG_DIR`, else
-//! `$XDG_CONFIG_HOME/treelight`, else `~/.config/treelight`). A missing file gives the defaults; a
+//! `settings.ron` in the user's config directory ([`crate::folders::config_dir`]). A missing file gives the defaults; a
 //! broken one gives them too, with a notice naming the file and the problem. Saved when changed,
 //! through a temporary file and a rename.
 
@@ -40,15 +39,7 @@ pub struct EditorSettings {
 
 /// Where the settings file is, if a config directory can be found.
 pub fn settings_path() -> Option<PathBuf> {
-    let var = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    let dir = var("TREELIGHT_CONFIG_DIR")
-        .or_else(|| var("XDG_CONFIG_HOME").map(|d| d.join("treelight")))
-        .or_else(|| var("HOME").map(|h| h.join(".config").join("treelight")))?;
-    Some(dir.join("settings.ron"))
+    crate::folders::config_dir().map(|d| d.join("settings.ron"))
 }
 
 /// Reads the settings at `path`: `Ok(None)` when there is no file, an error naming the problem
