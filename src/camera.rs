@@ -95,10 +95,10 @@ pub fn world_bounds(
 #[derive(Resource, Debug, Default)]
 pub struct FrameRequest(pub bool);
 
-/// `F` frames the selection (its meshes and everything under it); nothing happens while a text
-/// field has the keyboard.
+/// The Frame key frames the selection (its meshes and everything under it); nothing happens while
+/// a text field has the keyboard.
 pub fn frame_selection_on_f(
-    keys: Res<ButtonInput<KeyCode>>,
+    chords: Res<crate::key_chords::KeyChords>,
     mut contexts: bevy_egui::EguiContexts,
     mut request: ResMut<FrameRequest>,
     selection: Res<crate::selection::Selection>,
@@ -106,8 +106,7 @@ pub fn frame_selection_on_f(
     children: Query<&Children>,
     mut orbit: Query<&mut OrbitCamera>,
 ) {
-    let key = keys.just_pressed(KeyCode::KeyF)
-        && !keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight])
+    let key = chords.triggered(crate::keymap::Action::Frame)
         && crate::edit::shortcuts::keyboard_is_free(&mut contexts);
     if !key && !std::mem::take(&mut request.0) {
         return;

@@ -4,7 +4,8 @@
 
 use crate::edit::EditHistory;
 use crate::import::PendingImports;
-use crate::key_chords::{KeyChords, Modifiers};
+use crate::key_chords::KeyChords;
+use crate::keymap::Action;
 use crate::notice::Notices;
 use crate::project::{ProjectState, save_project};
 use crate::project_open::{OpenKind, OpeningProjects};
@@ -506,7 +507,7 @@ fn new_scene(world: &mut World) {
     world.insert_resource(ProjectState::default());
 }
 
-/// Ctrl+N, Ctrl+O, Ctrl+S, Ctrl+Shift+S and Ctrl+Q (not while a text field has the keyboard).
+/// New, Open, Save, Save As and Quit by their keys (not while a text field has the keyboard).
 pub fn file_shortcuts(
     chords: Res<KeyChords>,
     mut contexts: EguiContexts,
@@ -518,20 +519,16 @@ pub fn file_shortcuts(
     if chords.current.is_none() || !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
         return;
     }
-    let ctrl = |key| chords.pressed(key, Modifiers::CTRL);
-    let action = if ctrl(KeyCode::KeyS) {
-        Some(FileAction::Save)
-    } else if chords.pressed(KeyCode::KeyS, Modifiers::CTRL_SHIFT) {
-        Some(FileAction::SaveAs)
-    } else if ctrl(KeyCode::KeyO) {
-        Some(FileAction::Open)
-    } else if ctrl(KeyCode::KeyN) {
-        Some(FileAction::New)
-    } else if ctrl(KeyCode::KeyQ) {
-        Some(FileAction::Quit)
-    } else {
-        None
-    };
+    let action = [
+        (Action::Save, FileAction::Save),
+        (Action::SaveAs, FileAction::SaveAs),
+        (Action::Open, FileAction::Open),
+        (Action::New, FileAction::New),
+        (Action::Quit, FileAction::Quit),
+    ]
+    .into_iter()
+    .find(|(key, _)| chords.triggered(*key))
+    .map(|(_, action)| action);
     if let Some(a) = action {
         ui.act(a, &state, history.is_dirty(), &mut requests);
     }

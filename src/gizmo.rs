@@ -4,6 +4,8 @@
 //! result as a live preview, then as one undoable command on release.
 
 use crate::edit::{EditHistory, EditRequest, EditRequests};
+use crate::key_chords::KeyChords;
+use crate::keymap::Action;
 use bevy::math::{Affine3A, Mat3, Ray3d};
 use bevy::prelude::*;
 
@@ -504,37 +506,39 @@ fn clamp_factor(f: f32) -> f32 {
 #[derive(Resource, Default)]
 pub struct ActiveDrag(pub Option<GizmoDrag>);
 
-/// Escape during a drag puts the objects back and makes no history step; the key then does
-/// nothing else this frame.
+/// Cancel (Escape) during a drag puts the objects back and makes no history step; the key then
+/// does nothing else this frame.
 pub fn cancel_drag_on_escape(
-    mut keys: ResMut<ButtonInput<KeyCode>>,
+    mut chords: ResMut<KeyChords>,
     mut drag: ResMut<ActiveDrag>,
     mut requests: ResMut<EditRequests>,
 ) {
-    if drag.0.is_some() && keys.just_pressed(KeyCode::Escape) {
+    if drag.0.is_some() && chords.triggered(Action::Cancel) {
         drag.0 = None;
         requests.0.push(EditRequest::CancelPreview);
-        keys.clear_just_pressed(KeyCode::Escape);
+        chords.consume();
     }
 }
 
-/// W, E and R choose the gizmo's handles (not while a text field has the keyboard).
+/// The mode keys choose the gizmo's handles (not while a text field has the keyboard).
 pub fn gizmo_mode_keys(
-    keys: Res<ButtonInput<KeyCode>>,
+    chords: Res<KeyChords>,
     mut contexts: bevy_egui::EguiContexts,
     mut settings: ResMut<GizmoSettings>,
     history: Res<EditHistory>,
 ) {
-    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
-    if ctrl || history.previewing() || !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {
+    if chords.current.is_none()
+        || history.previewing()
+        || !crate::edit::shortcuts::keyboard_is_free(&mut contexts)
+    {
         return;
     }
     for (key, mode) in [
-        (KeyCode::KeyW, GizmoMode::Translate),
-        (KeyCode::KeyE, GizmoMode::Rotate),
-        (KeyCode::KeyR, GizmoMode::Scale),
+        (Action::MoveMode, GizmoMode::Translate),
+        (Action::RotateMode, GizmoMode::Rotate),
+        (Action::ScaleMode, GizmoMode::Scale),
     ] {
-        if keys.just_pressed(key) && settings.mode != mode {
+        if chords.triggered(key) && settings.mode != mode {
             settings.mode = mode;
         }
     }

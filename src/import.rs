@@ -220,19 +220,17 @@ pub fn finish_imports(
 pub fn source_keys(scene: &ImportedScene) -> Vec<String> {
     let mut keys = vec![String::new()];
     keys.extend(scene.nodes.iter().map(|n| n.key.clone()));
-    let mut per_node: HashMap<usize, usize> = HashMap::new();
-    for m in &scene.meshes {
-        if let Some(n) = m.node {
-            *per_node.entry(n).or_default() += 1;
-        }
-    }
-    for (i, m) in scene.meshes.iter().enumerate() {
-        match m.node {
-            Some(n) if per_node.get(&n) == Some(&1) => {}
-            Some(n) => keys.push(format!("{}/mesh {i}", scene.nodes[n].key)),
-            None => keys.push(format!("mesh {i}")),
-        }
-    }
+    // A mesh alone on its node lives on the node, under the node's key.
+    let own = mesh_object_keys(scene)
+        .into_iter()
+        .zip(&scene.meshes)
+        .filter(|(k, m)| {
+            m.node
+                .and_then(|n| scene.nodes.get(n))
+                .is_none_or(|n| n.key != *k)
+        })
+        .map(|(k, _)| k);
+    keys.extend(own);
     keys
 }
 

@@ -19,6 +19,7 @@ pub mod import;
 pub mod import_jobs;
 pub mod info;
 pub mod key_chords;
+pub mod keymap;
 pub mod notice;
 pub mod placement;
 pub mod project;

@@ -149,11 +149,11 @@ pub fn drop_stale_selection(
 /// Escape clears the selection (not while a text field has the keyboard, where it ends the edit,
 /// nor during a gizmo drag, which it cancels).
 pub fn clear_selection_on_escape(
-    keys: Res<ButtonInput<KeyCode>>,
+    chords: Res<crate::key_chords::KeyChords>,
     mut contexts: bevy_egui::EguiContexts,
     mut selection: ResMut<Selection>,
 ) {
-    if !keys.just_pressed(KeyCode::Escape) || selection.is_empty() {
+    if !chords.triggered(crate::keymap::Action::Cancel) || selection.is_empty() {
         return;
     }
     if !crate::edit::shortcuts::keyboard_is_free(&mut contexts) {

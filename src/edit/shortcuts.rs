@@ -1,9 +1,10 @@
-//! Keyboard shortcuts for the history and the selection: Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y
-//! redo, Delete deletes, Ctrl+D duplicates, Ctrl+C and Ctrl+V copy and paste, Ctrl+G groups. None
-//! fires while a text field has the keyboard.
+//! Keyboard shortcuts for the history and the selection (undo, redo, delete, duplicate, copy,
+//! paste, group; their keys are in [`crate::keymap`]). None fires while a text field has the
+//! keyboard.
 
 use super::{EditCommand, EditRequest, EditRequests};
-use crate::key_chords::{KeyChords, Modifiers};
+use crate::key_chords::KeyChords;
+use crate::keymap::Action;
 use crate::scene_id::SceneId;
 use crate::selection::Selection;
 use bevy::prelude::*;
@@ -18,25 +19,23 @@ pub fn keyboard_is_free(contexts: &mut EguiContexts) -> bool {
 
 /// What the frame's chord asks for, given the selection; `None` for nothing.
 pub fn shortcut(chords: &KeyChords, selected: &[SceneId]) -> Option<EditRequest> {
-    if chords.pressed(KeyCode::KeyZ, Modifiers::CTRL) {
+    if chords.triggered(Action::Undo) {
         return Some(EditRequest::Undo);
     }
-    if chords.pressed(KeyCode::KeyZ, Modifiers::CTRL_SHIFT)
-        || chords.pressed(KeyCode::KeyY, Modifiers::CTRL)
-    {
+    if chords.triggered(Action::Redo) {
         return Some(EditRequest::Redo);
     }
     if selected.is_empty() {
         return None;
     }
     let ids = selected.to_vec();
-    if chords.pressed(KeyCode::Delete, Modifiers::NONE) {
+    if chords.triggered(Action::Delete) {
         return Some(EditRequest::Apply {
             command: EditCommand::Delete { ids },
             continuing: false,
         });
     }
-    if chords.pressed(KeyCode::KeyD, Modifiers::CTRL) {
+    if chords.triggered(Action::Duplicate) {
         return Some(EditRequest::Apply {
             command: EditCommand::Duplicate {
                 ids,
@@ -45,7 +44,7 @@ pub fn shortcut(chords: &KeyChords, selected: &[SceneId]) -> Option<EditRequest>
             continuing: false,
         });
     }
-    if chords.pressed(KeyCode::KeyG, Modifiers::CTRL) {
+    if chords.triggered(Action::Group) {
         return Some(EditRequest::Apply {
             command: EditCommand::Group {
                 ids,
@@ -99,10 +98,10 @@ pub fn edit_shortcuts(
         .iter()
         .filter_map(|e| ids.get(*e).ok().copied())
         .collect();
-    if chords.pressed(KeyCode::KeyC, Modifiers::CTRL) && !selected.is_empty() {
+    if chords.triggered(Action::Copy) && !selected.is_empty() {
         clipboard.0 = selected.clone();
     }
-    if chords.pressed(KeyCode::KeyV, Modifiers::CTRL)
+    if chords.triggered(Action::Paste)
         && let Some(r) = clipboard.paste(&index)
     {
         requests.0.push(r);

@@ -2,32 +2,19 @@
 
 use crate::edit::{EditHistory, LightKind, Primitive};
 use crate::gizmo::{GizmoMode, GizmoSettings, GizmoSpace};
+use crate::keymap::Action;
 use crate::render_mode::ViewportRender;
 use bevy_egui::egui;
 
-/// The shortcuts and mouse controls the Help menu lists.
-pub const SHORTCUTS: &[(&str, &str)] = &[
-    ("Ctrl+N / Ctrl+O", "New scene / open a project"),
-    ("Ctrl+S / Ctrl+Shift+S", "Save / save as"),
-    ("Ctrl+Q", "Quit (asks first about unsaved changes)"),
-    ("Ctrl+Z", "Undo"),
-    ("Ctrl+Shift+Z, Ctrl+Y", "Redo"),
-    ("Del", "Delete the selection"),
-    ("Ctrl+D", "Duplicate the selection (the copy is selected)"),
-    (
-        "Ctrl+C, Ctrl+V",
-        "Copy the selection, paste copies of it in place",
-    ),
-    ("Ctrl+G", "Group the selection under a new empty"),
-    ("W / E / R", "Gizmo: move / rotate / scale"),
+/// The mouse controls and modified drags the Help menu lists after the keys (which come from
+/// [`crate::keymap::KEYMAP`]).
+pub const MOUSE: &[(&str, &str)] = &[
     (
         "Ctrl while dragging",
         "Snap to the grid, angle and scale steps",
     ),
-    ("Esc or right click while dragging", "Cancel the drag"),
-    ("F", "Frame the selection"),
-    ("F2 or double click in the outliner", "Rename"),
-    ("Esc", "Clear the selection"),
+    ("Right click while dragging", "Cancel the drag"),
+    ("Double click in the outliner", "Rename"),
     ("Left click", "Select what is under the pointer"),
     (
         "Left click again on the same spot, Alt+click",
@@ -111,8 +98,8 @@ pub fn menu_bar(
         ui.menu_button("File", |ui| {
             use crate::files::FileAction;
             for (what, label, keys) in [
-                (FileAction::New, "New", "Ctrl+N"),
-                (FileAction::Open, "Open…", "Ctrl+O"),
+                (FileAction::New, "New", Action::New.keys()),
+                (FileAction::Open, "Open…", Action::Open.keys()),
             ] {
                 if ui
                     .add(egui::Button::new(label).shortcut_text(keys))
@@ -151,10 +138,10 @@ pub fn menu_bar(
                 }
             });
             for (what, label, keys) in [
-                (FileAction::Import, "Import…", ""),
-                (FileAction::Save, "Save", "Ctrl+S"),
-                (FileAction::SaveAs, "Save As…", "Ctrl+Shift+S"),
-                (FileAction::Quit, "Quit", "Ctrl+Q"),
+                (FileAction::Import, "Import…", String::new()),
+                (FileAction::Save, "Save", Action::Save.keys()),
+                (FileAction::SaveAs, "Save As…", Action::SaveAs.keys()),
+                (FileAction::Quit, "Quit", Action::Quit.keys()),
             ] {
                 if matches!(what, FileAction::Import | FileAction::Quit) {
                     ui.separator();
@@ -170,26 +157,36 @@ pub fn menu_bar(
         ui.menu_button("Edit", |ui| {
             let undo = history.undo_label();
             let label = undo.as_ref().map_or("Undo".into(), |l| format!("Undo {l}"));
-            let button = egui::Button::new(label).shortcut_text("Ctrl+Z");
+            let button = egui::Button::new(label).shortcut_text(Action::Undo.keys());
             if ui.add_enabled(undo.is_some(), button).clicked() {
                 action = Some(MenuAction::Undo);
             }
             let redo = history.redo_label();
             let label = redo.as_ref().map_or("Redo".into(), |l| format!("Redo {l}"));
-            let button = egui::Button::new(label).shortcut_text("Ctrl+Shift+Z, Ctrl+Y");
+            let button = egui::Button::new(label).shortcut_text(Action::Redo.keys());
             if ui.add_enabled(redo.is_some(), button).clicked() {
                 action = Some(MenuAction::Redo);
             }
             ui.separator();
             for (what, label, keys, enabled) in [
-                (MenuAction::Copy, "Copy", "Ctrl+C", has_selection),
-                (MenuAction::Paste, "Paste", "Ctrl+V", can_paste),
-                (MenuAction::Duplicate, "Duplicate", "Ctrl+D", has_selection),
-                (MenuAction::Group, "Group", "Ctrl+G", has_selection),
-                (MenuAction::Delete, "Delete", "Del", has_selection),
-                (MenuAction::SelectNone, "Select none", "Esc", has_selection),
+                (MenuAction::Copy, "Copy", Action::Copy, has_selection),
+                (MenuAction::Paste, "Paste", Action::Paste, can_paste),
+                (
+                    MenuAction::Duplicate,
+                    "Duplicate",
+                    Action::Duplicate,
+                    has_selection,
+                ),
+                (MenuAction::Group, "Group", Action::Group, has_selection),
+                (MenuAction::Delete, "Delete", Action::Delete, has_selection),
+                (
+                    MenuAction::SelectNone,
+                    "Select none",
+                    Action::Cancel,
+                    has_selection,
+                ),
             ] {
-                let button = egui::Button::new(label).shortcut_text(keys);
+                let button = egui::Button::new(label).shortcut_text(keys.keys());
                 if ui.add_enabled(enabled, button).clicked() {
                     action = Some(what);
                 }
@@ -217,13 +214,13 @@ pub fn menu_bar(
             ui.separator();
             ui.label(egui::RichText::new("Gizmo").strong());
             for (mode, key) in [
-                (GizmoMode::Translate, "W"),
-                (GizmoMode::Rotate, "E"),
-                (GizmoMode::Scale, "R"),
+                (GizmoMode::Translate, Action::MoveMode),
+                (GizmoMode::Rotate, Action::RotateMode),
+                (GizmoMode::Scale, Action::ScaleMode),
             ] {
                 let selected = gizmo.mode == mode;
                 if ui
-                    .add(egui::Button::selectable(selected, mode.label()).shortcut_text(key))
+                    .add(egui::Button::selectable(selected, mode.label()).shortcut_text(key.keys()))
                     .clicked()
                 {
                     gizmo.mode = mode;
@@ -238,7 +235,7 @@ pub fn menu_bar(
                 };
             }
             ui.separator();
-            let button = egui::Button::new("Frame selection").shortcut_text("F");
+            let button = egui::Button::new("Frame selection").shortcut_text(Action::Frame.keys());
             if ui.add_enabled(has_selection, button).clicked() {
                 action = Some(MenuAction::FrameSelection);
             }
@@ -253,7 +250,12 @@ pub fn menu_bar(
         ui.menu_button("Help", |ui| {
             ui.label(egui::RichText::new("Keys and mouse").strong());
             egui::Grid::new("shortcuts").num_columns(2).show(ui, |ui| {
-                for (keys, what) in SHORTCUTS {
+                for a in Action::all() {
+                    ui.monospace(a.keys());
+                    ui.label(a.describe());
+                    ui.end_row();
+                }
+                for (keys, what) in MOUSE {
                     ui.monospace(*keys);
                     ui.label(*what);
                     ui.end_row();

@@ -219,6 +219,7 @@ pub struct EditAccess<'w, 's> {
     recent: Res<'w, crate::files::RecentProjects>,
     health: Res<'w, crate::worker_watch::WorkerHealth>,
     opening: ResMut<'w, crate::project_open::OpeningProjects>,
+    chords: Res<'w, crate::key_chords::KeyChords>,
 }
 
 /// What the viewport reads of the scene and keeps of its own.
@@ -270,6 +271,7 @@ pub fn editor_ui(
         mut project_requests,
         health,
         mut opening,
+        chords,
         recent,
     } = edits;
     let ViewportAccess {
@@ -372,7 +374,7 @@ pub fn editor_ui(
     let mut palette_click = None;
     let mut named_rects = Vec::new();
     let mut row_rects = Vec::new();
-    let f2 = ctx.input(|i| i.key_pressed(egui::Key::F2)) && !ctx.egui_wants_keyboard_input();
+    let f2 = chords.triggered(crate::keymap::Action::Rename) && !ctx.egui_wants_keyboard_input();
 
     let mut root = egui::Ui::new(
         ctx.clone(),
