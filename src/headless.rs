@@ -4,7 +4,7 @@
 
 use crate::edit::{EditHistory, EditRequests, apply_edit_requests};
 use crate::files::{FileUi, ProjectRequest, ProjectRequests, RecentProjects};
-use crate::import::{DropPositions, ParsedImports, PendingImports, SourceCatalog, finish_imports};
+use crate::import::{ParsedImports, PendingImports, SourceCatalog, finish_imports};
 use crate::notice::Notices;
 use crate::project::ProjectState;
 use crate::scene_id::SceneIndex;
@@ -37,7 +37,6 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
     .init_resource::<Notices>()
     .init_resource::<PendingImports>()
     .init_resource::<ParsedImports>()
-    .init_resource::<DropPositions>()
     .init_resource::<SourceCatalog>()
     .init_resource::<ProjectState>()
     .init_resource::<ProjectRequests>()

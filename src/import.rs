@@ -4,6 +4,7 @@
 
 use crate::camera::OrbitCamera;
 use crate::notice::Notices;
+use crate::scene_id::SceneId;
 use crate::selection::SceneObject;
 use bevy::asset::RenderAssetUsages;
 use bevy::ecs::system::SystemParam;
@@ -82,13 +83,30 @@ impl From<ImportedScene> for ParsedScene {
     }
 }
 
+/// One file being parsed: its own job, so two drops of one file are two imports, each landing
+/// where it was dropped.
+pub struct PendingImport {
+    /// The file.
+    pub path: PathBuf,
+    /// Where it was dropped in the window: `None` for a file opened otherwise (framed, kept in
+    /// its own coordinates); `Some(None)` for a drop whose position the window system did not
+    /// give (the viewport's centre).
+    pub dropped_at: Option<Option<Vec2>>,
+    task: Task<Result<ParsedScene, ImportError>>,
+}
+
 /// Files being parsed.
 #[derive(Resource, Default)]
-pub struct PendingImports(pub Vec<(PathBuf, Task<Result<ParsedScene, ImportError>>)>);
+pub struct PendingImports(pub Vec<PendingImport>);
 
 impl PendingImports {
     /// Starts parsing `path` (and making its Bevy meshes) in the background.
     pub fn start(&mut self, path: PathBuf) {
+        self.start_at(path, None);
+    }
+
+    /// Starts parsing `path`, dropped at `dropped_at` (see [`PendingImport::dropped_at`]).
+    pub fn start_at(&mut self, path: PathBuf, dropped_at: Option<Option<Vec2>>) {
         let p = path.clone();
         let task = AsyncComputeTaskPool::get().spawn(async move {
             // A bug in the importer ends this import with an error, not the editor.
@@ -103,21 +121,18 @@ impl PendingImports {
                 })
             })
         });
-        self.0.push((path, task));
+        self.0.push(PendingImport {
+            path,
+            dropped_at,
+            task,
+        });
     }
 }
 
-/// Where files dropped on the window go: the pointer's position in the window when the drop
-/// arrived (`None` when the window system did not say, as X11 does not during a drag: the
-/// viewport's centre is used).
-#[derive(Resource, Default)]
-pub struct DropPositions(pub HashMap<PathBuf, Option<Vec2>>);
-
-/// Starts an import for every file dropped on the window, remembering where it was dropped.
+/// Starts an import for every file dropped on the window, with where it was dropped.
 pub fn import_dropped_files(
     mut drops: MessageReader<FileDragAndDrop>,
     mut pending: ResMut<PendingImports>,
-    mut positions: ResMut<DropPositions>,
     windows: Query<(&Window, Option<&bevy::window::RawHandleWrapper>)>,
 ) {
     for drop in drops.read() {
@@ -128,8 +143,7 @@ pub fn import_dropped_files(
                     handle.and_then(|h| crate::x11_pointer::pointer_in(h, w.scale_factor()))
                 })
             });
-            positions.0.insert(path_buf.clone(), at);
-            pending.start(path_buf.clone());
+            pending.start_at(path_buf.clone(), Some(at));
         }
     }
 }
@@ -148,10 +162,11 @@ pub fn drop_transform(bounds: (Vec3, Vec3), surface: crate::placement::Surface) 
 /// Filter for entities that light the scene.
 pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
 
-/// Files parsed in the background and not yet in the scene: the import command takes its file's
-/// scene from here (and parses the file itself when a script names one that is not).
+/// Files parsed in the background and not yet in the scene, by the id their import command gives
+/// its root: the command takes its scene from here (and parses the file itself when a script or a
+/// redo names one that is not).
 #[derive(Resource, Default)]
-pub struct ParsedImports(pub HashMap<PathBuf, ParsedScene>);
+pub struct ParsedImports(pub HashMap<SceneId, ParsedScene>);
 
 /// Hands each parsed file to the history as an import command (one undoable step), and frames
 /// the camera on it.
@@ -159,7 +174,7 @@ pub struct ParsedImports(pub HashMap<PathBuf, ParsedScene>);
 pub fn finish_imports(
     mut pending: ResMut<PendingImports>,
     mut parsed_imports: ResMut<ParsedImports>,
-    mut positions: ResMut<DropPositions>,
+    mut index: ResMut<crate::scene_id::SceneIndex>,
     mut requests: ResMut<crate::edit::EditRequests>,
     mut notices: ResMut<Notices>,
     mut orbit: Query<&mut OrbitCamera>,
@@ -169,11 +184,13 @@ pub fn finish_imports(
 ) {
     let mut i = 0;
     while i < pending.0.len() {
-        let Some(result) = block_on(poll_once(&mut pending.0[i].1)) else {
+        let Some(result) = block_on(poll_once(&mut pending.0[i].task)) else {
             i += 1;
             continue;
         };
-        let (path, _) = pending.0.swap_remove(i);
+        let PendingImport {
+            path, dropped_at, ..
+        } = pending.0.remove(i);
         match result {
             Err(e) => notices.error(e.to_string()),
             Ok(parsed) => {
@@ -185,7 +202,7 @@ pub fn finish_imports(
                 // otherwise keeps its coordinates and the camera frames it.
                 let bounds = parsed.bounds;
                 let mut transform = None;
-                if let Some(at) = positions.0.remove(&path)
+                if let Some(at) = dropped_at
                     && let (Some(b), Ok((camera, cam_gt))) = (bounds, cameras.single())
                     && let Some(rect) = camera.logical_viewport_rect()
                     && let Ok(ray) = camera.viewport_to_world(cam_gt, at.unwrap_or(rect.center()))
@@ -202,12 +219,14 @@ pub fn finish_imports(
                     scene.meshes.len(),
                     scene.triangle_count()
                 ));
-                parsed_imports.0.insert(path.clone(), parsed);
+                // The root's id, given now, names this import from the command to its tracking.
+                let root = index.allocate();
+                parsed_imports.0.insert(root, parsed);
                 jobs.awaiting
-                    .push((path.clone(), std::time::Instant::now()));
+                    .push((root, path.clone(), std::time::Instant::now()));
                 requests.apply(crate::edit::EditCommand::Import {
                     file: path,
-                    root: None,
+                    root: Some(root),
                     transform,
                 });
             }

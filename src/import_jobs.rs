@@ -1,8 +1,8 @@
 //! Imports in flight, from parsing until the scene BVH holds every mesh: what the status bar's
 //! progress shows, and cancelling one, which leaves nothing behind and no history step.
 
-use crate::edit::{EditCommand, EditHistory};
-use crate::import::{DropPositions, ParsedImports, PendingImports};
+use crate::edit::EditHistory;
+use crate::import::{ParsedImports, PendingImports};
 use crate::notice::Notices;
 use crate::scene_id::{SceneId, SceneIndex};
 use bevy::prelude::*;
@@ -50,8 +50,9 @@ impl TracingImport {
 pub struct TracingImports {
     /// In the order they were opened.
     pub jobs: Vec<TracingImport>,
-    /// Files whose import command was asked for and not yet seen in the history.
-    pub(crate) awaiting: Vec<(PathBuf, Instant)>,
+    /// Imports whose command was asked for and whose root (by the id it will have) is not yet in
+    /// the scene, with their file.
+    pub(crate) awaiting: Vec<(SceneId, PathBuf, Instant)>,
 }
 
 /// What the status bar's Cancel buttons (and tests) ask: stop importing these files.
@@ -63,10 +64,10 @@ pub struct CancelImports(pub Vec<PathBuf>);
 pub struct ImportAccess<'w> {
     /// Files being parsed.
     pub pending: ResMut<'w, PendingImports>,
-    /// Where files dropped on the viewport go.
-    pub drops: ResMut<'w, DropPositions>,
     /// Files read and not yet in the scene.
     pub parsed: ResMut<'w, ParsedImports>,
+    /// The ids objects are given (an import's root id is given when it is asked for).
+    pub index: ResMut<'w, SceneIndex>,
     /// Imports the tree is taking in.
     pub tracing: Res<'w, TracingImports>,
     /// Cancels asked for this frame.
@@ -81,8 +82,7 @@ impl ImportAccess<'_> {
     /// Imports `file`, placed by the placement rule at `at` in the viewport (its centre for
     /// `None`).
     pub fn import_at(&mut self, file: std::path::PathBuf, at: Option<Vec2>) {
-        self.drops.0.insert(file.clone(), at);
-        self.pending.start(file);
+        self.pending.start_at(file, Some(at));
     }
 }
 
@@ -129,36 +129,22 @@ fn meshes_under(world: &World, root: Entity) -> Vec<(Entity, u64)> {
 pub fn follow_imports(world: &mut World) {
     let mut jobs = std::mem::take(&mut *world.resource_mut::<TracingImports>());
     if !jobs.awaiting.is_empty() {
-        let history = world.resource::<EditHistory>();
-        let head = history.head();
-        let last = history.last_command();
-        jobs.awaiting.retain(|(file, started)| {
-            let Some(EditCommand::Import {
-                file: done,
-                root: Some(root),
-                ..
-            }) = &last
-            else {
-                return true;
+        let head = world.resource::<EditHistory>().head();
+        jobs.awaiting.retain(|(root, file, started)| {
+            let Some(e) = world.resource::<SceneIndex>().entity(*root) else {
+                // An import the history refused never appears: not waited for past a while.
+                return started.elapsed().as_secs() < 30;
             };
-            if done != file {
-                return true;
-            }
-            if let Some(e) = world.resource::<SceneIndex>().entity(*root) {
-                jobs.jobs.push(TracingImport {
-                    file: file.clone(),
-                    root: *root,
-                    step: head,
-                    meshes: meshes_under(world, e),
-                    traced: 0,
-                    started: *started,
-                });
-            }
+            jobs.jobs.push(TracingImport {
+                file: file.clone(),
+                root: *root,
+                step: head,
+                meshes: meshes_under(world, e),
+                traced: 0,
+                started: *started,
+            });
             false
         });
-        // An import the history refused never appears: it is not waited for past a few seconds.
-        jobs.awaiting
-            .retain(|(_, started)| started.elapsed().as_secs() < 30);
     }
     if !jobs.jobs.is_empty() {
         let index = world.resource::<SceneIndex>();
@@ -211,17 +197,25 @@ pub fn cancel_imports(world: &mut World) {
     for file in files {
         let mut pending = world.resource_mut::<PendingImports>();
         let before = pending.0.len();
-        pending.0.retain(|(p, _)| *p != file);
+        pending.0.retain(|p| p.path != file);
         let parsing = pending.0.len() != before;
-        world.resource_mut::<ParsedImports>().0.remove(&file);
-        world.resource_mut::<DropPositions>().0.remove(&file);
         let mut jobs = world.resource_mut::<TracingImports>();
-        jobs.awaiting.retain(|(p, _)| *p != file);
+        let awaited: Vec<SceneId> = jobs
+            .awaiting
+            .iter()
+            .filter(|(_, p, _)| *p == file)
+            .map(|(root, _, _)| *root)
+            .collect();
+        jobs.awaiting.retain(|(_, p, _)| *p != file);
         let job = jobs
             .jobs
             .iter()
             .position(|j| j.file == file)
             .map(|k| jobs.jobs.remove(k));
+        let mut parsed = world.resource_mut::<ParsedImports>();
+        for root in awaited {
+            parsed.0.remove(&root);
+        }
         let message = match job {
             Some(job) if world.resource::<EditHistory>().head() == job.step => {
                 world.resource_scope(|world, mut history: Mut<EditHistory>| {

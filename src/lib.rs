@@ -152,7 +152,6 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     .init_resource::<notice::Notices>()
     .init_resource::<import::PendingImports>()
     .init_resource::<import::ParsedImports>()
-    .init_resource::<import::DropPositions>()
     .init_resource::<import::SourceCatalog>()
     .init_resource::<project::ProjectState>()
     .insert_resource(render_mode::ViewportRender {

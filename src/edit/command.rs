@@ -663,9 +663,11 @@ impl EditCommand {
                 root,
                 transform,
             } => {
-                let parsed = world
-                    .get_resource_mut::<crate::import::ParsedImports>()
-                    .and_then(|mut p| p.0.remove(file.as_path()));
+                let parsed = root.and_then(|id| {
+                    world
+                        .get_resource_mut::<crate::import::ParsedImports>()
+                        .and_then(|mut p| p.0.remove(&id))
+                });
                 let mut parsed = match parsed {
                     Some(s) => s,
                     None => treelight_import::load_scene(file)

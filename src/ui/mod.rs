@@ -16,7 +16,7 @@ use crate::gizmo::{ActiveDrag, GizmoSettings};
 use crate::notice::{Level, Notices};
 use crate::placement::{box_corners, place_transform, surface_under, surface_under_excluding};
 use crate::render_mode::ViewportRender;
-use crate::scene_id::{SceneId, SceneIndex};
+use crate::scene_id::SceneId;
 use crate::selection::{SceneObject, Selection};
 use crate::viewport::{
     IconKind, ViewportActions, ViewportInteraction, ViewportPanel, ViewportScene,
@@ -237,7 +237,6 @@ pub struct ViewportAccess<'w, 's> {
     interaction: ResMut<'w, ViewportInteraction>,
     frame_request: ResMut<'w, FrameRequest>,
     clipboard: ResMut<'w, EditClipboard>,
-    index: Res<'w, SceneIndex>,
     widgets: ResMut<'w, WidgetRects>,
 }
 
@@ -287,7 +286,6 @@ pub fn editor_ui(
         mut interaction,
         mut frame_request,
         mut clipboard,
-        index,
         mut widgets,
     } = view;
     let ctx = contexts.ctx_mut()?.clone();
@@ -476,12 +474,12 @@ pub fn editor_ui(
                 }
             }
             let mut cancel = Vec::new();
-            for (path, _) in &imports.pending.0 {
+            for (k, job) in imports.pending.0.iter().enumerate() {
                 ui.separator();
                 ui.spinner();
-                ui.label(format!("Opening {}…", name(path)));
-                if ui.small_button("Cancel").clicked() {
-                    cancel.push(path.clone());
+                ui.label(format!("Opening {}…", name(&job.path)));
+                if ui.push_id(("cancel-import", k), |ui| ui.small_button("Cancel")).inner.clicked() {
+                    cancel.push(job.path.clone());
                 }
             }
             for job in &imports.tracing.jobs {
@@ -613,7 +611,7 @@ pub fn editor_ui(
         }
         Some(MenuAction::SelectNone) => selection.clear(),
         Some(MenuAction::Copy) => clipboard.0 = selected_ids.clone(),
-        Some(MenuAction::Paste) => requests.0.extend(clipboard.paste(&index)),
+        Some(MenuAction::Paste) => requests.0.extend(clipboard.paste(&imports.index)),
         Some(MenuAction::Group) if !selected_ids.is_empty() => requests.apply(EditCommand::Group {
             ids: selected_ids.clone(),
             name: "Group".into(),
@@ -678,7 +676,7 @@ pub fn editor_ui(
     // A palette item over the viewport: its ghost (a preview, traced like any object) follows the
     // pointer by the placement rule; a drop makes it one step; anything else removes the ghost.
     let ghost = history.preview_made();
-    let ghost_root = ghost.and_then(|g| index.entity(g));
+    let ghost_root = ghost.and_then(|g| imports.index.entity(g));
     // The ghost and everything under it, which placement sees through.
     let ghost_parts: Vec<Entity> = ghost_root.map_or_else(Vec::new, |root| {
         objects
@@ -717,16 +715,18 @@ pub fn editor_ui(
                             }))
                     }
                     _ => {
-                        // The import command takes the file as the panel read it.
+                        // The import command takes the file as the panel read it, under the id
+                        // its root will have.
+                        let root = imports.index.allocate();
                         if let Some((read, _)) = &read {
-                            imports.parsed.0.insert(
-                                file.clone(),
-                                crate::import::ParsedScene::from((**read).clone()),
-                            );
+                            imports
+                                .parsed
+                                .0
+                                .insert(root, crate::import::ParsedScene::from((**read).clone()));
                         }
                         let command = EditCommand::Import {
                             file,
-                            root: None,
+                            root: Some(root),
                             transform: Some(transform.into()),
                         };
                         requests.0.push(drop_or_preview(command, dropped));
