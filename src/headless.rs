@@ -3,8 +3,7 @@
 //! OUT.treelight` runs on it where there is no display, and tests and benchmarks build on it.
 
 use crate::edit::{EditHistory, EditRequests, apply_edit_requests};
-use crate::files::{FileUi, ProjectRequest, ProjectRequests, RecentProjects};
-use crate::import::{ParsedImports, PendingImports, SourceCatalog, finish_imports};
+use crate::files::{FileUi, ProjectRequests, RecentProjects};
 use crate::notice::Notices;
 use crate::project::ProjectState;
 use crate::scene_id::SceneIndex;
@@ -26,6 +25,7 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
         TransformPlugin,
         VisibilityPlugin,
         SceneBvhPlugin { config },
+        crate::import::ImportPlugin,
         crate::import_jobs::ImportJobsPlugin,
     ))
     .init_asset::<StandardMaterial>()
@@ -35,9 +35,6 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
     .init_resource::<EditRequests>()
     .init_resource::<Selection>()
     .init_resource::<Notices>()
-    .init_resource::<PendingImports>()
-    .init_resource::<ParsedImports>()
-    .init_resource::<SourceCatalog>()
     .init_resource::<ProjectState>()
     .init_resource::<ProjectRequests>()
     .init_resource::<FileUi>()
@@ -46,7 +43,6 @@ pub fn headless_app(config: SceneBvhConfig) -> App {
     .add_systems(
         Update,
         (
-            finish_imports,
             crate::files::apply_project_requests,
             crate::project_open::finish_opening,
             apply_edit_requests,
@@ -63,15 +59,7 @@ pub fn save_app(cli: &crate::cli::Cli, script: Option<crate::script::ScriptedEdi
     let mut app = headless_app(SceneBvhConfig::default());
     app.add_plugins(bevy::log::LogPlugin::default());
     match &cli.scene {
-        Some(path) if crate::is_project_file(path) => app
-            .world_mut()
-            .resource_mut::<ProjectRequests>()
-            .0
-            .push(ProjectRequest::Open(path.clone())),
-        Some(path) => app
-            .world_mut()
-            .resource_mut::<PendingImports>()
-            .start(path.clone()),
+        Some(path) => crate::import::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(Startup, crate::default_scene::open_default_scene);
         }

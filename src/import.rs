@@ -576,6 +576,38 @@ fn material(m: &ImportedMaterial) -> StandardMaterial {
     }
 }
 
+/// Imports as a plugin: the files being parsed, the scenes parsed and waiting for their command,
+/// the catalog of what each file held, and the system that hands parsed files to the history.
+/// Drops on a window are the shell's ([`import_dropped_files`]).
+pub struct ImportPlugin;
+
+impl Plugin for ImportPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PendingImports>()
+            .init_resource::<ParsedImports>()
+            .init_resource::<SourceCatalog>()
+            .add_systems(
+                Update,
+                finish_imports.before(crate::edit::apply_edit_requests),
+            );
+    }
+}
+
+/// Opens the file named at start: a project is opened in place of the scene, any other scene file
+/// imported into it.
+pub fn open_at_start(world: &mut World, path: &Path) {
+    if crate::is_project_file(path) {
+        world
+            .resource_mut::<crate::files::ProjectRequests>()
+            .0
+            .push(crate::files::ProjectRequest::Open(path.to_owned()));
+    } else {
+        world
+            .resource_mut::<PendingImports>()
+            .start(path.to_owned());
+    }
+}
+
 #[cfg(test)]
 mod drop_tests {
     use super::*;

@@ -126,6 +126,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     ))
     .add_plugins((
         key_chords::KeyChordsPlugin,
+        import::ImportPlugin,
         edit::EditPlugin,
         selection::SelectionPlugin,
         gizmo::GizmoPlugin,
@@ -150,9 +151,6 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     ))
     .add_systems(Last, cap_frame_rate)
     .init_resource::<notice::Notices>()
-    .init_resource::<import::PendingImports>()
-    .init_resource::<import::ParsedImports>()
-    .init_resource::<import::SourceCatalog>()
     .init_resource::<project::ProjectState>()
     .insert_resource(render_mode::ViewportRender {
         traced: cli.view.debug_view(),
@@ -170,21 +168,12 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
         Update,
         (
             import::import_dropped_files,
-            import::finish_imports,
             notice::expire_notices,
             render_mode::apply_viewport_render,
         ),
     );
     match &cli.scene {
-        Some(path) if is_project_file(path) => app
-            .world_mut()
-            .resource_mut::<files::ProjectRequests>()
-            .0
-            .push(files::ProjectRequest::Open(path.clone())),
-        Some(path) => app
-            .world_mut()
-            .resource_mut::<import::PendingImports>()
-            .start(path.clone()),
+        Some(path) => import::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(
                 Startup,

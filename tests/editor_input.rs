@@ -536,6 +536,27 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
     let st = s.frames(5);
     assert_eq!(st.dialog, None, "a cancel opened another dialog");
     assert_eq!(st.project.as_deref(), Some(saved.as_path()));
+
+    // Save As through the desktop dialog onto an existing file asks too; Escape keeps the file.
+    let before = std::fs::read(&saved).unwrap();
+    let existing = s.dir().join("other.treelight");
+    std::fs::write(&existing, "someone's work").unwrap();
+    std::fs::write(&answer, format!("{}\n", existing.display())).unwrap();
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    s.wait_until("the question", std::time::Duration::from_secs(30), |st| {
+        st.dialog
+            .as_deref()
+            .is_some_and(|d| d.starts_with("replace"))
+    });
+    s.key(&[], keysym::ESCAPE);
+    s.wait_until("the escape", std::time::Duration::from_secs(30), |st| {
+        st.dialog.is_none()
+    });
+    assert_eq!(
+        std::fs::read_to_string(&existing).unwrap(),
+        "someone's work"
+    );
+    assert_eq!(std::fs::read(&saved).unwrap(), before);
 }
 
 #[test]
