@@ -149,16 +149,26 @@ fn handle_name(h: Handle) -> String {
     }
 }
 
-type ReportItem = (
-    Entity,
-    &'static SceneId,
-    Option<&'static Name>,
-    &'static Transform,
-    &'static GlobalTransform,
-    Has<Mesh3d>,
-    Option<&'static Visibility>,
-    Option<&'static ChildOf>,
-);
+/// What the report reads of each scene object.
+#[derive(bevy::ecs::query::QueryData)]
+pub struct ReportItem {
+    /// The object.
+    pub entity: Entity,
+    /// Its stable id.
+    pub id: &'static SceneId,
+    /// Its name, if it has one.
+    pub name: Option<&'static Name>,
+    /// Its local transform.
+    pub transform: &'static Transform,
+    /// Its world transform.
+    pub global: &'static GlobalTransform,
+    /// Whether it shows a mesh.
+    pub mesh: Has<Mesh3d>,
+    /// Whether it is shown.
+    pub visibility: Option<&'static Visibility>,
+    /// Its parent.
+    pub parent: Option<&'static ChildOf>,
+}
 
 /// Writes the report for this frame.
 #[allow(clippy::too_many_arguments)]
@@ -189,22 +199,25 @@ pub fn write_state_report(
         objects
             .get(e)
             .ok()
-            .and_then(|o| o.7)
+            .and_then(|o| o.parent)
             .map(|c| c.parent())
             .filter(|p| objects.contains(*p))
     };
     let mut list: Vec<ObjectReport> = objects
         .iter()
-        .map(|(e, id, name, t, gt, mesh, vis, _)| {
+        .map(|o| {
+            let (e, gt) = (o.entity, o.global);
             let centre =
                 world_bounds(e, &boxes, &children).map_or(gt.translation(), |(a, b)| (a + b) * 0.5);
             ObjectReport {
-                id: *id,
-                name: name.map_or(String::new(), |n| n.as_str().to_owned()),
-                parent: parent_of(e).and_then(|p| objects.get(p).ok()).map(|o| *o.1),
-                mesh,
-                visible: vis != Some(&Visibility::Hidden),
-                local: (*t).into(),
+                id: *o.id,
+                name: o.name.map_or(String::new(), |n| n.as_str().to_owned()),
+                parent: parent_of(e)
+                    .and_then(|p| objects.get(p).ok())
+                    .map(|p| *p.id),
+                mesh: o.mesh,
+                visible: o.visibility != Some(&Visibility::Hidden),
+                local: (*o.transform).into(),
                 world_translation: gt.translation().to_array(),
                 screen: camera
                     .and_then(|(c, cg)| c.world_to_viewport(cg, centre).ok())
@@ -217,7 +230,7 @@ pub fn write_state_report(
     if let Some((camera, cam_gt)) = camera {
         let (targets, active) = crate::viewport::drag_targets(
             &selection,
-            |e| objects.get(e).ok().map(|o| (*o.1, o.4.affine())),
+            |e| objects.get(e).ok().map(|o| (*o.id, o.global.affine())),
             parent_of,
         );
         let view = (camera, cam_gt);
@@ -242,7 +255,7 @@ pub fn write_state_report(
         selection: selection
             .entities()
             .iter()
-            .filter_map(|e| objects.get(*e).ok().map(|o| *o.1))
+            .filter_map(|e| objects.get(*e).ok().map(|o| *o.id))
             .collect(),
         history: (history.head(), history.labels().len()),
         gizmo: handles,

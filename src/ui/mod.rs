@@ -191,18 +191,29 @@ fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
 }
 
 /// What the outliner, inspector and viewport read of each scene object.
-type ObjectItem = (
-    Entity,
-    &'static SceneId,
-    &'static Name,
-    &'static Transform,
-    &'static GlobalTransform,
-    Option<&'static Mesh3d>,
-    Has<PointLight>,
-    Has<DirectionalLight>,
-    Option<&'static Visibility>,
-    Option<&'static ChildOf>,
-);
+#[derive(bevy::ecs::query::QueryData)]
+pub struct ObjectItem {
+    /// The object.
+    pub entity: Entity,
+    /// Its stable id.
+    pub id: &'static SceneId,
+    /// Its name.
+    pub name: &'static Name,
+    /// Its local transform.
+    pub transform: &'static Transform,
+    /// Its world transform.
+    pub global: &'static GlobalTransform,
+    /// Its mesh, if it shows one.
+    pub mesh: Option<&'static Mesh3d>,
+    /// Whether it is a point light.
+    pub point_light: Has<PointLight>,
+    /// Whether it is a directional light.
+    pub directional_light: Has<DirectionalLight>,
+    /// Whether it is shown.
+    pub visibility: Option<&'static Visibility>,
+    /// Its parent.
+    pub parent: Option<&'static ChildOf>,
+}
 
 /// What the UI reads of the history and how it asks for edits.
 #[derive(SystemParam)]
@@ -293,7 +304,7 @@ pub fn editor_ui(
         objects
             .get(e)
             .ok()
-            .and_then(|o| o.9)
+            .and_then(|o| o.parent)
             .map(|c| c.parent())
             .filter(|p| objects.contains(*p))
     };
@@ -303,16 +314,14 @@ pub fn editor_ui(
     if outliner_cache.stale_for(&outliner) {
         let items: Vec<OutlinerItem> = objects
             .iter()
-            .map(
-                |(entity, id, name, _, _, mesh, point, dir, vis, _)| OutlinerItem {
-                    entity,
-                    id: *id,
-                    parent: parent_of(entity),
-                    name: name.as_str().to_owned(),
-                    kind: kind_of(mesh.is_some(), point, dir),
-                    visible: vis != Some(&Visibility::Hidden),
-                },
-            )
+            .map(|o| OutlinerItem {
+                entity: o.entity,
+                id: *o.id,
+                parent: parent_of(o.entity),
+                name: o.name.as_str().to_owned(),
+                kind: kind_of(o.mesh.is_some(), o.point_light, o.directional_light),
+                visible: o.visibility != Some(&Visibility::Hidden),
+            })
             .collect();
         outliner_cache.remake(items, &outliner);
     }
@@ -320,8 +329,8 @@ pub fn editor_ui(
 
     // The inspector's copy of the active object.
     let original = selection.active().and_then(|e| {
-        let (_, id, name, t, ..) = objects.get(e).ok()?;
-        let mut state = InspectorState::new(*id, name.as_str(), t);
+        let o = objects.get(e).ok()?;
+        let mut state = InspectorState::new(*o.id, o.name.as_str(), o.transform);
         state.selected = selection.entities().len();
         if let Ok(handle) = material_of.get(e)
             && let Some(m) = materials.get(&handle.0)
@@ -593,7 +602,7 @@ pub fn editor_ui(
     let selected_ids: Vec<SceneId> = selection
         .entities()
         .iter()
-        .filter_map(|e| objects.get(*e).ok().map(|o| *o.1))
+        .filter_map(|e| objects.get(*e).ok().map(|o| *o.id))
         .collect();
     match menu_action {
         Some(MenuAction::Undo) => requests.0.push(EditRequest::Undo),
@@ -681,7 +690,7 @@ pub fn editor_ui(
     let ghost_parts: Vec<Entity> = ghost_root.map_or_else(Vec::new, |root| {
         objects
             .iter()
-            .map(|o| o.0)
+            .map(|o| o.entity)
             .filter(|&e| {
                 let mut at = Some(e);
                 while let Some(x) = at {
@@ -828,9 +837,10 @@ fn viewport_scene(
     };
     let active = selection.active();
     for &e in selection.entities().iter().filter(|_| show_boxes) {
-        let Ok((_, _, _, _, _, mesh, ..)) = objects.get(e) else {
+        let Ok(o) = objects.get(e) else {
             continue;
         };
+        let mesh = o.mesh;
         let is_active = Some(e) == active;
         // A mesh shows its own box, turned with it; a group the box around everything under it.
         if mesh.is_some()
@@ -847,15 +857,16 @@ fn viewport_scene(
     }
     (out.targets, out.active_world) = crate::viewport::drag_targets(
         selection,
-        |e| objects.get(e).ok().map(|o| (*o.1, o.4.affine())),
+        |e| objects.get(e).ok().map(|o| (*o.id, o.global.affine())),
         &parent_of,
     );
-    for (e, _, _, _, gt, mesh, point, dir, ..) in objects.iter() {
-        let kind = if point {
+    for o in objects.iter() {
+        let (e, gt) = (o.entity, o.global);
+        let kind = if o.point_light {
             IconKind::PointLight
-        } else if dir {
+        } else if o.directional_light {
             IconKind::DirectionalLight
-        } else if mesh.is_none() {
+        } else if o.mesh.is_none() {
             IconKind::Empty
         } else {
             continue;
@@ -901,8 +912,9 @@ fn box_select(
         }
     }
     drop(tree);
-    for (e, _, _, _, _, mesh, ..) in objects.iter() {
-        if mesh.is_none() || found.contains(&e) {
+    for o in objects.iter() {
+        let e = o.entity;
+        if o.mesh.is_none() || found.contains(&e) {
             continue;
         }
         if let Ok((aabb, gt)) = boxes.get(e) {
