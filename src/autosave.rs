@@ -80,6 +80,27 @@ pub fn editor_running(dir: &Path, pid: u32) -> bool {
     matches!(file.try_lock(), Err(std::fs::TryLockError::WouldBlock))
 }
 
+/// The files in `dir` named `PREFIX-PID.SUFFIX` whose editor process PID is neither this one nor
+/// still running (its lock in `dir` is free), with that PID.
+pub fn left_by_gone_editors(dir: &Path, prefix: &str, suffix: &str) -> Vec<(u32, PathBuf)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .map(|e| e.path())
+        .filter_map(|p| {
+            let pid = p
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_prefix(prefix))
+                .and_then(|n| n.strip_suffix(suffix))
+                .and_then(|n| n.parse::<u32>().ok())?;
+            (pid != std::process::id() && !editor_running(dir, pid)).then_some((pid, p))
+        })
+        .collect()
+}
+
 /// The editor process that wrote the recovery copy at `path`, from its first line.
 fn writer_of(path: &Path) -> Option<u32> {
     use std::io::Read;
@@ -137,19 +158,7 @@ pub fn recovery_to_offer_in(project: Option<&Path>, cache: Option<&Path>) -> Opt
         None => {
             let dir = cache?;
             let mut copies = Vec::new();
-            for p in std::fs::read_dir(dir).ok()?.flatten().map(|e| e.path()) {
-                let Some(pid) = p
-                    .file_name()
-                    .and_then(|n| n.to_str())
-                    .and_then(|n| n.strip_prefix("unsaved-"))
-                    .and_then(|n| n.strip_suffix(".recovery.treelight"))
-                    .and_then(|n| n.parse::<u32>().ok())
-                else {
-                    continue;
-                };
-                if pid == std::process::id() || editor_running(dir, pid) {
-                    continue;
-                }
+            for (pid, p) in left_by_gone_editors(dir, "unsaved-", ".recovery.treelight") {
                 if too_old(&p) {
                     let _ = std::fs::remove_file(&p);
                     let _ = std::fs::remove_file(lock_path(dir, pid));

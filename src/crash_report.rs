@@ -3,7 +3,7 @@
 //! contains ([`crate::contain`], the scene's background threads) are not crashes and leave no
 //! report.
 
-use crate::autosave::{cache_dir, editor_running};
+use crate::autosave::{cache_dir, left_by_gone_editors};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 use std::path::{Path, PathBuf};
@@ -54,22 +54,11 @@ pub fn install_hook_in(dir: PathBuf) {
 
 /// Reports left by editors that are no longer running, newest first.
 pub fn reports_to_show(dir: &Path) -> Vec<PathBuf> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Vec::new();
-    };
-    let mut found: Vec<(std::time::SystemTime, PathBuf)> = entries
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .and_then(|n| n.strip_prefix("crash-"))
-                .and_then(|n| n.strip_suffix(".txt"))
-                .and_then(|n| n.parse::<u32>().ok())
-                .is_some_and(|pid| pid != std::process::id() && !editor_running(dir, pid))
-        })
-        .filter_map(|p| Some((std::fs::metadata(&p).ok()?.modified().ok()?, p)))
-        .collect();
+    let mut found: Vec<(std::time::SystemTime, PathBuf)> =
+        left_by_gone_editors(dir, "crash-", ".txt")
+            .into_iter()
+            .filter_map(|(_, p)| Some((std::fs::metadata(&p).ok()?.modified().ok()?, p)))
+            .collect();
     found.sort_by_key(|f| std::cmp::Reverse(f.0));
     found.into_iter().map(|(_, p)| p).collect()
 }

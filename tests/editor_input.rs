@@ -543,11 +543,7 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
     std::fs::write(&existing, "someone's work").unwrap();
     std::fs::write(&answer, format!("{}\n", existing.display())).unwrap();
     s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
-    s.wait_until("the question", std::time::Duration::from_secs(30), |st| {
-        st.dialog
-            .as_deref()
-            .is_some_and(|d| d.starts_with("replace"))
-    });
+    wait_for_replace_question(&mut s, "the question");
     s.key(&[], keysym::ESCAPE);
     s.wait_until("the escape", std::time::Duration::from_secs(30), |st| {
         st.dialog.is_none()
@@ -646,6 +642,24 @@ fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
     assert!(stairs.world_translation[0].abs() < 2.5 && stairs.world_translation[2].abs() < 2.5);
 }
 
+/// Waits until Save As asks whether to replace a file.
+fn wait_for_replace_question(s: &mut Session, what: &str) -> EditorState {
+    s.wait_until(what, std::time::Duration::from_secs(30), |st| {
+        st.dialog
+            .as_deref()
+            .is_some_and(|d| d.starts_with("replace"))
+    })
+}
+
+/// Ctrl+Shift+S, then Return in the in-window dialog's name field, onto a file that exists: the
+/// state once the question is asked.
+fn save_as_with_return(s: &mut Session, what: &str) -> EditorState {
+    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
+    s.frames(2);
+    s.key(&[], keysym::RETURN);
+    wait_for_replace_question(s, what)
+}
+
 #[test]
 fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
     let mut s = Session::start("replace", &[]);
@@ -664,14 +678,7 @@ fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
             .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
     };
     // Return in the name field asks; Return again answers with the question's default, Cancel.
-    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
-    s.frames(2);
-    s.key(&[], keysym::RETURN);
-    let st = s.wait_until("the question", std::time::Duration::from_secs(30), |st| {
-        st.dialog
-            .as_deref()
-            .is_some_and(|d| d.starts_with("replace"))
-    });
+    let st = save_as_with_return(&mut s, "the question");
     assert!(button(&st, "Replace").is_some() && button(&st, "Cancel").is_some());
     s.key(&[], keysym::RETURN);
     let st = s.wait_until("the cancel", std::time::Duration::from_secs(30), |st| {
@@ -680,37 +687,15 @@ fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
     assert_eq!(std::fs::read_to_string(&path).unwrap(), "precious work");
     assert_eq!(st.project, None);
     assert!(st.dirty);
-    // Escape cancels too; the Save button asks like Return does.
-    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
-    s.frames(2);
-    s.key(&[], keysym::RETURN);
-    s.wait_until(
-        "the question again",
-        std::time::Duration::from_secs(30),
-        |st| {
-            st.dialog
-                .as_deref()
-                .is_some_and(|d| d.starts_with("replace"))
-        },
-    );
+    // Escape cancels too.
+    save_as_with_return(&mut s, "the question again");
     s.key(&[], keysym::ESCAPE);
     s.wait_until("the escape", std::time::Duration::from_secs(30), |st| {
         st.dialog.is_none()
     });
     assert_eq!(std::fs::read_to_string(&path).unwrap(), "precious work");
     // Replace, clicked, replaces it with the project.
-    s.key(&[keysym::CONTROL, keysym::SHIFT], keysym::letter('s'));
-    s.frames(2);
-    s.key(&[], keysym::RETURN);
-    let st = s.wait_until(
-        "the third question",
-        std::time::Duration::from_secs(30),
-        |st| {
-            st.dialog
-                .as_deref()
-                .is_some_and(|d| d.starts_with("replace"))
-        },
-    );
+    let st = save_as_with_return(&mut s, "the third question");
     let (x, y) = button(&st, "Replace").unwrap();
     s.click(x, y);
     let st = s.wait_until("the save", std::time::Duration::from_secs(30), |st| {

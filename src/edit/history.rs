@@ -223,12 +223,6 @@ impl EditHistory {
         self.record.get_entry(i).map(|e| e.as_ref().label.clone())
     }
 
-    /// The last command applied, if any.
-    pub fn last_command(&self) -> Option<&EditCommand> {
-        let head = self.record.head().checked_sub(1)?;
-        self.record.get_entry(head).map(|e| &e.as_ref().command)
-    }
-
     /// The applied commands, oldest first, as a script would replay them.
     pub fn commands(&self) -> Vec<EditCommand> {
         self.record

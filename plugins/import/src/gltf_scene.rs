@@ -85,20 +85,25 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         .map(|n| (n, Mat4::IDENTITY, 0, None))
         .collect();
     while let Some((node, parent, depth, parent_index)) = stack.pop() {
-        let label = node_label(&node);
+        // Named only in messages: made when one is written, not for each of a million nodes.
+        let label = || node_label(&node);
         if std::mem::replace(&mut seen[node.index()], true) {
             return Err(ImportError::new(
                 path,
                 format!(
-                    "{label} is reached twice (it has two parents, is a root twice, or lies on a \
-                     cycle); a glTF node hierarchy must be a forest"
+                    "{} is reached twice (it has two parents, is a root twice, or lies on a \
+                     cycle); a glTF node hierarchy must be a forest",
+                    label()
                 ),
             ));
         }
         if depth > MAX_DEPTH {
             return Err(ImportError::new(
                 path,
-                format!("the node hierarchy is deeper than {MAX_DEPTH} levels at {label}"),
+                format!(
+                    "the node hierarchy is deeper than {MAX_DEPTH} levels at {}",
+                    label()
+                ),
             ));
         }
         if scene.nodes.len() >= MAX_NODES {
@@ -112,7 +117,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         if !world.is_finite() {
             return Err(ImportError::new(
                 path,
-                format!("{label} has a non-finite transform"),
+                format!("{} has a non-finite transform", label()),
             ));
         }
         let step = node
@@ -127,7 +132,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
             .map_or_else(|| format!("node {}", node.index()), str::to_owned);
         budget.charge(
             (std::mem::size_of::<ImportedNode>() + key.len() + name.len()) as u64,
-            || label.clone(),
+            label,
         )?;
         let index = scene.nodes.len();
         scene.nodes.push(ImportedNode {
@@ -361,16 +366,19 @@ struct AttributeRule {
     expected: &'static str,
 }
 
+/// Floats, or (`KHR_mesh_quantization`) 8- or 16-bit integers, normalized or not.
+const FLOAT_OR_SMALL_INTEGER: &[(DataType, Option<bool>)] = &[
+    (DataType::F32, Some(false)),
+    (DataType::I8, None),
+    (DataType::U8, None),
+    (DataType::I16, None),
+    (DataType::U16, None),
+];
+
 const POSITION: AttributeRule = AttributeRule {
     what: "POSITION",
     dims: Dimensions::Vec3,
-    types: &[
-        (DataType::F32, Some(false)),
-        (DataType::I8, None),
-        (DataType::U8, None),
-        (DataType::I16, None),
-        (DataType::U16, None),
-    ],
+    types: FLOAT_OR_SMALL_INTEGER,
     expected: "3 floats, or 3 8- or 16-bit integers (KHR_mesh_quantization)",
 };
 
@@ -388,13 +396,7 @@ const NORMAL: AttributeRule = AttributeRule {
 const TEXCOORD: AttributeRule = AttributeRule {
     what: "TEXCOORD_0",
     dims: Dimensions::Vec2,
-    types: &[
-        (DataType::F32, Some(false)),
-        (DataType::I8, None),
-        (DataType::U8, None),
-        (DataType::I16, None),
-        (DataType::U16, None),
-    ],
+    types: FLOAT_OR_SMALL_INTEGER,
     expected: "2 floats, or 2 8- or 16-bit integers",
 };
 

@@ -9,6 +9,8 @@
 //! `tests/fuzz-regressions.txt` (commit it; the case is made again from the shared scenes, which
 //! are never copied here) and replayed by every later run.
 
+mod support;
+
 use serde_json::{Value, json};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
@@ -547,15 +549,7 @@ fn run(path: &Path) -> Option<String> {
 
 /// A GLB of one triangle whose binary chunk also carries `extra` bytes no accessor reads.
 fn big_glb(extra: usize) -> Vec<u8> {
-    let mut bin = Vec::new();
-    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
-        for c in p {
-            bin.extend(c.to_le_bytes());
-        }
-    }
-    for i in [0u16, 1, 2, 0] {
-        bin.extend(i.to_le_bytes());
-    }
+    let mut bin = support::triangle_bin();
     bin.resize(44 + extra, 7);
     let json = json!({
         "asset": {"version": "2.0"},

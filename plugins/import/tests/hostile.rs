@@ -1,9 +1,12 @@
 //! Small hostile files, written by the tests themselves: each is refused (or imported) within
 //! bounded time and memory, with an error naming the file and what is wrong.
 
+mod support;
+
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use support::triangle_bin;
 use treelight_import::{ImportOptions, load_scene, load_scene_with};
 
 /// A fresh folder for one test.
@@ -12,20 +15,6 @@ fn folder(tag: &str) -> PathBuf {
     std::fs::remove_dir_all(&dir).ok();
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// One triangle's bytes: three float positions (36 bytes), then three u16 indices (6, padded to 8).
-fn triangle_bin() -> Vec<u8> {
-    let mut bin = Vec::new();
-    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
-        for c in p {
-            bin.extend(c.to_le_bytes());
-        }
-    }
-    for i in [0u16, 1, 2, 0] {
-        bin.extend(i.to_le_bytes());
-    }
-    bin
 }
 
 /// A glTF of one triangle mesh named "tri" at one node, its buffer in `tri.bin`.
