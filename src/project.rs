@@ -737,7 +737,14 @@ pub fn open_project_parsed(
         .map(|o| o.id)
         .max()
         .unwrap_or(SceneId::NEW);
-    world.resource_mut::<SceneIndex>().reserve_through(top);
+    {
+        let mut index = world.resource_mut::<SceneIndex>();
+        index.reserve_through(top);
+        // Objects kept while their source is missing are not in the scene, but hold their ids.
+        for o in &project.objects {
+            index.retire(o.id);
+        }
+    }
 
     let mut nodes: HashMap<(usize, String), Entity> = HashMap::new();
     for (i, scene) in parsed.iter().enumerate() {

@@ -447,6 +447,28 @@ fn objects_must_form_a_forest_and_ids_stay_in_range() {
             "{fresh} is taken"
         );
     }
+    // The same with its source gone: the objects it held are kept, not in the scene, and their ids
+    // are still never given out.
+    let mut kept = top.clone();
+    kept.sources = vec![dir.join("gone.gltf")];
+    let path = dir.join("kept.treelight");
+    let text = ron::ser::to_string_pretty(&kept, ron::ser::PrettyConfig::default()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    // In a fresh editor, where no earlier scene held those ids.
+    let mut app = editor_world();
+    let report = open_project(app.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources.len(), 1);
+    for _ in 0..kept.objects.len() + 3 {
+        let fresh = app
+            .world_mut()
+            .resource_mut::<treelight::scene_id::SceneIndex>()
+            .allocate();
+        assert!(fresh.is_valid(), "{fresh}");
+        assert!(
+            kept.objects.iter().all(|o| o.id != fresh),
+            "{fresh} is held by a kept object"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
