@@ -7,10 +7,13 @@
 use bevy::prelude::*;
 use bevy_egui::egui;
 use std::time::{Duration, Instant};
-use treelight::edit::EditCommand;
-use treelight::scene_id::SceneId;
-use treelight::selection::Selection;
-use treelight::ui::outliner::{OutlinerItem, OutlinerPanel, OutlinerState, rows};
+use treelight::editor::panels::outliner::OutlinerItem;
+use treelight::editor::panels::outliner::OutlinerPanel;
+use treelight::editor::panels::outliner::OutlinerState;
+use treelight::editor::panels::outliner::rows;
+use treelight::editor::viewport::selection::Selection;
+use treelight_document::edit::command::EditCommand;
+use treelight_document::object::SceneId;
 
 fn items(world: &mut World, n: usize) -> Vec<OutlinerItem> {
     let mut out = Vec::with_capacity(n);

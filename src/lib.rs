@@ -1,74 +1,22 @@
 //! Treelight, the editor: a Bevy scene editor whose viewport is a live path-traced preview.
 //! The binary `treelight` parses the command line and runs [`build_app`].
 
-pub mod asset_library;
-pub mod atomic_file;
-pub mod autosave;
-pub mod camera;
 pub mod capture;
 pub mod cli;
-pub mod contain;
-pub mod crash_report;
-pub mod default_scene;
-pub mod edit;
-pub mod files;
-pub mod folders;
-pub mod gizmo;
-pub mod headless;
-pub mod import;
-pub mod import_jobs;
-pub mod info;
-pub mod key_chords;
-pub mod keymap;
-pub mod notice;
-pub mod placement;
-pub mod project;
-pub mod project_open;
-pub mod render_mode;
+pub mod editor;
 pub mod report;
-pub mod samples;
-pub mod scene_id;
-pub mod script;
-pub mod selection;
-pub mod settings;
 pub mod system_errors;
-pub mod ui;
-pub mod viewport;
-pub mod worker_watch;
-pub mod x11_pointer;
 
-use bevy::camera::visibility::RenderLayers;
-use bevy::camera::{CameraOutputMode, ClearColorConfig};
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
-use bevy::render::render_resource::BlendState;
-use bevy_egui::{EguiGlobalSettings, EguiPlugin, PrimaryEguiContext};
-
-/// Bevy's task pools as the editor wants them: the async compute pool (parsing imports, making
-/// thumbnails) runs below the frame's priority, as the scene worker does, so that on a machine with
-/// few cores an import never takes the cores the frame's systems wait for.
-pub fn task_pools() -> TaskPoolPlugin {
-    let mut options = TaskPoolOptions::default();
-    options.async_compute.on_thread_spawn = Some(std::sync::Arc::new(|| {
-        treelight_scene::priority::lower_current_thread(BACKGROUND_NICE)
-    }));
-    TaskPoolPlugin {
-        task_pool_options: options,
-    }
-}
-
-/// Runs the main world's schedules on the thread that updates the app. The editor's main-world
-/// systems take a fraction of a millisecond; spread over the compute pool, every hand-off between
-/// threads is a wake-up, and while the scene worker or an import holds the cores each wake-up can
-/// wait for a core until the scheduler's next tick. Sub-apps (the renderer) keep their executors.
-pub fn run_schedules_on_one_thread(app: &mut App) {
-    let mut schedules = app
-        .world_mut()
-        .resource_mut::<bevy::ecs::schedule::Schedules>();
-    for (_, schedule) in schedules.iter_mut() {
-        schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
-    }
-}
+use bevy_egui::EguiPlugin;
+use editor::viewport::render_mode::ViewportRender;
+use treelight_document::DocumentPlugin;
+use treelight_document::app::{run_schedules_on_one_thread, task_pools};
+use treelight_document::default_scene::open_default_scene;
+use treelight_document::project::autosave::AutosavePlugin;
+use treelight_document::project::requests::SaveWhenSettled;
+use treelight_document::project::script::ScriptedEdits;
 
 /// The shortest time between frames (`--max-fps`), if capped.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
@@ -89,9 +37,6 @@ fn cap_frame_rate(cap: Res<FrameCap>, mut last: Local<Option<std::time::Instant>
     *last = Some(std::time::Instant::now());
 }
 
-/// Nice steps below the frame at which the editor's background work runs.
-const BACKGROUND_NICE: i32 = 10;
-
 /// The editor as a Bevy app, configured from the command line; `script` holds the commands of
 /// `--commands`, already read.
 pub fn build_app(cli: &cli::Cli) -> App {
@@ -100,7 +45,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
 
 /// [`build_app`] with the commands `--commands` named, read by the caller (so a bad file stops the
 /// start with its error).
-pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> App {
+pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(task_pools()).set(WindowPlugin {
         primary_window: Some(Window {
@@ -108,7 +53,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             resolution: bevy::window::WindowResolution::new(cli.width, cli.height),
             ..default()
         }),
-        // Closing asks first when there are unsaved changes (files::close_requested).
+        // Closing asks first when there are unsaved changes (editor::files::file_menu).
         close_when_requested: false,
         ..default()
     }))
@@ -123,22 +68,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             },
         },
         treelight_render::PathTracerPlugin,
-    ))
-    .add_plugins((
-        key_chords::KeyChordsPlugin,
-        import::ImportPlugin,
-        edit::EditPlugin,
-        selection::SelectionPlugin,
-        gizmo::GizmoPlugin,
-        camera::CameraPlugin,
-        ui::UiPlugin,
-        settings::SettingsPlugin,
-        files::FilesPlugin,
-        autosave::AutosavePlugin,
-        import_jobs::ImportJobsPlugin,
-        asset_library::AssetLibraryPlugin,
-        worker_watch::WorkerWatchPlugin,
-        crash_report::CrashReportPlugin,
+        DocumentPlugin,
+        AutosavePlugin,
+        editor::EditorPlugin,
     ))
     // Errors of systems and commands are reported, not fatal (`system_errors`).
     .set_error_handler(system_errors::report_error)
@@ -150,9 +82,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             .map(|f| std::time::Duration::from_secs_f32(1.0 / f)),
     ))
     .add_systems(Last, cap_frame_rate)
-    .init_resource::<notice::Notices>()
-    .init_resource::<project::ProjectState>()
-    .insert_resource(render_mode::ViewportRender {
+    .insert_resource(ViewportRender {
         traced: cli.view.debug_view(),
         settings: treelight_render::PathTraced {
             frame_budget_ms: if cli.frame_budget.is_finite() {
@@ -162,31 +92,25 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             },
             ..default()
         },
-    })
-    .add_systems(Startup, (setup_cameras, render_mode::adapt_to_adapter))
-    .add_systems(
-        Update,
-        (
-            import::import_dropped_files,
-            notice::expire_notices,
-            render_mode::apply_viewport_render,
-        ),
-    );
+    });
     match &cli.scene {
-        Some(path) => import::open_at_start(app.world_mut(), path),
+        Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(
                 Startup,
-                default_scene::open_default_scene.after(setup_cameras),
+                open_default_scene.after(editor::viewport::camera::setup_cameras),
             );
         }
     }
+    let capturing = cli.screenshot.is_some() || cli.frames.is_some();
     if let Some(path) = &cli.save {
-        app.insert_resource(files::SaveWhenSettled::new(path.clone()));
+        let mut save = SaveWhenSettled::new(path.clone());
+        // With `--frames`, the frames are counted out first.
+        save.exit = !capturing;
+        app.insert_resource(save);
     }
     if let Some(script) = script {
-        app.insert_resource(script)
-            .add_systems(Update, script::run_scripted_edits);
+        app.insert_resource(script);
     }
     if let Some(path) = &cli.state {
         app.insert_resource(report::StateReport::new(path.clone()))
@@ -195,8 +119,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
             .add_systems(
                 bevy_egui::EguiPrimaryContextPass,
                 (
-                    report::start_ui_clock.before(ui::editor_ui),
-                    report::stop_ui_clock.after(ui::editor_ui),
+                    report::start_ui_clock.before(editor::panels::EditorUi),
+                    report::stop_ui_clock.after(editor::panels::EditorUi),
                 ),
             )
             .add_systems(
@@ -204,7 +128,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
                 (report::stop_frame_clock, report::write_state_report).chain(),
             );
     }
-    if cli.screenshot.is_some() || cli.frames.is_some() {
+    if capturing {
         app.insert_resource(capture::CaptureRequest {
             path: cli.screenshot.clone(),
             frames: cli.frames.unwrap_or(10).max(1),
@@ -215,41 +139,4 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<script::ScriptedEdits>) -> 
     }
     run_schedules_on_one_thread(&mut app);
     app
-}
-
-/// Whether `path` names a project (`.treelight`) rather than a scene file to import.
-pub fn is_project_file(path: &std::path::Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("treelight"))
-}
-
-fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGlobalSettings>) {
-    let orbit = camera::OrbitCamera::default();
-    commands.spawn((
-        Name::new("Editor camera"),
-        Camera3d::default(),
-        orbit.transform(),
-        orbit,
-    ));
-    // egui gets its own camera drawn over the 3D view, so the 3D camera's viewport can shrink to the
-    // viewport panel without clipping the panels.
-    egui_settings.auto_create_primary_context = false;
-    commands.spawn((
-        Name::new("Editor UI camera"),
-        // egui antialiases its own shapes; multisampling this camera would only add a copy of the
-        // whole window each frame (Bevy's MSAA writeback of the 3D camera's output).
-        Msaa::Off,
-        PrimaryEguiContext,
-        Camera2d,
-        RenderLayers::none(),
-        Camera {
-            order: 1,
-            output_mode: CameraOutputMode::Write {
-                blend_state: Some(BlendState::ALPHA_BLENDING),
-                clear_color: ClearColorConfig::None,
-            },
-            clear_color: ClearColorConfig::Custom(Color::NONE),
-            ..default()
-        },
-    ));
 }

@@ -6,7 +6,7 @@ use clap::Parser;
 fn main() -> std::process::ExitCode {
     let cli = treelight::cli::Cli::parse();
     if let Some(treelight::cli::Command::Info { file }) = &cli.command {
-        return match treelight::info::describe(file) {
+        return match treelight_document::project::info::describe(file) {
             Ok(text) => {
                 print!("{text}");
                 std::process::ExitCode::SUCCESS
@@ -19,8 +19,8 @@ fn main() -> std::process::ExitCode {
     }
     let script = match &cli.commands {
         None => None,
-        Some(path) => match treelight::script::read_commands(path) {
-            Ok(commands) => Some(treelight::script::ScriptedEdits::new(
+        Some(path) => match treelight_document::project::script::read_commands(path) {
+            Ok(commands) => Some(treelight_document::project::script::ScriptedEdits::new(
                 path.clone(),
                 commands,
             )),
@@ -36,9 +36,9 @@ fn main() -> std::process::ExitCode {
         && cli.frames.is_none()
         && cli.state.is_none();
     // A crash of the editor leaves its report for the next start.
-    treelight::crash_report::install_hook();
+    treelight::editor::files::crash_report::install_hook();
     let mut app = if headless {
-        treelight::headless::save_app(&cli, script)
+        treelight_document::app::save_app(cli.scene.as_deref(), cli.save.clone(), script)
     } else {
         treelight::build_app_with(&cli, script)
     };

@@ -4,16 +4,20 @@
 //! handles on screen and the frame count. Written every frame through a temporary file and a
 //! rename, so a reader never sees half of it.
 
-use crate::camera::{OrbitCamera, world_bounds};
-use crate::edit::EditHistory;
-use crate::gizmo::{GizmoSettings, Handle};
-use crate::import::PendingImports;
-use crate::scene_id::SceneId;
-use crate::selection::{SceneObject, Selection};
+use crate::editor::viewport::camera::OrbitCamera;
+
+use crate::editor::viewport::camera::world_bounds;
+use crate::editor::viewport::gizmo::GizmoSettings;
+use crate::editor::viewport::gizmo::Handle;
+use crate::editor::viewport::selection::Selection;
 use bevy::camera::primitives::Aabb;
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
+use treelight_document::edit::history::EditHistory;
+use treelight_document::import::parse::PendingImports;
+use treelight_document::object::SceneId;
+use treelight_document::object::SceneObject;
 use treelight_scene::SceneBvh;
 
 /// One scene object in the report.
@@ -30,7 +34,7 @@ pub struct ObjectReport {
     /// Whether it is shown.
     pub visible: bool,
     /// Local transform: translation, rotation (x, y, z, w), scale.
-    pub local: crate::edit::TransformValue,
+    pub local: treelight_document::edit::command::TransformValue,
     /// World position of its origin.
     pub world_translation: [f32; 3],
     /// Its world-space box's centre on screen (window coordinates, logical pixels), if in front.
@@ -183,14 +187,14 @@ pub fn write_state_report(
     gizmo: Res<GizmoSettings>,
     (pending, parsed, opening): (
         Res<PendingImports>,
-        Res<crate::import::ParsedImports>,
-        Res<crate::project_open::OpeningProjects>,
+        Res<treelight_document::import::parse::ParsedImports>,
+        Res<treelight_document::project::open::OpeningProjects>,
     ),
     scene: Res<SceneBvh>,
-    widgets: Res<crate::ui::WidgetRects>,
-    project: Res<crate::project::ProjectState>,
+    widgets: Res<crate::editor::panels::widget_rects::WidgetRects>,
+    project: Res<treelight_document::project::format::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
-    files: Res<crate::files::FileUi>,
+    files: Res<crate::editor::files::file_menu::FileUi>,
     clock: Option<Res<MainThreadClock>>,
 ) {
     report.frame += 1;
@@ -228,13 +232,15 @@ pub fn write_state_report(
     list.sort_by_key(|o| o.id);
     let mut handles = Vec::new();
     if let Some((camera, cam_gt)) = camera {
-        let (targets, active) = crate::viewport::drag_targets(
+        let (targets, active) = crate::editor::viewport::panel::drag_targets(
             &selection,
             |e| objects.get(e).ok().map(|o| (*o.id, o.global.affine())),
             parent_of,
         );
         let view = (camera, cam_gt);
-        if let Some(frame) = crate::viewport::gizmo_frame(&targets, active, &gizmo, &view) {
+        if let Some(frame) =
+            crate::editor::viewport::panel::gizmo_frame(&targets, active, &gizmo, &view)
+        {
             handles = frame
                 .handles(gizmo.mode, &view)
                 .into_iter()

@@ -2,10 +2,10 @@
 //! notice, and the editor carries on. Bevy's default (panic) would take the open scene down with
 //! an error as small as a command aimed at an entity an edit despawned in the same frame.
 
-use crate::notice::Notices;
 use bevy::ecs::error::{BevyError, ErrorContext};
 use bevy::prelude::*;
 use std::sync::Mutex;
+use treelight_document::notice::Notices;
 
 /// Errors reported since the UI last looked, and how many were left out.
 static REPORTED: Mutex<(Vec<String>, usize)> = Mutex::new((Vec::new(), 0));

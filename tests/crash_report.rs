@@ -9,8 +9,8 @@ const CHILD: &str = "TREELIGHT_TEST_CRASH_DIR";
 #[test]
 fn a_crash_leaves_its_report_and_a_contained_panic_does_not() {
     if let Ok(dir) = std::env::var(CHILD) {
-        treelight::crash_report::install_hook_in(PathBuf::from(&dir));
-        let contained = treelight::contain::contain(
+        treelight::editor::files::crash_report::install_hook_in(PathBuf::from(&dir));
+        let contained = treelight_document::contain::contain(
             || "a thumbnail".into(),
             || -> u32 { panic!("contained, not a crash") },
         );
@@ -34,7 +34,7 @@ fn a_crash_leaves_its_report_and_a_contained_panic_does_not() {
         .output()
         .unwrap();
     assert!(!out.status.success(), "the child did not crash");
-    let reports = treelight::crash_report::reports_to_show(&dir);
+    let reports = treelight::editor::files::crash_report::reports_to_show(&dir);
     assert_eq!(reports.len(), 1, "{reports:?}");
     let text = std::fs::read_to_string(&reports[0]).unwrap();
     assert!(text.contains("the editor's own bug"), "{text}");

@@ -13,7 +13,7 @@ fn pos(p: [f32; 2]) -> (f32, f32) {
     (p[0], p[1])
 }
 
-fn ids_named(state: &EditorState, name: &str) -> Vec<treelight::scene_id::SceneId> {
+fn ids_named(state: &EditorState, name: &str) -> Vec<treelight_document::object::SceneId> {
     state
         .objects
         .iter()
@@ -247,7 +247,7 @@ fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world
         |s| s.history.0 == 4,
     );
     let child = object(&st, "Child").clone();
-    assert_eq!(child.parent, Some(treelight::scene_id::SceneId(100)));
+    assert_eq!(child.parent, Some(treelight_document::object::SceneId(100)));
     s.click(child.screen.unwrap()[0], child.screen.unwrap()[1]);
     let st = s.frames(2);
     assert_eq!(st.selection, vec![child.id], "click on the child");
@@ -324,7 +324,7 @@ fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
     assert_eq!(st.history.0, head + 1, "escape left no step");
 }
 
-fn row_centre(st: &EditorState, id: treelight::scene_id::SceneId) -> (f32, f32) {
+fn row_centre(st: &EditorState, id: treelight_document::object::SceneId) -> (f32, f32) {
     let name = format!("row {}", id.0);
     st.widgets
         .iter()
@@ -396,7 +396,8 @@ fn ctrl_s_saves_a_project_and_quitting_with_changes_asks_first() {
     });
     assert_eq!(st.project.as_deref(), Some(path.as_path()));
     assert!(st.title.starts_with("scene.treelight") && !st.title.contains('*'));
-    let project = treelight::project::read_project(&path).expect("a valid project");
+    let project =
+        treelight_document::project::format::read_project(&path).expect("a valid project");
     assert!(
         project.objects.iter().all(|o| o.id != sphere.id),
         "the deleted sphere is gone"
@@ -521,7 +522,7 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
         st.project.as_deref() == Some(saved.as_path()) && !st.dirty
     });
     assert_eq!(st.dialog, None);
-    assert!(treelight::project::read_project(&saved).is_ok());
+    assert!(treelight_document::project::format::read_project(&saved).is_ok());
     let calls = std::fs::read_to_string(&log).unwrap();
     assert!(calls.contains("--save"), "{calls}");
 
@@ -565,13 +566,19 @@ fn the_x_server_says_where_a_desktop_drop_lands() {
     for (fx, fy) in [(0.3, 0.4), (0.7, 0.6)] {
         let (x, y) = (vx + vw * fx, vy + vh * fy);
         s.move_to(x, y);
-        let at = treelight::x11_pointer::pointer_in_window(Some(&s.display_name()), s.window_id())
-            .expect("the X server answers");
+        let at = treelight::editor::viewport::x11_pointer::pointer_in_window(
+            Some(&s.display_name()),
+            s.window_id(),
+        )
+        .expect("the X server answers");
         assert_eq!(at, (x.round() as i16, y.round() as i16));
     }
     // A window that does not exist: no answer, no panic.
     assert_eq!(
-        treelight::x11_pointer::pointer_in_window(Some(&s.display_name()), 0x7fff_fff0),
+        treelight::editor::viewport::x11_pointer::pointer_in_window(
+            Some(&s.display_name()),
+            0x7fff_fff0
+        ),
         None
     );
 }
@@ -702,7 +709,7 @@ fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
         st.project.is_some() && !st.dirty
     });
     assert_eq!(st.project.as_deref(), Some(path.as_path()));
-    assert!(treelight::project::read_project(&path).is_ok());
+    assert!(treelight_document::project::format::read_project(&path).is_ok());
 }
 
 #[test]

@@ -254,9 +254,10 @@ fn a_bad_commands_file_stops_the_start_with_its_name() {
 
 #[test]
 fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
+    use treelight::editor::files::settings::EditorSettings;
+    use treelight::editor::files::settings::write_settings;
+    use treelight::editor::panels::layout::EditorTab;
     use treelight::report::EditorState;
-    use treelight::settings::{EditorSettings, write_settings};
-    use treelight::ui::EditorTab;
     let dir = temp_dir("layout");
     let config = dir.join("config");
     std::fs::create_dir_all(&config).unwrap();
@@ -424,7 +425,8 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
         "20",
     ]);
     let edited = read_state();
-    let saved = treelight::project::read_project(&project).expect("--save wrote a project");
+    let saved = treelight_document::project::format::read_project(&project)
+        .expect("--save wrote a project");
     assert_eq!(saved.objects.len(), 12);
     // Opened again, the project is the same scene: the same objects by id and name.
     run_editor(&[
@@ -462,7 +464,7 @@ fn info_describes_scene_files_and_projects_without_a_display() {
     // A project: its sources and objects, and the triangles they show (a helmet part and a copy
     // of it, a cube; a missing source's object shows none).
     let scene = treelight_import::load_scene(&helmet).unwrap();
-    let keys = treelight::import::mesh_object_keys(&scene);
+    let keys = treelight_document::import::spawn::mesh_object_keys(&scene);
     let part = scene.meshes[0].triangle_count();
     let dir = temp_dir("info");
     let project = dir.join("p.treelight");
@@ -509,7 +511,7 @@ fn save_runs_without_a_display() {
     let out = dir.join("box.treelight");
     let (ok, text) = run(&[file.to_str().unwrap(), "--save", out.to_str().unwrap()]);
     assert!(ok, "{text}");
-    let project = treelight::project::read_project(&out).expect("a saved project");
+    let project = treelight_document::project::format::read_project(&out).expect("a saved project");
     assert_eq!(project.sources.len(), 1);
     assert!(!project.objects.is_empty());
     // The default scene with the README's example commands: the same project the windowed editor
@@ -523,7 +525,8 @@ fn save_runs_without_a_display() {
         edited.to_str().unwrap(),
     ]);
     assert!(ok, "{text}");
-    let project = treelight::project::read_project(&edited).expect("a saved project");
+    let project =
+        treelight_document::project::format::read_project(&edited).expect("a saved project");
     assert_eq!(project.objects.len(), 12);
     assert!(
         project.objects.iter().any(|o| o.name == "Golden sphere"),

@@ -1,4 +1,4 @@
-//! The built-in sample meshes in `assets/samples` are what `src/samples.rs` makes (run with
+//! The built-in sample meshes in `assets/samples` are what `src/editor/assets/samples.rs` makes (run with
 //! `TREELIGHT_REGENERATE=1` to write them again), and they open as closed, outward-facing meshes.
 
 use std::path::Path;
@@ -10,7 +10,7 @@ fn sample_files_are_what_the_code_makes_and_face_outwards() {
     if regenerate {
         std::fs::create_dir_all(&dir).unwrap();
     }
-    for (name, text) in treelight::samples::samples() {
+    for (name, text) in treelight::editor::assets::samples::samples() {
         let path = dir.join(name);
         if regenerate {
             std::fs::write(&path, &text).unwrap();
@@ -18,7 +18,7 @@ fn sample_files_are_what_the_code_makes_and_face_outwards() {
         let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
             on_disk == text,
-            "{} differs from src/samples.rs: run the tests with TREELIGHT_REGENERATE=1",
+            "{} differs from src/editor/assets/samples.rs: run the tests with TREELIGHT_REGENERATE=1",
             path.display()
         );
         let scene = treelight_import::load_scene(&path).unwrap();

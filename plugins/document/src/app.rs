@@ -1,0 +1,92 @@
+//! The document as an app without a window or a renderer: `treelight FILE [--commands EDITS.ron]
+//! --save OUT.treelight` runs on it where there is no display, and tests and benchmarks build on
+//! it. Also the task pools and the schedule executor the editor shares with it.
+
+use crate::DocumentPlugin;
+use crate::notice::Notices;
+use crate::project::requests::SaveWhenSettled;
+use crate::project::script::ScriptedEdits;
+use bevy::asset::AssetPlugin;
+use bevy::camera::visibility::VisibilityPlugin;
+use bevy::mesh::MeshPlugin;
+use bevy::prelude::*;
+use std::path::{Path, PathBuf};
+use treelight_scene::{SceneBvhConfig, SceneBvhPlugin};
+
+/// Nice steps below the frame at which background work runs.
+const BACKGROUND_NICE: i32 = 10;
+
+/// Bevy's task pools as the editor wants them: the async compute pool (parsing imports, making
+/// thumbnails) runs below the frame's priority, as the scene worker does, so that on a machine with
+/// few cores an import never takes the cores the frame's systems wait for.
+pub fn task_pools() -> TaskPoolPlugin {
+    let mut options = TaskPoolOptions::default();
+    options.async_compute.on_thread_spawn = Some(std::sync::Arc::new(|| {
+        treelight_scene::priority::lower_current_thread(BACKGROUND_NICE)
+    }));
+    TaskPoolPlugin {
+        task_pool_options: options,
+    }
+}
+
+/// Runs the main world's schedules on the thread that updates the app. The main-world systems take
+/// a fraction of a millisecond; spread over the compute pool, every hand-off between threads is a
+/// wake-up, and while the scene worker or an import holds the cores each wake-up can wait for a
+/// core until the scheduler's next tick. Sub-apps (the renderer) keep their executors.
+pub fn run_schedules_on_one_thread(app: &mut App) {
+    let mut schedules = app
+        .world_mut()
+        .resource_mut::<bevy::ecs::schedule::Schedules>();
+    for (_, schedule) in schedules.iter_mut() {
+        schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
+    }
+}
+
+/// Assets, transforms, visibility, the scene BVH (under `config`) and the document
+/// ([`DocumentPlugin`]).
+pub fn headless_app(config: SceneBvhConfig) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins.set(task_pools()),
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+        VisibilityPlugin,
+        SceneBvhPlugin { config },
+        DocumentPlugin,
+    ))
+    .init_asset::<StandardMaterial>()
+    .init_asset::<Image>();
+    run_schedules_on_one_thread(&mut app);
+    app
+}
+
+/// `treelight [FILE] [--commands EDITS.ron] --save OUT` without a window: opens or imports `scene`
+/// (the default scene without one), applies the commands once the tree is idle, saves to `save`
+/// and exits.
+pub fn save_app(scene: Option<&Path>, save: Option<PathBuf>, script: Option<ScriptedEdits>) -> App {
+    let mut app = headless_app(SceneBvhConfig::default());
+    app.add_plugins(bevy::log::LogPlugin::default());
+    match scene {
+        Some(path) => crate::import::open_at_start(app.world_mut(), path),
+        None => {
+            app.add_systems(Startup, crate::default_scene::open_default_scene);
+        }
+    }
+    if let Some(script) = script {
+        app.insert_resource(script);
+    }
+    if let Some(path) = save {
+        app.insert_resource(SaveWhenSettled::new(path));
+    }
+    // A file that cannot be opened ends the run with its error, instead of saving an empty scene.
+    app.add_systems(Last, fail_on_errors);
+    app
+}
+
+/// Ends a headless run with a failure when a notice reports an error (a file that would not open).
+fn fail_on_errors(notices: Res<Notices>, mut exit: MessageWriter<AppExit>) {
+    if notices.has_errors() {
+        exit.write(AppExit::error());
+    }
+}

@@ -1,0 +1,914 @@
+//! Edits as values: what the user asked for, naming objects by their stable ids, serializable so the
+//! same values drive the UI, undo, tests and `--commands` scripts. Applying one returns what undoes
+//! it.
+
+use super::snapshot::ObjectSnapshot;
+use crate::object::SceneObject;
+use crate::object::{SceneId, SceneIndex};
+use crate::primitive::{Primitive, PrimitiveShape};
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// A transform as commands store it (plain arrays, so scripts can write it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransformValue {
+    /// Position.
+    pub translation: [f32; 3],
+    /// Rotation quaternion, x, y, z, w.
+    #[serde(default = "identity_rotation")]
+    pub rotation: [f32; 4],
+    /// Scale per axis.
+    #[serde(default = "unit_scale")]
+    pub scale: [f32; 3],
+}
+
+/// Largest magnitude of a number in a transform, material, light or camera, for commands and
+/// projects alike: past it, products overflow to infinity in the engine's arithmetic.
+pub const MAX_VALUE: f32 = 1.0e9;
+
+/// Whether `v` is a number the scene accepts: finite, within [`MAX_VALUE`].
+pub fn in_range(v: f32) -> bool {
+    v.is_finite() && v.abs() <= MAX_VALUE
+}
+
+impl TransformValue {
+    /// Whether every number is [`in_range`].
+    pub fn is_valid(&self) -> bool {
+        self.translation
+            .iter()
+            .chain(&self.rotation)
+            .chain(&self.scale)
+            .all(|v| in_range(*v))
+    }
+}
+
+fn identity_rotation() -> [f32; 4] {
+    [0.0, 0.0, 0.0, 1.0]
+}
+
+fn unit_scale() -> [f32; 3] {
+    [1.0; 3]
+}
+
+impl From<Transform> for TransformValue {
+    fn from(t: Transform) -> Self {
+        Self {
+            translation: t.translation.to_array(),
+            rotation: t.rotation.to_array(),
+            scale: t.scale.to_array(),
+        }
+    }
+}
+
+impl From<TransformValue> for Transform {
+    fn from(t: TransformValue) -> Self {
+        let rotation = Quat::from_array(t.rotation);
+        Transform {
+            translation: Vec3::from_array(t.translation),
+            // A unit quaternion (within glam's tolerance) is kept bit for bit, so a transform
+            // saved and read back is the same; others (hand-edited files) are made unit.
+            rotation: if rotation.is_normalized() {
+                rotation
+            } else if rotation.is_finite() && rotation.length_squared() > 0.0 {
+                rotation.normalize()
+            } else {
+                Quat::IDENTITY
+            },
+            scale: Vec3::from_array(t.scale),
+        }
+    }
+}
+
+/// A material's editable values, as commands store them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialValue {
+    /// Base colour, sRGB with alpha.
+    pub base_color: [f32; 4],
+    /// Metallic, 0 to 1.
+    pub metallic: f32,
+    /// Perceptual roughness, 0 to 1.
+    pub perceptual_roughness: f32,
+    /// Emitted light, linear RGB (colour times strength).
+    #[serde(default)]
+    pub emissive: [f32; 3],
+    /// Whether back faces are drawn too.
+    #[serde(default)]
+    pub double_sided: bool,
+}
+
+impl MaterialValue {
+    /// The values of `m`.
+    pub fn of(m: &StandardMaterial) -> Self {
+        let c = m.base_color.to_srgba();
+        Self {
+            base_color: [c.red, c.green, c.blue, c.alpha],
+            metallic: m.metallic,
+            perceptual_roughness: m.perceptual_roughness,
+            emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
+            double_sided: m.double_sided,
+        }
+    }
+
+    /// Writes the values into `m` (a double-sided material is not culled).
+    pub fn write(&self, m: &mut StandardMaterial) {
+        let [r, g, b, a] = self.base_color;
+        m.base_color = Color::srgba(r, g, b, a);
+        m.metallic = self.metallic;
+        m.perceptual_roughness = self.perceptual_roughness;
+        let [r, g, b] = self.emissive;
+        m.emissive = LinearRgba::rgb(r, g, b);
+        m.double_sided = self.double_sided;
+        m.cull_mode = if self.double_sided {
+            None
+        } else {
+            Some(bevy::render::render_resource::Face::Back)
+        };
+    }
+
+    /// Whether every value is [`in_range`] and the emission is not negative.
+    pub fn is_valid(&self) -> bool {
+        self.base_color
+            .iter()
+            .chain(&self.emissive)
+            .chain([&self.metallic, &self.perceptual_roughness])
+            .all(|v| in_range(*v))
+            && self.emissive.iter().all(|v| *v >= 0.0)
+    }
+}
+
+/// The lights of the Add menu.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum LightKind {
+    /// Light from a point, in every direction.
+    Point,
+    /// Parallel light from far away (a sun), along the light's forward axis.
+    Directional,
+}
+
+impl LightKind {
+    /// Both kinds, in menu order.
+    pub const ALL: [LightKind; 2] = [LightKind::Point, LightKind::Directional];
+
+    /// A name for menus and the outliner.
+    pub fn label(self) -> &'static str {
+        match self {
+            LightKind::Point => "Point light",
+            LightKind::Directional => "Directional light",
+        }
+    }
+}
+
+/// One edit of the scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum EditCommand {
+    /// Gives an object a new local transform.
+    SetTransform {
+        /// The object.
+        id: SceneId,
+        /// Its new transform, relative to its parent.
+        transform: TransformValue,
+    },
+    /// Gives several objects new local transforms at once (one gizmo drag of a multiple selection).
+    SetTransforms {
+        /// Each object and its new transform, relative to its parent.
+        transforms: Vec<(SceneId, TransformValue)>,
+    },
+    /// Moves objects under another (or to the top, for `None`), keeping where they are in the world.
+    Reparent {
+        /// The objects.
+        ids: Vec<SceneId>,
+        /// The new parent.
+        parent: Option<SceneId>,
+    },
+    /// Changes the values of an object's material (every object sharing it changes too).
+    SetMaterial {
+        /// The object.
+        id: SceneId,
+        /// The new values.
+        material: MaterialValue,
+    },
+    /// Gives an object its own copy of its material, so edits no longer reach the others.
+    MakeMaterialUnique {
+        /// The object.
+        id: SceneId,
+    },
+    /// Renames an object.
+    Rename {
+        /// The object.
+        id: SceneId,
+        /// Its new name.
+        name: String,
+    },
+    /// Shows or hides an object (a hidden mesh leaves the traced scene).
+    SetVisible {
+        /// The object.
+        id: SceneId,
+        /// Whether it is shown.
+        visible: bool,
+    },
+    /// Deletes objects with everything under them.
+    Delete {
+        /// The objects.
+        ids: Vec<SceneId>,
+    },
+    /// Copies objects with everything under them, in place, beside the originals.
+    Duplicate {
+        /// The objects to copy.
+        ids: Vec<SceneId>,
+        /// The copies' ids, each subtree's root first; filled in on first use so a redo makes the
+        /// same objects.
+        #[serde(default)]
+        copies: Vec<SceneId>,
+    },
+    /// Adds a light.
+    AddLight {
+        /// Which kind.
+        kind: LightKind,
+        /// Where, in world space (a directional light shines along its forward axis, -z).
+        transform: TransformValue,
+        /// Its id; filled in on first use.
+        #[serde(default)]
+        id: Option<SceneId>,
+    },
+    /// Puts objects under a new empty group, keeping where they are in the world. The group goes
+    /// at their median point, under the first object's parent.
+    Group {
+        /// The objects.
+        ids: Vec<SceneId>,
+        /// The group's name.
+        name: String,
+        /// The group's id; filled in on first use.
+        #[serde(default)]
+        group: Option<SceneId>,
+    },
+    /// Adds a scene file's contents as an assembly under one root named after the file (and a sun
+    /// if the scene has no light).
+    Import {
+        /// The file (.gltf, .glb, .obj or .ply).
+        file: std::path::PathBuf,
+        /// The root's id; filled in on first use.
+        #[serde(default)]
+        root: Option<SceneId>,
+        /// The root's transform (none: the file's own coordinates).
+        #[serde(default)]
+        transform: Option<TransformValue>,
+    },
+    /// Adds a built-in shape with a grey material.
+    AddPrimitive {
+        /// Which shape.
+        shape: Primitive,
+        /// Where, in world space.
+        transform: TransformValue,
+        /// Its id; filled in on first use.
+        #[serde(default)]
+        id: Option<SceneId>,
+    },
+}
+
+/// Why a command cannot be applied.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EditError {
+    /// An id names no object.
+    #[error("no object has id {0}")]
+    Missing(SceneId),
+    /// An object would get an id another object has.
+    #[error("id {0} is already taken")]
+    Taken(SceneId),
+    /// A command with nothing to do.
+    #[error("the command names no objects")]
+    Empty,
+    /// A transform with a NaN, infinite or huge number.
+    #[error("the transform has a number that is not finite or is larger than {MAX_VALUE:e}")]
+    NotFinite,
+    /// An id for a new object outside the range ids take.
+    #[error("id {0} is outside the range of ids (1 to {max})", max = SceneId::MAX.0)]
+    IdOutOfRange(SceneId),
+    /// An object without a material, for a material command.
+    #[error("{0} has no material")]
+    NoMaterial(SceneId),
+    /// A file that cannot be imported.
+    #[error("{0}")]
+    Import(String),
+    /// Material values out of range.
+    #[error("a material value is not finite or too large, or the emission is negative")]
+    BadMaterial,
+    /// A command that cannot be shown as a live preview (only transforms can).
+    #[error("only transform commands can be previewed")]
+    NotPreviewable,
+    /// A parent that is the object itself or under it.
+    #[error("{0} cannot go under itself or its own descendant")]
+    Cycle(SceneId),
+}
+
+/// What undoes an applied command.
+#[derive(Clone, Debug)]
+pub enum Undo {
+    /// Give the object this transform back.
+    Transform(SceneId, Transform),
+    /// Give each object its transform back.
+    Transforms(Vec<(SceneId, Transform)>),
+    /// Put each object back under its parent (none: at the top) with its local transform, in
+    /// reverse order of the list.
+    Parents(Vec<(SceneId, Option<SceneId>, Transform)>),
+    /// Give the object's material these values back.
+    Material(SceneId, MaterialValue),
+    /// Give the object this material back.
+    MaterialHandle(SceneId, Handle<StandardMaterial>),
+    /// Give the object this name back (none: remove it).
+    Name(SceneId, Option<Name>),
+    /// Give the object this visibility back.
+    Visibility(SceneId, Visibility),
+    /// Spawn these objects again.
+    Respawn(Vec<ObjectSnapshot>),
+    /// Remove these objects.
+    Despawn(Vec<SceneId>),
+    /// Undo each of these, last first.
+    Many(Vec<Undo>),
+}
+
+fn entity(world: &World, id: SceneId) -> Result<Entity, EditError> {
+    world
+        .resource::<SceneIndex>()
+        .entity(id)
+        .ok_or(EditError::Missing(id))
+}
+
+impl EditCommand {
+    /// A short description for the history.
+    pub fn label(&self, world: &World) -> String {
+        let name = |id: &SceneId| {
+            world
+                .resource::<SceneIndex>()
+                .entity(*id)
+                .and_then(|e| world.get::<Name>(e))
+                .map_or_else(|| id.to_string(), |n| n.as_str().to_owned())
+        };
+        let many = |verb: &str, ids: &[SceneId]| match ids {
+            [one] => format!("{verb} {}", name(one)),
+            _ => format!("{verb} {} objects", ids.len()),
+        };
+        match self {
+            EditCommand::SetTransform { id, .. } => format!("Move {}", name(id)),
+            EditCommand::SetTransforms { transforms } => {
+                let ids: Vec<SceneId> = transforms.iter().map(|(id, _)| *id).collect();
+                many("Move", &ids)
+            }
+            EditCommand::Reparent { ids, parent } => match parent {
+                Some(p) => format!("{} under {}", many("Put", ids), name(p)),
+                None => format!("{} at the top", many("Put", ids)),
+            },
+            EditCommand::Rename { name: to, .. } => format!("Rename to {to}"),
+            EditCommand::SetMaterial { id, .. } => format!("Edit the material of {}", name(id)),
+            EditCommand::MakeMaterialUnique { id } => {
+                format!("Give {} its own material", name(id))
+            }
+            EditCommand::SetVisible { id, visible } => {
+                format!("{} {}", if *visible { "Show" } else { "Hide" }, name(id))
+            }
+            EditCommand::Delete { ids } => many("Delete", ids),
+            EditCommand::Duplicate { ids, .. } => many("Duplicate", ids),
+            EditCommand::AddPrimitive { shape, .. } => format!("Add {}", shape.label()),
+            EditCommand::AddLight { kind, .. } => format!("Add {}", kind.label()),
+            EditCommand::Import { file, .. } => format!(
+                "Import {}",
+                file.file_name().map_or_else(
+                    || file.display().to_string(),
+                    |n| n.to_string_lossy().into()
+                )
+            ),
+            EditCommand::Group { ids, .. } => many("Group", ids),
+        }
+    }
+
+    /// Whether the command can be applied to `world` as it is.
+    pub fn check(&self, world: &World) -> Result<(), EditError> {
+        match self {
+            EditCommand::SetTransform { id, transform } => {
+                entity(world, *id)?;
+                check_finite(transform)?;
+            }
+            EditCommand::SetTransforms { transforms } => {
+                if transforms.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                for (id, transform) in transforms {
+                    entity(world, *id)?;
+                    check_finite(transform)?;
+                }
+            }
+            EditCommand::Reparent { ids, parent } => {
+                if ids.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                let index = world.resource::<SceneIndex>();
+                let new_parent = match parent {
+                    Some(p) => Some(index.entity(*p).ok_or(EditError::Missing(*p))?),
+                    None => None,
+                };
+                for id in ids {
+                    let e = entity(world, *id)?;
+                    // The new parent may not be the object or anything under it.
+                    let mut up = new_parent;
+                    while let Some(p) = up {
+                        if p == e {
+                            return Err(EditError::Cycle(*id));
+                        }
+                        up = world.get::<ChildOf>(p).map(|c| c.parent());
+                    }
+                }
+            }
+            EditCommand::Rename { id, .. } | EditCommand::SetVisible { id, .. } => {
+                entity(world, *id)?;
+            }
+            EditCommand::SetMaterial { id, material } => {
+                material_of(world, *id)?;
+                if !material.is_valid() {
+                    return Err(EditError::BadMaterial);
+                }
+            }
+            EditCommand::MakeMaterialUnique { id } => {
+                material_of(world, *id)?;
+            }
+            EditCommand::Delete { ids } | EditCommand::Duplicate { ids, .. } => {
+                if ids.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                for id in ids {
+                    entity(world, *id)?;
+                }
+            }
+            EditCommand::Import {
+                root, transform, ..
+            } => {
+                if let Some(t) = transform {
+                    check_finite(t)?;
+                }
+                check_free(world, *root)?;
+            }
+            EditCommand::AddLight { id, transform, .. } => {
+                check_free(world, *id)?;
+                check_finite(transform)?;
+            }
+            EditCommand::Group { ids, group, .. } => {
+                if ids.is_empty() {
+                    return Err(EditError::Empty);
+                }
+                for id in ids {
+                    entity(world, *id)?;
+                }
+                check_free(world, *group)?;
+            }
+            EditCommand::AddPrimitive { id, transform, .. } => {
+                check_free(world, *id)?;
+                check_finite(transform)?;
+            }
+        }
+        if let EditCommand::Duplicate { copies, .. } = self {
+            for c in copies {
+                check_free(world, Some(*c))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Applies the command (filling in the ids it makes) and returns what undoes it.
+    pub fn apply(&mut self, world: &mut World) -> Result<Undo, EditError> {
+        self.check(world)?;
+        Ok(match self {
+            EditCommand::SetTransform { id, transform } => {
+                let e = entity(world, *id)?;
+                let mut t = world
+                    .get_mut::<Transform>(e)
+                    .ok_or(EditError::Missing(*id))?;
+                let before = *t;
+                *t = (*transform).into();
+                Undo::Transform(*id, before)
+            }
+            EditCommand::SetTransforms { transforms } => {
+                let mut before = Vec::with_capacity(transforms.len());
+                for (id, transform) in transforms.iter() {
+                    let e = entity(world, *id)?;
+                    if let Some(mut t) = world.get_mut::<Transform>(e) {
+                        before.push((*id, *t));
+                        *t = (*transform).into();
+                    }
+                }
+                Undo::Transforms(before)
+            }
+            EditCommand::Reparent { ids, parent } => {
+                let new_parent = parent.and_then(|p| world.resource::<SceneIndex>().entity(p));
+                let mut before = Vec::with_capacity(ids.len());
+                for id in ids.iter() {
+                    let e = entity(world, *id)?;
+                    let old_parent = world
+                        .get::<ChildOf>(e)
+                        .and_then(|c| world.get::<SceneId>(c.parent()).copied());
+                    let local = world.get::<Transform>(e).copied().unwrap_or_default();
+                    before.push((*id, old_parent, local));
+                    set_parent_keeping_world(world, e, new_parent);
+                }
+                Undo::Parents(before)
+            }
+            EditCommand::SetMaterial { id, material } => {
+                let handle = material_of(world, *id)?;
+                let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+                let m = materials
+                    .get_mut(&handle)
+                    .ok_or(EditError::NoMaterial(*id))?;
+                let before = MaterialValue::of(&m);
+                material.write(m.into_inner());
+                Undo::Material(*id, before)
+            }
+            EditCommand::MakeMaterialUnique { id } => {
+                let handle = material_of(world, *id)?;
+                let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+                let copy = materials
+                    .get(&handle)
+                    .ok_or(EditError::NoMaterial(*id))?
+                    .clone();
+                let unique = materials.add(copy);
+                let e = entity(world, *id)?;
+                world.entity_mut(e).insert(MeshMaterial3d(unique));
+                Undo::MaterialHandle(*id, handle)
+            }
+            EditCommand::Rename { id, name } => {
+                let e = entity(world, *id)?;
+                let before = world.get::<Name>(e).cloned();
+                world.entity_mut(e).insert(Name::new(name.clone()));
+                Undo::Name(*id, before)
+            }
+            EditCommand::SetVisible { id, visible } => {
+                let e = entity(world, *id)?;
+                let before = world.get::<Visibility>(e).copied().unwrap_or_default();
+                world.entity_mut(e).insert(if *visible {
+                    Visibility::Inherited
+                } else {
+                    Visibility::Hidden
+                });
+                Undo::Visibility(*id, before)
+            }
+            EditCommand::Delete { ids } => {
+                let roots = top_level(world, ids);
+                let mut snapshots = Vec::new();
+                for id in roots {
+                    let e = entity(world, id)?;
+                    if let Some(s) = ObjectSnapshot::capture(world, e) {
+                        snapshots.push(s);
+                    }
+                    world.entity_mut(e).despawn();
+                }
+                Undo::Respawn(snapshots)
+            }
+            EditCommand::Duplicate { ids, copies } => duplicate(world, ids, copies),
+            EditCommand::Import {
+                file,
+                root,
+                transform,
+            } => import(world, file, root, transform)?,
+            EditCommand::AddLight {
+                kind,
+                transform,
+                id,
+            } => add_light(world, *kind, transform, id),
+            EditCommand::Group { ids, name, group } => make_group(world, ids, name, group)?,
+            EditCommand::AddPrimitive {
+                shape,
+                transform,
+                id,
+            } => add_primitive(world, *shape, transform, id),
+        })
+    }
+}
+
+/// Copies of the objects `ids` and everything under them, under the ids `copies` (given now
+/// when they do not fit).
+fn duplicate(world: &mut World, ids: &[SceneId], copies: &mut Vec<SceneId>) -> Undo {
+    let roots = top_level(world, ids);
+    let snapshots: Vec<ObjectSnapshot> = roots
+        .iter()
+        .filter_map(|id| ObjectSnapshot::capture(world, entity(world, *id).ok()?))
+        .map(ObjectSnapshot::without_sources)
+        .collect();
+    let wanted: usize = snapshots.iter().map(|s| s.ids().len()).sum();
+    if copies.len() != wanted {
+        let mut index = world.resource_mut::<SceneIndex>();
+        *copies = (0..wanted).map(|_| index.allocate()).collect();
+    }
+    let mut fresh = copies.clone().into_iter();
+    let mut made = Vec::new();
+    for s in &snapshots {
+        let root = s.respawn(world, &mut fresh);
+        made.extend(world.get::<SceneId>(root).copied());
+    }
+    Undo::Despawn(made)
+}
+
+/// The file as an assembly: the scene parsed for `root` when there is one, else read now.
+fn import(
+    world: &mut World,
+    file: &std::path::Path,
+    root: &mut Option<SceneId>,
+    transform: &Option<TransformValue>,
+) -> Result<Undo, EditError> {
+    let parsed = root.and_then(|id| {
+        world
+            .get_resource_mut::<crate::import::parse::ParsedImports>()
+            .and_then(|mut p| p.0.remove(&id))
+    });
+    let mut parsed = match parsed {
+        Some(s) => s,
+        None => treelight_import::load_scene(file)
+            .map(crate::import::parse::ParsedScene::from)
+            .map_err(|e| EditError::Import(e.to_string()))?,
+    };
+    let top = crate::import::spawn::spawn_scene_in_world(
+        world,
+        file,
+        &parsed.scene,
+        &mut parsed.parts,
+        true,
+    )
+    .map_err(EditError::Import)?;
+    if let Some(id) = root {
+        world.entity_mut(top[0]).insert(*id);
+    }
+    if let Some(t) = transform {
+        world.entity_mut(top[0]).insert(Transform::from(*t));
+    }
+    let ids: Vec<SceneId> = top
+        .iter()
+        .filter_map(|e| world.get::<SceneId>(*e).copied())
+        .collect();
+    *root = ids.first().copied();
+    Ok(Undo::Despawn(ids))
+}
+
+/// A new light of `kind`.
+fn add_light(
+    world: &mut World,
+    kind: LightKind,
+    transform: &TransformValue,
+    id: &mut Option<SceneId>,
+) -> Undo {
+    let new_id = take_id(world, id);
+    let mut e = world.spawn((
+        Name::new(kind.label()),
+        SceneObject,
+        new_id,
+        Transform::from(*transform),
+    ));
+    match kind {
+        LightKind::Point => e.insert(PointLight {
+            intensity: 200_000.0,
+            range: 40.0,
+            shadow_maps_enabled: true,
+            ..default()
+        }),
+        LightKind::Directional => e.insert(DirectionalLight {
+            illuminance: 3000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        }),
+    };
+    Undo::Despawn(vec![new_id])
+}
+
+/// A new group around the objects `ids`, at their centre, under the first one's parent.
+fn make_group(
+    world: &mut World,
+    ids: &[SceneId],
+    name: &str,
+    group: &mut Option<SceneId>,
+) -> Result<Undo, EditError> {
+    let roots = top_level(world, ids);
+    let entities: Vec<Entity> = roots
+        .iter()
+        .map(|id| entity(world, *id))
+        .collect::<Result<_, _>>()?;
+    let parent = world.get::<ChildOf>(entities[0]).map(|c| c.parent());
+    let centre = entities
+        .iter()
+        .map(|e| Vec3::from(world_affine(world, *e).translation))
+        .sum::<Vec3>()
+        / entities.len() as f32;
+    let parent_world = parent.map_or(bevy::math::Affine3A::IDENTITY, |p| world_affine(world, p));
+    let group_id = take_id(world, group);
+    let mut g = world.spawn((
+        Name::new(name.to_owned()),
+        SceneObject,
+        group_id,
+        Transform::from_translation(parent_world.inverse().transform_point3(centre)),
+        Visibility::default(),
+    ));
+    if let Some(p) = parent {
+        g.insert(ChildOf(p));
+    }
+    let g = g.id();
+    let mut before = Vec::new();
+    for (id, e) in roots.iter().zip(&entities) {
+        let old_parent = world
+            .get::<ChildOf>(*e)
+            .and_then(|c| world.get::<SceneId>(c.parent()).copied());
+        let local = world.get::<Transform>(*e).copied().unwrap_or_default();
+        before.push((*id, old_parent, local));
+        set_parent_keeping_world(world, *e, Some(g));
+    }
+    Ok(Undo::Many(vec![
+        Undo::Despawn(vec![group_id]),
+        Undo::Parents(before),
+    ]))
+}
+
+/// A new built-in shape.
+fn add_primitive(
+    world: &mut World,
+    shape: Primitive,
+    transform: &TransformValue,
+    id: &mut Option<SceneId>,
+) -> Undo {
+    let new_id = take_id(world, id);
+    let mesh = world.resource_mut::<Assets<Mesh>>().add(shape.mesh());
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(shape.material());
+    world.spawn((
+        Name::new(shape.label()),
+        SceneObject,
+        new_id,
+        Mesh3d(mesh),
+        MeshMaterial3d(material),
+        Transform::from(*transform),
+        PrimitiveShape(shape),
+    ));
+    Undo::Despawn(vec![new_id])
+}
+
+/// Refuses an id for a new object that another object already has, or that is out of range.
+fn check_free(world: &World, id: Option<SceneId>) -> Result<(), EditError> {
+    match id {
+        Some(id) if !id.is_valid() => Err(EditError::IdOutOfRange(id)),
+        Some(id) if world.resource::<SceneIndex>().entity(id).is_some() => {
+            Err(EditError::Taken(id))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The id a command names for what it makes, or a fresh one, kept in the command so a redo makes
+/// the same object.
+fn take_id(world: &mut World, id: &mut Option<SceneId>) -> SceneId {
+    *id.get_or_insert_with(|| world.resource_mut::<SceneIndex>().allocate())
+}
+
+/// The material handle of object `id`.
+fn material_of(world: &World, id: SceneId) -> Result<Handle<StandardMaterial>, EditError> {
+    let e = entity(world, id)?;
+    world
+        .get::<MeshMaterial3d<StandardMaterial>>(e)
+        .map(|m| m.0.clone())
+        .ok_or(EditError::NoMaterial(id))
+}
+
+fn check_finite(t: &TransformValue) -> Result<(), EditError> {
+    if t.is_valid() {
+        Ok(())
+    } else {
+        Err(EditError::NotFinite)
+    }
+}
+
+/// The world transform of `e` from the local transforms up its chain of parents (not the
+/// `GlobalTransform`, which is only brought up to date once a frame).
+pub fn world_affine(world: &World, e: Entity) -> bevy::math::Affine3A {
+    let mut out = bevy::math::Affine3A::IDENTITY;
+    let mut at = Some(e);
+    while let Some(x) = at {
+        let local = world.get::<Transform>(x).copied().unwrap_or_default();
+        out = local.compute_affine() * out;
+        at = world.get::<ChildOf>(x).map(|c| c.parent());
+    }
+    out
+}
+
+/// Puts `e` under `parent` (or at the top) with the local transform that keeps its world
+/// transform (as far as a transform can: a rotated child of a non-uniformly scaled parent keeps
+/// its place and loses the shear).
+fn set_parent_keeping_world(world: &mut World, e: Entity, parent: Option<Entity>) {
+    let world_of_e = world_affine(world, e);
+    let parent_world = parent.map_or(bevy::math::Affine3A::IDENTITY, |p| world_affine(world, p));
+    let local = Transform::from_matrix((parent_world.inverse() * world_of_e).into());
+    let mut entity = world.entity_mut(e);
+    match parent {
+        Some(p) => entity.insert(ChildOf(p)),
+        None => entity.remove::<ChildOf>(),
+    };
+    if let Some(mut t) = entity.get_mut::<Transform>() {
+        *t = local;
+    }
+}
+
+/// `ids` without those under another of them (deleting a parent deletes its children).
+fn top_level(world: &World, ids: &[SceneId]) -> Vec<SceneId> {
+    let index = world.resource::<SceneIndex>();
+    let named: Vec<Entity> = ids.iter().filter_map(|id| index.entity(*id)).collect();
+    let mut out = Vec::new();
+    for id in ids {
+        let Some(e) = index.entity(*id) else {
+            continue;
+        };
+        let mut up = world.get::<ChildOf>(e).map(|c| c.parent());
+        let mut under_another = false;
+        while let Some(p) = up {
+            if named.contains(&p) {
+                under_another = true;
+                break;
+            }
+            up = world.get::<ChildOf>(p).map(|c| c.parent());
+        }
+        if !under_another && !out.contains(id) {
+            out.push(*id);
+        }
+    }
+    out
+}
+
+impl Undo {
+    /// Puts the world back as it was before the command.
+    pub fn revert(&self, world: &mut World) {
+        let find = |world: &World, id: &SceneId| world.resource::<SceneIndex>().entity(*id);
+        match self {
+            Undo::Transform(id, t) => {
+                if let Some(e) = find(world, id)
+                    && let Some(mut tr) = world.get_mut::<Transform>(e)
+                {
+                    *tr = *t;
+                }
+            }
+            Undo::Transforms(list) => {
+                for (id, t) in list {
+                    if let Some(e) = find(world, id)
+                        && let Some(mut tr) = world.get_mut::<Transform>(e)
+                    {
+                        *tr = *t;
+                    }
+                }
+            }
+            Undo::Parents(list) => {
+                for (id, parent, local) in list.iter().rev() {
+                    let Some(e) = find(world, id) else { continue };
+                    match parent.and_then(|p| find(world, &p)) {
+                        Some(p) => world.entity_mut(e).insert(ChildOf(p)),
+                        None => world.entity_mut(e).remove::<ChildOf>(),
+                    };
+                    if let Some(mut tr) = world.get_mut::<Transform>(e) {
+                        *tr = *local;
+                    }
+                }
+            }
+            Undo::Material(id, value) => {
+                if let Ok(handle) = material_of(world, *id)
+                    && let Some(m) = world
+                        .resource_mut::<Assets<StandardMaterial>>()
+                        .get_mut(&handle)
+                {
+                    value.write(m.into_inner());
+                }
+            }
+            Undo::MaterialHandle(id, handle) => {
+                if let Some(e) = find(world, id) {
+                    world.entity_mut(e).insert(MeshMaterial3d(handle.clone()));
+                }
+            }
+            Undo::Name(id, name) => {
+                if let Some(e) = find(world, id) {
+                    match name {
+                        Some(n) => world.entity_mut(e).insert(n.clone()),
+                        None => world.entity_mut(e).remove::<Name>(),
+                    };
+                }
+            }
+            Undo::Visibility(id, v) => {
+                if let Some(e) = find(world, id) {
+                    world.entity_mut(e).insert(*v);
+                }
+            }
+            Undo::Respawn(snapshots) => {
+                for s in snapshots {
+                    s.respawn(world, &mut std::iter::empty());
+                }
+            }
+            Undo::Despawn(ids) => {
+                for id in ids {
+                    if let Some(e) = find(world, id) {
+                        world.entity_mut(e).despawn();
+                    }
+                }
+            }
+            Undo::Many(list) => {
+                for undo in list.iter().rev() {
+                    undo.revert(world);
+                }
+            }
+        }
+    }
+}

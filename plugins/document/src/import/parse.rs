@@ -1,0 +1,141 @@
+//! Files parsed on a background task by `treelight_import`, with their Bevy meshes and images
+//! made there too, each import its own job carrying where it was dropped.
+
+use crate::object::SceneId;
+use bevy::math::Ray3d;
+use bevy::prelude::*;
+use bevy::tasks::{AsyncComputeTaskPool, Task};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use treelight_import::{ImportError, ImportedScene, WrapMode};
+
+/// A file parsed, with its meshes and textures already made into Bevy assets (off the main thread,
+/// so the frame that adds them to the scene only moves them in).
+pub struct ParsedScene {
+    /// What the file holds.
+    pub scene: ImportedScene,
+    /// Its Bevy meshes and images.
+    pub parts: Prebuilt,
+    /// Its world-space bounds ([`scene_bounds`]), made with the rest off the main thread.
+    pub bounds: Option<(Vec3, Vec3)>,
+}
+
+/// Bevy meshes and images made from a scene ahead of spawning it; [`spawn_scene`] takes them and
+/// makes whatever is missing.
+#[derive(Default)]
+pub struct Prebuilt {
+    /// One Bevy mesh per mesh of the scene, `None` for one that repeats an earlier one (`same_as`)
+    /// and for those already taken.
+    pub meshes: Vec<Option<Mesh>>,
+    /// The base-colour images the materials use, by texture and wrap modes.
+    pub images: HashMap<(usize, [WrapMode; 2]), Image>,
+    /// Each mesh's bounds (of `meshes[i]`, or of the mesh it repeats), so that Bevy need not
+    /// compute them on the main thread when the objects are spawned.
+    pub bounds: Vec<Option<bevy::camera::primitives::Aabb>>,
+}
+
+impl From<ImportedScene> for ParsedScene {
+    fn from(scene: ImportedScene) -> Self {
+        use bevy::camera::primitives::MeshAabb;
+        let meshes: Vec<Option<Mesh>> = scene
+            .meshes
+            .iter()
+            .map(|m| {
+                m.same_as
+                    .is_none()
+                    .then(|| crate::import::convert::to_bevy_mesh(m))
+            })
+            .collect();
+        let own: Vec<_> = meshes
+            .iter()
+            .map(|m| m.as_ref().and_then(MeshAabb::compute_aabb))
+            .collect();
+        let bounds = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| own.get(m.same_as.unwrap_or(i)).copied().flatten())
+            .collect();
+        let mut images = HashMap::new();
+        for r in scene.materials.iter().filter_map(|m| m.base_color_texture) {
+            if let Some(t) = scene.textures.get(r.texture) {
+                images
+                    .entry((r.texture, r.wrap))
+                    .or_insert_with(|| crate::import::convert::to_bevy_image(t, r.wrap));
+            }
+        }
+        Self {
+            bounds: scene_bounds(&scene),
+            scene,
+            parts: Prebuilt {
+                meshes,
+                images,
+                bounds,
+            },
+        }
+    }
+}
+
+/// One file being parsed: its own job, so two drops of one file are two imports, each landing
+/// where it was dropped.
+pub struct PendingImport {
+    /// The file.
+    pub path: PathBuf,
+    /// The ray through where it was dropped, from the view it was dropped on: `None` for a file
+    /// opened otherwise (framed, kept in its own coordinates).
+    pub dropped_at: Option<Ray3d>,
+    pub(crate) task: Task<Result<ParsedScene, ImportError>>,
+}
+
+/// Files being parsed.
+#[derive(Resource, Default)]
+pub struct PendingImports(pub Vec<PendingImport>);
+
+impl PendingImports {
+    /// Starts parsing `path` (and making its Bevy meshes) in the background.
+    pub fn start(&mut self, path: PathBuf) {
+        self.start_at(path, None);
+    }
+
+    /// Starts parsing `path`, dropped at `dropped_at` (see [`PendingImport::dropped_at`]).
+    pub fn start_at(&mut self, path: PathBuf, dropped_at: Option<Ray3d>) {
+        let p = path.clone();
+        let task = AsyncComputeTaskPool::get().spawn(async move {
+            // A bug in the importer ends this import with an error, not the editor.
+            crate::contain::contain(
+                || format!("importing {}", p.display()),
+                || treelight_import::load_scene(&p).map(ParsedScene::from),
+            )
+            .unwrap_or_else(|e| {
+                Err(ImportError {
+                    file: p.clone(),
+                    problem: e,
+                })
+            })
+        });
+        self.0.push(PendingImport {
+            path,
+            dropped_at,
+            task,
+        });
+    }
+}
+
+/// Files parsed in the background and not yet in the scene, by the id their import command gives
+/// its root: the command takes its scene from here (and parses the file itself when a script or a
+/// redo names one that is not).
+#[derive(Resource, Default)]
+pub struct ParsedImports(pub HashMap<SceneId, ParsedScene>);
+
+/// The world-space bounds of a parsed scene's triangles.
+pub fn scene_bounds(scene: &ImportedScene) -> Option<(Vec3, Vec3)> {
+    let mut bounds: Option<(Vec3, Vec3)> = None;
+    for m in &scene.meshes {
+        for tri in m.world_triangles() {
+            for p in tri {
+                bounds = Some(bounds.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+    }
+    bounds
+}

@@ -1,0 +1,341 @@
+//! Projects: a `.treelight` file (RON, versioned) that holds references to the scene files it was
+//! built from, what the user made of their nodes (keyed by source keys: transform, parent,
+//! visibility, name, material values, deletions), the objects added in the editor (shapes, lights,
+//! groups, copies of imported meshes) and the camera; never a copy of the geometry. Opening one
+//! imports its sources again and applies the rest ([`super::restore`]); saving writes a temporary
+//! file beside the target, flushes it and renames it over the target ([`super::capture`]).
+
+use crate::edit::command::{LightKind, MaterialValue, TransformValue, in_range};
+use crate::object::SceneId;
+pub use crate::outbox::CameraValue;
+use crate::primitive::Primitive;
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// The version this editor writes and reads.
+pub const PROJECT_VERSION: u32 = 1;
+
+/// Largest project file read, bytes.
+const MAX_PROJECT_BYTES: u64 = 256 << 20;
+/// Most objects a project may hold.
+const MAX_OBJECTS: usize = 2_000_000;
+/// Most source files a project may name.
+const MAX_SOURCES: usize = 100_000;
+
+/// A node of one of the project's sources.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct SourceNode {
+    /// Index into the project's sources.
+    pub source: usize,
+    /// The node's key in that file (the file's root: empty).
+    pub key: String,
+}
+
+/// A light's values.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightValue {
+    /// Which kind.
+    pub kind: LightKind,
+    /// Colour, sRGB.
+    pub color: [f32; 3],
+    /// Lumens for a point light, lux for a directional one.
+    pub intensity: f32,
+    /// Whether it casts shadows in the rasterised view.
+    #[serde(default = "shown")]
+    pub shadows: bool,
+    /// A point light's range.
+    #[serde(default)]
+    pub range: Option<f32>,
+}
+
+/// What an object is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum ObjectKind {
+    /// A node of a source file.
+    Node(SourceNode),
+    /// A copy showing a source node's mesh.
+    MeshOf(SourceNode),
+    /// A built-in shape.
+    Shape(Primitive),
+    /// A light.
+    Light(LightValue),
+    /// An empty group.
+    Empty,
+}
+
+/// One object of the scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProjectObject {
+    /// Its stable id.
+    pub id: SceneId,
+    /// Its name.
+    pub name: String,
+    /// Its parent.
+    #[serde(default)]
+    pub parent: Option<SceneId>,
+    /// Its transform relative to its parent.
+    pub transform: TransformValue,
+    /// Whether it is shown.
+    #[serde(default = "shown")]
+    pub visible: bool,
+    /// What it is.
+    pub kind: ObjectKind,
+    /// Its material's values, for a mesh.
+    #[serde(default)]
+    pub material: Option<MaterialValue>,
+}
+
+fn shown() -> bool {
+    true
+}
+
+/// A project file's contents.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProjectFile {
+    /// The format's version.
+    pub version: u32,
+    /// Scene files, relative to the project's folder when inside it.
+    #[serde(default)]
+    pub sources: Vec<PathBuf>,
+    /// The scene's objects, by id.
+    #[serde(default)]
+    pub objects: Vec<ProjectObject>,
+    /// Source nodes the user deleted.
+    #[serde(default)]
+    pub deleted: Vec<SourceNode>,
+    /// The camera.
+    #[serde(default)]
+    pub camera: Option<CameraValue>,
+}
+
+/// Why a project cannot be opened or saved; each names the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProjectError {
+    /// The file cannot be read or written.
+    #[error("{0}: {1}")]
+    Io(PathBuf, String),
+    /// The file is not a project this editor reads.
+    #[error("{0}: not a Treelight project: {1}")]
+    Format(PathBuf, String),
+    /// The file names a source that is not a scene file.
+    #[error("{0}: source {1} ('{2}') {3}")]
+    Source(PathBuf, usize, PathBuf, String),
+}
+
+/// The open project, and what it holds that the scene does not show.
+#[derive(Resource, Debug, Default)]
+pub struct ProjectState {
+    /// Where it was last opened from or saved to; `None` for a scene never saved.
+    pub path: Option<PathBuf>,
+    /// Objects whose source file or node is missing: kept so a later save does not drop them.
+    pub missing: Vec<ProjectObject>,
+    /// The files the missing objects' source indices name (every source of the project as
+    /// opened, resolved).
+    pub missing_sources: Vec<PathBuf>,
+    /// Deleted source nodes of missing sources, kept likewise.
+    pub missing_deleted: Vec<(PathBuf, String)>,
+}
+
+/// What opening a project found missing, for the user.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct OpenReport {
+    /// Sources that are gone or unreadable, with the reason.
+    pub missing_sources: Vec<(PathBuf, String)>,
+    /// Objects whose node no longer exists in its (readable) source.
+    pub missing_nodes: usize,
+}
+
+impl ProjectFile {
+    /// Checks what a file could get wrong: version, sizes, numbers, ids, references.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.version != PROJECT_VERSION {
+            return Err(format!(
+                "version {} is not one this editor reads ({PROJECT_VERSION})",
+                self.version
+            ));
+        }
+        if self.sources.len() > MAX_SOURCES || self.objects.len() > MAX_OBJECTS {
+            return Err("it names more sources or objects than a project can hold".into());
+        }
+        let mut ids = HashSet::new();
+        for o in &self.objects {
+            if !o.id.is_valid() {
+                return Err(format!(
+                    "object id {} is outside the range of ids (1 to {})",
+                    o.id.0,
+                    SceneId::MAX.0
+                ));
+            }
+            if !ids.insert(o.id) {
+                return Err(format!("object id {} is used twice", o.id.0));
+            }
+            if !o.transform.is_valid() {
+                return Err(format!("object {} has a transform out of range", o.id.0));
+            }
+            if o.material.as_ref().is_some_and(|m| !m.is_valid()) {
+                return Err(format!("object {} has a material out of range", o.id.0));
+            }
+            match &o.kind {
+                ObjectKind::Node(n) | ObjectKind::MeshOf(n) if n.source >= self.sources.len() => {
+                    return Err(format!(
+                        "object {} names source {}, which the project does not list",
+                        o.id.0, n.source
+                    ));
+                }
+                ObjectKind::Light(l)
+                    if !l.color.iter().all(|v| in_range(*v))
+                        || !in_range(l.intensity)
+                        || l.range.is_some_and(|r| !in_range(r)) =>
+                {
+                    return Err(format!("object {} has a light out of range", o.id.0));
+                }
+                _ => {}
+            }
+        }
+        self.check_parents(&ids)?;
+        if self.deleted.iter().any(|d| d.source >= self.sources.len()) {
+            return Err("a deleted node names a source the project does not list".into());
+        }
+        if let Some(c) = &self.camera
+            && !c
+                .focus
+                .iter()
+                .chain([&c.radius, &c.yaw, &c.pitch])
+                .all(|v| in_range(*v))
+        {
+            return Err("the camera is out of range".into());
+        }
+        Ok(())
+    }
+}
+
+impl ProjectFile {
+    /// Refuses parents that are the object itself, that no object of the file has, or that
+    /// lead round in a cycle: the objects must form a forest, as the scene they make does.
+    fn check_parents(&self, ids: &HashSet<SceneId>) -> Result<(), String> {
+        let parent: HashMap<SceneId, SceneId> = self
+            .objects
+            .iter()
+            .filter_map(|o| Some((o.id, o.parent?)))
+            .collect();
+        for (&child, &p) in &parent {
+            if p == child {
+                return Err(format!("object {} is its own parent", child.0));
+            }
+            if !ids.contains(&p) {
+                return Err(format!(
+                    "object {} names parent {}, which the project does not hold",
+                    child.0, p.0
+                ));
+            }
+        }
+        // Walk up from each object; what a finished walk reached is known to end at a root.
+        let mut done: HashSet<SceneId> = HashSet::new();
+        for o in &self.objects {
+            let mut path: Vec<SceneId> = Vec::new();
+            let mut on_path = HashSet::new();
+            let mut at = o.id;
+            while !done.contains(&at) {
+                if !on_path.insert(at) {
+                    let start = path.iter().position(|x| *x == at).unwrap_or(0);
+                    let ring: Vec<String> = path[start..].iter().map(|x| x.0.to_string()).collect();
+                    return Err(format!(
+                        "the parents of objects {} form a cycle",
+                        ring.join(", ")
+                    ));
+                }
+                path.push(at);
+                match parent.get(&at) {
+                    Some(&p) => at = p,
+                    None => break,
+                }
+            }
+            done.extend(path);
+        }
+        Ok(())
+    }
+}
+
+/// Parses and checks a project's text; `path` names it in errors.
+pub fn read_project_str(text: &str, path: &Path) -> Result<ProjectFile, ProjectError> {
+    let project: ProjectFile =
+        ron::from_str(text).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
+    project
+        .validate()
+        .map_err(|e| ProjectError::Format(path.to_owned(), e))?;
+    Ok(project)
+}
+
+/// Reads and checks a project file (nothing in the scene changes).
+pub fn read_project(path: &Path) -> Result<ProjectFile, ProjectError> {
+    let io = |e: std::io::Error| ProjectError::Io(path.to_owned(), e.to_string());
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(ProjectError::Io(
+            path.to_owned(),
+            "not a regular file".into(),
+        ));
+    }
+    if meta.len() > MAX_PROJECT_BYTES {
+        return Err(ProjectError::Format(
+            path.to_owned(),
+            format!("{} bytes is larger than a project can be", meta.len()),
+        ));
+    }
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    read_project_str(&text, path)
+}
+
+/// A source path as the project resolves it: relative ones against the project's folder.
+pub fn resolve_source(project: &Path, source: &Path) -> PathBuf {
+    if source.is_absolute() {
+        source.to_owned()
+    } else {
+        project.parent().unwrap_or(Path::new(".")).join(source)
+    }
+}
+
+/// A source path as the project stores it: relative to the project's folder when inside it.
+pub fn store_source(project: &Path, source: &Path) -> PathBuf {
+    let dir = project.parent().unwrap_or(Path::new("."));
+    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
+    let (dir, source_abs) = (abs(dir), abs(source));
+    match source_abs.strip_prefix(&dir) {
+        Ok(rel) => rel.to_owned(),
+        Err(_) => source_abs,
+    }
+}
+
+/// Checks that a source can be a scene file: a known extension, and not a directory or a device.
+/// `Ok(false)` when it does not exist (a missing source, which the project keeps).
+pub(crate) fn check_source(path: &Path) -> Result<bool, String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("gltf" | "glb" | "obj" | "ply")) {
+        return Err("is not a .gltf, .glb, .obj or .ply file".into());
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => Ok(true),
+        Ok(_) => Err("is not a regular file".into()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// A project as the text of its file.
+pub fn project_text(project: &ProjectFile) -> Result<String, ron::Error> {
+    ron::ser::to_string_pretty(project, ron::ser::PrettyConfig::default())
+}
+
+/// Writes `project` to `path` atomically ([`crate::atomic_file`]: a temporary file of a unique
+/// name beside it, flushed, renamed over it, the folder flushed; a link's destination written).
+pub fn write_project(path: &Path, project: &ProjectFile) -> Result<(), ProjectError> {
+    let text =
+        project_text(project).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
+    crate::atomic_file::write_atomically(path, text.as_bytes())
+        .map_err(|e| ProjectError::Io(path.to_owned(), e.to_string()))
+}

@@ -1,0 +1,471 @@
+//! Opening a project in place of the scene: its sources imported again (read in the background,
+//! with progress), then what the user made of them applied; relinking a missing source.
+
+use crate::edit::command::{LightKind, MaterialValue};
+use crate::edit::history::EditHistory;
+use crate::import::spawn::{MeshSource, SourceCatalog, SourceKey};
+use crate::object::{SceneId, SceneIndex, SceneObject};
+use crate::outbox::{CameraValue, DocumentEvent, DocumentView};
+use crate::primitive::Primitive;
+use crate::primitive::PrimitiveShape;
+use crate::project::capture::capture_project;
+use crate::project::format::*;
+use bevy::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// The sources the open project is missing: files that held objects or deletions still kept.
+pub fn missing_sources(state: &ProjectState) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = Vec::new();
+    let mut add = |p: &Path| {
+        if !out.iter().any(|q| q == p) {
+            out.push(p.to_owned());
+        }
+    };
+    for o in &state.missing {
+        if let ObjectKind::Node(n) | ObjectKind::MeshOf(n) = &o.kind
+            && let Some(p) = state.missing_sources.get(n.source)
+        {
+            add(p);
+        }
+    }
+    for (p, _) in &state.missing_deleted {
+        add(p);
+    }
+    // Objects whose nodes are gone from a file that is there are not a missing source.
+    out.retain(|p| !p.is_file());
+    out
+}
+
+/// Points the project's source `from` at the file `to` and opens the scene again with it, so its
+/// kept objects find their nodes; the scene then has unsaved changes (and a fresh history).
+pub fn relink_source(
+    world: &mut World,
+    from: &Path,
+    to: &Path,
+) -> Result<OpenReport, ProjectError> {
+    let owner = world.resource::<ProjectState>().path.clone();
+    // Relative sources resolve against the project's folder, or the working folder for a scene
+    // never saved.
+    let base = owner.clone().unwrap_or_else(|| {
+        std::env::current_dir()
+            .unwrap_or_default()
+            .join("untitled.treelight")
+    });
+    let (mut project, _) = capture_project(world, &base);
+    for s in &mut project.sources {
+        if resolve_source(&base, s) == from {
+            *s = store_source(&base, to);
+        }
+    }
+    project
+        .validate()
+        .map_err(|e| ProjectError::Format(base.clone(), e))?;
+    let report = open_project_value(world, project, &base)?;
+    world.resource_mut::<ProjectState>().path = owner;
+    world.resource_mut::<EditHistory>().mark_unsaved();
+    Ok(report)
+}
+
+/// Gives a source node's material the saved values. A material the file shares between nodes is
+/// only changed for all of them when they agree; a node whose values differ gets its own copy (as
+/// "make unique" gave it).
+fn apply_node_material(world: &mut World, e: Entity, value: &MaterialValue) {
+    let Some(handle) = world
+        .get::<MeshMaterial3d<StandardMaterial>>(e)
+        .map(|m| m.0.clone())
+    else {
+        return;
+    };
+    let materials = world.resource::<Assets<StandardMaterial>>();
+    let Some(current) = materials.get(&handle) else {
+        return;
+    };
+    if MaterialValue::of(current) == *value {
+        return;
+    }
+    let mut users = world.query::<&MeshMaterial3d<StandardMaterial>>();
+    let shared = users
+        .iter(world)
+        .filter(|m| m.0.id() == handle.id())
+        .count()
+        > 1;
+    let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+    if shared {
+        let mut copy = materials.get(&handle).cloned().unwrap_or_default();
+        value.write(&mut copy);
+        let unique = materials.add(copy);
+        world.entity_mut(e).insert(MeshMaterial3d(unique));
+    } else if let Some(mut m) = materials.get_mut(&handle) {
+        value.write(&mut m);
+    }
+}
+
+/// Opens the project at `path` in place of the scene. Everything that can fail is read and checked
+/// first: on an error the scene is untouched. Missing or unreadable sources do not fail the open;
+/// the report lists them and their objects stay in the project.
+pub fn open_project(world: &mut World, path: &Path) -> Result<OpenReport, ProjectError> {
+    let project = read_project(path)?;
+    open_project_value(world, project, path)
+}
+
+/// How far the parsing of a project's sources has got, shared with the thread doing it, and a way
+/// to stop it between sources.
+#[derive(Debug, Default)]
+pub struct OpenProgress {
+    /// Sources read so far.
+    pub done: std::sync::atomic::AtomicUsize,
+    /// Sources to read.
+    pub total: std::sync::atomic::AtomicUsize,
+    /// Set to stop before the next source.
+    pub cancelled: std::sync::atomic::AtomicBool,
+}
+
+/// A project's sources, read: what [`open_project_parsed`] puts in the scene.
+pub struct ParsedSources {
+    resolved: Vec<PathBuf>,
+    parsed: Vec<Option<treelight_import::ImportedScene>>,
+    report: OpenReport,
+}
+
+impl ParsedSources {
+    /// Each source's scene, in the project's order (`None` for a missing or unreadable one).
+    pub fn scenes(&self) -> &[Option<treelight_import::ImportedScene>] {
+        &self.parsed
+    }
+}
+
+/// Checks and parses the sources of `project` (at `path`), touching no scene: the slow part of
+/// opening one, which the editor runs off its main thread. A source that is not a scene file fails
+/// the open; a missing or unreadable one is reported and its objects kept.
+pub fn parse_sources(
+    project: &ProjectFile,
+    path: &Path,
+    progress: Option<&OpenProgress>,
+) -> Result<ParsedSources, ProjectError> {
+    use std::sync::atomic::Ordering;
+    let mut report = OpenReport::default();
+    let mut parsed: Vec<Option<treelight_import::ImportedScene>> = Vec::new();
+    let resolved: Vec<PathBuf> = project
+        .sources
+        .iter()
+        .map(|s| resolve_source(path, s))
+        .collect();
+    if let Some(p) = progress {
+        p.total.store(resolved.len(), Ordering::Relaxed);
+    }
+    for (i, file) in resolved.iter().enumerate() {
+        if progress.is_some_and(|p| p.cancelled.load(Ordering::Relaxed)) {
+            return Err(ProjectError::Io(
+                path.to_owned(),
+                "opening cancelled".into(),
+            ));
+        }
+        match check_source(file) {
+            Err(problem) => {
+                return Err(ProjectError::Source(
+                    path.to_owned(),
+                    i,
+                    project.sources[i].clone(),
+                    problem,
+                ));
+            }
+            Ok(false) => {
+                report
+                    .missing_sources
+                    .push((file.clone(), "the file is gone".into()));
+                parsed.push(None);
+            }
+            Ok(true) => match treelight_import::load_scene(file) {
+                Ok(scene) => parsed.push(Some(scene)),
+                Err(e) => {
+                    report.missing_sources.push((file.clone(), e.to_string()));
+                    parsed.push(None);
+                }
+            },
+        }
+        if let Some(p) = progress {
+            p.done.store(i + 1, Ordering::Relaxed);
+        }
+    }
+    Ok(ParsedSources {
+        resolved,
+        parsed,
+        report,
+    })
+}
+
+/// [`open_project`] of a project already read and checked; `path` is where it lives (its sources
+/// resolve against its folder, errors name it).
+pub fn open_project_value(
+    world: &mut World,
+    project: ProjectFile,
+    path: &Path,
+) -> Result<OpenReport, ProjectError> {
+    let sources = parse_sources(&project, path, None)?;
+    open_project_parsed(world, project, path, sources)
+}
+
+/// Empties the scene for a project: its objects despawned, a fresh history, and the ids the
+/// project holds reserved (those kept while their source is missing too).
+fn clear_scene(world: &mut World, project: &ProjectFile) {
+    let mut q = world.query_filtered::<Entity, (With<SceneObject>, Without<ChildOf>)>();
+    for e in q.iter(world).collect::<Vec<_>>() {
+        world.entity_mut(e).despawn();
+    }
+    let mut q = world.query_filtered::<Entity, With<SceneObject>>();
+    for e in q.iter(world).collect::<Vec<_>>() {
+        world.entity_mut(e).despawn();
+    }
+    *world.resource_mut::<EditHistory>() = EditHistory::default();
+    world.write_message(DocumentEvent::Replaced);
+    world.resource_mut::<SourceCatalog>().0.clear();
+    // Fresh ids for the sources' nodes never collide with the project's.
+    let top = project
+        .objects
+        .iter()
+        .map(|o| o.id)
+        .max()
+        .unwrap_or(SceneId::NEW);
+    let mut index = world.resource_mut::<SceneIndex>();
+    index.reserve_through(top);
+    // Objects kept while their source is missing are not in the scene, but hold their ids.
+    for o in &project.objects {
+        index.retire(o.id);
+    }
+}
+
+/// Spawns every source that was read; each node's entity by (source, key).
+fn spawn_sources(
+    world: &mut World,
+    parsed: &[Option<treelight_import::ImportedScene>],
+    resolved: &[PathBuf],
+) -> HashMap<(usize, String), Entity> {
+    let mut nodes = HashMap::new();
+    for (i, scene) in parsed.iter().enumerate() {
+        let Some(scene) = scene else { continue };
+        if crate::import::spawn::spawn_scene_in_world(
+            world,
+            &resolved[i],
+            scene,
+            &mut crate::import::parse::Prebuilt::default(),
+            false,
+        )
+        .is_err()
+        {
+            continue;
+        }
+        let mut q = world.query::<(Entity, &SourceKey)>();
+        for (e, k) in q.iter(world) {
+            if k.file == resolved[i] {
+                nodes.insert((i, k.key.clone()), e);
+            }
+        }
+    }
+    nodes
+}
+
+/// A copy of the mesh on `origin` (the node `n` of a source), sharing its mesh and material;
+/// `None` when the node shows no mesh.
+fn spawn_copy(
+    world: &mut World,
+    origin: Entity,
+    n: &SourceNode,
+    resolved: &[PathBuf],
+) -> Option<Entity> {
+    let mesh = world.get::<Mesh3d>(origin).cloned()?;
+    let material = world
+        .get::<MeshMaterial3d<StandardMaterial>>(origin)
+        .cloned()?;
+    let source_key = SourceKey {
+        file: resolved[n.source].clone(),
+        key: n.key.clone(),
+    };
+    Some(
+        world
+            .spawn((SceneObject, mesh, material, MeshSource(source_key)))
+            .id(),
+    )
+}
+
+/// A light as the project describes it.
+fn spawn_light(world: &mut World, l: &LightValue) -> Entity {
+    let [r, g, b] = l.color;
+    let color = Color::srgb(r, g, b);
+    let mut e = world.spawn(SceneObject);
+    match l.kind {
+        LightKind::Point => e.insert(PointLight {
+            color,
+            intensity: l.intensity,
+            range: l.range.filter(|r| *r > 0.0).unwrap_or(40.0),
+            shadow_maps_enabled: l.shadows,
+            ..default()
+        }),
+        LightKind::Directional => e.insert(DirectionalLight {
+            color,
+            illuminance: l.intensity,
+            shadow_maps_enabled: l.shadows,
+            ..default()
+        }),
+    };
+    e.id()
+}
+
+/// Parents, once every object exists (a parent may come after its child).
+fn link_parents(world: &mut World, project: &ProjectFile, by_id: &HashMap<SceneId, Entity>) {
+    for o in &project.objects {
+        let Some(&e) = by_id.get(&o.id) else { continue };
+        match o.parent.and_then(|p| by_id.get(&p)) {
+            Some(&p) if p != e => {
+                world.entity_mut(e).insert(ChildOf(p));
+            }
+            _ => {
+                world.entity_mut(e).remove::<ChildOf>();
+            }
+        }
+    }
+}
+
+/// The project's view, kept for the next save and announced for an editor's camera.
+fn restore_view(world: &mut World, c: CameraValue) {
+    let c = CameraValue {
+        radius: c.radius.clamp(0.05, 1.0e5),
+        pitch: c.pitch.clamp(-1.55, 1.55),
+        ..c
+    };
+    world.insert_resource(DocumentView(Some(c)));
+    world.write_message(DocumentEvent::View(c));
+}
+
+/// Puts a project whose sources were parsed ([`parse_sources`]) in place of the scene.
+pub fn open_project_parsed(
+    world: &mut World,
+    project: ProjectFile,
+    path: &Path,
+    sources: ParsedSources,
+) -> Result<OpenReport, ProjectError> {
+    let ParsedSources {
+        resolved,
+        parsed,
+        mut report,
+    } = sources;
+
+    clear_scene(world, &project);
+    let nodes = spawn_sources(world, &parsed, &resolved);
+
+    let mut state = ProjectState {
+        path: Some(path.to_owned()),
+        ..default()
+    };
+    let missing_source = |n: &SourceNode| parsed[n.source].is_none();
+    let mut by_id: HashMap<SceneId, Entity> = HashMap::new();
+    let mut shape_meshes: HashMap<Primitive, Handle<Mesh>> = HashMap::new();
+    let mut shared_materials: HashMap<String, Handle<StandardMaterial>> = HashMap::new();
+    let mut made_material = |world: &mut World, value: &MaterialValue, base: StandardMaterial| {
+        let key = format!("{value:?}");
+        if let Some(h) = shared_materials.get(&key) {
+            return h.clone();
+        }
+        let mut m = base;
+        value.write(&mut m);
+        let h = world.resource_mut::<Assets<StandardMaterial>>().add(m);
+        shared_materials.insert(key, h.clone());
+        h
+    };
+    for o in &project.objects {
+        let entity = match &o.kind {
+            ObjectKind::Node(n) | ObjectKind::MeshOf(n) if missing_source(n) => {
+                state.missing.push(o.clone());
+                continue;
+            }
+            ObjectKind::Node(n) => match nodes.get(&(n.source, n.key.clone())) {
+                Some(e) => {
+                    let e = *e;
+                    if let Some(value) = &o.material {
+                        apply_node_material(world, e, value);
+                    }
+                    e
+                }
+                None => {
+                    report.missing_nodes += 1;
+                    state.missing.push(o.clone());
+                    continue;
+                }
+            },
+            ObjectKind::MeshOf(n) => {
+                let origin = nodes.get(&(n.source, n.key.clone())).copied();
+                let Some(e) = origin.and_then(|origin| spawn_copy(world, origin, n, &resolved))
+                else {
+                    report.missing_nodes += 1;
+                    state.missing.push(o.clone());
+                    continue;
+                };
+                // A copy shares its original's material until one of them was made unique.
+                if let Some(value) = &o.material {
+                    apply_node_material(world, e, value);
+                }
+                e
+            }
+            ObjectKind::Shape(shape) => {
+                let mesh = shape_meshes
+                    .entry(*shape)
+                    .or_insert_with(|| world.resource_mut::<Assets<Mesh>>().add(shape.mesh()))
+                    .clone();
+                let value = o
+                    .material
+                    .unwrap_or_else(|| MaterialValue::of(&shape.material()));
+                let material = made_material(world, &value, shape.material());
+                world
+                    .spawn((
+                        SceneObject,
+                        Mesh3d(mesh),
+                        MeshMaterial3d(material),
+                        PrimitiveShape(*shape),
+                    ))
+                    .id()
+            }
+            ObjectKind::Light(l) => spawn_light(world, l),
+            ObjectKind::Empty => world.spawn((SceneObject, Visibility::default())).id(),
+        };
+        world.entity_mut(entity).insert((
+            o.id,
+            Name::new(o.name.clone()),
+            Transform::from(o.transform),
+            if o.visible {
+                Visibility::Inherited
+            } else {
+                Visibility::Hidden
+            },
+        ));
+        by_id.insert(o.id, entity);
+    }
+    link_parents(world, &project, &by_id);
+    // Deleted nodes go last: their children the user moved elsewhere are elsewhere by now.
+    for d in &project.deleted {
+        if parsed[d.source].is_none() {
+            state
+                .missing_deleted
+                .push((resolved[d.source].clone(), d.key.clone()));
+        } else if let Some(&e) = nodes.get(&(d.source, d.key.clone()))
+            && world.get_entity(e).is_ok()
+        {
+            world.entity_mut(e).despawn();
+        }
+    }
+    state.missing_sources = resolved.clone();
+    if let Some(c) = project.camera {
+        restore_view(world, c);
+    }
+    // Every node a source had when it was imported, deleted or not.
+    for (i, scene) in parsed.iter().enumerate() {
+        if let Some(scene) = scene {
+            world.resource_mut::<SourceCatalog>().0.insert(
+                resolved[i].clone(),
+                crate::import::spawn::source_keys(scene),
+            );
+        }
+    }
+    world.insert_resource(state);
+    world.resource_mut::<EditHistory>().mark_saved();
+    Ok(report)
+}

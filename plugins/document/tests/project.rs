@@ -1,0 +1,754 @@
+//! Projects on real files: a scene built from FlightHelmet (from `../shared/scenes`) with every kind
+//! of edit is saved and opened again in a fresh editor world, which must then hold the same objects
+//! (by stable id: names, transforms, parents, visibility, kinds, material values); a project never
+//! copies geometry; broken or hostile projects are refused with the file named and the open scene
+//! untouched; a missing source still opens and is kept by the next save.
+
+use bevy::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use treelight_document::edit::command::EditCommand;
+use treelight_document::edit::command::LightKind;
+use treelight_document::edit::command::MaterialValue;
+use treelight_document::edit::command::TransformValue;
+use treelight_document::edit::history::EditHistory;
+use treelight_document::edit::history::EditRequest;
+use treelight_document::edit::history::apply_request;
+use treelight_document::object::SceneId;
+use treelight_document::outbox::{CameraValue, DocumentView};
+use treelight_document::primitive::Primitive;
+use treelight_document::project::capture::save_project;
+use treelight_document::project::format::ProjectError;
+use treelight_document::project::format::ProjectState;
+use treelight_document::project::format::read_project;
+use treelight_document::project::restore::open_project;
+
+fn editor_world() -> App {
+    // The editor's headless app (the one `--save` runs), with the editor's starting view to save.
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    app.insert_resource(DocumentView(Some(CameraValue::default())));
+    app
+}
+
+fn helmet() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("treelight-project-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn apply(app: &mut App, command: EditCommand) {
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command,
+            continuing: false,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    app.update();
+}
+
+#[derive(Debug, PartialEq)]
+struct Object {
+    name: String,
+    parent: Option<SceneId>,
+    transform: [i64; 10],
+    visible: bool,
+    mesh: bool,
+    lights: (bool, bool),
+    material: Option<[i64; 9]>,
+}
+
+/// Numbers rounded to 1e-4, so a RON round trip of floats compares equal.
+fn q(v: f32) -> i64 {
+    (v as f64 * 1e4).round() as i64
+}
+
+fn state(world: &mut World) -> BTreeMap<SceneId, Object> {
+    let ids: BTreeMap<Entity, SceneId> = world
+        .query::<(Entity, &SceneId)>()
+        .iter(world)
+        .map(|(e, i)| (e, *i))
+        .collect();
+    let materials: BTreeMap<AssetId<StandardMaterial>, MaterialValue> = world
+        .resource::<Assets<StandardMaterial>>()
+        .iter()
+        .map(|(i, m)| (i, MaterialValue::of(m)))
+        .collect();
+    let mut query = world.query::<(
+        &SceneId,
+        Option<&Name>,
+        &Transform,
+        Option<&ChildOf>,
+        Option<&Visibility>,
+        Has<Mesh3d>,
+        Has<PointLight>,
+        Has<DirectionalLight>,
+        Option<&MeshMaterial3d<StandardMaterial>>,
+    )>();
+    query
+        .iter(world)
+        .map(|(id, name, t, parent, vis, mesh, p, d, mat)| {
+            let mut transform = [0; 10];
+            for (k, v) in t
+                .translation
+                .to_array()
+                .iter()
+                .chain(&t.rotation.to_array())
+                .chain(&t.scale.to_array())
+                .enumerate()
+            {
+                transform[k] = q(*v);
+            }
+            let material = mat.and_then(|m| materials.get(&m.0.id())).map(|m| {
+                let mut out = [0; 9];
+                for (k, v) in m
+                    .base_color
+                    .iter()
+                    .chain(&m.emissive)
+                    .chain([&m.metallic, &m.perceptual_roughness])
+                    .enumerate()
+                {
+                    out[k] = q(*v);
+                }
+                out
+            });
+            (
+                *id,
+                Object {
+                    name: name.map_or(String::new(), |n| n.as_str().to_owned()),
+                    parent: parent.and_then(|p| ids.get(&p.parent()).copied()),
+                    transform,
+                    visible: vis != Some(&Visibility::Hidden),
+                    mesh,
+                    lights: (p, d),
+                    material,
+                },
+            )
+        })
+        .collect()
+}
+
+fn ids_by_name(app: &mut App) -> BTreeMap<String, SceneId> {
+    state(app.world_mut())
+        .into_iter()
+        .map(|(id, o)| (o.name, id))
+        .collect()
+}
+
+/// FlightHelmet imported, then changed in every way a project keeps.
+fn edited_scene() -> App {
+    let mut app = editor_world();
+    apply(
+        &mut app,
+        EditCommand::Import {
+            file: helmet(),
+            root: None,
+            transform: None,
+        },
+    );
+    let named = ids_by_name(&mut app);
+    let part = |n: &str| {
+        *named
+            .iter()
+            .find(|(k, _)| k.contains(n))
+            .unwrap_or_else(|| panic!("no {n} in {named:?}"))
+            .1
+    };
+    let (lenses, leather, root) = (part("Lenses"), part("Leather"), named["FlightHelmet.gltf"]);
+    let t = |x: f32| {
+        TransformValue::from(Transform::from_xyz(x, 0.25, -0.5).with_scale(Vec3::splat(0.5)))
+    };
+    apply(
+        &mut app,
+        EditCommand::SetTransform {
+            id: lenses,
+            transform: t(0.3),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Rename {
+            id: lenses,
+            name: "Glass".into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::SetVisible {
+            id: leather,
+            visible: false,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Delete {
+            ids: vec![part("Hose")],
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Reparent {
+            ids: vec![lenses],
+            parent: None,
+        },
+    );
+    let mut m = MaterialValue::of(&StandardMaterial::default());
+    m.base_color = [0.1, 0.5, 0.9, 1.0];
+    m.emissive = [2.0, 0.0, 0.0];
+    apply(&mut app, EditCommand::MakeMaterialUnique { id: lenses });
+    apply(
+        &mut app,
+        EditCommand::SetMaterial {
+            id: lenses,
+            material: m,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Duplicate {
+            ids: vec![part("Wood")],
+            copies: vec![],
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddPrimitive {
+            shape: Primitive::Cylinder,
+            transform: t(1.0),
+            id: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddLight {
+            kind: LightKind::Point,
+            transform: t(2.0),
+            id: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Group {
+            ids: vec![root],
+            name: "Helmet group".into(),
+            group: None,
+        },
+    );
+    app
+}
+
+#[test]
+fn a_saved_project_opens_as_the_same_scene() {
+    let dir = temp("round-trip");
+    let path = dir.join("scene.treelight");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    assert!(app.world().resource::<EditHistory>().is_dirty());
+    let unsaved = save_project(app.world_mut(), &path).unwrap();
+    assert!(unsaved.is_empty(), "{unsaved:?}");
+    assert!(!app.world().resource::<EditHistory>().is_dirty(), "saved");
+    // Nothing but the project beside it: the temporary file was renamed over it.
+    let files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    // No geometry in the file: it is small next to the helmet's data.
+    let size = std::fs::metadata(&path).unwrap().len();
+    assert!(size < 64 * 1024, "{size} bytes");
+    let project = read_project(&path).unwrap();
+    assert_eq!(project.sources.len(), 1);
+    assert!(!project.deleted.is_empty(), "the deleted hose is recorded");
+
+    let mut fresh = editor_world();
+    let report = open_project(fresh.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources, vec![]);
+    assert_eq!(report.missing_nodes, 0);
+    fresh.update();
+    let after = state(fresh.world_mut());
+    assert_eq!(after, before);
+    assert!(!fresh.world().resource::<EditHistory>().is_dirty());
+    // Saving the opened project gives the same file.
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    assert_eq!(read_project(&again).unwrap().objects, project.objects);
+    // Byte for byte: the same sources, objects, deletions and camera in the same order.
+    assert_eq!(
+        std::fs::read_to_string(&again).unwrap(),
+        std::fs::read_to_string(&path).unwrap()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The project text with the camera's radius made absurd.
+fn absurd_radius(text: &str) -> String {
+    let at = text.find("radius: ").expect("a camera") + "radius: ".len();
+    let end = at + text[at..].find(',').unwrap();
+    format!("{}1e38{}", &text[..at], &text[end..])
+}
+
+#[test]
+fn broken_projects_are_refused_and_the_scene_is_untouched() {
+    let dir = temp("broken");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    let good = dir.join("good.treelight");
+    save_project(app.world_mut(), &good).unwrap();
+    let text = std::fs::read_to_string(&good).unwrap();
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "garbage",
+            "this is not RON (".into(),
+            "not a Treelight project",
+        ),
+        (
+            "version",
+            text.replacen("version: 1", "version: 99", 1),
+            "version 99",
+        ),
+        ("absurd", absurd_radius(&text), "camera is out of range"),
+        // A folder and a device with a scene file's name: past the extension check, refused as
+        // not regular files.
+        (
+            "dir-source",
+            text.replace(
+                &helmet().display().to_string(),
+                &dir.join("folder.gltf").display().to_string(),
+            ),
+            "source 0 ('",
+        ),
+        (
+            "device",
+            text.replace(
+                &helmet().display().to_string(),
+                &dir.join("zero.glb").display().to_string(),
+            ),
+            "source 0 ('",
+        ),
+    ];
+    std::fs::create_dir_all(dir.join("folder.gltf")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.glb")).unwrap();
+    for (name, body, expect) in cases {
+        let path = dir.join(format!("{name}.treelight"));
+        std::fs::write(&path, body).unwrap();
+        let e = open_project(app.world_mut(), &path).expect_err(name);
+        let text = e.to_string();
+        assert!(text.contains(&path.display().to_string()), "{name}: {text}");
+        assert!(text.contains(expect), "{name}: {text}");
+        if name == "dir-source" || name == "device" {
+            assert!(text.contains("is not a regular file"), "{name}: {text}");
+        }
+        assert_eq!(state(app.world_mut()), before, "{name} changed the scene");
+    }
+    // A directory in place of the project itself.
+    let e = open_project(app.world_mut(), &dir).unwrap_err();
+    assert!(matches!(e, ProjectError::Io(..)), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn objects_must_form_a_forest_and_ids_stay_in_range() {
+    let dir = temp("forest");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    let good = dir.join("good.treelight");
+    save_project(app.world_mut(), &good).unwrap();
+    let project = read_project(&good).unwrap();
+    let ids: Vec<SceneId> = project.objects.iter().map(|o| o.id).collect();
+    let (a, b, c) = (ids[0], ids[1], ids[2]);
+    let with = |edit: &dyn Fn(&mut treelight_document::project::format::ProjectFile)| {
+        let mut p = project.clone();
+        edit(&mut p);
+        p
+    };
+    let set_parent =
+        |p: &mut treelight_document::project::format::ProjectFile, id: SceneId, parent: SceneId| {
+            p.objects.iter_mut().find(|o| o.id == id).unwrap().parent = Some(parent);
+        };
+    let cases: Vec<(
+        &str,
+        treelight_document::project::format::ProjectFile,
+        String,
+    )> = vec![
+        (
+            "self-parent",
+            with(&|p| set_parent(p, a, a)),
+            format!("object {} is its own parent", a.0),
+        ),
+        (
+            "missing-parent",
+            with(&|p| set_parent(p, a, SceneId(9_999_999))),
+            format!(
+                "object {} names parent 9999999, which the project does not hold",
+                a.0
+            ),
+        ),
+        (
+            "cycle",
+            with(&|p| {
+                set_parent(p, a, b);
+                set_parent(p, b, c);
+                set_parent(p, c, a);
+            }),
+            "form a cycle".into(),
+        ),
+        (
+            "huge-id",
+            with(&|p| {
+                let leaf = p
+                    .objects
+                    .iter()
+                    .position(|o| p.objects.iter().all(|c| c.parent != Some(o.id)))
+                    .unwrap();
+                p.objects[leaf].id = SceneId(u64::MAX - 1);
+            }),
+            format!("object id {} is outside the range of ids", u64::MAX - 1),
+        ),
+    ];
+    for (name, body, expect) in cases {
+        let path = dir.join(format!("{name}.treelight"));
+        let text = ron::ser::to_string_pretty(&body, ron::ser::PrettyConfig::default()).unwrap();
+        std::fs::write(&path, text).unwrap();
+        let e = open_project(app.world_mut(), &path).expect_err(name);
+        let text = e.to_string();
+        assert!(text.contains(&path.display().to_string()), "{name}: {text}");
+        assert!(text.contains(&expect), "{name}: {text}");
+        assert_eq!(state(app.world_mut()), before, "{name} changed the scene");
+    }
+    // A command naming an id past the range makes nothing, so no project can come of it.
+    let e = apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::AddPrimitive {
+                shape: Primitive::Cube,
+                transform: TransformValue::from(Transform::IDENTITY),
+                id: Some(SceneId(u64::MAX)),
+            },
+            continuing: false,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("outside the range of ids"), "{e}");
+    // The largest id in range opens, and the ids given after it stay in range, taken by none.
+    let leaf = project
+        .objects
+        .iter()
+        .position(|o| project.objects.iter().all(|c| c.parent != Some(o.id)))
+        .unwrap();
+    let top = with(&|p| p.objects[leaf].id = SceneId::MAX);
+    let path = dir.join("top.treelight");
+    let text = ron::ser::to_string_pretty(&top, ron::ser::PrettyConfig::default()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    let start = std::time::Instant::now();
+    open_project(app.world_mut(), &path).unwrap();
+    assert!(start.elapsed().as_secs() < 30);
+    for _ in 0..3 {
+        let fresh = app
+            .world_mut()
+            .resource_mut::<treelight_document::object::SceneIndex>()
+            .allocate();
+        assert!(fresh.is_valid(), "{fresh}");
+        assert!(
+            top.objects.iter().all(|o| o.id != fresh),
+            "{fresh} is taken"
+        );
+    }
+    // The same with its source gone: the objects it held are kept, not in the scene, and their ids
+    // are still never given out.
+    let mut kept = top.clone();
+    kept.sources = vec![dir.join("gone.gltf")];
+    let path = dir.join("kept.treelight");
+    let text = ron::ser::to_string_pretty(&kept, ron::ser::PrettyConfig::default()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    // In a fresh editor, where no earlier scene held those ids.
+    let mut app = editor_world();
+    let report = open_project(app.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources.len(), 1);
+    for _ in 0..kept.objects.len() + 3 {
+        let fresh = app
+            .world_mut()
+            .resource_mut::<treelight_document::object::SceneIndex>()
+            .allocate();
+        assert!(fresh.is_valid(), "{fresh}");
+        assert!(
+            kept.objects.iter().all(|o| o.id != fresh),
+            "{fresh} is held by a kept object"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_missing_source_still_opens_and_a_save_keeps_it() {
+    let dir = temp("missing");
+    // The helmet's files copied next to the project, then removed after the save.
+    let src = dir.join("helmet");
+    std::fs::create_dir_all(&src).unwrap();
+    let from = helmet().parent().unwrap().to_owned();
+    for e in std::fs::read_dir(&from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), src.join(e.file_name())).unwrap();
+        }
+    }
+    let mut app = editor_world();
+    apply(
+        &mut app,
+        EditCommand::Import {
+            file: src.join("FlightHelmet.gltf"),
+            root: None,
+            transform: None,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::AddPrimitive {
+            shape: Primitive::Cube,
+            transform: Transform::from_xyz(0.0, 1.0, 0.0).into(),
+            id: None,
+        },
+    );
+    let path = dir.join("scene.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let saved = read_project(&path).unwrap();
+    // Inside the project's folder, the source is stored relative to it.
+    assert_eq!(
+        saved.sources,
+        vec![PathBuf::from("helmet/FlightHelmet.gltf")]
+    );
+    std::fs::remove_dir_all(&src).unwrap();
+
+    let mut fresh = editor_world();
+    let report = open_project(fresh.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources.len(), 1, "{report:?}");
+    fresh.update();
+    // The import's sun and the cube are there; the helmet's objects are kept by the project, not
+    // shown.
+    let names: Vec<String> = state(fresh.world_mut())
+        .into_values()
+        .map(|o| o.name)
+        .collect();
+    assert_eq!(names, vec!["Sun".to_string(), "Cube".to_string()]);
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    let resaved = read_project(&again).unwrap();
+    // Relinked to the files in their new place, the helmet comes back, as unsaved changes.
+    let moved = dir.join("moved");
+    std::fs::create_dir_all(&moved).unwrap();
+    for e in std::fs::read_dir(&from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), moved.join(e.file_name())).unwrap();
+        }
+    }
+    let lost = treelight_document::project::restore::missing_sources(
+        fresh.world().resource::<ProjectState>(),
+    );
+    assert_eq!(lost, vec![src.join("FlightHelmet.gltf")]);
+    let report = treelight_document::project::restore::relink_source(
+        fresh.world_mut(),
+        &lost[0],
+        &moved.join("FlightHelmet.gltf"),
+    )
+    .unwrap();
+    assert_eq!((report.missing_sources.len(), report.missing_nodes), (0, 0));
+    fresh.update();
+    let relinked = state(fresh.world_mut());
+    assert_eq!(relinked.len(), saved.objects.len(), "{relinked:?}");
+    assert!(fresh.world().resource::<EditHistory>().is_dirty());
+    assert_eq!(
+        fresh.world().resource::<ProjectState>().path.as_deref(),
+        Some(again.as_path())
+    );
+    save_project(fresh.world_mut(), &again).unwrap();
+    assert_eq!(
+        read_project(&again).unwrap().sources,
+        vec![PathBuf::from("moved/FlightHelmet.gltf")]
+    );
+    assert_eq!(
+        resaved.objects.len(),
+        saved.objects.len(),
+        "the missing objects were dropped"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A command for a random step: `kind` picks the edit, `a` and `b` the objects (by position among
+/// the current ids), `v` the numbers.
+fn random_command(
+    world: &mut World,
+    kind: u8,
+    a: usize,
+    b: usize,
+    v: [f32; 3],
+) -> Option<EditCommand> {
+    let ids: Vec<SceneId> = {
+        let mut q = world.query::<&SceneId>();
+        let mut ids: Vec<SceneId> = q.iter(world).copied().collect();
+        ids.sort();
+        ids
+    };
+    if ids.is_empty() {
+        return None;
+    }
+    let (x, y) = (ids[a % ids.len()], ids[b % ids.len()]);
+    let t = TransformValue::from(
+        Transform::from_translation(Vec3::from_array(v))
+            .with_rotation(Quat::from_rotation_y(v[0]))
+            .with_scale(Vec3::splat(1.0 + v[1].abs())),
+    );
+    let command = match kind % 12 {
+        0 => EditCommand::SetTransform {
+            id: x,
+            transform: t,
+        },
+        1 => EditCommand::Rename {
+            id: x,
+            name: format!("renamed {a}"),
+        },
+        2 => EditCommand::SetVisible {
+            id: x,
+            visible: v[2] > 0.0,
+        },
+        3 => EditCommand::Delete { ids: vec![x] },
+        4 => EditCommand::Duplicate {
+            ids: vec![x],
+            copies: vec![],
+        },
+        5 => EditCommand::Reparent {
+            ids: vec![x],
+            parent: (v[2] > -0.2).then_some(y),
+        },
+        6 => EditCommand::Group {
+            ids: vec![x, y],
+            name: "g".into(),
+            group: None,
+        },
+        7 => EditCommand::AddPrimitive {
+            shape: Primitive::ALL[a % Primitive::ALL.len()],
+            transform: t,
+            id: None,
+        },
+        8 => EditCommand::AddLight {
+            kind: if v[0] > 0.0 {
+                LightKind::Point
+            } else {
+                LightKind::Directional
+            },
+            transform: t,
+            id: None,
+        },
+        9 => {
+            let mut m = MaterialValue::of(&StandardMaterial::default());
+            m.base_color = [v[0].abs().min(1.0), 0.5, v[1].abs().min(1.0), 1.0];
+            m.perceptual_roughness = v[2].abs().min(1.0);
+            EditCommand::SetMaterial { id: x, material: m }
+        }
+        10 => EditCommand::MakeMaterialUnique { id: x },
+        _ => EditCommand::SetTransforms {
+            transforms: vec![(x, t)],
+        },
+    };
+    command.check(world).ok()?;
+    Some(command)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 10, .. Default::default() })]
+
+    /// Whatever the edits, a saved project opens as the same scene.
+    #[test]
+    fn any_edited_scene_round_trips_through_a_project(
+        steps in proptest::collection::vec(
+            (0u8..12, 0usize..64, 0usize..64, proptest::array::uniform3(-1.0f32..1.0)),
+            1..20,
+        )
+    ) {
+        let mut app = editor_world();
+        apply(&mut app, EditCommand::Import { file: helmet(), root: None, transform: None });
+        for (kind, a, b, v) in steps {
+            if let Some(c) = random_command(app.world_mut(), kind, a, b, v) {
+                apply(&mut app, c);
+            }
+        }
+        let before = state(app.world_mut());
+        let dir = temp("random");
+        let path = dir.join(format!("{}.treelight", before.len()));
+        save_project(app.world_mut(), &path).unwrap();
+        let mut fresh = editor_world();
+        let report = open_project(fresh.world_mut(), &path).unwrap();
+        proptest::prop_assert_eq!(report.missing_nodes, 0);
+        fresh.update();
+        proptest::prop_assert_eq!(state(fresh.world_mut()), before);
+        std::fs::remove_file(&path).ok();
+    }
+}
+
+#[test]
+fn a_failed_autosave_is_shown_and_retried_and_a_save_leaves_no_copy() {
+    use treelight_document::project::autosave::Autosave;
+    use treelight_document::project::autosave::autosave;
+    use treelight_document::project::autosave::recovery_beside;
+    let dir = temp("autosave");
+    let mut app = edited_scene();
+    // The project's folder is a file for now, so the recovery copy cannot be written beside it.
+    let folder = dir.join("work");
+    std::fs::write(&folder, "not a folder").unwrap();
+    let project = folder.join("house.treelight");
+    let copy = recovery_beside(&project);
+    let world = app.world_mut();
+    world.resource_mut::<ProjectState>().path = Some(project.clone());
+    let mut auto = Autosave::default();
+    auto.interval = std::time::Duration::from_millis(20);
+    world.insert_resource(auto);
+    let run_until = |world: &mut World, what: &str, done: &dyn Fn(&World) -> bool| {
+        let start = std::time::Instant::now();
+        while !done(world) {
+            assert!(start.elapsed().as_secs() < 30, "{what} never happened");
+            autosave(world);
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    };
+    run_until(world, "the failure", &|w| {
+        w.resource::<Autosave>().failing.is_some()
+    });
+    let notices = world.resource::<treelight_document::notice::Notices>();
+    assert!(
+        notices
+            .0
+            .iter()
+            .any(|n| n.text.contains("autosave failed") && n.text.contains("work")),
+        "{:?}",
+        notices.0
+    );
+    assert!(!copy.exists());
+    // Once the folder can hold it, the next try writes the copy.
+    std::fs::remove_file(&folder).unwrap();
+    std::fs::create_dir_all(&folder).unwrap();
+    run_until(world, "the retry", &|w| {
+        w.resource::<Autosave>().failing.is_none() && copy.exists()
+    });
+    // A save makes the copy stale: it is removed.
+    world.resource_mut::<EditHistory>().mark_saved();
+    autosave(world);
+    assert!(!copy.exists(), "the stale copy was left");
+    // Unsaved again, copied again; quitting with the changes discarded removes the copy too.
+    world.resource_mut::<EditHistory>().mark_unsaved();
+    run_until(world, "the second copy", &|_| copy.exists());
+    world
+        .resource_mut::<treelight_document::project::requests::ProjectRequests>()
+        .0
+        .push(treelight_document::project::requests::ProjectRequest::Quit);
+    app.update();
+    assert!(
+        !copy.exists(),
+        "a discarded scene's copy was left to be offered"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,25 @@
+//! The editor shell: one folder and plugin per feature, each answering the document core
+//! (`treelight_document`) and never reached into by it.
+
+pub mod assets;
+pub mod files;
+pub mod input;
+pub mod panels;
+pub mod viewport;
+
+use bevy::prelude::*;
+
+/// Every feature of the editor shell.
+pub struct EditorPlugin;
+
+impl Plugin for EditorPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins((
+            input::InputPlugin,
+            viewport::ViewportPlugin,
+            panels::PanelsPlugin,
+            assets::AssetsPlugin,
+            files::FilesPlugin,
+        ));
+    }
+}

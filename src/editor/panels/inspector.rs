@@ -1,0 +1,302 @@
+//! The inspector: the active object's name, transform and material. Every change leaves as a
+//! command; the changes of one drag of a field, or one text field's typing, continue one step.
+
+use treelight_document::edit::command::EditCommand;
+
+use treelight_document::edit::history::EditRequest;
+
+use crate::editor::panels::object_item::Objects;
+use crate::editor::viewport::selection::Selection;
+use bevy::ecs::system::SystemParam;
+use bevy::prelude::*;
+use bevy_egui::egui;
+use bevy_egui::{EguiTextureHandle, EguiUserTextures};
+use treelight_document::edit::command::MaterialValue;
+use treelight_document::edit::history::EditRequests;
+use treelight_document::object::SceneId;
+use treelight_document::object::SceneObject;
+
+/// The active object's material as the inspector shows it.
+#[derive(Clone, PartialEq)]
+pub struct MaterialView {
+    /// Its values.
+    pub value: MaterialValue,
+    /// How many scene objects use it.
+    pub users: usize,
+    /// Its base-colour texture, registered with egui, and the texture's size in pixels.
+    pub texture: Option<(egui::TextureId, UVec2)>,
+}
+
+/// Editable copy of the active object's properties; compared with the original after the UI, so
+/// an untouched inspector sends nothing.
+#[derive(Clone, PartialEq)]
+pub struct InspectorState {
+    /// The object.
+    pub id: SceneId,
+    /// Its name.
+    pub name: String,
+    /// Its position relative to its parent.
+    pub translation: Vec3,
+    /// Its rotation as Euler angles (Y, X, Z order), degrees.
+    pub rotation_deg: Vec3,
+    /// Its scale.
+    pub scale: Vec3,
+    /// Its material, for a mesh.
+    pub material: Option<MaterialView>,
+    /// How many objects are selected.
+    pub selected: usize,
+}
+
+impl InspectorState {
+    /// The state of object `id` with `name` and local transform `t`.
+    pub fn new(id: SceneId, name: &str, t: &Transform) -> Self {
+        let (y, x, z) = t.rotation.to_euler(EulerRot::YXZ);
+        Self {
+            id,
+            name: name.to_owned(),
+            translation: t.translation,
+            rotation_deg: Vec3::new(x, y, z).map(f32::to_degrees),
+            scale: t.scale,
+            material: None,
+            selected: 1,
+        }
+    }
+
+    fn transform(&self) -> Transform {
+        let r = self.rotation_deg.map(f32::to_radians);
+        Transform {
+            translation: self.translation,
+            rotation: Quat::from_euler(EulerRot::YXZ, r.y, r.x, r.z),
+            scale: self.scale,
+        }
+    }
+}
+
+/// The inspector panel. `make_unique` is set when the user asks for the material to be the
+/// object's own.
+pub fn inspector_ui(ui: &mut egui::Ui, state: Option<&mut InspectorState>, make_unique: &mut bool) {
+    let Some(state) = state else {
+        ui.weak("Select an object in the viewport or the outliner.");
+        return;
+    };
+    if state.selected > 1 {
+        ui.weak(format!(
+            "{} objects selected; showing the active one.",
+            state.selected
+        ));
+    }
+    egui::Grid::new("inspector")
+        .num_columns(2)
+        .spacing([8.0, 6.0])
+        .show(ui, |ui| {
+            ui.label("Name");
+            ui.text_edit_singleline(&mut state.name);
+            ui.end_row();
+            vec3_row(ui, "Translation", &mut state.translation, 0.05);
+            vec3_row(ui, "Rotation (°)", &mut state.rotation_deg, 1.0);
+            vec3_row(ui, "Scale", &mut state.scale, 0.01);
+        });
+    let Some(material) = state.material.as_mut() else {
+        return;
+    };
+    ui.separator();
+    ui.horizontal(|ui| {
+        ui.strong("Material");
+        if material.users > 1 {
+            ui.weak(format!("shared by {} objects", material.users));
+            if ui
+                .button("Make unique")
+                .on_hover_text(
+                    "Give this object its own copy, so edits no longer change the others",
+                )
+                .clicked()
+            {
+                *make_unique = true;
+            }
+        }
+    });
+    let v = &mut material.value;
+    egui::Grid::new("material")
+        .num_columns(2)
+        .spacing([8.0, 6.0])
+        .show(ui, |ui| {
+            ui.label("Base colour");
+            ui.horizontal(|ui| {
+                let [r, g, b, a] = v
+                    .base_color
+                    .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+                let mut srgba = egui::Color32::from_rgba_unmultiplied(r, g, b, a);
+                if egui::color_picker::color_edit_button_srgba(
+                    ui,
+                    &mut srgba,
+                    egui::color_picker::Alpha::OnlyBlend,
+                )
+                .changed()
+                {
+                    v.base_color = srgba.to_srgba_unmultiplied().map(|c| c as f32 / 255.0);
+                }
+                if let Some((texture, size)) = material.texture {
+                    let h = 48.0;
+                    let w = h * size.x as f32 / size.y.max(1) as f32;
+                    ui.add(egui::Image::new((texture, egui::vec2(w.min(160.0), h))))
+                        .on_hover_text(format!(
+                            "Base-colour texture, {} × {} pixels; the colour multiplies it",
+                            size.x, size.y
+                        ));
+                }
+            });
+            ui.end_row();
+            ui.label("Metallic");
+            ui.add(egui::Slider::new(&mut v.metallic, 0.0..=1.0));
+            ui.end_row();
+            ui.label("Roughness");
+            ui.add(egui::Slider::new(&mut v.perceptual_roughness, 0.0..=1.0));
+            ui.end_row();
+            // Emission as a colour and a strength (the material stores their product).
+            let strength = v.emissive.iter().copied().fold(0.0f32, f32::max);
+            let mut colour = if strength > 0.0 {
+                v.emissive.map(|c| c / strength)
+            } else {
+                [1.0; 3]
+            };
+            let mut new_strength = strength;
+            ui.label("Emission");
+            ui.horizontal(|ui| {
+                ui.color_edit_button_rgb(&mut colour);
+                ui.add(
+                    egui::DragValue::new(&mut new_strength)
+                        .speed(0.1)
+                        .range(0.0..=1.0e5)
+                        .prefix("strength "),
+                );
+            });
+            ui.end_row();
+            if new_strength != strength
+                || (strength > 0.0 && colour != v.emissive.map(|c| c / strength))
+            {
+                v.emissive = colour.map(|c| c * new_strength);
+            }
+            ui.label("Double-sided");
+            ui.checkbox(&mut v.double_sided, "");
+            ui.end_row();
+        });
+}
+
+fn vec3_row(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f32) {
+    ui.label(label);
+    ui.horizontal(|ui| {
+        for (axis, c) in ["x", "y", "z"]
+            .into_iter()
+            .zip([&mut v.x, &mut v.y, &mut v.z])
+        {
+            ui.label(axis);
+            ui.add(egui::DragValue::new(c).speed(speed).max_decimals(3));
+        }
+    });
+    ui.end_row();
+}
+
+/// The requests for what changed between `before` and `after`; `continuing` merges them into
+/// the step the same widget's gesture began.
+pub fn changes(
+    before: &InspectorState,
+    after: &InspectorState,
+    continuing: bool,
+) -> Vec<EditRequest> {
+    let mut out = Vec::new();
+    let id = after.id;
+    let mut push = |command| {
+        out.push(EditRequest::Apply {
+            command,
+            continuing,
+        })
+    };
+    if before.name != after.name {
+        push(EditCommand::Rename {
+            id,
+            name: after.name.clone(),
+        });
+    }
+    if (before.translation, before.rotation_deg, before.scale)
+        != (after.translation, after.rotation_deg, after.scale)
+    {
+        push(EditCommand::SetTransform {
+            id,
+            transform: after.transform().into(),
+        });
+    }
+    if let (Some(a), Some(b)) = (&before.material, &after.material)
+        && a.value != b.value
+    {
+        push(EditCommand::SetMaterial {
+            id,
+            material: b.value,
+        });
+    }
+    out
+}
+
+/// What the inspector tab reads and changes.
+#[derive(SystemParam)]
+pub struct InspectorAccess<'w, 's> {
+    selection: Res<'w, Selection>,
+    objects: Objects<'w, 's>,
+    materials: Res<'w, Assets<StandardMaterial>>,
+    images: Res<'w, Assets<Image>>,
+    material_of: Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>, With<SceneObject>>,
+    requests: ResMut<'w, EditRequests>,
+    textures: ResMut<'w, EguiUserTextures>,
+    /// The widget whose drag or typing made the last request, to merge what it does next.
+    gesture: Local<'s, Option<egui::Id>>,
+}
+
+/// The inspector's copy of the active object, with its material and how many objects share it.
+fn inspected(access: &mut InspectorAccess) -> Option<InspectorState> {
+    let e = access.selection.active()?;
+    let o = access.objects.get(e).ok()?;
+    let mut state = InspectorState::new(*o.id, o.name.as_str(), o.transform);
+    state.selected = access.selection.entities().len();
+    if let Ok(handle) = access.material_of.get(e)
+        && let Some(m) = access.materials.get(&handle.0)
+    {
+        let users = access
+            .material_of
+            .iter()
+            .filter(|h| h.0.id() == handle.0.id())
+            .count();
+        let texture = m.base_color_texture.as_ref().and_then(|t| {
+            let size = access.images.get(t)?.size();
+            let id = access.textures.add_image(EguiTextureHandle::Weak(t.id()));
+            Some((id, size))
+        });
+        state.material = Some(MaterialView {
+            value: MaterialValue::of(m),
+            users,
+            texture,
+        });
+    }
+    Some(state)
+}
+
+/// Draws the inspector tab into `ui` and turns what the user changed into edit requests (a drag
+/// or typing in one field merges into one step).
+pub fn inspector_tab(InMut(ui): InMut<egui::Ui>, mut access: InspectorAccess) {
+    let original = inspected(&mut access);
+    let mut edited = original.clone();
+    let mut make_unique = false;
+    inspector_ui(ui, edited.as_mut(), &mut make_unique);
+    if make_unique && let Some(state) = &original {
+        access
+            .requests
+            .apply(EditCommand::MakeMaterialUnique { id: state.id });
+    }
+    let ctx = ui.ctx();
+    let active = ctx.dragged_id().or_else(|| ctx.memory(|m| m.focused()));
+    if let (Some(before), Some(after)) = (&original, &edited)
+        && before != after
+    {
+        let continuing = active.is_some() && *access.gesture == active;
+        access.requests.0.extend(changes(before, after, continuing));
+    }
+    *access.gesture = active;
+}

@@ -1,0 +1,52 @@
+//! The editor's panels: the window's frame and dock ([`dock`], its layout in [`layout`]), the menu
+//! bar ([`menus`]), the status bar ([`status_bar`]), the outliner ([`outliner`]), the inspector
+//! ([`inspector`]), the history ([`history`]) and notices ([`notices`]); what every panel reads of
+//! an object ([`object_item`]), where named widgets are ([`widget_rects`]) and the scene threads'
+//! health ([`worker_watch`]).
+
+pub mod dock;
+pub mod history;
+pub mod inspector;
+pub mod layout;
+pub mod menus;
+pub mod notices;
+pub mod object_item;
+pub mod outliner;
+pub mod status_bar;
+pub mod widget_rects;
+pub mod worker_watch;
+
+use bevy::prelude::*;
+
+/// The systems that draw the editor's UI and act on it, in egui's pass.
+#[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
+pub struct EditorUi;
+
+/// The panels, the menus, the status bar and the state they keep.
+pub struct PanelsPlugin;
+
+impl Plugin for PanelsPlugin {
+    fn build(&self, app: &mut App) {
+        use crate::editor::files::file_menu::file_dialogs;
+        use crate::editor::viewport::actions::apply_viewport_actions;
+        app.add_plugins(worker_watch::WorkerWatchPlugin)
+            .add_message::<menus::MenuAction>()
+            .init_resource::<layout::EditorDock>()
+            .init_resource::<outliner::OutlinerState>()
+            .init_resource::<outliner::OutlinerCache>()
+            .init_resource::<widget_rects::WidgetRects>()
+            .add_systems(
+                bevy_egui::EguiPrimaryContextPass,
+                (
+                    outliner::invalidate_outliner,
+                    dock::draw_editor,
+                    notices::show_notices,
+                    menus::apply_menu_actions,
+                    file_dialogs,
+                    apply_viewport_actions,
+                )
+                    .chain()
+                    .in_set(EditorUi),
+            );
+    }
+}

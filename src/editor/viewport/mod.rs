@@ -1,0 +1,42 @@
+//! The viewport: its tab ([`tab`], drawn by [`panel`]) and what is done there ([`actions`]: picking
+//! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
+//! ([`selection`]), the render mode ([`render_mode`]), where added things go ([`place`]) and files
+//! dropped on the window ([`drop`], [`x11_pointer`]).
+
+pub mod actions;
+pub mod camera;
+pub mod drop;
+pub mod gizmo;
+pub mod panel;
+pub mod place;
+pub mod render_mode;
+pub mod selection;
+pub mod tab;
+pub mod x11_pointer;
+
+use bevy::prelude::*;
+
+/// The camera, the gizmo, the selection, the render mode and drops on the window.
+pub struct ViewportPlugin;
+
+impl Plugin for ViewportPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins((
+            camera::CameraPlugin,
+            gizmo::GizmoPlugin,
+            selection::SelectionPlugin,
+        ))
+        .init_resource::<tab::ViewportRect>()
+        .init_resource::<panel::ViewportInteraction>()
+        .init_resource::<panel::ViewportActions>()
+        .add_systems(Startup, render_mode::adapt_to_adapter)
+        .add_systems(
+            Update,
+            (
+                drop::import_dropped_files,
+                render_mode::apply_viewport_render,
+                tab::fit_camera_viewport,
+            ),
+        );
+    }
+}

@@ -1,0 +1,75 @@
+//! The viewport's render mode: rasterised by Bevy, path traced, or one of the path tracer's debug
+//! views. The choice lives in a resource the UI edits; a system puts it on the camera.
+
+use crate::editor::viewport::camera::OrbitCamera;
+use bevy::prelude::*;
+use bevy::render::renderer::RenderAdapterInfo;
+use treelight_render::{DebugView, PathTraced};
+
+/// How the viewport is drawn.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct ViewportRender {
+    /// `None`: Bevy's rasteriser; otherwise the path tracer showing this view.
+    pub traced: Option<DebugView>,
+    /// The path tracer's settings for the viewport camera.
+    pub settings: PathTraced,
+}
+
+impl Default for ViewportRender {
+    fn default() -> Self {
+        Self {
+            traced: Some(DebugView::PathTraced),
+            settings: PathTraced::default(),
+        }
+    }
+}
+
+impl ViewportRender {
+    /// The modes the switch offers, in order: raster first, then every path-traced view.
+    pub fn modes() -> impl Iterator<Item = Option<DebugView>> {
+        std::iter::once(None).chain(DebugView::ALL.into_iter().map(Some))
+    }
+
+    /// A name for a mode.
+    pub fn label(mode: Option<DebugView>) -> &'static str {
+        mode.map_or("Raster", DebugView::label)
+    }
+}
+
+/// On a software adapter (llvmpipe, WARP) path tracing every viewport pixel takes seconds a frame;
+/// tracing a quarter of them keeps the preview interactive.
+pub fn adapt_to_adapter(
+    adapter: Option<Res<RenderAdapterInfo>>,
+    mut render: ResMut<ViewportRender>,
+) {
+    if adapter.is_some_and(|a| a.device_type == wgpu_types::DeviceType::Cpu) {
+        render.settings.resolution_scale = 0.5;
+        info!("software adapter: the viewport is path traced at half resolution");
+    }
+}
+
+/// Puts the chosen mode on the viewport camera.
+pub fn apply_viewport_render(
+    mut commands: Commands,
+    render: Res<ViewportRender>,
+    cameras: Query<(Entity, Option<&PathTraced>), With<OrbitCamera>>,
+) {
+    for (e, current) in &cameras {
+        match render.traced {
+            None => {
+                if current.is_some() {
+                    commands.entity(e).remove::<PathTraced>();
+                }
+            }
+            Some(view) => {
+                let wanted = PathTraced {
+                    view,
+                    ..render.settings
+                };
+                if current != Some(&wanted) {
+                    commands.entity(e).insert(wanted);
+                }
+            }
+        }
+    }
+}
