@@ -49,6 +49,10 @@ pub struct Cli {
     /// editor as a slow adapter runs it).
     #[arg(long, value_name = "FPS")]
     pub max_fps: Option<f32>,
+    /// Bind at most this many MiB per GPU storage buffer, as an adapter with a smaller limit would
+    /// (the path tracer then turns itself off for a scene that needs more, and says so).
+    #[arg(long, value_name = "MIB")]
+    pub gpu_binding_limit: Option<u32>,
 }
 
 /// What `treelight` can do without opening its window.

@@ -1,14 +1,19 @@
 //! Treelight, the editor: a Bevy scene editor whose viewport is a live path-traced preview.
 //! The binary `treelight` parses the command line and runs [`build_app`].
 
+#![warn(missing_docs)]
+
 pub mod capture;
 pub mod cli;
 pub mod editor;
+pub mod render_errors;
 pub mod report;
 pub mod system_errors;
 
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
+use bevy::render::RenderPlugin;
+use bevy::render::settings::{RenderCreation, WgpuLimits, WgpuSettings};
 use bevy_egui::EguiPlugin;
 use editor::viewport::render_mode::ViewportRender;
 use treelight_document::DocumentPlugin;
@@ -47,16 +52,32 @@ pub fn build_app(cli: &cli::Cli) -> App {
 /// start with its error).
 pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
-    app.add_plugins(DefaultPlugins.set(task_pools()).set(WindowPlugin {
-        primary_window: Some(Window {
-            title: "Treelight".into(),
-            resolution: bevy::window::WindowResolution::new(cli.width, cli.height),
+    let mut wgpu = WgpuSettings::default();
+    if let Some(mib) = cli.gpu_binding_limit {
+        wgpu.constrained_limits = Some(WgpuLimits {
+            max_storage_buffer_binding_size: u64::from(mib) << 20,
             ..default()
-        }),
-        // Closing asks first when there are unsaved changes (editor::files::file_menu).
-        close_when_requested: false,
+        });
+    }
+    let render = RenderPlugin {
+        render_creation: RenderCreation::Automatic(Box::new(wgpu)),
         ..default()
-    }))
+    };
+    app.add_plugins(
+        DefaultPlugins
+            .set(task_pools())
+            .set(render)
+            .set(WindowPlugin {
+                primary_window: Some(Window {
+                    title: "Treelight".into(),
+                    resolution: bevy::window::WindowResolution::new(cli.width, cli.height),
+                    ..default()
+                }),
+                // Closing asks first when there are unsaved changes (editor::files::file_menu).
+                close_when_requested: false,
+                ..default()
+            }),
+    )
     .add_plugins((
         EguiPlugin::default(),
         FrameTimeDiagnosticsPlugin::default(),
@@ -74,6 +95,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     ))
     // Errors of systems and commands are reported, not fatal (`system_errors`).
     .set_error_handler(system_errors::report_error)
+    // GPU errors are reported, not fatal (`render_errors`).
+    .insert_resource(render_errors::handler())
     .add_systems(Last, system_errors::show_system_errors)
     .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
     .insert_resource(FrameCap(

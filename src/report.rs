@@ -89,9 +89,15 @@ pub struct EditorState {
     /// report), in milliseconds of wall time on the main thread.
     #[serde(default)]
     pub main_ms: f32,
-    /// Of that, the editor's UI system (panels, menus, the viewport's input and overlay).
+    /// Of that, the editor's UI systems (panels, menus, the viewport's input and overlay).
     #[serde(default)]
     pub ui_ms: f32,
+    /// How the viewport is drawn: "Raster" or the path tracer's view.
+    #[serde(default)]
+    pub view: String,
+    /// The notices shown, oldest first.
+    #[serde(default)]
+    pub notices: Vec<String>,
 }
 
 /// Times the main world's frame and the editor's UI for the report.
@@ -195,7 +201,11 @@ pub fn write_state_report(
     project: Res<treelight_document::project::format::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
     files: Res<crate::editor::files::file_menu::FileUi>,
-    clock: Option<Res<MainThreadClock>>,
+    (clock, render, notices): (
+        Option<Res<MainThreadClock>>,
+        Res<crate::editor::viewport::render_mode::ViewportRender>,
+        Res<treelight_document::notice::Notices>,
+    ),
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -279,6 +289,8 @@ pub fn write_state_report(
         },
         main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
         ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
+        view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
+        notices: notices.0.iter().map(|n| n.text.clone()).collect(),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

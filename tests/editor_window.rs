@@ -544,3 +544,41 @@ fn save_runs_without_a_display() {
     assert!(!nothing.exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_editor() {
+    use treelight::report::EditorState;
+    // FlightHelmet's 94,722 triangles need several MiB of triangle records; an adapter binding at
+    // most 1 MiB per buffer cannot hold them for the path tracer.
+    let dir = temp_dir("binding-limit");
+    let state = dir.join("state.ron");
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let out = run_editor(&[
+        helmet.to_str().unwrap(),
+        "--gpu-binding-limit",
+        "1",
+        "--frames",
+        "40",
+        "--state",
+        state.to_str().unwrap(),
+    ]);
+    assert!(!out.contains("Quitting the application"), "{out}");
+    let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+    // The editor ran all its frames with the scene whole, shown rasterised, and said why.
+    assert!(s.frame >= 30, "{out}");
+    assert!(
+        s.objects.iter().filter(|o| o.mesh).count() >= 6,
+        "{:?}",
+        s.objects
+    );
+    assert_eq!(s.view, "Raster");
+    assert!(
+        s.notices
+            .iter()
+            .any(|n| n.contains("Path tracing is off") && n.contains("binds at most 1 MiB")),
+        "{:?}",
+        s.notices
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -5,6 +5,8 @@
 //! restore a project's view) leaves as [`outbox::DocumentEvent`] messages; the core never reaches
 //! into whoever shows it.
 
+#![warn(missing_docs)]
+
 pub mod app;
 pub mod atomic_file;
 pub mod contain;

@@ -35,7 +35,8 @@ pub use records::{
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
-    BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
+    BufferKind, BufferWrite, UploadPlan, grown_capacity, grown_capacity_within, instance_bytes,
+    node_bytes, triangle_bytes,
 };
 
 use bevy::camera::{Camera, Hdr};
@@ -271,6 +272,9 @@ pub struct PathTracerFigures {
     pub traces: HashMap<Entity, TraceFigures>,
     /// Whether the GPU copy has caught up with the scene at least once.
     pub scene_ready: bool,
+    /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
+    /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
+    pub trace_off: Option<String>,
 }
 
 /// One path-traced camera's latest frame under its budget.

@@ -9,7 +9,7 @@ use crate::pipelines::PathTracerPipelines;
 use crate::records::{ResolveParams, TraceWork, VIEW_BYTES, ViewParams};
 use crate::texture_layers::TextureLayers;
 use crate::timing::TraceTimer;
-use crate::upload::{BufferKind, grown_capacity};
+use crate::upload::{BufferKind, grown_capacity, grown_capacity_within};
 use crate::{DebugView, OutlineStyle, PathTraced, PathTracerStats, TraceFigures};
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
@@ -72,6 +72,9 @@ pub(crate) struct GpuScene {
     outline_version: u64,
     /// World-space bounds of the outlined meshes; `None` when unknown.
     outline_bounds: Option<[Vec3; 2]>,
+    /// Why the scene cannot be traced on this adapter (a buffer larger than it can bind), once
+    /// that happened: nothing is bound or written from then on, and no view is traced.
+    pub too_large: Option<String>,
 }
 
 fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
@@ -124,6 +127,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
         outline_slots: 0,
         outline_version: 0,
         outline_bounds: None,
+        too_large: None,
     });
 }
 
@@ -137,13 +141,34 @@ fn apply_scene_uploads(
 ) {
     let pending = std::mem::take(&mut sync.pending);
     let scene = &mut *scene;
+    if scene.too_large.is_some() {
+        return;
+    }
+    // One binding holds one buffer: a buffer grows up to what the adapter binds, never past it.
+    let limits = device.limits();
+    let max_bytes = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
     let mut grown = Vec::new();
     for (i, &kind) in BufferKind::ALL.iter().enumerate() {
         let need = pending.needed[i];
         if need <= scene.capacities[i] {
             continue;
         }
-        let cap = grown_capacity(scene.capacities[i], need);
+        let max_records = max_bytes / kind.record_bytes();
+        let Some(cap) = grown_capacity_within(scene.capacities[i], need, max_records) else {
+            let why = format!(
+                "the scene's {} need {} MiB in one buffer and this adapter binds at most {} MiB",
+                kind.label(),
+                (need * kind.record_bytes()).div_ceil(1 << 20),
+                max_bytes >> 20
+            );
+            error!("treelight: path tracing stops: {why}");
+            scene.too_large = Some(why.clone());
+            scene.bind_group = None;
+            stats.update(|f| f.trace_off = Some(why));
+            return;
+        };
         let bigger = create(&device, kind, cap);
         grown.push((
             std::mem::replace(&mut scene.buffers[i], bigger),
@@ -231,7 +256,9 @@ fn prepare_scene_bind_group(
     let (Some(layers), Some(pipelines)) = (layers, pipelines) else {
         return;
     };
-    if scene.bind_group.is_some() && scene.bound_array == layers.array_version {
+    if scene.too_large.is_some()
+        || (scene.bind_group.is_some() && scene.bound_array == layers.array_version)
+    {
         return;
     }
     let layout = pipeline_cache.get_bind_group_layout(&pipelines.scene_layout);
@@ -494,6 +521,13 @@ fn prepare_views(
     let (Some(pipelines), Some(layers)) = (pipelines, layers) else {
         return;
     };
+    if scene.too_large.is_some() {
+        return;
+    }
+    let limits = device.limits();
+    let max_bytes = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
     let trace_ready = pipeline_cache
         .get_compute_pipeline(pipelines.trace)
         .is_some()
@@ -513,6 +547,21 @@ fn prepare_views(
             .round()
             .as_uvec2()
             .max(UVec2::ONE);
+        // The accumulation, a view's largest buffer, is one binding too.
+        let view_bytes = size.x as u64 * size.y as u64 * 16;
+        if view_bytes > max_bytes {
+            let why = format!(
+                "a {}×{} view needs {} MiB in one buffer and this adapter binds at most {} MiB",
+                size.x,
+                size.y,
+                view_bytes.div_ceil(1 << 20),
+                max_bytes >> 20
+            );
+            stats.update(|f| {
+                f.trace_off.get_or_insert(why);
+            });
+            continue;
+        }
         let clip_from_world = extracted.clip_from_world.unwrap_or_else(|| {
             extracted.clip_from_view * extracted.world_from_view.affine().inverse()
         });

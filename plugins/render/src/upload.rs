@@ -44,6 +44,18 @@ impl BufferKind {
         self as usize
     }
 
+    /// What the buffer holds, for messages.
+    pub fn label(self) -> &'static str {
+        match self {
+            BufferKind::Nodes => "tree nodes",
+            BufferKind::Triangles => "triangles",
+            BufferKind::Instances => "instances",
+            BufferKind::Attributes => "shading records",
+            BufferKind::Objects => "object records",
+            BufferKind::Lights => "lights",
+        }
+    }
+
     /// Bytes of one record.
     pub fn record_bytes(self) -> u64 {
         match self {
@@ -77,6 +89,12 @@ pub struct UploadPlan {
     pub writes: Vec<BufferWrite>,
     /// The root reference.
     pub root: u32,
+}
+
+/// [`grown_capacity`], never past `max` records: `None` when even `needed` is more than `max` (the
+/// adapter cannot bind a buffer that large).
+pub fn grown_capacity_within(current: u64, needed: u64, max: u64) -> Option<u64> {
+    (needed <= max).then(|| grown_capacity(current, needed).min(max).max(needed))
 }
 
 /// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).

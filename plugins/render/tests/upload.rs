@@ -2,7 +2,9 @@
 
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, Triangle};
-use treelight_render::{BufferKind, UploadPlan, instance_bytes, node_bytes, triangle_bytes};
+use treelight_render::{
+    BufferKind, UploadPlan, grown_capacity_within, instance_bytes, node_bytes, triangle_bytes,
+};
 
 fn grid(n: usize, offset: f32) -> Vec<Triangle> {
     (0..n)
@@ -148,4 +150,15 @@ fn growth_doubles() {
     assert_eq!(treelight_render::grown_capacity(0, 10), 1024);
     assert_eq!(treelight_render::grown_capacity(1024, 1025), 2048);
     assert_eq!(treelight_render::grown_capacity(1024, 5000), 8192);
+}
+
+#[test]
+fn buffers_grow_by_doubling_up_to_what_the_adapter_binds_and_no_further() {
+    // Room to double.
+    assert_eq!(grown_capacity_within(1024, 3000, 1 << 20), Some(4096));
+    // Doubling would pass the limit: the buffer stops at the limit, which still holds the records.
+    assert_eq!(grown_capacity_within(1024, 3000, 3500), Some(3500));
+    assert_eq!(grown_capacity_within(2048, 3500, 3500), Some(3500));
+    // More records than one binding holds: no buffer at all.
+    assert_eq!(grown_capacity_within(1024, 5000, 4000), None);
 }

@@ -173,7 +173,11 @@ impl FileDialog {
                 ui.horizontal(|ui| {
                     ui.label("Name");
                     let r = ui.add(egui::TextEdit::singleline(&mut self.name).desired_width(300.0));
-                    if std::mem::take(&mut self.focus_name) {
+                    // Taken once the keys that opened the dialog are up: a chord's letter arriving
+                    // late must not be typed into the name.
+                    let keys_up = ui.input(|i| i.keys_down.is_empty() && i.modifiers.is_none());
+                    if self.focus_name && keys_up {
+                        self.focus_name = false;
                         r.request_focus();
                     }
                     if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {

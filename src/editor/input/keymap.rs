@@ -41,6 +41,14 @@ pub enum Action {
     ScaleMode,
     /// Frame the selection.
     Frame,
+    /// Frame everything, from above at an angle.
+    FrameAll,
+    /// Look from the front.
+    ViewFront,
+    /// Look from the side.
+    ViewSide,
+    /// Look from the top.
+    ViewTop,
     /// Rename the active object in the outliner.
     Rename,
     /// Cancel the drag in progress, else clear the selection.
@@ -81,6 +89,10 @@ pub const KEYMAP: &[Binding] = &[
     bind(Action::RotateMode, KeyCode::KeyE, Modifiers::NONE),
     bind(Action::ScaleMode, KeyCode::KeyR, Modifiers::NONE),
     bind(Action::Frame, KeyCode::KeyF, Modifiers::NONE),
+    bind(Action::FrameAll, KeyCode::Home, Modifiers::NONE),
+    bind(Action::ViewFront, KeyCode::Digit1, Modifiers::NONE),
+    bind(Action::ViewSide, KeyCode::Digit3, Modifiers::NONE),
+    bind(Action::ViewTop, KeyCode::Digit7, Modifiers::NONE),
     bind(Action::Rename, KeyCode::F2, Modifiers::NONE),
     bind(Action::Cancel, KeyCode::Escape, Modifiers::NONE),
 ];
@@ -105,6 +117,10 @@ impl Action {
             Action::RotateMode => "Gizmo: rotate",
             Action::ScaleMode => "Gizmo: scale",
             Action::Frame => "Frame the selection",
+            Action::FrameAll => "Frame everything, from above at an angle",
+            Action::ViewFront => "Front view",
+            Action::ViewSide => "Side view",
+            Action::ViewTop => "Top view",
             Action::Rename => "Rename (in the outliner)",
             Action::Cancel => "Cancel the drag, else clear the selection",
         }
@@ -155,7 +171,11 @@ fn key_name(key: KeyCode) -> String {
         KeyCode::Escape => "Esc".into(),
         other => {
             let debug = format!("{other:?}");
-            debug.strip_prefix("Key").unwrap_or(&debug).to_owned()
+            debug
+                .strip_prefix("Key")
+                .or_else(|| debug.strip_prefix("Digit"))
+                .unwrap_or(&debug)
+                .to_owned()
         }
     }
 }
@@ -193,8 +213,10 @@ mod tests {
                 );
             }
         }
+        assert_eq!(Action::FrameAll.keys(), "Home");
+        assert_eq!(Action::ViewTop.keys(), "7");
         // Every action has a key.
-        assert_eq!(Action::all().len(), 18);
+        assert_eq!(Action::all().len(), 22);
     }
 
     #[test]

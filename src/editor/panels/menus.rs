@@ -9,7 +9,7 @@ use crate::editor::files::file_menu::{FileUi, RecentProjects};
 use crate::editor::input::keymap::Action;
 use crate::editor::input::shortcuts::EditClipboard;
 use crate::editor::panels::layout::EditorDock;
-use crate::editor::viewport::camera::{FrameRequest, OrbitCamera};
+use crate::editor::viewport::camera::{OrbitCamera, ViewChange, ViewRequest};
 use crate::editor::viewport::gizmo::GizmoMode;
 use crate::editor::viewport::gizmo::GizmoSettings;
 use crate::editor::viewport::gizmo::GizmoSpace;
@@ -78,8 +78,8 @@ pub enum MenuAction {
     SelectNone,
     /// Add → a shape.
     Add(Primitive),
-    /// View → Frame selection.
-    FrameSelection,
+    /// View → a framing or a view direction.
+    View(ViewChange),
     /// View → Reset layout.
     ResetLayout,
     /// An entry of the File menu.
@@ -292,9 +292,12 @@ fn view_menu(
         };
     }
     ui.separator();
-    let button = egui::Button::new("Frame selection").shortcut_text(Action::Frame.keys());
-    if ui.add_enabled(has_selection, button).clicked() {
-        action = Some(MenuAction::FrameSelection);
+    for change in ViewChange::ALL {
+        let button = egui::Button::new(change.label()).shortcut_text(change.action().keys());
+        let enabled = has_selection || change != ViewChange::FrameSelection;
+        if ui.add_enabled(enabled, button).clicked() {
+            action = Some(MenuAction::View(change));
+        }
     }
     if ui
         .button("Reset panel layout")
@@ -365,7 +368,7 @@ pub struct MenuTargets<'w, 's> {
     requests: ResMut<'w, EditRequests>,
     clipboard: ResMut<'w, EditClipboard>,
     index: Res<'w, SceneIndex>,
-    frame: ResMut<'w, FrameRequest>,
+    view: ResMut<'w, ViewRequest>,
     dock: ResMut<'w, EditorDock>,
     scene: Res<'w, SceneBvh>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
@@ -437,7 +440,7 @@ pub fn apply_menu_actions(
                     t.requests.apply(shape_at(&t.scene, ray, shape));
                 }
             }
-            MenuAction::FrameSelection => t.frame.0 = true,
+            MenuAction::View(change) => t.view.0 = Some(change),
             MenuAction::ResetLayout => *t.dock = EditorDock::default(),
             _ => {}
         }

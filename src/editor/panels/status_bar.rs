@@ -31,6 +31,8 @@ pub struct SceneFigures<'w, 's> {
     health: Res<'w, WorkerHealth>,
     selection: Res<'w, Selection>,
     names: Query<'w, 's, &'static Name>,
+    /// The process's resident memory, bytes, and when it was last read.
+    memory: Local<'s, Option<(std::time::Instant, Option<u64>)>>,
 }
 
 /// Files being opened and imports being traced, and their Cancel buttons.
@@ -43,7 +45,14 @@ pub struct Loading<'w> {
 }
 
 /// Draws the status bar into `ui`.
-pub fn status_bar(InMut(ui): InMut<egui::Ui>, figures: SceneFigures, loading: Loading) {
+pub fn status_bar(InMut(ui): InMut<egui::Ui>, mut figures: SceneFigures, loading: Loading) {
+    // Read twice a second: the file system is asked each time.
+    let stale = figures
+        .memory
+        .is_none_or(|(at, _)| at.elapsed().as_millis() >= 500);
+    if stale {
+        *figures.memory = Some((std::time::Instant::now(), resident_bytes()));
+    }
     ui.horizontal(|ui| {
         scene_figures(ui, &figures);
         loading_files(ui, loading);
@@ -64,6 +73,12 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
         "{} entities in the world",
         f.entities.iter().count()
     ));
+    if let Some((_, Some(bytes))) = *f.memory {
+        ui.separator();
+        ui.label(format!("{} MiB", bytes >> 20)).on_hover_text(
+            "The editor's resident memory (its GPU buffers too, on a software adapter)",
+        );
+    }
     let stats = f.scene.stats();
     ui.separator();
     ui.label(format!(
@@ -100,6 +115,13 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
             trace.traced_per_frame, figures.last_upload_bytes, figures.total_upload_bytes
         ));
     }
+    if f.render.traced.is_none()
+        && let Some(why) = f.tracer.figures().trace_off
+    {
+        ui.separator();
+        ui.colored_label(egui::Color32::from_rgb(255, 110, 100), "Path tracing off")
+            .on_hover_text(why);
+    }
     if let Some(line) = f.health.status() {
         ui.separator();
         ui.colored_label(egui::Color32::from_rgb(255, 110, 100), line)
@@ -128,6 +150,15 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
         }
         _ => {}
     }
+}
+
+/// The process's resident set, bytes (`VmRSS` in `/proc/self/status`); `None` where there is no
+/// such file.
+fn resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// Each import until the tree holds it: parsing (no measure of its own), then the share of its

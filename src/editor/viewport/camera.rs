@@ -1,12 +1,14 @@
 //! The orbit camera: rotate around a focus point, pan it, zoom towards it. Driven by the viewport
 //! panel's egui response, so input over other panels never reaches it.
 
+use crate::editor::input::keymap::Action;
 use bevy::camera::visibility::RenderLayers;
 use bevy::camera::{CameraOutputMode, ClearColorConfig};
 use bevy::prelude::*;
 use bevy::render::render_resource::BlendState;
 use bevy_egui::{EguiGlobalSettings, PrimaryEguiContext};
 use treelight_document::edit::history::apply_edit_requests;
+use treelight_document::object::SceneObject;
 use treelight_document::outbox::{CameraValue, DocumentEvent, DocumentView};
 
 /// Orbit parameters; the camera's transform is derived from them every frame.
@@ -54,7 +56,7 @@ impl OrbitCamera {
     /// Rotates by a pointer drag of `delta` logical pixels.
     pub fn rotate(&mut self, delta: Vec2) {
         self.yaw -= delta.x * 0.008;
-        self.pitch = (self.pitch - delta.y * 0.008).clamp(-1.55, 1.55);
+        self.pitch = (self.pitch - delta.y * 0.008).clamp(-Self::MAX_PITCH, Self::MAX_PITCH);
     }
 
     /// Pans the focus by a pointer drag of `delta` logical pixels in a viewport `height` pixels tall.
@@ -74,8 +76,27 @@ impl OrbitCamera {
         Quat::from_euler(EulerRot::YXZ, self.yaw, self.pitch, 0.0)
     }
 
-    /// Looks at a box from the current direction, far enough to see all of it.
+    /// The steepest the camera looks up or down, radians (just short of straight).
+    pub const MAX_PITCH: f32 = 1.55;
+
+    /// The elevation of a three-quarter view: looking down at about 30°.
+    pub const THREE_QUARTER_PITCH: f32 = -0.52;
+
+    /// Looks at a box from the current direction, far enough to see all of it; a view from
+    /// about ground level is lifted to a three-quarter view first, so a flat scene is not a line.
     pub fn frame(&mut self, min: Vec3, max: Vec3) {
+        if self.pitch > -0.15 {
+            self.pitch = Self::THREE_QUARTER_PITCH;
+        }
+        self.focus = (min + max) * 0.5;
+        self.radius = ((max - min).length() * 1.4).max(0.05);
+    }
+
+    /// Looks at a box from above at an angle (a three-quarter view: 30° down, 45° round), far
+    /// enough to see all of it, as a newly opened file is shown.
+    pub fn frame_from_above(&mut self, min: Vec3, max: Vec3) {
+        self.yaw = std::f32::consts::FRAC_PI_4;
+        self.pitch = Self::THREE_QUARTER_PITCH;
         self.focus = (min + max) * 0.5;
         self.radius = ((max - min).length() * 1.4).max(0.05);
     }
@@ -114,35 +135,116 @@ pub fn world_bounds(
     out
 }
 
-/// Asks for the selection to be framed this frame (View → Frame selection).
-#[derive(Resource, Debug, Default)]
-pub struct FrameRequest(pub bool);
+/// A change of view the View menu or a key asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewChange {
+    /// The selection, whole.
+    FrameSelection,
+    /// Everything in the scene, whole, from above at an angle.
+    FrameAll,
+    /// Look along -Z.
+    Front,
+    /// Look along -X, from the right.
+    Side,
+    /// Look straight down.
+    Top,
+}
 
-/// The Frame key frames the selection (its meshes and everything under it); nothing happens while
-/// a text field has the keyboard.
-pub fn frame_selection_on_f(
+impl ViewChange {
+    /// The key that asks for it.
+    pub fn action(self) -> Action {
+        match self {
+            ViewChange::FrameSelection => Action::Frame,
+            ViewChange::FrameAll => Action::FrameAll,
+            ViewChange::Front => Action::ViewFront,
+            ViewChange::Side => Action::ViewSide,
+            ViewChange::Top => Action::ViewTop,
+        }
+    }
+
+    /// Every change, in the View menu's order.
+    pub const ALL: [ViewChange; 5] = [
+        ViewChange::FrameSelection,
+        ViewChange::FrameAll,
+        ViewChange::Front,
+        ViewChange::Side,
+        ViewChange::Top,
+    ];
+
+    /// Its name in the View menu.
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewChange::FrameSelection => "Frame selection",
+            ViewChange::FrameAll => "Frame everything",
+            ViewChange::Front => "Front view",
+            ViewChange::Side => "Side view",
+            ViewChange::Top => "Top view",
+        }
+    }
+}
+
+/// The view change the View menu asked for this frame.
+#[derive(Resource, Debug, Default)]
+pub struct ViewRequest(pub Option<ViewChange>);
+
+/// The bounds a framing takes in: the selection's, or every scene object's.
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct FramedBounds<'w, 's> {
+    selection: Res<'w, crate::editor::viewport::selection::Selection>,
+    objects: Query<'w, 's, Entity, (With<SceneObject>, Without<ChildOf>)>,
+    boxes: Query<
+        'w,
+        's,
+        (
+            &'static bevy::camera::primitives::Aabb,
+            &'static GlobalTransform,
+        ),
+    >,
+    children: Query<'w, 's, &'static Children>,
+}
+
+impl FramedBounds<'_, '_> {
+    fn of(&self, entities: impl Iterator<Item = Entity>) -> Option<(Vec3, Vec3)> {
+        entities
+            .filter_map(|e| world_bounds(e, &self.boxes, &self.children))
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+}
+
+/// The View keys and menu: frame the selection (its meshes and everything under it) or everything,
+/// or look from the front, the side or the top; nothing happens while a text field has the
+/// keyboard.
+pub fn change_view(
     chords: Res<crate::editor::input::key_chords::KeyChords>,
     mut contexts: bevy_egui::EguiContexts,
-    mut request: ResMut<FrameRequest>,
-    selection: Res<crate::editor::viewport::selection::Selection>,
-    boxes: Query<(&bevy::camera::primitives::Aabb, &GlobalTransform)>,
-    children: Query<&Children>,
+    mut request: ResMut<ViewRequest>,
+    bounds: FramedBounds,
     mut orbit: Query<&mut OrbitCamera>,
 ) {
-    let key = chords.triggered(crate::editor::input::keymap::Action::Frame)
-        && crate::editor::input::key_chords::keyboard_is_free(&mut contexts);
-    if !key && !std::mem::take(&mut request.0) {
+    let keys_free = crate::editor::input::key_chords::keyboard_is_free(&mut contexts);
+    let typed = ViewChange::ALL
+        .into_iter()
+        .find(|c| keys_free && chords.triggered(c.action()));
+    let Some(change) = request.0.take().or(typed) else {
         return;
-    }
-    let bounds = selection
-        .entities()
-        .iter()
-        .filter_map(|e| world_bounds(*e, &boxes, &children))
-        .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
-    if let Some((min, max)) = bounds
-        && let Ok(mut o) = orbit.single_mut()
-    {
-        o.frame(min, max);
+    };
+    let Ok(mut o) = orbit.single_mut() else {
+        return;
+    };
+    match change {
+        ViewChange::FrameSelection => {
+            if let Some((min, max)) = bounds.of(bounds.selection.entities().iter().copied()) {
+                o.frame(min, max);
+            }
+        }
+        ViewChange::FrameAll => {
+            if let Some((min, max)) = bounds.of(bounds.objects.iter()) {
+                o.frame_from_above(min, max);
+            }
+        }
+        ViewChange::Front => (o.yaw, o.pitch) = (0.0, 0.0),
+        ViewChange::Side => (o.yaw, o.pitch) = (std::f32::consts::FRAC_PI_2, 0.0),
+        ViewChange::Top => o.pitch = -OrbitCamera::MAX_PITCH,
     }
 }
 
@@ -151,13 +253,13 @@ pub struct CameraPlugin;
 
 impl Plugin for CameraPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<FrameRequest>()
+        app.init_resource::<ViewRequest>()
             .add_systems(Startup, setup_cameras)
             .add_systems(
                 Update,
                 (
                     follow_document.after(apply_edit_requests),
-                    frame_selection_on_f.before(apply_orbit),
+                    change_view.before(apply_orbit),
                     apply_orbit.after(follow_document),
                     record_view.after(apply_orbit),
                 ),
@@ -216,10 +318,7 @@ pub fn follow_document(
         };
         match event {
             DocumentEvent::View(c) => *o = OrbitCamera::from(*c),
-            DocumentEvent::Frame { min, max } => {
-                o.focus = (*min + *max) * 0.5;
-                o.radius = (*max - *min).length().max(1e-3) * 1.4;
-            }
+            DocumentEvent::Frame { min, max } => o.frame_from_above(*min, *max),
             _ => {}
         }
     }
@@ -241,6 +340,7 @@ pub fn record_view(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use treelight_document::placement::box_corners;
 
     #[test]
     fn camera_looks_at_focus_from_radius() {
@@ -261,6 +361,31 @@ mod tests {
         // The whole box is in front of the camera, further than its half diagonal.
         let eye = o.transform().translation;
         assert!((eye - o.focus).length() > (max - min).length() * 0.5);
+    }
+
+    #[test]
+    fn a_flat_scene_opened_is_seen_whole_from_above() {
+        // A flat city 200 × 2 × 200: from ground level it would be a line.
+        let (min, max) = (Vec3::new(-100.0, 0.0, -100.0), Vec3::new(100.0, 2.0, 100.0));
+        for start in [
+            OrbitCamera::default(),
+            OrbitCamera::from(CameraValue::default()),
+        ] {
+            let mut o = start;
+            o.frame_from_above(min, max);
+            let t = o.transform();
+            assert!(t.translation.y > 50.0, "{t:?}");
+            // Every corner within 22.5° of the view's axis: inside Bevy's default 45° field.
+            let forward = *t.forward();
+            for c in box_corners(min, max) {
+                let angle = forward.angle_between(c - t.translation).to_degrees();
+                assert!(angle < 22.5, "{c}: {angle}°");
+            }
+            // F on a view at ground level lifts it too.
+            let mut f = OrbitCamera::default();
+            f.frame(min, max);
+            assert!(f.transform().translation.y > 50.0);
+        }
     }
 
     #[test]

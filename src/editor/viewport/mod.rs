@@ -34,6 +34,7 @@ impl Plugin for ViewportPlugin {
             Update,
             (
                 drop::import_dropped_files,
+                render_mode::fall_back_when_too_large.before(render_mode::apply_viewport_render),
                 render_mode::apply_viewport_render,
                 tab::fit_camera_viewport,
             ),

@@ -4,7 +4,8 @@
 use crate::editor::viewport::camera::OrbitCamera;
 use bevy::prelude::*;
 use bevy::render::renderer::RenderAdapterInfo;
-use treelight_render::{DebugView, PathTraced};
+use treelight_document::notice::Notices;
+use treelight_render::{DebugView, PathTraced, PathTracerStats};
 
 /// How the viewport is drawn.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -45,6 +46,26 @@ pub fn adapt_to_adapter(
     if adapter.is_some_and(|a| a.device_type == wgpu_types::DeviceType::Cpu) {
         render.settings.resolution_scale = 0.5;
         info!("software adapter: the viewport is path traced at half resolution");
+    }
+}
+
+/// A scene the adapter cannot hold for the path tracer (a buffer larger than it binds): the
+/// viewport shows the raster view, once, and says why; the scene stays whole and editable.
+pub fn fall_back_when_too_large(
+    stats: Res<PathTracerStats>,
+    mut render: ResMut<ViewportRender>,
+    mut notices: ResMut<Notices>,
+    mut told: Local<bool>,
+) {
+    if *told {
+        return;
+    }
+    if let Some(why) = stats.figures().trace_off {
+        *told = true;
+        render.traced = None;
+        notices.error(format!(
+            "Path tracing is off: {why}. The viewport shows the raster view; the scene is whole and can be edited and saved."
+        ));
     }
 }
 

@@ -52,6 +52,7 @@ pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2]) -> Image {
     image
 }
 
+/// A Bevy material from an imported one (alpha below 1 blends).
 pub fn material(m: &ImportedMaterial) -> StandardMaterial {
     let [r, g, b, a] = m.base_color;
     StandardMaterial {

@@ -299,7 +299,11 @@ pub fn resolve_source(project: &Path, source: &Path) -> PathBuf {
 
 /// A source path as the project stores it: relative to the project's folder when inside it.
 pub fn store_source(project: &Path, source: &Path) -> PathBuf {
-    let dir = project.parent().unwrap_or(Path::new("."));
+    // A project named without a folder (`--save proj.treelight`) is in the working folder.
+    let dir = project
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
     let (dir, source_abs) = (abs(dir), abs(source));
     match source_abs.strip_prefix(&dir) {
@@ -338,4 +342,39 @@ pub fn write_project(path: &Path, project: &ProjectFile) -> Result<(), ProjectEr
         project_text(project).map_err(|e| ProjectError::Format(path.to_owned(), e.to_string()))?;
     crate::atomic_file::write_atomically(path, text.as_bytes())
         .map_err(|e| ProjectError::Io(path.to_owned(), e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sources_beside_the_project_are_stored_relative_whatever_form_they_were_given_in() {
+        let cwd = std::env::current_dir().unwrap();
+        for (project, source) in [
+            ("proj.treelight", "model.glb"),
+            ("proj.treelight", "scenes/model.glb"),
+            ("./proj.treelight", "model.glb"),
+        ] {
+            let expected = Path::new(source);
+            assert_eq!(
+                store_source(Path::new(project), Path::new(source)),
+                expected
+            );
+            let absolute = cwd.join(source);
+            assert_eq!(store_source(Path::new(project), &absolute), expected);
+            assert_eq!(
+                store_source(&cwd.join(project), Path::new(source)),
+                expected
+            );
+            // And it resolves back to the same file.
+            assert_eq!(
+                std::path::absolute(resolve_source(Path::new(project), expected)).unwrap(),
+                absolute
+            );
+        }
+        // A source outside the project's folder stays absolute.
+        let outside = store_source(Path::new("proj.treelight"), Path::new("/elsewhere/m.glb"));
+        assert_eq!(outside, Path::new("/elsewhere/m.glb"));
+    }
 }
