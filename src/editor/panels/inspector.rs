@@ -5,7 +5,7 @@ use treelight_document::edit::command::EditCommand;
 
 use treelight_document::edit::history::EditRequest;
 
-use crate::editor::panels::object_item::Objects;
+use crate::editor::viewport::object_item::Objects;
 use crate::editor::viewport::selection::Selection;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;

@@ -1,8 +1,7 @@
 //! The editor's panels: the window's frame and dock ([`dock`], its layout in [`layout`]), the menu
 //! bar ([`menus`]), the status bar ([`status_bar`]), the outliner ([`outliner`]), the inspector
-//! ([`inspector`]), the history ([`history`]) and notices ([`notices`]); what every panel reads of
-//! an object ([`object_item`]), where named widgets are ([`widget_rects`]) and the scene threads'
-//! health ([`worker_watch`]).
+//! ([`inspector`]), the history ([`history`]) and notices ([`notices`]); where named widgets are
+//! ([`widget_rects`]) and the scene threads' health ([`worker_watch`]).
 
 pub mod dock;
 pub mod history;
@@ -10,7 +9,6 @@ pub mod inspector;
 pub mod layout;
 pub mod menus;
 pub mod notices;
-pub mod object_item;
 pub mod outliner;
 pub mod status_bar;
 pub mod widget_rects;

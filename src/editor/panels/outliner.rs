@@ -5,8 +5,8 @@
 
 use crate::editor::input::key_chords::KeyChords;
 use crate::editor::input::keymap::Action;
-use crate::editor::panels::object_item::{Objects, kind_of, parent_of};
 use crate::editor::panels::widget_rects::WidgetRects;
+use crate::editor::viewport::object_item::{Objects, kind_of, parent_of};
 use crate::editor::viewport::selection::Selection;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;

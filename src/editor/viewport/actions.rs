@@ -4,9 +4,9 @@
 
 use crate::editor::assets::library::AssetLibrary;
 use crate::editor::assets::palette::PaletteItem;
-use crate::editor::panels::object_item::{Objects, parent_of};
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::gizmo::ActiveDrag;
+use crate::editor::viewport::object_item::{Objects, parent_of};
 use crate::editor::viewport::panel::ViewportActions;
 use crate::editor::viewport::place::view_ray;
 use crate::editor::viewport::selection::{ClickModifiers, Selection, click};

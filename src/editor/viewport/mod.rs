@@ -1,12 +1,14 @@
 //! The viewport: its tab ([`tab`], drawn by [`panel`]) and what is done there ([`actions`]: picking
 //! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
 //! ([`selection`]), the render mode ([`render_mode`]), where added things go ([`place`]) and files
-//! dropped on the window ([`drop`], [`x11_pointer`]).
+//! dropped on the window ([`drop`], [`x11_pointer`]); what the viewport and the panels read of each
+//! object ([`object_item`]).
 
 pub mod actions;
 pub mod camera;
 pub mod drop;
 pub mod gizmo;
+pub mod object_item;
 pub mod panel;
 pub mod place;
 pub mod render_mode;

@@ -3,9 +3,9 @@
 //! [`super::actions`]; writes back the camera's orbit, the render mode, the gizmo's settings and
 //! where the panel is, which the 3D camera's viewport follows ([`fit_camera_viewport`]).
 
-use crate::editor::panels::object_item::{Objects, parent_of};
 use crate::editor::viewport::camera::{OrbitCamera, world_bounds};
 use crate::editor::viewport::gizmo::{ActiveDrag, GizmoSettings};
+use crate::editor::viewport::object_item::{Objects, parent_of};
 use crate::editor::viewport::panel::{
     IconKind, ViewportActions, ViewportInteraction, ViewportPanel, ViewportScene, drag_targets,
 };
