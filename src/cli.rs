@@ -51,7 +51,7 @@ pub struct Cli {
     pub max_fps: Option<f32>,
     /// Bind at most this many MiB per GPU storage buffer, as an adapter with a smaller limit would
     /// (the path tracer then turns itself off for a scene that needs more, and says so).
-    #[arg(long, value_name = "MIB")]
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u32).range(1..))]
     pub gpu_binding_limit: Option<u32>,
 }
 

@@ -309,6 +309,15 @@ impl PathTracerStats {
             .unwrap_or(0)
     }
 
+    /// Why nothing is traced, once the path tracer stopped ([`PathTracerFigures::trace_off`]).
+    pub fn trace_off(&self) -> Option<String> {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .trace_off
+            .clone()
+    }
+
     pub(crate) fn update(&self, f: impl FnOnce(&mut PathTracerFigures)) {
         f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
     }

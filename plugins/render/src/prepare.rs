@@ -77,6 +77,14 @@ pub(crate) struct GpuScene {
     pub too_large: Option<String>,
 }
 
+/// The most bytes one storage buffer the kernels bind may hold on this device.
+fn max_binding_bytes(device: &RenderDevice) -> u64 {
+    let limits = device.limits();
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
 fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
     device.create_buffer(&BufferDescriptor {
         label: Some("treelight outlines"),
@@ -145,10 +153,7 @@ fn apply_scene_uploads(
         return;
     }
     // One binding holds one buffer: a buffer grows up to what the adapter binds, never past it.
-    let limits = device.limits();
-    let max_bytes = limits
-        .max_storage_buffer_binding_size
-        .min(limits.max_buffer_size);
+    let max_bytes = max_binding_bytes(&device);
     let mut grown = Vec::new();
     for (i, &kind) in BufferKind::ALL.iter().enumerate() {
         let need = pending.needed[i];
@@ -524,10 +529,7 @@ fn prepare_views(
     if scene.too_large.is_some() {
         return;
     }
-    let limits = device.limits();
-    let max_bytes = limits
-        .max_storage_buffer_binding_size
-        .min(limits.max_buffer_size);
+    let max_bytes = max_binding_bytes(&device);
     let trace_ready = pipeline_cache
         .get_compute_pipeline(pipelines.trace)
         .is_some()

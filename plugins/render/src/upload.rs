@@ -94,7 +94,8 @@ pub struct UploadPlan {
 /// [`grown_capacity`], never past `max` records: `None` when even `needed` is more than `max` (the
 /// adapter cannot bind a buffer that large).
 pub fn grown_capacity_within(current: u64, needed: u64, max: u64) -> Option<u64> {
-    (needed <= max).then(|| grown_capacity(current, needed).min(max).max(needed))
+    // Doubling stops at `max`, which still holds `needed`.
+    (needed <= max).then(|| grown_capacity(current, needed).min(max))
 }
 
 /// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).

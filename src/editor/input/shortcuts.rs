@@ -88,11 +88,7 @@ pub fn edit_shortcuts(
     if !keyboard_is_free(&mut contexts) {
         return;
     }
-    let selected: Vec<SceneId> = selection
-        .entities()
-        .iter()
-        .filter_map(|e| ids.get(*e).ok().copied())
-        .collect();
+    let selected = selection.ids(&ids);
     if chords.triggered(Action::Copy) && !selected.is_empty() {
         clipboard.0 = selected.clone();
     }

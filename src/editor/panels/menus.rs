@@ -391,12 +391,7 @@ pub fn apply_menu_actions(
     mut f: FileTargets,
 ) {
     for action in actions.read() {
-        let selected: Vec<SceneId> = t
-            .selection
-            .entities()
-            .iter()
-            .filter_map(|e| t.ids.get(*e).ok().copied())
-            .collect();
+        let selected = t.selection.ids(&t.ids);
         let ray = t
             .cameras
             .single()

@@ -116,7 +116,7 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
         ));
     }
     if f.render.traced.is_none()
-        && let Some(why) = f.tracer.figures().trace_off
+        && let Some(why) = f.tracer.trace_off()
     {
         ui.separator();
         ui.colored_label(egui::Color32::from_rgb(255, 110, 100), "Path tracing off")

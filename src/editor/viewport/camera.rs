@@ -12,7 +12,7 @@ use treelight_document::object::SceneObject;
 use treelight_document::outbox::{CameraValue, DocumentEvent, DocumentView};
 
 /// Orbit parameters; the camera's transform is derived from them every frame.
-#[derive(Component, Debug, Clone, Copy)]
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
 pub struct OrbitCamera {
     /// Point orbited around.
     pub focus: Vec3,

@@ -60,7 +60,7 @@ pub fn fall_back_when_too_large(
     if *told {
         return;
     }
-    if let Some(why) = stats.figures().trace_off {
+    if let Some(why) = stats.trace_off() {
         *told = true;
         render.traced = None;
         notices.error(format!(

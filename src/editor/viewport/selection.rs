@@ -33,6 +33,14 @@ impl Selection {
         &self.entities
     }
 
+    /// The selected objects' ids (of those that have one), the active one last.
+    pub fn ids(&self, ids: &Query<&SceneId>) -> Vec<SceneId> {
+        self.entities
+            .iter()
+            .filter_map(|e| ids.get(*e).ok().copied())
+            .collect()
+    }
+
     /// Whether `e` is selected.
     pub fn contains(&self, e: Entity) -> bool {
         self.entities.contains(&e)
@@ -234,16 +242,6 @@ pub fn follow_document(
             _ => {}
         }
     }
-}
-
-/// The selected objects' ids, the active one last.
-pub fn selected_ids(world: &World) -> Vec<SceneId> {
-    world
-        .resource::<Selection>()
-        .entities()
-        .iter()
-        .filter_map(|e| world.get::<SceneId>(*e).copied())
-        .collect()
 }
 
 /// The shared selection and what keeps it valid.

@@ -85,13 +85,8 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
     *actions = done;
     render.set_if_neq(render_copy);
     gizmo.set_if_neq(gizmo_copy);
-    if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy)
-        && (o.focus != copy.focus
-            || o.radius != copy.radius
-            || o.yaw != copy.yaw
-            || o.pitch != copy.pitch)
-    {
-        *o = copy;
+    if let (Ok(mut o), Some(copy)) = (orbit.single_mut(), orbit_copy) {
+        o.set_if_neq(copy);
     }
     let scale = window.scale_factor();
     let physical = if rect.is_positive() {

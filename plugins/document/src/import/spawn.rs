@@ -179,47 +179,32 @@ pub fn spawn_scene(
         mesh_handles.push(mesh.clone());
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
         let bound = prebuilt.bounds.get(i).copied().flatten();
+        let key = SourceKey {
+            file: file.to_owned(),
+            key: keys[i].clone(),
+        };
         let spawned = match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
             // A node's only mesh lives on the node itself.
             Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
-                let key = SourceKey {
-                    file: file.to_owned(),
-                    key: keys[i].clone(),
-                };
                 commands.entity(node).insert((shape, MeshSource(key)));
                 node
             }
-            Some((_, node)) => {
-                let key = SourceKey {
-                    file: file.to_owned(),
-                    key: keys[i].clone(),
+            // Each of several meshes of one node is a child of it; a mesh of a file without nodes
+            // stands under the root with its own transform.
+            placed => {
+                let (parent, transform) = match placed {
+                    Some((_, node)) => (node, Transform::IDENTITY),
+                    None => (root, Transform::from_matrix(m.transform)),
                 };
                 commands
                     .spawn((
                         Name::new(m.name.clone()),
                         SceneObject,
                         shape,
-                        Transform::IDENTITY,
+                        transform,
                         MeshSource(key.clone()),
                         key,
-                        ChildOf(node),
-                    ))
-                    .id()
-            }
-            None => {
-                let key = SourceKey {
-                    file: file.to_owned(),
-                    key: keys[i].clone(),
-                };
-                commands
-                    .spawn((
-                        Name::new(m.name.clone()),
-                        SceneObject,
-                        shape,
-                        Transform::from_matrix(m.transform),
-                        MeshSource(key.clone()),
-                        key,
-                        ChildOf(root),
+                        ChildOf(parent),
                     ))
                     .id()
             }

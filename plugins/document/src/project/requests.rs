@@ -2,17 +2,14 @@
 //! save, import, relink, quit; applied in order each frame. `--save PATH` waits for the scene to
 //! settle, saves and exits.
 
-use crate::edit::history::EditHistory;
 use crate::import::parse::{ParsedImports, PendingImports};
-use crate::import::spawn::SourceCatalog;
 use crate::notice::Notices;
-use crate::object::SceneObject;
 use crate::outbox::DocumentEvent;
 use crate::project::autosave::Autosave;
 use crate::project::capture::save_project;
 use crate::project::format::ProjectState;
 use crate::project::open::{OpenKind, OpeningProjects};
-use crate::project::restore::relink_source;
+use crate::project::restore::{empty_scene, relink_source};
 use crate::project::script::ScriptedEdits;
 use bevy::prelude::*;
 use std::path::PathBuf;
@@ -122,16 +119,8 @@ fn relink(world: &mut World, from: PathBuf, to: PathBuf) {
 
 /// An empty scene with a fresh history, not saved anywhere.
 fn new_scene(world: &mut World) {
-    let mut q = world.query_filtered::<Entity, With<SceneObject>>();
-    for e in q.iter(world).collect::<Vec<_>>() {
-        if let Ok(entity) = world.get_entity_mut(e) {
-            entity.despawn();
-        }
-    }
-    *world.resource_mut::<EditHistory>() = EditHistory::default();
-    world.resource_mut::<SourceCatalog>().0.clear();
+    empty_scene(world);
     world.insert_resource(ProjectState::default());
-    world.write_message(DocumentEvent::Replaced);
 }
 
 /// `--save PATH`: saves the project once the scene has settled and the scripted commands are in,

@@ -206,9 +206,9 @@ pub fn open_project_value(
     open_project_parsed(world, project, path, sources)
 }
 
-/// Empties the scene for a project: its objects despawned, a fresh history, and the ids the
-/// project holds reserved (those kept while their source is missing too).
-fn clear_scene(world: &mut World, project: &ProjectFile) {
+/// Empties the scene: every object despawned (assemblies from their roots), a fresh history, no
+/// sources; an editor is told the scene was replaced.
+pub fn empty_scene(world: &mut World) {
     let mut q = world.query_filtered::<Entity, (With<SceneObject>, Without<ChildOf>)>();
     for e in q.iter(world).collect::<Vec<_>>() {
         world.entity_mut(e).despawn();
@@ -220,6 +220,12 @@ fn clear_scene(world: &mut World, project: &ProjectFile) {
     *world.resource_mut::<EditHistory>() = EditHistory::default();
     world.write_message(DocumentEvent::Replaced);
     world.resource_mut::<SourceCatalog>().0.clear();
+}
+
+/// Empties the scene for a project, and reserves the ids the project holds (those kept while
+/// their source is missing too).
+fn clear_scene(world: &mut World, project: &ProjectFile) {
+    empty_scene(world);
     // Fresh ids for the sources' nodes never collide with the project's.
     let top = project
         .objects
