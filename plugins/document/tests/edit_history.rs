@@ -858,18 +858,23 @@ fn a_big_assembly_streams_in_front_to_back() {
     assert_eq!(first_hit.len(), 100, "every part is hit once imported");
     parts.sort_by(|a, b| a.1.total_cmp(&b.1));
     let frames: Vec<usize> = parts.iter().map(|(e, _)| first_hit[e]).collect();
-    // Near parts come in earlier frames than far ones: the nearest quarter's median frame is
-    // before the farthest quarter's, and the nearest part before the farthest. (How many parts
-    // share a frame depends on how busy the machine is: the worker takes what has arrived.)
-    let median = |q: &[usize]| {
-        let mut q = q.to_vec();
-        q.sort_unstable();
-        q[q.len() / 2]
-    };
-    let (near, far) = (median(&frames[..25]), median(&frames[75..]));
+    // Near parts come in earlier frames than far ones. How many parts share a frame depends on
+    // how busy the machine is (the worker takes what has arrived, so most may share one), so the
+    // order is judged over pairs: of the pairs first hit in different frames, far-before-near ones
+    // are rare, and the nearest part comes before the farthest.
+    let (mut in_order, mut reversed) = (0usize, 0usize);
+    for i in 0..frames.len() {
+        for j in i + 1..frames.len() {
+            match frames[i].cmp(&frames[j]) {
+                std::cmp::Ordering::Less => in_order += 1,
+                std::cmp::Ordering::Greater => reversed += 1,
+                std::cmp::Ordering::Equal => {}
+            }
+        }
+    }
     assert!(
-        near < far && frames[0] < frames[99],
-        "near quarter's median frame {near}, far quarter's {far}: {frames:?}"
+        frames[0] < frames[99] && reversed * 5 < in_order,
+        "{in_order} pairs near first, {reversed} far first: {frames:?}"
     );
 }
 
