@@ -67,15 +67,14 @@ struct View {
     tiles_x: u32,
     tile_total: u32,
     tile_stride: u32,
-    pad: u32,
+    // Records per part of a split buffer: 1 << part_shift (scene_parts.wgsl).
+    part_shift: u32,
 }
 
 // Group 0, the scene: the records and the texture array, shared by every view and bound again only
-// when a buffer grows.
-@group(0) @binding(0) var<storage, read> nodes: array<Node>;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+// when a buffer grows. The nodes, triangles and shading records are declared by scene_whole.wgsl
+// and attrs_whole.wgsl, or, for a scene split across bindings, scene_parts.wgsl and attrs_parts.wgsl.
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
-@group(0) @binding(3) var<storage, read> attrs: array<Attr>;
 @group(0) @binding(4) var<storage, read> objects: array<Object>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 // Base-colour textures, one per layer, resampled to a common size with sRGB-encoded colour (storage
@@ -90,6 +89,10 @@ struct View {
 @group(1) @binding(0) var<uniform> view: View;
 @group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read_write> aux: array<u32>;
+
+fn part_shift() -> u32 {
+    return view.part_shift;
+}
 
 const MODE_PATH: u32 = 0u;
 const MODE_ALBEDO: u32 = 1u;
@@ -144,12 +147,12 @@ fn object_slot(hit: Hit) -> u32 {
     if hit.instance != NONE {
         return instances[hit.instance].group;
     }
-    return attrs[hit.triangle].group & ~HAS_NORMALS;
+    return attr_at(hit.triangle).group & ~HAS_NORMALS;
 }
 
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
-    let tri = tris[hit.triangle];
-    let attr = attrs[hit.triangle];
+    let tri = tri_at(hit.triangle);
+    let attr = attr_at(hit.triangle);
     let obj = objects[object_slot(hit)];
     var s: Surface;
     s.p = o + d * hit.t;

@@ -11,11 +11,15 @@ struct PrimaryCamera {
     horizontal: vec3<f32>,
     root: u32,
     vertical: vec3<f32>,
-    pad: u32,
+    // Records per part of a split buffer: 1 << part_shift (scene_parts.wgsl, which declares the
+    // nodes and triangles).
+    part_shift: u32,
 }
 
-@group(0) @binding(0) var<storage, read> nodes: array<Node>;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+fn part_shift() -> u32 {
+    return camera.part_shift;
+}
+
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(3) var<uniform> camera: PrimaryCamera;
 @group(0) @binding(4) var<storage, read_write> hit_ids: array<u32>;
@@ -60,7 +64,7 @@ fn secondary_start(x: u32, y: u32) -> SecondaryStart {
         return s;
     }
     s.p = camera.origin + d * hit.t;
-    let tri = tris[hit.triangle];
+    let tri = tri_at(hit.triangle);
     var n = cross(tri.v1 - tri.v0, tri.v2 - tri.v0);
     if hit.instance != NONE {
         // Object-space normal to world space through the inverse's transpose.

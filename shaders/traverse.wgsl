@@ -1,5 +1,6 @@
-// BVH traversal over treelight_bvh's binary GPU layout. Shared by the kernels: each kernel file
-// declares the `nodes`, `tris` and `instances` bindings this code reads (WGSL resolves module-scope
+// BVH traversal over treelight_bvh's binary GPU layout. Shared by the kernels: scene_parts.wgsl
+// declares the nodes and triangles (read through `node_at` and `tri_at`), each kernel file the
+// `instances` binding this code reads (WGSL resolves module-scope
 // names in any order), and the crate appends this file and traverse_common.wgsl to it.
 //
 // A node record holds both children's boxes and references. The crate appends one record file:
@@ -34,7 +35,7 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
             let kind = current >> KIND_SHIFT;
             let index = current & INDEX_MASK;
             if kind == KIND_INNER {
-                let n = nodes[index];
+                let n = node_at(index);
                 hit.visited += 1u;
                 let c = child_boxes(n);
                 let ta = hit_box(f.o, f.inv, c.a_min, c.a_max, hit.t);

@@ -157,7 +157,7 @@ fn instance_frame(index: u32, o: vec3<f32>, d: vec3<f32>) -> Frame {
 
 // Tests triangle `index` (a leaf); a nearer hit replaces `hit`. Returns whether it did.
 fn test_leaf(f: Frame, index: u32, hit: ptr<function, Hit>) -> bool {
-    let r = hit_triangle(f.o, f.m, tris[index], (*hit).t);
+    let r = hit_triangle(f.o, f.m, tri_at(index), (*hit).t);
     if r.x < 0.0 {
         return false;
     }

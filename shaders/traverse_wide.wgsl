@@ -43,7 +43,7 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
             let kind = current >> KIND_SHIFT;
             let index = current & INDEX_MASK;
             if kind == KIND_INNER {
-                let n = nodes[index];
+                let n = node_at(index);
                 hit.visited += 1u;
                 let enter = child_entries(n, f, hit.t);
                 // Nearest first: a sorting network on the four (distance, reference) pairs, misses

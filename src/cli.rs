@@ -49,9 +49,10 @@ pub struct Cli {
     /// editor as a slow adapter runs it).
     #[arg(long, value_name = "FPS")]
     pub max_fps: Option<f32>,
-    /// Bind at most this many MiB per GPU storage buffer, as an adapter with a smaller limit would
-    /// (the path tracer then turns itself off for a scene that needs more, and says so).
-    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u32).range(1..))]
+    /// Bind at most this many KiB per GPU storage buffer, as an adapter with a smaller limit would
+    /// (the path tracer then splits the scene's records across more bindings, and turns itself off
+    /// for a scene that needs more than it has, and says so).
+    #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..))]
     pub gpu_binding_limit: Option<u32>,
 }
 

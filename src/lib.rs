@@ -53,9 +53,12 @@ pub fn build_app(cli: &cli::Cli) -> App {
 pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
     let mut wgpu = WgpuSettings::default();
-    if let Some(mib) = cli.gpu_binding_limit {
+    if let Some(kib) = cli.gpu_binding_limit {
+        // The other limits are capped at WebGPU's defaults, except the storage buffers a stage
+        // binds: the adapter's own, which the path tracer's split records need.
         wgpu.constrained_limits = Some(WgpuLimits {
-            max_storage_buffer_binding_size: u64::from(mib) << 20,
+            max_storage_buffer_binding_size: u64::from(kib) << 10,
+            max_storage_buffers_per_shader_stage: u32::MAX,
             ..default()
         });
     }

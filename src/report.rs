@@ -98,6 +98,9 @@ pub struct EditorState {
     /// The notices shown, oldest first.
     #[serde(default)]
     pub notices: Vec<String>,
+    /// Samples every pixel of the viewport's path-traced view has (0 when not traced).
+    #[serde(default)]
+    pub samples: u32,
 }
 
 /// Times the main world's frame and the editor's UI for the report.
@@ -206,6 +209,10 @@ pub fn write_state_report(
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
     ),
+    (tracer, camera_ids): (
+        Res<treelight_render::PathTracerStats>,
+        Query<Entity, With<OrbitCamera>>,
+    ),
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -291,6 +298,7 @@ pub fn write_state_report(
         ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
         view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
+        samples: camera_ids.single().map_or(0, |c| tracer.samples(c)),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

@@ -77,6 +77,7 @@ fn main() {
             light_count: 1,
             indirect_clamp: 4.0,
             work,
+            part_shift: treelight_render::MAX_PART_SHIFT,
         };
         let run = |runs: &[u32]| {
             let target = gpu.trace_target(resolution, resolution);

@@ -15,6 +15,7 @@
 mod budget;
 mod extract;
 mod node;
+mod parts;
 mod pipelines;
 mod prepare;
 mod raster_skip;
@@ -27,6 +28,7 @@ pub use budget::{
     CostSource, FrameBudget, MAX_PREVIEW_SCALE, TILE, TileCursor, TileOrder, TraceClock,
     preview_scale,
 };
+pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
     ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
     GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, ResolveParams, SceneLight, SurfaceMaterial,
@@ -35,8 +37,7 @@ pub use records::{
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
-    BufferKind, BufferWrite, UploadPlan, grown_capacity, grown_capacity_within, instance_bytes,
-    node_bytes, triangle_bytes,
+    BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
 
 use bevy::camera::{Camera, Hdr};
@@ -56,6 +57,21 @@ pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse_wide.wgsl"),
     include_str!("../../../shaders/wide_compressed.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_whole.wgsl"),
+    include_str!("../../../shaders/attrs_whole.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl"),
+    include_str!("../../../shaders/aux_layout.wgsl")
+);
+
+/// WGSL: [`PATHTRACE_WGSL`] for a scene whose nodes, triangles and shading records are split across
+/// bindings ([`PartLayout`]).
+pub const PATHTRACE_SPLIT_WGSL: &str = concat!(
+    include_str!("../../../shaders/pathtrace.wgsl"),
+    include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/wide_compressed.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_parts.wgsl"),
+    include_str!("../../../shaders/attrs_parts.wgsl"),
     include_str!("../../../shaders/sampling.wgsl"),
     include_str!("../../../shaders/aux_layout.wgsl")
 );
@@ -68,6 +84,18 @@ pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse_wide.wgsl"),
     include_str!("../../../shaders/wide_compressed.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_whole.wgsl"),
+    include_str!("../../../shaders/sampling.wgsl")
+);
+
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over nodes and triangles split across bindings
+/// ([`PartLayout`]), as the path tracer reads a large scene.
+pub const PRIMARY_HITS_SPLIT_WGSL: &str = concat!(
+    include_str!("../../../shaders/primary_hits.wgsl"),
+    include_str!("../../../shaders/traverse_wide.wgsl"),
+    include_str!("../../../shaders/wide_compressed.wgsl"),
+    include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_parts.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
@@ -78,6 +106,7 @@ pub const PRIMARY_HITS_BINARY_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse.wgsl"),
     include_str!("../../../shaders/binary_float.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_whole.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
@@ -88,6 +117,7 @@ pub const PRIMARY_HITS_BINARY_COMPRESSED_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse.wgsl"),
     include_str!("../../../shaders/binary_compressed.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_whole.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
@@ -98,6 +128,7 @@ pub const PRIMARY_HITS_WIDE_WGSL: &str = concat!(
     include_str!("../../../shaders/traverse_wide.wgsl"),
     include_str!("../../../shaders/wide_float.wgsl"),
     include_str!("../../../shaders/traverse_common.wgsl"),
+    include_str!("../../../shaders/scene_whole.wgsl"),
     include_str!("../../../shaders/sampling.wgsl")
 );
 
@@ -341,6 +372,10 @@ impl Plugin for PathTracerPlugin {
                 trace: assets.add(Shader::from_wgsl(
                     PATHTRACE_WGSL,
                     "treelight/pathtrace.wgsl",
+                )),
+                trace_split: assets.add(Shader::from_wgsl(
+                    PATHTRACE_SPLIT_WGSL,
+                    "treelight/pathtrace_split.wgsl",
                 )),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
                 texture_layer: assets.add(Shader::from_wgsl(

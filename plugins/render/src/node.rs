@@ -3,7 +3,6 @@
 //! pass, so gizmos and other transparent draws land on top of the traced image, depth-tested
 //! against the traced depth the resolve writes.
 
-use crate::pipelines::PathTracerPipelines;
 use crate::prepare::{GpuScene, ViewStates};
 use bevy::core_pipeline::core_3d::{main_opaque_pass_3d, main_transparent_pass_3d};
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};
@@ -28,7 +27,6 @@ pub(crate) fn build(render_app: &mut SubApp) {
 /// timing the pass where the adapter can), then draws the image and its depth into the view.
 fn path_trace(
     view: ViewQuery<(&ViewTarget, Option<&ViewDepthTexture>)>,
-    pipelines: Option<Res<PathTracerPipelines>>,
     pipeline_cache: Res<PipelineCache>,
     scene: Option<Res<GpuScene>>,
     states: Res<ViewStates>,
@@ -36,7 +34,7 @@ fn path_trace(
 ) {
     let view_entity = view.entity();
     let (target, depth) = view.into_inner();
-    let (Some(pipelines), Some(scene)) = (pipelines, scene) else {
+    let Some(scene) = scene else {
         return;
     };
     let Some(state) = states.0.get(&view_entity) else {
@@ -47,7 +45,7 @@ fn path_trace(
     };
     if let (Some(groups), Some(pipeline), Some(scene_group)) = (
         frame.dispatch,
-        pipeline_cache.get_compute_pipeline(pipelines.trace),
+        pipeline_cache.get_compute_pipeline(frame.trace_pipeline),
         &scene.bind_group,
     ) {
         let encoder = ctx.command_encoder();

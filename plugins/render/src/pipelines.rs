@@ -2,9 +2,12 @@
 //! kernel binds two groups: the scene (records and textures, shared by every view) and the view
 //! (its uniform, its accumulation, its depth and preview).
 
+use crate::parts::part_bindings;
+use crate::upload::BufferKind;
 use bevy::core_pipeline::core_3d::CORE_3D_DEPTH_FORMAT;
 use bevy::prelude::*;
 use bevy::render::RenderStartup;
+use bevy::render::render_resource::BindGroupLayoutEntry;
 use bevy::render::render_resource::binding_types::{
     sampler, storage_buffer_read_only_sized, storage_buffer_sized, texture_2d_array,
     uniform_buffer_sized,
@@ -16,6 +19,7 @@ use bevy::render::render_resource::{
     RenderPipelineDescriptor, SamplerBindingType, ShaderStages, TextureFormat, TextureSampleType,
     VertexState,
 };
+use bevy::render::renderer::RenderDevice;
 use std::collections::HashMap;
 use std::sync::Mutex;
 
@@ -23,6 +27,8 @@ use std::sync::Mutex;
 #[derive(Resource, Clone)]
 pub(crate) struct PathTracerShaders {
     pub trace: Handle<Shader>,
+    /// The trace kernel over records split across bindings.
+    pub trace_split: Handle<Shader>,
     pub resolve: Handle<Shader>,
     pub texture_layer: Handle<Shader>,
 }
@@ -34,14 +40,19 @@ pub(crate) fn build(render_app: &mut SubApp) {
 /// Layouts and pipelines of the trace and resolve passes.
 #[derive(Resource)]
 pub(crate) struct PathTracerPipelines {
-    /// Group 0 of the trace kernel: the six record buffers, the texture array and its sampler.
+    /// Group 0 of the trace kernel: the record buffers (the split kinds' parts at
+    /// [`part_bindings`]), the texture array and its sampler.
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
     pub view_layout: BindGroupLayoutDescriptor,
     /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform and
     /// the scene's outline bits.
     pub resolve_layout: BindGroupLayoutDescriptor,
-    pub trace: CachedComputePipelineId,
+    /// The trace kernel for a scene whose records fit one binding each.
+    trace: CachedComputePipelineId,
+    /// The trace kernel over split records, queued when a scene first needs it.
+    trace_split: Mutex<Option<CachedComputePipelineId>>,
+    trace_split_shader: Handle<Shader>,
     resolve_shader: Handle<Shader>,
     /// Resolve pipelines by target format, sample count and whether they write depth.
     resolve: Mutex<HashMap<(TextureFormat, u32, bool), CachedRenderPipelineId>>,
@@ -51,24 +62,27 @@ fn init_pipelines(
     mut commands: Commands,
     shaders: Res<PathTracerShaders>,
     pipeline_cache: Res<PipelineCache>,
+    device: Res<RenderDevice>,
 ) {
-    let records = || storage_buffer_read_only_sized(false, None);
-    let scene_layout = BindGroupLayoutDescriptor::new(
-        "treelight scene",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                records(),
-                records(),
-                records(),
-                records(),
-                records(),
-                records(),
-                texture_2d_array(TextureSampleType::Float { filterable: true }),
-                sampler(SamplerBindingType::Filtering),
-            ),
-        ),
+    if crate::prepare::too_few_bindings(&device).is_some() {
+        // The kernel cannot be made here (the scene says why): without pipelines nothing is traced.
+        return;
+    }
+    // Each kind's parts (`parts::part_bindings`), then the texture array and its sampler.
+    let mut scene_entries: Vec<BindGroupLayoutEntry> = BufferKind::ALL
+        .iter()
+        .flat_map(|&k| part_bindings(k).iter())
+        .map(|&binding| {
+            storage_buffer_read_only_sized(false, None).build(binding, ShaderStages::COMPUTE)
+        })
+        .collect();
+    scene_entries.push(
+        texture_2d_array(TextureSampleType::Float { filterable: true })
+            .build(6, ShaderStages::COMPUTE),
     );
+    scene_entries.push(sampler(SamplerBindingType::Filtering).build(7, ShaderStages::COMPUTE));
+    scene_entries.sort_by_key(|e| e.binding);
+    let scene_layout = BindGroupLayoutDescriptor::new("treelight scene", &scene_entries);
     let view_layout = BindGroupLayoutDescriptor::new(
         "treelight view",
         &BindGroupLayoutEntries::sequential(
@@ -104,12 +118,32 @@ fn init_pipelines(
         view_layout,
         resolve_layout,
         trace,
+        trace_split: Mutex::new(None),
+        trace_split_shader: shaders.trace_split.clone(),
         resolve_shader: shaders.resolve.clone(),
         resolve: Mutex::new(HashMap::new()),
     });
 }
 
 impl PathTracerPipelines {
+    /// The trace kernel for a scene split across bindings (`split`) or not; the split one is
+    /// queued on first use.
+    pub fn trace_pipeline(&self, cache: &PipelineCache, split: bool) -> CachedComputePipelineId {
+        if !split {
+            return self.trace;
+        }
+        let mut id = self.trace_split.lock().unwrap_or_else(|p| p.into_inner());
+        *id.get_or_insert_with(|| {
+            cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("treelight path trace, split records".into()),
+                layout: vec![self.scene_layout.clone(), self.view_layout.clone()],
+                shader: self.trace_split_shader.clone(),
+                entry_point: Some("path_trace".into()),
+                ..default()
+            })
+        })
+    }
+
     /// The resolve pipeline for a target of `format` with `samples` samples, writing the view's
     /// depth buffer too when `depth`, queued on first use.
     pub fn resolve_pipeline(

@@ -5,17 +5,19 @@
 
 use crate::budget::{FrameBudget, TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::extract::SceneSync;
+use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
 use crate::records::{ResolveParams, TraceWork, VIEW_BYTES, ViewParams};
 use crate::texture_layers::TextureLayers;
 use crate::timing::TraceTimer;
-use crate::upload::{BufferKind, grown_capacity, grown_capacity_within};
+use crate::upload::BufferKind;
 use crate::{DebugView, OutlineStyle, PathTraced, PathTracerStats, TraceFigures};
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferUsages, CachedRenderPipelineId,
-    CommandEncoderDescriptor, PipelineCache,
+    BindGroup, BindGroupEntries, BindGroupEntry, BindingResource, Buffer, BufferDescriptor,
+    BufferUsages, CachedComputePipelineId, CachedRenderPipelineId, CommandEncoderDescriptor,
+    PipelineCache,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::sync_world::MainEntity;
@@ -45,10 +47,14 @@ pub(crate) fn build(render_app: &mut SubApp) {
 /// The scene as the kernels read it.
 #[derive(Resource)]
 pub(crate) struct GpuScene {
-    /// In [`BufferKind::ALL`] order.
-    pub buffers: Vec<Buffer>,
-    /// Records each buffer holds.
+    /// In [`BufferKind::ALL`] order, each kind's parts (one until a part is full).
+    buffers: Vec<Vec<Buffer>>,
+    /// Records each kind holds, all its parts together.
     capacities: [u64; 6],
+    /// How the large kinds are split across bindings on this adapter.
+    pub layout: PartLayout,
+    /// Bound where a kind has fewer parts than the kernel declares.
+    stand_in: Buffer,
     pub root: u32,
     pub light_count: u32,
     /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
@@ -77,12 +83,28 @@ pub(crate) struct GpuScene {
     pub too_large: Option<String>,
 }
 
+impl GpuScene {
+    /// Whether a kind's records lie in more than one buffer: the split kernel reads them.
+    pub fn split(&self) -> bool {
+        self.buffers.iter().any(|parts| parts.len() > 1)
+    }
+}
+
 /// The most bytes one storage buffer the kernels bind may hold on this device.
 fn max_binding_bytes(device: &RenderDevice) -> u64 {
     let limits = device.limits();
     limits
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size)
+}
+
+/// A size for messages: whole MiB, or KiB below one MiB.
+fn size_text(bytes: u64) -> String {
+    if bytes < 1 << 20 {
+        format!("{} KiB", bytes.div_ceil(1 << 10))
+    } else {
+        format!("{} MiB", bytes.div_ceil(1 << 20))
+    }
 }
 
 fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
@@ -95,6 +117,8 @@ fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
 }
 
 fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
+    // A binding may not be empty.
+    let records = records.max(1);
     device.create_buffer(&BufferDescriptor {
         label: Some(match kind {
             BufferKind::Nodes => "treelight nodes",
@@ -110,20 +134,28 @@ fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
     })
 }
 
-fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
-    // Lights start small; the rest at the doubling floor.
+fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<PathTracerStats>) {
+    let layout = PartLayout::for_binding_limit(max_binding_bytes(&device));
+    // Lights start small; the rest at the doubling floor (or a part, if that is smaller).
     let capacities = BufferKind::ALL.map(|k| match k {
         BufferKind::Lights => 16,
-        _ => grown_capacity(0, 1),
+        _ => layout.grown(k, 0, 1).unwrap_or(1),
     });
     let buffers = BufferKind::ALL
         .iter()
         .zip(capacities)
-        .map(|(&k, c)| create(&device, k, c))
+        .map(|(&k, c)| vec![create(&device, k, c)])
         .collect();
+    let too_large = too_few_bindings(&device);
+    if let Some(why) = &too_large {
+        error!("treelight: path tracing is off: {why}");
+        stats.update(|f| f.trace_off = Some(why.clone()));
+    }
     commands.insert_resource(GpuScene {
         buffers,
         capacities,
+        layout,
+        stand_in: create(&device, BufferKind::Instances, 2),
         root: u32::MAX,
         light_count: 0,
         generation: 0,
@@ -135,8 +167,21 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>) {
         outline_slots: 0,
         outline_version: 0,
         outline_bounds: None,
-        too_large: None,
+        too_large,
     });
+}
+
+/// Why the trace kernel cannot run on this device, if it binds fewer storage buffers per shader
+/// stage than the kernel declares.
+pub(crate) fn too_few_bindings(device: &RenderDevice) -> Option<String> {
+    let have = device.limits().max_storage_buffers_per_shader_stage;
+    let need = trace_storage_buffers();
+    (have < need).then(|| {
+        format!(
+            "this adapter binds {have} storage buffers per shader stage and the path tracer needs \
+             {need}"
+        )
+    })
 }
 
 /// Grows the buffers that must hold more records, then writes the frame's records.
@@ -152,21 +197,24 @@ fn apply_scene_uploads(
     if scene.too_large.is_some() {
         return;
     }
-    // One binding holds one buffer: a buffer grows up to what the adapter binds, never past it.
-    let max_bytes = max_binding_bytes(&device);
+    // A buffer grows up to what the adapter binds, then the large kinds add parts, each a
+    // binding of its own; past the parts the kernel declares, tracing stops.
+    let layout = scene.layout;
     let mut grown = Vec::new();
     for (i, &kind) in BufferKind::ALL.iter().enumerate() {
         let need = pending.needed[i];
         if need <= scene.capacities[i] {
             continue;
         }
-        let max_records = max_bytes / kind.record_bytes();
-        let Some(cap) = grown_capacity_within(scene.capacities[i], need, max_records) else {
+        let Some(cap) = layout.grown(kind, scene.capacities[i], need) else {
+            let parts = part_count(kind);
             let why = format!(
-                "the scene's {} need {} MiB in one buffer and this adapter binds at most {} MiB",
+                "the scene's {} need {} and this adapter binds at most {} in each of the \
+                 {parts} buffer{} the path tracer has for them",
                 kind.label(),
-                (need * kind.record_bytes()).div_ceil(1 << 20),
-                max_bytes >> 20
+                size_text(need * kind.record_bytes()),
+                size_text(layout.max_binding_bytes),
+                if parts == 1 { "" } else { "s" },
             );
             error!("treelight: path tracing stops: {why}");
             scene.too_large = Some(why.clone());
@@ -174,12 +222,20 @@ fn apply_scene_uploads(
             stats.update(|f| f.trace_off = Some(why));
             return;
         };
-        let bigger = create(&device, kind, cap);
-        grown.push((
-            std::mem::replace(&mut scene.buffers[i], bigger),
-            scene.capacities[i] * kind.record_bytes(),
-            i,
-        ));
+        let old_sizes = layout.part_sizes(kind, scene.capacities[i]);
+        for (k, &records) in layout.part_sizes(kind, cap).iter().enumerate() {
+            if old_sizes.get(k) == Some(&records) {
+                continue;
+            }
+            let bigger = create(&device, kind, records);
+            match scene.buffers[i].get_mut(k) {
+                Some(part) => {
+                    let old = std::mem::replace(part, bigger);
+                    grown.push((old, old_sizes[k] * kind.record_bytes(), i, k));
+                }
+                None => scene.buffers[i].push(bigger),
+            }
+        }
         scene.capacities[i] = cap;
         scene.bind_group = None;
     }
@@ -188,8 +244,8 @@ fn apply_scene_uploads(
         let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
             label: Some("treelight buffer growth"),
         });
-        for (old, bytes, i) in &grown {
-            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i], 0, *bytes);
+        for (old, bytes, i, k) in &grown {
+            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
         }
         queue.submit([encoder.finish()]);
     }
@@ -206,7 +262,9 @@ fn apply_scene_uploads(
             );
             continue;
         }
-        queue.write_buffer(&scene.buffers[i], w.offset, &w.bytes);
+        for (part, at, range) in layout.pieces(w.buffer, w.offset, w.bytes.len() as u64) {
+            queue.write_buffer(&scene.buffers[i][part], at, &w.bytes[range]);
+        }
         bytes += w.bytes.len() as u64;
     }
     let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
@@ -267,21 +325,26 @@ fn prepare_scene_bind_group(
         return;
     }
     let layout = pipeline_cache.get_bind_group_layout(&pipelines.scene_layout);
-    let b = &scene.buffers;
-    let group = device.create_bind_group(
-        "treelight scene",
-        &layout,
-        &BindGroupEntries::sequential((
-            b[0].as_entire_binding(),
-            b[1].as_entire_binding(),
-            b[2].as_entire_binding(),
-            b[3].as_entire_binding(),
-            b[4].as_entire_binding(),
-            b[5].as_entire_binding(),
-            &layers.view,
-            &layers.sampler,
-        )),
-    );
+    // Each kind's parts at their bindings, the stand-in where a kind has fewer.
+    let mut entries: Vec<BindGroupEntry> = Vec::new();
+    for (i, &kind) in BufferKind::ALL.iter().enumerate() {
+        for (k, &binding) in part_bindings(kind).iter().enumerate() {
+            let buffer = scene.buffers[i].get(k).unwrap_or(&scene.stand_in);
+            entries.push(BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            });
+        }
+    }
+    entries.push(BindGroupEntry {
+        binding: 6,
+        resource: BindingResource::TextureView(&layers.view),
+    });
+    entries.push(BindGroupEntry {
+        binding: 7,
+        resource: BindingResource::Sampler(&layers.sampler),
+    });
+    let group = device.create_bind_group("treelight scene", &layout, &entries);
     scene.bind_group = Some(group);
     scene.bound_array = layers.array_version;
 }
@@ -302,6 +365,8 @@ struct AccumulationKey {
 
 /// What the node does for a view this frame.
 pub(crate) struct ViewFrame {
+    /// The trace kernel for the scene's buffers (split across bindings or not).
+    pub trace_pipeline: CachedComputePipelineId,
     /// Workgroups of the trace dispatch; `None` when the view has all its samples.
     pub dispatch: Option<UVec2>,
     /// Whether the accumulation restarts: the node clears it before the dispatch.
@@ -530,8 +595,9 @@ fn prepare_views(
         return;
     }
     let max_bytes = max_binding_bytes(&device);
+    let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
     let trace_ready = pipeline_cache
-        .get_compute_pipeline(pipelines.trace)
+        .get_compute_pipeline(trace_pipeline)
         .is_some()
         && scene.bind_group.is_some();
     let now = Instant::now();
@@ -553,11 +619,11 @@ fn prepare_views(
         let view_bytes = size.x as u64 * size.y as u64 * 16;
         if view_bytes > max_bytes {
             let why = format!(
-                "a {}×{} view needs {} MiB in one buffer and this adapter binds at most {} MiB",
+                "a {}×{} view needs {} in one buffer and this adapter binds at most {}",
                 size.x,
                 size.y,
-                view_bytes.div_ceil(1 << 20),
-                max_bytes >> 20
+                size_text(view_bytes),
+                size_text(max_bytes)
             );
             stats.update(|f| {
                 f.trace_off.get_or_insert(why);
@@ -666,6 +732,7 @@ fn prepare_views(
                 light_count: scene.light_count,
                 indirect_clamp: clamp,
                 work,
+                part_shift: scene.layout.shift,
             };
             queue.write_buffer(&state.buffers.view_uniform, 0, &params.to_bytes());
             timing = state.timer.as_mut().and_then(|t| t.assign(samples));
@@ -698,6 +765,7 @@ fn prepare_views(
             .sampled_main_texture()
             .map_or(1, |t| t.sample_count());
         state.frame = Some(ViewFrame {
+            trace_pipeline,
             dispatch,
             clear: restart,
             timing,

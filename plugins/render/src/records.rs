@@ -108,8 +108,8 @@ pub struct GpuView {
     pub tile_total: u32,
     /// The tile sequence's step ([`crate::TileOrder`]).
     pub tile_stride: u32,
-    /// Padding.
-    pub pad: u32,
+    /// Records per part of a split buffer, as a power of two ([`crate::PartLayout`]).
+    pub part_shift: u32,
 }
 
 /// `Resolve` of `resolve.wgsl`: where the view sits in its target, and where to find its pixels.
@@ -219,8 +219,8 @@ pub struct GpuPrimaryCamera {
     pub root: u32,
     /// The image's vertical extent.
     pub vertical: [f32; 3],
-    /// Padding.
-    pub pad: u32,
+    /// Records per part of a split buffer, as a power of two ([`crate::PartLayout`]).
+    pub part_shift: u32,
 }
 
 /// `AoParams` of `primary_hits.wgsl`: ambient-occlusion rays per primary hit and their length.
@@ -486,6 +486,8 @@ pub struct ViewParams {
     pub indirect_clamp: f32,
     /// What this dispatch traces.
     pub work: TraceWork,
+    /// Records per part of the split buffers, as a power of two ([`crate::PartLayout`]).
+    pub part_shift: u32,
 }
 
 impl ViewParams {
@@ -517,7 +519,7 @@ impl ViewParams {
             tiles_x: order.tiles_x,
             tile_total: order.total,
             tile_stride: order.stride,
-            pad: 0,
+            part_shift: self.part_shift,
         }
     }
 
@@ -597,6 +599,7 @@ mod tests {
             light_count: 0,
             indirect_clamp: 0.0,
             work: TraceWork::Tiles { start: 0, count: 1 },
+            part_shift: crate::MAX_PART_SHIFT,
         };
         assert_eq!(v.to_bytes().len() as u64, VIEW_BYTES);
     }

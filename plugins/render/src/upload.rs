@@ -91,13 +91,6 @@ pub struct UploadPlan {
     pub root: u32,
 }
 
-/// [`grown_capacity`], never past `max` records: `None` when even `needed` is more than `max` (the
-/// adapter cannot bind a buffer that large).
-pub fn grown_capacity_within(current: u64, needed: u64, max: u64) -> Option<u64> {
-    // Doubling stops at `max`, which still holds `needed`.
-    (needed <= max).then(|| grown_capacity(current, needed).min(max))
-}
-
 /// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).
 pub fn grown_capacity(current: u64, needed: u64) -> u64 {
     let mut cap = current.max(1024);

@@ -157,6 +157,7 @@ impl Tracer {
             light_count: self.lights,
             indirect_clamp: 4.0,
             work,
+            part_shift: treelight_render::MAX_PART_SHIFT,
         }
     }
 

@@ -16,8 +16,8 @@ use support::{Gpu, Rng, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork,
-    ViewParams, attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, SceneLight,
+    SurfaceMaterial, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -190,7 +190,13 @@ fn world_from_clip() -> Mat4 {
     (proj * view).inverse()
 }
 
+/// The image the path tracer traces, through the kernel for one binding per kind, or with
+/// `split_shift` through the split kernel over records cut into parts of `1 << split_shift`.
 fn gpu_image(scene: &Scene) -> Vec<Vec3> {
+    gpu_image_through(scene, None)
+}
+
+fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     let gpu = Gpu::new();
     let bvh = &scene.bvh;
     let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
@@ -204,8 +210,16 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
     }
     let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
     let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights);
+    let split = split_shift.map(|s| gpu.split_scene_buffers(bvh, &attrs, &objects, &lights, s));
     let target = gpu.trace_target(SIZE, SIZE);
-    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let pipeline = gpu.pipeline(
+        if split.is_some() {
+            PATHTRACE_SPLIT_WGSL
+        } else {
+            PATHTRACE_WGSL
+        },
+        "path_trace",
+    );
     // Untextured: an empty one-layer array fills the binding.
     let layers = gpu.layers(4, 1);
     for _ in 0..SAMPLES / PER_DISPATCH {
@@ -222,8 +236,12 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
             light_count: scene.lights.len() as u32,
             indirect_clamp: 0.0,
             work: TraceWork::WHOLE_IMAGE,
+            part_shift: split_shift.unwrap_or(treelight_render::MAX_PART_SHIFT),
         };
-        gpu.path_trace(&pipeline, &buffers, &params, &target, &layers);
+        match &split {
+            Some(parts) => gpu.path_trace_split(&pipeline, parts, &params, &target, &layers),
+            None => gpu.path_trace(&pipeline, &buffers, &params, &target, &layers),
+        }
     }
     floats(&gpu.read(&target.accum))
         .chunks_exact(4)
@@ -366,4 +384,27 @@ fn path_tracer_matches_a_cpu_reference_on_a_cornell_box() {
     assert!((gm - cm).abs() / cm < 0.02, "image means {gm} vs {cm}");
     assert!(mean_rel < 0.04, "mean block error {:.2}%", mean_rel * 100.0);
     assert!(worst < 0.10, "worst block error {:.2}%", worst * 100.0);
+}
+
+#[test]
+fn the_split_kernel_traces_the_image_of_the_whole_one() {
+    let scene = cornell();
+    let bvh = &scene.bvh;
+    // The smallest parts that hold the box's records in the eight bindings each kind has: every
+    // kind lies in several.
+    let most = (bvh.inner_capacity() as u64).max(bvh.triangle_capacity() as u64);
+    let shift = most.div_ceil(8).next_power_of_two().ilog2();
+    assert!(
+        most > 2 << shift,
+        "{most} records in parts of {}",
+        1 << shift
+    );
+    let whole = gpu_image(&scene);
+    let split = gpu_image_through(&scene, Some(shift));
+    let worst = whole
+        .iter()
+        .zip(&split)
+        .map(|(a, b)| (*a - *b).abs().max_element() / a.max_element().max(1e-3))
+        .fold(0.0, f32::max);
+    assert!(worst < 1e-5, "the images differ by up to {worst}");
 }

@@ -1,14 +1,15 @@
 //! The WGSL traversal on a real adapter (Mesa's llvmpipe in CI) finds the same primary-hit triangles
 //! as the engine's CPU traversal, for the same camera rays, through each layout: the path tracer's
 //! (compressed 4-wide records, one per inner node), the binary records, the same renumbered depth
-//! first, the binary records with boxes in bytes, and the float 4-wide collapse.
+//! first, the binary records with boxes in bytes, and the float 4-wide collapse; and the path
+//! tracer's records cut into parts across bindings, as a scene larger than one binding is.
 
 mod support;
 
 use std::path::Path;
 use support::{
     PinholeView as View, gpu_binary_compressed_hits, gpu_binary_hits, gpu_depth_first_hits,
-    gpu_hits, gpu_wide_hits,
+    gpu_hits, gpu_split_hits, gpu_wide_hits,
 };
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Triangle};
@@ -52,6 +53,7 @@ fn sibenik_primary_hits_match_the_cpu() {
     let tris = sibenik();
     let mut bvh = Bvh::new(BvhConfig::incr_u());
     bvh.insert_triangles(&tris).unwrap();
+    assert!(tris.len() > 4 << 14 && bvh.inner_capacity() > 4 << 14);
     let b = bvh.bounds();
     // Inside the nave, looking along it.
     let c = b.center();
@@ -70,6 +72,12 @@ fn sibenik_primary_hits_match_the_cpu() {
         ("depth first", gpu_depth_first_hits(&bvh, &view)),
         ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
         ("4-wide", gpu_wide_hits(&bvh, &view)),
+        // Parts of 2^14 records: the nodes and the triangles each lie in five bindings, as a
+        // scene five times larger than a binding would on the adapter.
+        (
+            "the path tracer's, split into parts",
+            gpu_split_hits(&bvh, &view, 14),
+        ),
     ] {
         let hits = gpu.iter().filter(|&&g| g != u32::MAX).count();
         assert!(

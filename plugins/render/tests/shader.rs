@@ -8,8 +8,9 @@ use treelight_bvh::{
 };
 use treelight_render::{
     GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuView,
-    PATHTRACE_WGSL, PRIMARY_HITS_BINARY_COMPRESSED_WGSL, PRIMARY_HITS_BINARY_WGSL,
-    PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, RESOLVE_WGSL,
+    PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, PRIMARY_HITS_BINARY_COMPRESSED_WGSL,
+    PRIMARY_HITS_BINARY_WGSL, PRIMARY_HITS_SPLIT_WGSL, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL,
+    RESOLVE_WGSL,
 };
 
 fn module(source: &str) -> naga::Module {
@@ -71,7 +72,12 @@ fn assert_ray_kernels(m: &naga::Module) {
 
 #[test]
 fn traversal_records_have_the_engine_s_layout() {
-    for source in [PATHTRACE_WGSL, PRIMARY_HITS_WGSL] {
+    for source in [
+        PATHTRACE_WGSL,
+        PATHTRACE_SPLIT_WGSL,
+        PRIMARY_HITS_WGSL,
+        PRIMARY_HITS_SPLIT_WGSL,
+    ] {
         let m = module(source);
         assert_eq!(
             wgsl_layout(&m, "Node"),
@@ -199,7 +205,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 tiles_x,
                 tile_total,
                 tile_stride,
-                pad
+                part_shift
             ]
         )
     );
@@ -214,7 +220,7 @@ fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
         rust_layout!(
             GpuPrimaryCamera,
             [
-                origin, width, lower_left, height, horizontal, root, vertical, pad
+                origin, width, lower_left, height, horizontal, root, vertical, part_shift
             ]
         )
     );

@@ -3,7 +3,7 @@
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, Triangle};
 use treelight_render::{
-    BufferKind, UploadPlan, grown_capacity_within, instance_bytes, node_bytes, triangle_bytes,
+    BufferKind, PartLayout, UploadPlan, instance_bytes, node_bytes, triangle_bytes,
 };
 
 fn grid(n: usize, offset: f32) -> Vec<Triangle> {
@@ -154,11 +154,16 @@ fn growth_doubles() {
 
 #[test]
 fn buffers_grow_by_doubling_up_to_what_the_adapter_binds_and_no_further() {
+    let kind = BufferKind::Objects;
+    let within = |max_records: u64| PartLayout {
+        shift: 10,
+        max_binding_bytes: max_records * kind.record_bytes(),
+    };
     // Room to double.
-    assert_eq!(grown_capacity_within(1024, 3000, 1 << 20), Some(4096));
+    assert_eq!(within(1 << 20).grown(kind, 1024, 3000), Some(4096));
     // Doubling would pass the limit: the buffer stops at the limit, which still holds the records.
-    assert_eq!(grown_capacity_within(1024, 3000, 3500), Some(3500));
-    assert_eq!(grown_capacity_within(2048, 3500, 3500), Some(3500));
-    // More records than one binding holds: no buffer at all.
-    assert_eq!(grown_capacity_within(1024, 5000, 4000), None);
+    assert_eq!(within(3500).grown(kind, 1024, 3000), Some(3500));
+    assert_eq!(within(3500).grown(kind, 2048, 3500), Some(3500));
+    // More records than one binding holds, for a kind never split: no buffer at all.
+    assert_eq!(within(4000).grown(kind, 1024, 5000), None);
 }

@@ -6,8 +6,9 @@
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
 use treelight_render::{
-    GpuPrimaryCamera, PRIMARY_HITS_WGSL, TEXTURE_LAYER_WGSL, ViewParams, instance_bytes,
-    node_bytes, triangle_bytes,
+    BufferKind, GpuPrimaryCamera, MAX_PART_SHIFT, PRIMARY_HITS_SPLIT_WGSL, PRIMARY_HITS_WGSL,
+    TEXTURE_LAYER_WGSL, ViewParams, instance_bytes, node_bytes, part_bindings, part_count,
+    triangle_bytes,
 };
 use wgpu::util::DeviceExt;
 
@@ -15,6 +16,8 @@ use wgpu::util::DeviceExt;
 pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
+    /// Bound where a kernel declares more parts of a split kind than a scene has.
+    stand_in: wgpu::Buffer,
 }
 
 impl Gpu {
@@ -30,10 +33,68 @@ impl Gpu {
             )
         });
         eprintln!("adapter: {:?}", adapter.get_info().name);
+        // The kernels bind more storage buffers per stage than the defaults allow (the split
+        // kinds' parts): the adapter's limits, as the plugin asks for them.
         let (device, queue) =
-            bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-                .expect("a device");
-        Self { device, queue }
+            bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                required_limits: adapter.limits(),
+                ..Default::default()
+            }))
+            .expect("a device");
+        let stand_in = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stand-in part"),
+            size: 256,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        Self {
+            device,
+            queue,
+            stand_in,
+        }
+    }
+
+    /// Group 0 of a split kernel reading the scene (`scene_parts.wgsl`): `sequential` at bindings
+    /// 0, 1, 2 and on, then the further parts of `kinds` (part 0 is among `sequential`) at their
+    /// bindings: `parts` where it names one, else the stand-in.
+    pub fn scene_entries<'a>(
+        &'a self,
+        sequential: Vec<wgpu::BindingResource<'a>>,
+        kinds: &[BufferKind],
+        parts: &[(u32, &'a wgpu::Buffer)],
+    ) -> Vec<(u32, wgpu::BindingResource<'a>)> {
+        let mut entries: Vec<(u32, wgpu::BindingResource<'a>)> = sequential
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| (i as u32, r))
+            .collect();
+        for &kind in kinds {
+            for &binding in &part_bindings(kind)[1..] {
+                let buffer = parts
+                    .iter()
+                    .find(|(b, _)| *b == binding)
+                    .map_or(&self.stand_in, |(_, buffer)| *buffer);
+                entries.push((binding, buffer.as_entire_binding()));
+            }
+        }
+        entries
+    }
+
+    /// Dispatches a split kernel reading the tree ([`PRIMARY_HITS_SPLIT_WGSL`]'s): `buffers` bound
+    /// in order to group 0, the nodes' and triangles' further parts from `parts` or the stand-in.
+    pub fn dispatch_split(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        parts: &[(u32, &wgpu::Buffer)],
+        groups: (u32, u32),
+    ) {
+        let entries = self.scene_entries(
+            buffers.iter().map(|b| b.as_entire_binding()).collect(),
+            &[BufferKind::Nodes, BufferKind::Triangles],
+            parts,
+        );
+        self.dispatch_indexed(pipeline, vec![entries], groups);
     }
 
     /// A storage buffer holding `bytes` (at least 256 bytes: bindings may not be empty or shorter
@@ -119,17 +180,33 @@ impl Gpu {
         bind_groups: Vec<Vec<wgpu::BindingResource>>,
         groups: (u32, u32),
     ) {
+        let indexed = bind_groups
+            .into_iter()
+            .map(|resources| {
+                resources
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, r)| (i as u32, r))
+                    .collect()
+            })
+            .collect();
+        self.dispatch_indexed(pipeline, indexed, groups);
+    }
+
+    /// Dispatches with one list of (binding, resource) per bind group.
+    pub fn dispatch_indexed(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bind_groups: Vec<Vec<(u32, wgpu::BindingResource)>>,
+        groups: (u32, u32),
+    ) {
         let bound: Vec<wgpu::BindGroup> = bind_groups
             .into_iter()
             .enumerate()
             .map(|(g, resources)| {
                 let entries: Vec<wgpu::BindGroupEntry> = resources
                     .into_iter()
-                    .enumerate()
-                    .map(|(i, resource)| wgpu::BindGroupEntry {
-                        binding: i as u32,
-                        resource,
-                    })
+                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
                     .collect();
                 self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: None,
@@ -389,6 +466,81 @@ impl Gpu {
     }
 }
 
+impl Gpu {
+    /// [`Gpu::scene_buffers`] cut into parts of `1 << shift` records for the split kernel
+    /// ([`treelight_render::PATHTRACE_SPLIT_WGSL`]): each part with its binding.
+    pub fn split_scene_buffers(
+        &self,
+        bvh: &Bvh,
+        attributes: &[u8],
+        objects: &[u8],
+        lights: &[u8],
+        shift: u32,
+    ) -> Vec<(u32, wgpu::Buffer)> {
+        let [n, t, i] = tree_bytes(bvh);
+        let mut out = Vec::new();
+        for (kind, bytes) in [
+            (BufferKind::Nodes, &n[..]),
+            (BufferKind::Triangles, &t[..]),
+            (BufferKind::Instances, &i[..]),
+            (BufferKind::Attributes, attributes),
+            (BufferKind::Objects, objects),
+            (BufferKind::Lights, lights),
+        ] {
+            let part_bytes = if part_count(kind) == 1 {
+                bytes.len().max(1)
+            } else {
+                (kind.record_bytes() << shift) as usize
+            };
+            let chunks: Vec<&[u8]> = if bytes.is_empty() {
+                vec![bytes]
+            } else {
+                bytes.chunks(part_bytes).collect()
+            };
+            assert!(
+                chunks.len() <= part_count(kind),
+                "too many parts of {kind:?}"
+            );
+            for (k, c) in chunks.into_iter().enumerate() {
+                out.push((part_bindings(kind)[k], self.storage(kind.label(), c)));
+            }
+        }
+        out
+    }
+
+    /// [`Gpu::path_trace`] through the split kernel over [`Gpu::split_scene_buffers`]: parts a kind
+    /// does not have are bound to the stand-in, as the plugin binds them.
+    pub fn path_trace_split(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        scene: &[(u32, wgpu::Buffer)],
+        view: &ViewParams,
+        target: &TraceTarget,
+        layers: &Layers,
+    ) {
+        let uniform = self.uniform(&view.to_bytes());
+        let mut scene_group: Vec<(u32, wgpu::BindingResource)> = scene
+            .iter()
+            .map(|(b, buffer)| (*b, buffer.as_entire_binding()))
+            .collect();
+        for kind in BufferKind::ALL {
+            for &b in part_bindings(kind) {
+                if !scene.iter().any(|(x, _)| *x == b) {
+                    scene_group.push((b, self.stand_in.as_entire_binding()));
+                }
+            }
+        }
+        scene_group.push((6, wgpu::BindingResource::TextureView(&layers.view)));
+        scene_group.push((7, wgpu::BindingResource::Sampler(&layers.sampler)));
+        let view_group = vec![
+            (0, uniform.as_entire_binding()),
+            (1, target.accum.as_entire_binding()),
+            (2, target.aux.as_entire_binding()),
+        ];
+        self.dispatch_indexed(pipeline, vec![scene_group, view_group], view.workgroups());
+    }
+}
+
 /// A view's buffers as the trace kernel binds them.
 pub struct TraceTarget {
     /// Per pixel: the sum of its samples (rgb) and their count (w).
@@ -597,7 +749,7 @@ impl PinholeView {
             horizontal: self.horizontal.to_array(),
             root,
             vertical: self.vertical.to_array(),
-            pad: 0,
+            part_shift: MAX_PART_SHIFT,
         };
         bytemuck::bytes_of(&record).to_vec()
     }
@@ -622,6 +774,46 @@ fn kernel_hits_on(
     gpu.dispatch(
         &pipeline,
         &[nodes, tris, insts, &camera, &out],
+        (view.width.div_ceil(8), view.height.div_ceil(8)),
+    );
+    words(&gpu.read(&out))
+}
+
+/// `primary_hits` with the nodes and triangles cut into parts of `1 << shift` records, each
+/// bound at its part's binding, as the plugin binds a scene larger than one binding holds.
+pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
+    let gpu = Gpu::new();
+    let [n, t, i] = tree_bytes(bvh);
+    let cut = |kind: BufferKind, bytes: &[u8]| -> Vec<wgpu::Buffer> {
+        let part_bytes = (kind.record_bytes() << shift) as usize;
+        let parts: Vec<wgpu::Buffer> = bytes
+            .chunks(part_bytes)
+            .map(|c| gpu.storage(kind.label(), c))
+            .collect();
+        assert!(
+            parts.len() <= part_count(kind),
+            "{} parts of {kind:?}: more than the kernel binds",
+            parts.len()
+        );
+        parts
+    };
+    let (nodes, tris) = (cut(BufferKind::Nodes, &n), cut(BufferKind::Triangles, &t));
+    let insts = gpu.storage("instances", &i);
+    let mut camera_bytes = view.uniform(bvh.gpu_root());
+    // The camera's last word is the part shift.
+    let at = camera_bytes.len() - 4;
+    camera_bytes[at..].copy_from_slice(&shift.to_le_bytes());
+    let camera = gpu.uniform(&camera_bytes);
+    let out = gpu.zeroed((view.width * view.height * 4) as u64);
+    let pipeline = gpu.pipeline(PRIMARY_HITS_SPLIT_WGSL, "primary_hits");
+    let mut parts: Vec<(u32, &wgpu::Buffer)> = Vec::new();
+    for (kind, buffers) in [(BufferKind::Nodes, &nodes), (BufferKind::Triangles, &tris)] {
+        parts.extend(part_bindings(kind).iter().copied().zip(buffers).skip(1));
+    }
+    gpu.dispatch_split(
+        &pipeline,
+        &[&nodes[0], &tris[0], &insts, &camera, &out],
+        &parts,
         (view.width.div_ceil(8), view.height.div_ceil(8)),
     );
     words(&gpu.read(&out))
