@@ -106,6 +106,11 @@ impl SceneIndex {
     }
 }
 
+/// Objects whose name, transform, parent, visibility or material an edit has set: what a project
+/// writes of a source's nodes (the others come back from the source as they are).
+#[derive(Resource, Debug, Default)]
+pub struct EditedObjects(pub std::collections::HashSet<SceneId>);
+
 fn index_id(mut world: DeferredWorld, ctx: HookContext) {
     let Some(&id) = world.get::<SceneId>(ctx.entity) else {
         return;

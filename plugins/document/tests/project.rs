@@ -4,6 +4,9 @@
 //! copies geometry; broken or hostile projects are refused with the file named and the open scene
 //! untouched; a missing source still opens and is kept by the next save.
 
+#[path = "support/assembly.rs"]
+mod assembly;
+
 use bevy::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,6 +21,7 @@ use treelight_document::object::SceneId;
 use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::primitive::Primitive;
 use treelight_document::project::capture::save_project;
+use treelight_document::project::format::PROJECT_VERSION;
 use treelight_document::project::format::ProjectError;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::format::read_project;
@@ -309,7 +313,7 @@ fn broken_projects_are_refused_and_the_scene_is_untouched() {
         ),
         (
             "version",
-            text.replacen("version: 1", "version: 99", 1),
+            text.replacen(&format!("version: {PROJECT_VERSION}"), "version: 99", 1),
             "version 99",
         ),
         ("absurd", absurd_radius(&text), "camera is out of range"),
@@ -515,6 +519,7 @@ fn a_missing_source_still_opens_and_a_save_keeps_it() {
         },
     );
     let path = dir.join("scene.treelight");
+    let before = state(app.world_mut());
     save_project(app.world_mut(), &path).unwrap();
     let saved = read_project(&path).unwrap();
     // Inside the project's folder, the source is stored relative to it.
@@ -559,8 +564,9 @@ fn a_missing_source_still_opens_and_a_save_keeps_it() {
     .unwrap();
     assert_eq!((report.missing_sources.len(), report.missing_nodes), (0, 0));
     fresh.update();
+    // The same objects with the same ids as before the save.
     let relinked = state(fresh.world_mut());
-    assert_eq!(relinked.len(), saved.objects.len(), "{relinked:?}");
+    assert_eq!(relinked, before);
     assert!(fresh.world().resource::<EditHistory>().is_dirty());
     assert_eq!(
         fresh.world().resource::<ProjectState>().path.as_deref(),
@@ -572,9 +578,9 @@ fn a_missing_source_still_opens_and_a_save_keeps_it() {
         vec![PathBuf::from("moved/FlightHelmet.gltf")]
     );
     assert_eq!(
-        resaved.objects.len(),
-        saved.objects.len(),
-        "the missing objects were dropped"
+        (resaved.objects.len(), &resaved.source_ids),
+        (saved.objects.len(), &saved.source_ids),
+        "the missing objects or their ids were dropped"
     );
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -750,5 +756,253 @@ fn a_failed_autosave_is_shown_and_retried_and_a_save_leaves_no_copy() {
         !copy.exists(),
         "a discarded scene's copy was left to be offered"
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Imports `file` into a fresh editor world.
+fn imported(file: &Path) -> App {
+    let mut app = editor_world();
+    apply(
+        &mut app,
+        EditCommand::Import {
+            file: file.to_owned(),
+            root: None,
+            transform: None,
+        },
+    );
+    app
+}
+
+#[test]
+fn a_project_grows_with_the_edits_not_the_sources() {
+    let dir = temp("compact");
+    // 300 parts under one root: 302 objects with the sun.
+    let (file, _) = assembly::generated_assembly(&dir, 300, 2);
+    let mut app = imported(&file);
+    let before = state(app.world_mut());
+    assert_eq!(before.len(), 302);
+    let path = dir.join("unedited.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let bytes = std::fs::metadata(&path).unwrap().len();
+    assert!(bytes < 2048, "an unedited import saves as {bytes} bytes");
+    let saved = read_project(&path).unwrap();
+    // The root and the sun are listed; the parts are one run of ids.
+    assert_eq!(saved.objects.len(), 2, "{:?}", saved.objects);
+    assert_eq!(saved.source_ids[0].runs.len(), 1);
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), before);
+
+    // Ten edits: seven parts moved, one renamed, one hidden, one deleted.
+    let ids = ids_by_name(&mut app);
+    for k in 0..7 {
+        apply(
+            &mut app,
+            EditCommand::SetTransform {
+                id: ids[&format!("part {}", 10 * k)],
+                transform: Transform::from_xyz(k as f32, 2.0, 0.0).into(),
+            },
+        );
+    }
+    apply(
+        &mut app,
+        EditCommand::Rename {
+            id: ids["part 3"],
+            name: "renamed".into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::SetVisible {
+            id: ids["part 4"],
+            visible: false,
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Delete {
+            ids: vec![ids["part 5"]],
+        },
+    );
+    let edited = state(app.world_mut());
+    let path = dir.join("edited.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let saved = read_project(&path).unwrap();
+    // The nine changed parts are listed, the deleted one named; the rest stay runs.
+    assert_eq!(saved.objects.len(), 2 + 9);
+    assert_eq!(saved.deleted.len(), 1);
+    assert!(std::fs::metadata(&path).unwrap().len() < 12 * 1024);
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), edited);
+    // Saved again unedited, it lists the same: opening did not make every node look edited.
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    let resaved = read_project(&again).unwrap();
+    assert_eq!(resaved.objects.len(), saved.objects.len());
+    assert_eq!(resaved.source_ids, saved.source_ids);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_version_1_project_opens_and_saves_again_compact() {
+    let dir = temp("version-1");
+    let mut app = edited_scene();
+    let before = state(app.world_mut());
+    // Version 1 listed every object with its values and no runs.
+    let path = dir.join("current.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let current = read_project(&path).unwrap();
+    let mut old = current.clone();
+    old.version = 1;
+    old.source_ids.clear();
+    let mut q = app.world_mut().query::<(
+        &SceneId,
+        &Name,
+        &Transform,
+        Option<&ChildOf>,
+        Option<&Visibility>,
+        &treelight_document::import::spawn::SourceKey,
+    )>();
+    let rows: Vec<_> = q
+        .iter(app.world())
+        .map(|(id, name, t, parent, vis, key)| {
+            (
+                *id,
+                name.as_str().to_owned(),
+                *t,
+                parent.map(|p| p.parent()),
+                vis.copied(),
+                key.key.clone(),
+            )
+        })
+        .collect();
+    let index = app
+        .world()
+        .resource::<treelight_document::object::SceneIndex>();
+    let id_of = |e: Entity| {
+        rows.iter()
+            .find(|r| index.entity(r.0) == Some(e))
+            .map(|r| r.0)
+    };
+    for (id, name, t, parent, vis, key) in &rows {
+        if old.objects.iter().any(|o| o.id == *id) {
+            continue;
+        }
+        old.objects
+            .push(treelight_document::project::format::ProjectObject {
+                id: *id,
+                name: name.clone(),
+                parent: parent.and_then(id_of),
+                transform: (*t).into(),
+                visible: *vis != Some(Visibility::Hidden),
+                kind: treelight_document::project::format::ObjectKind::Node(
+                    treelight_document::project::format::SourceNode {
+                        source: 0,
+                        key: key.clone(),
+                    },
+                ),
+                material: None,
+            });
+    }
+    assert!(old.objects.len() > current.objects.len());
+    let v1 = dir.join("v1.treelight");
+    let text = ron::ser::to_string_pretty(&old, ron::ser::PrettyConfig::default()).unwrap();
+    assert!(text.contains("version: 1"));
+    std::fs::write(&v1, text).unwrap();
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &v1).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), before);
+    // Saved by this editor, it lists what the edits changed, as the current format does.
+    let resaved_path = dir.join("resaved.treelight");
+    save_project(fresh.world_mut(), &resaved_path).unwrap();
+    let resaved = read_project(&resaved_path).unwrap();
+    assert_eq!(resaved.version, 2);
+    assert_eq!(resaved.objects.len(), current.objects.len());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_cycle_through_a_source_s_own_hierarchy_is_refused_once_it_is_read() {
+    let dir = temp("source-cycle");
+    let mut app = imported(&helmet());
+    let path = dir.join("good.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let good = read_project(&path).unwrap();
+    let ids = ids_by_name(&mut app);
+    // The file's root under one of its own children: each listed parent exists, so the file
+    // reads, but the source's hierarchy closes the ring.
+    let mut bad = good.clone();
+    let root = bad
+        .objects
+        .iter_mut()
+        .find(|o| o.name == "FlightHelmet.gltf")
+        .unwrap();
+    root.parent = Some(ids["Hose_low"]);
+    let path = dir.join("cycle.treelight");
+    let text = ron::ser::to_string_pretty(&bad, ron::ser::PrettyConfig::default()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    assert!(read_project(&path).is_ok());
+    let before = state(app.world_mut());
+    let e = open_project(app.world_mut(), &path).unwrap_err();
+    assert!(e.to_string().contains("form a cycle"), "{e}");
+    assert_eq!(state(app.world_mut()), before);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_re_exported_source_keeps_what_it_can_and_reports_the_rest_by_name() {
+    let dir = temp("re-exported");
+    let (file, _) = assembly::generated_assembly(&dir, 20, 2);
+    let mut app = imported(&file);
+    let ids = ids_by_name(&mut app);
+    apply(
+        &mut app,
+        EditCommand::SetTransform {
+            id: ids["part 1"],
+            transform: Transform::from_xyz(0.0, 3.0, 0.0).into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::SetTransform {
+            id: ids["part 19"],
+            transform: Transform::from_xyz(0.0, 4.0, 0.0).into(),
+        },
+    );
+    let path = dir.join("scene.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    // The file exported again with fewer parts: part 19 is gone, and the keys changed.
+    assembly::generated_assembly(&dir, 15, 2);
+    let mut fresh = editor_world();
+    let report = open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(report.missing_nodes, 1);
+    assert!(
+        report.missing_names.iter().any(|n| n.contains("part 19")),
+        "{report:?}"
+    );
+    assert_eq!(report.changed_sources, vec![file.clone()]);
+    let now = ids_by_name(&mut fresh);
+    // The edit to a part still there is applied to it, with its id.
+    assert_eq!(now["part 1"], ids["part 1"]);
+    let e = fresh
+        .world()
+        .resource::<treelight_document::object::SceneIndex>()
+        .entity(now["part 1"])
+        .unwrap();
+    assert_eq!(
+        fresh.world().get::<Transform>(e).unwrap().translation,
+        Vec3::new(0.0, 3.0, 0.0)
+    );
+    // No other part took part 19's id, and its edit is kept for the next save.
+    assert!(!now.values().any(|id| *id == ids["part 19"]));
+    let again = dir.join("again.treelight");
+    save_project(fresh.world_mut(), &again).unwrap();
+    let resaved = read_project(&again).unwrap();
+    assert!(resaved.objects.iter().any(|o| o.id == ids["part 19"]));
     std::fs::remove_dir_all(&dir).ok();
 }

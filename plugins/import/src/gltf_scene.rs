@@ -12,7 +12,7 @@ use glam::Mat4;
 use gltf::Semantic;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -78,6 +78,10 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     // Each node is visited once: a node reached again (listed under two parents, twice as a
     // root, or on a cycle) would make the walk grow without end, so it is refused.
     let mut seen = vec![false; document.nodes().len()];
+    // Keys stay unique where siblings share a name: the second "bolt" under a parent is
+    // "bolt[1]", the third "bolt[2]" (skipping a sibling already named so).
+    let mut taken: HashSet<(Option<usize>, String)> = HashSet::new();
+    let mut next_suffix: HashMap<(Option<usize>, String), u32> = HashMap::new();
     // (node, parent's world transform, depth, parent's index in scene.nodes). Popped depth first,
     // so a node is always listed after its parent.
     let mut stack: Vec<(gltf::Node, Mat4, usize, Option<usize>)> = root_scene
@@ -120,9 +124,21 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
                 format!("{} has a non-finite transform", label()),
             ));
         }
-        let step = node
+        let mut step = node
             .name()
             .map_or_else(|| format!("#{}", node.index()), |n| n.replace('/', "_"));
+        if taken.contains(&(parent_index, step.clone())) {
+            let next = next_suffix.entry((parent_index, step.clone())).or_insert(1);
+            let base = std::mem::take(&mut step);
+            loop {
+                step = format!("{base}[{next}]");
+                *next += 1;
+                if !taken.contains(&(parent_index, step.clone())) {
+                    break;
+                }
+            }
+        }
+        taken.insert((parent_index, step.clone()));
         let key = match parent_index {
             Some(p) => format!("{}/{step}", scene.nodes[p].key),
             None => step,

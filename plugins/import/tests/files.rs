@@ -433,7 +433,7 @@ fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
                 m.transform
             );
         }
-        assert!(keys.len() <= s.nodes.len());
+        assert_eq!(keys.len(), s.nodes.len(), "{file}: keys repeat");
     }
     // CesiumMan nests its mesh several levels down.
     let s = load_scene(&scene("gltf/CesiumMan.glb")).unwrap();
@@ -453,6 +453,42 @@ fn copy_box_textured(tag: &str) -> (PathBuf, PathBuf, serde_json::Value) {
     let path = dir.join("BoxTextured.gltf");
     let json = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     (dir, path, json)
+}
+
+#[test]
+fn siblings_of_one_name_get_keys_of_their_own() {
+    // BoxTextured with four more top-level nodes: three named "part", one named "part[1]".
+    let (dir, path, mut json) = copy_box_textured("same-names");
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    let first = nodes.len();
+    for name in ["part", "part[1]", "part", "part"] {
+        nodes.push(serde_json::json!({ "name": name }));
+    }
+    let roots = json["scenes"][0]["nodes"].as_array_mut().unwrap();
+    roots.extend((first..first + 4).map(|i| serde_json::json!(i)));
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    let mut parts: Vec<&str> = s
+        .nodes
+        .iter()
+        .filter(|n| n.name.starts_with("part"))
+        .map(|n| n.key.as_str())
+        .collect();
+    parts.sort_unstable();
+    parts.dedup();
+    // Four keys, however the repeats and the literal "part[1]" meet in the walk.
+    assert_eq!(parts.len(), 4, "{parts:?}");
+    assert!(
+        parts.contains(&"part") && parts.contains(&"part[1]"),
+        "{parts:?}"
+    );
+    // And the same file gives the same keys again.
+    let again = load_scene(&path).unwrap();
+    let keys = |s: &treelight_import::ImportedScene| {
+        s.nodes.iter().map(|n| n.key.clone()).collect::<Vec<_>>()
+    };
+    assert_eq!(keys(&s), keys(&again));
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

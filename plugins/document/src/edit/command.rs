@@ -4,7 +4,7 @@
 
 use super::snapshot::ObjectSnapshot;
 use crate::object::SceneObject;
-use crate::object::{SceneId, SceneIndex};
+use crate::object::{EditedObjects, SceneId, SceneIndex};
 use crate::primitive::{Primitive, PrimitiveShape};
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -474,6 +474,41 @@ impl EditCommand {
     /// Applies the command (filling in the ids it makes) and returns what undoes it.
     pub fn apply(&mut self, world: &mut World) -> Result<Undo, EditError> {
         self.check(world)?;
+        self.mark_edited(world);
+        self.apply_checked(world)
+    }
+
+    /// Notes the objects whose saved values the command sets ([`EditedObjects`]): a material's
+    /// values reach every object sharing it.
+    fn mark_edited(&self, world: &mut World) {
+        let mut ids: Vec<SceneId> = match self {
+            EditCommand::SetTransform { id, .. }
+            | EditCommand::MakeMaterialUnique { id }
+            | EditCommand::Rename { id, .. }
+            | EditCommand::SetVisible { id, .. } => vec![*id],
+            EditCommand::SetTransforms { transforms } => transforms.iter().map(|t| t.0).collect(),
+            EditCommand::Reparent { ids, .. } | EditCommand::Group { ids, .. } => ids.clone(),
+            EditCommand::SetMaterial { id, .. } => {
+                let mut ids = vec![*id];
+                if let Ok(handle) = material_of(world, *id) {
+                    let mut users = world.query::<(&SceneId, &MeshMaterial3d<StandardMaterial>)>();
+                    ids.extend(
+                        users
+                            .iter(world)
+                            .filter(|(_, m)| m.0.id() == handle.id())
+                            .map(|(id, _)| *id),
+                    );
+                }
+                ids
+            }
+            _ => return,
+        };
+        if let Some(mut edited) = world.get_resource_mut::<EditedObjects>() {
+            edited.0.extend(ids.drain(..));
+        }
+    }
+
+    fn apply_checked(&mut self, world: &mut World) -> Result<Undo, EditError> {
         Ok(match self {
             EditCommand::SetTransform { id, transform } => {
                 let e = entity(world, *id)?;
@@ -621,17 +656,18 @@ fn import(
             .map(crate::import::parse::ParsedScene::from)
             .map_err(|e| EditError::Import(e.to_string()))?,
     };
+    // A redone import's root gets its id back.
+    let root_id: Vec<SceneId> = root.iter().copied().collect();
     let top = crate::import::spawn::spawn_scene_in_world(
         world,
         file,
         &parsed.scene,
         &mut parsed.parts,
         true,
+        &root_id,
     )
-    .map_err(EditError::Import)?;
-    if let Some(id) = root {
-        world.entity_mut(top[0]).insert(*id);
-    }
+    .map_err(EditError::Import)?
+    .top;
     if let Some(t) = transform {
         world.entity_mut(top[0]).insert(Transform::from(*t));
     }

@@ -14,6 +14,7 @@ pub struct EditPlugin;
 impl Plugin for EditPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<crate::object::SceneIndex>()
+            .init_resource::<crate::object::EditedObjects>()
             .init_resource::<history::EditHistory>()
             .init_resource::<history::EditRequests>();
     }

@@ -3,7 +3,7 @@
 
 use crate::import::convert::{material, to_bevy_image, to_bevy_mesh};
 use crate::import::parse::Prebuilt;
-use crate::object::SceneObject;
+use crate::object::{SceneId, SceneObject};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use std::collections::HashMap;
@@ -14,38 +14,99 @@ use treelight_import::{ImportedMaterial, ImportedScene, WrapMode};
 pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
 
 /// Every key [`spawn_scene`] gives the objects of `scene`: the root's (empty), each node's, and
-/// each mesh's that is not on its node.
+/// each mesh's that is not on its node, in the order it spawns them.
 pub fn source_keys(scene: &ImportedScene) -> Vec<String> {
-    let mut keys = vec![String::new()];
-    keys.extend(scene.nodes.iter().map(|n| n.key.clone()));
-    // A mesh alone on its node lives on the node, under the node's key.
-    let own = mesh_object_keys(scene)
+    source_tree(scene)
+        .keys
         .into_iter()
-        .zip(&scene.meshes)
-        .filter(|(k, m)| {
-            m.node
-                .and_then(|n| scene.nodes.get(n))
-                .is_none_or(|n| n.key != *k)
-        })
-        .map(|(k, _)| k);
-    keys.extend(own);
-    keys
+        .map(|k| k.into_owned())
+        .collect()
 }
 
-/// Spawns a parsed scene into the world (what the import command does): the assembly, and with
-/// `add_sun` a sun when the scene has no light yet. Returns the entities spawned at the top; fails
-/// only in a world without mesh, material or image assets.
+/// The objects [`spawn_scene`] makes of a scene, in the order it makes them: their keys (the
+/// nodes' borrowed from the scene) and the parent of each as an index into them (`None` for the
+/// root).
+pub struct SourceTree<'a> {
+    /// Each object's key ([`source_keys`]).
+    pub keys: Vec<std::borrow::Cow<'a, str>>,
+    /// Each object's parent.
+    pub parents: Vec<Option<u32>>,
+}
+
+/// The hierarchy [`spawn_scene`] makes of `scene`: the root, each node, and each mesh that is not
+/// on its node.
+pub fn source_tree(scene: &ImportedScene) -> SourceTree<'_> {
+    use std::borrow::Cow;
+    let mut keys: Vec<Cow<str>> = Vec::with_capacity(1 + scene.nodes.len());
+    let mut parents = Vec::with_capacity(1 + scene.nodes.len());
+    keys.push(Cow::Borrowed(""));
+    parents.push(None);
+    keys.extend(scene.nodes.iter().map(|n| Cow::Borrowed(n.key.as_str())));
+    parents.extend(
+        scene
+            .nodes
+            .iter()
+            .map(|n| Some(n.parent.map_or(0, |p| p as u32 + 1))),
+    );
+    let counts = mesh_counts(scene);
+    for (i, m) in scene.meshes.iter().enumerate() {
+        // A mesh alone on its node lives on the node, under the node's key.
+        if let Some(key) = own_mesh_key(scene, i, &counts) {
+            keys.push(Cow::Owned(key));
+            let node = m.node.filter(|&n| n < scene.nodes.len());
+            parents.push(Some(node.map_or(0, |n| n as u32 + 1)));
+        }
+    }
+    SourceTree { keys, parents }
+}
+
+/// Meshes on each node of `scene`.
+fn mesh_counts(scene: &ImportedScene) -> Vec<u32> {
+    let mut counts = vec![0u32; scene.nodes.len()];
+    for n in scene.meshes.iter().filter_map(|m| m.node) {
+        if let Some(c) = counts.get_mut(n) {
+            *c += 1;
+        }
+    }
+    counts
+}
+
+/// The key of the object of its own that mesh `i` gets, or `None` when it is its node's only mesh
+/// and lives on the node.
+fn own_mesh_key(scene: &ImportedScene, i: usize, counts: &[u32]) -> Option<String> {
+    let node = scene.meshes[i].node.filter(|&n| n < scene.nodes.len());
+    match node {
+        Some(n) if counts[n] == 1 => None,
+        Some(n) => Some(format!("{}/mesh {i}", scene.nodes[n].key)),
+        None => Some(format!("mesh {i}")),
+    }
+}
+
+/// What [`spawn_scene_in_world`] made.
+pub struct SpawnedScene {
+    /// The entities at the top: the assembly's root, and the sun if one was added.
+    pub top: Vec<Entity>,
+    /// The assembly's objects in [`source_keys`] order.
+    pub objects: Vec<Entity>,
+}
+
+/// Spawns a parsed scene into the world (what the import command does): the assembly, its objects
+/// with the ids `ids` gives in [`source_keys`] order (fresh ones past its end, or for
+/// [`SceneId::NEW`]), and with `add_sun` a sun when the scene has no light yet. Fails only in a
+/// world without mesh, material or image assets.
 pub fn spawn_scene_in_world(
     world: &mut World,
     file: &Path,
     scene: &ImportedScene,
     prebuilt: &mut Prebuilt,
     add_sun: bool,
-) -> Result<Vec<Entity>, String> {
+    ids: &[SceneId],
+) -> Result<SpawnedScene, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
         bevy::ecs::system::SystemState::new(world);
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
-    let root = spawn_scene(&mut commands, file, scene, prebuilt, &mut assets);
+    let objects = spawn_scene(&mut commands, file, scene, prebuilt, &mut assets, ids);
+    let root = objects[0];
     state.apply(world);
     if let Some(mut catalog) = world.get_resource_mut::<SourceCatalog>() {
         catalog.0.insert(file.to_owned(), source_keys(scene));
@@ -67,7 +128,7 @@ pub fn spawn_scene_in_world(
                 .id(),
         );
     }
-    Ok(top)
+    Ok(SpawnedScene { top, objects })
 }
 
 /// The asset stores an imported scene is added to.
@@ -90,6 +151,8 @@ pub struct SourceKey {
     pub file: PathBuf,
     /// The node's key in the file; the mesh's index (`mesh N`) for files without nodes.
     pub key: String,
+    /// The key's place in [`source_keys`] of the file as imported.
+    pub index: u32,
 }
 
 /// Which file's mesh an object shows: its own node's for an imported mesh, the original's for a
@@ -104,14 +167,17 @@ pub struct SourceCatalog(pub HashMap<PathBuf, Vec<String>>);
 
 /// Spawns the file as an assembly: one root named after the file, its node hierarchy beneath as
 /// parent and child entities with local transforms, each mesh on its node (or, for a node with
-/// several meshes or for files without nodes, as a child of its own). Returns the root.
+/// several meshes or for files without nodes, as a child of its own), each with the id `ids` gives
+/// in [`source_keys`] order. Returns the objects in that order, the root first.
 pub fn spawn_scene(
     commands: &mut Commands,
     file: &Path,
     scene: &ImportedScene,
     prebuilt: &mut Prebuilt,
     assets: &mut SceneAssets,
-) -> Entity {
+    ids: &[SceneId],
+) -> Vec<Entity> {
+    let id = |k: usize| ids.get(k).copied().unwrap_or(SceneId::NEW);
     let handles = material_handles(scene, prebuilt, assets);
     let fallback = assets.materials.add(material(&ImportedMaterial::default()));
     let root_name = file.file_name().map_or_else(
@@ -122,41 +188,42 @@ pub fn spawn_scene(
         .spawn((
             Name::new(root_name),
             SceneObject,
+            id(0),
             Transform::IDENTITY,
             Visibility::default(),
             SourceKey {
                 file: file.to_owned(),
                 key: String::new(),
+                index: 0,
             },
         ))
         .id();
     // Parents come before their children in the file's node list.
     let mut nodes: Vec<Entity> = Vec::with_capacity(scene.nodes.len());
-    for n in &scene.nodes {
+    for (k, n) in scene.nodes.iter().enumerate() {
         let parent = n.parent.and_then(|p| nodes.get(p).copied()).unwrap_or(root);
         nodes.push(
             commands
                 .spawn((
                     Name::new(n.name.clone()),
                     SceneObject,
+                    id(1 + k),
                     Transform::from_matrix(n.local),
                     Visibility::default(),
                     SourceKey {
                         file: file.to_owned(),
                         key: n.key.clone(),
+                        index: 1 + k as u32,
                     },
                     ChildOf(parent),
                 ))
                 .id(),
         );
     }
-    let mut meshes_per_node: HashMap<usize, usize> = HashMap::new();
-    for m in &scene.meshes {
-        if let Some(n) = m.node {
-            *meshes_per_node.entry(n).or_default() += 1;
-        }
-    }
-    let keys = mesh_object_keys(scene);
+    let counts = mesh_counts(scene);
+    let mut objects = Vec::with_capacity(1 + nodes.len());
+    objects.push(root);
+    objects.extend(&nodes);
     // A mesh the file places at several nodes becomes one asset: the scene BVH then holds its
     // triangles once, each placement an instance.
     let mut mesh_handles: Vec<Handle<Mesh>> = Vec::with_capacity(scene.meshes.len());
@@ -179,34 +246,45 @@ pub fn spawn_scene(
         mesh_handles.push(mesh.clone());
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
         let bound = prebuilt.bounds.get(i).copied().flatten();
-        let key = SourceKey {
-            file: file.to_owned(),
-            key: keys[i].clone(),
-        };
-        let spawned = match m.node.and_then(|n| nodes.get(n).map(|e| (n, *e))) {
+        let node = m.node.filter(|&n| n < nodes.len());
+        let spawned = match own_mesh_key(scene, i, &counts) {
             // A node's only mesh lives on the node itself.
-            Some((n, node)) if meshes_per_node.get(&n) == Some(&1) => {
-                commands.entity(node).insert((shape, MeshSource(key)));
-                node
+            None => {
+                let n = node.unwrap_or_default();
+                let key = SourceKey {
+                    file: file.to_owned(),
+                    key: scene.nodes[n].key.clone(),
+                    index: 1 + n as u32,
+                };
+                commands.entity(nodes[n]).insert((shape, MeshSource(key)));
+                nodes[n]
             }
             // Each of several meshes of one node is a child of it; a mesh of a file without nodes
             // stands under the root with its own transform.
-            placed => {
-                let (parent, transform) = match placed {
-                    Some((_, node)) => (node, Transform::IDENTITY),
+            Some(key) => {
+                let (parent, transform) = match node {
+                    Some(n) => (nodes[n], Transform::IDENTITY),
                     None => (root, Transform::from_matrix(m.transform)),
                 };
-                commands
+                let key = SourceKey {
+                    file: file.to_owned(),
+                    key,
+                    index: objects.len() as u32,
+                };
+                let e = commands
                     .spawn((
                         Name::new(m.name.clone()),
                         SceneObject,
+                        id(objects.len()),
                         shape,
                         transform,
                         MeshSource(key.clone()),
                         key,
                         ChildOf(parent),
                     ))
-                    .id()
+                    .id();
+                objects.push(e);
+                e
             }
         };
         // Bounds made with the mesh on the parsing task: Bevy would otherwise compute every new
@@ -218,7 +296,7 @@ pub fn spawn_scene(
                 .insert((b, bevy::camera::visibility::NoAutoAabb));
         }
     }
-    root
+    objects
 }
 
 /// One material per material of the scene, with its base-colour image (one image per texture and
@@ -258,20 +336,13 @@ fn material_handles(
 /// the node (its key); each of several meshes of one node is a child (`NODE/mesh I`); a mesh of a
 /// file without nodes is `mesh I`.
 pub fn mesh_object_keys(scene: &ImportedScene) -> Vec<String> {
-    let mut per_node: HashMap<usize, usize> = HashMap::new();
-    for n in scene.meshes.iter().filter_map(|m| m.node) {
-        *per_node.entry(n).or_default() += 1;
-    }
-    scene
-        .meshes
-        .iter()
-        .enumerate()
-        .map(
-            |(i, m)| match m.node.and_then(|n| Some((n, scene.nodes.get(n)?))) {
-                Some((n, node)) if per_node.get(&n) == Some(&1) => node.key.clone(),
-                Some((_, node)) => format!("{}/mesh {i}", node.key),
-                None => format!("mesh {i}"),
-            },
-        )
+    let counts = mesh_counts(scene);
+    (0..scene.meshes.len())
+        .map(|i| {
+            own_mesh_key(scene, i, &counts).unwrap_or_else(|| {
+                let n = scene.meshes[i].node.unwrap_or_default();
+                scene.nodes[n].key.clone()
+            })
+        })
         .collect()
 }

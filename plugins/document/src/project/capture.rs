@@ -1,15 +1,17 @@
-//! Capturing the scene as a project and saving it: what the user made of each source's nodes, the
-//! objects added in the editor and the view; never a copy of the geometry.
+//! Capturing the scene as a project and saving it: what the user changed of each source's nodes
+//! (those an edit touched, [`EditedObjects`], and each source's root, which an import places),
+//! the ids of the others as runs, the objects added in the editor and the view; never a copy of
+//! the geometry.
 
 use crate::edit::command::{LightKind, MaterialValue};
 use crate::edit::history::EditHistory;
 use crate::import::spawn::{MeshSource, SourceCatalog, SourceKey};
-use crate::object::{SceneId, SceneObject};
+use crate::object::{EditedObjects, SceneId, SceneObject};
 use crate::outbox::DocumentView;
 use crate::primitive::PrimitiveShape;
 use crate::project::format::*;
 use bevy::prelude::*;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 type SaveItem = (
@@ -32,12 +34,39 @@ type SaveItem = (
 /// (meshes made by code, with no source file and no shape).
 pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<String>) {
     let mut q = world.query_filtered::<SaveItem, With<SceneObject>>();
-    let mut rows: Vec<_> = q.iter(world).collect();
+    let world: &World = world;
+    let catalog = world.resource::<SourceCatalog>();
+    let edited = world.resource::<EditedObjects>();
+    // Each imported file's nodes by key index: gone (deleted), listed, or left as they were (only
+    // their ids are written, as runs). A source's root is always listed: an import places it.
+    let mut nodes: HashMap<&Path, Vec<Node>> = HashMap::new();
+    let mut rows = Vec::new();
+    for row in q.iter(world) {
+        if let Some(k) = row.6 {
+            let listed = k.index == 0 || edited.0.contains(row.1);
+            let slots = nodes
+                .entry(k.file.as_path())
+                .or_insert_with(|| vec![Node::Gone; catalog.0.get(&k.file).map_or(0, Vec::len)]);
+            match slots.get_mut(k.index as usize) {
+                // A second import of the same file: its nodes are listed in full.
+                Some(slot) if *slot == Node::Gone => {
+                    *slot = if listed {
+                        Node::Listed
+                    } else {
+                        Node::Unlisted(*row.1)
+                    };
+                    if !listed {
+                        continue;
+                    }
+                }
+                _ => {}
+            }
+        }
+        rows.push(row);
+    }
     rows.sort_by_key(|r| *r.1);
-    let ids: HashMap<Entity, SceneId> = rows.iter().map(|r| (r.0, *r.1)).collect();
     let materials = world.resource::<Assets<StandardMaterial>>();
     let state = world.resource::<ProjectState>();
-    let catalog = world.resource::<SourceCatalog>();
     let mut sources: Vec<PathBuf> = Vec::new();
     let source_of = |file: &Path, sources: &mut Vec<PathBuf>| -> usize {
         match sources.iter().position(|s| s == file) {
@@ -50,14 +79,9 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     };
     let mut objects = Vec::new();
     let mut unsaved = Vec::new();
-    let mut present: HashMap<PathBuf, HashSet<String>> = HashMap::new();
     for (_, id, name, t, vis, parent, key, mesh_source, shape, point, dir, mat, has_mesh) in &rows {
         let name = name.map_or(String::new(), |n| n.as_str().to_owned());
         let kind = if let Some(k) = key {
-            present
-                .entry(k.file.clone())
-                .or_default()
-                .insert(k.key.clone());
             ObjectKind::Node(SourceNode {
                 source: source_of(&k.file, &mut sources),
                 key: k.key.clone(),
@@ -94,7 +118,7 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         objects.push(ProjectObject {
             id: **id,
             name,
-            parent: parent.and_then(|p| ids.get(&p.parent()).copied()),
+            parent: parent.and_then(|p| world.get::<SceneId>(p.parent()).copied()),
             transform: (**t).into(),
             visible: *vis != Some(&Visibility::Hidden),
             kind,
@@ -103,14 +127,28 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     }
     // Deleted nodes: those each file had when imported that are gone now.
     let mut deleted = Vec::new();
+    let mut source_ids = Vec::new();
     let mut files: Vec<&PathBuf> = catalog.0.keys().collect();
     files.sort();
     for file in files {
         let keys = &catalog.0[file];
-        let here = present.get(file);
+        let slots = nodes.get(file.as_path());
+        let slot = |i: usize| slots.and_then(|s| s.get(i)).copied().unwrap_or(Node::Gone);
+        if slots.is_some_and(|s| s.iter().any(|n| matches!(n, Node::Unlisted(_)))) {
+            source_ids.push(SourceIds {
+                source: source_of(file, &mut sources),
+                keys: keys_hash(keys.iter().map(String::as_str)),
+                runs: id_runs((0..keys.len()).map(|i| match slot(i) {
+                    Node::Unlisted(id) => Some(id),
+                    _ => None,
+                })),
+            });
+        }
         let gone: Vec<&String> = keys
             .iter()
-            .filter(|k| here.is_none_or(|h| !h.contains(*k)))
+            .enumerate()
+            .filter(|(i, _)| slot(*i) == Node::Gone)
+            .map(|(_, k)| k)
             .collect();
         if gone.is_empty() {
             continue;
@@ -140,15 +178,52 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             key: key.clone(),
         });
     }
+    for (file, ids) in &state.missing_ids {
+        source_ids.push(SourceIds {
+            source: source_of(file, &mut sources),
+            ..ids.clone()
+        });
+    }
     let camera = world.get_resource::<DocumentView>().and_then(|v| v.0);
     let project = ProjectFile {
         version: PROJECT_VERSION,
         sources: sources.iter().map(|s| store_source(path, s)).collect(),
+        source_ids,
         objects,
         deleted,
         camera,
     };
     (project, unsaved)
+}
+
+/// What became of one of a source's nodes, for the save.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Node {
+    /// Deleted (or, for a key the catalog has and the scene not, never there).
+    Gone,
+    /// Written as an object.
+    Listed,
+    /// Left as the file has it: only its id is written.
+    Unlisted(SceneId),
+}
+
+/// Runs of consecutive key indices with consecutive ids, from each key's id (`None` for a key
+/// not in the runs).
+fn id_runs(ids: impl Iterator<Item = Option<SceneId>>) -> Vec<IdRun> {
+    let mut runs: Vec<IdRun> = Vec::new();
+    for (i, id) in ids.enumerate() {
+        let Some(id) = id else { continue };
+        match runs.last_mut() {
+            Some(IdRun(start, first, count))
+                if *start as usize + *count as usize == i
+                    && first.0 + u64::from(*count) == id.0 =>
+            {
+                *count += 1;
+            }
+            _ => runs.push(IdRun(i as u32, id, 1)),
+        }
+    }
+    runs
 }
 
 /// Saves the scene to `path` (atomically) and makes it the open project; returns the names of

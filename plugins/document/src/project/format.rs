@@ -1,9 +1,12 @@
 //! Projects: a `.treelight` file (RON, versioned) that holds references to the scene files it was
-//! built from, what the user made of their nodes (keyed by source keys: transform, parent,
-//! visibility, name, material values, deletions), the objects added in the editor (shapes, lights,
-//! groups, copies of imported meshes) and the camera; never a copy of the geometry. Opening one
-//! imports its sources again and applies the rest ([`super::restore`]); saving writes a temporary
-//! file beside the target, flushes it and renames it over the target ([`super::capture`]).
+//! built from, what the user changed of their nodes (keyed by source keys: transform, parent,
+//! visibility, name, material values, deletions), the ids of the nodes left as they were (runs of
+//! consecutive ids), the objects added in the editor (shapes, lights, groups, copies of imported
+//! meshes) and the camera; never a copy of the geometry, and no line per unchanged node, so a
+//! project grows with the edits, not the sources. Opening one imports its sources again and
+//! applies the rest ([`super::restore`]); saving writes a temporary file beside the target,
+//! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
+//! every node, still open.
 
 use crate::edit::command::{LightKind, MaterialValue, TransformValue, in_range};
 use crate::object::SceneId;
@@ -14,8 +17,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-/// The version this editor writes and reads.
-pub const PROJECT_VERSION: u32 = 1;
+/// The version this editor writes.
+pub const PROJECT_VERSION: u32 = 2;
+/// The oldest version it reads (1 listed every source node as an object).
+pub const OLDEST_VERSION: u32 = 1;
 
 /// Largest project file read, bytes.
 const MAX_PROJECT_BYTES: u64 = 256 << 20;
@@ -91,6 +96,45 @@ fn shown() -> bool {
     true
 }
 
+/// Consecutive source nodes with consecutive ids: the nodes at key indices `index` to
+/// `index + count - 1` of a source ([`crate::import::spawn::source_keys`] order) have ids `id` to
+/// `id + count - 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct IdRun(pub u32, pub SceneId, pub u32);
+
+impl IdRun {
+    /// The first key index, the first id and how many.
+    pub fn parts(self) -> (usize, u64, u64) {
+        (self.0 as usize, self.1.0, u64::from(self.2))
+    }
+}
+
+/// The ids of a source's nodes that the project does not list as objects (those the user left as
+/// they were), and which list of keys they belong to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SourceIds {
+    /// Index into the project's sources.
+    pub source: usize,
+    /// [`keys_hash`] of the source's keys when saved: a file whose nodes changed since (it was
+    /// exported again) gives its unlisted nodes fresh ids instead of another node's.
+    pub keys: u64,
+    /// The runs of ids.
+    pub runs: Vec<IdRun>,
+}
+
+/// A fingerprint of a source's node keys, stable across runs and builds (FNV-1a over the keys,
+/// each ended by a zero byte).
+pub fn keys_hash<'a>(keys: impl IntoIterator<Item = &'a str>) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for k in keys {
+        for b in k.bytes().chain([0]) {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
 /// A project file's contents.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProjectFile {
@@ -99,7 +143,11 @@ pub struct ProjectFile {
     /// Scene files, relative to the project's folder when inside it.
     #[serde(default)]
     pub sources: Vec<PathBuf>,
-    /// The scene's objects, by id.
+    /// The ids of the source nodes not listed in `objects` (version 2; version 1 lists them all).
+    #[serde(default)]
+    pub source_ids: Vec<SourceIds>,
+    /// The scene's objects, by id: each source's root and the nodes the user changed, and every
+    /// object made in the editor.
     #[serde(default)]
     pub objects: Vec<ProjectObject>,
     /// Source nodes the user deleted.
@@ -136,6 +184,8 @@ pub struct ProjectState {
     pub missing_sources: Vec<PathBuf>,
     /// Deleted source nodes of missing sources, kept likewise.
     pub missing_deleted: Vec<(PathBuf, String)>,
+    /// The node ids of missing sources, kept likewise.
+    pub missing_ids: Vec<(PathBuf, SourceIds)>,
 }
 
 /// What opening a project found missing, for the user.
@@ -145,21 +195,25 @@ pub struct OpenReport {
     pub missing_sources: Vec<(PathBuf, String)>,
     /// Objects whose node no longer exists in its (readable) source.
     pub missing_nodes: usize,
+    /// Their names (the first few).
+    pub missing_names: Vec<String>,
+    /// Sources whose nodes changed since the project was saved: their unchanged nodes got new ids.
+    pub changed_sources: Vec<PathBuf>,
 }
 
 impl ProjectFile {
     /// Checks what a file could get wrong: version, sizes, numbers, ids, references.
     pub fn validate(&self) -> Result<(), String> {
-        if self.version != PROJECT_VERSION {
+        if !(OLDEST_VERSION..=PROJECT_VERSION).contains(&self.version) {
             return Err(format!(
-                "version {} is not one this editor reads ({PROJECT_VERSION})",
+                "version {} is not one this editor reads ({OLDEST_VERSION} to {PROJECT_VERSION})",
                 self.version
             ));
         }
         if self.sources.len() > MAX_SOURCES || self.objects.len() > MAX_OBJECTS {
             return Err("it names more sources or objects than a project can hold".into());
         }
-        let mut ids = HashSet::new();
+        let mut ids = self.run_ids()?;
         for o in &self.objects {
             if !o.id.is_valid() {
                 return Err(format!(
@@ -212,50 +266,112 @@ impl ProjectFile {
 }
 
 impl ProjectFile {
-    /// Refuses parents that are the object itself, that no object of the file has, or that
-    /// lead round in a cycle: the objects must form a forest, as the scene they make does.
+    /// Every id the runs give, checked: sources the project lists, ids in range, no more than a
+    /// project can hold, none given twice.
+    fn run_ids(&self) -> Result<HashSet<SceneId>, String> {
+        let mut ids = HashSet::new();
+        let mut total = 0u64;
+        for s in &self.source_ids {
+            if s.source >= self.sources.len() {
+                return Err(format!(
+                    "the ids of source {} are listed, which the project does not list",
+                    s.source
+                ));
+            }
+            for run in &s.runs {
+                let (_, first, count) = run.parts();
+                total += count;
+                if total > (MAX_OBJECTS - self.objects.len()) as u64 {
+                    return Err("its runs of ids name more objects than a project can hold".into());
+                }
+                if count == 0 || first == 0 || first + count - 1 > SceneId::MAX.0 {
+                    return Err(format!(
+                        "a run of {count} ids from {first} is outside the range of ids (1 to {})",
+                        SceneId::MAX.0
+                    ));
+                }
+                for id in first..first + count {
+                    if !ids.insert(SceneId(id)) {
+                        return Err(format!("object id {id} is used twice"));
+                    }
+                }
+            }
+        }
+        Ok(ids)
+    }
+
+    /// The largest id the project holds, objects and runs together.
+    pub fn top_id(&self) -> SceneId {
+        let runs = self
+            .source_ids
+            .iter()
+            .flat_map(|s| &s.runs)
+            .map(|r| SceneId(r.1.0 + u64::from(r.2).saturating_sub(1)));
+        self.objects
+            .iter()
+            .map(|o| o.id)
+            .chain(runs)
+            .max()
+            .unwrap_or(SceneId::NEW)
+    }
+
+    /// Refuses parents that are the object itself, that no object of the file has (listed or in a
+    /// run), or that lead round in a cycle among the listed objects. (A cycle through a source's
+    /// own hierarchy shows only once the sources are read: [`check_forest`] again then.)
     fn check_parents(&self, ids: &HashSet<SceneId>) -> Result<(), String> {
         let parent: HashMap<SceneId, SceneId> = self
             .objects
             .iter()
             .filter_map(|o| Some((o.id, o.parent?)))
             .collect();
-        for (&child, &p) in &parent {
-            if p == child {
-                return Err(format!("object {} is its own parent", child.0));
-            }
-            if !ids.contains(&p) {
+        check_forest(&parent, |id| ids.contains(&id))
+    }
+}
+
+/// Refuses a parent map (child to parent) that is not a forest: a child its own parent, a parent
+/// for which `exists` is false, a cycle.
+pub fn check_forest(
+    parent: &HashMap<SceneId, SceneId>,
+    exists: impl Fn(SceneId) -> bool,
+) -> Result<(), String> {
+    let mut children: Vec<SceneId> = parent.keys().copied().collect();
+    children.sort_unstable();
+    for &child in &children {
+        let p = parent[&child];
+        if p == child {
+            return Err(format!("object {} is its own parent", child.0));
+        }
+        if !exists(p) {
+            return Err(format!(
+                "object {} names parent {}, which the project does not hold",
+                child.0, p.0
+            ));
+        }
+    }
+    // Walk up from each object; what a finished walk reached is known to end at a root.
+    let mut done: HashSet<SceneId> = HashSet::new();
+    for &start in &children {
+        let mut path: Vec<SceneId> = Vec::new();
+        let mut on_path = HashSet::new();
+        let mut at = start;
+        while !done.contains(&at) {
+            if !on_path.insert(at) {
+                let from = path.iter().position(|x| *x == at).unwrap_or(0);
+                let ring: Vec<String> = path[from..].iter().map(|x| x.0.to_string()).collect();
                 return Err(format!(
-                    "object {} names parent {}, which the project does not hold",
-                    child.0, p.0
+                    "the parents of objects {} form a cycle",
+                    ring.join(", ")
                 ));
             }
-        }
-        // Walk up from each object; what a finished walk reached is known to end at a root.
-        let mut done: HashSet<SceneId> = HashSet::new();
-        for o in &self.objects {
-            let mut path: Vec<SceneId> = Vec::new();
-            let mut on_path = HashSet::new();
-            let mut at = o.id;
-            while !done.contains(&at) {
-                if !on_path.insert(at) {
-                    let start = path.iter().position(|x| *x == at).unwrap_or(0);
-                    let ring: Vec<String> = path[start..].iter().map(|x| x.0.to_string()).collect();
-                    return Err(format!(
-                        "the parents of objects {} form a cycle",
-                        ring.join(", ")
-                    ));
-                }
-                path.push(at);
-                match parent.get(&at) {
-                    Some(&p) => at = p,
-                    None => break,
-                }
+            path.push(at);
+            match parent.get(&at) {
+                Some(&p) => at = p,
+                None => break,
             }
-            done.extend(path);
         }
-        Ok(())
+        done.extend(path);
     }
+    Ok(())
 }
 
 /// Parses and checks a project's text; `path` names it in errors.

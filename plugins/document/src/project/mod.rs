@@ -8,6 +8,7 @@ pub mod capture;
 pub mod format;
 pub mod info;
 pub mod open;
+pub(crate) mod plan;
 pub mod requests;
 pub mod restore;
 pub mod script;

@@ -138,9 +138,23 @@ fn tell(world: &mut World, path: &std::path::Path, report: &OpenReport, verb: &s
     }
     if report.missing_nodes > 0 {
         notices.warn(format!(
-            "{}: {} objects name nodes their files no longer have; they stay in the project",
+            "{}: {} objects name nodes their files no longer have ({}{}); they stay in the \
+             project",
             path.display(),
-            report.missing_nodes
+            report.missing_nodes,
+            report.missing_names.join(", "),
+            if report.missing_nodes > report.missing_names.len() {
+                ", …"
+            } else {
+                ""
+            }
+        ));
+    }
+    for file in &report.changed_sources {
+        notices.warn(format!(
+            "{}: {} changed since the project was saved; the nodes it did not change have new ids",
+            path.display(),
+            file.display()
         ));
     }
 }

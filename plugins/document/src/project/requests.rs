@@ -107,9 +107,10 @@ fn relink(world: &mut World, from: PathBuf, to: PathBuf) {
             ));
             if report.missing_nodes > 0 {
                 notices.warn(format!(
-                    "{}: {} objects name nodes it does not have; they stay in the project",
+                    "{}: {} objects name nodes it does not have ({}); they stay in the project",
                     to.display(),
-                    report.missing_nodes
+                    report.missing_nodes,
+                    report.missing_names.join(", ")
                 ));
             }
         }

@@ -3,13 +3,14 @@
 
 use crate::edit::command::{LightKind, MaterialValue};
 use crate::edit::history::EditHistory;
-use crate::import::spawn::{MeshSource, SourceCatalog, SourceKey};
-use crate::object::{SceneId, SceneIndex, SceneObject};
+use crate::import::spawn::{MeshSource, SourceCatalog};
+use crate::object::{EditedObjects, SceneId, SceneIndex, SceneObject};
 use crate::outbox::{CameraValue, DocumentEvent, DocumentView};
 use crate::primitive::Primitive;
 use crate::primitive::PrimitiveShape;
 use crate::project::capture::capture_project;
 use crate::project::format::*;
+use crate::project::plan::OpenPlan;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -224,69 +225,62 @@ pub fn empty_scene(world: &mut World) {
 
 /// Empties the scene for a project, and reserves the ids the project holds (those kept while
 /// their source is missing too).
-fn clear_scene(world: &mut World, project: &ProjectFile) {
+fn clear_scene(world: &mut World, project: &ProjectFile, read: &[bool]) {
     empty_scene(world);
+    world.resource_mut::<EditedObjects>().0.clear();
     // Fresh ids for the sources' nodes never collide with the project's.
-    let top = project
-        .objects
-        .iter()
-        .map(|o| o.id)
-        .max()
-        .unwrap_or(SceneId::NEW);
     let mut index = world.resource_mut::<SceneIndex>();
-    index.reserve_through(top);
-    // Objects kept while their source is missing are not in the scene, but hold their ids.
+    index.reserve_through(project.top_id());
+    // Objects kept while their source is missing are not in the scene, but hold their ids; so
+    // do the nodes of a missing source.
     for o in &project.objects {
         index.retire(o.id);
     }
+    for s in project.source_ids.iter().filter(|s| !read[s.source]) {
+        for run in &s.runs {
+            let (_, first, count) = run.parts();
+            for id in first..first + count {
+                index.retire(SceneId(id));
+            }
+        }
+    }
 }
 
-/// Spawns every source that was read; each node's entity by (source, key).
+/// Spawns every source that was read, its objects with the ids the plan gives them; each read
+/// source's objects in key order.
 fn spawn_sources(
     world: &mut World,
     parsed: &[Option<treelight_import::ImportedScene>],
     resolved: &[PathBuf],
-) -> HashMap<(usize, String), Entity> {
-    let mut nodes = HashMap::new();
+    plan: &OpenPlan,
+) -> Vec<Vec<Entity>> {
+    let mut objects = Vec::with_capacity(parsed.len());
     for (i, scene) in parsed.iter().enumerate() {
-        let Some(scene) = scene else { continue };
-        if crate::import::spawn::spawn_scene_in_world(
-            world,
-            &resolved[i],
-            scene,
-            &mut crate::import::parse::Prebuilt::default(),
-            false,
-        )
-        .is_err()
-        {
-            continue;
-        }
-        let mut q = world.query::<(Entity, &SourceKey)>();
-        for (e, k) in q.iter(world) {
-            if k.file == resolved[i] {
-                nodes.insert((i, k.key.clone()), e);
-            }
-        }
+        let spawned = scene.as_ref().and_then(|scene| {
+            let ids = plan.sources[i].as_ref().map_or(&[][..], |p| &p.ids[..]);
+            crate::import::spawn::spawn_scene_in_world(
+                world,
+                &resolved[i],
+                scene,
+                &mut crate::import::parse::Prebuilt::default(),
+                false,
+                ids,
+            )
+            .ok()
+        });
+        objects.push(spawned.map_or_else(Vec::new, |s| s.objects));
     }
-    nodes
+    objects
 }
 
 /// A copy of the mesh on `origin` (the node `n` of a source), sharing its mesh and material;
 /// `None` when the node shows no mesh.
-fn spawn_copy(
-    world: &mut World,
-    origin: Entity,
-    n: &SourceNode,
-    resolved: &[PathBuf],
-) -> Option<Entity> {
+fn spawn_copy(world: &mut World, origin: Entity) -> Option<Entity> {
     let mesh = world.get::<Mesh3d>(origin).cloned()?;
     let material = world
         .get::<MeshMaterial3d<StandardMaterial>>(origin)
         .cloned()?;
-    let source_key = SourceKey {
-        file: resolved[n.source].clone(),
-        key: n.key.clone(),
-    };
+    let source_key = world.get::<MeshSource>(origin)?.0.clone();
     Some(
         world
             .spawn((SceneObject, mesh, material, MeshSource(source_key)))
@@ -317,12 +311,27 @@ fn spawn_light(world: &mut World, l: &LightValue) -> Entity {
     e.id()
 }
 
-/// Parents, once every object exists (a parent may come after its child).
-fn link_parents(world: &mut World, project: &ProjectFile, by_id: &HashMap<SceneId, Entity>) {
-    for o in &project.objects {
+/// Parents, once every object exists (a parent may come after its child); a listed node whose
+/// parent is not its file's counts as edited. Parents among the unlisted nodes are the files'.
+fn link_parents(
+    world: &mut World,
+    project: &ProjectFile,
+    by_id: &HashMap<SceneId, Entity>,
+    edited: &mut std::collections::HashSet<SceneId>,
+) {
+    let index = world.resource::<SceneIndex>();
+    let target = |o: &ProjectObject| {
+        o.parent
+            .and_then(|p| by_id.get(&p).copied().or_else(|| index.entity(p)))
+    };
+    let targets: Vec<Option<Entity>> = project.objects.iter().map(target).collect();
+    for (o, target) in project.objects.iter().zip(targets) {
         let Some(&e) = by_id.get(&o.id) else { continue };
-        match o.parent.and_then(|p| by_id.get(&p)) {
-            Some(&p) if p != e => {
+        if world.get::<ChildOf>(e).map(ChildOf::parent) != target {
+            edited.insert(o.id);
+        }
+        match target {
+            Some(p) if p != e => {
                 world.entity_mut(e).insert(ChildOf(p));
             }
             _ => {
@@ -355,9 +364,19 @@ pub fn open_project_parsed(
         parsed,
         mut report,
     } = sources;
+    let plan = crate::project::plan::plan(&project, &parsed)
+        .map_err(|e| ProjectError::Format(path.to_owned(), e))?;
+    report.changed_sources = plan.changed.iter().map(|&i| resolved[i].clone()).collect();
 
-    clear_scene(world, &project);
-    let nodes = spawn_sources(world, &parsed, &resolved);
+    let read: Vec<bool> = parsed.iter().map(Option::is_some).collect();
+    clear_scene(world, &project, &read);
+    let spawned = spawn_sources(world, &parsed, &resolved, &plan);
+    let node = |source: usize, key: &str| -> Option<Entity> {
+        spawned
+            .get(source)?
+            .get(plan.index_of(source, key)?)
+            .copied()
+    };
 
     let mut state = ProjectState {
         path: Some(path.to_owned()),
@@ -365,6 +384,9 @@ pub fn open_project_parsed(
     };
     let missing_source = |n: &SourceNode| parsed[n.source].is_none();
     let mut by_id: HashMap<SceneId, Entity> = HashMap::new();
+    // Listed source nodes whose values differ from their file's: written again by the next save
+    // (a version 1 project lists every node, most as the file has them).
+    let mut edited: std::collections::HashSet<SceneId> = std::collections::HashSet::new();
     let mut shape_meshes: HashMap<Primitive, Handle<Mesh>> = HashMap::new();
     let mut shared_materials: HashMap<String, Handle<StandardMaterial>> = HashMap::new();
     let mut made_material = |world: &mut World, value: &MaterialValue, base: StandardMaterial| {
@@ -384,9 +406,11 @@ pub fn open_project_parsed(
                 state.missing.push(o.clone());
                 continue;
             }
-            ObjectKind::Node(n) => match nodes.get(&(n.source, n.key.clone())) {
+            ObjectKind::Node(n) => match node(n.source, &n.key) {
                 Some(e) => {
-                    let e = *e;
+                    if !node_as_listed(world, e, o) {
+                        edited.insert(o.id);
+                    }
                     if let Some(value) = &o.material {
                         apply_node_material(world, e, value);
                     }
@@ -394,14 +418,18 @@ pub fn open_project_parsed(
                 }
                 None => {
                     report.missing_nodes += 1;
+                    if report.missing_names.len() < 10 {
+                        report
+                            .missing_names
+                            .push(format!("{} ('{}')", o.name, n.key));
+                    }
                     state.missing.push(o.clone());
                     continue;
                 }
             },
             ObjectKind::MeshOf(n) => {
-                let origin = nodes.get(&(n.source, n.key.clone())).copied();
-                let Some(e) = origin.and_then(|origin| spawn_copy(world, origin, n, &resolved))
-                else {
+                let origin = node(n.source, &n.key);
+                let Some(e) = origin.and_then(|origin| spawn_copy(world, origin)) else {
                     report.missing_nodes += 1;
                     state.missing.push(o.clone());
                     continue;
@@ -445,14 +473,14 @@ pub fn open_project_parsed(
         ));
         by_id.insert(o.id, entity);
     }
-    link_parents(world, &project, &by_id);
+    link_parents(world, &project, &by_id, &mut edited);
     // Deleted nodes go last: their children the user moved elsewhere are elsewhere by now.
     for d in &project.deleted {
         if parsed[d.source].is_none() {
             state
                 .missing_deleted
                 .push((resolved[d.source].clone(), d.key.clone()));
-        } else if let Some(&e) = nodes.get(&(d.source, d.key.clone()))
+        } else if let Some(e) = node(d.source, &d.key)
             && world.get_entity(e).is_ok()
         {
             world.entity_mut(e).despawn();
@@ -462,16 +490,31 @@ pub fn open_project_parsed(
     if let Some(c) = project.camera {
         restore_view(world, c);
     }
-    // Every node a source had when it was imported, deleted or not.
-    for (i, scene) in parsed.iter().enumerate() {
-        if let Some(scene) = scene {
-            world.resource_mut::<SourceCatalog>().0.insert(
-                resolved[i].clone(),
-                crate::import::spawn::source_keys(scene),
-            );
+    for s in &project.source_ids {
+        if parsed[s.source].is_none() {
+            state
+                .missing_ids
+                .push((resolved[s.source].clone(), s.clone()));
         }
     }
     world.insert_resource(state);
+    world.resource_mut::<EditedObjects>().0 = edited;
     world.resource_mut::<EditHistory>().mark_saved();
     Ok(report)
+}
+
+/// Whether a source node's spawned values (its file's) are those the project lists: name,
+/// transform, visibility and material.
+fn node_as_listed(world: &World, e: Entity, o: &ProjectObject) -> bool {
+    let name = world.get::<Name>(e).map_or("", |n| n.as_str());
+    let transform = world.get::<Transform>(e).copied().unwrap_or_default();
+    let hidden = world.get::<Visibility>(e) == Some(&Visibility::Hidden);
+    let material = world
+        .get::<MeshMaterial3d<StandardMaterial>>(e)
+        .and_then(|m| world.resource::<Assets<StandardMaterial>>().get(&m.0))
+        .map(MaterialValue::of);
+    name == o.name
+        && crate::edit::command::TransformValue::from(transform) == o.transform
+        && hidden != o.visible
+        && o.material.is_none_or(|m| Some(m) == material)
 }

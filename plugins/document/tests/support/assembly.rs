@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 /// A glTF file of `parts` separate meshes of `rows × rows × 2` triangles each (bumpy tiles), on a
 /// grid receding from the origin, written beside a `.bin` in `dir`. Returns the file and the
 /// number of triangles.
+#[allow(dead_code)]
 pub fn generated_assembly(dir: &Path, parts: usize, rows: usize) -> (PathBuf, usize) {
     let mut bin: Vec<u8> = Vec::new();
     let (mut meshes, mut accessors, mut views, mut nodes) =
@@ -94,4 +95,72 @@ pub fn generated_assembly(dir: &Path, parts: usize, rows: usize) -> (PathBuf, us
     let path = dir.join("assembly.gltf");
     std::fs::write(&path, json).unwrap();
     (path, parts * rows * rows * 2)
+}
+
+/// A glTF file of one small mesh (a 12-triangle box) placed by `copies` top-level nodes on a grid,
+/// written beside a `.bin` in `dir`: an assembly of many nodes and little geometry. Returns the
+/// file.
+#[allow(dead_code)]
+pub fn placed_assembly(dir: &Path, copies: usize) -> PathBuf {
+    let corners: Vec<[f32; 3]> = (0..8)
+        .map(|k| {
+            [
+                (k & 1) as f32 * 0.4,
+                ((k >> 1) & 1) as f32 * 0.4,
+                ((k >> 2) & 1) as f32 * 0.4,
+            ]
+        })
+        .collect();
+    let faces: [[u32; 3]; 12] = [
+        [0, 2, 1],
+        [1, 2, 3],
+        [4, 5, 6],
+        [5, 7, 6],
+        [0, 1, 4],
+        [1, 5, 4],
+        [2, 6, 3],
+        [3, 6, 7],
+        [0, 4, 2],
+        [2, 4, 6],
+        [1, 3, 5],
+        [3, 7, 5],
+    ];
+    let mut bin: Vec<u8> = Vec::new();
+    for c in &corners {
+        for v in c {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for f in &faces {
+        for i in f {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("placed.bin"), &bin).unwrap();
+    let side = (copies as f32).sqrt().ceil() as usize;
+    let mut json = String::with_capacity(copies * 64 + 1024);
+    json.push_str(r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":["#);
+    for i in 0..copies {
+        if i > 0 {
+            json.push(',');
+        }
+        json.push_str(&i.to_string());
+    }
+    json.push_str(r#"]}],"nodes":["#);
+    for i in 0..copies {
+        if i > 0 {
+            json.push(',');
+        }
+        let (x, z) = ((i % side) as f32, (i / side) as f32);
+        json.push_str(&format!(
+            r#"{{"name":"box {i}","mesh":0,"translation":[{x},0,{z}]}}"#
+        ));
+    }
+    json.push_str(&format!(
+        r#"],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],"accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[0.4,0.4,0.4]}},{{"bufferView":1,"componentType":5125,"count":36,"type":"SCALAR"}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":96}},{{"buffer":0,"byteOffset":96,"byteLength":144}}],"buffers":[{{"uri":"placed.bin","byteLength":{}}}]}}"#,
+        bin.len()
+    ));
+    let path = dir.join("placed.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
 }
