@@ -82,7 +82,8 @@ pub struct EditorState {
     #[serde(default)]
     pub title: String,
     /// The file dialog open, if any: "builtin" or "native", then what it is for; or "replace" and
-    /// the file Save As asks about replacing.
+    /// the file Save As asks about replacing; or "large import" and the file whose import waits for
+    /// an answer.
     #[serde(default)]
     pub dialog: Option<String>,
     /// This frame's main-world schedules, `First` to `Last` (everything but rendering and this
@@ -101,6 +102,58 @@ pub struct EditorState {
     /// Samples every pixel of the viewport's path-traced view has (0 when not traced).
     #[serde(default)]
     pub samples: u32,
+    /// Where the editor's memory is.
+    #[serde(default)]
+    pub memory: MemoryReport,
+}
+
+/// The editor's memory by owner, bytes: what each part holds by its own count, next to what the
+/// process has resident (the rest is Bevy, wgpu, the UI, the allocator's slack).
+#[derive(Serialize, Deserialize, Debug, Default, Clone, PartialEq)]
+pub struct MemoryReport {
+    /// The process's resident set (on a software adapter, its GPU buffers too).
+    pub resident: u64,
+    /// Bevy's mesh assets in the main world: vertex attributes and indices.
+    pub mesh_assets: u64,
+    /// The scene BVH's arrays on its worker.
+    pub tree: u64,
+    /// The BVH groups' normals and texture coordinates (the path tracer's shading source).
+    pub shading: u64,
+    /// The path tracer's scene buffers.
+    pub scene_buffers: u64,
+    /// Triangles in the tree.
+    pub triangles: u64,
+}
+
+/// Bytes of a mesh's vertex attributes and indices still in the main world.
+fn mesh_bytes(mesh: &Mesh) -> u64 {
+    let attributes: usize = mesh
+        .try_attributes()
+        .map(|a| a.map(|(_, v)| v.get_bytes().len()).sum())
+        .unwrap_or(0);
+    let indices = match mesh.try_indices_option() {
+        Ok(Some(bevy::mesh::Indices::U16(i))) => i.len() * 2,
+        Ok(Some(bevy::mesh::Indices::U32(i))) => i.len() * 4,
+        _ => 0,
+    };
+    (attributes + indices) as u64
+}
+
+/// The memory report now.
+fn memory_report(
+    meshes: &Assets<Mesh>,
+    scene: &SceneBvh,
+    tracer: &treelight_render::PathTracerStats,
+) -> MemoryReport {
+    let stats = scene.stats();
+    MemoryReport {
+        resident: crate::editor::panels::status_bar::resident_bytes().unwrap_or(0),
+        mesh_assets: meshes.iter().map(|(_, m)| mesh_bytes(m)).sum(),
+        tree: stats.tree_bytes as u64,
+        shading: stats.shading_bytes as u64,
+        scene_buffers: tracer.figures().scene_buffer_bytes,
+        triangles: u64::from(stats.triangles),
+    }
 }
 
 /// Times the main world's frame and the editor's UI for the report.
@@ -183,6 +236,14 @@ pub struct ReportItem {
     pub parent: Option<&'static ChildOf>,
 }
 
+/// What the report reads of the path tracer and the meshes.
+type RenderedParams<'w, 's> = (
+    Res<'w, treelight_render::PathTracerStats>,
+    Query<'w, 's, Entity, With<OrbitCamera>>,
+    Res<'w, Assets<Mesh>>,
+    Res<'w, treelight_document::import::ask::ImportQuestions>,
+);
+
 /// Writes the report for this frame.
 #[allow(clippy::too_many_arguments)]
 pub fn write_state_report(
@@ -209,10 +270,7 @@ pub fn write_state_report(
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
     ),
-    (tracer, camera_ids): (
-        Res<treelight_render::PathTracerStats>,
-        Query<Entity, With<OrbitCamera>>,
-    ),
+    (tracer, camera_ids, meshes, questions): RenderedParams,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -292,13 +350,17 @@ pub fn write_state_report(
             (Some(d), _, _) => Some(format!("builtin {:?}", d.purpose)),
             (_, Some(d), _) => Some(format!("native {:?}", d.purpose)),
             (_, _, Some(p)) => Some(format!("replace {}", p.display())),
-            _ => None,
+            _ => questions
+                .waiting
+                .first()
+                .map(|h| format!("large import {}", h.path.display())),
         },
         main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
         ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
         view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
         samples: camera_ids.single().map_or(0, |c| tracer.samples(c)),
+        memory: memory_report(&meshes, &scene, &tracer),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

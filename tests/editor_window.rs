@@ -588,6 +588,14 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
         s
     };
     let s = run(Some("4096"), &split);
+    // The report says where the memory is: the whole helmet in the tree, and each owner's share
+    // at least what its records need.
+    let m = &s.memory;
+    assert_eq!(m.triangles, 94_722, "{m:?}");
+    assert!(m.tree >= m.triangles * (36 + 24 + 36), "{m:?}");
+    assert!(m.scene_buffers >= m.triangles * (48 + 48 + 64), "{m:?}");
+    assert!(m.mesh_assets >= m.triangles * 3 * 2, "{m:?}");
+    assert!(m.resident > m.scene_buffers + m.tree, "{m:?}");
     run(None, &whole);
     // The viewport shows the helmet, and the same picture either way (up to a few edge pixels a
     // sample's jitter may land on either side of).

@@ -681,6 +681,7 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
 fn importing_app() -> App {
     treelight_document::app::headless_app(treelight_scene::SceneBvhConfig {
         main_thread_budget: Duration::ZERO,
+        main_thread_share: 0.0,
         ..default()
     })
 }

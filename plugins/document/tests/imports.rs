@@ -49,3 +49,91 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
     assert_eq!(roots.len(), 2, "{roots:?}");
     assert_eq!(app.world().resource::<TracingImports>().jobs.len(), 0);
 }
+
+#[test]
+fn an_import_past_the_free_memory_waits_for_an_answer_where_the_app_asks() {
+    use treelight_document::import::ask::ImportQuestions;
+    let helmet = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    // 94,722 triangles need tens of MiB once traced; the app says 1 MiB is free.
+    app.insert_resource(ImportQuestions {
+        ask: true,
+        free_memory: Some(1 << 20),
+        ..default()
+    });
+    let meshes = |app: &mut App| {
+        app.world_mut()
+            .query_filtered::<(), With<Mesh3d>>()
+            .iter(app.world())
+            .count()
+    };
+    let wait_for_question = |app: &mut App| {
+        let start = std::time::Instant::now();
+        while app.world().resource::<ImportQuestions>().waiting.is_empty() {
+            assert!(start.elapsed().as_secs() < 60, "never asked");
+            app.update();
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        let q = app.world().resource::<ImportQuestions>();
+        let held = &q.waiting[0];
+        assert_eq!(held.triangles, 94_722);
+        assert!(held.needed > held.free, "{} <= {}", held.needed, held.free);
+    };
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(helmet.clone());
+    wait_for_question(&mut app);
+    // Nothing is imported while it waits, however many frames pass.
+    for _ in 0..10 {
+        app.update();
+    }
+    assert_eq!(meshes(&mut app), 0);
+    // Cancelled: nothing, and the question is gone.
+    app.world_mut()
+        .resource_mut::<ImportQuestions>()
+        .answers
+        .push((helmet.clone(), false));
+    for _ in 0..5 {
+        app.update();
+    }
+    assert!(app.world().resource::<ImportQuestions>().waiting.is_empty());
+    assert_eq!(meshes(&mut app), 0);
+    assert!(
+        app.world()
+            .resource::<Notices>()
+            .0
+            .iter()
+            .any(|n| n.text.contains("cancelled")),
+    );
+    // Asked again and answered yes: imported.
+    app.world_mut()
+        .resource_mut::<PendingImports>()
+        .start(helmet.clone());
+    wait_for_question(&mut app);
+    app.world_mut()
+        .resource_mut::<ImportQuestions>()
+        .answers
+        .push((helmet.clone(), true));
+    for _ in 0..5 {
+        app.update();
+    }
+    assert_eq!(meshes(&mut app), 6);
+    // An app that does not ask imports it at once.
+    let mut quiet =
+        treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    quiet.insert_resource(ImportQuestions {
+        free_memory: Some(1 << 20),
+        ..default()
+    });
+    quiet
+        .world_mut()
+        .resource_mut::<PendingImports>()
+        .start(helmet);
+    let start = std::time::Instant::now();
+    while meshes(&mut quiet) == 0 {
+        assert!(start.elapsed().as_secs() < 60, "never imported");
+        quiet.update();
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}

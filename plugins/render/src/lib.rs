@@ -306,6 +306,8 @@ pub struct PathTracerFigures {
     /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
     /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
     pub trace_off: Option<String>,
+    /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
+    pub scene_buffer_bytes: u64,
 }
 
 /// One path-traced camera's latest frame under its budget.

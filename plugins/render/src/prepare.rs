@@ -239,6 +239,11 @@ fn apply_scene_uploads(
         scene.capacities[i] = cap;
         scene.bind_group = None;
     }
+    if scene.bind_group.is_none() {
+        // A buffer grew or a part was added.
+        let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
+        stats.update(|f| f.scene_buffer_bytes = total);
+    }
     if !grown.is_empty() {
         // Keep what is already on the GPU: records outside this frame's writes stay valid.
         let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {

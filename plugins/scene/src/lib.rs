@@ -51,6 +51,11 @@ pub struct SceneBvhConfig {
     /// Most main-thread time per frame spent copying new or edited meshes out of the world; a larger
     /// mesh is copied over several frames (at least one chunk of triangles per frame). Default 0.75 ms.
     pub main_thread_budget: Duration,
+    /// The share of the last frame's time the copying may take instead, when that is more than
+    /// `main_thread_budget`: at a low frame rate (a software adapter drawing a large scene) a fixed
+    /// budget would copy a large assembly over minutes. Default 0.1, so the frame rate drops by at
+    /// most a tenth while meshes are copied.
+    pub main_thread_share: f32,
     /// The engine's policy by name: its configuration for the tree, and the global updates the
     /// worker runs in idle time after each edit ([`Preset::policy`]).
     pub preset: Preset,
@@ -74,6 +79,7 @@ impl Default for SceneBvhConfig {
             bake_after: Duration::from_millis(500),
             idle_tick: Duration::from_millis(50),
             main_thread_budget: Duration::from_micros(750),
+            main_thread_share: 0.1,
             preset: Preset::Balanced,
             chunks: treelight_bvh::PieceRule::default(),
             worker_nice: 10,
@@ -159,6 +165,8 @@ impl Plugin for SceneBvhPlugin {
             copy_order: Vec::new(),
             eye: None,
             budget: self.config.main_thread_budget,
+            share: self.config.main_thread_share,
+            last_frame: Duration::ZERO,
         })
         .add_systems(
             PostUpdate,
@@ -205,6 +213,11 @@ pub struct SceneStats {
     /// Still meshes whose binned build the worker has replaced in idle time by a full-sweep SAH
     /// build of the same triangles, so far.
     pub meshes_refined: u64,
+    /// Heap bytes the tree holds ([`Bvh::memory_bytes`]), as of the last cost.
+    pub tree_bytes: usize,
+    /// Heap bytes of the groups' normals and texture coordinates ([`SceneTree::shading`]), each
+    /// shared set once, as of the last cost.
+    pub shading_bytes: usize,
 }
 
 /// The tree and the entity each group belongs to.
@@ -233,6 +246,21 @@ pub struct SceneTree {
 }
 
 impl SceneTree {
+    /// Heap bytes of the tree's arrays and of the groups' shading (each shared set once).
+    pub fn memory_bytes(&self) -> (usize, usize) {
+        let mut seen: HashSet<*const TriangleShading> = HashSet::new();
+        let shading = self
+            .shading
+            .values()
+            .filter(|s| seen.insert(Arc::as_ptr(s)))
+            .map(|s| {
+                s.normals.capacity() * size_of::<[Vec3; 3]>()
+                    + s.uvs.capacity() * size_of::<[Vec2; 3]>()
+            })
+            .sum();
+        (self.bvh.memory_bytes().total(), shading)
+    }
+
     pub(crate) fn bind(
         &mut self,
         e: Entity,
@@ -453,6 +481,10 @@ pub struct SceneBvh {
     /// nearest it first.
     eye: Option<Vec3>,
     budget: Duration,
+    /// [`SceneBvhConfig::main_thread_share`].
+    share: f32,
+    /// How long the last frame took.
+    last_frame: Duration,
 }
 
 /// An entity whose mesh is being copied for another: it is sent as an instance once that copy is.
@@ -734,8 +766,10 @@ fn track_world(
     opted_out: Query<Entity, Added<NotTraced>>,
     mut opted_in: RemovedComponents<NotTraced>,
     mut removed: RemovedComponents<Mesh3d>,
+    time: Option<Res<Time<Real>>>,
 ) {
     let scene = &mut *scene;
+    scene.last_frame = time.map_or(Duration::ZERO, |t| t.delta());
     let mut sent_now: HashSet<Entity> = HashSet::new();
     for e in removed.read().chain(opted_out.iter()) {
         for list in scene.waiting.values_mut() {
@@ -825,7 +859,8 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
     if scene.copying.is_empty() {
         return;
     }
-    let deadline = Instant::now() + scene.budget;
+    let share = scene.last_frame.mul_f32(scene.share.clamp(0.0, 1.0));
+    let deadline = Instant::now() + scene.budget.max(share);
     let mut finished: Vec<(Entity, Result<(), MeshSkip>)> = Vec::new();
     let order = std::mem::take(&mut scene.copy_order);
     'jobs: for &e in &order {

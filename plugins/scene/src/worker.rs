@@ -517,15 +517,13 @@ fn publish_stats(
             .is_none_or(|at| at.elapsed() >= Duration::from_millis(250));
     clock.stale = !due;
     if due {
-        let cost = {
+        let (cost, memory) = {
             let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
-            tree.bvh.sah_cost()
+            (tree.bvh.sah_cost(), tree.memory_bytes())
         };
-        shared
-            .stats
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .sah_cost = cost;
+        let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
+        s.sah_cost = cost;
+        (s.tree_bytes, s.shading_bytes) = memory;
         clock.at = Some(Instant::now());
     }
 }

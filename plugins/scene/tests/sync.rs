@@ -327,6 +327,7 @@ fn big_meshes_are_copied_over_several_frames() {
     // No main-thread budget: one chunk of triangles per frame.
     let mut app = headless_app(SceneBvhConfig {
         main_thread_budget: Duration::ZERO,
+        main_thread_share: 0.0,
         ..default()
     });
     let sphere = Sphere::new(1.0).mesh().uv(200, 100);
@@ -529,6 +530,7 @@ fn traced_in_distance_order() -> bool {
     // One chunk of array elements copied per frame, so the order of the copies shows.
     let mut app = headless_app(SceneBvhConfig {
         main_thread_budget: Duration::ZERO,
+        main_thread_share: 0.0,
         ..default()
     });
     app.world_mut()

@@ -15,6 +15,17 @@ pub(crate) struct ChangeLog {
 }
 
 impl ChangeLog {
+    /// Heap bytes its flags and lists hold.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        use crate::tree::memory::vec_bytes;
+        vec_bytes(&self.inner_dirty)
+            + vec_bytes(&self.inner_list)
+            + vec_bytes(&self.tri_dirty)
+            + vec_bytes(&self.tri_list)
+            + vec_bytes(&self.inst_dirty)
+            + vec_bytes(&self.inst_list)
+    }
+
     /// Makes room for inner nodes up to `len` slots, so that growing to it copies nothing.
     pub(crate) fn reserve_inner(&mut self, len: usize) {
         self.inner_dirty

@@ -4,6 +4,7 @@
 pub(crate) mod aabb;
 pub(crate) mod bvh;
 pub(crate) mod cost;
+pub(crate) mod memory;
 pub(crate) mod node;
 pub(crate) mod scratch;
 pub(crate) mod triangle;

@@ -24,6 +24,22 @@ pub(crate) struct Scratch {
     pub(crate) treelet: Option<Box<TreeletScratch>>,
 }
 
+impl Scratch {
+    /// Heap bytes its tables hold.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        use crate::tree::memory::vec_bytes;
+        vec_bytes(&self.search.stack)
+            + vec_bytes(&self.update_candidates)
+            + vec_bytes(&self.graft_slots)
+            + vec_bytes(&self.induced_local)
+            + vec_bytes(&self.induced_marked)
+            + self
+                .treelet
+                .as_ref()
+                .map_or(0, |_| size_of::<TreeletScratch>())
+    }
+}
+
 /// Reusable stack, so a search allocates nothing once warmed up.
 #[derive(Clone, Default)]
 pub struct SearchScratch {

@@ -1,16 +1,20 @@
 //! Parsed files become import commands: one undoable step each, standing where they were dropped
-//! by the placement rule, or framed when opened otherwise.
+//! by the placement rule, or framed when opened otherwise; one too large for the free memory waits
+//! for the user's answer where the app asks ([`crate::import::ask`]).
 
-use crate::edit::command::EditCommand;
+use crate::edit::command::{EditCommand, TransformValue};
 use crate::edit::history::EditRequests;
+use crate::import::ask::{HeldImport, ImportQuestions};
 use crate::import::jobs::TracingImports;
-use crate::import::parse::{ParsedImports, PendingImport, PendingImports};
+use crate::import::parse::{ParsedImports, ParsedScene, PendingImport, PendingImports};
 use crate::notice::Notices;
 use crate::object::SceneIndex;
 use crate::outbox::DocumentEvent;
 use crate::placement::{Surface, place_on, surface_under};
+use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::tasks::{block_on, poll_once};
+use std::path::PathBuf;
 
 /// Where a dropped scene's root goes: its bounds' bottom centre on `surface` by the placement rule
 /// (the file's own coordinates otherwise kept: the root only moves).
@@ -18,18 +22,56 @@ pub fn drop_transform(bounds: (Vec3, Vec3), surface: Surface) -> Transform {
     Transform::from_translation(place_on(surface, bounds.0, bounds.1, Vec3::ONE))
 }
 
-/// Hands each parsed file to the history as an import command (one undoable step); a file not
-/// dropped asks to be framed.
-#[allow(clippy::too_many_arguments)]
+/// What starting an import changes: the ids, the history's requests, the imports followed, the
+/// notices and the messages for the shell.
+#[derive(SystemParam)]
+pub struct ImportStart<'w> {
+    parsed_imports: ResMut<'w, ParsedImports>,
+    index: ResMut<'w, SceneIndex>,
+    requests: ResMut<'w, EditRequests>,
+    notices: ResMut<'w, Notices>,
+    events: MessageWriter<'w, DocumentEvent>,
+    jobs: ResMut<'w, TracingImports>,
+}
+
+impl ImportStart<'_> {
+    /// Hands a parsed file to the history as an import command (one undoable step); one not dropped
+    /// asks to be framed.
+    fn start(&mut self, path: PathBuf, parsed: ParsedScene, transform: Option<TransformValue>) {
+        if transform.is_none()
+            && let Some((min, max)) = parsed.bounds
+        {
+            self.events.write(DocumentEvent::Frame { min, max });
+        }
+        let scene = &parsed.scene;
+        self.notices.info(format!(
+            "opened {} ({} meshes, {} triangles)",
+            path.display(),
+            scene.meshes.len(),
+            scene.triangle_count()
+        ));
+        // The root's id, given now, names this import from the command to its tracking.
+        let root = self.index.allocate();
+        self.parsed_imports.0.insert(root, parsed);
+        self.jobs
+            .awaiting
+            .push((root, path.clone(), std::time::Instant::now()));
+        self.requests.apply(EditCommand::Import {
+            file: path,
+            root: Some(root),
+            transform,
+        });
+    }
+}
+
+/// Hands each parsed file to the history as an import command, standing where it was dropped by
+/// the placement rule (a file opened otherwise keeps its coordinates and the camera frames it);
+/// one that would not fit in the free memory waits for an answer where the app asks.
 pub fn finish_imports(
     mut pending: ResMut<PendingImports>,
-    mut parsed_imports: ResMut<ParsedImports>,
-    mut index: ResMut<SceneIndex>,
-    mut requests: ResMut<EditRequests>,
-    mut notices: ResMut<Notices>,
-    mut events: MessageWriter<DocumentEvent>,
+    mut questions: ResMut<ImportQuestions>,
     bvh: Res<treelight_scene::SceneBvh>,
-    mut jobs: ResMut<TracingImports>,
+    mut start: ImportStart,
 ) {
     let mut i = 0;
     while i < pending.0.len() {
@@ -40,42 +82,49 @@ pub fn finish_imports(
         let PendingImport {
             path, dropped_at, ..
         } = pending.0.remove(i);
-        match result {
-            Err(e) => notices.error(e.to_string()),
-            Ok(parsed) => {
-                let scene = &parsed.scene;
-                for w in &scene.warnings {
-                    notices.warn(format!("{}: {w}", path.display()));
-                }
-                // A dropped file stands where it was dropped, by the placement rule; a file opened
-                // otherwise keeps its coordinates and the camera frames it.
-                let transform = match (dropped_at, parsed.bounds) {
-                    (Some(ray), Some(b)) => {
-                        Some(drop_transform(b, surface_under(&bvh, ray, 5.0)).into())
-                    }
-                    (_, Some((min, max))) => {
-                        events.write(DocumentEvent::Frame { min, max });
-                        None
-                    }
-                    (_, None) => None,
-                };
-                notices.info(format!(
-                    "opened {} ({} meshes, {} triangles)",
-                    path.display(),
-                    scene.meshes.len(),
-                    scene.triangle_count()
-                ));
-                // The root's id, given now, names this import from the command to its tracking.
-                let root = index.allocate();
-                parsed_imports.0.insert(root, parsed);
-                jobs.awaiting
-                    .push((root, path.clone(), std::time::Instant::now()));
-                requests.apply(EditCommand::Import {
-                    file: path,
-                    root: Some(root),
-                    transform,
-                });
+        let parsed = match result {
+            Err(e) => {
+                start.notices.error(e.to_string());
+                continue;
             }
+            Ok(parsed) => parsed,
+        };
+        for w in &parsed.scene.warnings {
+            start.notices.warn(format!("{}: {w}", path.display()));
+        }
+        let transform = match (dropped_at, parsed.bounds) {
+            (Some(ray), Some(b)) => Some(drop_transform(b, surface_under(&bvh, ray, 5.0)).into()),
+            _ => None,
+        };
+        let triangles = parsed.scene.triangle_count() as u64;
+        match questions.must_ask(triangles) {
+            Some((needed, free)) => questions.waiting.push(HeldImport {
+                path,
+                needed,
+                free,
+                triangles,
+                parsed,
+                transform,
+            }),
+            None => start.start(path, parsed, transform),
+        }
+    }
+}
+
+/// Applies the answers about held imports: go ahead, or drop the parsed file.
+pub fn answer_import_questions(mut questions: ResMut<ImportQuestions>, mut start: ImportStart) {
+    let answers = std::mem::take(&mut questions.answers);
+    for (path, go) in answers {
+        let Some(k) = questions.waiting.iter().position(|h| h.path == path) else {
+            continue;
+        };
+        let held = questions.waiting.remove(k);
+        if go {
+            start.start(held.path, held.parsed, held.transform);
+        } else {
+            start
+                .notices
+                .info(format!("import of {} cancelled", held.path.display()));
         }
     }
 }

@@ -3,6 +3,7 @@
 //! ([`finish`]), spawned as scene objects ([`spawn`]) and followed until the tree holds them
 //! ([`jobs`]). Errors become notices; nothing already in the scene is touched by a failed import.
 
+pub mod ask;
 pub mod convert;
 pub mod finish;
 pub mod jobs;
@@ -24,10 +25,13 @@ impl Plugin for ImportPlugin {
             .init_resource::<spawn::SourceCatalog>()
             .init_resource::<jobs::TracingImports>()
             .init_resource::<jobs::CancelImports>()
+            .init_resource::<ask::ImportQuestions>()
             .add_systems(
                 Update,
                 (
-                    finish::finish_imports.before(crate::edit::history::apply_edit_requests),
+                    (finish::answer_import_questions, finish::finish_imports)
+                        .chain()
+                        .before(crate::edit::history::apply_edit_requests),
                     // Picked up first, so a cancel in the frame of its step still finds it.
                     (jobs::follow_imports, jobs::cancel_imports)
                         .chain()

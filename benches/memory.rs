@@ -1,0 +1,210 @@
+//! Where the editor's memory goes with a large assembly in its path-traced viewport, on the
+//! machine's adapter (llvmpipe here, whose GPU buffers live in the process's memory): the editor
+//! binary under Xvfb opens a generated assembly of bumpy tiles (the sizes below), and its `--state`
+//! report is read until the whole assembly is in the tree and the scene has settled. Prints, per
+//! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
+//! groups' shading, the path tracer's scene buffers) and per triangle, the resident and peak
+//! resident sets less the default scene's, and when the first and the last triangles were in the
+//! tree (from the start of the process, which includes parsing the file).
+//!
+//! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
+//! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
+//! The largest takes minutes and more than 10 GB.
+
+#[path = "../plugins/document/tests/support/assembly.rs"]
+mod assembly;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command};
+use std::time::{Duration, Instant};
+use treelight::report::{EditorState, MemoryReport};
+
+/// What one run of the editor showed.
+struct Run {
+    memory: MemoryReport,
+    /// Resident and peak resident set of the editor's process, bytes.
+    rss: u64,
+    hwm: u64,
+    /// Seconds from the start until the tree held triangles, and all of them.
+    first: Option<f64>,
+    all: Option<f64>,
+}
+
+/// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
+fn editor_pid(group: u32) -> Option<u32> {
+    for entry in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        // pid (comm) state ppid pgrp ...
+        let Some(close) = stat.rfind(')') else {
+            continue;
+        };
+        let comm = &stat[stat.find('(').map_or(0, |i| i + 1)..close];
+        let pgrp = stat[close + 2..].split_whitespace().nth(2);
+        if comm == "treelight" && pgrp == Some(&group.to_string()) {
+            return Some(pid);
+        }
+    }
+    None
+}
+
+/// VmRSS and VmHWM of `pid`, bytes.
+fn rss_and_peak(pid: u32) -> (u64, u64) {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0)
+            * 1024
+    };
+    (field("VmRSS:"), field("VmHWM:"))
+}
+
+fn stop(child: &mut Child) {
+    // The whole group: xvfb-run, Xvfb and the editor.
+    let _ = Command::new("kill")
+        .args(["-9", "--", &format!("-{}", child.id())])
+        .status();
+    let _ = child.wait();
+}
+
+/// Runs the editor on `file` (or its default scene) until `triangles` are in the tree and the
+/// scene has settled for two seconds.
+fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
+    use std::os::unix::process::CommandExt;
+    let state = dir.join("state.ron");
+    std::fs::remove_file(&state).ok();
+    let config = dir.join("config");
+    let mut cmd = Command::new("xvfb-run");
+    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"])
+        .arg(env!("CARGO_BIN_EXE_treelight"))
+        .args(file.map(|f| f.as_os_str()))
+        .arg("--state")
+        .arg(&state)
+        .env("TREELIGHT_CONFIG_DIR", &config)
+        .env("TREELIGHT_CACHE_DIR", config.join("cache"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .process_group(0);
+    let start = Instant::now();
+    let mut child = cmd.spawn().expect("xvfb-run");
+    let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64)>);
+    let mut last: Option<EditorState> = None;
+    while start.elapsed() < Duration::from_secs(900) {
+        std::thread::sleep(Duration::from_millis(250));
+        let Some(s) = std::fs::read_to_string(&state)
+            .ok()
+            .and_then(|t| ron::from_str::<EditorState>(&t).ok())
+        else {
+            continue;
+        };
+        let t = start.elapsed().as_secs_f64();
+        if s.memory.triangles > 0 && first.is_none() {
+            first = Some(t);
+        }
+        let complete = s.memory.triangles >= triangles;
+        if complete && all.is_none() {
+            all = Some(t);
+        }
+        // Settled, and the path tracer's buffers no longer growing (its uploads follow the tree).
+        let buffers = s.memory.scene_buffers;
+        match settled_since {
+            Some((since, b)) if complete && s.settled && b == buffers => {
+                if since.elapsed() >= Duration::from_secs(3) && s.memory.tree > 0 {
+                    last = Some(s);
+                    break;
+                }
+            }
+            _ if complete && s.settled => settled_since = Some((Instant::now(), buffers)),
+            _ => settled_since = None,
+        }
+    }
+    let (rss, hwm) = editor_pid(child.id()).map_or((0, 0), rss_and_peak);
+    stop(&mut child);
+    if let Some(s) = &last {
+        for n in s
+            .notices
+            .iter()
+            .filter(|n| n.contains("off") || n.contains("error"))
+        {
+            eprintln!(
+                "{}: {n}",
+                file.map_or("default scene".into(), |f| f.display().to_string())
+            );
+        }
+    }
+    let memory = last.map(|s| s.memory).unwrap_or_else(|| {
+        panic!(
+            "{}: the tree never held {triangles} triangles",
+            file.map_or("default scene".into(), |f| f.display().to_string())
+        )
+    });
+    Run {
+        memory,
+        rss,
+        hwm,
+        first,
+        all,
+    }
+}
+
+fn main() {
+    let sizes: Vec<(usize, usize)> = {
+        let args: Vec<(usize, usize)> = std::env::args()
+            .skip(1)
+            .filter_map(|a| {
+                let (p, r) = a.split_once('x')?;
+                Some((p.parse().ok()?, r.parse().ok()?))
+            })
+            .collect();
+        if args.is_empty() {
+            vec![(100, 100), (400, 100), (400, 123)]
+        } else {
+            args
+        }
+    };
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("treelight-memory-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = run(None, 1, &dir);
+    println!(
+        "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak.\n",
+        base.rss as f64 / 1048576.0,
+        base.hwm as f64 / 1048576.0
+    );
+    println!(
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | first in tree (s) | all in tree (s) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for (parts, rows) in sizes {
+        let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
+        let r = run(Some(&file), triangles as u64, &dir);
+        let m = &r.memory;
+        let n = triangles as f64;
+        let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
+        let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
+        println!(
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} |",
+            rows * rows * 2 / 1000,
+            cell(m.mesh_assets),
+            cell(m.tree),
+            cell(m.shading),
+            cell(m.scene_buffers),
+            cell(counted),
+            cell(r.rss.saturating_sub(base.rss)),
+            cell(r.hwm.saturating_sub(base.hwm)),
+            r.first.unwrap_or(f64::NAN),
+            r.all.unwrap_or(f64::NAN),
+        );
+        std::fs::remove_file(&file).ok();
+        std::fs::remove_file(dir.join("assembly.bin")).ok();
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
