@@ -5,7 +5,8 @@
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
 //! groups' shading, the path tracer's scene buffers) and per triangle, the resident and peak
 //! resident sets less the default scene's, and when the first and the last triangles were in the
-//! tree (from the start of the process, which includes parsing the file).
+//! tree (from the start of the process, which includes parsing the file), and the frame rate once
+//! settled (the median of 8 s of reports) next to the default scene's.
 //!
 //! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
 //! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
@@ -22,6 +23,8 @@ use treelight::report::{EditorState, MemoryReport};
 /// What one run of the editor showed.
 struct Run {
     memory: MemoryReport,
+    /// Frames per second once settled.
+    fps: f64,
     /// Resident and peak resident set of the editor's process, bytes.
     rss: u64,
     hwm: u64,
@@ -95,7 +98,8 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         .process_group(0);
     let start = Instant::now();
     let mut child = cmd.spawn().expect("xvfb-run");
-    let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64)>);
+    // (since when, the buffers' size then, the frame then)
+    let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64, u64)>);
     let mut last: Option<EditorState> = None;
     while start.elapsed() < Duration::from_secs(900) {
         std::thread::sleep(Duration::from_millis(250));
@@ -113,21 +117,41 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         if complete && all.is_none() {
             all = Some(t);
         }
-        // Settled, and the path tracer's buffers no longer growing (its uploads follow the tree).
+        // Settled, and the path tracer's buffers no longer growing (its uploads follow the tree)
+        // over 3 s and 10 frames (a frame that uploads much of the scene takes seconds).
         let buffers = s.memory.scene_buffers;
         match settled_since {
-            Some((since, b)) if complete && s.settled && b == buffers => {
-                if since.elapsed() >= Duration::from_secs(3) && s.memory.tree > 0 {
+            Some((since, b, frame)) if complete && s.settled && b == buffers => {
+                if since.elapsed() >= Duration::from_secs(3)
+                    && s.frame >= frame + 10
+                    && s.memory.tree > 0
+                {
                     last = Some(s);
                     break;
                 }
             }
-            _ if complete && s.settled => settled_since = Some((Instant::now(), buffers)),
+            _ if complete && s.settled => {
+                settled_since = Some((Instant::now(), buffers, s.frame));
+            }
             _ => settled_since = None,
         }
     }
     let (rss, hwm) = editor_pid(child.id()).map_or((0, 0), rss_and_peak);
+    // The frame rate once settled: the median of its reports over 8 s.
+    let mut rates = Vec::new();
+    let until = Instant::now() + Duration::from_secs(8);
+    while last.is_some() && Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(250));
+        if let Some(s) = std::fs::read_to_string(&state)
+            .ok()
+            .and_then(|t| ron::from_str::<EditorState>(&t).ok())
+        {
+            rates.push(s.fps);
+        }
+    }
     stop(&mut child);
+    rates.sort_by(f64::total_cmp);
+    let fps = rates.get(rates.len() / 2).copied().unwrap_or(0.0);
     if let Some(s) = &last {
         for n in s
             .notices
@@ -148,6 +172,7 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     });
     Run {
         memory,
+        fps,
         rss,
         hwm,
         first,
@@ -175,14 +200,15 @@ fn main() {
     std::fs::create_dir_all(&dir).unwrap();
     let base = run(None, 1, &dir);
     println!(
-        "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak.\n",
+        "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak, {:.1} frames/s.\n",
         base.rss as f64 / 1048576.0,
-        base.hwm as f64 / 1048576.0
+        base.hwm as f64 / 1048576.0,
+        base.fps
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | first in tree (s) | all in tree (s) |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | first in tree (s) | all in tree (s) | frames/s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let r = run(Some(&file), triangles as u64, &dir);
@@ -191,7 +217,7 @@ fn main() {
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
@@ -202,6 +228,7 @@ fn main() {
             cell(r.hwm.saturating_sub(base.hwm)),
             r.first.unwrap_or(f64::NAN),
             r.all.unwrap_or(f64::NAN),
+            r.fps,
         );
         std::fs::remove_file(&file).ok();
         std::fs::remove_file(dir.join("assembly.bin")).ok();

@@ -105,6 +105,9 @@ pub struct EditorState {
     /// Where the editor's memory is.
     #[serde(default)]
     pub memory: MemoryReport,
+    /// Frames per second, smoothed (what the status bar shows).
+    #[serde(default)]
+    pub fps: f64,
 }
 
 /// The editor's memory by owner, bytes: what each part holds by its own count, next to what the
@@ -242,6 +245,7 @@ type RenderedParams<'w, 's> = (
     Query<'w, 's, Entity, With<OrbitCamera>>,
     Res<'w, Assets<Mesh>>,
     Res<'w, treelight_document::import::ask::ImportQuestions>,
+    Res<'w, bevy::diagnostic::DiagnosticsStore>,
 );
 
 /// Writes the report for this frame.
@@ -270,7 +274,7 @@ pub fn write_state_report(
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
     ),
-    (tracer, camera_ids, meshes, questions): RenderedParams,
+    (tracer, camera_ids, meshes, questions, diagnostics): RenderedParams,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -361,6 +365,10 @@ pub fn write_state_report(
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
         samples: camera_ids.single().map_or(0, |c| tracer.samples(c)),
         memory: memory_report(&meshes, &scene, &tracer),
+        fps: diagnostics
+            .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)
+            .and_then(|d| d.smoothed())
+            .unwrap_or(0.0),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

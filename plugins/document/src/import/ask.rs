@@ -115,7 +115,10 @@ mod tests {
         assert_eq!(q.must_ask(100), None);
         assert_eq!(
             q.must_ask(101),
-            Some((101 * TRACED_BYTES_PER_TRIANGLE, 100 * TRACED_BYTES_PER_TRIANGLE))
+            Some((
+                101 * TRACED_BYTES_PER_TRIANGLE,
+                100 * TRACED_BYTES_PER_TRIANGLE
+            ))
         );
         q.ask = false;
         assert_eq!(q.must_ask(1_000_000), None);
