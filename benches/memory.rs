@@ -117,9 +117,11 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         if complete && all.is_none() {
             all = Some(t);
         }
-        // Settled, and the path tracer's buffers no longer growing (its uploads follow the tree)
-        // over 3 s and 10 frames (a frame that uploads much of the scene takes seconds).
+        // Settled, the path tracer's buffers holding every triangle's records (node, triangle and
+        // shading: 160 bytes; its uploads follow the tree, at times many seconds behind), and no
+        // longer growing over 3 s and 10 frames.
         let buffers = s.memory.scene_buffers;
+        let complete = complete && buffers >= s.memory.triangles * 160;
         match settled_since {
             Some((since, b, frame)) if complete && s.settled && b == buffers => {
                 if since.elapsed() >= Duration::from_secs(3)
@@ -153,11 +155,8 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     rates.sort_by(f64::total_cmp);
     let fps = rates.get(rates.len() / 2).copied().unwrap_or(0.0);
     if let Some(s) = &last {
-        for n in s
-            .notices
-            .iter()
-            .filter(|n| n.contains("off") || n.contains("error"))
-        {
+        eprintln!("view: {}", s.view);
+        for n in &s.notices {
             eprintln!(
                 "{}: {n}",
                 file.map_or("default scene".into(), |f| f.display().to_string())
