@@ -4,7 +4,7 @@
 
 use crate::Outlined;
 use crate::records::{
-    SceneLight, SurfaceMaterial, attribute_bytes, light_bytes, object_bytes, outline_words,
+    SceneLight, SurfaceMaterial, attribute_record, light_bytes, object_bytes, outline_words,
     set_outline,
 };
 use crate::texture_layers::TextureLayers;
@@ -16,6 +16,7 @@ use bevy::math::Mat3;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 use bevy::render::{Extract, ExtractSchedule};
+use treelight_bvh::GroupId;
 use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
 
 pub(crate) fn build(render_app: &mut SubApp) {
@@ -239,25 +240,31 @@ fn scene_writes(
     p.need(BufferKind::Attributes, c.triangle_capacity as u64);
     p.need(BufferKind::Objects, bvh.group_slots() as u64);
 
-    // Shading records of new groups (triangles that only moved keep theirs).
-    let mut records: Vec<(u32, Vec<u8>)> = Vec::new();
+    // Shading records of new groups (triangles that only moved keep theirs): which group and which
+    // of its triangles each id is, sorted by id, then written run by run.
+    let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
     for &g in &changes.fresh_groups {
-        let (Ok(ids), Some(shading)) = (bvh.group_triangles(g), tree.shading.get(&g)) else {
+        let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
             continue;
         };
-        for (k, &t) in ids.iter().enumerate() {
-            records.push((
-                t,
-                attribute_bytes(
-                    shading.normals.get(k).copied(),
-                    shading.uvs.get(k).copied(),
-                    g.index(),
-                ),
-            ));
-        }
+        records.extend(ids.iter().enumerate().map(|(k, &t)| (t, g, k as u32)));
     }
     records.sort_unstable_by_key(|r| r.0);
-    push_runs(&mut p.writes, BufferKind::Attributes, records);
+    records.dedup_by_key(|r| r.0);
+    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
+    let mut next = records.iter();
+    push_runs(&mut p.writes, BufferKind::Attributes, &ids, |_, out| {
+        if let Some(&(_, g, k)) = next.next()
+            && let Some(shading) = tree.shading.get(&g)
+        {
+            let k = k as usize;
+            out.extend_from_slice(bytemuck::bytes_of(&attribute_record(
+                shading.normals.get(k).copied(),
+                shading.uvs.get(k).copied(),
+                g.index(),
+            )));
+        }
+    });
 
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
     sync.objects.resize(bvh.group_slots() as usize, None);

@@ -32,8 +32,8 @@ pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_sto
 pub use records::{
     ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
     GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, ResolveParams, SceneLight, SurfaceMaterial,
-    TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, decode_normal, encode_normal,
-    light_bytes, object_bytes, outline_words, set_outline,
+    TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, attribute_record,
+    decode_normal, encode_normal, light_bytes, object_bytes, outline_words, set_outline,
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{

@@ -265,16 +265,24 @@ pub fn decode_normal(w: u32) -> Vec3 {
 /// One triangle's shading record: its corners' object-space normals (or none: flat shading), UVs and
 /// the slot of the group whose object record holds its material.
 pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group: u32) -> Vec<u8> {
+    bytemuck::bytes_of(&attribute_record(normals, uvs, group)).to_vec()
+}
+
+/// [`attribute_bytes`] as the record itself.
+pub fn attribute_record(
+    normals: Option<[Vec3; 3]>,
+    uvs: Option<[Vec2; 3]>,
+    group: u32,
+) -> GpuAttribute {
     let flag = if normals.is_some() { HAS_NORMALS } else { 0 };
     let uv = uvs.unwrap_or([Vec2::ZERO; 3]);
-    let record = GpuAttribute {
+    GpuAttribute {
         normals: normals.map_or([0; 3], |n| n.map(encode_normal)),
         group: (group & !HAS_NORMALS) | flag,
         uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
         uv2: [uv[2].x, uv[2].y],
         pad: [0; 2],
-    };
-    bytemuck::bytes_of(&record).to_vec()
+    }
 }
 
 /// How a texture coordinate outside 0..1 folds back, along one axis.

@@ -135,10 +135,10 @@ impl UploadPlan {
             }
         }
         for r in bvh.gpu_wide_ranges(changes) {
-            let bytes = r
-                .clone()
-                .flat_map(|i| node_bytes(&bvh.gpu_wide_node(i)))
-                .collect();
+            let mut bytes = Vec::with_capacity(r.len() * NODE_BYTES as usize);
+            for i in r.clone() {
+                bytes.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_wide_node(i)));
+            }
             plan.writes.push(BufferWrite {
                 buffer: BufferKind::Nodes,
                 offset: r.start as u64 * NODE_BYTES,
@@ -152,19 +152,20 @@ impl UploadPlan {
             .copied()
             .collect();
         tris.sort_unstable();
-        push_runs(
-            &mut plan.writes,
-            BufferKind::Triangles,
-            tris.iter()
-                .map(|&t| (t, triangle_bytes(&bvh.gpu_triangle(t)))),
-        );
+        tris.dedup();
+        push_runs(&mut plan.writes, BufferKind::Triangles, &tris, |t, out| {
+            out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_triangle(t)));
+        });
+        let mut instances = changes.instances.clone();
+        instances.sort_unstable();
+        instances.dedup();
         push_runs(
             &mut plan.writes,
             BufferKind::Instances,
-            changes
-                .instances
-                .iter()
-                .map(|&i| (i, instance_bytes(&bvh.gpu_instance(i)))),
+            &instances,
+            |i, out| {
+                out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_instance(i)));
+            },
         );
         plan
     }
@@ -179,35 +180,31 @@ impl UploadPlan {
     }
 }
 
-/// One write per run of consecutive ids, from records sorted by id.
+/// One write per run of consecutive ids (`ids` sorted, each once), each record's bytes appended by
+/// `put`: no buffer per record, so a large change set costs one allocation per run.
 pub(crate) fn push_runs(
     out: &mut Vec<BufferWrite>,
     buffer: BufferKind,
-    records: impl IntoIterator<Item = (u32, Vec<u8>)>,
+    ids: &[u32],
+    mut put: impl FnMut(u32, &mut Vec<u8>),
 ) {
-    let mut run: Option<(u32, u32, Vec<u8>)> = None;
-    for (id, bytes) in records {
-        match &mut run {
-            Some((_, end, acc)) if *end == id => {
-                acc.extend(bytes);
-                *end += 1;
-            }
-            _ => {
-                if let Some((start, _, acc)) = run.replace((id, id + 1, bytes)) {
-                    out.push(BufferWrite {
-                        buffer,
-                        offset: start as u64 * buffer.record_bytes(),
-                        bytes: acc,
-                    });
-                }
-            }
+    let record = buffer.record_bytes() as usize;
+    let mut k = 0;
+    while k < ids.len() {
+        let start = ids[k];
+        let mut end = k + 1;
+        while end < ids.len() && ids[end] == start + (end - k) as u32 {
+            end += 1;
         }
-    }
-    if let Some((start, _, bytes)) = run {
+        let mut bytes = Vec::with_capacity((end - k) * record);
+        for &id in &ids[k..end] {
+            put(id, &mut bytes);
+        }
         out.push(BufferWrite {
             buffer,
             offset: start as u64 * buffer.record_bytes(),
             bytes,
         });
+        k = end;
     }
 }
