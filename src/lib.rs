@@ -141,7 +141,12 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     if let Some(path) = &cli.state {
         app.insert_resource(report::StateReport::new(path.clone()))
             .init_resource::<report::MainThreadClock>()
+            .init_resource::<report::InputCount>()
             .add_systems(First, report::start_frame_clock)
+            .add_systems(
+                PreUpdate,
+                report::count_inputs.after(bevy::input::InputSystems),
+            )
             .add_systems(
                 bevy_egui::EguiPrimaryContextPass,
                 (

@@ -108,6 +108,25 @@ pub struct EditorState {
     /// Frames per second, smoothed (what the status bar shows).
     #[serde(default)]
     pub fps: f64,
+    /// Mouse button, wheel and key messages the app has read so far: a driver waits for its own
+    /// to be counted before it looks for their effect.
+    #[serde(default)]
+    pub inputs: u64,
+}
+
+/// Mouse button, wheel and key messages read so far.
+#[derive(Resource, Debug, Default)]
+pub struct InputCount(pub u64);
+
+/// Counts this frame's mouse button, wheel and key messages (in `PreUpdate`, after Bevy's
+/// input).
+pub fn count_inputs(
+    mut count: ResMut<InputCount>,
+    mut buttons: MessageReader<bevy::input::mouse::MouseButtonInput>,
+    mut wheel: MessageReader<bevy::input::mouse::MouseWheel>,
+    mut keys: MessageReader<bevy::input::keyboard::KeyboardInput>,
+) {
+    count.0 += (buttons.read().count() + wheel.read().count() + keys.read().count()) as u64;
 }
 
 /// The editor's memory by owner, bytes: what each part holds by its own count, next to what the
@@ -246,6 +265,7 @@ type RenderedParams<'w, 's> = (
     Res<'w, Assets<Mesh>>,
     Res<'w, treelight_document::import::ask::ImportQuestions>,
     Res<'w, bevy::diagnostic::DiagnosticsStore>,
+    Res<'w, InputCount>,
 );
 
 /// Writes the report for this frame.
@@ -274,7 +294,7 @@ pub fn write_state_report(
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
     ),
-    (tracer, camera_ids, meshes, questions, diagnostics): RenderedParams,
+    (tracer, camera_ids, meshes, questions, diagnostics, inputs): RenderedParams,
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
@@ -369,6 +389,7 @@ pub fn write_state_report(
             .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)
             .and_then(|d| d.smoothed())
             .unwrap_or(0.0),
+        inputs: inputs.0,
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

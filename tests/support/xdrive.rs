@@ -50,6 +50,11 @@ pub struct Session {
     dir: PathBuf,
     keycodes: Vec<(u32, u8)>,
     display: u32,
+    /// Button and key events sent: [`Session::frames`] first waits for the editor to have read
+    /// them all (on a loaded machine one may arrive frames later).
+    sent: std::cell::Cell<u64>,
+    /// This session's turn: released (after `Drop` ends the processes) for the next.
+    _turn: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Drop for Session {
@@ -83,6 +88,10 @@ impl Session {
 
     /// [`Session::start`] with extra environment variables for the editor.
     pub fn start_with(name: &str, args: &[&str], env: &[(&str, &str)]) -> Session {
+        // One editor at a time in a test process: two software-rendered editors on two cores
+        // make each one's frames late enough that input lands frames after it was sent.
+        static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
         let dir = crate::support::temp_dir(name);
         let mut last_error = String::new();
         for _ in 0..3 {
@@ -152,6 +161,8 @@ impl Session {
                 dir,
                 keycodes,
                 display,
+                sent: std::cell::Cell::new(0),
+                _turn: turn,
             };
             session.wait_until(
                 "the editor's scene settles",
@@ -220,6 +231,20 @@ impl Session {
 
     /// Waits until the editor has drawn `n` more frames, and returns its report.
     pub fn frames(&mut self, n: u64) -> EditorState {
+        let sent = self.sent.get();
+        let now = self
+            .wait_until(
+                "the editor to read the buttons and keys sent",
+                Duration::from_secs(60),
+                |s| s.inputs >= sent,
+            )
+            .frame;
+        self.wait_until("frames", Duration::from_secs(120), |s| s.frame >= now + n)
+    }
+
+    /// [`Session::frames`] without waiting for the input sent to be read: between the halves of
+    /// a click or a chord, which must stay as close together as a person makes them.
+    fn frames_between(&mut self, n: u64) -> EditorState {
         let now = self
             .wait_until("a report", Duration::from_secs(60), |_| true)
             .frame;
@@ -272,6 +297,17 @@ impl Session {
     }
 
     fn fake(&self, kind: u8, detail: u8, x: i16, y: i16) {
+        // X's buttons 4 to 7 are the wheel: a press is one wheel message, a release none.
+        let wheel = (4..=7).contains(&detail)
+            && (kind == xproto::BUTTON_PRESS_EVENT || kind == xproto::BUTTON_RELEASE_EVENT);
+        let counted = match kind {
+            xproto::MOTION_NOTIFY_EVENT => false,
+            xproto::BUTTON_RELEASE_EVENT if wheel => false,
+            _ => true,
+        };
+        if counted {
+            self.sent.set(self.sent.get() + 1);
+        }
         self.conn
             .xtest_fake_input(kind, detail, x11rb::CURRENT_TIME, self.root, x, y, 0)
             .unwrap();
@@ -297,13 +333,13 @@ impl Session {
             ox + x.round() as i16,
             oy + y.round() as i16,
         );
-        self.frames(1);
+        self.frames_between(1);
     }
 
     /// Presses mouse button `b` (1 left, 2 middle, 3 right).
     pub fn press(&mut self, b: u8) {
         self.fake(xproto::BUTTON_PRESS_EVENT, b, 0, 0);
-        self.frames(1);
+        self.frames_between(1);
     }
 
     /// Releases mouse button `b`.
@@ -370,9 +406,9 @@ impl Session {
         for m in modifiers {
             self.key_event(*m, true);
         }
-        self.frames(1);
+        self.frames_between(1);
         self.key_event(sym, true);
-        self.frames(1);
+        self.frames_between(1);
         self.key_event(sym, false);
         for m in modifiers {
             self.key_event(*m, false);
