@@ -53,7 +53,7 @@ pub struct Session {
     /// Button and key events sent: [`Session::frames`] first waits for the editor to have read
     /// them all (on a loaded machine one may arrive frames later).
     sent: std::cell::Cell<u64>,
-    /// This session's turn: released (after `Drop` ends the processes) for the next.
+    /// The turn this editor holds: released (after `Drop` ends the processes) for the next.
     _turn: std::sync::MutexGuard<'static, ()>,
 }
 
@@ -232,14 +232,12 @@ impl Session {
     /// Waits until the editor has drawn `n` more frames, and returns its report.
     pub fn frames(&mut self, n: u64) -> EditorState {
         let sent = self.sent.get();
-        let now = self
-            .wait_until(
-                "the editor to read the buttons and keys sent",
-                Duration::from_secs(60),
-                |s| s.inputs >= sent,
-            )
-            .frame;
-        self.wait_until("frames", Duration::from_secs(120), |s| s.frame >= now + n)
+        self.wait_until(
+            "the editor to read the buttons and keys sent",
+            Duration::from_secs(60),
+            |s| s.inputs >= sent,
+        );
+        self.frames_between(n)
     }
 
     /// [`Session::frames`] without waiting for the input sent to be read: between the halves of

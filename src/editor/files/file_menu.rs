@@ -261,35 +261,15 @@ impl FileUi {
             let folder = path
                 .parent()
                 .map_or(String::new(), |d| d.display().to_string());
-            let mut answer = None;
-            egui::Window::new("Replace the file?")
-                .collapsible(false)
-                .resizable(false)
-                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
-                .show(ctx, |ui| {
-                    ui.label(format!(
-                        "{name} already exists in {folder}.\nReplacing it overwrites what it holds."
-                    ));
-                    ui.horizontal(|ui| {
-                        let replace = ui.button("Replace");
-                        buttons.push(("Replace".to_owned(), replace.rect));
-                        if replace.clicked() {
-                            answer = Some(true);
-                        }
-                        // The keyboard's default is the answer that loses nothing.
-                        let cancel = ui.button("Cancel");
-                        buttons.push(("Cancel".to_owned(), cancel.rect));
-                        if !ctx.memory(|m| m.focused().is_some()) {
-                            cancel.request_focus();
-                        }
-                        if cancel.clicked() {
-                            answer = Some(false);
-                        }
-                    });
-                });
-            if ctx.input(|i| i.key_pressed(egui::Key::Escape)) {
-                answer = Some(false);
-            }
+            let (answer, asked) = super::ask_yes_or_cancel(
+                ctx,
+                "Replace the file?",
+                &format!(
+                    "{name} already exists in {folder}.\nReplacing it overwrites what it holds."
+                ),
+                "Replace",
+            );
+            buttons.extend(asked);
             match answer {
                 Some(true) => {
                     self.replace = None;

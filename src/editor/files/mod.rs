@@ -38,3 +38,43 @@ impl Plugin for FilesPlugin {
         );
     }
 }
+
+/// A question in a window of its own, centred: `text`, a button `yes` and Cancel, which the
+/// keyboard's focus starts on (the answer that loses nothing) and Escape gives. Returns the answer
+/// given this frame, and the two buttons by name with where they were laid out.
+pub fn ask_yes_or_cancel(
+    ctx: &bevy_egui::egui::Context,
+    title: &str,
+    text: &str,
+    yes: &str,
+) -> (Option<bool>, Vec<(String, bevy_egui::egui::Rect)>) {
+    use bevy_egui::egui;
+    let mut answer = None;
+    let mut buttons = Vec::new();
+    egui::Window::new(title)
+        .collapsible(false)
+        .resizable(false)
+        .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+        .show(ctx, |ui| {
+            ui.label(text);
+            ui.horizontal(|ui| {
+                let go = ui.button(yes);
+                buttons.push((yes.to_owned(), go.rect));
+                if go.clicked() {
+                    answer = Some(true);
+                }
+                let cancel = ui.button("Cancel");
+                buttons.push(("Cancel".to_owned(), cancel.rect));
+                if !ctx.memory(|m| m.focused().is_some()) {
+                    cancel.request_focus();
+                }
+                if cancel.clicked() {
+                    answer = Some(false);
+                }
+            });
+        });
+    if ctx.input(|i| i.key_pressed(egui::Key::Escape)) {
+        answer = Some(false);
+    }
+    (answer, buttons)
+}

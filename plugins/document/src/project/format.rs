@@ -324,33 +324,38 @@ impl ProjectFile {
             .iter()
             .filter_map(|o| Some((o.id, o.parent?)))
             .collect();
-        check_forest(&parent, |id| ids.contains(&id))
+        let mut children: Vec<SceneId> = parent.keys().copied().collect();
+        children.sort_unstable();
+        check_forest(
+            &children,
+            |id| parent.get(&id).copied(),
+            |id| ids.contains(&id),
+        )
     }
 }
 
-/// Refuses a parent map (child to parent) that is not a forest: a child its own parent, a parent
-/// for which `exists` is false, a cycle.
-pub fn check_forest(
-    parent: &HashMap<SceneId, SceneId>,
+/// Refuses parents that are not a forest: walking up from each of `starts` by `parent_of`, a
+/// child its own parent, a parent for which `exists` is false, or a cycle.
+pub(crate) fn check_forest(
+    starts: &[SceneId],
+    parent_of: impl Fn(SceneId) -> Option<SceneId>,
     exists: impl Fn(SceneId) -> bool,
 ) -> Result<(), String> {
-    let mut children: Vec<SceneId> = parent.keys().copied().collect();
-    children.sort_unstable();
-    for &child in &children {
-        let p = parent[&child];
-        if p == child {
-            return Err(format!("object {} is its own parent", child.0));
-        }
-        if !exists(p) {
-            return Err(format!(
-                "object {} names parent {}, which the project does not hold",
-                child.0, p.0
-            ));
+    for &child in starts {
+        match parent_of(child) {
+            Some(p) if p == child => return Err(format!("object {} is its own parent", child.0)),
+            Some(p) if !exists(p) => {
+                return Err(format!(
+                    "object {} names parent {}, which the project does not hold",
+                    child.0, p.0
+                ));
+            }
+            _ => {}
         }
     }
-    // Walk up from each object; what a finished walk reached is known to end at a root.
+    // Walk up from each; what a finished walk reached is known to end at a root.
     let mut done: HashSet<SceneId> = HashSet::new();
-    for &start in &children {
+    for &start in starts {
         let mut path: Vec<SceneId> = Vec::new();
         let mut on_path = HashSet::new();
         let mut at = start;
@@ -364,8 +369,8 @@ pub fn check_forest(
                 ));
             }
             path.push(at);
-            match parent.get(&at) {
-                Some(&p) => at = p,
+            match parent_of(at) {
+                Some(p) => at = p,
                 None => break,
             }
         }

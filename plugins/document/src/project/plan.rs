@@ -5,7 +5,7 @@
 
 use crate::import::spawn::{SourceTree, source_tree};
 use crate::object::SceneId;
-use crate::project::format::{ObjectKind, ProjectFile, keys_hash};
+use crate::project::format::{ObjectKind, ProjectFile, check_forest, keys_hash};
 use std::collections::{HashMap, HashSet};
 use treelight_import::ImportedScene;
 
@@ -146,40 +146,6 @@ fn check_hierarchy(project: &ProjectFile, plan: &OpenPlan) -> Result<(), String>
         let p = (*plan.tree.parents.get(i)?)? as usize;
         Some(plan.ids[p]).filter(|p| *p != SceneId::NEW)
     };
-    for o in &project.objects {
-        match o.parent {
-            Some(p) if p == o.id => return Err(format!("object {} is its own parent", o.id.0)),
-            Some(p) if !exists(p) => {
-                return Err(format!(
-                    "object {} names parent {}, which the project does not hold",
-                    o.id.0, p.0
-                ));
-            }
-            _ => {}
-        }
-    }
-    // Walk up from each listed object; what a finished walk reached is known to end at a root.
-    let mut done: HashSet<SceneId> = HashSet::new();
-    for o in &project.objects {
-        let mut path: Vec<SceneId> = Vec::new();
-        let mut on_path: HashSet<SceneId> = HashSet::new();
-        let mut at = o.id;
-        while !done.contains(&at) {
-            if !on_path.insert(at) {
-                let from = path.iter().position(|x| *x == at).unwrap_or(0);
-                let ring: Vec<String> = path[from..].iter().map(|x| x.0.to_string()).collect();
-                return Err(format!(
-                    "the parents of objects {} form a cycle",
-                    ring.join(", ")
-                ));
-            }
-            path.push(at);
-            match parent_of(at) {
-                Some(p) => at = p,
-                None => break,
-            }
-        }
-        done.extend(path);
-    }
-    Ok(())
+    let listed_ids: Vec<SceneId> = project.objects.iter().map(|o| o.id).collect();
+    check_forest(&listed_ids, parent_of, exists)
 }
