@@ -112,6 +112,12 @@ pub struct EditorState {
     /// to be counted before it looks for their effect.
     #[serde(default)]
     pub inputs: u64,
+    /// The document's exposure and tone curve.
+    #[serde(default)]
+    pub look: treelight_document::look::SceneLook,
+    /// What the viewport camera has of it: its EV100 and Bevy's tonemapper, by name.
+    #[serde(default)]
+    pub camera_look: Option<(f32, String)>,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -268,6 +274,21 @@ type RenderedParams<'w, 's> = (
     Res<'w, InputCount>,
 );
 
+/// What the report reads of the scene's look: the document's, and the viewport camera's exposure and
+/// tonemapper.
+type LookParams<'w, 's> = (
+    Res<'w, treelight_document::look::SceneLook>,
+    Query<
+        'w,
+        's,
+        (
+            &'static bevy::camera::Exposure,
+            &'static bevy::core_pipeline::tonemapping::Tonemapping,
+        ),
+        With<OrbitCamera>,
+    >,
+);
+
 /// Writes the report for this frame.
 #[allow(clippy::too_many_arguments)]
 pub fn write_state_report(
@@ -285,14 +306,15 @@ pub fn write_state_report(
         Res<treelight_document::project::open::OpeningProjects>,
     ),
     scene: Res<SceneBvh>,
-    widgets: Res<crate::editor::panels::widget_rects::WidgetRects>,
+    widgets: Res<crate::editor::widget_rects::WidgetRects>,
     project: Res<treelight_document::project::format::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
     files: Res<crate::editor::files::file_menu::FileUi>,
-    (clock, render, notices): (
+    (clock, render, notices, (look, lens)): (
         Option<Res<MainThreadClock>>,
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
+        LookParams,
     ),
     (tracer, camera_ids, meshes, questions, diagnostics, inputs): RenderedParams,
 ) {
@@ -390,6 +412,8 @@ pub fn write_state_report(
             .and_then(|d| d.smoothed())
             .unwrap_or(0.0),
         inputs: inputs.0,
+        look: *look,
+        camera_look: lens.single().ok().map(|(e, t)| (e.ev100, format!("{t:?}"))),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

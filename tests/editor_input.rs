@@ -825,3 +825,89 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
     s.click(r[0] + r[2] / 2.0, r[1] + r[3] / 2.0);
     s.wait_until("the import", std::time::Duration::from_secs(60), has_helmet);
 }
+
+/// Mean of the three channels over the viewport below its toolbar.
+fn viewport_brightness(img: &image::RgbImage, viewport: [f32; 4]) -> f32 {
+    let [x, y, w, h] = viewport.map(|v| v as u32);
+    let (x1, y1) = ((x + w).min(img.width()), (y + h).min(img.height()));
+    let rgb = support::mean_rgb(img, x, y + 40, x1, y1);
+    (rgb[0] + rgb[1] + rgb[2]) / 3.0
+}
+
+#[test]
+fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
+    let mut s = Session::start("exposure", &[]);
+    let st = s.wait_until(
+        "the scene settles",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.samples >= 4,
+    );
+    let widget = |st: &EditorState, name: &str| {
+        st.widgets
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+    };
+    let (head, _) = st.history;
+    assert_eq!(st.look.exposure, 0.0);
+    let default_ev100 = st.camera_look.as_ref().expect("the camera's exposure").0;
+    let dark = viewport_brightness(&s.screenshot(), st.viewport);
+
+    // Dragging the exposure field to the right brightens, in one step.
+    let field = widget(&st, "Exposure");
+    s.drag(field, (field.0 + 80.0, field.1), 8);
+    let st = s.frames(2);
+    assert!(
+        st.look.exposure > 0.8,
+        "the drag set {} EV",
+        st.look.exposure
+    );
+    assert_eq!(st.history.0, head + 1, "one drag is one step");
+    let (ev100, _) = st.camera_look.clone().unwrap();
+    assert!(
+        (ev100 - (default_ev100 - st.look.exposure)).abs() < 1e-4,
+        "the camera's EV100 {ev100} does not follow the look's {} EV",
+        st.look.exposure
+    );
+    assert!(st.dirty, "a new look is an unsaved change");
+    let st = s.wait_until(
+        "the picture converges again",
+        std::time::Duration::from_secs(60),
+        |st| st.samples >= 4,
+    );
+    let bright = viewport_brightness(&s.screenshot(), st.viewport);
+    assert!(
+        bright > dark * 1.2 + 2.0,
+        "{} EV more: mean {dark} -> {bright}",
+        st.look.exposure
+    );
+
+    // Another curve from the menu: a step of its own, on the camera.
+    s.click(widget(&st, "Tone curve").0, widget(&st, "Tone curve").1);
+    let st = s.frames(2);
+    let item = widget(&st, "Tone curve None (clip)");
+    s.click(item.0, item.1);
+    let st = s.frames(2);
+    assert_eq!(st.look.tone, treelight_document::look::ToneCurve::None);
+    assert_eq!(st.camera_look.as_ref().unwrap().1, "None");
+    assert_eq!(st.history.0, head + 2);
+
+    // Undo twice: the default look, on the camera and in the picture.
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    let st = s.frames(2);
+    assert_eq!(st.history.0, head);
+    assert_eq!(st.look, treelight_document::look::SceneLook::default());
+    assert_eq!(st.camera_look.as_ref().unwrap().0, default_ev100);
+    let st = s.wait_until(
+        "the picture converges again",
+        std::time::Duration::from_secs(60),
+        |st| st.samples >= 4,
+    );
+    let back = viewport_brightness(&s.screenshot(), st.viewport);
+    assert!(
+        (back - dark).abs() < 0.1 * dark + 2.0,
+        "undone: mean {dark} -> {back}"
+    );
+}

@@ -14,6 +14,7 @@ pub mod default_scene;
 pub mod edit;
 pub mod folders;
 pub mod import;
+pub mod look;
 pub mod notice;
 pub mod object;
 pub mod outbox;
@@ -36,6 +37,7 @@ impl Plugin for DocumentPlugin {
         app.add_plugins((edit::EditPlugin, import::ImportPlugin))
             .add_message::<outbox::DocumentEvent>()
             .init_resource::<outbox::DocumentView>()
+            .init_resource::<look::SceneLook>()
             .init_resource::<notice::Notices>()
             .init_resource::<project::format::ProjectState>()
             .init_resource::<requests::ProjectRequests>()

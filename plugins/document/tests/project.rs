@@ -17,6 +17,7 @@ use treelight_document::edit::command::TransformValue;
 use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
+use treelight_document::look::{SceneLook, ToneCurve};
 use treelight_document::object::SceneId;
 use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::primitive::Primitive;
@@ -244,8 +245,15 @@ fn edited_scene() -> App {
             group: None,
         },
     );
+    apply(&mut app, EditCommand::SetLook { look: EDITED_LOOK });
     app
 }
+
+/// The look [`edited_scene`] sets.
+const EDITED_LOOK: SceneLook = SceneLook {
+    exposure: 1.5,
+    tone: ToneCurve::Neutral,
+};
 
 #[test]
 fn a_saved_project_opens_as_the_same_scene() {
@@ -277,6 +285,7 @@ fn a_saved_project_opens_as_the_same_scene() {
     fresh.update();
     let after = state(fresh.world_mut());
     assert_eq!(after, before);
+    assert_eq!(*fresh.world().resource::<SceneLook>(), EDITED_LOOK);
     assert!(!fresh.world().resource::<EditHistory>().is_dirty());
     // Saving the opened project gives the same file.
     let again = dir.join("again.treelight");
@@ -317,6 +326,11 @@ fn broken_projects_are_refused_and_the_scene_is_untouched() {
             "version 99",
         ),
         ("absurd", absurd_radius(&text), "camera is out of range"),
+        (
+            "exposure",
+            text.replacen("exposure: 1.5", "exposure: 1e30", 1),
+            "exposure is not finite or beyond",
+        ),
         // A folder and a device with a scene file's name: past the extension check, refused as
         // not regular files.
         (
@@ -920,7 +934,7 @@ fn a_version_1_project_opens_and_saves_again_compact() {
     let resaved_path = dir.join("resaved.treelight");
     save_project(fresh.world_mut(), &resaved_path).unwrap();
     let resaved = read_project(&resaved_path).unwrap();
-    assert_eq!(resaved.version, 2);
+    assert_eq!(resaved.version, PROJECT_VERSION);
     assert_eq!(resaved.objects.len(), current.objects.len());
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -1004,5 +1018,78 @@ fn a_re_exported_source_keeps_what_it_can_and_reports_the_rest_by_name() {
     save_project(fresh.world_mut(), &again).unwrap();
     let resaved = read_project(&again).unwrap();
     assert!(resaved.objects.iter().any(|o| o.id == ids["part 19"]));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_look_is_a_step_with_undo_and_older_projects_open_with_the_default() {
+    let dir = temp("look");
+    let mut app = editor_world();
+    let scrub = |app: &mut App, exposure: f32, continuing: bool| {
+        apply_request(
+            app.world_mut(),
+            EditRequest::Apply {
+                command: EditCommand::SetLook {
+                    look: SceneLook {
+                        exposure,
+                        tone: ToneCurve::Filmic,
+                    },
+                },
+                continuing,
+            },
+        )
+        .unwrap();
+    };
+    // One scrub of the exposure is one step; a new curve another.
+    scrub(&mut app, 0.5, false);
+    scrub(&mut app, 1.0, true);
+    scrub(&mut app, 2.0, true);
+    apply(
+        &mut app,
+        EditCommand::SetLook {
+            look: SceneLook {
+                exposure: 2.0,
+                tone: ToneCurve::Aces,
+            },
+        },
+    );
+    assert_eq!(app.world().resource::<EditHistory>().head(), 2);
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    assert_eq!(app.world().resource::<SceneLook>().tone, ToneCurve::Filmic);
+    assert_eq!(app.world().resource::<SceneLook>().exposure, 2.0);
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    assert_eq!(*app.world().resource::<SceneLook>(), SceneLook::default());
+    // Out of range: refused, nothing changes.
+    let refused = apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::SetLook {
+                look: SceneLook {
+                    exposure: f32::NAN,
+                    tone: ToneCurve::None,
+                },
+            },
+            continuing: false,
+        },
+    );
+    assert!(refused.is_err());
+    assert_eq!(*app.world().resource::<SceneLook>(), SceneLook::default());
+    // A version 2 project (no look) opens with the default look, whatever the scene had.
+    apply_request(app.world_mut(), EditRequest::Redo).unwrap();
+    assert_eq!(app.world().resource::<SceneLook>().exposure, 2.0);
+    let path = dir.join("old.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("look: Some("), "{text}");
+    let at = text.find("look: Some(").unwrap();
+    let end = at + text[at..].find("),\n").unwrap() + 3;
+    let old = format!("{}{}", &text[..at], &text[end..]).replacen(
+        &format!("version: {PROJECT_VERSION}"),
+        "version: 2",
+        1,
+    );
+    std::fs::write(&path, old).unwrap();
+    open_project(app.world_mut(), &path).unwrap();
+    assert_eq!(*app.world().resource::<SceneLook>(), SceneLook::default());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -7,9 +7,9 @@
 
 use crate::editor::assets::library::{AssetLibrary, THUMBNAIL, Thumbnail};
 use crate::editor::files::file_menu::{FileAction, FileUi};
-use crate::editor::panels::widget_rects::WidgetRects;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::place::{shape_at, view_ray};
+use crate::editor::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;

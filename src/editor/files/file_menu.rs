@@ -9,7 +9,7 @@ use crate::editor::files::native_dialog::NativeDialog;
 use crate::editor::files::native_dialog::native_dialogs;
 use crate::editor::input::key_chords::KeyChords;
 use crate::editor::input::keymap::Action;
-use crate::editor::panels::widget_rects::WidgetRects;
+use crate::editor::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy::window::{PrimaryWindow, WindowCloseRequested};
 use bevy_egui::{EguiContexts, egui};

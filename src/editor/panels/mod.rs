@@ -1,7 +1,7 @@
 //! The editor's panels: the window's frame and dock ([`dock`], its layout in [`layout`]), the menu
 //! bar ([`menus`]), the status bar ([`status_bar`]), the outliner ([`outliner`]), the inspector
-//! ([`inspector`]), the history ([`history`]) and notices ([`notices`]); where named widgets are
-//! ([`widget_rects`]) and the scene threads' health ([`worker_watch`]).
+//! ([`inspector`]), the history ([`history`]) and notices ([`notices`]); the scene threads' health
+//! ([`worker_watch`]).
 
 pub mod dock;
 pub mod history;
@@ -11,7 +11,6 @@ pub mod menus;
 pub mod notices;
 pub mod outliner;
 pub mod status_bar;
-pub mod widget_rects;
 pub mod worker_watch;
 
 use bevy::prelude::*;
@@ -32,7 +31,6 @@ impl Plugin for PanelsPlugin {
             .init_resource::<layout::EditorDock>()
             .init_resource::<outliner::OutlinerState>()
             .init_resource::<outliner::OutlinerCache>()
-            .init_resource::<widget_rects::WidgetRects>()
             .add_systems(
                 bevy_egui::EguiPrimaryContextPass,
                 (

@@ -5,9 +5,9 @@
 
 use crate::editor::input::key_chords::KeyChords;
 use crate::editor::input::keymap::Action;
-use crate::editor::panels::widget_rects::WidgetRects;
 use crate::editor::viewport::object_item::{Objects, kind_of, parent_of};
 use crate::editor::viewport::selection::Selection;
+use crate::editor::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;

@@ -1,6 +1,7 @@
 //! The viewport: its tab ([`tab`], drawn by [`panel`]) and what is done there ([`actions`]: picking
 //! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
-//! ([`selection`]), the render mode ([`render_mode`]), where added things go ([`place`]) and files
+//! ([`selection`]), the render mode ([`render_mode`]) and the look ([`look`]: exposure and tone
+//! curve), where added things go ([`place`]) and files
 //! dropped on the window ([`drop`], [`x11_pointer`]); what the viewport and the panels read of each
 //! object ([`object_item`]).
 
@@ -8,6 +9,7 @@ pub mod actions;
 pub mod camera;
 pub mod drop;
 pub mod gizmo;
+pub mod look;
 pub mod object_item;
 pub mod panel;
 pub mod place;
@@ -38,6 +40,7 @@ impl Plugin for ViewportPlugin {
                 drop::import_dropped_files,
                 render_mode::fall_back_when_too_large.before(render_mode::apply_viewport_render),
                 render_mode::apply_viewport_render,
+                look::apply_look,
                 tab::fit_camera_viewport,
             ),
         );

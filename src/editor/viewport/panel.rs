@@ -14,11 +14,13 @@ use crate::editor::viewport::gizmo::Handle;
 use crate::editor::viewport::gizmo::ViewProjection;
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::viewport::selection::ClickModifiers;
+use crate::editor::widget_rects::WidgetRects;
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
+use treelight_document::look::SceneLook;
 use treelight_document::object::SceneId;
 
 /// An icon drawn at a scene object without geometry.
@@ -196,8 +198,16 @@ pub fn gizmo_frame(
     GizmoFrame::new(pivot, axes, view)
 }
 
-/// The viewport's toolbar: render mode, gizmo mode, axes and snapping.
-fn toolbar(ui: &mut egui::Ui, render: &mut ViewportRender, gizmo: &mut GizmoSettings) {
+/// The viewport's toolbar: render mode, gizmo mode, axes and snapping, then the look (exposure and
+/// tone curve, as edit requests).
+fn toolbar(
+    ui: &mut egui::Ui,
+    render: &mut ViewportRender,
+    gizmo: &mut GizmoSettings,
+    look: &SceneLook,
+    requests: &mut Vec<EditRequest>,
+    widgets: &mut WidgetRects,
+) {
     egui::ComboBox::from_id_salt("render-mode")
         .selected_text(ViewportRender::label(render.traced))
         .show_ui(ui, |ui| {
@@ -264,6 +274,8 @@ fn toolbar(ui: &mut egui::Ui, render: &mut ViewportRender, gizmo: &mut GizmoSett
     })
     .response
     .on_hover_text("Snapping steps for moves, rotations and scaling (hold Ctrl while dragging)");
+    ui.separator();
+    requests.extend(super::look::look_controls(ui, look, widgets));
 }
 
 /// What the pointer and keys did over the viewport this frame.
@@ -286,6 +298,10 @@ pub struct ViewportPanel<'a> {
     pub render: &'a mut ViewportRender,
     /// The gizmo's settings.
     pub gizmo: &'a mut GizmoSettings,
+    /// The scene's exposure and tone curve (changed through requests in `actions`).
+    pub look: &'a SceneLook,
+    /// Where the named widgets are, for the report.
+    pub widgets: &'a mut WidgetRects,
     /// The drag in progress.
     pub drag: &'a mut Option<GizmoDrag>,
     /// State kept between frames.
@@ -308,7 +324,16 @@ impl ViewportPanel<'_> {
                 .layout(egui::Layout::left_to_right(egui::Align::Min)),
         );
         // One row: a separator in the overlay itself would run down the whole viewport.
-        overlay.horizontal(|ui| toolbar(ui, self.render, self.gizmo));
+        overlay.horizontal(|ui| {
+            toolbar(
+                ui,
+                self.render,
+                self.gizmo,
+                self.look,
+                &mut self.actions.requests,
+                self.widgets,
+            )
+        });
 
         let painter = ui.painter_at(rect);
         let Some((camera, cam_gt)) = self.scene.camera.as_ref() else {

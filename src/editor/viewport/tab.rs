@@ -11,12 +11,14 @@ use crate::editor::viewport::panel::{
 };
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::viewport::selection::Selection;
+use crate::editor::widget_rects::WidgetRects;
 use bevy::camera::Viewport;
 use bevy::camera::primitives::Aabb;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::egui;
+use treelight_document::look::SceneLook;
 use treelight_document::placement::box_corners;
 
 /// Where the viewport panel is, in physical pixels, for the 3D camera.
@@ -36,6 +38,7 @@ pub struct SceneView<'w, 's> {
     boxes: Query<'w, 's, (&'static Aabb, &'static GlobalTransform)>,
     children: Query<'w, 's, &'static Children>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
+    look: Res<'w, SceneLook>,
 }
 
 /// What the viewport changes.
@@ -48,6 +51,7 @@ pub struct ViewportState<'w, 's> {
     interaction: ResMut<'w, ViewportInteraction>,
     actions: ResMut<'w, ViewportActions>,
     rect: ResMut<'w, ViewportRect>,
+    widgets: ResMut<'w, WidgetRects>,
     window: Single<'w, 's, &'static Window, With<PrimaryWindow>>,
 }
 
@@ -61,6 +65,7 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
         mut interaction,
         mut actions,
         rect: mut viewport_rect,
+        mut widgets,
         window,
     } = state;
     // The path tracer outlines the selected meshes' silhouettes itself
@@ -76,6 +81,8 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
         orbit: orbit_copy.as_mut(),
         render: &mut render_copy,
         gizmo: &mut gizmo_copy,
+        look: &view.look,
+        widgets: &mut widgets,
         drag: &mut drag.0,
         interaction: &mut interaction,
         rect: &mut rect,
@@ -112,6 +119,7 @@ fn viewport_scene(view: &SceneView, show_boxes: bool) -> ViewportScene {
         boxes,
         children,
         cameras,
+        ..
     } = view;
     let mut out = ViewportScene {
         camera: cameras.single().ok().map(|(c, g)| (c.clone(), *g)),

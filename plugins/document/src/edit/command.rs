@@ -3,6 +3,7 @@
 //! it.
 
 use super::snapshot::ObjectSnapshot;
+use crate::look::SceneLook;
 use crate::object::SceneObject;
 use crate::object::{EditedObjects, SceneId, SceneIndex};
 use crate::primitive::{Primitive, PrimitiveShape};
@@ -263,6 +264,11 @@ pub enum EditCommand {
         #[serde(default)]
         id: Option<SceneId>,
     },
+    /// Sets the exposure and tone curve every view of the scene uses.
+    SetLook {
+        /// The new look.
+        look: SceneLook,
+    },
 }
 
 /// Why a command cannot be applied.
@@ -298,6 +304,9 @@ pub enum EditError {
     /// A parent that is the object itself or under it.
     #[error("{0} cannot go under itself or its own descendant")]
     Cycle(SceneId),
+    /// An exposure that is not finite or past the widest compensation.
+    #[error("the exposure is not finite or beyond ±{max} stops", max = crate::look::MAX_EXPOSURE_STOPS)]
+    BadLook,
 }
 
 /// What undoes an applied command.
@@ -322,6 +331,8 @@ pub enum Undo {
     Respawn(Vec<ObjectSnapshot>),
     /// Remove these objects.
     Despawn(Vec<SceneId>),
+    /// Give the scene this look back.
+    Look(SceneLook),
     /// Undo each of these, last first.
     Many(Vec<Undo>),
 }
@@ -377,6 +388,19 @@ impl EditCommand {
                 )
             ),
             EditCommand::Group { ids, .. } => many("Group", ids),
+            EditCommand::SetLook { look } => {
+                let before = world
+                    .get_resource::<SceneLook>()
+                    .copied()
+                    .unwrap_or_default();
+                let exposure = format!("Exposure {:+.1} EV", look.exposure);
+                let tone = format!("Tone curve {}", look.tone.label());
+                match (look.exposure != before.exposure, look.tone != before.tone) {
+                    (true, true) => format!("{exposure}, {}", tone.to_lowercase()),
+                    (false, true) => tone,
+                    _ => exposure,
+                }
+            }
         }
     }
 
@@ -461,6 +485,11 @@ impl EditCommand {
             EditCommand::AddPrimitive { id, transform, .. } => {
                 check_free(world, *id)?;
                 check_finite(transform)?;
+            }
+            EditCommand::SetLook { look } => {
+                if !look.is_valid() {
+                    return Err(EditError::BadLook);
+                }
             }
         }
         if let EditCommand::Duplicate { copies, .. } = self {
@@ -611,6 +640,14 @@ impl EditCommand {
                 transform,
                 id,
             } => add_primitive(world, *shape, transform, id),
+            EditCommand::SetLook { look } => {
+                let before = world
+                    .get_resource::<SceneLook>()
+                    .copied()
+                    .unwrap_or_default();
+                world.insert_resource(*look);
+                Undo::Look(before)
+            }
         })
     }
 }
@@ -940,6 +977,7 @@ impl Undo {
                     }
                 }
             }
+            Undo::Look(look) => world.insert_resource(*look),
             Undo::Many(list) => {
                 for undo in list.iter().rev() {
                     undo.revert(world);

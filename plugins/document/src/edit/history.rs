@@ -98,6 +98,10 @@ impl Edit for Step {
                 EditCommand::SetTransforms { transforms: a },
                 EditCommand::SetTransforms { transforms: b },
             ) => a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.0 == y.0),
+            // One scrub of the exposure; a new curve is a step of its own.
+            (EditCommand::SetLook { look: a }, EditCommand::SetLook { look: b }) => {
+                a.tone == b.tone
+            }
             _ => false,
         };
         if other.continuing && same_target {

@@ -192,6 +192,7 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         objects,
         deleted,
         camera,
+        look: world.get_resource::<crate::look::SceneLook>().copied(),
     };
     (project, unsaved)
 }

@@ -2,11 +2,11 @@
 //! built from, what the user changed of their nodes (keyed by source keys: transform, parent,
 //! visibility, name, material values, deletions), the ids of the nodes left as they were (runs of
 //! consecutive ids), the objects added in the editor (shapes, lights, groups, copies of imported
-//! meshes) and the camera; never a copy of the geometry, and no line per unchanged node, so a
+//! meshes), the camera and the look (exposure and tone curve); never a copy of the geometry, and no line per unchanged node, so a
 //! project grows with the edits, not the sources. Opening one imports its sources again and
 //! applies the rest ([`super::restore`]); saving writes a temporary file beside the target,
 //! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
-//! every node, still open.
+//! every node, and version 2 files, without a look, still open.
 
 use crate::edit::command::{LightKind, MaterialValue, TransformValue, in_range};
 use crate::object::SceneId;
@@ -18,8 +18,8 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// The version this editor writes.
-pub const PROJECT_VERSION: u32 = 2;
-/// The oldest version it reads (1 listed every source node as an object).
+pub const PROJECT_VERSION: u32 = 3;
+/// The oldest version it reads (1 listed every source node as an object; 2 had no look).
 pub const OLDEST_VERSION: u32 = 1;
 
 /// Largest project file read, bytes.
@@ -156,6 +156,9 @@ pub struct ProjectFile {
     /// The camera.
     #[serde(default)]
     pub camera: Option<CameraValue>,
+    /// The exposure and tone curve (version 3; older projects have the defaults).
+    #[serde(default)]
+    pub look: Option<crate::look::SceneLook>,
 }
 
 /// Why a project cannot be opened or saved; each names the file.
@@ -208,6 +211,12 @@ impl ProjectFile {
             return Err(format!(
                 "version {} is not one this editor reads ({OLDEST_VERSION} to {PROJECT_VERSION})",
                 self.version
+            ));
+        }
+        if self.look.is_some_and(|l| !l.is_valid()) {
+            return Err(format!(
+                "its exposure is not finite or beyond ±{} stops",
+                crate::look::MAX_EXPOSURE_STOPS
             ));
         }
         if self.sources.len() > MAX_SOURCES || self.objects.len() > MAX_OBJECTS {

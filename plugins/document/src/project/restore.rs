@@ -219,6 +219,7 @@ pub fn empty_scene(world: &mut World) {
         world.entity_mut(e).despawn();
     }
     *world.resource_mut::<EditHistory>() = EditHistory::default();
+    world.insert_resource(crate::look::SceneLook::default());
     world.write_message(DocumentEvent::Replaced);
     world.resource_mut::<SourceCatalog>().0.clear();
 }
@@ -490,6 +491,8 @@ pub fn open_project_parsed(
     if let Some(c) = project.camera {
         restore_view(world, c);
     }
+    // Checked by validation: finite and within range.
+    world.insert_resource(project.look.unwrap_or_default());
     for s in &project.source_ids {
         if parsed[s.source].is_none() {
             state
