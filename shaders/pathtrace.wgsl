@@ -32,14 +32,22 @@ struct Object {
 }
 
 struct Light {
-    // A point light's position, or the unit direction towards a directional light.
+    // A point or spot light's position, or the unit direction towards a directional light.
     position: vec3<f32>,
-    // 0 point, 1 directional.
+    // 0 point, 1 directional, 2 spot.
     kind: u32,
-    // Point: intensity (luminous power / 4π). Directional: illuminance.
+    // Point and spot: intensity (luminous power / 4π). Directional: illuminance.
     radiance: vec3<f32>,
-    // A point light's radius (soft shadows).
+    // A point or spot light's radius (soft shadows).
     radius: f32,
+    // A spot light's axis, the way it shines.
+    direction: vec3<f32>,
+    // 1 / range² (glTF's smooth window), 0 for no range.
+    inv_range2: f32,
+    // A spot light's cone: saturate(cos θ * scale + offset)².
+    spot_scale: f32,
+    spot_offset: f32,
+    pad: vec2<f32>,
 }
 
 struct View {
@@ -303,13 +311,23 @@ fn direct_light(s: Surface, wo: vec3<f32>) -> vec3<f32> {
         var wi: vec3<f32>;
         var li: vec3<f32>;
         var t_max = FAR;
-        if light.kind == 0u {
+        if light.kind != 1u {
             let spot = light.position + uniform_sphere() * light.radius;
             let to = spot - s.p;
             let d2 = max(dot(to, to), 1e-8);
             let dist = sqrt(d2);
             wi = to / dist;
-            li = light.radiance / d2;
+            // glTF's range window, as Bevy's rasteriser has it: (1 - (d / range)^4)^2.
+            let f = d2 * light.inv_range2;
+            let window = saturate(1.0 - f * f);
+            li = light.radiance * (window * window / d2);
+            if light.kind == 2u {
+                let cone = saturate(dot(light.direction, -wi) * light.spot_scale + light.spot_offset);
+                li *= cone * cone;
+            }
+            if max(li.x, max(li.y, li.z)) <= 0.0 {
+                continue;
+            }
             t_max = dist * 0.999;
         } else {
             wi = light.position;

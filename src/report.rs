@@ -39,6 +39,9 @@ pub struct ObjectReport {
     pub world_translation: [f32; 3],
     /// Its world-space box's centre on screen (window coordinates, logical pixels), if in front.
     pub screen: Option<[f32; 2]>,
+    /// Its light's values, for a light.
+    #[serde(default)]
+    pub light: Option<treelight_document::light::LightValue>,
 }
 
 /// One gizmo handle on screen.
@@ -262,6 +265,8 @@ pub struct ReportItem {
     pub visibility: Option<&'static Visibility>,
     /// Its parent.
     pub parent: Option<&'static ChildOf>,
+    /// Its light components.
+    pub light: treelight_document::light::LightParts,
 }
 
 /// What the report reads of the path tracer and the meshes.
@@ -347,6 +352,7 @@ pub fn write_state_report(
                 screen: camera
                     .and_then(|(c, cg)| c.world_to_viewport(cg, centre).ok())
                     .map(|p| p.to_array()),
+                light: treelight_document::light::LightValue::of_parts(o.light),
             }
         })
         .collect();

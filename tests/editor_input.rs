@@ -911,3 +911,56 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
         "undone: mean {dark} -> {back}"
     );
 }
+
+#[test]
+fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
+    let mut s = Session::start("light-kind", &[]);
+    let st = s.wait_until(
+        "the scene settles",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.samples >= 8,
+    );
+    let widget = |st: &EditorState, name: &str| {
+        st.widgets
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+    };
+    let lamp = object(&st, "Lamp light").clone();
+    let point = lamp.light.expect("the lamp is a light");
+    assert_eq!(point.kind, treelight_document::light::LightKind::Point);
+    let (head, _) = st.history;
+    let before = viewport_brightness(&s.screenshot(), st.viewport);
+
+    let row = row_centre(&st, lamp.id);
+    s.click(row.0, row.1);
+    let st = s.frames(2);
+    assert_eq!(st.selection, vec![lamp.id]);
+    let kind = widget(&st, "Light kind");
+    s.click(kind.0, kind.1);
+    let st = s.frames(2);
+    let spot = widget(&st, "Light kind Spot light");
+    s.click(spot.0, spot.1);
+    let st = s.frames(2);
+    let now = object(&st, "Lamp light").light.unwrap();
+    assert_eq!(now.kind, treelight_document::light::LightKind::Spot);
+    assert_eq!((now.intensity, now.color), (point.intensity, point.color));
+    assert_eq!(st.history.0, head + 1, "one step");
+    let st = s.wait_until(
+        "the picture converges again",
+        std::time::Duration::from_secs(60),
+        |st| st.samples >= 8,
+    );
+    let lit = viewport_brightness(&s.screenshot(), st.viewport);
+    eprintln!("mean brightness: point {before}, spot {lit}");
+    assert!(
+        (lit - before).abs() > 0.03 * before,
+        "the spot light's cone changed nothing: {before} -> {lit}"
+    );
+
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    let st = s.frames(2);
+    assert_eq!(st.history.0, head);
+    assert_eq!(object(&st, "Lamp light").light, Some(point));
+}

@@ -14,6 +14,7 @@ pub mod default_scene;
 pub mod edit;
 pub mod folders;
 pub mod import;
+pub mod light;
 pub mod look;
 pub mod notice;
 pub mod object;

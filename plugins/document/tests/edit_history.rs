@@ -20,6 +20,7 @@ use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
 use treelight_document::import::convert::to_bevy_mesh;
+use treelight_document::light::LightValue;
 use treelight_document::object::SceneId;
 use treelight_document::object::SceneIndex;
 use treelight_document::object::SceneObject;
@@ -117,8 +118,8 @@ struct ObjectState {
     mesh: Option<AssetId<Mesh>>,
     material: Option<AssetId<StandardMaterial>>,
     material_values: Option<MaterialValue>,
-    /// Point light, directional light.
-    lights: (bool, bool),
+    /// The light's values, for a light.
+    light: Option<LightValue>,
 }
 
 fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
@@ -130,8 +131,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
         Option<&Visibility>,
         Option<&Mesh3d>,
         Option<&MeshMaterial3d<StandardMaterial>>,
-        Has<PointLight>,
-        Has<DirectionalLight>,
+        EntityRef,
     )>();
     let values: BTreeMap<AssetId<StandardMaterial>, MaterialValue> = world
         .resource::<Assets<StandardMaterial>>()
@@ -144,7 +144,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
         .map(|(e, id)| (e, *id))
         .collect();
     q.iter(world)
-        .map(|(id, name, t, parent, vis, mesh, mat, point, dir)| {
+        .map(|(id, name, t, parent, vis, mesh, mat, entity)| {
             let mut transform = [0.0; 10];
             transform[..3].copy_from_slice(&t.translation.to_array());
             transform[3..7].copy_from_slice(&t.rotation.to_array());
@@ -159,7 +159,7 @@ fn world_state(world: &mut World) -> BTreeMap<SceneId, ObjectState> {
                     mesh: mesh.map(|m| m.0.id()),
                     material: mat.map(|m| m.0.id()),
                     material_values: mat.and_then(|m| values.get(&m.0.id()).copied()),
-                    lights: (point, dir),
+                    light: LightValue::of(&entity),
                 },
             )
         })
@@ -252,7 +252,10 @@ enum Op {
     Material(usize, f32),
     MakeUnique(usize),
     Group(usize, usize),
-    Light(bool, [f32; 3]),
+    /// A light of the kind with this index, added at a point.
+    Light(usize, [f32; 3]),
+    /// An object's light given another kind (by index), intensity and cone (when it is a light).
+    EditLight(usize, usize, f32, f32),
     Undo,
     Redo,
 }
@@ -272,7 +275,9 @@ fn op() -> impl Strategy<Value = Op> {
         1 => (any::<usize>(), 0f32..1.0).prop_map(|(i, r)| Op::Material(i, r)),
         1 => any::<usize>().prop_map(Op::MakeUnique),
         1 => (any::<usize>(), any::<usize>()).prop_map(|(i, j)| Op::Group(i, j)),
-        1 => (any::<bool>(), v()).prop_map(|(p, at)| Op::Light(p, at)),
+        1 => (any::<usize>(), v()).prop_map(|(k, at)| Op::Light(k, at)),
+        1 => (any::<usize>(), any::<usize>(), 0f32..1e6, 0f32..1.5)
+            .prop_map(|(i, k, w, a)| Op::EditLight(i, k, w, a)),
         1 => Just(Op::Undo),
         1 => Just(Op::Redo),
     ]
@@ -413,15 +418,27 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
                 group: None,
             })
         }
-        Op::Light(point, at) => apply(EditCommand::AddLight {
-            kind: if point {
-                LightKind::Point
-            } else {
-                LightKind::Directional
-            },
+        Op::Light(kind, at) => apply(EditCommand::AddLight {
+            kind: LightKind::ALL[kind % LightKind::ALL.len()],
             transform: Transform::from_translation(Vec3::from_array(at)).into(),
             id: None,
         }),
+        Op::EditLight(i, kind, intensity, angle) => {
+            let id = pick(i)?;
+            let e = world.resource::<SceneIndex>().entity(id)?;
+            let light = LightValue::of(&world.entity(e))?;
+            apply(EditCommand::SetLight {
+                id,
+                light: LightValue {
+                    kind: LightKind::ALL[kind % LightKind::ALL.len()],
+                    intensity,
+                    outer_angle: angle,
+                    inner_angle: angle * 0.5,
+                    color: [1.0, 0.5, 0.25],
+                    ..light
+                },
+            })
+        }
         Op::Undo => Some(EditRequest::Undo),
         Op::Redo => Some(EditRequest::Redo),
     }

@@ -17,6 +17,7 @@ use treelight_document::edit::command::TransformValue;
 use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
+use treelight_document::light::LightValue;
 use treelight_document::look::{SceneLook, ToneCurve};
 use treelight_document::object::SceneId;
 use treelight_document::outbox::{CameraValue, DocumentView};
@@ -65,7 +66,7 @@ struct Object {
     transform: [i64; 10],
     visible: bool,
     mesh: bool,
-    lights: (bool, bool),
+    light: Option<LightValue>,
     material: Option<[i64; 9]>,
 }
 
@@ -92,13 +93,12 @@ fn state(world: &mut World) -> BTreeMap<SceneId, Object> {
         Option<&ChildOf>,
         Option<&Visibility>,
         Has<Mesh3d>,
-        Has<PointLight>,
-        Has<DirectionalLight>,
+        EntityRef,
         Option<&MeshMaterial3d<StandardMaterial>>,
     )>();
     query
         .iter(world)
-        .map(|(id, name, t, parent, vis, mesh, p, d, mat)| {
+        .map(|(id, name, t, parent, vis, mesh, entity, mat)| {
             let mut transform = [0; 10];
             for (k, v) in t
                 .translation
@@ -131,7 +131,7 @@ fn state(world: &mut World) -> BTreeMap<SceneId, Object> {
                     transform,
                     visible: vis != Some(&Visibility::Hidden),
                     mesh,
-                    lights: (p, d),
+                    light: LightValue::of(&entity),
                     material,
                 },
             )
@@ -235,6 +235,23 @@ fn edited_scene() -> App {
             kind: LightKind::Point,
             transform: t(2.0),
             id: None,
+        },
+    );
+    // The light made a spot with its own colour, intensity, range and cone.
+    let light = ids_by_name(&mut app)["Point light"];
+    apply(
+        &mut app,
+        EditCommand::SetLight {
+            id: light,
+            light: LightValue {
+                kind: LightKind::Spot,
+                color: [1.0, 0.5, 0.25],
+                intensity: 1234.5,
+                shadows: false,
+                range: Some(6.5),
+                inner_angle: 0.3,
+                outer_angle: 0.7,
+            },
         },
     );
     apply(
@@ -919,6 +936,7 @@ fn a_version_1_project_opens_and_saves_again_compact() {
                     },
                 ),
                 material: None,
+                light: None,
             });
     }
     assert!(old.objects.len() > current.objects.len());
@@ -1091,5 +1109,114 @@ fn the_look_is_a_step_with_undo_and_older_projects_open_with_the_default() {
     std::fs::write(&path, old).unwrap();
     open_project(app.world_mut(), &path).unwrap();
     assert_eq!(*app.world().resource::<SceneLook>(), SceneLook::default());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_file_s_lights_come_in_as_editor_lights_and_their_edits_are_saved() {
+    let dir = temp("lights");
+    // The fixture's file beside the project, as a user keeps their sources.
+    let file = dir.join("lights.gltf");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../import/tests/data/lights.gltf"),
+        &file,
+    )
+    .unwrap();
+    let mut app = imported(&file);
+    let lights: BTreeMap<String, LightValue> = state(app.world_mut())
+        .into_values()
+        .filter_map(|o| Some((o.name, o.light?)))
+        .collect();
+    // Three good lights, the bad one skipped, and no sun added beside them.
+    assert_eq!(
+        lights.keys().map(String::as_str).collect::<Vec<_>>(),
+        ["Lamp", "Spot", "Sun"]
+    );
+    let lamp = lights["Lamp"];
+    assert_eq!(lamp.kind, LightKind::Point);
+    // 10 candela are 40π lumens; the file's linear colour is stored as sRGB.
+    assert!((lamp.intensity - 40.0 * std::f32::consts::PI).abs() < 1e-3);
+    assert!((lamp.color[1] - 0.7353569).abs() < 1e-4, "{:?}", lamp.color);
+    assert_eq!(lamp.range, Some(5.0));
+    let spot = lights["Spot"];
+    assert_eq!(
+        (spot.kind, spot.inner_angle, spot.outer_angle),
+        (LightKind::Spot, 0.2, 0.5)
+    );
+    assert_eq!(lights["Sun"].kind, LightKind::Directional);
+    assert_eq!(lights["Sun"].intensity, 3.0);
+    // The spot shines down its node's -z axis, turned to face the floor.
+    let ids = ids_by_name(&mut app);
+    let spot_entity = app
+        .world()
+        .resource::<treelight_document::object::SceneIndex>()
+        .entity(ids["Spot"])
+        .unwrap();
+    let forward = app
+        .world()
+        .get::<GlobalTransform>(spot_entity)
+        .unwrap()
+        .forward();
+    assert!(forward.dot(Vec3::NEG_Y) > 0.999, "{forward:?}");
+
+    // The lamp edited into a spot: one step, undone and redone, then saved and opened again.
+    let edited = LightValue {
+        kind: LightKind::Spot,
+        intensity: 500.0,
+        outer_angle: 0.9,
+        ..lamp
+    };
+    apply(
+        &mut app,
+        EditCommand::SetLight {
+            id: ids["Lamp"],
+            light: edited,
+        },
+    );
+    let light_of = |app: &mut App, name: &str| {
+        state(app.world_mut())
+            .into_values()
+            .find(|o| o.name == name)
+            .and_then(|o| o.light)
+    };
+    assert_eq!(light_of(&mut app, "Lamp"), Some(edited));
+    apply_request(app.world_mut(), EditRequest::Undo).unwrap();
+    assert_eq!(light_of(&mut app, "Lamp"), Some(lamp));
+    apply_request(app.world_mut(), EditRequest::Redo).unwrap();
+    let before = state(app.world_mut());
+    let path = dir.join("lit.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), before);
+    assert_eq!(light_of(&mut fresh, "Lamp"), Some(edited));
+    // A light that is not one, and values out of range, are refused.
+    let refused = apply_request(
+        fresh.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::SetLight {
+                id: ids["Tri"],
+                light: edited,
+            },
+            continuing: false,
+        },
+    );
+    assert!(refused.unwrap_err().to_string().contains("is not a light"));
+    let refused = apply_request(
+        fresh.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::SetLight {
+                id: ids["Lamp"],
+                light: LightValue {
+                    inner_angle: 1.0,
+                    outer_angle: 0.5,
+                    ..edited
+                },
+            },
+            continuing: false,
+        },
+    );
+    assert!(refused.is_err());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -5,8 +5,8 @@ use crate::gltf_compressed::{self, read_floats};
 use crate::sandbox::{read_scene_file, read_uri};
 use crate::texture::ImageCache;
 use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedNode, ImportedScene, MAX_ELEMENTS,
-    MeshGeometry, check_indices, check_positions,
+    ImportError, ImportedLight, ImportedLightKind, ImportedMaterial, ImportedMesh, ImportedNode,
+    ImportedScene, MAX_ELEMENTS, MeshGeometry, check_indices, check_positions,
 };
 use glam::Mat4;
 use gltf::Semantic;
@@ -151,11 +151,15 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
             label,
         )?;
         let index = scene.nodes.len();
+        let light = node
+            .light()
+            .and_then(|l| checked_light(&l, &name, &mut scene.warnings));
         scene.nodes.push(ImportedNode {
             name,
             parent: parent_index,
             local,
             key,
+            light,
         });
         if let Some(mesh) = node.mesh() {
             let base = node
@@ -599,4 +603,61 @@ fn check_accessor(
         ));
     }
     Ok(())
+}
+
+/// A node's light, if its values are ones a light can take; otherwise a warning naming the node.
+fn checked_light(
+    l: &gltf::khr_lights_punctual::Light,
+    node: &str,
+    warnings: &mut Vec<String>,
+) -> Option<ImportedLight> {
+    use gltf::khr_lights_punctual::Kind;
+    let color = l.color();
+    let intensity = l.intensity();
+    if !color
+        .iter()
+        .chain([&intensity])
+        .all(|v| v.is_finite() && *v >= 0.0)
+    {
+        warnings.push(format!(
+            "'{node}': its light has a negative or non-finite colour or intensity, skipped"
+        ));
+        return None;
+    }
+    let range = match l.range() {
+        Some(r) if r.is_finite() && r > 0.0 => Some(r),
+        Some(r) => {
+            warnings.push(format!(
+                "'{node}': its light's range {r} is not positive, ignored"
+            ));
+            None
+        }
+        None => None,
+    };
+    let kind = match l.kind() {
+        Kind::Point => ImportedLightKind::Point,
+        Kind::Directional => ImportedLightKind::Directional,
+        Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            if !(inner_cone_angle.is_finite() && outer_cone_angle.is_finite()) {
+                warnings.push(format!(
+                    "'{node}': its spot light's cone is not finite, skipped"
+                ));
+                return None;
+            }
+            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+            ImportedLightKind::Spot {
+                inner_angle: inner_cone_angle.clamp(0.0, outer),
+                outer_angle: outer,
+            }
+        }
+    };
+    Some(ImportedLight {
+        kind,
+        color,
+        intensity,
+        range,
+    })
 }

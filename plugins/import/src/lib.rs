@@ -93,6 +93,38 @@ pub struct ImportedNode {
     /// A key that finds the node again in a later version of the file: the names from the top,
     /// joined by `/`, each `#index` where a node has no name.
     pub key: String,
+    /// The light at the node (glTF's `KHR_lights_punctual`), shining along the node's -z axis.
+    pub light: Option<ImportedLight>,
+}
+
+/// A punctual light as glTF gives it, checked: finite, non-negative colour and intensity, a
+/// positive range, a cone within `0 <= inner <= outer <= π/2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImportedLight {
+    /// Which kind.
+    pub kind: ImportedLightKind,
+    /// Colour, linear RGB.
+    pub color: [f32; 3],
+    /// Candela for point and spot lights, lux for directional ones.
+    pub intensity: f32,
+    /// Distance at which the light has faded to nothing; `None`: no limit.
+    pub range: Option<f32>,
+}
+
+/// The kinds of punctual light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ImportedLightKind {
+    /// Light from a point, in every direction.
+    Point,
+    /// Parallel light along the node's -z axis.
+    Directional,
+    /// Light from a point in a cone around the node's -z axis.
+    Spot {
+        /// Full intensity within this angle of the axis (radians).
+        inner_angle: f32,
+        /// No light past this angle (radians).
+        outer_angle: f32,
+    },
 }
 
 /// A mesh's vertex data, in object space.

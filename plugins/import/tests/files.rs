@@ -1,7 +1,7 @@
 //! Real files from ../shared/scenes, good and broken.
 
 use std::path::PathBuf;
-use treelight_import::{WrapMode, load_scene};
+use treelight_import::{ImportedLight, ImportedLightKind, WrapMode, load_scene};
 
 fn scene(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -726,4 +726,47 @@ fn a_file_with_one_bad_mesh_imports_the_others_and_names_it() {
         s.warnings
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn gltf_punctual_lights_come_with_their_nodes_and_bad_ones_are_named() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/lights.gltf");
+    let s = load_scene(&path).unwrap();
+    let light = |name: &str| {
+        s.nodes
+            .iter()
+            .find(|n| n.name == name)
+            .unwrap_or_else(|| panic!("no node {name}"))
+            .light
+    };
+    assert_eq!(
+        light("Lamp"),
+        Some(ImportedLight {
+            kind: ImportedLightKind::Point,
+            color: [1.0, 0.5, 0.25],
+            intensity: 10.0,
+            range: Some(5.0),
+        })
+    );
+    assert_eq!(
+        light("Spot").map(|l| l.kind),
+        Some(ImportedLightKind::Spot {
+            inner_angle: 0.2,
+            outer_angle: 0.5
+        })
+    );
+    let sun = light("Sun").unwrap();
+    assert_eq!(
+        (sun.kind, sun.color, sun.intensity, sun.range),
+        (ImportedLightKind::Directional, [1.0; 3], 3.0, None)
+    );
+    assert_eq!(light("Tri"), None);
+    assert_eq!(light("Bad"), None, "a negative intensity is no light");
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("'Bad'") && w.contains("intensity")),
+        "{:?}",
+        s.warnings
+    );
 }

@@ -59,6 +59,7 @@ fn main() {
             position: b.center() + Vec3::Y * diag * 0.3,
             power: Vec3::splat(diag * diag * 40.0),
             radius: diag * 0.01,
+            range: None,
         };
         let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &light_bytes(&light));
         let eye = b.center() + Vec3::new(0.35, 0.25, 0.6) * diag * 0.9;

@@ -11,7 +11,7 @@ use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
-use bevy::light::{DirectionalLight, PointLight};
+use bevy::light::{DirectionalLight, PointLight, SpotLight};
 use bevy::math::Mat3;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
@@ -124,6 +124,7 @@ fn extract_scene(
     images: Extract<Option<Res<Assets<Image>>>>,
     outlined: Extract<OutlinedQuery>,
     points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
+    spots: Extract<Query<(&SpotLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
     suns: Extract<
         Query<(
             &DirectionalLight,
@@ -175,6 +176,21 @@ fn extract_scene(
                 position: gt.translation(),
                 power: Vec3::new(c.red, c.green, c.blue) * l.intensity,
                 radius: l.radius,
+                range: Some(l.range),
+            });
+        }
+    }
+    for (l, gt, vis) in &spots {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Spot {
+                position: gt.translation(),
+                direction: gt.forward().into(),
+                power: Vec3::new(c.red, c.green, c.blue) * l.intensity,
+                radius: l.radius,
+                range: Some(l.range),
+                inner_angle: l.inner_angle,
+                outer_angle: l.outer_angle,
             });
         }
     }

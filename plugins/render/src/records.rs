@@ -58,14 +58,25 @@ pub struct GpuObject {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
-    /// A point light's position, or the unit direction towards a directional light.
+    /// A point or spot light's position, or the unit direction towards a directional light.
     pub position: [f32; 3],
-    /// 0 point, 1 directional.
+    /// 0 point, 1 directional, 2 spot.
     pub kind: u32,
-    /// Point: intensity (luminous power / 4π). Directional: illuminance.
+    /// Point and spot: intensity (luminous power / 4π). Directional: illuminance.
     pub radiance: [f32; 3],
-    /// A point light's radius.
+    /// A point or spot light's radius.
     pub radius: f32,
+    /// A spot light's axis: the unit direction it shines in.
+    pub direction: [f32; 3],
+    /// 1 / range² of a point or spot light (glTF's smooth window); 0: no range.
+    pub inv_range2: f32,
+    /// A spot light's cone: the attenuation is `saturate(cos θ * scale + offset)²`, θ the angle
+    /// from the axis (glTF's and Bevy's formula).
+    pub spot_scale: f32,
+    /// See `spot_scale`.
+    pub spot_offset: f32,
+    /// Pads the record to 16-byte alignment.
+    pub pad: [f32; 2],
 }
 
 /// `View` of `pathtrace.wgsl`: the per-view uniform ([`ViewParams`] as the kernel reads it).
@@ -401,6 +412,25 @@ pub enum SceneLight {
         power: Vec3,
         /// Radius of the emitting sphere (soft shadows); 0 is a point.
         radius: f32,
+        /// Distance at which its light has faded to nothing; `None`: inverse square only.
+        range: Option<f32>,
+    },
+    /// Bevy's `SpotLight`: a point light masked to a cone around its axis.
+    Spot {
+        /// World position.
+        position: Vec3,
+        /// Unit direction it shines in.
+        direction: Vec3,
+        /// Linear colour times luminous power (lumens), as a point light of the same power.
+        power: Vec3,
+        /// Radius of the emitting sphere (soft shadows); 0 is a point.
+        radius: f32,
+        /// Distance at which its light has faded to nothing; `None`: inverse square only.
+        range: Option<f32>,
+        /// Full intensity within this angle of the axis (radians).
+        inner_angle: f32,
+        /// No light past this angle of the axis (radians).
+        outer_angle: f32,
     },
     /// Bevy's `DirectionalLight`.
     Directional {
@@ -413,18 +443,50 @@ pub enum SceneLight {
 
 /// One light's record.
 pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
+    // Intensity: luminous power spread over the sphere, as Bevy's point and spot lights do.
+    let intensity = |power: Vec3| (power / (4.0 * std::f32::consts::PI)).to_array();
+    let inv_range2 = |range: Option<f32>| {
+        range
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .map_or(0.0, |r| 1.0 / (r * r))
+    };
     let record = match *l {
         SceneLight::Point {
             position,
             power,
             radius,
+            range,
         } => GpuLight {
             position: position.to_array(),
             kind: 0,
-            // Intensity: luminous power spread over the sphere, as Bevy's point lights do.
-            radiance: (power / (4.0 * std::f32::consts::PI)).to_array(),
+            radiance: intensity(power),
             radius,
+            inv_range2: inv_range2(range),
+            ..Default::default()
         },
+        SceneLight::Spot {
+            position,
+            direction,
+            power,
+            radius,
+            range,
+            inner_angle,
+            outer_angle,
+        } => {
+            let (cos_outer, cos_inner) = (outer_angle.cos(), inner_angle.min(outer_angle).cos());
+            let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+            GpuLight {
+                position: position.to_array(),
+                kind: 2,
+                radiance: intensity(power),
+                radius,
+                direction: direction.normalize_or(Vec3::NEG_Z).to_array(),
+                inv_range2: inv_range2(range),
+                spot_scale: scale,
+                spot_offset: -cos_outer * scale,
+                pad: [0.0; 2],
+            }
+        }
         SceneLight::Directional {
             direction,
             illuminance,
@@ -432,7 +494,7 @@ pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
             position: (-direction.normalize_or(Vec3::NEG_Y)).to_array(),
             kind: 1,
             radiance: illuminance.to_array(),
-            radius: 0.0,
+            ..Default::default()
         },
     };
     bytemuck::bytes_of(&record).to_vec()

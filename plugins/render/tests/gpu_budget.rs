@@ -96,6 +96,7 @@ fn scene() -> Scene {
             position: Vec3::new(0.3, 1.5, 1.0),
             power: Vec3::splat(4.0 * PI * 2.0),
             radius: 0.1,
+            range: None,
         }],
     }
 }

@@ -1,5 +1,5 @@
 //! The path-tracing kernel against a CPU reference path tracer written here, on a Cornell box with an
-//! emissive panel, a point light, a rough metal box kept whole under a transform, a glowing copy of
+//! emissive panel, a point light (and again with a spot light and a point light of short range), a rough metal box kept whole under a transform, a glowing copy of
 //! it that shares its triangles (a second instance with its own material), and an open front
 //! to a coloured sky. Both see the same tree, materials and BRDF model; the CPU samples directions
 //! differently (cosine-weighted only), so agreement checks the kernel's sampling and weights, not just
@@ -175,12 +175,47 @@ fn cornell() -> Scene {
         position: POINT,
         power: POINT_POWER,
         radius: 0.0,
+        range: None,
     }];
     Scene {
         bvh,
         materials,
         lights,
     }
+}
+
+/// The box without its panel, lit by a narrow spot light from above aimed at the floor's left
+/// half and a point light with a short range near the right wall: a cone and a range the kernel
+/// must cut where the reference does.
+fn spot_and_range() -> Scene {
+    let mut scene = cornell();
+    // No emissive panel: only the two lights and the sky light the box.
+    let panel = scene
+        .materials
+        .iter()
+        .find(|(_, m)| m.emissive == [4.0, 3.6, 3.0])
+        .map(|(g, _)| *g)
+        .unwrap();
+    scene.bvh.remove_group(panel).unwrap();
+    scene.materials.remove(&panel);
+    scene.lights = vec![
+        SceneLight::Spot {
+            position: Vec3::new(-0.4, 0.95, 0.3),
+            direction: Vec3::new(0.1, -1.0, 0.2).normalize(),
+            power: Vec3::new(4.0 * PI * 1.5, 4.0 * PI * 1.4, 4.0 * PI * 1.2),
+            radius: 0.0,
+            range: None,
+            inner_angle: 0.25,
+            outer_angle: 0.45,
+        },
+        SceneLight::Point {
+            position: Vec3::new(0.8, -0.2, 0.5),
+            power: Vec3::new(4.0 * PI * 0.2, 4.0 * PI * 0.3, 4.0 * PI * 0.6),
+            radius: 0.0,
+            range: Some(0.9),
+        },
+    ];
+    scene
 }
 
 fn world_from_clip() -> Mat4 {
@@ -267,6 +302,45 @@ fn brdf(m: &SurfaceMaterial, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
     f * (d * g1(nl) * g1(nv) / (4.0 * nl * nv)) + albedo * (1.0 - m.metallic) / PI
 }
 
+/// The light a point-like light (radius 0) sends to `p`: the direction towards it, its distance
+/// and the irradiance on a surface facing it, by KHR_lights_punctual's definitions (intensity in
+/// candela is power / 4π; range as the window (1 - (d / range)^4)^2 over inverse square; a spot's
+/// cone as saturate((cos θ - cos outer) / (cos inner - cos outer))^2).
+fn light_at(light: &SceneLight, p: Vec3) -> Option<(Vec3, f32, Vec3)> {
+    let local = |position: Vec3, power: Vec3, range: Option<f32>| {
+        let to = position - p;
+        let dist = to.length();
+        let window = range.map_or(1.0, |r| (1.0 - (dist / r).powi(4)).clamp(0.0, 1.0).powi(2));
+        (to / dist, dist, power / (4.0 * PI) / (dist * dist) * window)
+    };
+    match *light {
+        SceneLight::Point {
+            position,
+            power,
+            range,
+            ..
+        } => Some(local(position, power, range)),
+        SceneLight::Spot {
+            position,
+            direction,
+            power,
+            range,
+            inner_angle,
+            outer_angle,
+            ..
+        } => {
+            let (wi, dist, li) = local(position, power, range);
+            let (cos_in, cos_out) = (inner_angle.cos(), outer_angle.cos());
+            let cone = ((direction.dot(-wi) - cos_out) / (cos_in - cos_out)).clamp(0.0, 1.0);
+            Some((wi, dist, li * cone * cone))
+        }
+        SceneLight::Directional {
+            direction,
+            illuminance,
+        } => Some((-direction, f32::INFINITY, illuminance)),
+    }
+}
+
 fn cpu_radiance(scene: &Scene, mut o: Vec3, mut d: Vec3, rng: &mut Rng) -> Vec3 {
     let bvh = &scene.bvh;
     let mut throughput = Vec3::ONE;
@@ -289,16 +363,17 @@ fn cpu_radiance(scene: &Scene, mut o: Vec3, mut d: Vec3, rng: &mut Rng) -> Vec3 
         }
         let wo = -d;
         let origin = p + n * 2e-4 * p.abs().max_element().max(1.0);
-        let to = POINT - p;
-        let dist = to.length();
-        let wi = to / dist;
-        if n.dot(wi) > 0.0
-            && bvh
-                .any_hit(&Ray::new(origin, wi).with_range(0.0, dist * 0.999))
-                .is_none()
-        {
-            let intensity = POINT_POWER / (4.0 * PI);
-            radiance += throughput * brdf(m, n, wo, wi) * intensity / (dist * dist) * n.dot(wi);
+        for light in &scene.lights {
+            let Some((wi, dist, li)) = light_at(light, p) else {
+                continue;
+            };
+            if n.dot(wi) > 0.0
+                && bvh
+                    .any_hit(&Ray::new(origin, wi).with_range(0.0, dist * 0.999))
+                    .is_none()
+            {
+                radiance += throughput * brdf(m, n, wo, wi) * li * n.dot(wi);
+            }
         }
         // Cosine-weighted directions only: brdf * cos / pdf = brdf * π.
         let (u1, u2) = (rng.next(), rng.next());
@@ -407,4 +482,58 @@ fn the_split_kernel_traces_the_image_of_the_whole_one() {
         .map(|(a, b)| (*a - *b).abs().max_element() / a.max_element().max(1e-3))
         .fold(0.0, f32::max);
     assert!(worst < 1e-5, "the images differ by up to {worst}");
+}
+
+#[test]
+fn spot_cones_and_light_ranges_match_the_reference() {
+    let scene = spot_and_range();
+    let gpu = gpu_image(&scene);
+    let cpu = cpu_image(&scene);
+    let (g, c) = (blocks(&gpu), blocks(&cpu));
+    let (gm, cm) = (
+        g.iter().sum::<f32>() / g.len() as f32,
+        c.iter().sum::<f32>() / c.len() as f32,
+    );
+    // Blocks the lights reach: the dim ones (sky light only) carry more noise than signal.
+    let lit: Vec<f32> = g
+        .iter()
+        .zip(&c)
+        .filter(|(_, b)| **b > 0.25 * cm)
+        .map(|(a, b)| (a - b).abs() / b)
+        .collect();
+    let mean_rel = lit.iter().sum::<f32>() / lit.len() as f32;
+    eprintln!(
+        "image mean GPU {gm:.4} CPU {cm:.4}; {} lit blocks, error mean {:.2}%",
+        lit.len(),
+        mean_rel * 100.0
+    );
+    assert!((gm - cm).abs() / cm < 0.03, "image means {gm} vs {cm}");
+    assert!(mean_rel < 0.06, "mean block error {:.2}%", mean_rel * 100.0);
+    // The cone is cut: the brightest block is twice the image's mean and more, as in the reference.
+    let (gmax, cmax) = (
+        g.iter().cloned().fold(0.0, f32::max),
+        c.iter().cloned().fold(0.0, f32::max),
+    );
+    assert!(
+        cmax > 2.0 * cm,
+        "the reference shows no spot ({cmax} vs mean {cm})"
+    );
+    assert!(
+        (gmax - cmax).abs() / cmax < 0.1,
+        "brightest block {gmax} vs {cmax}"
+    );
+    // Without their cone and range the same lights give another image.
+    let mut open = spot_and_range();
+    for l in &mut open.lights {
+        match l {
+            SceneLight::Spot { outer_angle, .. } => *outer_angle = 1.5,
+            SceneLight::Point { range, .. } => *range = None,
+            SceneLight::Directional { .. } => {}
+        }
+    }
+    let open_mean = blocks(&gpu_image(&open)).iter().sum::<f32>() / g.len() as f32;
+    assert!(
+        open_mean > 1.3 * gm,
+        "cone and range cut nothing: {open_mean} vs {gm}"
+    );
 }

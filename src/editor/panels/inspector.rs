@@ -1,5 +1,5 @@
-//! The inspector: the active object's name, transform and material. Every change leaves as a
-//! command; the changes of one drag of a field, or one text field's typing, continue one step.
+//! The inspector: the active object's name, transform, material and light. Every change leaves as
+//! a command; the changes of one drag of a field, or one text field's typing, continue one step.
 
 use treelight_document::edit::command::EditCommand;
 
@@ -7,12 +7,16 @@ use treelight_document::edit::history::EditRequest;
 
 use crate::editor::viewport::object_item::Objects;
 use crate::editor::viewport::selection::Selection;
+use crate::editor::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
 use bevy_egui::{EguiTextureHandle, EguiUserTextures};
 use treelight_document::edit::command::MaterialValue;
 use treelight_document::edit::history::EditRequests;
+use treelight_document::light::{
+    LightKind, LightParts, LightValue, candela_to_lumens, lumens_to_candela,
+};
 use treelight_document::object::SceneId;
 use treelight_document::object::SceneObject;
 
@@ -43,6 +47,8 @@ pub struct InspectorState {
     pub scale: Vec3,
     /// Its material, for a mesh.
     pub material: Option<MaterialView>,
+    /// Its light, for a light.
+    pub light: Option<LightValue>,
     /// How many objects are selected.
     pub selected: usize,
 }
@@ -58,6 +64,7 @@ impl InspectorState {
             rotation_deg: Vec3::new(x, y, z).map(f32::to_degrees),
             scale: t.scale,
             material: None,
+            light: None,
             selected: 1,
         }
     }
@@ -74,7 +81,12 @@ impl InspectorState {
 
 /// The inspector panel. `make_unique` is set when the user asks for the material to be the
 /// object's own.
-pub fn inspector_ui(ui: &mut egui::Ui, state: Option<&mut InspectorState>, make_unique: &mut bool) {
+pub fn inspector_ui(
+    ui: &mut egui::Ui,
+    state: Option<&mut InspectorState>,
+    make_unique: &mut bool,
+    widgets: &mut WidgetRects,
+) {
     let Some(state) = state else {
         ui.weak("Select an object in the viewport or the outliner.");
         return;
@@ -96,6 +108,10 @@ pub fn inspector_ui(ui: &mut egui::Ui, state: Option<&mut InspectorState>, make_
             vec3_row(ui, "Rotation (°)", &mut state.rotation_deg, 1.0);
             vec3_row(ui, "Scale", &mut state.scale, 0.01);
         });
+    if let Some(light) = state.light.as_mut() {
+        ui.separator();
+        light_ui(ui, light, widgets);
+    }
     let Some(material) = state.material.as_mut() else {
         return;
     };
@@ -182,6 +198,120 @@ pub fn inspector_ui(ui: &mut egui::Ui, state: Option<&mut InspectorState>, make_
         });
 }
 
+/// A light's kind, colour, intensity (in glTF's units: candela for point and spot lights, lux for
+/// directional ones), range, cone and shadows; the kind menu and its items, and the intensity, are
+/// named in `widgets` ("Light kind", "Light kind Spot light", "Light intensity").
+fn light_ui(ui: &mut egui::Ui, light: &mut LightValue, widgets: &mut WidgetRects) {
+    ui.strong("Light");
+    egui::Grid::new("light")
+        .num_columns(2)
+        .spacing([8.0, 6.0])
+        .show(ui, |ui| {
+            ui.label("Kind");
+            let combo = egui::ComboBox::from_id_salt("light-kind")
+                .selected_text(light.kind.label())
+                .show_ui(ui, |ui| {
+                    for kind in LightKind::ALL {
+                        let item = ui.selectable_value(&mut light.kind, kind, kind.label());
+                        widgets.push(format!("Light kind {}", kind.label()), item.rect);
+                    }
+                });
+            widgets.push("Light kind", combo.response.rect);
+            ui.end_row();
+            ui.label("Colour");
+            ui.color_edit_button_rgb(&mut light.color);
+            ui.end_row();
+            ui.label("Intensity");
+            if light.kind.is_local() {
+                // Shown in candela, stored in lumens: a value the user typed reads back as typed.
+                let shown = lumens_to_candela(light.intensity);
+                let mut candela = shown;
+                let field = ui
+                    .add(
+                        egui::DragValue::new(&mut candela)
+                            .speed((shown * 0.01).max(0.1))
+                            .range(0.0..=1.0e8)
+                            .max_decimals(1)
+                            .suffix(" cd"),
+                    )
+                    .on_hover_text(
+                        "Luminous intensity in candela (lumens per steradian), as glTF gives it",
+                    );
+                widgets.push("Light intensity", field.rect);
+                if candela != shown {
+                    light.intensity = candela_to_lumens(candela);
+                }
+            } else {
+                let speed = (light.intensity * 0.01).max(0.1);
+                let field = ui
+                    .add(
+                        egui::DragValue::new(&mut light.intensity)
+                            .speed(speed)
+                            .range(0.0..=1.0e6)
+                            .max_decimals(1)
+                            .suffix(" lx"),
+                    )
+                    .on_hover_text("Illuminance in lux on a surface facing the light");
+                widgets.push("Light intensity", field.rect);
+            }
+            ui.end_row();
+            if light.kind.is_local() {
+                ui.label("Range");
+                let mut range = light
+                    .range
+                    .unwrap_or(treelight_document::light::DEFAULT_RANGE);
+                if ui
+                    .add(
+                        egui::DragValue::new(&mut range)
+                            .speed(0.1)
+                            .range(0.01..=1.0e6)
+                            .max_decimals(2),
+                    )
+                    .on_hover_text("Distance at which the light has faded to nothing")
+                    .changed()
+                {
+                    light.range = Some(range);
+                }
+                ui.end_row();
+            }
+            if light.kind == LightKind::Spot {
+                let mut inner = light.inner_angle.to_degrees();
+                let mut outer = light.outer_angle.to_degrees();
+                ui.label("Cone (°)");
+                ui.horizontal(|ui| {
+                    ui.add(
+                        egui::DragValue::new(&mut inner)
+                            .speed(0.5)
+                            .range(0.0..=90.0)
+                            .max_decimals(1)
+                            .prefix("inner "),
+                    )
+                    .on_hover_text("Full intensity within this angle of the axis");
+                    ui.add(
+                        egui::DragValue::new(&mut outer)
+                            .speed(0.5)
+                            .range(0.0..=90.0)
+                            .max_decimals(1)
+                            .prefix("outer "),
+                    )
+                    .on_hover_text("No light past this angle of the axis");
+                });
+                ui.end_row();
+                if outer != light.outer_angle.to_degrees() {
+                    light.outer_angle = outer.to_radians().min(std::f32::consts::FRAC_PI_2);
+                    light.inner_angle = light.inner_angle.min(light.outer_angle);
+                } else if inner != light.inner_angle.to_degrees() {
+                    light.inner_angle = inner.to_radians().min(light.outer_angle);
+                }
+            }
+            ui.label("Shadows");
+            ui.checkbox(&mut light.shadows, "").on_hover_text(
+                "Whether it casts shadows in the raster view (the path tracer always traces them)",
+            );
+            ui.end_row();
+        });
+}
+
 fn vec3_row(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f32) {
     ui.label(label);
     ui.horizontal(|ui| {
@@ -233,6 +363,11 @@ pub fn changes(
             material: b.value,
         });
     }
+    if let (Some(a), Some(b)) = (before.light, after.light)
+        && a != b
+    {
+        push(EditCommand::SetLight { id, light: b });
+    }
     out
 }
 
@@ -244,6 +379,8 @@ pub struct InspectorAccess<'w, 's> {
     materials: Res<'w, Assets<StandardMaterial>>,
     images: Res<'w, Assets<Image>>,
     material_of: Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>, With<SceneObject>>,
+    lights: Query<'w, 's, LightParts, With<SceneObject>>,
+    widgets: ResMut<'w, WidgetRects>,
     requests: ResMut<'w, EditRequests>,
     textures: ResMut<'w, EguiUserTextures>,
     /// The widget whose drag or typing made the last request, to merge what it does next.
@@ -256,6 +393,7 @@ fn inspected(access: &mut InspectorAccess) -> Option<InspectorState> {
     let o = access.objects.get(e).ok()?;
     let mut state = InspectorState::new(*o.id, o.name.as_str(), o.transform);
     state.selected = access.selection.entities().len();
+    state.light = access.lights.get(e).ok().and_then(LightValue::of_parts);
     if let Ok(handle) = access.material_of.get(e)
         && let Some(m) = access.materials.get(&handle.0)
     {
@@ -284,7 +422,7 @@ pub fn inspector_tab(InMut(ui): InMut<egui::Ui>, mut access: InspectorAccess) {
     let original = inspected(&mut access);
     let mut edited = original.clone();
     let mut make_unique = false;
-    inspector_ui(ui, edited.as_mut(), &mut make_unique);
+    inspector_ui(ui, edited.as_mut(), &mut make_unique, &mut access.widgets);
     if make_unique && let Some(state) = &original {
         access
             .requests

@@ -439,7 +439,7 @@ pub fn outliner_tab(InMut(ui): InMut<egui::Ui>, access: OutlinerAccess) {
                 id: *o.id,
                 parent: parent_of(&objects, o.entity),
                 name: o.name.as_str().to_owned(),
-                kind: kind_of(o.mesh.is_some(), o.point_light, o.directional_light),
+                kind: kind_of(o.mesh.is_some(), o.light_kind()),
                 visible: o.visibility != Some(&Visibility::Hidden),
             })
             .collect();

@@ -1,6 +1,7 @@
 //! What the panels and the viewport read of each scene object, with named fields.
 
 use bevy::prelude::*;
+use treelight_document::light::LightKind;
 use treelight_document::object::{SceneId, SceneObject};
 
 /// What the outliner, inspector and viewport read of each scene object.
@@ -20,6 +21,8 @@ pub struct ObjectItem {
     pub mesh: Option<&'static Mesh3d>,
     /// Whether it is a point light.
     pub point_light: Has<PointLight>,
+    /// Whether it is a spot light.
+    pub spot_light: Has<SpotLight>,
     /// Whether it is a directional light.
     pub directional_light: Has<DirectionalLight>,
     /// Whether it is shown.
@@ -41,15 +44,35 @@ pub fn parent_of(objects: &Objects, e: Entity) -> Option<Entity> {
         .filter(|p| objects.contains(*p))
 }
 
-/// The glyph the outliner shows for an object: a mesh, a point light, a sun or an empty.
-pub fn kind_of(mesh: bool, point: bool, directional: bool) -> &'static str {
-    if mesh {
-        "▣"
-    } else if point {
-        "💡"
-    } else if directional {
-        "☀"
-    } else {
-        "•"
+impl ObjectItemItem<'_, '_> {
+    /// The kind of light it is, if it is one.
+    pub fn light_kind(&self) -> Option<LightKind> {
+        if self.point_light {
+            Some(LightKind::Point)
+        } else if self.spot_light {
+            Some(LightKind::Spot)
+        } else if self.directional_light {
+            Some(LightKind::Directional)
+        } else {
+            None
+        }
+    }
+}
+
+/// The glyph the panels and the viewport show for a light.
+pub fn light_glyph(kind: LightKind) -> &'static str {
+    match kind {
+        LightKind::Point => "💡",
+        LightKind::Spot => "🔦",
+        LightKind::Directional => "☀",
+    }
+}
+
+/// The glyph the outliner shows for an object: a mesh, a light or an empty.
+pub fn kind_of(mesh: bool, light: Option<LightKind>) -> &'static str {
+    match (mesh, light) {
+        (true, _) => "▣",
+        (false, Some(kind)) => light_glyph(kind),
+        (false, None) => "•",
     }
 }

@@ -20,16 +20,15 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
+use treelight_document::light::LightKind;
 use treelight_document::look::SceneLook;
 use treelight_document::object::SceneId;
 
 /// An icon drawn at a scene object without geometry.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IconKind {
-    /// A point light.
-    PointLight,
-    /// A directional light.
-    DirectionalLight,
+    /// A light.
+    Light(LightKind),
     /// An empty group (an assembly's root or a node without a mesh).
     Empty,
 }
@@ -37,8 +36,7 @@ pub enum IconKind {
 impl IconKind {
     fn glyph(self) -> &'static str {
         match self {
-            IconKind::PointLight => "💡",
-            IconKind::DirectionalLight => "☀",
+            IconKind::Light(kind) => super::object_item::light_glyph(kind),
             IconKind::Empty => "◇",
         }
     }

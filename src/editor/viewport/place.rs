@@ -30,7 +30,7 @@ pub fn shape_at(scene: &SceneBvh, ray: Ray3d, shape: Primitive) -> EditCommand {
 }
 
 /// A new light a little above where `ray` meets the scene; a directional one shines down the way
-/// the view (`forward`) looks.
+/// the view (`forward`) looks, a spot light at that point from two units off the surface.
 pub fn light_at(scene: &SceneBvh, ray: Ray3d, forward: Vec3, kind: LightKind) -> EditCommand {
     let surface = surface_under(scene, ray, 5.0);
     let at = surface.point + surface.normal * 1.0;
@@ -40,6 +40,8 @@ pub fn light_at(scene: &SceneBvh, ray: Ray3d, forward: Vec3, kind: LightKind) ->
         LightKind::Directional => {
             Transform::from_translation(at + Vec3::Y * 2.0).looking_to(down, Vec3::Y)
         }
+        LightKind::Spot => Transform::from_translation(surface.point + surface.normal * 2.0)
+            .looking_to(-surface.normal, forward),
     };
     EditCommand::AddLight {
         kind,

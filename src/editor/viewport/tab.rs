@@ -150,10 +150,8 @@ fn viewport_scene(view: &SceneView, show_boxes: bool) -> ViewportScene {
         |e| parent_of(objects, e),
     );
     for o in objects.iter() {
-        let kind = if o.point_light {
-            IconKind::PointLight
-        } else if o.directional_light {
-            IconKind::DirectionalLight
+        let kind = if let Some(light) = o.light_kind() {
+            IconKind::Light(light)
         } else if o.mesh.is_none() {
             IconKind::Empty
         } else {

@@ -137,27 +137,8 @@ impl MaterialValue {
     }
 }
 
-/// The lights of the Add menu.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum LightKind {
-    /// Light from a point, in every direction.
-    Point,
-    /// Parallel light from far away (a sun), along the light's forward axis.
-    Directional,
-}
-
-impl LightKind {
-    /// Both kinds, in menu order.
-    pub const ALL: [LightKind; 2] = [LightKind::Point, LightKind::Directional];
-
-    /// A name for menus and the outliner.
-    pub fn label(self) -> &'static str {
-        match self {
-            LightKind::Point => "Point light",
-            LightKind::Directional => "Directional light",
-        }
-    }
-}
+pub use crate::light::LightKind;
+use crate::light::LightValue;
 
 /// One edit of the scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -264,6 +245,13 @@ pub enum EditCommand {
         #[serde(default)]
         id: Option<SceneId>,
     },
+    /// Gives a light object new values (its kind too).
+    SetLight {
+        /// The light.
+        id: SceneId,
+        /// Its new values.
+        light: LightValue,
+    },
     /// Sets the exposure and tone curve every view of the scene uses.
     SetLook {
         /// The new look.
@@ -304,6 +292,14 @@ pub enum EditError {
     /// A parent that is the object itself or under it.
     #[error("{0} cannot go under itself or its own descendant")]
     Cycle(SceneId),
+    /// An object that is not a light, for a light command.
+    #[error("{0} is not a light")]
+    NotALight(SceneId),
+    /// Light values out of range.
+    #[error(
+        "a light value is not finite or out of range (negative intensity or colour, a range of 0 or less, or a cone outside 0 ≤ inner ≤ outer ≤ 90°)"
+    )]
+    BadLight,
     /// An exposure that is not finite or past the widest compensation.
     #[error("the exposure is not finite or beyond ±{max} stops", max = crate::look::MAX_EXPOSURE_STOPS)]
     BadLook,
@@ -331,6 +327,8 @@ pub enum Undo {
     Respawn(Vec<ObjectSnapshot>),
     /// Remove these objects.
     Despawn(Vec<SceneId>),
+    /// Give the light these values back.
+    Light(SceneId, LightValue),
     /// Give the scene this look back.
     Look(SceneLook),
     /// Undo each of these, last first.
@@ -388,6 +386,9 @@ impl EditCommand {
                 )
             ),
             EditCommand::Group { ids, .. } => many("Group", ids),
+            EditCommand::SetLight { id, light } => {
+                format!("Edit {} ({})", name(id), light.kind.label().to_lowercase())
+            }
             EditCommand::SetLook { look } => {
                 let before = world
                     .get_resource::<SceneLook>()
@@ -486,6 +487,13 @@ impl EditCommand {
                 check_free(world, *id)?;
                 check_finite(transform)?;
             }
+            EditCommand::SetLight { id, light } => {
+                let e = entity(world, *id)?;
+                LightValue::of(&world.entity(e)).ok_or(EditError::NotALight(*id))?;
+                if !light.is_valid() {
+                    return Err(EditError::BadLight);
+                }
+            }
             EditCommand::SetLook { look } => {
                 if !look.is_valid() {
                     return Err(EditError::BadLook);
@@ -514,7 +522,8 @@ impl EditCommand {
             EditCommand::SetTransform { id, .. }
             | EditCommand::MakeMaterialUnique { id }
             | EditCommand::Rename { id, .. }
-            | EditCommand::SetVisible { id, .. } => vec![*id],
+            | EditCommand::SetVisible { id, .. }
+            | EditCommand::SetLight { id, .. } => vec![*id],
             EditCommand::SetTransforms { transforms } => transforms.iter().map(|t| t.0).collect(),
             EditCommand::Reparent { ids, .. } | EditCommand::Group { ids, .. } => ids.clone(),
             EditCommand::SetMaterial { id, .. } => {
@@ -640,6 +649,12 @@ impl EditCommand {
                 transform,
                 id,
             } => add_primitive(world, *shape, transform, id),
+            EditCommand::SetLight { id, light } => {
+                let e = entity(world, *id)?;
+                let before = LightValue::of(&world.entity(e)).ok_or(EditError::NotALight(*id))?;
+                light.put_on(&mut world.entity_mut(e));
+                Undo::Light(*id, before)
+            }
             EditCommand::SetLook { look } => {
                 let before = world
                     .get_resource::<SceneLook>()
@@ -730,19 +745,7 @@ fn add_light(
         new_id,
         Transform::from(*transform),
     ));
-    match kind {
-        LightKind::Point => e.insert(PointLight {
-            intensity: 200_000.0,
-            range: 40.0,
-            shadow_maps_enabled: true,
-            ..default()
-        }),
-        LightKind::Directional => e.insert(DirectionalLight {
-            illuminance: 3000.0,
-            shadow_maps_enabled: true,
-            ..default()
-        }),
-    };
+    LightValue::new(kind).put_on(&mut e);
     Undo::Despawn(vec![new_id])
 }
 
@@ -975,6 +978,11 @@ impl Undo {
                     if let Some(e) = find(world, id) {
                         world.entity_mut(e).despawn();
                     }
+                }
+            }
+            Undo::Light(id, light) => {
+                if let Some(e) = find(world, id) {
+                    light.put_on(&mut world.entity_mut(e));
                 }
             }
             Undo::Look(look) => world.insert_resource(*look),

@@ -91,9 +91,8 @@ impl Edit for Step {
         let same_target = match (&self.command, &other.command) {
             (EditCommand::SetTransform { id: a, .. }, EditCommand::SetTransform { id: b, .. })
             | (EditCommand::Rename { id: a, .. }, EditCommand::Rename { id: b, .. })
-            | (EditCommand::SetMaterial { id: a, .. }, EditCommand::SetMaterial { id: b, .. }) => {
-                a == b
-            }
+            | (EditCommand::SetMaterial { id: a, .. }, EditCommand::SetMaterial { id: b, .. })
+            | (EditCommand::SetLight { id: a, .. }, EditCommand::SetLight { id: b, .. }) => a == b,
             (
                 EditCommand::SetTransforms { transforms: a },
                 EditCommand::SetTransforms { transforms: b },

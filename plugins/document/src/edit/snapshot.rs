@@ -19,6 +19,7 @@ pub struct ObjectSnapshot {
     mesh: Option<Mesh3d>,
     material: Option<MeshMaterial3d<StandardMaterial>>,
     point: Option<PointLight>,
+    spot: Option<SpotLight>,
     directional: Option<DirectionalLight>,
     source: Option<SourceKey>,
     mesh_source: Option<MeshSource>,
@@ -52,6 +53,7 @@ impl ObjectSnapshot {
             mesh: entity.get::<Mesh3d>().cloned(),
             material: entity.get::<MeshMaterial3d<StandardMaterial>>().cloned(),
             point: entity.get::<PointLight>().copied(),
+            spot: entity.get::<SpotLight>().copied(),
             directional: entity.get::<DirectionalLight>().copied(),
             source: entity.get::<SourceKey>().cloned(),
             mesh_source: entity.get::<MeshSource>().cloned(),
@@ -113,6 +115,9 @@ impl ObjectSnapshot {
             e.insert(m.clone());
         }
         if let Some(l) = &self.point {
+            e.insert(*l);
+        }
+        if let Some(l) = &self.spot {
             e.insert(*l);
         }
         if let Some(l) = &self.directional {

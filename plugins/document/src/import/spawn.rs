@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use treelight_import::{ImportedMaterial, ImportedScene, WrapMode};
 
 /// Filter for entities that light the scene.
-pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>)>;
+pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>;
 
 /// Every key [`spawn_scene`] gives the objects of `scene`: the root's (empty), each node's, and
 /// each mesh's that is not on its node, in the order it spawns them.
@@ -220,6 +220,16 @@ pub fn spawn_scene(
                 .id(),
         );
     }
+    // The file's lights on their nodes (KHR_lights_punctual), in the editor's units.
+    for (n, &e) in scene.nodes.iter().zip(&nodes) {
+        if let Some(l) = n.light {
+            commands.queue(move |world: &mut World| {
+                if let Ok(mut e) = world.get_entity_mut(e) {
+                    imported_light(&l).put_on(&mut e);
+                }
+            });
+        }
+    }
     let counts = mesh_counts(scene);
     let mut objects = Vec::with_capacity(1 + nodes.len());
     objects.push(root);
@@ -345,4 +355,38 @@ pub fn mesh_object_keys(scene: &ImportedScene) -> Vec<String> {
             })
         })
         .collect()
+}
+
+/// A file's light as the editor's: sRGB colour, lumens for point and spot lights (glTF gives
+/// candela), lux for directional ones.
+pub fn imported_light(l: &treelight_import::ImportedLight) -> crate::light::LightValue {
+    use crate::light::{LightKind, LightValue, candela_to_lumens};
+    use treelight_import::ImportedLightKind;
+    let [r, g, b] = l.color;
+    let (kind, intensity) = match l.kind {
+        ImportedLightKind::Point => (LightKind::Point, candela_to_lumens(l.intensity)),
+        ImportedLightKind::Spot { .. } => (LightKind::Spot, candela_to_lumens(l.intensity)),
+        ImportedLightKind::Directional => (LightKind::Directional, l.intensity),
+    };
+    let (inner_angle, outer_angle) = match l.kind {
+        ImportedLightKind::Spot {
+            inner_angle,
+            outer_angle,
+        } => (inner_angle, outer_angle),
+        _ => (0.0, std::f32::consts::FRAC_PI_4),
+    };
+    // Within what projects accept, so a scene with an absurd light still saves and opens.
+    let max = crate::edit::command::MAX_VALUE;
+    LightValue {
+        kind,
+        color: Color::linear_rgb(r, g, b)
+            .to_srgba()
+            .to_f32_array_no_alpha()
+            .map(|c| c.clamp(0.0, max)),
+        intensity: intensity.min(max),
+        shadows: true,
+        range: l.range.filter(|r| kind.is_local() && *r <= max),
+        inner_angle,
+        outer_angle,
+    }
 }

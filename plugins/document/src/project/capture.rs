@@ -3,9 +3,10 @@
 //! the ids of the others as runs, the objects added in the editor and the view; never a copy of
 //! the geometry.
 
-use crate::edit::command::{LightKind, MaterialValue};
+use crate::edit::command::MaterialValue;
 use crate::edit::history::EditHistory;
 use crate::import::spawn::{MeshSource, SourceCatalog, SourceKey};
+use crate::light::LightValue;
 use crate::object::{EditedObjects, SceneId, SceneObject};
 use crate::outbox::DocumentView;
 use crate::primitive::PrimitiveShape;
@@ -24,8 +25,6 @@ type SaveItem = (
     Option<&'static SourceKey>,
     Option<&'static MeshSource>,
     Option<&'static PrimitiveShape>,
-    Option<&'static PointLight>,
-    Option<&'static DirectionalLight>,
     Option<&'static MeshMaterial3d<StandardMaterial>>,
     Has<Mesh3d>,
 );
@@ -79,8 +78,9 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     };
     let mut objects = Vec::new();
     let mut unsaved = Vec::new();
-    for (_, id, name, t, vis, parent, key, mesh_source, shape, point, dir, mat, has_mesh) in &rows {
+    for (e, id, name, t, vis, parent, key, mesh_source, shape, mat, has_mesh) in &rows {
         let name = name.map_or(String::new(), |n| n.as_str().to_owned());
+        let light = LightValue::of(&world.entity(*e));
         let kind = if let Some(k) = key {
             ObjectKind::Node(SourceNode {
                 source: source_of(&k.file, &mut sources),
@@ -93,22 +93,8 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             })
         } else if let Some(PrimitiveShape(s)) = shape {
             ObjectKind::Shape(*s)
-        } else if let Some(l) = point {
-            ObjectKind::Light(LightValue {
-                kind: LightKind::Point,
-                color: l.color.to_srgba().to_f32_array_no_alpha(),
-                intensity: l.intensity,
-                shadows: l.shadow_maps_enabled,
-                range: Some(l.range),
-            })
-        } else if let Some(l) = dir {
-            ObjectKind::Light(LightValue {
-                kind: LightKind::Directional,
-                color: l.color.to_srgba().to_f32_array_no_alpha(),
-                intensity: l.illuminance,
-                shadows: l.shadow_maps_enabled,
-                range: None,
-            })
+        } else if let Some(l) = light {
+            ObjectKind::Light(l)
         } else if *has_mesh {
             unsaved.push(name);
             continue;
@@ -121,8 +107,10 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             parent: parent.and_then(|p| world.get::<SceneId>(p.parent()).copied()),
             transform: (**t).into(),
             visible: *vis != Some(&Visibility::Hidden),
-            kind,
             material: mat.and_then(|m| materials.get(&m.0)).map(MaterialValue::of),
+            // A light made in the editor has its values in its kind.
+            light: light.filter(|_| !matches!(kind, ObjectKind::Light(_))),
+            kind,
         });
     }
     // Deleted nodes: those each file had when imported that are gone now.

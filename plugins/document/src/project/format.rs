@@ -8,7 +8,8 @@
 //! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
 //! every node, and version 2 files, without a look, still open.
 
-use crate::edit::command::{LightKind, MaterialValue, TransformValue, in_range};
+use crate::edit::command::{MaterialValue, TransformValue, in_range};
+pub use crate::light::LightValue;
 use crate::object::SceneId;
 pub use crate::outbox::CameraValue;
 use crate::primitive::Primitive;
@@ -36,23 +37,6 @@ pub struct SourceNode {
     pub source: usize,
     /// The node's key in that file (the file's root: empty).
     pub key: String,
-}
-
-/// A light's values.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LightValue {
-    /// Which kind.
-    pub kind: LightKind,
-    /// Colour, sRGB.
-    pub color: [f32; 3],
-    /// Lumens for a point light, lux for a directional one.
-    pub intensity: f32,
-    /// Whether it casts shadows in the rasterised view.
-    #[serde(default = "shown")]
-    pub shadows: bool,
-    /// A point light's range.
-    #[serde(default)]
-    pub range: Option<f32>,
 }
 
 /// What an object is.
@@ -90,6 +74,10 @@ pub struct ProjectObject {
     /// Its material's values, for a mesh.
     #[serde(default)]
     pub material: Option<MaterialValue>,
+    /// Its light's values, for a source node (or a copy of one) that is a light; a light made in
+    /// the editor has them in its kind.
+    #[serde(default)]
+    pub light: Option<LightValue>,
 }
 
 fn shown() -> bool {
@@ -247,11 +235,10 @@ impl ProjectFile {
                         o.id.0, n.source
                     ));
                 }
-                ObjectKind::Light(l)
-                    if !l.color.iter().all(|v| in_range(*v))
-                        || !in_range(l.intensity)
-                        || l.range.is_some_and(|r| !in_range(r)) =>
-                {
+                _ if o.light.is_some_and(|l| !l.is_valid()) => {
+                    return Err(format!("object {} has a light out of range", o.id.0));
+                }
+                ObjectKind::Light(l) if !l.is_valid() => {
                     return Err(format!("object {} has a light out of range", o.id.0));
                 }
                 _ => {}

@@ -1,7 +1,7 @@
 //! Opening a project in place of the scene: its sources imported again (read in the background,
 //! with progress), then what the user made of them applied; relinking a missing source.
 
-use crate::edit::command::{LightKind, MaterialValue};
+use crate::edit::command::MaterialValue;
 use crate::edit::history::EditHistory;
 use crate::import::spawn::{MeshSource, SourceCatalog};
 use crate::object::{EditedObjects, SceneId, SceneIndex, SceneObject};
@@ -291,24 +291,8 @@ fn spawn_copy(world: &mut World, origin: Entity) -> Option<Entity> {
 
 /// A light as the project describes it.
 fn spawn_light(world: &mut World, l: &LightValue) -> Entity {
-    let [r, g, b] = l.color;
-    let color = Color::srgb(r, g, b);
     let mut e = world.spawn(SceneObject);
-    match l.kind {
-        LightKind::Point => e.insert(PointLight {
-            color,
-            intensity: l.intensity,
-            range: l.range.filter(|r| *r > 0.0).unwrap_or(40.0),
-            shadow_maps_enabled: l.shadows,
-            ..default()
-        }),
-        LightKind::Directional => e.insert(DirectionalLight {
-            color,
-            illuminance: l.intensity,
-            shadow_maps_enabled: l.shadows,
-            ..default()
-        }),
-    };
+    l.put_on(&mut e);
     e.id()
 }
 
@@ -415,6 +399,9 @@ pub fn open_project_parsed(
                     if let Some(value) = &o.material {
                         apply_node_material(world, e, value);
                     }
+                    if let Some(light) = &o.light {
+                        light.put_on(&mut world.entity_mut(e));
+                    }
                     e
                 }
                 None => {
@@ -438,6 +425,9 @@ pub fn open_project_parsed(
                 // A copy shares its original's material until one of them was made unique.
                 if let Some(value) = &o.material {
                     apply_node_material(world, e, value);
+                }
+                if let Some(light) = &o.light {
+                    light.put_on(&mut world.entity_mut(e));
                 }
                 e
             }
@@ -520,4 +510,6 @@ fn node_as_listed(world: &World, e: Entity, o: &ProjectObject) -> bool {
         && crate::edit::command::TransformValue::from(transform) == o.transform
         && hidden != o.visible
         && o.material.is_none_or(|m| Some(m) == material)
+        && o.light
+            .is_none_or(|l| Some(l) == LightValue::of(&world.entity(e)))
 }
