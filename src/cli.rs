@@ -64,6 +64,33 @@ pub enum Command {
         /// The file.
         file: PathBuf,
     },
+    /// Path trace a scene file or project (the default scene without one) without a window, from
+    /// the project's view (a file is framed from above), with its exposure and tone curve, and
+    /// save the image.
+    Render(RenderArgs),
+}
+
+/// `treelight render`'s arguments.
+#[derive(clap::Args, Debug, Clone, PartialEq, Eq)]
+pub struct RenderArgs {
+    /// A project (.treelight) or a scene file (.gltf, .glb, .obj or .ply); the default scene
+    /// without one.
+    pub scene: Option<PathBuf>,
+    /// The image to write (.png).
+    #[arg(long, value_name = "IMAGE.png")]
+    pub out: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub spp: u32,
+    /// Width in pixels.
+    #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Height in pixels.
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: u32,
+    /// Replace the image if the file exists.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// The viewport modes on the command line.

@@ -7,6 +7,7 @@ pub mod capture;
 pub mod cli;
 pub mod editor;
 pub mod render_errors;
+pub mod render_file;
 pub mod report;
 pub mod system_errors;
 

@@ -1,5 +1,5 @@
-//! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`, or
-//! `treelight info FILE`.
+//! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`,
+//! `treelight info FILE` or `treelight render [SCENE] --out IMAGE.png --spp N`.
 
 use clap::Parser;
 
@@ -15,6 +15,16 @@ fn main() -> std::process::ExitCode {
                 eprintln!("treelight: {e}");
                 std::process::ExitCode::from(1)
             }
+        };
+    }
+    if let Some(treelight::cli::Command::Render(args)) = &cli.command {
+        if let Err(e) = treelight::render_file::check_output(args) {
+            eprintln!("treelight: {e}");
+            return std::process::ExitCode::from(2);
+        }
+        return match treelight::render_file::render_app(args).run() {
+            bevy::app::AppExit::Success => std::process::ExitCode::SUCCESS,
+            bevy::app::AppExit::Error(code) => std::process::ExitCode::from(code.get()),
         };
     }
     let script = match &cli.commands {

@@ -85,7 +85,7 @@ pub fn save_app(scene: Option<&Path>, save: Option<PathBuf>, script: Option<Scri
 }
 
 /// Ends a headless run with a failure when a notice reports an error (a file that would not open).
-fn fail_on_errors(notices: Res<Notices>, mut exit: MessageWriter<AppExit>) {
+pub fn fail_on_errors(notices: Res<Notices>, mut exit: MessageWriter<AppExit>) {
     if notices.has_errors() {
         exit.write(AppExit::error());
     }

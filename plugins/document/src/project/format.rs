@@ -76,7 +76,7 @@ pub struct ProjectObject {
     pub material: Option<MaterialValue>,
     /// Its light's values, for a source node (or a copy of one) that is a light; a light made in
     /// the editor has them in its kind.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light: Option<LightValue>,
 }
 

@@ -1,0 +1,288 @@
+//! `treelight render [SCENE] --out IMAGE.png --spp N [--width W --height H] [--overwrite]`: the
+//! scene path traced without a window (Bevy renders into an image; no display is needed), from the
+//! project's saved view or, for a scene file, framed from above as the editor frames it, with the
+//! scene's exposure and tone curve. The samples count once the scene is loaded, its tree idle and
+//! the path tracer's copy of it no longer changing (the scene's geometry reaching the GPU restarts
+//! the accumulation, so every sample counted sees the whole scene); the image is saved when every
+//! pixel has `spp` samples, written atomically, with a progress bar on the terminal meanwhile.
+
+use crate::cli::RenderArgs;
+use crate::editor::viewport::camera::{OrbitCamera, apply_orbit, follow_document};
+use crate::editor::viewport::look::apply_look;
+use bevy::app::ScheduleRunnerPlugin;
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy::render::render_resource::{PipelineCache, TextureFormat};
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::render::{Render, RenderApp, RenderSystems};
+use bevy::window::ExitCondition;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+use treelight_document::DocumentPlugin;
+use treelight_document::app::{fail_on_errors, run_schedules_on_one_thread, task_pools};
+use treelight_document::default_scene::open_default_scene;
+use treelight_document::edit::history::apply_edit_requests;
+use treelight_document::import::parse::ParsedImports;
+use treelight_document::import::parse::PendingImports;
+use treelight_document::project::open::OpeningProjects;
+use treelight_render::{PathTraced, PathTracerStats};
+use treelight_scene::SceneBvh;
+
+/// Whether `out` is a file `treelight render` can write: a `.png` in an existing folder, not
+/// already there unless `overwrite`.
+pub fn check_output(args: &RenderArgs) -> Result<(), String> {
+    let out = &args.out;
+    if !out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        return Err(format!("{}: the image must be a .png file", out.display()));
+    }
+    let folder = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    if !folder.is_dir() {
+        return Err(format!(
+            "{}: the folder {} does not exist",
+            out.display(),
+            folder.display()
+        ));
+    }
+    if out.exists() && !args.overwrite {
+        return Err(format!(
+            "{}: the file exists (--overwrite replaces it)",
+            out.display()
+        ));
+    }
+    Ok(())
+}
+
+/// The render in progress.
+#[derive(Resource)]
+struct RenderJob {
+    out: PathBuf,
+    spp: u32,
+    target: Handle<Image>,
+    progress: ProgressBar,
+    /// The upload total last seen, and for how many frames in a row it has not changed.
+    uploaded: (u64, u32),
+    /// The scene has loaded and the path tracer's copy of it stopped changing.
+    settled: bool,
+    /// Frames in a row with every pipeline compiled.
+    compiled: u32,
+    /// The screenshot was asked for.
+    captured: bool,
+}
+
+/// Whether the render world's pipeline cache has no pipeline waiting to be compiled (written each
+/// frame by the render world): until the tonemapper's is ready, the image holds no picture.
+#[derive(Resource, Clone, Default)]
+struct PipelinesReady(Arc<AtomicBool>);
+
+fn watch_pipelines(cache: Res<PipelineCache>, ready: Res<PipelinesReady>) {
+    ready.0.store(
+        cache.waiting_pipelines().next().is_none(),
+        Ordering::Release,
+    );
+}
+
+/// Frames in a row without an upload before the samples count.
+const STILL_FRAMES: u32 = 3;
+
+/// Marks the camera that renders the image.
+#[derive(Component)]
+struct RenderCamera;
+
+/// The app `treelight render` runs: Bevy's renderer without a window, the scene BVH, the path
+/// tracer and the document, a camera rendering into an image.
+pub fn render_app(args: &RenderArgs) -> App {
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .set(task_pools())
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                close_when_requested: false,
+                ..default()
+            })
+            .disable::<bevy::winit::WinitPlugin>(),
+    )
+    .add_plugins((
+        ScheduleRunnerPlugin::run_loop(Duration::ZERO),
+        treelight_scene::SceneBvhPlugin::default(),
+        treelight_render::PathTracerPlugin,
+        DocumentPlugin,
+    ));
+    run_schedules_on_one_thread(&mut app);
+    let ready = PipelinesReady::default();
+    app.insert_resource(ready.clone());
+    if let Some(render) = app.get_sub_app_mut(RenderApp) {
+        render
+            .insert_resource(ready)
+            .add_systems(Render, watch_pipelines.in_set(RenderSystems::Cleanup));
+    }
+    let mut target =
+        Image::new_target_texture(args.width, args.height, TextureFormat::Rgba8UnormSrgb, None);
+    target.asset_usage = bevy::asset::RenderAssetUsages::default();
+    let target = app.world_mut().resource_mut::<Assets<Image>>().add(target);
+    let tracer = PathTraced {
+        // The whole image every frame, one sample at a time, up to the count asked for.
+        frame_budget_ms: 0.0,
+        samples_per_frame: 1,
+        max_samples: args.spp,
+        ..default()
+    };
+    let progress = ProgressBar::new(u64::from(args.spp)).with_style(
+        ProgressStyle::with_template(
+            "{msg:>12} [{bar:40}] {pos}/{len} samples per pixel, {elapsed}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    progress.set_message("loading");
+    app.insert_resource(RenderJob {
+        out: args.out.clone(),
+        spp: args.spp,
+        target: target.clone(),
+        progress,
+        uploaded: (0, 0),
+        settled: false,
+        compiled: 0,
+        captured: false,
+    });
+    let orbit = OrbitCamera::default();
+    app.world_mut().spawn((
+        Name::new("Render camera"),
+        RenderCamera,
+        Camera3d::default(),
+        RenderTarget::Image(target.into()),
+        tracer,
+        orbit.transform(),
+        orbit,
+    ));
+    match &args.scene {
+        Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),
+        None => {
+            app.add_systems(Startup, open_default_scene);
+        }
+    }
+    app.add_systems(
+        Update,
+        (
+            follow_document.after(apply_edit_requests),
+            apply_orbit.after(follow_document),
+            apply_look,
+            follow_samples.after(apply_orbit),
+        ),
+    )
+    .add_systems(Last, fail_on_errors);
+    app
+}
+
+/// Waits for the scene to settle and the path tracer's copy of it to stop changing; then shows the
+/// samples traced so far, and once every pixel has its samples, asks for the image. A scene the
+/// adapter cannot trace ends the run with its reason.
+#[allow(clippy::too_many_arguments)]
+fn follow_samples(
+    mut commands: Commands,
+    mut job: ResMut<RenderJob>,
+    stats: Res<PathTracerStats>,
+    scene: Res<SceneBvh>,
+    pending: Res<PendingImports>,
+    parsed: Res<ParsedImports>,
+    opening: Res<OpeningProjects>,
+    camera: Single<Entity, With<RenderCamera>>,
+    ready: Res<PipelinesReady>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    if job.captured {
+        return;
+    }
+    if let Some(why) = stats.trace_off() {
+        job.progress.abandon_with_message("failed");
+        error!("{}: cannot path trace the scene: {why}", job.out.display());
+        exit.write(AppExit::error());
+        return;
+    }
+    if !job.settled {
+        let settled =
+            pending.0.is_empty() && parsed.0.is_empty() && !opening.busy() && scene.is_idle();
+        let figures = stats.figures();
+        let (last, still) = job.uploaded;
+        job.uploaded = if figures.total_upload_bytes == last {
+            (last, still + 1)
+        } else {
+            (figures.total_upload_bytes, 0)
+        };
+        if !(settled && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
+            return;
+        }
+        // The last geometry that reached the GPU restarted the accumulation: every sample counted
+        // from here on saw the whole scene (a later change of it starts the count again).
+        job.settled = true;
+    }
+    let samples = stats.samples(*camera);
+    job.progress.set_message("tracing");
+    job.progress.set_position(u64::from(samples.min(job.spp)));
+    // Every pipeline compiled, twice in a row (the render world runs a frame behind).
+    let compiled = ready.0.load(Ordering::Acquire);
+    job.compiled = if compiled { job.compiled + 1 } else { 0 };
+    if samples < job.spp || job.compiled < 2 {
+        return;
+    }
+    job.captured = true;
+    job.progress.set_message("saving");
+    commands
+        .spawn(Screenshot::image(job.target.clone()))
+        .observe(save_image);
+}
+
+/// Saves the captured image (atomically: a temporary file renamed over the target) and exits.
+fn save_image(
+    captured: On<ScreenshotCaptured>,
+    job: Res<RenderJob>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let result = captured
+        .image
+        .clone()
+        .try_into_dynamic()
+        .map_err(|e| e.to_string())
+        .and_then(|img| encode_png(&img.to_rgb8()))
+        .and_then(|bytes| write_image(&job.out, &bytes));
+    match result {
+        Ok(()) => {
+            job.progress.finish_with_message("saved");
+            info!(
+                "rendered {} at {} samples per pixel",
+                job.out.display(),
+                job.spp
+            );
+            exit.write(AppExit::Success);
+        }
+        Err(e) => {
+            job.progress.abandon_with_message("failed");
+            error!("{}: cannot save the image: {e}", job.out.display());
+            exit.write(AppExit::error());
+        }
+    }
+}
+
+fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(bytes)
+}
+
+fn write_image(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    treelight_document::atomic_file::write_atomically(path, bytes).map_err(|e| e.to_string())
+}

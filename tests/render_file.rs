@@ -1,0 +1,99 @@
+//! `treelight render`: the default scene path traced to a PNG where there is no display at all,
+//! the same image for the same samples, a project's exposure in the picture, and the refusals
+//! (an existing file without `--overwrite`, another format, a scene file that does not open).
+
+mod support;
+
+use support::{load_rgb, mean_rgb, run_without_display, temp_dir};
+
+fn render(args: &[&str]) -> (bool, String) {
+    run_without_display(&[&["render"], args].concat())
+}
+
+fn brightness(img: &image::RgbImage) -> f32 {
+    let m = mean_rgb(img, 0, 0, img.width(), img.height());
+    (m[0] + m[1] + m[2]) / 3.0
+}
+
+#[test]
+fn the_default_scene_renders_to_a_png_without_a_display_and_again_the_same() {
+    let dir = temp_dir("render");
+    let a = dir.join("a.png");
+    let b = dir.join("b.png");
+    let size = ["--width", "96", "--height", "64", "--spp", "6"];
+    let (ok, log) = render(&[&["--out", a.to_str().unwrap()], &size[..]].concat());
+    assert!(ok, "{log}");
+    let img = load_rgb(&a);
+    assert_eq!((img.width(), img.height()), (96, 64));
+    // The room, lit: many colours, neither black nor blown out.
+    let colours: std::collections::HashSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    assert!(colours.len() > 200, "{} colours", colours.len());
+    let mean = brightness(&img);
+    assert!((30.0..220.0).contains(&mean), "mean {mean}");
+    // The same samples give the same image.
+    let (ok, log) = render(&[&["--out", b.to_str().unwrap()], &size[..]].concat());
+    assert!(ok, "{log}");
+    assert_eq!(
+        load_rgb(&a).into_raw(),
+        load_rgb(&b).into_raw(),
+        "two renders of the same scene differ"
+    );
+
+    // An existing file is kept unless --overwrite says otherwise.
+    let before = std::fs::read(&a).unwrap();
+    let (ok, log) = render(&[&["--out", a.to_str().unwrap()], &size[..]].concat());
+    assert!(!ok);
+    assert!(
+        log.contains("the file exists") && log.contains("a.png"),
+        "{log}"
+    );
+    assert_eq!(std::fs::read(&a).unwrap(), before);
+    let (ok, log) = render(&["--out", a.to_str().unwrap(), "--overwrite", "--spp", "1"]);
+    assert!(ok, "{log}");
+    assert_eq!(load_rgb(&a).width(), 640, "the default size");
+
+    // Only PNG; a scene that does not open names itself and writes nothing.
+    let (ok, log) = render(&["--out", dir.join("c.jpg").to_str().unwrap()]);
+    assert!(!ok && log.contains("must be a .png"), "{log}");
+    let missing = dir.join("missing.glb");
+    let d = dir.join("d.png");
+    let (ok, log) = render(&[missing.to_str().unwrap(), "--out", d.to_str().unwrap()]);
+    assert!(!ok, "{log}");
+    assert!(log.contains("missing.glb"), "{log}");
+    assert!(!d.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_project_s_exposure_is_in_its_render() {
+    let dir = temp_dir("render-look");
+    let edits = dir.join("look.ron");
+    std::fs::write(&edits, "[SetLook(look: (exposure: 2.0, tone: Filmic))]").unwrap();
+    let project = dir.join("bright.treelight");
+    let (ok, log) = run_without_display(&[
+        "--commands",
+        edits.to_str().unwrap(),
+        "--save",
+        project.to_str().unwrap(),
+    ]);
+    assert!(ok, "{log}");
+    let size = ["--width", "64", "--height", "48", "--spp", "4"];
+    let plain = dir.join("plain.png");
+    let bright = dir.join("bright.png");
+    let (ok, log) = render(&[&["--out", plain.to_str().unwrap()], &size[..]].concat());
+    assert!(ok, "{log}");
+    let (ok, log) = render(
+        &[
+            &[project.to_str().unwrap(), "--out", bright.to_str().unwrap()],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(ok, "{log}");
+    let (p, b) = (
+        brightness(&load_rgb(&plain)),
+        brightness(&load_rgb(&bright)),
+    );
+    assert!(b > p * 1.3, "two stops more: mean {p} -> {b}");
+    std::fs::remove_dir_all(&dir).ok();
+}
