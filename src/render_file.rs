@@ -79,9 +79,32 @@ struct RenderJob {
 }
 
 /// Whether the render world's pipeline cache has no pipeline waiting to be compiled (written each
-/// frame by the render world): until the tonemapper's is ready, the image holds no picture.
+/// frame by the render world, read in the main world): until the tonemapper's pipeline for an
+/// image's format is ready, the image holds no picture.
 #[derive(Resource, Clone, Default)]
-struct PipelinesReady(Arc<AtomicBool>);
+pub struct PipelinesReady(Arc<AtomicBool>);
+
+impl PipelinesReady {
+    /// Whether no pipeline waited to be compiled in the render world's last frame.
+    pub fn is_ready(&self) -> bool {
+        self.0.load(Ordering::Acquire)
+    }
+}
+
+/// Keeps [`PipelinesReady`] in the main world. Add after Bevy's render plugin.
+pub struct PipelineWatchPlugin;
+
+impl Plugin for PipelineWatchPlugin {
+    fn build(&self, app: &mut App) {
+        let ready = PipelinesReady::default();
+        app.insert_resource(ready.clone());
+        if let Some(render) = app.get_sub_app_mut(RenderApp) {
+            render
+                .insert_resource(ready)
+                .add_systems(Render, watch_pipelines.in_set(RenderSystems::Cleanup));
+        }
+    }
+}
 
 fn watch_pipelines(cache: Res<PipelineCache>, ready: Res<PipelinesReady>) {
     ready.0.store(
@@ -119,13 +142,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         DocumentPlugin,
     ));
     run_schedules_on_one_thread(&mut app);
-    let ready = PipelinesReady::default();
-    app.insert_resource(ready.clone());
-    if let Some(render) = app.get_sub_app_mut(RenderApp) {
-        render
-            .insert_resource(ready)
-            .add_systems(Render, watch_pipelines.in_set(RenderSystems::Cleanup));
-    }
+    app.add_plugins(PipelineWatchPlugin);
     let mut target =
         Image::new_target_texture(args.width, args.height, TextureFormat::Rgba8UnormSrgb, None);
     target.asset_usage = bevy::asset::RenderAssetUsages::default();
@@ -230,7 +247,7 @@ fn follow_samples(
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
     // Every pipeline compiled, twice in a row (the render world runs a frame behind).
-    let compiled = ready.0.load(Ordering::Acquire);
+    let compiled = ready.is_ready();
     job.compiled = if compiled { job.compiled + 1 } else { 0 };
     if samples < job.spp || job.compiled < 2 {
         return;
@@ -273,7 +290,8 @@ fn save_image(
     }
 }
 
-fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
+/// `img` as PNG bytes.
+pub fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::new();
     img.write_to(
         &mut std::io::Cursor::new(&mut bytes),

@@ -964,3 +964,84 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     assert_eq!(st.history.0, head);
     assert_eq!(object(&st, "Lamp light").light, Some(point));
 }
+
+#[test]
+fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it() {
+    // A project in a folder of its own: the render goes beside it, named after it.
+    let dir = support::temp_dir("render-window");
+    let project = dir.join("room.treelight");
+    let (ok, log) = support::run_without_display(&["--save", project.to_str().unwrap()]);
+    assert!(ok, "{log}");
+    let mut s = Session::start("render-window", &[project.to_str().unwrap()]);
+    let st = s.wait_until(
+        "the project opens",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.project.as_deref() == Some(project.as_path()),
+    );
+    let widget = |st: &EditorState, name: &str| {
+        st.widgets
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+    };
+    let _ = st;
+    s.key(&[], keysym::F12);
+    let st = s.frames(2);
+    // Smaller and fewer samples than the defaults, typed into the fields (a click edits one).
+    for (field, value) in [("Render width", "160"), ("Render samples", "2")] {
+        let at = widget(&st, field);
+        s.click(at.0, at.1);
+        s.frames(1);
+        for c in value.chars() {
+            s.key(&[], keysym::letter(c));
+        }
+        s.key(&[], keysym::RETURN);
+        s.frames(1);
+    }
+    let st = s.frames(2);
+    let go = widget(&st, "Render");
+    s.click(go.0, go.1);
+    let out = dir.join("room.png");
+    let st = s.wait_until(
+        "the render is saved",
+        std::time::Duration::from_secs(120),
+        |st| st.notices.iter().any(|n| n.starts_with("Rendered")),
+    );
+    assert!(
+        st.notices.iter().any(|n| n.contains("room.png")),
+        "{:?}",
+        st.notices
+    );
+    assert!(
+        st.notices
+            .iter()
+            .any(|n| n.ends_with("at 2 samples per pixel")),
+        "{:?}",
+        st.notices
+    );
+    let img = support::load_rgb(&out);
+    assert_eq!((img.width(), img.height()), (160, 400), "the size typed");
+    let colours: std::collections::HashSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    assert!(colours.len() > 500, "{} colours", colours.len());
+
+    // Again: the file exists, so the editor asks; Cancel keeps it.
+    let before = std::fs::read(&out).unwrap();
+    let st = s.frames(2);
+    let go = widget(&st, "Render");
+    s.click(go.0, go.1);
+    let st = s.frames(2);
+    let cancel = widget(&st, "Cancel");
+    s.click(cancel.0, cancel.1);
+    let st = s.frames(3);
+    assert!(
+        st.widgets.iter().all(|(n, _)| n != "Replace"),
+        "the question is gone"
+    );
+    assert!(
+        st.widgets.iter().any(|(n, _)| n == "Render"),
+        "no render started"
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), before);
+    std::fs::remove_dir_all(&dir).ok();
+}

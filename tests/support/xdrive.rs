@@ -28,6 +28,8 @@ pub mod keysym {
     pub const ALT: u32 = 0xffe9;
     /// F2.
     pub const F2: u32 = 0xffbf;
+    /// F12.
+    pub const F12: u32 = 0xffc9;
     /// Return.
     pub const RETURN: u32 = 0xff0d;
     /// A lower-case letter.

@@ -180,7 +180,20 @@ fn path_tracer_records_have_the_crate_s_layout() {
     );
     assert_eq!(
         wgsl_layout(&m, "Light"),
-        rust_layout!(GpuLight, [position, kind, radiance, radius])
+        rust_layout!(
+            GpuLight,
+            [
+                position,
+                kind,
+                radiance,
+                radius,
+                direction,
+                inv_range2,
+                spot_scale,
+                spot_offset,
+                pad
+            ]
+        )
     );
     assert_eq!(
         wgsl_layout(&m, "View"),

@@ -54,6 +54,8 @@ pub struct FileUi {
     relink_from: Option<PathBuf>,
     /// Folders chosen for the Assets panel, until the panel takes them.
     pub asset_folders: Vec<PathBuf>,
+    /// File → Render image… was chosen, until the render window opens.
+    pub render_image: bool,
 }
 
 /// The menu's entries, chosen in the menu bar or by their keys.
@@ -77,6 +79,8 @@ pub enum FileAction {
     Relink,
     /// Assets → Add folder….
     AddAssetFolder,
+    /// File → Render image….
+    RenderImage,
 }
 
 impl FileUi {
@@ -186,6 +190,7 @@ impl FileUi {
             },
             FileAction::SaveAs => self.dialog(DialogPurpose::SaveAs, state),
             FileAction::Relink => self.relink = true,
+            FileAction::RenderImage => self.render_image = true,
             FileAction::AddAssetFolder => {
                 let dir = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
                 self.open_dialog(DialogPurpose::AssetFolder, dir, String::new());
@@ -374,6 +379,7 @@ pub fn file_shortcuts(
         (Action::Open, FileAction::Open),
         (Action::New, FileAction::New),
         (Action::Quit, FileAction::Quit),
+        (Action::RenderImage, FileAction::RenderImage),
     ]
     .into_iter()
     .find(|(key, _)| chords.triggered(*key))

@@ -1,7 +1,7 @@
 //! Files: the File menu and its dialogs ([`file_menu`], [`file_dialog`], [`native_dialog`]), the
 //! settings file ([`settings`]), the recovery offer ([`recovery`]), the question an import too
-//! large for the free memory asks ([`import_question`]) and the report of a crash
-//! ([`crash_report`]).
+//! large for the free memory asks ([`import_question`]), the report of a crash ([`crash_report`])
+//! and File → Render image… ([`render_image`]).
 
 pub mod crash_report;
 pub mod file_dialog;
@@ -9,6 +9,7 @@ pub mod file_menu;
 pub mod import_question;
 pub mod native_dialog;
 pub mod recovery;
+pub mod render_image;
 pub mod settings;
 
 use bevy::prelude::*;
@@ -27,15 +28,30 @@ impl Plugin for FilesPlugin {
             file_menu::FileMenuPlugin,
             settings::SettingsPlugin,
             crash_report::CrashReportPlugin,
+            crate::render_file::PipelineWatchPlugin,
         ))
+        .init_resource::<render_image::RenderImageUi>()
+        .add_systems(Update, (open_render_window, render_image::finish_render))
         .add_systems(
             bevy_egui::EguiPrimaryContextPass,
             (
                 recovery::offer_recovery,
-                // After the panels, which clear the widget rectangles it records.
+                // After the panels, which clear the widget rectangles they record.
                 import_question::ask_about_large_imports.after(crate::editor::panels::EditorUi),
+                render_image::render_image_window.after(crate::editor::panels::EditorUi),
             ),
         );
+    }
+}
+
+/// Opens the render window when File → Render image… (or its key) was chosen.
+fn open_render_window(
+    mut files: ResMut<file_menu::FileUi>,
+    mut render: ResMut<render_image::RenderImageUi>,
+    project: Res<treelight_document::project::format::ProjectState>,
+) {
+    if std::mem::take(&mut files.render_image) {
+        render.open(&project);
     }
 }
 

@@ -19,6 +19,8 @@ pub enum Action {
     SaveAs,
     /// File → Quit.
     Quit,
+    /// File → Render image….
+    RenderImage,
     /// Edit → Undo.
     Undo,
     /// Edit → Redo.
@@ -77,6 +79,7 @@ pub const KEYMAP: &[Binding] = &[
     bind(Action::Save, KeyCode::KeyS, Modifiers::CTRL),
     bind(Action::SaveAs, KeyCode::KeyS, Modifiers::CTRL_SHIFT),
     bind(Action::Quit, KeyCode::KeyQ, Modifiers::CTRL),
+    bind(Action::RenderImage, KeyCode::F12, Modifiers::NONE),
     bind(Action::Undo, KeyCode::KeyZ, Modifiers::CTRL),
     bind(Action::Redo, KeyCode::KeyZ, Modifiers::CTRL_SHIFT),
     bind(Action::Redo, KeyCode::KeyY, Modifiers::CTRL),
@@ -106,6 +109,7 @@ impl Action {
             Action::Save => "Save",
             Action::SaveAs => "Save as",
             Action::Quit => "Quit (asks first about unsaved changes)",
+            Action::RenderImage => "Render an image of the view to a file",
             Action::Undo => "Undo",
             Action::Redo => "Redo",
             Action::Delete => "Delete the selection",

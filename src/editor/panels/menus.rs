@@ -174,9 +174,17 @@ fn file_menu(ui: &mut egui::Ui, state: &MenuState) -> Option<MenuAction> {
         (FileAction::Import, "Import…", String::new()),
         (FileAction::Save, "Save", Action::Save.keys()),
         (FileAction::SaveAs, "Save As…", Action::SaveAs.keys()),
+        (
+            FileAction::RenderImage,
+            "Render image…",
+            Action::RenderImage.keys(),
+        ),
         (FileAction::Quit, "Quit", Action::Quit.keys()),
     ] {
-        if matches!(what, FileAction::Import | FileAction::Quit) {
+        if matches!(
+            what,
+            FileAction::Import | FileAction::RenderImage | FileAction::Quit
+        ) {
             ui.separator();
         }
         if ui
