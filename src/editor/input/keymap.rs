@@ -219,8 +219,9 @@ mod tests {
         }
         assert_eq!(Action::FrameAll.keys(), "Home");
         assert_eq!(Action::ViewTop.keys(), "7");
+        assert_eq!(Action::RenderImage.keys(), "F12");
         // Every action has a key.
-        assert_eq!(Action::all().len(), 22);
+        assert_eq!(Action::all().len(), 23);
     }
 
     #[test]
