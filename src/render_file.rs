@@ -194,11 +194,25 @@ pub fn render_app(args: &RenderArgs) -> App {
             follow_document.after(apply_edit_requests),
             apply_orbit.after(follow_document),
             apply_look,
+            sky_to_render_camera,
             follow_samples.after(apply_orbit),
         ),
     )
     .add_systems(Last, fail_on_errors);
     app
+}
+
+/// The document's sky on the render camera's path tracer.
+fn sky_to_render_camera(
+    look: Res<treelight_document::look::SceneLook>,
+    mut cameras: Query<&mut PathTraced, With<RenderCamera>>,
+) {
+    if look.is_changed() {
+        let [r, g, b] = look.sky;
+        for mut traced in &mut cameras {
+            traced.sky = LinearRgba::rgb(r, g, b);
+        }
+    }
 }
 
 /// Waits for the scene to settle and the path tracer's copy of it to stop changing; then shows the

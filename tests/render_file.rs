@@ -1,5 +1,5 @@
 //! `treelight render`: the default scene path traced to a PNG where there is no display at all,
-//! the same image for the same samples, a project's exposure in the picture, and the refusals
+//! the same image for the same samples, a project's exposure and sky in the picture, and the refusals
 //! (an existing file without `--overwrite`, another format, a scene file that does not open).
 
 mod support;
@@ -95,5 +95,41 @@ fn a_project_s_exposure_is_in_its_render() {
         brightness(&load_rgb(&bright)),
     );
     assert!(b > p * 1.3, "two stops more: mean {p} -> {b}");
+    // A red sky: seen through the room's open front and lighting it, the picture turns red.
+    std::fs::write(
+        &edits,
+        "[SetLook(look: (exposure: 0.0, tone: Filmic, sky: (400.0, 20.0, 10.0)))]",
+    )
+    .unwrap();
+    let red_project = dir.join("red.treelight");
+    let (ok, log) = run_without_display(&[
+        "--commands",
+        edits.to_str().unwrap(),
+        "--save",
+        red_project.to_str().unwrap(),
+    ]);
+    assert!(ok, "{log}");
+    let red = dir.join("red.png");
+    let (ok, log) = render(
+        &[
+            &[
+                red_project.to_str().unwrap(),
+                "--out",
+                red.to_str().unwrap(),
+            ],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(ok, "{log}");
+    let rgb = |path: &std::path::Path| {
+        let img = load_rgb(path);
+        mean_rgb(&img, 0, 0, img.width(), img.height())
+    };
+    let (before, after) = (rgb(&plain), rgb(&red));
+    assert!(
+        after[0] - after[2] > before[0] - before[2] + 10.0,
+        "the sky's red: {before:?} -> {after:?}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,5 +1,5 @@
-//! How the scene's light becomes the picture: the camera's exposure and the tone curve. Part of the
-//! document: changed by a command with undo ([`crate::edit::command::EditCommand::SetLook`]) and
+//! How the scene's light becomes the picture: the camera's exposure and the tone curve, and the
+//! sky's radiance that rays escaping the scene meet. Part of the document: changed by a command with undo ([`crate::edit::command::EditCommand::SetLook`]) and
 //! saved in projects; an editor puts it on its cameras, raster and path-traced alike.
 
 use bevy::prelude::*;
@@ -15,6 +15,21 @@ pub struct SceneLook {
     /// The curve that maps the exposed radiance to the display.
     #[serde(default)]
     pub tone: ToneCurve,
+    /// The sky's radiance, linear RGB in nits (the exposure scales it like every light): what
+    /// rays leaving the scene meet, lighting it and seen behind it.
+    #[serde(default = "default_sky")]
+    pub sky: [f32; 3],
+}
+
+/// The editor's sky: a pale blue of 200 nits at its brightest.
+pub const DEFAULT_SKY: [f32; 3] = [110.0, 140.0, 200.0];
+
+/// The brightest sky a look takes, in nits (about the sun's disc at noon is 1.6e9; a clear sky is
+/// under 1e4).
+pub const MAX_SKY: f32 = 1.0e6;
+
+fn default_sky() -> [f32; 3] {
+    DEFAULT_SKY
 }
 
 impl Default for SceneLook {
@@ -22,6 +37,7 @@ impl Default for SceneLook {
         Self {
             exposure: 0.0,
             tone: ToneCurve::default(),
+            sky: DEFAULT_SKY,
         }
     }
 }
@@ -35,9 +51,14 @@ pub const DEFAULT_EV100: f32 = 9.7;
 
 impl SceneLook {
     /// Whether the values are ones the scene accepts: a finite exposure within
-    /// [`MAX_EXPOSURE_STOPS`].
+    /// [`MAX_EXPOSURE_STOPS`], a sky of finite, non-negative radiance up to [`MAX_SKY`].
     pub fn is_valid(&self) -> bool {
-        self.exposure.is_finite() && self.exposure.abs() <= MAX_EXPOSURE_STOPS
+        self.exposure.is_finite()
+            && self.exposure.abs() <= MAX_EXPOSURE_STOPS
+            && self
+                .sky
+                .iter()
+                .all(|c| c.is_finite() && (0.0..=MAX_SKY).contains(c))
     }
 
     /// The camera's exposure value at ISO 100 this look asks for (one stop brighter is one EV100
@@ -113,6 +134,7 @@ mod tests {
         let look = SceneLook {
             exposure: -1.5,
             tone: ToneCurve::Neutral,
+            sky: [1.0, 2.0, 3.0],
         };
         let text = ron::to_string(&look).unwrap();
         assert_eq!(ron::from_str::<SceneLook>(&text).unwrap(), look);
@@ -120,8 +142,14 @@ mod tests {
             ron::from_str::<SceneLook>("(tone: Aces)").unwrap(),
             SceneLook {
                 exposure: 0.0,
-                tone: ToneCurve::Aces
+                tone: ToneCurve::Aces,
+                sky: DEFAULT_SKY,
             }
         );
+        let dark = SceneLook {
+            sky: [0.0, -1.0, 0.0],
+            ..look
+        };
+        assert!(!dark.is_valid());
     }
 }

@@ -1,6 +1,7 @@
-//! The scene's look in the viewport: the toolbar's exposure and tone-curve controls, which edit
-//! the document's [`SceneLook`] through commands (one scrub is one step), and the system that puts
-//! it on the 3D camera, so the raster view and the path tracer show the same exposure and curve.
+//! The scene's look in the viewport: the toolbar's exposure, tone-curve and sky controls, which edit
+//! the document's [`SceneLook`] through commands (one scrub is one step), and the systems that put
+//! it on the 3D camera (so the raster view and the path tracer show the same exposure and curve) and
+//! the sky into the path tracer's settings.
 
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::widget_rects::WidgetRects;
@@ -39,6 +40,18 @@ pub fn apply_look(
             exposure.ev100 = ev100;
         }
         curve.set_if_neq(tonemapping(look.tone));
+    }
+}
+
+/// The document's sky in the viewport's path-tracer settings (which every traced view of the
+/// editor starts from).
+pub fn sky_to_tracer(
+    look: Res<SceneLook>,
+    mut render: ResMut<crate::editor::viewport::render_mode::ViewportRender>,
+) {
+    if look.is_changed() {
+        let [r, g, b] = look.sky;
+        render.settings.sky = LinearRgba::rgb(r, g, b);
     }
 }
 
@@ -89,6 +102,50 @@ pub fn look_controls(
         .response
         .on_hover_text("The tone curve that maps the exposed light to the screen");
     widgets.push("Tone curve", combo.rect);
+    // The sky as a colour and a strength in nits (the look stores their product).
+    let strength = look.sky.iter().copied().fold(0.0f32, f32::max);
+    let mut colour = if strength > 0.0 {
+        look.sky.map(|c| c / strength)
+    } else {
+        [1.0; 3]
+    };
+    let mut new_strength = strength;
+    let mut sky_continuing = false;
+    let sky = ui
+        .menu_button("Sky", |ui| {
+            ui.label("What rays leaving the scene meet: it lights the scene and is seen behind it");
+            ui.horizontal(|ui| {
+                ui.label("Colour");
+                let c = ui.color_edit_button_rgb(&mut colour);
+                ui.label("Strength");
+                let s = ui.add(
+                    egui::DragValue::new(&mut new_strength)
+                        .speed((strength * 0.01).max(0.1))
+                        .range(0.0..=treelight_document::look::MAX_SKY)
+                        .max_decimals(1)
+                        .suffix(" nits"),
+                );
+                widgets.push("Sky strength", s.rect);
+                sky_continuing = (s.dragged() && !s.drag_started())
+                    || s.has_focus()
+                    || c.is_pointer_button_down_on();
+            });
+        })
+        .response
+        .on_hover_text("The sky's colour and brightness");
+    widgets.push("Sky", sky.rect);
+    let new_sky = colour.map(|c| c * new_strength);
+    if new_strength != strength || (strength > 0.0 && colour != look.sky.map(|c| c / strength)) {
+        out.push(EditRequest::Apply {
+            command: EditCommand::SetLook {
+                look: SceneLook {
+                    sky: new_sky,
+                    ..*look
+                },
+            },
+            continuing: sky_continuing,
+        });
+    }
     if tone != look.tone {
         out.push(EditRequest::Apply {
             command: EditCommand::SetLook {

@@ -301,7 +301,7 @@ pub enum EditError {
     )]
     BadLight,
     /// An exposure that is not finite or past the widest compensation.
-    #[error("the exposure is not finite or beyond ±{max} stops", max = crate::look::MAX_EXPOSURE_STOPS)]
+    #[error("the exposure is not finite or beyond ±{max} stops, or the sky is negative or brighter than {sky:e} nits", max = crate::look::MAX_EXPOSURE_STOPS, sky = crate::look::MAX_SKY)]
     BadLook,
 }
 
@@ -399,6 +399,7 @@ impl EditCommand {
                 match (look.exposure != before.exposure, look.tone != before.tone) {
                     (true, true) => format!("{exposure}, {}", tone.to_lowercase()),
                     (false, true) => tone,
+                    (false, false) if look.sky != before.sky => "Sky colour".into(),
                     _ => exposure,
                 }
             }

@@ -203,7 +203,7 @@ impl ProjectFile {
         }
         if self.look.is_some_and(|l| !l.is_valid()) {
             return Err(format!(
-                "its exposure is not finite or beyond ±{} stops",
+                "its exposure is not finite or beyond ±{} stops, or its sky is out of range",
                 crate::look::MAX_EXPOSURE_STOPS
             ));
         }
