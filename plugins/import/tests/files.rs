@@ -770,3 +770,61 @@ fn gltf_punctual_lights_come_with_their_nodes_and_bad_ones_are_named() {
         s.warnings
     );
 }
+
+#[test]
+fn hostile_punctual_lights_are_refused_or_skipped_never_a_panic() {
+    let good = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/lights.gltf"),
+    )
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("treelight-hostile-lights-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Each: the change, and whether the file must still open (with the light skipped).
+    let cases: [(&str, &str, bool); 7] = [
+        ("\"intensity\": 10.0", "\"intensity\": \"bright\"", false),
+        ("\"intensity\": 10.0", "\"intensity\": 1e39", true),
+        ("\"range\": 5.0", "\"range\": -1e39", true),
+        (
+            "\"spot\": {\"innerConeAngle\": 0.2, \"outerConeAngle\": 0.5}",
+            "\"spot\": {\"innerConeAngle\": 9.0, \"outerConeAngle\": -1e39}",
+            true,
+        ),
+        (
+            ", \"spot\": {\"innerConeAngle\": 0.2, \"outerConeAngle\": 0.5}",
+            "",
+            false,
+        ),
+        ("{\"light\": 3}", "{\"light\": 99}", false),
+        ("\"type\": \"directional\"", "\"type\": \"area\"", false),
+    ];
+    for (i, (from, to, opens)) in cases.into_iter().enumerate() {
+        assert!(good.contains(from), "case {i}");
+        let path = dir.join(format!("case{i}.gltf"));
+        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+        match load_scene(&path) {
+            Ok(s) => {
+                assert!(opens, "case {i} opened");
+                for n in &s.nodes {
+                    if let Some(l) = n.light {
+                        assert!(l.intensity.is_finite() && l.intensity >= 0.0, "case {i}");
+                        assert!(l.range.is_none_or(|r| r.is_finite() && r > 0.0));
+                        if let ImportedLightKind::Spot {
+                            inner_angle,
+                            outer_angle,
+                        } = l.kind
+                        {
+                            assert!(0.0 <= inner_angle && inner_angle <= outer_angle);
+                            assert!(outer_angle <= std::f32::consts::FRAC_PI_2);
+                        }
+                    }
+                }
+                assert!(!s.warnings.is_empty(), "case {i}: {:?}", s.warnings);
+            }
+            Err(e) => {
+                assert!(!opens, "case {i}: {e}");
+                assert!(e.to_string().contains(&format!("case{i}.gltf")), "{e}");
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
