@@ -40,25 +40,17 @@ pub fn count_frames_and_capture(
     }
 }
 
-/// An observer for a [`Screenshot`] entity: saves the image to `path` as PNG (RGB) and exits, with an
-/// error status if it cannot be saved.
+/// An observer for a [`Screenshot`] entity: saves the image to `path` as PNG (RGB, written
+/// atomically) and exits, with an error status if it cannot be saved.
 pub fn save_and_exit(path: PathBuf) -> impl FnMut(On<ScreenshotCaptured>, MessageWriter<AppExit>) {
-    move |captured, mut exit| {
-        let result = captured
-            .image
-            .clone()
-            .try_into_dynamic()
-            .map_err(|e| e.to_string())
-            .and_then(|img| img.to_rgb8().save(&path).map_err(|e| e.to_string()));
-        match result {
-            Ok(()) => {
-                info!("screenshot saved to {}", path.display());
-                exit.write(AppExit::Success);
-            }
-            Err(e) => {
-                error!("cannot save the screenshot to {}: {e}", path.display());
-                exit.write(AppExit::error());
-            }
+    move |captured, mut exit| match crate::render_file::save_png(&captured.image, &path) {
+        Ok(()) => {
+            info!("screenshot saved to {}", path.display());
+            exit.write(AppExit::Success);
+        }
+        Err(e) => {
+            error!("cannot save the screenshot to {}: {e}", path.display());
+            exit.write(AppExit::error());
         }
     }
 }

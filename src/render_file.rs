@@ -22,19 +22,30 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 use treelight_document::DocumentPlugin;
-use treelight_document::app::{fail_on_errors, run_schedules_on_one_thread, task_pools};
+use treelight_document::app::{
+    SceneLoading, fail_on_errors, run_schedules_on_one_thread, task_pools,
+};
 use treelight_document::default_scene::open_default_scene;
 use treelight_document::edit::history::apply_edit_requests;
-use treelight_document::import::parse::ParsedImports;
-use treelight_document::import::parse::PendingImports;
-use treelight_document::project::open::OpeningProjects;
 use treelight_render::{PathTraced, PathTracerStats};
-use treelight_scene::SceneBvh;
 
 /// Whether `out` is a file `treelight render` can write: a `.png` in an existing folder, not
 /// already there unless `overwrite`.
 pub fn check_output(args: &RenderArgs) -> Result<(), String> {
     let out = &args.out;
+    check_png_path(out)?;
+    if out.exists() && !args.overwrite {
+        return Err(format!(
+            "{}: the file exists (--overwrite replaces it)",
+            out.display()
+        ));
+    }
+    Ok(())
+}
+
+/// Whether a render can be written to `out`: a `.png` in a folder that exists (both renders ask
+/// this; what to do about an existing file is each one's own).
+pub fn check_png_path(out: &Path) -> Result<(), String> {
     if !out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"))
@@ -52,13 +63,27 @@ pub fn check_output(args: &RenderArgs) -> Result<(), String> {
             folder.display()
         ));
     }
-    if out.exists() && !args.overwrite {
-        return Err(format!(
-            "{}: the file exists (--overwrite replaces it)",
-            out.display()
-        ));
-    }
     Ok(())
+}
+
+/// When a render's image may be captured: every pixel has its samples, and every pipeline has been
+/// compiled two frames in a row (the render world runs a frame behind). Both renders use it.
+#[derive(Default)]
+pub struct CaptureGate {
+    /// Frames in a row with every pipeline compiled.
+    compiled: u32,
+}
+
+impl CaptureGate {
+    /// Called once a frame: whether the image may be captured now.
+    pub fn open(&mut self, samples: u32, spp: u32, ready: &PipelinesReady) -> bool {
+        self.compiled = if ready.is_ready() {
+            self.compiled + 1
+        } else {
+            0
+        };
+        samples >= spp && self.compiled >= 2
+    }
 }
 
 /// The render in progress.
@@ -72,8 +97,8 @@ struct RenderJob {
     uploaded: (u64, u32),
     /// The scene has loaded and the path tracer's copy of it stopped changing.
     settled: bool,
-    /// Frames in a row with every pipeline compiled.
-    compiled: u32,
+    /// When the image may be captured.
+    gate: CaptureGate,
     /// The screenshot was asked for.
     captured: bool,
 }
@@ -169,7 +194,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         progress,
         uploaded: (0, 0),
         settled: false,
-        compiled: 0,
+        gate: CaptureGate::default(),
         captured: false,
     });
     let orbit = OrbitCamera::default();
@@ -208,9 +233,8 @@ fn sky_to_render_camera(
     mut cameras: Query<&mut PathTraced, With<RenderCamera>>,
 ) {
     if look.is_changed() {
-        let [r, g, b] = look.sky;
         for mut traced in &mut cameras {
-            traced.sky = LinearRgba::rgb(r, g, b);
+            traced.sky = look.sky_radiance();
         }
     }
 }
@@ -218,15 +242,11 @@ fn sky_to_render_camera(
 /// Waits for the scene to settle and the path tracer's copy of it to stop changing; then shows the
 /// samples traced so far, and once every pixel has its samples, asks for the image. A scene the
 /// adapter cannot trace ends the run with its reason.
-#[allow(clippy::too_many_arguments)]
 fn follow_samples(
     mut commands: Commands,
     mut job: ResMut<RenderJob>,
     stats: Res<PathTracerStats>,
-    scene: Res<SceneBvh>,
-    pending: Res<PendingImports>,
-    parsed: Res<ParsedImports>,
-    opening: Res<OpeningProjects>,
+    loading: SceneLoading,
     camera: Single<Entity, With<RenderCamera>>,
     ready: Res<PipelinesReady>,
     mut exit: MessageWriter<AppExit>,
@@ -241,8 +261,7 @@ fn follow_samples(
         return;
     }
     if !job.settled {
-        let settled =
-            pending.0.is_empty() && parsed.0.is_empty() && !opening.busy() && scene.is_idle();
+        let settled = loading.settled();
         let figures = stats.figures();
         let (last, still) = job.uploaded;
         job.uploaded = if figures.total_upload_bytes == last {
@@ -260,10 +279,8 @@ fn follow_samples(
     let samples = stats.samples(*camera);
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
-    // Every pipeline compiled, twice in a row (the render world runs a frame behind).
-    let compiled = ready.is_ready();
-    job.compiled = if compiled { job.compiled + 1 } else { 0 };
-    if samples < job.spp || job.compiled < 2 {
+    let spp = job.spp;
+    if !job.gate.open(samples, spp, &ready) {
         return;
     }
     job.captured = true;
@@ -279,14 +296,7 @@ fn save_image(
     job: Res<RenderJob>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    let result = captured
-        .image
-        .clone()
-        .try_into_dynamic()
-        .map_err(|e| e.to_string())
-        .and_then(|img| encode_png(&img.to_rgb8()))
-        .and_then(|bytes| write_image(&job.out, &bytes));
-    match result {
+    match save_png(&captured.image, &job.out) {
         Ok(()) => {
             job.progress.finish_with_message("saved");
             info!(
@@ -304,17 +314,19 @@ fn save_image(
     }
 }
 
-/// `img` as PNG bytes.
-pub fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
+/// Writes a captured image to `path` as an RGB PNG, atomically (a temporary file renamed over the
+/// target).
+pub fn save_png(image: &Image, path: &Path) -> Result<(), String> {
+    let rgb = image
+        .clone()
+        .try_into_dynamic()
+        .map_err(|e| e.to_string())?
+        .to_rgb8();
     let mut bytes = Vec::new();
-    img.write_to(
+    rgb.write_to(
         &mut std::io::Cursor::new(&mut bytes),
         image::ImageFormat::Png,
     )
     .map_err(|e| e.to_string())?;
-    Ok(bytes)
-}
-
-fn write_image(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    treelight_document::atomic_file::write_atomically(path, bytes).map_err(|e| e.to_string())
+    treelight_document::atomic_file::write_atomically(path, &bytes).map_err(|e| e.to_string())
 }

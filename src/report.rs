@@ -15,7 +15,6 @@ use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use treelight_document::edit::history::EditHistory;
-use treelight_document::import::parse::PendingImports;
 use treelight_document::object::SceneId;
 use treelight_document::object::SceneObject;
 use treelight_scene::SceneBvh;
@@ -305,11 +304,7 @@ pub fn write_state_report(
     selection: Res<Selection>,
     history: Res<EditHistory>,
     gizmo: Res<GizmoSettings>,
-    (pending, parsed, opening): (
-        Res<PendingImports>,
-        Res<treelight_document::import::parse::ParsedImports>,
-        Res<treelight_document::project::open::OpeningProjects>,
-    ),
+    loading: treelight_document::app::SceneLoading,
     scene: Res<SceneBvh>,
     widgets: Res<crate::editor::widget_rects::WidgetRects>,
     project: Res<treelight_document::project::format::ProjectState>,
@@ -383,7 +378,7 @@ pub fn write_state_report(
         .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
     let state = EditorState {
         frame: report.frame,
-        settled: pending.0.is_empty() && parsed.0.is_empty() && !opening.busy() && scene.is_idle(),
+        settled: loading.settled(),
         objects: list,
         selection: selection
             .entities()

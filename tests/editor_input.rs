@@ -284,12 +284,7 @@ fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world
 fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
     let mut s = Session::start("palette", &[]);
     let st = s.frames(1);
-    let tile = st
-        .widgets
-        .iter()
-        .find(|(n, _)| n == "Cube")
-        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-        .expect("the palette shows a Cube tile");
+    let tile = widget(&st, "Cube");
     let floor = object(&st, "Floor").screen.unwrap();
     let (head, _) = st.history;
     let cubes = |st: &EditorState| ids_named(st, "Cube").len();
@@ -328,13 +323,21 @@ fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
     assert_eq!(st.history.0, head + 1, "escape left no step");
 }
 
-fn row_centre(st: &EditorState, id: treelight_document::object::SceneId) -> (f32, f32) {
-    let name = format!("row {}", id.0);
+/// The centre of the named widget the report lists, if it is laid out.
+fn widget_at(st: &EditorState, name: &str) -> Option<(f32, f32)> {
     st.widgets
         .iter()
-        .find(|(n, _)| *n == name)
+        .find(|(n, _)| n == name)
         .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-        .unwrap_or_else(|| panic!("no outliner row for {id:?}: {:?}", st.widgets))
+}
+
+/// The centre of the named widget the report lists.
+fn widget(st: &EditorState, name: &str) -> (f32, f32) {
+    widget_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+}
+
+fn row_centre(st: &EditorState, id: treelight_document::object::SceneId) -> (f32, f32) {
+    widget(st, &format!("row {}", id.0))
 }
 
 #[test]
@@ -591,18 +594,8 @@ fn the_x_server_says_where_a_desktop_drop_lands() {
 fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
     let mut s = Session::start("palette-file", &[]);
     let st = s.frames(1);
-    let tile_of = |st: &EditorState| {
-        st.widgets
-            .iter()
-            .find(|(n, _)| n == "stairs.obj")
-            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-    };
-    let cube = st
-        .widgets
-        .iter()
-        .find(|(n, _)| n == "Cube")
-        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-        .expect("the Assets panel");
+    let tile_of = |st: &EditorState| widget_at(st, "stairs.obj");
+    let cube = widget(&st, "Cube");
     // The samples sit below the shapes: scroll the panel until the tile is on screen.
     s.move_to(cube.0, cube.1);
     let [_, vy, _, vh] = st.viewport;
@@ -681,15 +674,9 @@ fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
     // A file of the name the dialog offers is already there.
     let path = s.dir().join("scene.treelight");
     std::fs::write(&path, "precious work").unwrap();
-    let button = |st: &EditorState, name: &str| {
-        st.widgets
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-    };
     // Return in the name field asks; Return again answers with the question's default, Cancel.
     let st = save_as_with_return(&mut s, "the question");
-    assert!(button(&st, "Replace").is_some() && button(&st, "Cancel").is_some());
+    assert!(widget_at(&st, "Replace").is_some() && widget_at(&st, "Cancel").is_some());
     s.key(&[], keysym::RETURN);
     let st = s.wait_until("the cancel", std::time::Duration::from_secs(30), |st| {
         st.dialog.is_none()
@@ -706,7 +693,7 @@ fn save_as_asks_before_replacing_a_file_and_a_cancel_keeps_it() {
     assert_eq!(std::fs::read_to_string(&path).unwrap(), "precious work");
     // Replace, clicked, replaces it with the project.
     let st = save_as_with_return(&mut s, "the third question");
-    let (x, y) = button(&st, "Replace").unwrap();
+    let (x, y) = widget_at(&st, "Replace").unwrap();
     s.click(x, y);
     let st = s.wait_until("the save", std::time::Duration::from_secs(30), |st| {
         st.project.is_some() && !st.dirty
@@ -817,12 +804,8 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
     assert!(!has_helmet(&st));
     let st = s.frames(5);
     assert!(!has_helmet(&st), "imported before the answer");
-    let (_, r) = st
-        .widgets
-        .iter()
-        .find(|(n, _)| n == "Import anyway")
-        .unwrap_or_else(|| panic!("no button: {:?}", st.widgets));
-    s.click(r[0] + r[2] / 2.0, r[1] + r[3] / 2.0);
+    let at = widget(&st, "Import anyway");
+    s.click(at.0, at.1);
     s.wait_until("the import", std::time::Duration::from_secs(60), has_helmet);
 }
 
@@ -842,13 +825,6 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
         std::time::Duration::from_secs(60),
         |st| st.settled && st.samples >= 4,
     );
-    let widget = |st: &EditorState, name: &str| {
-        st.widgets
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
-    };
     let (head, _) = st.history;
     assert_eq!(st.look.exposure, 0.0);
     let default_ev100 = st.camera_look.as_ref().expect("the camera's exposure").0;
@@ -920,13 +896,6 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
         std::time::Duration::from_secs(60),
         |st| st.settled && st.samples >= 8,
     );
-    let widget = |st: &EditorState, name: &str| {
-        st.widgets
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
-    };
     let lamp = object(&st, "Lamp light").clone();
     let point = lamp.light.expect("the lamp is a light");
     assert_eq!(point.kind, treelight_document::light::LightKind::Point);
@@ -978,13 +947,6 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
         std::time::Duration::from_secs(60),
         |st| st.settled && st.project.as_deref() == Some(project.as_path()),
     );
-    let widget = |st: &EditorState, name: &str| {
-        st.widgets
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
-    };
     let _ = st;
     s.key(&[], keysym::F12);
     let st = s.frames(2);

@@ -64,68 +64,50 @@ fn the_default_scene_renders_to_a_png_without_a_display_and_again_the_same() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn a_project_s_exposure_is_in_its_render() {
-    let dir = temp_dir("render-look");
-    let edits = dir.join("look.ron");
-    std::fs::write(&edits, "[SetLook(look: (exposure: 2.0, tone: Filmic))]").unwrap();
-    let project = dir.join("bright.treelight");
+/// The default scene with `edits` applied, saved as `name`.treelight in `dir`.
+fn project_with(dir: &std::path::Path, name: &str, edits: &str) -> std::path::PathBuf {
+    let script = dir.join(format!("{name}.ron"));
+    std::fs::write(&script, edits).unwrap();
+    let project = dir.join(format!("{name}.treelight"));
     let (ok, log) = run_without_display(&[
         "--commands",
-        edits.to_str().unwrap(),
+        script.to_str().unwrap(),
         "--save",
         project.to_str().unwrap(),
     ]);
     assert!(ok, "{log}");
+    project
+}
+
+#[test]
+fn a_project_s_exposure_is_in_its_render() {
+    let dir = temp_dir("render-look");
     let size = ["--width", "64", "--height", "48", "--spp", "4"];
-    let plain = dir.join("plain.png");
-    let bright = dir.join("bright.png");
-    let (ok, log) = render(&[&["--out", plain.to_str().unwrap()], &size[..]].concat());
-    assert!(ok, "{log}");
-    let (ok, log) = render(
-        &[
-            &[project.to_str().unwrap(), "--out", bright.to_str().unwrap()],
-            &size[..],
-        ]
-        .concat(),
+    // The default scene, then a project of it (or none) rendered to `out`.
+    let render_to = |project: Option<&std::path::Path>, out: &std::path::Path| {
+        let scene: Vec<&str> = project.map(|p| p.to_str().unwrap()).into_iter().collect();
+        let (ok, log) =
+            render(&[&scene[..], &["--out", out.to_str().unwrap()], &size[..]].concat());
+        assert!(ok, "{log}");
+        load_rgb(out)
+    };
+    let plain = render_to(None, &dir.join("plain.png"));
+    let bright_project = project_with(
+        &dir,
+        "bright",
+        "[SetLook(look: (exposure: 2.0, tone: Filmic))]",
     );
-    assert!(ok, "{log}");
-    let (p, b) = (
-        brightness(&load_rgb(&plain)),
-        brightness(&load_rgb(&bright)),
-    );
+    let bright = render_to(Some(&bright_project), &dir.join("bright.png"));
+    let (p, b) = (brightness(&plain), brightness(&bright));
     assert!(b > p * 1.3, "two stops more: mean {p} -> {b}");
     // A red sky: seen through the room's open front and lighting it, the picture turns red.
-    std::fs::write(
-        &edits,
+    let red_project = project_with(
+        &dir,
+        "red",
         "[SetLook(look: (exposure: 0.0, tone: Filmic, sky: (400.0, 20.0, 10.0)))]",
-    )
-    .unwrap();
-    let red_project = dir.join("red.treelight");
-    let (ok, log) = run_without_display(&[
-        "--commands",
-        edits.to_str().unwrap(),
-        "--save",
-        red_project.to_str().unwrap(),
-    ]);
-    assert!(ok, "{log}");
-    let red = dir.join("red.png");
-    let (ok, log) = render(
-        &[
-            &[
-                red_project.to_str().unwrap(),
-                "--out",
-                red.to_str().unwrap(),
-            ],
-            &size[..],
-        ]
-        .concat(),
     );
-    assert!(ok, "{log}");
-    let rgb = |path: &std::path::Path| {
-        let img = load_rgb(path);
-        mean_rgb(&img, 0, 0, img.width(), img.height())
-    };
+    let red = render_to(Some(&red_project), &dir.join("red.png"));
+    let rgb = |img: &image::RgbImage| mean_rgb(img, 0, 0, img.width(), img.height());
     let (before, after) = (rgb(&plain), rgb(&red));
     assert!(
         after[0] - after[2] > before[0] - before[2] + 10.0,

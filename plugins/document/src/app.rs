@@ -13,6 +13,26 @@ use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use treelight_scene::{SceneBvhConfig, SceneBvhPlugin};
 
+/// Whether the scene has settled: no import being read or spawned, no project opening, and the
+/// scene BVH idle (what the state report and a windowless render wait for).
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct SceneLoading<'w> {
+    pending: Res<'w, crate::import::parse::PendingImports>,
+    parsed: Res<'w, crate::import::parse::ParsedImports>,
+    opening: Res<'w, crate::project::open::OpeningProjects>,
+    scene: Res<'w, treelight_scene::SceneBvh>,
+}
+
+impl SceneLoading<'_> {
+    /// Nothing is loading and the tree is idle.
+    pub fn settled(&self) -> bool {
+        self.pending.0.is_empty()
+            && self.parsed.0.is_empty()
+            && !self.opening.busy()
+            && self.scene.is_idle()
+    }
+}
+
 /// Nice steps below the frame at which background work runs.
 const BACKGROUND_NICE: i32 = 10;
 

@@ -61,6 +61,12 @@ impl SceneLook {
                 .all(|c| c.is_finite() && (0.0..=MAX_SKY).contains(c))
     }
 
+    /// The sky's radiance as the path tracer takes it.
+    pub fn sky_radiance(&self) -> LinearRgba {
+        let [r, g, b] = self.sky;
+        LinearRgba::rgb(r, g, b)
+    }
+
     /// The camera's exposure value at ISO 100 this look asks for (one stop brighter is one EV100
     /// lower).
     pub fn ev100(&self) -> f32 {

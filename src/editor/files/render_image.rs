@@ -7,7 +7,7 @@ use crate::editor::files::ask_yes_or_cancel;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::widget_rects::WidgetRects;
-use crate::render_file::{PipelinesReady, encode_png};
+use crate::render_file::{CaptureGate, PipelinesReady, check_png_path, save_png};
 use bevy::camera::{Exposure, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -64,8 +64,8 @@ pub struct RenderJob {
     target: Handle<Image>,
     path: PathBuf,
     spp: u32,
-    /// Frames in a row with every pipeline compiled.
-    compiled: u32,
+    /// When the image may be captured.
+    gate: CaptureGate,
     captured: bool,
 }
 
@@ -110,19 +110,7 @@ impl RenderImageUi {
         if path.extension().is_none() {
             path.set_extension("png");
         }
-        if !path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-        {
-            return Err(format!("{}: the image must be a .png file", path.display()));
-        }
-        let folder = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
-            _ => PathBuf::from("."),
-        };
-        if !folder.is_dir() {
-            return Err(format!("{}: no such folder", folder.display()));
-        }
+        check_png_path(&path)?;
         Ok(path)
     }
 }
@@ -314,7 +302,7 @@ fn start(
         target,
         path,
         spp: s.spp,
-        compiled: 0,
+        gate: CaptureGate::default(),
         captured: false,
     });
 }
@@ -332,12 +320,8 @@ pub fn finish_render(
     if job.captured {
         return;
     }
-    job.compiled = if ready.is_ready() {
-        job.compiled + 1
-    } else {
-        0
-    };
-    if stats.samples(job.camera) < job.spp || job.compiled < 2 {
+    let (samples, spp) = (stats.samples(job.camera), job.spp);
+    if !job.gate.open(samples, spp, &ready) {
         return;
     }
     job.captured = true;
@@ -360,16 +344,7 @@ fn save_render(
     commands.entity(job.camera).despawn();
     let image = captured.image.clone();
     let size = image.size();
-    let written = image
-        .clone()
-        .try_into_dynamic()
-        .map_err(|e| e.to_string())
-        .and_then(|img| encode_png(&img.to_rgb8()))
-        .and_then(|bytes| {
-            treelight_document::atomic_file::write_atomically(&job.path, &bytes)
-                .map_err(|e| e.to_string())
-        });
-    match written {
+    match save_png(&image, &job.path) {
         Ok(()) => {
             notices.info(format!(
                 "Rendered {} at {} samples per pixel",

@@ -50,8 +50,7 @@ pub fn sky_to_tracer(
     mut render: ResMut<crate::editor::viewport::render_mode::ViewportRender>,
 ) {
     if look.is_changed() {
-        let [r, g, b] = look.sky;
-        render.settings.sky = LinearRgba::rgb(r, g, b);
+        render.settings.sky = look.sky_radiance();
     }
 }
 
