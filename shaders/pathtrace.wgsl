@@ -1,7 +1,10 @@
 // The path tracer: each dispatch traces a run of 8×8 tiles (as many as the frame's budget allows),
-// each pixel adding `view.samples` samples to its running sum, or a coarse preview after a restart. Bevy's StandardMaterial is approximated by a
-// Lambert lobe plus a GGX lobe; punctual lights are sampled directly (next-event estimation), emissive
-// surfaces and the sky are found by the BSDF samples. The crate appends a traversal
+// each pixel adding `view.samples` samples to its running sum, or a coarse preview after a restart.
+// Materials are glTF's metallic-roughness model with its maps: a GGX specular lobe compensated for
+// the energy single scattering loses, over a Lambert lobe or a thin-walled GGX transmission lobe
+// (weighted by what the specular leaves), under an optional clear coat. Punctual lights are
+// sampled directly (next-event estimation), emissive surfaces and the sky are found by the BSDF
+// samples. The crate appends a traversal
 // (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
 struct Attr {
@@ -18,17 +21,24 @@ struct Object {
     // Rows of the object-to-world normal matrix (the inverse transpose of the linear part).
     normal_rows: array<vec4<f32>, 3>,
     base_color: vec4<f32>,
-    // Emitted radiance (rgb), before the camera's exposure.
+    // Emitted radiance (rgb), before the camera's exposure; w: a masked material's alpha cutoff.
     emissive: vec4<f32>,
-    // Metallic, perceptual roughness, reflectance, unused.
+    // Metallic, perceptual roughness, reflectance, transmission.
     params: vec4<f32>,
     // Columns of the UV transform's linear part (xy, zw), then its translation.
     uv_matrix: vec4<f32>,
     uv_offset: vec2<f32>,
     // Layer of the base-colour texture array; NONE when untextured.
     texture: u32,
-    // Wrap modes, u in bits 0-1 and v in bits 2-3: 0 clamp, 1 repeat, 2 mirror.
+    // Wrap modes, four bits per map (MAP_*; u in the low two: 0 clamp, 1 repeat, 2 mirror); the
+    // alpha mode (ALPHA_*) in bits 20-21.
     wrap: u32,
+    // Layers of the metallic-roughness, normal, occlusion and emission maps (NONE: none).
+    maps: vec4<u32>,
+    // Clear coat strength and perceptual roughness, the normal map's green sign, unused.
+    coat: vec4<f32>,
+    // Tint of the dielectric's specular reflection (rgb), unused.
+    specular: vec4<f32>,
 }
 
 struct Light {
@@ -89,6 +99,9 @@ struct View {
 // textures cannot be sRGB, so the kernel decodes).
 @group(0) @binding(6) var base_color_textures: texture_2d_array<f32>;
 @group(0) @binding(7) var texture_sampler: sampler;
+// The GGX lobe's albedo (A, B) over view cosine and perceptual roughness, ENERGY_SIZE² entries two
+// to a vec4 (energy.rs): the lobe reflects f0 A + B of the light.
+@group(0) @binding(29) var<uniform> energy: array<vec4<f32>, 512>;
 // Group 1, the view: its uniform; per pixel the running sum of its samples (rgb) and their count
 // (w); and `aux` (one buffer, as WebGPU allows a stage eight; words, floats by their bits), in four parts: per pixel the depth of
 // its first sample's primary hit; per pixel that hit's object slot (the bits of a u32, NONE where the
@@ -108,6 +121,16 @@ const MODE_NORMALS: u32 = 2u;
 const MODE_TRIANGLE_ID: u32 = 3u;
 const MODE_HEATMAP: u32 = 4u;
 const HAS_NORMALS: u32 = 0x80000000u;
+const MAP_BASE: u32 = 0u;
+const MAP_METALLIC_ROUGHNESS: u32 = 1u;
+const MAP_NORMAL: u32 = 2u;
+const MAP_OCCLUSION: u32 = 3u;
+const MAP_EMISSIVE: u32 = 4u;
+const ALPHA_MASK: u32 = 1u;
+const ALPHA_BLEND: u32 = 2u;
+const ENERGY_SIZE: u32 = 32u;
+// The smallest perceptual roughness shaded (Bevy's clamp; it keeps point-light highlights finite).
+const MIN_ROUGHNESS: f32 = 0.089;
 // Node records visited (4-wide: about half the binary nodes a ray would visit) that the heatmap shows
 // as its hottest colour.
 const HEATMAP_MAX: f32 = 80.0;
@@ -136,26 +159,92 @@ fn normal_to_world(o: Object, n: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(o.normal_rows[0].xyz, n), dot(o.normal_rows[1].xyz, n), dot(o.normal_rows[2].xyz, n));
 }
 
+// The object-to-world linear part applied to a vector, from the normal matrix's rows: the
+// transpose of their inverse (cofactors; the determinant's size does not matter for directions).
+fn vector_to_world(o: Object, v: vec3<f32>) -> vec3<f32> {
+    let r0 = o.normal_rows[0].xyz;
+    let r1 = o.normal_rows[1].xyz;
+    let r2 = o.normal_rows[2].xyz;
+    let c0 = cross(r1, r2);
+    let c1 = cross(r2, r0);
+    let c2 = cross(r0, r1);
+    return vec3<f32>(dot(c0, v), dot(c1, v), dot(c2, v)) * sign(dot(r0, c0));
+}
+
 struct Surface {
     p: vec3<f32>,
     // Geometric normal, facing the incoming ray.
     ng: vec3<f32>,
-    // Shading normal, on the same side as ng.
+    // Shading normal (the normal map's, where there is one), on the same side as ng.
     ns: vec3<f32>,
     albedo: vec3<f32>,
     emissive: vec3<f32>,
     metallic: f32,
+    // Perceptual roughness and GGX alpha of the specular (and transmission) lobe.
+    roughness: f32,
     alpha: f32,
-    reflectance: f32,
+    // The dielectric's reflectance at normal incidence, tinted.
+    f0_dielectric: vec3<f32>,
+    // Fraction of the dielectric's unreflected light that passes through (thin-walled).
+    transmission: f32,
+    clearcoat: f32,
+    coat_roughness: f32,
+    coat_alpha: f32,
+    // What the occlusion map leaves of the light bounced off the surface.
+    occlusion: f32,
 }
 
 // The slot of the group a hit belongs to: groups sharing triangles share their attributes too, so
 // the instance, when there is one, says whose they are here.
-fn object_slot(hit: Hit) -> u32 {
-    if hit.instance != NONE {
-        return instances[hit.instance].group;
+fn slot_of(triangle: u32, instance: u32) -> u32 {
+    if instance != NONE {
+        return instances[instance].group;
     }
-    return attr_at(hit.triangle).group & ~HAS_NORMALS;
+    return attr_at(triangle).group & ~HAS_NORMALS;
+}
+
+fn object_slot(hit: Hit) -> u32 {
+    return slot_of(hit.triangle, hit.instance);
+}
+
+fn alpha_mode(o: Object) -> u32 {
+    return (o.wrap >> 20u) & 3u;
+}
+
+// The mesh's UV at barycentrics (u, v) of a triangle's shading record.
+fn mesh_uv(attr: Attr, u: f32, v: f32) -> vec2<f32> {
+    return attr.uv01.xy * (1.0 - u - v) + attr.uv01.zw * u + attr.uv2 * v;
+}
+
+// A mesh UV through the material's UV transform.
+fn texture_uv(o: Object, uv: vec2<f32>) -> vec2<f32> {
+    return mat2x2<f32>(o.uv_matrix.xy, o.uv_matrix.zw) * uv + o.uv_offset;
+}
+
+// Map `map` of the material (its layer `layer`) at texture coordinate t: colour maps come out linear,
+// data maps as stored (the layers hold every map sRGB-encoded, see texture_layer.wgsl).
+fn sample_map(o: Object, layer: u32, map: u32, t: vec2<f32>) -> vec4<f32> {
+    let bits = o.wrap >> (4u * map);
+    let st = vec2<f32>(wrap_coordinate(t.x, bits & 3u), wrap_coordinate(t.y, (bits >> 2u) & 3u));
+    let texel = textureSampleLevel(base_color_textures, texture_sampler, st, layer, 0.0);
+    return vec4<f32>(srgb_to_linear(texel.rgb), texel.a);
+}
+
+// Whether the surface is there at a candidate hit: where a masked material's alpha is below its
+// cutoff, rays pass through (shadow rays too). Called by the traversal for every candidate.
+fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
+    let slot = slot_of(triangle, instance);
+    let wrap = objects[slot].wrap;
+    if ((wrap >> 20u) & 3u) != ALPHA_MASK {
+        return true;
+    }
+    var a = objects[slot].base_color.a;
+    let layer = objects[slot].texture;
+    if layer != NONE {
+        let o = objects[slot];
+        a *= sample_map(o, layer, MAP_BASE, texture_uv(o, mesh_uv(attr_at(triangle), u, v))).a;
+    }
+    return a >= objects[slot].emissive.w;
 }
 
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
@@ -183,23 +272,69 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             ns = -ns;
         }
     }
+    let t = texture_uv(obj, mesh_uv(attr, hit.u, hit.v));
+    var base = obj.base_color;
+    if obj.texture != NONE {
+        base *= sample_map(obj, obj.texture, MAP_BASE, t);
+    }
+    s.albedo = base.rgb;
+    s.metallic = clamp(obj.params.x, 0.0, 1.0);
+    var r = obj.params.y;
+    if obj.maps.x != NONE {
+        let mr = sample_map(obj, obj.maps.x, MAP_METALLIC_ROUGHNESS, t);
+        r *= mr.g;
+        s.metallic *= mr.b;
+    }
+    if obj.maps.y != NONE {
+        // Tangents per triangle, from its positions and texture coordinates (dP/du, dP/dv).
+        let t0 = texture_uv(obj, attr.uv01.xy);
+        let d1 = texture_uv(obj, attr.uv01.zw) - t0;
+        let d2 = texture_uv(obj, attr.uv2) - t0;
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if abs(det) > 1e-20 {
+            let e1 = tri.v1 - tri.v0;
+            let e2 = tri.v2 - tri.v0;
+            var tu = (e1 * d2.y - e2 * d1.y) / det;
+            var tv = (e2 * d1.x - e1 * d2.x) / det;
+            if hit.instance != NONE {
+                tu = vector_to_world(obj, tu);
+                tv = vector_to_world(obj, tv);
+            }
+            let tangent = tu - ns * dot(ns, tu);
+            if dot(tangent, tangent) > 1e-30 {
+                let tn = normalize(tangent);
+                let b = cross(ns, tn) * select(1.0, -1.0, dot(cross(ns, tn), tv) < 0.0);
+                let m = sample_map(obj, obj.maps.y, MAP_NORMAL, t).xyz * 2.0 - vec3<f32>(1.0);
+                let mapped = normalize(tn * m.x + b * (m.y * obj.coat.z) + ns * max(m.z, 1e-3));
+                // A map tilting the normal below the surface is ignored there.
+                if dot(mapped, ng) > 0.0 {
+                    ns = mapped;
+                }
+            }
+        }
+    }
     s.ng = ng;
     s.ns = ns;
-    s.albedo = obj.base_color.rgb;
-    if obj.texture != NONE {
-        let w = 1.0 - hit.u - hit.v;
-        let uv = attr.uv01.xy * w + attr.uv01.zw * hit.u + attr.uv2 * hit.v;
-        let t = mat2x2<f32>(obj.uv_matrix.xy, obj.uv_matrix.zw) * uv + obj.uv_offset;
-        let st = vec2<f32>(wrap_coordinate(t.x, obj.wrap & 3u), wrap_coordinate(t.y, (obj.wrap >> 2u) & 3u));
-        let texel = textureSampleLevel(base_color_textures, texture_sampler, st, obj.texture, 0.0);
-        s.albedo *= srgb_to_linear(texel.rgb);
+    s.occlusion = 1.0;
+    if obj.maps.z != NONE {
+        s.occlusion = sample_map(obj, obj.maps.z, MAP_OCCLUSION, t).r;
     }
     s.emissive = obj.emissive.rgb;
-    s.metallic = clamp(obj.params.x, 0.0, 1.0);
-    // Bevy clamps perceptual roughness the same way, which also keeps point-light highlights finite.
-    let r = clamp(obj.params.y, 0.089, 1.0);
-    s.alpha = r * r;
-    s.reflectance = obj.params.z;
+    if obj.maps.w != NONE {
+        s.emissive *= sample_map(obj, obj.maps.w, MAP_EMISSIVE, t).rgb;
+    }
+    s.roughness = clamp(r, MIN_ROUGHNESS, 1.0);
+    s.alpha = s.roughness * s.roughness;
+    let reflectance = obj.params.z;
+    s.f0_dielectric = min(vec3<f32>(0.16 * reflectance * reflectance) * obj.specular.rgb, vec3<f32>(1.0));
+    s.transmission = clamp(obj.params.w, 0.0, 1.0);
+    if alpha_mode(obj) == ALPHA_BLEND {
+        // Blending lets 1 - alpha through, as transmission of the base colour.
+        s.transmission = max(s.transmission, 1.0 - clamp(base.a, 0.0, 1.0));
+    }
+    s.clearcoat = clamp(obj.coat.x, 0.0, 1.0);
+    s.coat_roughness = clamp(obj.coat.y, MIN_ROUGHNESS, 1.0);
+    s.coat_alpha = s.coat_roughness * s.coat_roughness;
     return s;
 }
 
@@ -223,8 +358,25 @@ fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
 
-fn f0_of(s: Surface) -> vec3<f32> {
-    return mix(vec3<f32>(0.16 * s.reflectance * s.reflectance), s.albedo, s.metallic);
+fn energy_at(i: u32, j: u32) -> vec2<f32> {
+    let k = j * ENERGY_SIZE + i;
+    let v = energy[k >> 1u];
+    return select(v.xy, v.zw, (k & 1u) == 1u);
+}
+
+// (A, B) of the GGX lobe at view cosine mu and perceptual roughness r, bilinear in the table.
+fn split_sum(mu: f32, r: f32) -> vec2<f32> {
+    let last = f32(ENERGY_SIZE - 1u);
+    // The table's points lie at mu = (i / last)², denser towards grazing.
+    let x = sqrt(clamp(mu, 0.0, 1.0)) * last;
+    let y = clamp(r, 0.0, 1.0) * last;
+    let i = min(u32(x), ENERGY_SIZE - 2u);
+    let j = min(u32(y), ENERGY_SIZE - 2u);
+    let fx = x - f32(i);
+    let fy = y - f32(j);
+    let a = mix(energy_at(i, j), energy_at(i + 1u, j), fx);
+    let b = mix(energy_at(i, j + 1u), energy_at(i + 1u, j + 1u), fx);
+    return mix(a, b, fy);
 }
 
 fn ggx_d(nh: f32, a2: f32) -> f32 {
@@ -236,63 +388,156 @@ fn smith_g1(nx: f32, a2: f32) -> f32 {
     return 2.0 * nx / (nx + sqrt(a2 + (1.0 - a2) * nx * nx));
 }
 
-// The BRDF (without the cosine) for light arriving along wi and leaving along wo.
-fn brdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
-    let nl = dot(s.ns, wi);
-    let nv = dot(s.ns, wo);
-    if nl <= 0.0 || nv <= 0.0 {
-        return vec3<f32>(0.0);
-    }
+fn schlick(f0: vec3<f32>, vh: f32) -> vec3<f32> {
+    return f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
+}
+
+// The single-scattering GGX lobe without its Fresnel term: D G / (4 nl nv).
+fn microfacet(ns: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, a2: f32) -> f32 {
+    let nl = dot(ns, wi);
+    let nv = dot(ns, wo);
     let h = normalize(wo + wi);
-    let nh = max(dot(s.ns, h), 0.0);
-    let vh = max(dot(wo, h), 0.0);
-    let a2 = s.alpha * s.alpha;
-    let f0 = f0_of(s);
-    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
-    let spec = f * (ggx_d(nh, a2) * smith_g1(nl, a2) * smith_g1(nv, a2) / (4.0 * nl * nv));
-    let diffuse = s.albedo * (1.0 - s.metallic) / PI;
-    return diffuse + spec;
+    let nh = max(dot(ns, h), 0.0);
+    return ggx_d(nh, a2) * smith_g1(nl, a2) * smith_g1(nv, a2) / (4.0 * nl * nv);
 }
 
-// Probability of picking the GGX lobe, from the lobes' rough weights.
-fn specular_probability(s: Surface) -> f32 {
-    let ws = luminance(f0_of(s));
-    let wd = luminance(s.albedo) * (1.0 - s.metallic);
-    if wd <= 0.0 {
-        return 1.0;
-    }
-    return clamp(ws / (ws + wd), 0.1, 0.9);
-}
-
-fn pdf(s: Surface, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
-    let nl = dot(s.ns, wi);
+// The density of sampling wi by reflecting wo about a GGX half vector.
+fn microfacet_pdf(ns: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, a2: f32) -> f32 {
     let half = wo + wi;
     // wi = -wo (a grazing microfacet) has no half vector.
-    if nl <= 0.0 || dot(half, half) < 1e-12 {
+    if dot(half, half) < 1e-12 {
         return 0.0;
     }
     let h = normalize(half);
-    let nh = max(dot(s.ns, h), 0.0);
+    let nh = dot(ns, h);
+    // Half vectors are drawn above the surface only.
+    if nh <= 0.0 {
+        return 0.0;
+    }
     let vh = max(dot(wo, h), 1e-6);
-    let ps = specular_probability(s);
-    let a2 = s.alpha * s.alpha;
-    return ps * ggx_d(nh, a2) * nh / (4.0 * vh) + (1.0 - ps) * nl / PI;
+    return ggx_d(nh, a2) * nh / (4.0 * vh);
 }
 
-// A direction from the mixture of both lobes; the caller weights it by brdf * cos / pdf.
-fn sample_direction(s: Surface, wo: vec3<f32>) -> vec3<f32> {
+// What a surface's lobes weigh as seen from one direction (wo): shared by evaluation and sampling.
+struct Lobes {
+    // Reflectance at normal incidence of the specular lobe (metal and dielectric mixed).
+    f0: vec3<f32>,
+    // Multiple-scattering compensation of the specular lobe: 1 + f0 (1 - E) / E.
+    compensation: vec3<f32>,
+    // Weight of what lies under the dielectric's specular reflection (diffuse and transmission).
+    base: vec3<f32>,
+    // 1 / E with f0 = 1: makes the thin transmission lobe pass all it receives.
+    inv_e: f32,
+    // What the clear coat leaves to the layers below it.
+    under: f32,
+    // Probabilities of sampling the specular, diffuse, transmission and coat lobes.
+    p: vec4<f32>,
+}
+
+fn lobes_at(s: Surface, wo: vec3<f32>) -> Lobes {
+    var l: Lobes;
+    let nv = max(dot(s.ns, wo), 1e-4);
+    let ss = split_sum(nv, s.roughness);
+    let e = max(ss.x + ss.y, 1e-3);
+    l.f0 = mix(s.f0_dielectric, s.albedo, s.metallic);
+    l.compensation = vec3<f32>(1.0) + l.f0 * ((1.0 - e) / e);
+    let comp_d = vec3<f32>(1.0) + s.f0_dielectric * ((1.0 - e) / e);
+    let e_dielectric = comp_d * (s.f0_dielectric * ss.x + vec3<f32>(ss.y));
+    l.base = (1.0 - s.metallic) * max(vec3<f32>(1.0) - e_dielectric, vec3<f32>(0.0));
+    l.inv_e = 1.0 / e;
+    let cc = split_sum(nv, s.coat_roughness);
+    let coat = s.clearcoat * (0.04 * cc.x + cc.y);
+    l.under = 1.0 - coat;
+    let spec = luminance(l.compensation * (l.f0 * ss.x + vec3<f32>(ss.y))) * l.under;
+    let below = luminance(l.base * s.albedo) * l.under;
+    let w = vec4<f32>(spec, below * (1.0 - s.transmission), below * s.transmission, coat);
+    let total = w.x + w.y + w.z + w.w;
+    if total > 0.0 {
+        l.p = w / total;
+    }
+    return l;
+}
+
+// The BSDF (without the cosine) for light arriving along wi and leaving along wo: reflection
+// when wi is above the surface, thin-walled transmission when it is below.
+fn bsdf(s: Surface, l: Lobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    let nl = dot(s.ns, wi);
+    let nv = dot(s.ns, wo);
+    if nv <= 0.0 || nl == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if nl < 0.0 {
+        if s.transmission <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+        // Through a thin wall: the reflection lobe mirrored to the far side, tinted by the base colour.
+        let mirrored = wi - 2.0 * nl * s.ns;
+        let a2 = s.alpha * s.alpha;
+        return l.under * l.base * s.transmission * s.albedo * (microfacet(s.ns, wo, mirrored, a2) * l.inv_e);
+    }
+    let h = normalize(wo + wi);
+    let vh = max(dot(wo, h), 0.0);
+    let a2 = s.alpha * s.alpha;
+    let spec = l.compensation * schlick(l.f0, vh) * microfacet(s.ns, wo, wi, a2);
+    let diffuse = l.base * (1.0 - s.transmission) * s.albedo / PI;
+    var f = l.under * (spec + diffuse);
+    if s.clearcoat > 0.0 {
+        let c2 = s.coat_alpha * s.coat_alpha;
+        f += vec3<f32>(s.clearcoat * schlick(vec3<f32>(0.04), vh).x * microfacet(s.ns, wo, wi, c2));
+    }
+    return f;
+}
+
+// The density of sample_direction choosing wi: every lobe that can produce wi counts, including
+// a reflection lobe's draws that fall below the surface (worth nothing there, but the transmission
+// lobe's estimate must know they happen) and the transmission lobe's mirrored draws above it.
+fn pdf(s: Surface, l: Lobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let nl = dot(s.ns, wi);
+    if nl == 0.0 {
+        return 0.0;
+    }
+    let a2 = s.alpha * s.alpha;
+    var p = l.p.x * microfacet_pdf(s.ns, wo, wi, a2)
+        + l.p.w * microfacet_pdf(s.ns, wo, wi, s.coat_alpha * s.coat_alpha)
+        + l.p.z * microfacet_pdf(s.ns, wo, wi - 2.0 * nl * s.ns, a2);
+    if nl > 0.0 {
+        p += l.p.y * nl / PI;
+    }
+    return p;
+}
+
+// wo reflected about a GGX half vector of alpha a; zero (ending the path) for a half vector facing
+// away from wo, whose reflection pdf() could not account for.
+fn ggx_reflection(frame: mat3x3<f32>, wo: vec3<f32>, a: f32, u1: f32, u2: f32) -> vec3<f32> {
+    let a2 = a * a;
+    let cos_t = sqrt((1.0 - u1) / (1.0 + (a2 - 1.0) * u1));
+    let sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    let phi = 2.0 * PI * u2;
+    let h = frame * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+    let vh = dot(wo, h);
+    if vh <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return 2.0 * vh * h - wo;
+}
+
+// A direction from the mixture of the lobes; the caller weights it by bsdf * |cos| / pdf.
+fn sample_direction(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     let frame = basis(s.ns);
     let u1 = rand();
     let u2 = rand();
-    let phi = 2.0 * PI * u2;
-    if rand() < specular_probability(s) {
-        let a2 = s.alpha * s.alpha;
-        let cos_t = sqrt((1.0 - u1) / (1.0 + (a2 - 1.0) * u1));
-        let sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-        let h = frame * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
-        return 2.0 * dot(wo, h) * h - wo;
+    let pick = rand();
+    if pick < l.p.x {
+        return ggx_reflection(frame, wo, s.alpha, u1, u2);
     }
-    return cosine_direction(frame, u1, u2);
+    if pick < l.p.x + l.p.y {
+        return cosine_direction(frame, u1, u2);
+    }
+    if pick < l.p.x + l.p.y + l.p.z {
+        let r = ggx_reflection(frame, wo, s.alpha, u1, u2);
+        return r - 2.0 * dot(r, s.ns) * s.ns;
+    }
+    return ggx_reflection(frame, wo, s.coat_alpha, u1, u2);
 }
 
 fn uniform_sphere() -> vec3<f32> {
@@ -302,10 +547,10 @@ fn uniform_sphere() -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
-// Light arriving at s from every light, through shadow rays, reflected towards wo.
-fn direct_light(s: Surface, wo: vec3<f32>) -> vec3<f32> {
+// Light arriving at s from every light, through shadow rays, reflected (or passed through a thin
+// wall) towards wo.
+fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    let origin = offset(s.p, s.ng);
     for (var i = 0u; i < view.light_count; i += 1u) {
         let light = lights[i];
         var wi: vec3<f32>;
@@ -334,13 +579,16 @@ fn direct_light(s: Surface, wo: vec3<f32>) -> vec3<f32> {
             li = light.radiance;
         }
         let cos_l = dot(s.ns, wi);
-        if cos_l <= 0.0 || dot(s.ng, wi) <= 0.0 {
+        let cos_g = dot(s.ng, wi);
+        // The shading and geometric normals must agree on the side; the far side only counts
+        // through a transmitting surface.
+        if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && s.transmission <= 0.0) {
             continue;
         }
-        if occluded(view.root, origin, wi, t_max) {
+        if occluded(view.root, offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, t_max) {
             continue;
         }
-        sum += brdf(s, wo, wi) * li * cos_l;
+        sum += bsdf(s, l, wo, wi) * li * abs(cos_l);
     }
     return sum;
 }
@@ -376,15 +624,19 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         if bounce == view.max_bounces {
             break;
         }
+        let l = lobes_at(s, wo);
         // Light found by a shadow ray from this hit reaches the eye after bounce + 1 reflections.
-        radiance += indirect(throughput * direct_light(s, wo), bounce + 1u);
-        let wi = sample_direction(s, wo);
-        let p = pdf(s, wo, wi);
-        // Written so that a NaN pdf also ends the path.
-        if !(p > 0.0) || dot(wi, s.ng) <= 0.0 {
+        radiance += indirect(throughput * direct_light(s, l, wo), bounce + 1u);
+        let wi = sample_direction(s, l, wo);
+        let p = pdf(s, l, wo, wi);
+        let cos_s = dot(s.ns, wi);
+        let cos_g = dot(s.ng, wi);
+        // Written so that a NaN pdf also ends the path; the normals must agree on the side.
+        if !(p > 0.0) || cos_s * cos_g <= 0.0 {
             break;
         }
-        throughput *= brdf(s, wo, wi) * dot(s.ns, wi) / p;
+        // The occlusion map dims the light bounced off the surface, not what lights strike it.
+        throughput *= bsdf(s, l, wo, wi) * (abs(cos_s) * s.occlusion / p);
         // Russian roulette once the path has done most of its work.
         if bounce >= 2u {
             let q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
@@ -393,7 +645,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             }
             throughput /= q;
         }
-        o = offset(s.p, s.ng);
+        o = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
         d = wi;
     }
     return radiance * view.sky.w;

@@ -20,6 +20,11 @@ fn part_shift() -> u32 {
     return camera.part_shift;
 }
 
+// These kernels see geometry only: every triangle is solid.
+fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
+    return true;
+}
+
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(3) var<uniform> camera: PrimaryCamera;
 @group(0) @binding(4) var<storage, read_write> hit_ids: array<u32>;

@@ -1,7 +1,8 @@
 // What both GPU layouts' traversals share: the triangle and instance records, the hit, the box and
 // triangle tests. The crate appends it with one layout's file (traverse.wgsl, binary nodes, or
 // traverse_wide.wgsl, 4-wide nodes), which defines `Node`, `STACK_SIZE` and `trace`; `closest_hit` and
-// `occluded` below call that `trace`.
+// `occluded` below call that `trace`. The kernel defines `surface_is_there(triangle, instance, u, v)`,
+// asked of every candidate hit.
 //
 // A child reference carries its kind in its two high bits: 0 inner node, 1 leaf (the value is a
 // triangle id), 2 instance (a group kept whole under a transform, traversed in its object space).
@@ -158,7 +159,8 @@ fn instance_frame(index: u32, o: vec3<f32>, d: vec3<f32>) -> Frame {
 // Tests triangle `index` (a leaf); a nearer hit replaces `hit`. Returns whether it did.
 fn test_leaf(f: Frame, index: u32, hit: ptr<function, Hit>) -> bool {
     let r = hit_triangle(f.o, f.m, tri_at(index), (*hit).t);
-    if r.x < 0.0 {
+    // The kernel says whether the surface is there (a masked material's cut-away parts are not).
+    if r.x < 0.0 || !surface_is_there(index, f.inside, r.y, r.z) {
         return false;
     }
     (*hit).t = r.x;

@@ -2,6 +2,7 @@
 
 use crate::budget::{Budget, ImportOptions};
 use crate::gltf_compressed::{self, read_floats};
+use crate::material::MaterialReader;
 use crate::sandbox::{read_scene_file, read_uri};
 use crate::texture::ImageCache;
 use crate::{
@@ -35,33 +36,19 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     gltf_compressed::decode_meshopt_views(path, &document, &mut buffers, budget)?;
     let mut scene = ImportedScene::default();
     let mut images = ImageCache::default();
+    let mut reader = MaterialReader {
+        path,
+        buffers: &buffers,
+        images: &mut images,
+        textures: &mut scene.textures,
+        warnings: &mut scene.warnings,
+        budget,
+    };
+    let mut materials = Vec::with_capacity(document.materials().len());
     for m in document.materials() {
-        let pbr = m.pbr_metallic_roughness();
-        let e = m.emissive_factor();
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        let base_color_texture = match pbr.base_color_texture() {
-            Some(info) => images.base_color(
-                path,
-                &buffers,
-                &info,
-                &mut scene.textures,
-                &mut scene.warnings,
-                budget,
-            )?,
-            None => None,
-        };
-        scene.materials.push(ImportedMaterial {
-            name: m.name().map_or_else(
-                || format!("material {}", m.index().unwrap_or(0)),
-                str::to_owned,
-            ),
-            base_color: pbr.base_color_factor(),
-            metallic: pbr.metallic_factor(),
-            roughness: pbr.roughness_factor(),
-            emissive: [e[0] * strength, e[1] * strength, e[2] * strength],
-            base_color_texture,
-        });
+        materials.push(reader.read(&m)?);
     }
+    scene.materials = materials;
     let default_material = scene.materials.len();
     let mut used_default = false;
     // What a primitive's geometry is read from -> the first entry of `scene.meshes` read from it:

@@ -10,6 +10,7 @@
 mod budget;
 mod gltf_compressed;
 mod gltf_scene;
+mod material;
 mod obj_scene;
 mod ply_scene;
 mod sandbox;
@@ -51,7 +52,24 @@ impl ImportError {
     }
 }
 
-/// Surface parameters, a subset of glTF's metallic-roughness model.
+/// How a material's alpha (base colour alpha times the texture's) is used.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum ImportedAlphaMode {
+    /// Alpha is ignored: the surface is solid.
+    #[default]
+    Opaque,
+    /// Where alpha is below the cutoff the surface is not there at all (leaves, fences).
+    Mask {
+        /// The alpha below which a point is cut away (glTF's default 0.5).
+        cutoff: f32,
+    },
+    /// The surface lets `1 - alpha` of the light through.
+    Blend,
+}
+
+/// Surface parameters: glTF's metallic-roughness model with its maps, alpha mode and the common
+/// material extensions (`KHR_materials_transmission`, `ior`, `clearcoat`, `specular`,
+/// `emissive_strength`). Every map is read with the mesh's first UV set.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImportedMaterial {
     /// Material name, or a generated one.
@@ -64,8 +82,34 @@ pub struct ImportedMaterial {
     pub roughness: f32,
     /// Linear emitted radiance (factor times strength).
     pub emissive: [f32; 3],
-    /// Base-colour texture, multiplied with `base_color`; read with the mesh's first UV set.
+    /// Base-colour texture (sRGB colour, linear alpha), multiplied with `base_color`.
     pub base_color_texture: Option<TextureRef>,
+    /// Roughness in its green channel and metalness in its blue (linear), multiplying the factors.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Tangent-space normal map (linear).
+    pub normal_texture: Option<TextureRef>,
+    /// Scale of the normal map's x and y.
+    pub normal_scale: f32,
+    /// Ambient occlusion in its red channel (linear).
+    pub occlusion_texture: Option<TextureRef>,
+    /// How much of the occlusion map applies, 0 to 1.
+    pub occlusion_strength: f32,
+    /// Emission map (sRGB), multiplying `emissive`.
+    pub emissive_texture: Option<TextureRef>,
+    /// What alpha means.
+    pub alpha_mode: ImportedAlphaMode,
+    /// Fraction of the light that is not reflected which passes through (thin-walled), 0 to 1.
+    pub transmission: f32,
+    /// Index of refraction of the dielectric (1.5 by default).
+    pub ior: f32,
+    /// Strength of a clear coat over the surface, 0 to 1.
+    pub clearcoat: f32,
+    /// Perceptual roughness of the clear coat.
+    pub clearcoat_roughness: f32,
+    /// Strength of the dielectric's specular reflection (`KHR_materials_specular`), 0 to 1.
+    pub specular: f32,
+    /// Linear tint of the dielectric's specular reflection at normal incidence.
+    pub specular_color: [f32; 3],
 }
 
 impl Default for ImportedMaterial {
@@ -77,6 +121,19 @@ impl Default for ImportedMaterial {
             roughness: 0.6,
             emissive: [0.0; 3],
             base_color_texture: None,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive_texture: None,
+            alpha_mode: ImportedAlphaMode::Opaque,
+            transmission: 0.0,
+            ior: 1.5,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            specular: 1.0,
+            specular_color: [1.0; 3],
         }
     }
 }

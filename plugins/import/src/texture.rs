@@ -1,5 +1,5 @@
-//! Base-colour textures of glTF materials: images decoded once each to RGBA8, with the sampler's
-//! wrap modes. A texture that cannot be used becomes a warning and its material is drawn without it,
+//! The textures of glTF materials (base colour, metallic-roughness, normal, occlusion, emission):
+//! images decoded once each to RGBA8, with the sampler's wrap modes. A texture that cannot be used becomes a warning and its material is drawn without it,
 //! so one bad PNG does not cost the user the whole assembly.
 
 use crate::ImportError;
@@ -82,19 +82,23 @@ pub(crate) struct ImageCache {
 }
 
 impl ImageCache {
-    /// The texture reference for a material's base-colour slot, decoding its image on first use.
-    /// A texture that cannot be used is a warning (`Ok(None)`); one that would pass the import's
-    /// memory budget refuses the file.
-    pub fn base_color(
+    /// The texture reference for one of a material's maps (`role` names it in warnings: "normal
+    /// map"), read with UV set `tex_coord` through `map` (`KHR_texture_transform`), decoding its
+    /// image on first use. A texture that cannot be used is a warning (`Ok(None)`); one that would
+    /// pass the import's memory budget refuses the file.
+    #[allow(clippy::too_many_arguments)]
+    pub fn map(
         &mut self,
         path: &Path,
         buffers: &[Vec<u8>],
-        info: &gltf::texture::Info,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        map: [[f32; 2]; 3],
+        role: &str,
         textures: &mut Vec<ImportedTexture>,
         warnings: &mut Vec<String>,
         budget: &mut Budget,
     ) -> Result<Option<TextureRef>, ImportError> {
-        let texture = info.texture();
         let image = texture.source();
         let name = image
             .name()
@@ -106,24 +110,16 @@ impl ImageCache {
                 _ => None,
             })
             .unwrap_or_else(|| format!("image {}", image.index()));
-        let transform = info.texture_transform();
-        let tex_coord = transform
-            .as_ref()
-            .and_then(|t| t.tex_coord())
-            .unwrap_or(info.tex_coord());
         if tex_coord != 0 {
             warnings.push(format!(
-                "texture '{name}' uses texture coordinate set {tex_coord}, only set 0 is read; its \
+                "{role} '{name}' uses texture coordinate set {tex_coord}, only set 0 is read; its \
                  material is drawn without it"
             ));
             return Ok(None);
         }
-        let map = transform.map_or(UV_IDENTITY, |t| {
-            uv_transform(t.offset(), t.rotation(), t.scale())
-        });
         if map.iter().flatten().any(|v| !v.is_finite()) {
             warnings.push(format!(
-                "texture '{name}' has a non-finite KHR_texture_transform; its material is drawn \
+                "{role} '{name}' has a non-finite KHR_texture_transform; its material is drawn \
                  without it"
             ));
             return Ok(None);

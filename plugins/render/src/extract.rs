@@ -4,8 +4,8 @@
 
 use crate::Outlined;
 use crate::records::{
-    SceneLight, SurfaceMaterial, attribute_record, light_bytes, object_bytes, outline_words,
-    set_outline,
+    SceneLight, SurfaceAlpha, SurfaceMaterial, attribute_record, light_bytes, object_bytes,
+    outline_words, set_outline,
 };
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
@@ -13,6 +13,7 @@ use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::light::{DirectionalLight, PointLight, SpotLight};
 use bevy::math::Mat3;
+use bevy::mesh::UvChannel;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 use bevy::render::{Extract, ExtractSchedule};
@@ -100,16 +101,39 @@ fn material_of(
         return SurfaceMaterial::default();
     };
     let c = m.base_color.to_linear();
+    let mut layer = |h: &Option<Handle<Image>>, channel: &UvChannel| match (h, assets.images) {
+        // Only the first UV set reaches the tracer.
+        (Some(h), Some(images)) if *channel == UvChannel::Uv0 => layers.layer_for(h.id(), images),
+        _ => None,
+    };
+    let tint = m.specular_tint.to_linear();
     SurfaceMaterial {
         base_color: [c.red, c.green, c.blue, c.alpha],
         emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
         metallic: m.metallic,
         perceptual_roughness: m.perceptual_roughness,
         reflectance: m.reflectance,
-        base_color_texture: match (&m.base_color_texture, assets.images) {
-            (Some(h), Some(images)) => layers.layer_for(h.id(), images),
-            _ => None,
+        specular_tint: [tint.red, tint.green, tint.blue],
+        transmission: m.specular_transmission,
+        clearcoat: m.clearcoat,
+        clearcoat_roughness: m.clearcoat_perceptual_roughness,
+        alpha: match m.alpha_mode {
+            AlphaMode::Opaque => SurfaceAlpha::Opaque,
+            AlphaMode::Mask(cutoff) => SurfaceAlpha::Mask(cutoff),
+            AlphaMode::AlphaToCoverage => SurfaceAlpha::Mask(0.5),
+            AlphaMode::Blend | AlphaMode::Premultiplied | AlphaMode::Add | AlphaMode::Multiply => {
+                SurfaceAlpha::Blend
+            }
         },
+        base_color_texture: layer(&m.base_color_texture, &m.base_color_channel),
+        metallic_roughness_texture: layer(
+            &m.metallic_roughness_texture,
+            &m.metallic_roughness_channel,
+        ),
+        normal_texture: layer(&m.normal_map_texture, &m.normal_map_channel),
+        normal_y: if m.flip_normal_map_y { -1.0 } else { 1.0 },
+        occlusion_texture: layer(&m.occlusion_texture, &m.occlusion_channel),
+        emissive_texture: layer(&m.emissive_texture, &m.emissive_channel),
         uv_transform: m.uv_transform,
     }
 }

@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 mod budget;
+mod energy;
 mod extract;
 mod node;
 mod parts;
@@ -28,12 +29,14 @@ pub use budget::{
     CostSource, FrameBudget, MAX_PREVIEW_SCALE, TILE, TileCursor, TileOrder, TraceClock,
     preview_scale,
 };
+pub use energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_sum};
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
     ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
-    GpuView, LIGHT_BYTES, LayerTexture, OBJECT_BYTES, ResolveParams, SceneLight, SurfaceMaterial,
-    TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, attribute_record,
-    decode_normal, encode_normal, light_bytes, object_bytes, outline_words, set_outline,
+    GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES, ResolveParams, SceneLight,
+    SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes,
+    attribute_record, decode_normal, encode_normal, light_bytes, object_bytes, outline_words,
+    set_outline,
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{

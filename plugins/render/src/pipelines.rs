@@ -41,7 +41,7 @@ pub(crate) fn build(render_app: &mut SubApp) {
 #[derive(Resource)]
 pub(crate) struct PathTracerPipelines {
     /// Group 0 of the trace kernel: the record buffers (the split kinds' parts at
-    /// [`part_bindings`]), the texture array and its sampler.
+    /// [`part_bindings`]), the texture array and its sampler, the energy table.
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
     pub view_layout: BindGroupLayoutDescriptor,
@@ -81,6 +81,10 @@ fn init_pipelines(
             .build(6, ShaderStages::COMPUTE),
     );
     scene_entries.push(sampler(SamplerBindingType::Filtering).build(7, ShaderStages::COMPUTE));
+    scene_entries.push(
+        uniform_buffer_sized(false, None)
+            .build(crate::energy::ENERGY_BINDING, ShaderStages::COMPUTE),
+    );
     scene_entries.sort_by_key(|e| e.binding);
     let scene_layout = BindGroupLayoutDescriptor::new("treelight scene", &scene_entries);
     let view_layout = BindGroupLayoutDescriptor::new(

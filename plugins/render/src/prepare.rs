@@ -16,8 +16,8 @@ use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupEntry, BindingResource, Buffer, BufferDescriptor,
-    BufferUsages, CachedComputePipelineId, CachedRenderPipelineId, CommandEncoderDescriptor,
-    PipelineCache,
+    BufferInitDescriptor, BufferUsages, CachedComputePipelineId, CachedRenderPipelineId,
+    CommandEncoderDescriptor, PipelineCache,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::sync_world::MainEntity;
@@ -55,6 +55,8 @@ pub(crate) struct GpuScene {
     pub layout: PartLayout,
     /// Bound where a kind has fewer parts than the kernel declares.
     stand_in: Buffer,
+    /// The GGX lobe's albedo table (`energy.rs`), written once.
+    energy: Buffer,
     pub root: u32,
     pub light_count: u32,
     /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
@@ -156,6 +158,11 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         capacities,
         layout,
         stand_in: create(&device, BufferKind::Instances, 2),
+        energy: device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("treelight energy table"),
+            contents: crate::energy::energy_bytes(),
+            usage: BufferUsages::UNIFORM,
+        }),
         root: u32::MAX,
         light_count: 0,
         generation: 0,
@@ -348,6 +355,10 @@ fn prepare_scene_bind_group(
     entries.push(BindGroupEntry {
         binding: 7,
         resource: BindingResource::Sampler(&layers.sampler),
+    });
+    entries.push(BindGroupEntry {
+        binding: crate::energy::ENERGY_BINDING,
+        resource: scene.energy.as_entire_binding(),
     });
     let group = device.create_bind_group("treelight scene", &layout, &entries);
     scene.bind_group = Some(group);

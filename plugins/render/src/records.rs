@@ -38,11 +38,11 @@ pub struct GpuAttribute {
 pub struct GpuObject {
     /// Rows of the object-to-world normal matrix (the inverse transpose of the linear part).
     pub normal_rows: [[f32; 4]; 3],
-    /// Linear base colour.
+    /// Linear base colour and alpha.
     pub base_color: [f32; 4],
-    /// Emitted radiance (rgb), before exposure.
+    /// Emitted radiance (rgb), before exposure; alpha cutoff (w) of a masked material.
     pub emissive: [f32; 4],
-    /// Metallic, perceptual roughness, reflectance, unused.
+    /// Metallic, perceptual roughness, reflectance, transmission.
     pub params: [f32; 4],
     /// Columns of the UV transform's linear part.
     pub uv_matrix: [f32; 4],
@@ -50,8 +50,30 @@ pub struct GpuObject {
     pub uv_offset: [f32; 2],
     /// Layer of the base-colour texture array; `u32::MAX` untextured.
     pub texture: u32,
-    /// Wrap modes: u in bits 0-1, v in bits 2-3 ([`TextureWrap::code`]).
+    /// Wrap modes, four bits per map in [`MaterialMap`] order (u in the low two,
+    /// [`TextureWrap::code`]); the alpha mode in bits 20-21 ([`SurfaceAlpha::code`]).
     pub wrap: u32,
+    /// Layers of the metallic-roughness, normal, occlusion and emission maps (`u32::MAX`: none).
+    pub maps: [u32; 4],
+    /// Clear coat strength and perceptual roughness, the normal map's green sign, unused.
+    pub coat: [f32; 4],
+    /// Tint of the dielectric's specular reflection (rgb), unused.
+    pub specular: [f32; 4],
+}
+
+/// The maps of a material, in the order of their wrap bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaterialMap {
+    /// Base colour (sRGB) and alpha.
+    BaseColor = 0,
+    /// Roughness (green) and metalness (blue).
+    MetallicRoughness = 1,
+    /// Tangent-space normal.
+    Normal = 2,
+    /// Ambient occlusion (red).
+    Occlusion = 3,
+    /// Emission (sRGB).
+    Emissive = 4,
 }
 
 /// `Light` of `pathtrace.wgsl`.
@@ -340,10 +362,33 @@ pub struct LayerTexture {
     pub wrap: [TextureWrap; 2],
 }
 
+/// How a material's alpha is used (glTF's alpha modes, as Bevy's `AlphaMode` has them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SurfaceAlpha {
+    /// Solid.
+    #[default]
+    Opaque,
+    /// Not there where alpha is below the cutoff: rays pass, shadow rays too.
+    Mask(f32),
+    /// Lets `1 - alpha` of the light through, tinted by the base colour (as transmission).
+    Blend,
+}
+
+impl SurfaceAlpha {
+    /// The kernel's code for the mode (two bits).
+    pub fn code(self) -> u32 {
+        match self {
+            SurfaceAlpha::Opaque => 0,
+            SurfaceAlpha::Mask(_) => 1,
+            SurfaceAlpha::Blend => 2,
+        }
+    }
+}
+
 /// A surface as the path tracer shades it: Bevy's `StandardMaterial` reduced to what the kernel uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceMaterial {
-    /// Linear base colour (alpha unused).
+    /// Linear base colour and alpha.
     pub base_color: [f32; 4],
     /// Emitted radiance, linear RGB, before exposure.
     pub emissive: [f32; 3],
@@ -353,9 +398,30 @@ pub struct SurfaceMaterial {
     pub perceptual_roughness: f32,
     /// Dielectric specular reflectance (0.5 is 4%).
     pub reflectance: f32,
+    /// Tint of the dielectric's specular reflection, linear.
+    pub specular_tint: [f32; 3],
+    /// Fraction of the dielectric's unreflected light that passes through (thin-walled).
+    pub transmission: f32,
+    /// Clear coat strength, 0 to 1.
+    pub clearcoat: f32,
+    /// The clear coat's perceptual roughness.
+    pub clearcoat_roughness: f32,
+    /// What alpha means.
+    pub alpha: SurfaceAlpha,
     /// Base-colour texture, multiplied with `base_color`; `None` untextured.
     pub base_color_texture: Option<LayerTexture>,
-    /// Applied to the mesh's UVs before the texture is read (Bevy's `uv_transform`).
+    /// Roughness (green) and metalness (blue), multiplying the factors.
+    pub metallic_roughness_texture: Option<LayerTexture>,
+    /// Tangent-space normal map (tangents made per triangle from its UVs).
+    pub normal_texture: Option<LayerTexture>,
+    /// Sign of the normal map's green channel: -1 for maps whose y points down (Bevy's
+    /// `flip_normal_map_y`).
+    pub normal_y: f32,
+    /// Ambient occlusion (red), dimming the light bounced off the surface.
+    pub occlusion_texture: Option<LayerTexture>,
+    /// Emission map, multiplying `emissive`.
+    pub emissive_texture: Option<LayerTexture>,
+    /// Applied to the mesh's UVs before a texture is read (Bevy's `uv_transform`).
     pub uv_transform: Affine2,
 }
 
@@ -367,7 +433,17 @@ impl Default for SurfaceMaterial {
             metallic: 0.0,
             perceptual_roughness: 0.5,
             reflectance: 0.5,
+            specular_tint: [1.0; 3],
+            transmission: 0.0,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.5,
+            alpha: SurfaceAlpha::Opaque,
             base_color_texture: None,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_y: 1.0,
+            occlusion_texture: None,
+            emissive_texture: None,
             uv_transform: Affine2::IDENTITY,
         }
     }
@@ -380,14 +456,34 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
     let normal = if inv.is_finite() { inv } else { Mat3::IDENTITY };
     let row = |c: Vec3| [c.x, c.y, c.z, 0.0];
     let uv = m.uv_transform;
-    let (texture, wrap) = m.base_color_texture.map_or((u32::MAX, 0), |t| {
-        (t.layer, t.wrap[0].code() | (t.wrap[1].code() << 2))
-    });
+    let maps = [
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.normal_texture,
+        m.occlusion_texture,
+        m.emissive_texture,
+    ];
+    let mut wrap = m.alpha.code() << 20;
+    for (i, t) in maps.iter().enumerate() {
+        if let Some(t) = t {
+            wrap |= (t.wrap[0].code() | (t.wrap[1].code() << 2)) << (4 * i);
+        }
+    }
+    let layer = |t: Option<LayerTexture>| t.map_or(u32::MAX, |t| t.layer);
+    let cutoff = match m.alpha {
+        SurfaceAlpha::Mask(c) => c,
+        _ => 0.0,
+    };
     let record = GpuObject {
         normal_rows: [row(normal.x_axis), row(normal.y_axis), row(normal.z_axis)],
         base_color: m.base_color,
-        emissive: [m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
-        params: [m.metallic, m.perceptual_roughness, m.reflectance, 0.0],
+        emissive: [m.emissive[0], m.emissive[1], m.emissive[2], cutoff],
+        params: [
+            m.metallic,
+            m.perceptual_roughness,
+            m.reflectance,
+            m.transmission,
+        ],
         uv_matrix: [
             uv.matrix2.x_axis.x,
             uv.matrix2.x_axis.y,
@@ -395,8 +491,21 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
             uv.matrix2.y_axis.y,
         ],
         uv_offset: uv.translation.to_array(),
-        texture,
+        texture: layer(m.base_color_texture),
         wrap,
+        maps: [
+            layer(m.metallic_roughness_texture),
+            layer(m.normal_texture),
+            layer(m.occlusion_texture),
+            layer(m.emissive_texture),
+        ],
+        coat: [m.clearcoat, m.clearcoat_roughness, m.normal_y, 0.0],
+        specular: [
+            m.specular_tint[0],
+            m.specular_tint[1],
+            m.specular_tint[2],
+            0.0,
+        ],
     };
     bytemuck::bytes_of(&record).to_vec()
 }

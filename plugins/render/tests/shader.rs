@@ -174,7 +174,10 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 uv_matrix,
                 uv_offset,
                 texture,
-                wrap
+                wrap,
+                maps,
+                coat,
+                specular
             ]
         )
     );

@@ -263,6 +263,8 @@ pub struct Layers {
     pub view: wgpu::TextureView,
     pub sampler: wgpu::Sampler,
     pub size: u32,
+    /// The GGX albedo table the kernel binds beside the layers.
+    pub energy: wgpu::Buffer,
 }
 
 impl Gpu {
@@ -298,6 +300,7 @@ impl Gpu {
             view,
             sampler,
             size,
+            energy: self.uniform(treelight_render::energy_bytes()),
         }
     }
 
@@ -457,12 +460,21 @@ impl Gpu {
             wgpu::BindingResource::TextureView(&layers.view),
             wgpu::BindingResource::Sampler(&layers.sampler),
         ]);
+        let scene_group: Vec<(u32, wgpu::BindingResource)> = scene_group
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| (i as u32, r))
+            .chain([(
+                treelight_render::ENERGY_BINDING,
+                layers.energy.as_entire_binding(),
+            )])
+            .collect();
         let view_group = vec![
-            uniform.as_entire_binding(),
-            target.accum.as_entire_binding(),
-            target.aux.as_entire_binding(),
+            (0, uniform.as_entire_binding()),
+            (1, target.accum.as_entire_binding()),
+            (2, target.aux.as_entire_binding()),
         ];
-        self.dispatch_groups(pipeline, vec![scene_group, view_group], view.workgroups());
+        self.dispatch_indexed(pipeline, vec![scene_group, view_group], view.workgroups());
     }
 }
 
@@ -532,6 +544,10 @@ impl Gpu {
         }
         scene_group.push((6, wgpu::BindingResource::TextureView(&layers.view)));
         scene_group.push((7, wgpu::BindingResource::Sampler(&layers.sampler)));
+        scene_group.push((
+            treelight_render::ENERGY_BINDING,
+            layers.energy.as_entire_binding(),
+        ));
         let view_group = vec![
             (0, uniform.as_entire_binding()),
             (1, target.accum.as_entire_binding()),

@@ -1,0 +1,452 @@
+//! glTF materials on the adapter, against independent truths:
+//!
+//! * The white furnace: a sphere of base colour 1 under a uniform white sky, with nothing else in
+//!   the world, must return the sky's radiance (energy is neither made nor lost) for roughness 0 to
+//!   1, metallic 0 and 1, under a clear coat and through a thin transmitting wall. Stated error:
+//!   the mean over the sphere's pixels within 3% of the sky.
+//! * Masked alpha: which object each pixel's ray meets, through a checkered mask on a quad kept
+//!   whole under a transform, against a CPU ray cast that reads the same alpha the same way.
+//! * Masked shadows: an occluder whose mask cuts all of it away leaves the image as it is without
+//!   it; the same occluder solid casts a shadow.
+
+mod support;
+
+use std::f32::consts::PI;
+use support::{Gpu, floats, put_record};
+use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use treelight_bvh::{Bvh, GroupId, Triangle};
+use treelight_render::{
+    ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight,
+    SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, ViewParams, attribute_bytes,
+    light_bytes, object_bytes,
+};
+
+/// A scene as the kernel reads it: the tree, each group's material and corners' shading.
+struct Scene {
+    bvh: Bvh,
+    attrs: Vec<u8>,
+    objects: Vec<u8>,
+}
+
+impl Scene {
+    fn new() -> Self {
+        Self {
+            bvh: Bvh::default(),
+            attrs: Vec::new(),
+            objects: Vec::new(),
+        }
+    }
+
+    /// Adds a mesh: triangles with per-corner normals and UVs (object space), placed by
+    /// `transform` (kept whole: traced as an instance).
+    fn add(
+        &mut self,
+        tris: &[(Triangle, Option<[Vec3; 3]>, [Vec2; 3])],
+        transform: Affine3A,
+        keep_whole: bool,
+        material: &SurfaceMaterial,
+    ) -> GroupId {
+        let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
+        let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
+        let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
+        self.attrs.resize(need.max(self.attrs.len()), 0);
+        for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
+            let (_, n, uv) = tris[k];
+            put_record(
+                &mut self.attrs,
+                id,
+                &attribute_bytes(n, Some(uv), g.index()),
+            );
+        }
+        let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
+        self.objects.resize(need.max(self.objects.len()), 0);
+        put_record(
+            &mut self.objects,
+            g.index(),
+            &object_bytes(Mat3::from(transform.matrix3), material),
+        );
+        g
+    }
+}
+
+/// A unit sphere of `rings` × `2 rings` quads with smooth normals.
+fn sphere(rings: u32) -> Vec<(Triangle, Option<[Vec3; 3]>, [Vec2; 3])> {
+    let segments = rings * 2;
+    let p = |i: u32, j: u32| {
+        let theta = PI * i as f32 / rings as f32;
+        let phi = 2.0 * PI * j as f32 / segments as f32;
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        )
+    };
+    let uv = |i: u32, j: u32| Vec2::new(j as f32 / segments as f32, i as f32 / rings as f32);
+    let mut out = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let c = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+            for f in [[0, 1, 2], [0, 2, 3]] {
+                let [a, b, d] = f.map(|k| c[k]);
+                let (pa, pb, pd) = (p(a.0, a.1), p(b.0, b.1), p(d.0, d.1));
+                if (pb - pa).cross(pd - pa).length_squared() < 1e-12 {
+                    continue;
+                }
+                out.push((
+                    Triangle::new(pa, pb, pd),
+                    Some([pa, pb, pd]),
+                    [uv(a.0, a.1), uv(b.0, b.1), uv(d.0, d.1)],
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Two triangles over the square `half` from the origin in the z = 0 plane, facing +z; UVs 0..1
+/// across it, v growing downwards.
+fn square(half: f32) -> Vec<(Triangle, Option<[Vec3; 3]>, [Vec2; 3])> {
+    let c = [
+        Vec2::new(-half, -half),
+        Vec2::new(half, -half),
+        Vec2::new(half, half),
+        Vec2::new(-half, half),
+    ];
+    let uv = |p: Vec2| Vec2::new(p.x / (2.0 * half) + 0.5, 0.5 - p.y / (2.0 * half));
+    [[0, 1, 2], [0, 2, 3]]
+        .iter()
+        .map(|f| {
+            let p = f.map(|k| c[k]);
+            (
+                Triangle::new(p[0].extend(0.0), p[1].extend(0.0), p[2].extend(0.0)),
+                None,
+                p.map(uv),
+            )
+        })
+        .collect()
+}
+
+fn camera(eye: Vec3, target: Vec3, up: Vec3, fov: f32) -> Mat4 {
+    let view = Mat4::look_at_rh(eye, target, up);
+    let proj = Mat4::perspective_infinite_reverse_rh(fov.to_radians(), 1.0, 0.1);
+    (proj * view).inverse()
+}
+
+struct Trace {
+    size: u32,
+    samples: u32,
+    bounces: u32,
+    sky: Vec3,
+    mode: u32,
+    world_from_clip: Mat4,
+    lights: Vec<SceneLight>,
+}
+
+/// The mean radiance per pixel and each pixel's primary object slot.
+fn trace(gpu: &Gpu, scene: &Scene, layers: &support::Layers, t: &Trace) -> (Vec<Vec3>, Vec<u32>) {
+    let lights: Vec<u8> = t.lights.iter().flat_map(light_bytes).collect();
+    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &lights);
+    let target = gpu.trace_target(t.size, t.size);
+    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let per = t.samples.min(16);
+    for _ in 0..t.samples / per {
+        let params = ViewParams {
+            world_from_clip: t.world_from_clip,
+            sky: t.sky,
+            exposure: 1.0,
+            width: t.size,
+            height: t.size,
+            root: scene.bvh.gpu_root(),
+            max_bounces: t.bounces,
+            samples: per,
+            mode: t.mode,
+            light_count: t.lights.len() as u32,
+            indirect_clamp: 0.0,
+            work: TraceWork::WHOLE_IMAGE,
+            part_shift: treelight_render::MAX_PART_SHIFT,
+        };
+        gpu.path_trace(&pipeline, &buffers, &params, &target, layers);
+    }
+    let image = floats(&gpu.read(&target.accum))
+        .chunks_exact(4)
+        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
+        .collect();
+    (image, gpu.read_objects(&target))
+}
+
+#[test]
+fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let mesh = sphere(48);
+    let white = |metallic: f32, roughness: f32| SurfaceMaterial {
+        base_color: [1.0; 4],
+        metallic,
+        perceptual_roughness: roughness,
+        ..Default::default()
+    };
+    let mut cases: Vec<(String, SurfaceMaterial)> = Vec::new();
+    for metallic in [0.0, 1.0] {
+        for roughness in [0.0, 0.25, 0.5, 0.75, 1.0] {
+            cases.push((
+                format!("metallic {metallic}, roughness {roughness}"),
+                white(metallic, roughness),
+            ));
+        }
+    }
+    cases.push((
+        "clear coat 1 (0.3) over roughness 0.6".into(),
+        SurfaceMaterial {
+            clearcoat: 1.0,
+            clearcoat_roughness: 0.3,
+            ..white(0.0, 0.6)
+        },
+    ));
+    for (transmission, roughness) in [(1.0, 0.0), (1.0, 0.4), (1.0, 1.0), (0.5, 0.5)] {
+        cases.push((
+            format!("transmission {transmission}, roughness {roughness}"),
+            SurfaceMaterial {
+                transmission,
+                ..white(0.0, roughness)
+            },
+        ));
+    }
+    let mut worst = 0.0f32;
+    let mut table = String::new();
+    for (name, material) in &cases {
+        let mut scene = Scene::new();
+        let g = scene.add(&mesh, Affine3A::IDENTITY, false, material);
+        let (image, slots) = trace(
+            &gpu,
+            &scene,
+            &layers,
+            &Trace {
+                size: 40,
+                samples: 64,
+                bounces: 12,
+                sky: Vec3::ONE,
+                mode: DebugView::PathTraced.shader_index(),
+                world_from_clip: camera(Vec3::new(0.3, 0.8, 3.0), Vec3::ZERO, Vec3::Y, 45.0),
+                lights: Vec::new(),
+            },
+        );
+        let on: Vec<Vec3> = image
+            .iter()
+            .zip(&slots)
+            .filter(|(_, s)| **s == g.index())
+            .map(|(c, _)| *c)
+            .collect();
+        assert!(
+            on.len() > 400,
+            "{name}: the sphere covers {} pixels",
+            on.len()
+        );
+        let mean = on.iter().copied().sum::<Vec3>() / on.len() as f32;
+        let err = (mean - Vec3::ONE).abs().max_element();
+        table.push_str(&format!("{name}: {mean:.4}\n"));
+        worst = worst.max(err);
+    }
+    eprintln!("{table}");
+    assert!(
+        worst < 0.03,
+        "the furnace is off by {worst:.4} somewhere:\n{table}"
+    );
+}
+
+const MASK_SIZE: u32 = 96;
+const MASK_TEXELS: u32 = 8;
+
+/// The checker's alpha, texel (x, y): solid where x + y is even.
+fn checker_alpha(x: u32, y: u32) -> f32 {
+    if (x + y) % 2 == 0 { 1.0 } else { 0.0 }
+}
+
+/// Bilinear alpha of the checker at texture coordinate st (clamped to the edge), as the sampler
+/// reads the layer.
+fn checker_at(st: Vec2) -> f32 {
+    let n = MASK_TEXELS as f32;
+    let p = st.clamp(Vec2::ZERO, Vec2::ONE) * n - Vec2::splat(0.5);
+    let i = p.floor();
+    let f = p - i;
+    let texel = |dx: f32, dy: f32| {
+        let x = (i.x + dx).clamp(0.0, n - 1.0) as u32;
+        let y = (i.y + dy).clamp(0.0, n - 1.0) as u32;
+        checker_alpha(x, y)
+    };
+    let a = texel(0.0, 0.0) * (1.0 - f.x) + texel(1.0, 0.0) * f.x;
+    let b = texel(0.0, 1.0) * (1.0 - f.x) + texel(1.0, 1.0) * f.x;
+    a * (1.0 - f.y) + b * f.y
+}
+
+#[test]
+fn masked_alpha_lets_rays_through_where_the_cpu_says() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(MASK_TEXELS, 2);
+    let image: Vec<u8> = (0..MASK_TEXELS * MASK_TEXELS)
+        .flat_map(|i| {
+            let a = checker_alpha(i % MASK_TEXELS, i / MASK_TEXELS);
+            [255, 255, 255, (a * 255.0) as u8]
+        })
+        .collect();
+    gpu.copy_to_layer(&layers, 1, MASK_TEXELS, MASK_TEXELS, &image);
+    let mut scene = Scene::new();
+    // The wall behind, baked; the masked quad in front, kept whole under a turn and a shift.
+    let wall = scene.add(
+        &square(3.0),
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, -1.0)),
+        false,
+        &SurfaceMaterial::default(),
+    );
+    let place = Affine3A::from_rotation_translation(
+        treelight_bvh::glam::Quat::from_rotation_y(0.35),
+        Vec3::new(0.1, 0.0, 0.2),
+    );
+    let quad = scene.add(
+        &square(1.0),
+        place,
+        true,
+        &SurfaceMaterial {
+            base_color: [1.0, 1.0, 1.0, 1.0],
+            alpha: SurfaceAlpha::Mask(0.5),
+            base_color_texture: Some(LayerTexture {
+                layer: 1,
+                wrap: [TextureWrap::Clamp; 2],
+            }),
+            ..Default::default()
+        },
+    );
+    let wfc = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 50.0);
+    let (_, slots) = trace(
+        &gpu,
+        &scene,
+        &layers,
+        &Trace {
+            size: MASK_SIZE,
+            samples: 1,
+            bounces: 1,
+            sky: Vec3::ZERO,
+            mode: DebugView::TriangleId.shader_index(),
+            world_from_clip: wfc,
+            lights: Vec::new(),
+        },
+    );
+    let to_quad = place.inverse();
+    let (mut checked, mut through, mut wrong) = (0, 0, Vec::new());
+    for y in 0..MASK_SIZE {
+        for x in 0..MASK_SIZE {
+            let ndc = Vec2::new(
+                (x as f32 + 0.5) / MASK_SIZE as f32 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / MASK_SIZE as f32 * 2.0,
+            );
+            let near = wfc.project_point3(ndc.extend(1.0));
+            let dir = (wfc.project_point3(ndc.extend(0.5)) - near).normalize();
+            // The quad in its own space: z = 0, within ±1.
+            let (o, d) = (
+                to_quad.transform_point3(near),
+                to_quad.transform_vector3(dir),
+            );
+            let t = -o.z / d.z;
+            let q = o + d * t;
+            let mut want = None;
+            if t > 0.0 && q.x.abs() < 0.99 && q.y.abs() < 0.99 {
+                let st = Vec2::new(q.x / 2.0 + 0.5, 0.5 - q.y / 2.0);
+                let a = checker_at(st);
+                if (a - 0.5).abs() < 0.15 {
+                    continue;
+                }
+                if a >= 0.5 {
+                    want = Some(quad.index());
+                } else {
+                    through += 1;
+                }
+            } else if t > 0.0 && (q.x.abs() < 1.01 && q.y.abs() < 1.01) {
+                continue;
+            }
+            let want = want.unwrap_or(wall.index());
+            checked += 1;
+            let got = slots[(y * MASK_SIZE + x) as usize];
+            if got != want {
+                wrong.push((x, y, got, want));
+            }
+        }
+    }
+    eprintln!("{checked} pixels checked, {through} through the mask's holes");
+    assert!(
+        checked > 5000 && through > 800,
+        "{checked} checked, {through} through"
+    );
+    assert!(
+        wrong.is_empty(),
+        "{} pixels meet the wrong object, first {:?}",
+        wrong.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+}
+
+#[test]
+fn a_mask_that_cuts_everything_away_casts_no_shadow() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let floor = Affine3A::from_rotation_x(-PI / 2.0);
+    let occluder = Affine3A::from_rotation_translation(
+        treelight_bvh::glam::Quat::from_rotation_x(-PI / 2.0),
+        Vec3::new(0.0, 0.6, 0.0),
+    );
+    let t = Trace {
+        size: 32,
+        samples: 16,
+        bounces: 2,
+        sky: Vec3::ZERO,
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip: camera(Vec3::new(0.0, 2.5, 2.5), Vec3::ZERO, Vec3::Y, 50.0),
+        lights: vec![SceneLight::Point {
+            position: Vec3::new(0.0, 2.0, 0.0),
+            power: Vec3::splat(4.0 * PI * 4.0),
+            radius: 0.0,
+            range: None,
+        }],
+    };
+    let scene_with = |alpha: f32| {
+        let mut s = Scene::new();
+        s.add(&square(2.0), floor, false, &SurfaceMaterial::default());
+        if alpha >= 0.0 {
+            s.add(
+                &square(0.5),
+                occluder,
+                true,
+                &SurfaceMaterial {
+                    base_color: [0.8, 0.8, 0.8, alpha],
+                    alpha: SurfaceAlpha::Mask(0.5),
+                    ..Default::default()
+                },
+            );
+        }
+        s
+    };
+    let (bare, _) = trace(&gpu, &scene_with(-1.0), &layers, &t);
+    let (cut_away, _) = trace(&gpu, &scene_with(0.0), &layers, &t);
+    let (solid, slots) = trace(&gpu, &scene_with(1.0), &layers, &t);
+    let worst = bare
+        .iter()
+        .zip(&cut_away)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 1e-4,
+        "a fully masked occluder changed a pixel by {worst}"
+    );
+    // The floor's pixels the solid occluder leaves in view: darker where its shadow falls.
+    let floor_slot = 0;
+    let (mut lit, mut shaded, mut darker) = (0.0, 0.0, 0);
+    for ((a, b), s) in bare.iter().zip(&solid).zip(&slots) {
+        if *s == floor_slot {
+            lit += a.x;
+            shaded += b.x;
+            darker += (b.x < 0.5 * a.x) as u32;
+        }
+    }
+    assert!(
+        darker > 20 && shaded < 0.95 * lit,
+        "the solid occluder casts no shadow: {darker} pixels darker, {shaded} against {lit}"
+    );
+}
