@@ -12,8 +12,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::command::LightKind;
-use treelight_document::edit::command::MaterialValue;
 use treelight_document::edit::command::TransformValue;
+use treelight_document::edit::command::{MaterialAlpha, MaterialValue};
 use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
@@ -206,6 +206,10 @@ fn edited_scene() -> App {
     let mut m = MaterialValue::of(&StandardMaterial::default());
     m.base_color = [0.1, 0.5, 0.9, 1.0];
     m.emissive = [2.0, 0.0, 0.0];
+    m.transmission = Some(0.7);
+    m.clearcoat = Some(0.4);
+    m.clearcoat_roughness = Some(0.2);
+    m.alpha = Some(MaterialAlpha::Mask(0.3));
     apply(&mut app, EditCommand::MakeMaterialUnique { id: lenses });
     apply(
         &mut app,

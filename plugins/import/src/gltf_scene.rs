@@ -43,6 +43,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         textures: &mut scene.textures,
         warnings: &mut scene.warnings,
         budget,
+        material: String::new(),
     };
     let mut materials = Vec::with_capacity(document.materials().len());
     for m in document.materials() {

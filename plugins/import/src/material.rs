@@ -17,6 +17,8 @@ pub(crate) struct MaterialReader<'a, 'p> {
     pub textures: &'a mut Vec<ImportedTexture>,
     pub warnings: &'a mut Vec<String>,
     pub budget: &'a mut Budget<'p>,
+    /// The name of the material being read, for warnings.
+    pub material: String,
 }
 
 /// `KHR_texture_transform` from the raw JSON of a texture reference the gltf crate does not parse
@@ -48,13 +50,14 @@ impl MaterialReader<'_, '_> {
         map: [[f32; 2]; 3],
         role: &str,
     ) -> Result<Option<TextureRef>, ImportError> {
+        let role = format!("material '{}': its {role}", self.material);
         self.images.map(
             self.path,
             self.buffers,
             texture,
             tex_coord,
             map,
-            role,
+            &role,
             self.textures,
             self.warnings,
             self.budget,
@@ -120,6 +123,7 @@ impl MaterialReader<'_, '_> {
             || format!("material {}", m.index().unwrap_or(0)),
             str::to_owned,
         );
+        self.material = name.clone();
         let d = ImportedMaterial::default();
         let pbr = m.pbr_metallic_roughness();
         let mut out = ImportedMaterial {
@@ -268,6 +272,22 @@ impl MaterialReader<'_, '_> {
             {
                 self.unread(&name, "clearcoat texture");
             }
+        }
+        let maps = [
+            &out.base_color_texture,
+            &out.metallic_roughness_texture,
+            &out.normal_texture,
+            &out.occlusion_texture,
+            &out.emissive_texture,
+        ];
+        let mut transforms = maps.iter().filter_map(|m| m.map(|r| r.uv_transform));
+        if let Some(first) = transforms.next()
+            && transforms.any(|t| t != first)
+        {
+            self.warnings.push(format!(
+                "material '{name}': its maps have different KHR_texture_transforms; all are drawn \
+                 with the first map's"
+            ));
         }
         Ok(out)
     }

@@ -57,17 +57,189 @@ fn base_colour_textures_are_decoded_once_with_their_wrap_modes() {
     colours.sort_unstable();
     colours.dedup();
     assert!(colours.len() > 10, "{} colours", colours.len());
-    // FlightHelmet: five base-colour PNGs beside the file, one per material.
+    // FlightHelmet: fifteen PNGs beside the file, three per look (base colour, normal, and
+    // occlusion-roughness-metal packed in one image, used by two maps), decoded once each.
     let h = load_scene(&scene("gltf/FlightHelmet/FlightHelmet.gltf")).unwrap();
     assert!(h.warnings.is_empty(), "{:?}", h.warnings);
-    assert_eq!(h.textures.len(), 5);
-    assert!(h.textures.iter().all(|t| t.name.contains("BaseColor")));
+    assert_eq!(h.textures.len(), 15);
+    let name = |r: Option<treelight_import::TextureRef>| {
+        h.textures[r.expect("every helmet material has every map").texture]
+            .name
+            .clone()
+    };
     for m in &h.materials {
-        let r = m
-            .base_color_texture
-            .expect("every helmet material is textured");
+        let r = m.base_color_texture.unwrap();
         assert_eq!(r.wrap, [WrapMode::Repeat; 2]);
+        assert!(
+            name(m.base_color_texture).contains("BaseColor"),
+            "{}",
+            m.name
+        );
+        assert!(name(m.normal_texture).contains("Normal"), "{}", m.name);
+        assert!(name(m.metallic_roughness_texture).contains("OcclusionRoughMetal"));
+        assert_eq!(
+            m.occlusion_texture.unwrap().texture,
+            m.metallic_roughness_texture.unwrap().texture,
+            "{}: one packed image serves both maps",
+            m.name
+        );
+        assert!(m.emissive_texture.is_none());
+        let blend = m.alpha_mode == treelight_import::ImportedAlphaMode::Blend;
+        assert_eq!(blend, m.name == "LensesMat", "{}", m.name);
     }
+}
+
+#[test]
+fn every_material_map_alpha_mode_and_extension_is_read() {
+    let (dir, path, mut json) = copy_box_textured("material-ext");
+    let used = [
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_specular",
+        "KHR_materials_clearcoat",
+        "KHR_materials_emissive_strength",
+        "KHR_texture_transform",
+    ];
+    json["extensionsUsed"] = serde_json::json!(used);
+    json["materials"][0] = serde_json::json!({
+        "name": "everything",
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 0.5, 0.25, 0.8],
+            "baseColorTexture": {"index": 0},
+            "metallicRoughnessTexture": {"index": 0},
+            "metallicFactor": 0.3,
+            "roughnessFactor": 0.7
+        },
+        "normalTexture": {"index": 0, "scale": 0.5},
+        "occlusionTexture": {"index": 0, "strength": 0.25},
+        "emissiveTexture": {"index": 0},
+        "emissiveFactor": [1.0, 0.5, 0.0],
+        "alphaMode": "MASK",
+        "alphaCutoff": 0.3,
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 0.6},
+            "KHR_materials_ior": {"ior": 1.33},
+            "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1.0, 0.9, 0.8]},
+            "KHR_materials_clearcoat": {"clearcoatFactor": 0.75, "clearcoatRoughnessFactor": 0.2},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 4.0}
+        }
+    });
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.materials[0];
+    assert_eq!(m.base_color, [1.0, 0.5, 0.25, 0.8]);
+    assert_eq!((m.metallic, m.roughness), (0.3, 0.7));
+    assert_eq!(m.emissive, [4.0, 2.0, 0.0]);
+    assert_eq!(m.normal_scale, 0.5);
+    assert_eq!(m.occlusion_strength, 0.25);
+    assert_eq!(
+        m.alpha_mode,
+        treelight_import::ImportedAlphaMode::Mask { cutoff: 0.3 }
+    );
+    assert_eq!(m.transmission, 0.6);
+    assert_eq!(m.ior, 1.33);
+    assert_eq!((m.specular, m.specular_color), (0.5, [1.0, 0.9, 0.8]));
+    assert_eq!((m.clearcoat, m.clearcoat_roughness), (0.75, 0.2));
+    for map in [
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.normal_texture,
+        m.occlusion_texture,
+        m.emissive_texture,
+    ] {
+        assert_eq!(map.expect("every map is read").texture, 0);
+    }
+    // One image, decoded once for all five maps.
+    assert_eq!(s.textures.len(), 1);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn hostile_material_values_are_clamped_with_a_warning() {
+    let (dir, path, mut json) = copy_box_textured("material-hostile");
+    json["extensionsUsed"] = serde_json::json!([
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_clearcoat",
+        "KHR_materials_emissive_strength",
+        "KHR_texture_transform"
+    ]);
+    json["materials"][0] = serde_json::json!({
+        "name": "hostile",
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [7.0, -1.0, 0.5, 1.0],
+            "roughnessFactor": 1e30,
+            "metallicFactor": -3.0
+        },
+        "normalTexture": {"index": 0, "scale": 1e9, "texCoord": 1},
+        "occlusionTexture": {
+            "index": 0,
+            "extensions": {"KHR_texture_transform": {"scale": [1e39, 1.0]}}
+        },
+        "emissiveFactor": [1.0, 1.0, 1.0],
+        "alphaMode": "MASK",
+        "alphaCutoff": 40.0,
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 9.0},
+            "KHR_materials_ior": {"ior": 1000.0},
+            "KHR_materials_clearcoat": {"clearcoatFactor": "lots", "clearcoatRoughnessFactor": -1},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 1e38}
+        }
+    });
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = match load_scene(&path) {
+        Ok(s) => s,
+        // The gltf crate's own validation may refuse some values outright: then the error names
+        // the file.
+        Err(e) => {
+            assert_eq!(e.file, path);
+            std::fs::remove_dir_all(&dir).ok();
+            return;
+        }
+    };
+    let m = &s.materials[0];
+    let all = [
+        m.base_color[0],
+        m.base_color[1],
+        m.metallic,
+        m.roughness,
+        m.transmission,
+        m.ior,
+        m.clearcoat,
+        m.clearcoat_roughness,
+        m.normal_scale,
+    ];
+    assert!(all.iter().all(|v| v.is_finite()), "{m:?}");
+    assert_eq!(m.base_color[..2], [1.0, 0.0]);
+    assert_eq!((m.metallic, m.roughness, m.transmission), (0.0, 1.0, 1.0));
+    assert_eq!(m.ior, 5.0);
+    assert_eq!(m.clearcoat_roughness, 0.0);
+    assert!(m.emissive.iter().all(|e| e.is_finite() && *e <= 1e6));
+    assert_eq!(
+        m.alpha_mode,
+        treelight_import::ImportedAlphaMode::Mask { cutoff: 1.0 }
+    );
+    // A second UV set and an infinite transform: those maps are left out, each with a warning.
+    assert!(m.normal_texture.is_none() && m.occlusion_texture.is_none());
+    let text = s.warnings.join("\n");
+    for part in [
+        "texture coordinate set 1",
+        "non-finite KHR_texture_transform",
+        "roughness factor",
+        "index of refraction",
+        "emissive strength",
+        "alpha cutoff",
+    ] {
+        assert!(text.contains(part), "no warning about {part}: {text}");
+    }
+    assert!(
+        s.warnings
+            .iter()
+            .all(|w| w.contains("'hostile'") || w.contains("BoxTextured")),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

@@ -21,6 +21,9 @@ use treelight_render::{
     light_bytes, object_bytes,
 };
 
+/// A triangle with its corners' normals (when it has them) and UVs.
+type ShadedTriangle = (Triangle, Option<[Vec3; 3]>, [Vec2; 3]);
+
 /// A scene as the kernel reads it: the tree, each group's material and corners' shading.
 struct Scene {
     bvh: Bvh,
@@ -41,7 +44,7 @@ impl Scene {
     /// `transform` (kept whole: traced as an instance).
     fn add(
         &mut self,
-        tris: &[(Triangle, Option<[Vec3; 3]>, [Vec2; 3])],
+        tris: &[ShadedTriangle],
         transform: Affine3A,
         keep_whole: bool,
         material: &SurfaceMaterial,
@@ -70,7 +73,7 @@ impl Scene {
 }
 
 /// A unit sphere of `rings` × `2 rings` quads with smooth normals.
-fn sphere(rings: u32) -> Vec<(Triangle, Option<[Vec3; 3]>, [Vec2; 3])> {
+fn sphere(rings: u32) -> Vec<ShadedTriangle> {
     let segments = rings * 2;
     let p = |i: u32, j: u32| {
         let theta = PI * i as f32 / rings as f32;
@@ -105,7 +108,7 @@ fn sphere(rings: u32) -> Vec<(Triangle, Option<[Vec3; 3]>, [Vec2; 3])> {
 
 /// Two triangles over the square `half` from the origin in the z = 0 plane, facing +z; UVs 0..1
 /// across it, v growing downwards.
-fn square(half: f32) -> Vec<(Triangle, Option<[Vec3; 3]>, [Vec2; 3])> {
+fn square(half: f32) -> Vec<ShadedTriangle> {
     let c = [
         Vec2::new(-half, -half),
         Vec2::new(half, -half),
@@ -258,7 +261,7 @@ const MASK_TEXELS: u32 = 8;
 
 /// The checker's alpha, texel (x, y): solid where x + y is even.
 fn checker_alpha(x: u32, y: u32) -> f32 {
-    if (x + y) % 2 == 0 { 1.0 } else { 0.0 }
+    if (x + y).is_multiple_of(2) { 1.0 } else { 0.0 }
 }
 
 /// Bilinear alpha of the checker at texture coordinate st (clamped to the edge), as the sampler

@@ -12,7 +12,7 @@ use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
 use bevy_egui::{EguiTextureHandle, EguiUserTextures};
-use treelight_document::edit::command::MaterialValue;
+use treelight_document::edit::command::{MaterialAlpha, MaterialValue};
 use treelight_document::edit::history::EditRequests;
 use treelight_document::light::{
     LightKind, LightParts, LightValue, candela_to_lumens, lumens_to_candela,
@@ -168,6 +168,63 @@ pub fn inspector_ui(
             ui.label("Roughness");
             ui.add(egui::Slider::new(&mut v.perceptual_roughness, 0.0..=1.0));
             ui.end_row();
+            ui.label("Alpha");
+            ui.horizontal(|ui| {
+                let mut alpha = v.alpha.unwrap_or(MaterialAlpha::Opaque);
+                let combo = egui::ComboBox::from_id_salt("material-alpha")
+                    .selected_text(alpha.label())
+                    .show_ui(ui, |ui| {
+                        for mode in MaterialAlpha::ALL {
+                            let same =
+                                std::mem::discriminant(&alpha) == std::mem::discriminant(&mode);
+                            let item = ui.selectable_label(same, mode.label());
+                            if item.clicked() && !same {
+                                alpha = mode;
+                            }
+                            widgets.push(format!("Material alpha {}", mode.label()), item.rect);
+                        }
+                    });
+                widgets.push("Material alpha", combo.response.rect);
+                if let MaterialAlpha::Mask(cutoff) = &mut alpha {
+                    ui.add(egui::Slider::new(cutoff, 0.0..=1.0).text("cutoff"))
+                        .on_hover_text("Parts whose alpha is below the cutoff are cut away");
+                }
+                if v.alpha.is_some() || alpha != MaterialAlpha::Opaque {
+                    v.alpha = Some(alpha);
+                }
+            });
+            ui.end_row();
+            let mut fraction =
+                |ui: &mut egui::Ui, label: &str, value: &mut Option<f32>, hint: &str| {
+                    ui.label(label);
+                    let mut x = value.unwrap_or(0.0);
+                    let slider = ui
+                        .add(egui::Slider::new(&mut x, 0.0..=1.0))
+                        .on_hover_text(hint);
+                    widgets.push(format!("Material {}", label.to_lowercase()), slider.rect);
+                    if slider.changed() {
+                        *value = Some(x);
+                    }
+                    ui.end_row();
+                };
+            fraction(
+                ui,
+                "Transmission",
+                &mut v.transmission,
+                "Light the surface lets through a thin wall, tinted by the base colour (glass)",
+            );
+            fraction(
+                ui,
+                "Clear coat",
+                &mut v.clearcoat,
+                "A glossy varnish layer over the surface",
+            );
+            fraction(
+                ui,
+                "Coat roughness",
+                &mut v.clearcoat_roughness,
+                "How blurred the clear coat's reflection is",
+            );
             // Emission as a colour and a strength (the material stores their product).
             let strength = v.emissive.iter().copied().fold(0.0f32, f32::max);
             let mut colour = if strength > 0.0 {

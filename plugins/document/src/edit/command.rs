@@ -80,7 +80,57 @@ impl From<TransformValue> for Transform {
     }
 }
 
-/// A material's editable values, as commands store them.
+/// What a material's alpha means (glTF's alpha modes).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum MaterialAlpha {
+    /// Alpha is ignored: the surface is solid.
+    Opaque,
+    /// Cut away where alpha is below the cutoff.
+    Mask(f32),
+    /// Lets `1 - alpha` of the light through.
+    Blend,
+}
+
+impl MaterialAlpha {
+    /// The three modes, for menus (the mask at glTF's default cutoff).
+    pub const ALL: [MaterialAlpha; 3] = [
+        MaterialAlpha::Opaque,
+        MaterialAlpha::Mask(0.5),
+        MaterialAlpha::Blend,
+    ];
+
+    /// The mode's name in the UI.
+    pub fn label(self) -> &'static str {
+        match self {
+            MaterialAlpha::Opaque => "Opaque",
+            MaterialAlpha::Mask(_) => "Mask",
+            MaterialAlpha::Blend => "Blend",
+        }
+    }
+
+    /// Bevy's alpha mode for this one.
+    pub fn to_bevy(self) -> AlphaMode {
+        match self {
+            MaterialAlpha::Opaque => AlphaMode::Opaque,
+            MaterialAlpha::Mask(c) => AlphaMode::Mask(c),
+            MaterialAlpha::Blend => AlphaMode::Blend,
+        }
+    }
+
+    /// This crate's mode for Bevy's (its other blending modes read as blend, alpha to coverage as
+    /// a mask at one half).
+    pub fn of_bevy(mode: AlphaMode) -> Self {
+        match mode {
+            AlphaMode::Opaque => MaterialAlpha::Opaque,
+            AlphaMode::Mask(c) => MaterialAlpha::Mask(c),
+            AlphaMode::AlphaToCoverage => MaterialAlpha::Mask(0.5),
+            _ => MaterialAlpha::Blend,
+        }
+    }
+}
+
+/// A material's editable values, as commands store them. The optional ones were added with
+/// project version 3: a file without them leaves those values as the material has them.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MaterialValue {
     /// Base colour, sRGB with alpha.
@@ -95,6 +145,18 @@ pub struct MaterialValue {
     /// Whether back faces are drawn too.
     #[serde(default)]
     pub double_sided: bool,
+    /// What alpha means.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<MaterialAlpha>,
+    /// Fraction of the unreflected light passing through (thin-walled), 0 to 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmission: Option<f32>,
+    /// Strength of a clear coat, 0 to 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clearcoat: Option<f32>,
+    /// Perceptual roughness of the clear coat, 0 to 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clearcoat_roughness: Option<f32>,
 }
 
 impl MaterialValue {
@@ -107,6 +169,10 @@ impl MaterialValue {
             perceptual_roughness: m.perceptual_roughness,
             emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
             double_sided: m.double_sided,
+            alpha: Some(MaterialAlpha::of_bevy(m.alpha_mode)),
+            transmission: Some(m.specular_transmission),
+            clearcoat: Some(m.clearcoat),
+            clearcoat_roughness: Some(m.clearcoat_perceptual_roughness),
         }
     }
 
@@ -124,16 +190,42 @@ impl MaterialValue {
         } else {
             Some(bevy::render::render_resource::Face::Back)
         };
+        if let Some(alpha) = self.alpha {
+            m.alpha_mode = alpha.to_bevy();
+        }
+        if let Some(t) = self.transmission {
+            m.specular_transmission = t;
+        }
+        if let Some(c) = self.clearcoat {
+            m.clearcoat = c;
+        }
+        if let Some(r) = self.clearcoat_roughness {
+            m.clearcoat_perceptual_roughness = r;
+        }
     }
 
-    /// Whether every value is [`in_range`] and the emission is not negative.
+    /// Whether every value is [`in_range`], the emission is not negative and the fractions lie
+    /// within 0 to 1.
     pub fn is_valid(&self) -> bool {
+        let unit = |v: Option<f32>| v.is_none_or(|v| (0.0..=1.0).contains(&v));
+        let cutoff = match self.alpha {
+            Some(MaterialAlpha::Mask(c)) => Some(c),
+            _ => None,
+        };
         self.base_color
             .iter()
             .chain(&self.emissive)
             .chain([&self.metallic, &self.perceptual_roughness])
             .all(|v| in_range(*v))
             && self.emissive.iter().all(|v| *v >= 0.0)
+            && [
+                self.transmission,
+                self.clearcoat,
+                self.clearcoat_roughness,
+                cutoff,
+            ]
+            .into_iter()
+            .all(unit)
     }
 }
 
@@ -992,6 +1084,63 @@ impl Undo {
                     undo.revert(world);
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_material_value_without_the_newer_fields_leaves_them_as_they_are() {
+        // As a version 2 project or an older script writes it.
+        let old: MaterialValue = ron::from_str(
+            "(base_color: (1.0, 1.0, 1.0, 1.0), metallic: 0.0, perceptual_roughness: 0.5)",
+        )
+        .unwrap();
+        assert!(old.is_valid());
+        let mut glass = StandardMaterial {
+            specular_transmission: 0.9,
+            clearcoat: 0.5,
+            alpha_mode: AlphaMode::Blend,
+            ..Default::default()
+        };
+        old.write(&mut glass);
+        assert_eq!(glass.specular_transmission, 0.9);
+        assert_eq!(glass.clearcoat, 0.5);
+        assert_eq!(glass.alpha_mode, AlphaMode::Blend);
+        // A full value round-trips through RON and writes every field.
+        let mut full = MaterialValue::of(&glass);
+        full.transmission = Some(0.25);
+        full.alpha = Some(MaterialAlpha::Mask(0.4));
+        let back: MaterialValue = ron::from_str(&ron::to_string(&full).unwrap()).unwrap();
+        assert_eq!(back, full);
+        back.write(&mut glass);
+        assert_eq!(glass.specular_transmission, 0.25);
+        assert_eq!(glass.alpha_mode, AlphaMode::Mask(0.4));
+        assert_eq!(MaterialValue::of(&glass), full);
+    }
+
+    #[test]
+    fn fractions_outside_zero_to_one_are_refused() {
+        let ok = MaterialValue::of(&StandardMaterial::default());
+        assert!(ok.is_valid());
+        for bad in [
+            MaterialValue {
+                transmission: Some(1.5),
+                ..ok
+            },
+            MaterialValue {
+                clearcoat: Some(f32::NAN),
+                ..ok
+            },
+            MaterialValue {
+                alpha: Some(MaterialAlpha::Mask(-0.1)),
+                ..ok
+            },
+        ] {
+            assert!(!bad.is_valid(), "{bad:?}");
         }
     }
 }

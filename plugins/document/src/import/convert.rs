@@ -5,7 +5,9 @@ use bevy::image::{ImageAddressMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-use treelight_import::{ImportedMaterial, ImportedMesh, ImportedTexture, WrapMode};
+use treelight_import::{
+    ImportedAlphaMode, ImportedMaterial, ImportedMesh, ImportedTexture, TextureRef, WrapMode,
+};
 
 /// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).
 pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
@@ -25,8 +27,109 @@ pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
     mesh
 }
 
-/// A GPU-only Bevy image from a decoded texture (sRGB colour, the file's wrap modes, bilinear).
-pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2]) -> Image {
+/// How a map's texels are stored on the GPU: colour (sRGB-encoded) or data (linear), with the
+/// glTF scales Bevy's material has no field for baked into the texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ImageRole {
+    /// Base colour or emission: sRGB.
+    Colour,
+    /// Metallic-roughness, or a normal or occlusion map at full strength: linear, as stored.
+    Data,
+    /// A normal map whose x and y are scaled (the `f32`'s bits): linear, scaled and renormalised.
+    ScaledNormal(u32),
+    /// An occlusion map applied at a strength below one (the `f32`'s bits): its red channel
+    /// lifted towards 1.
+    WeakOcclusion(u32),
+}
+
+/// Which image a material's map needs: the texture, its wrap modes and how it is stored.
+pub type ImageKey = (usize, [WrapMode; 2], ImageRole);
+
+/// The slots of Bevy's `StandardMaterial` an imported material fills with images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapSlot {
+    /// `base_color_texture`.
+    BaseColor,
+    /// `metallic_roughness_texture`.
+    MetallicRoughness,
+    /// `normal_map_texture`.
+    Normal,
+    /// `occlusion_texture`.
+    Occlusion,
+    /// `emissive_texture`.
+    Emissive,
+}
+
+/// Each map of `m` with the image it needs.
+pub fn material_maps(m: &ImportedMaterial) -> Vec<(MapSlot, TextureRef, ImageRole)> {
+    let normal = if m.normal_scale == 1.0 {
+        ImageRole::Data
+    } else {
+        ImageRole::ScaledNormal(m.normal_scale.to_bits())
+    };
+    let occlusion = if m.occlusion_strength >= 1.0 {
+        ImageRole::Data
+    } else {
+        ImageRole::WeakOcclusion(m.occlusion_strength.to_bits())
+    };
+    [
+        (MapSlot::BaseColor, m.base_color_texture, ImageRole::Colour),
+        (
+            MapSlot::MetallicRoughness,
+            m.metallic_roughness_texture,
+            ImageRole::Data,
+        ),
+        (MapSlot::Normal, m.normal_texture, normal),
+        (MapSlot::Occlusion, m.occlusion_texture, occlusion),
+        (MapSlot::Emissive, m.emissive_texture, ImageRole::Colour),
+    ]
+    .into_iter()
+    .filter_map(|(slot, r, role)| Some((slot, r?, role)))
+    .collect()
+}
+
+/// Puts `image` into the material's `slot`.
+pub fn put_map(m: &mut StandardMaterial, slot: MapSlot, image: Handle<Image>) {
+    match slot {
+        MapSlot::BaseColor => m.base_color_texture = Some(image),
+        MapSlot::MetallicRoughness => m.metallic_roughness_texture = Some(image),
+        MapSlot::Normal => m.normal_map_texture = Some(image),
+        MapSlot::Occlusion => m.occlusion_texture = Some(image),
+        MapSlot::Emissive => m.emissive_texture = Some(image),
+    }
+}
+
+/// The texels of `t` as `role` stores them.
+fn role_texels(t: &ImportedTexture, role: ImageRole) -> Vec<u8> {
+    let mut texels = t.rgba8.clone();
+    match role {
+        ImageRole::Colour | ImageRole::Data => {}
+        ImageRole::ScaledNormal(bits) => {
+            let scale = f32::from_bits(bits);
+            for p in texels.chunks_exact_mut(4) {
+                let c = |v: u8| f32::from(v) / 127.5 - 1.0;
+                let n = Vec3::new(c(p[0]) * scale, c(p[1]) * scale, c(p[2]));
+                let n = n.try_normalize().unwrap_or(Vec3::Z);
+                let q = |v: f32| ((v + 1.0) * 127.5).round().clamp(0.0, 255.0) as u8;
+                p[0] = q(n.x);
+                p[1] = q(n.y);
+                p[2] = q(n.z);
+            }
+        }
+        ImageRole::WeakOcclusion(bits) => {
+            let strength = f32::from_bits(bits).clamp(0.0, 1.0);
+            for p in texels.chunks_exact_mut(4) {
+                let ao = f32::from(p[0]) / 255.0;
+                p[0] = ((1.0 + strength * (ao - 1.0)) * 255.0).round() as u8;
+            }
+        }
+    }
+    texels
+}
+
+/// A GPU-only Bevy image from a decoded texture (the file's wrap modes, bilinear), stored as
+/// `role` says.
+pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2], role: ImageRole) -> Image {
     let address = |w: WrapMode| match w {
         WrapMode::Repeat => ImageAddressMode::Repeat,
         WrapMode::ClampToEdge => ImageAddressMode::ClampToEdge,
@@ -39,8 +142,12 @@ pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2]) -> Image {
             depth_or_array_layers: 1,
         },
         TextureDimension::D2,
-        t.rgba8.clone(),
-        TextureFormat::Rgba8UnormSrgb,
+        role_texels(t, role),
+        if role == ImageRole::Colour {
+            TextureFormat::Rgba8UnormSrgb
+        } else {
+            TextureFormat::Rgba8Unorm
+        },
         // The pixels are only needed on the GPU (the path tracer resamples from there too).
         RenderAssetUsages::RENDER_WORLD,
     );
@@ -52,19 +159,123 @@ pub fn to_bevy_image(t: &ImportedTexture, wrap: [WrapMode; 2]) -> Image {
     image
 }
 
-/// A Bevy material from an imported one (alpha below 1 blends).
+/// Bevy's reflectance for a dielectric of index of refraction `ior` whose specular is scaled by
+/// `specular` (`KHR_materials_specular`): Bevy's f0 is `0.16 reflectance²`.
+fn reflectance(ior: f32, specular: f32) -> f32 {
+    let f0 = ((ior - 1.0) / (ior + 1.0)).powi(2) * specular;
+    (f0 / 0.16).sqrt().clamp(0.0, 1.0)
+}
+
+/// A Bevy material from an imported one, without its images ([`material_maps`] and [`put_map`]
+/// add them). The maps share one UV transform, the first map's (Bevy's material has one).
 pub fn material(m: &ImportedMaterial) -> StandardMaterial {
     let [r, g, b, a] = m.base_color;
+    let [sr, sg, sb] = m.specular_color;
+    let uv_transform =
+        material_maps(m)
+            .first()
+            .map_or(bevy::math::Affine2::IDENTITY, |(_, r, _)| {
+                let [x, y, t] = r.uv_transform;
+                bevy::math::Affine2::from_cols(x.into(), y.into(), t.into())
+            });
     StandardMaterial {
         base_color: Color::LinearRgba(LinearRgba::new(r, g, b, a)),
         metallic: m.metallic,
         perceptual_roughness: m.roughness,
         emissive: LinearRgba::rgb(m.emissive[0], m.emissive[1], m.emissive[2]),
-        alpha_mode: if a < 1.0 {
-            AlphaMode::Blend
-        } else {
-            AlphaMode::Opaque
+        alpha_mode: match m.alpha_mode {
+            ImportedAlphaMode::Opaque => AlphaMode::Opaque,
+            ImportedAlphaMode::Mask { cutoff } => AlphaMode::Mask(cutoff),
+            ImportedAlphaMode::Blend => AlphaMode::Blend,
         },
+        reflectance: reflectance(m.ior, m.specular),
+        specular_tint: Color::linear_rgb(sr, sg, sb),
+        specular_transmission: m.transmission,
+        ior: m.ior,
+        clearcoat: m.clearcoat,
+        clearcoat_perceptual_roughness: m.clearcoat_roughness,
+        uv_transform,
         ..default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use treelight_import::UV_IDENTITY;
+
+    fn texture(rgba: [u8; 4]) -> ImportedTexture {
+        ImportedTexture {
+            name: "t".into(),
+            width: 1,
+            height: 1,
+            rgba8: rgba.to_vec(),
+        }
+    }
+
+    #[test]
+    fn imported_materials_become_bevy_materials_value_for_value() {
+        let m = ImportedMaterial {
+            alpha_mode: ImportedAlphaMode::Mask { cutoff: 0.3 },
+            transmission: 0.6,
+            clearcoat: 0.75,
+            clearcoat_roughness: 0.2,
+            ior: 1.5,
+            specular: 0.5,
+            specular_color: [1.0, 0.5, 0.25],
+            ..Default::default()
+        };
+        let b = material(&m);
+        assert_eq!(b.alpha_mode, AlphaMode::Mask(0.3));
+        assert_eq!(b.specular_transmission, 0.6);
+        assert_eq!((b.clearcoat, b.clearcoat_perceptual_roughness), (0.75, 0.2));
+        // f0 = 4% at ior 1.5, halved by the specular factor: 0.16 r² = 0.02.
+        assert!((0.16 * b.reflectance * b.reflectance - 0.02).abs() < 1e-6);
+        assert_eq!(b.specular_tint.to_linear(), LinearRgba::rgb(1.0, 0.5, 0.25));
+        assert_eq!(
+            material(&ImportedMaterial::default()).alpha_mode,
+            AlphaMode::Opaque
+        );
+    }
+
+    #[test]
+    fn maps_are_stored_as_colour_or_data_with_their_scales_baked_in() {
+        let r = TextureRef {
+            texture: 0,
+            wrap: [WrapMode::Repeat; 2],
+            uv_transform: UV_IDENTITY,
+        };
+        let m = ImportedMaterial {
+            base_color_texture: Some(r),
+            normal_texture: Some(r),
+            normal_scale: 0.5,
+            occlusion_texture: Some(r),
+            occlusion_strength: 0.25,
+            ..Default::default()
+        };
+        let maps = material_maps(&m);
+        assert_eq!(maps.len(), 3);
+        let role = |slot| maps.iter().find(|x| x.0 == slot).unwrap().2;
+        assert_eq!(role(MapSlot::BaseColor), ImageRole::Colour);
+        let colour = to_bevy_image(&texture([10, 20, 30, 255]), r.wrap, ImageRole::Colour);
+        assert_eq!(
+            colour.texture_descriptor.format,
+            TextureFormat::Rgba8UnormSrgb
+        );
+        // A normal tilted 45° towards +x, at half scale: x halved, then renormalised.
+        let normal = to_bevy_image(
+            &texture([218, 128, 218, 255]),
+            r.wrap,
+            role(MapSlot::Normal),
+        );
+        assert_eq!(normal.texture_descriptor.format, TextureFormat::Rgba8Unorm);
+        let px = normal.data.as_ref().unwrap();
+        let x = f32::from(px[0]) / 127.5 - 1.0;
+        let z = f32::from(px[2]) / 127.5 - 1.0;
+        assert!((x / z - 0.5).abs() < 0.05, "x {x}, z {z}");
+        // Full occlusion (0) at strength 1/4 leaves 3/4 of the light.
+        let ao = to_bevy_image(&texture([0, 7, 9, 255]), r.wrap, role(MapSlot::Occlusion));
+        let px = ao.data.as_ref().unwrap();
+        assert_eq!(px[..3], [191, 7, 9]);
     }
 }

@@ -7,7 +7,7 @@ use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task};
 use std::collections::HashMap;
 use std::path::PathBuf;
-use treelight_import::{ImportError, ImportedScene, WrapMode};
+use treelight_import::{ImportError, ImportedScene};
 
 /// A file parsed, with its meshes and textures already made into Bevy assets (off the main thread,
 /// so the frame that adds them to the scene only moves them in).
@@ -27,8 +27,8 @@ pub struct Prebuilt {
     /// One Bevy mesh per mesh of the scene, `None` for one that repeats an earlier one (`same_as`)
     /// and for those already taken.
     pub meshes: Vec<Option<Mesh>>,
-    /// The base-colour images the materials use, by texture and wrap modes.
-    pub images: HashMap<(usize, [WrapMode; 2]), Image>,
+    /// The images the materials' maps use, by texture, wrap modes and storage.
+    pub images: HashMap<crate::import::convert::ImageKey, Image>,
     /// Each mesh's bounds (of `meshes[i]`, or of the mesh it repeats), so that Bevy need not
     /// compute them on the main thread when the objects are spawned.
     pub bounds: Vec<Option<bevy::camera::primitives::Aabb>>,
@@ -57,11 +57,13 @@ impl From<ImportedScene> for ParsedScene {
             .map(|(i, m)| own.get(m.same_as.unwrap_or(i)).copied().flatten())
             .collect();
         let mut images = HashMap::new();
-        for r in scene.materials.iter().filter_map(|m| m.base_color_texture) {
-            if let Some(t) = scene.textures.get(r.texture) {
-                images
-                    .entry((r.texture, r.wrap))
-                    .or_insert_with(|| crate::import::convert::to_bevy_image(t, r.wrap));
+        for m in &scene.materials {
+            for (_, r, role) in crate::import::convert::material_maps(m) {
+                if let Some(t) = scene.textures.get(r.texture) {
+                    images
+                        .entry((r.texture, r.wrap, role))
+                        .or_insert_with(|| crate::import::convert::to_bevy_image(t, r.wrap, role));
+                }
             }
         }
         Self {

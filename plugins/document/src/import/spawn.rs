@@ -1,14 +1,16 @@
 //! Spawning a parsed scene as scene objects: the assembly's hierarchy, its meshes and materials,
 //! and the keys that let a project find each node again.
 
-use crate::import::convert::{material, to_bevy_image, to_bevy_mesh};
+use crate::import::convert::{
+    ImageKey, material, material_maps, put_map, to_bevy_image, to_bevy_mesh,
+};
 use crate::import::parse::Prebuilt;
 use crate::object::{SceneId, SceneObject};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use treelight_import::{ImportedMaterial, ImportedScene, WrapMode};
+use treelight_import::{ImportedMaterial, ImportedScene};
 
 /// Filter for entities that light the scene.
 pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>;
@@ -309,33 +311,32 @@ pub fn spawn_scene(
     objects
 }
 
-/// One material per material of the scene, with its base-colour image (one image per texture and
-/// sampler, shared by the materials that use it; those made ahead of time taken from `prebuilt`).
+/// One material per material of the scene, with its maps' images (one image per texture, sampler
+/// and storage, shared by the materials that use it; those made ahead of time taken from
+/// `prebuilt`).
 fn material_handles(
     scene: &ImportedScene,
     prebuilt: &mut Prebuilt,
     assets: &mut SceneAssets,
 ) -> Vec<Handle<StandardMaterial>> {
-    // One image per texture and sampler, shared by the materials that use it.
-    let mut textures: HashMap<(usize, [WrapMode; 2]), Handle<Image>> = HashMap::new();
+    let mut images: HashMap<ImageKey, Handle<Image>> = HashMap::new();
     scene
         .materials
         .iter()
         .map(|m| {
             let mut mat = material(m);
-            if let Some(r) = m.base_color_texture
-                && let Some(t) = scene.textures.get(r.texture)
-            {
-                let image = textures.entry((r.texture, r.wrap)).or_insert_with(|| {
-                    let made = prebuilt.images.remove(&(r.texture, r.wrap));
+            for (slot, r, role) in material_maps(m) {
+                let Some(t) = scene.textures.get(r.texture) else {
+                    continue;
+                };
+                let key = (r.texture, r.wrap, role);
+                let image = images.entry(key).or_insert_with(|| {
+                    let made = prebuilt.images.remove(&key);
                     assets
                         .images
-                        .add(made.unwrap_or_else(|| to_bevy_image(t, r.wrap)))
+                        .add(made.unwrap_or_else(|| to_bevy_image(t, r.wrap, role)))
                 });
-                mat.base_color_texture = Some(image.clone());
-                // Bevy's rasteriser and the path tracer both read it (KHR_texture_transform).
-                let [x, y, t] = r.uv_transform;
-                mat.uv_transform = bevy::math::Affine2::from_cols(x.into(), y.into(), t.into());
+                put_map(&mut mat, slot, image.clone());
             }
             assets.materials.add(mat)
         })
