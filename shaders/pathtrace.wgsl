@@ -140,6 +140,10 @@ var<private> rng_state: u32;
 var<private> primary_depth: f32;
 // The object slot of the current sample's primary hit (NONE when it escapes).
 var<private> primary_object: u32;
+// The albedo and shading normal of the current sample's primary hit (white and zero when it
+// escapes): the denoiser's guides.
+var<private> primary_albedo: vec3<f32>;
+var<private> primary_normal: vec3<f32>;
 
 fn rand() -> f32 {
     rng_state = pcg(rng_state);
@@ -153,6 +157,19 @@ fn decode_normal(w: u32) -> vec3<f32> {
     n.x += select(t, -t, n.x >= 0.0);
     n.y += select(t, -t, n.y >= 0.0);
     return normalize(n);
+}
+
+// A unit vector (or zero) as octahedral snorm16x2, decode_normal's inverse.
+fn encode_normal(n: vec3<f32>) -> u32 {
+    let l1 = abs(n.x) + abs(n.y) + abs(n.z);
+    if l1 == 0.0 {
+        return 0u;
+    }
+    var p = n.xy / l1;
+    if n.z < 0.0 {
+        p = (vec2<f32>(1.0) - abs(p.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    }
+    return pack2x16snorm(p);
 }
 
 fn normal_to_world(o: Object, n: vec3<f32>) -> vec3<f32> {
@@ -619,6 +636,10 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             primary_object = object_slot(hit);
         }
         let s = surface_at(hit, o, d);
+        if bounce == 0u {
+            primary_albedo = s.albedo;
+            primary_normal = s.ns;
+        }
         let wo = -d;
         radiance += indirect(throughput * s.emissive, bounce);
         if bounce == view.max_bounces {
@@ -726,6 +747,8 @@ fn mul_mod(a: u32, b: u32, m: u32) -> u32 {
 fn trace_sample(at: vec2<f32>) -> vec3<f32> {
     primary_depth = 0.0;
     primary_object = NONE;
+    primary_albedo = vec3<f32>(1.0);
+    primary_normal = vec3<f32>(0.0);
     let ray = camera_ray(at / vec2<f32>(f32(view.width), f32(view.height)));
     if view.mode == MODE_PATH {
         let l = path_radiance(ray[0], ray[1]);
@@ -796,17 +819,37 @@ fn path_trace(
     let acc = accum[pixel];
     let first = u32(acc.w);
     var sum = vec3<f32>(0.0);
+    // The sum of the samples' squared luminance: the denoiser's estimate of the pixel's noise.
+    // Stored negated once the pixel's samples have met more than one object (a silhouette): the
+    // denoiser keeps such mixed pixels from standing in for their neighbours.
+    var moment = 0.0;
+    var mixed = false;
+    let guides = guides_start(view.width, view.height) + 3u * pixel;
+    let slot_at = view.width * view.height + pixel;
+    if first > 0u {
+        let m = bitcast<f32>(aux[guides + 2u]);
+        moment = abs(m);
+        mixed = m < 0.0;
+    }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
         var sub = vec2<f32>(0.5);
         if jittered() {
             sub = vec2<f32>(rand(), rand());
         }
-        sum += trace_sample(vec2<f32>(p) + sub);
+        let value = trace_sample(vec2<f32>(p) + sub);
+        sum += value;
+        let l = luminance(value);
+        moment += l * l;
         if first + k == 0u {
             aux[pixel] = bitcast<u32>(primary_depth);
-            aux[view.width * view.height + pixel] = primary_object;
+            aux[slot_at] = primary_object;
+            aux[guides] = pack4x8unorm(vec4<f32>(clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0));
+            aux[guides + 1u] = encode_normal(primary_normal);
+        } else if primary_object != aux[slot_at] {
+            mixed = true;
         }
     }
+    aux[guides + 2u] = bitcast<u32>(select(moment, -moment, mixed));
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -2,7 +2,8 @@
 // the depth of their primary hits into its depth buffer, so what is drawn after (gizmos, overlays)
 // is hidden behind traced surfaces. A pixel with no sample yet shows the preview, upscaled. Objects
 // marked for an outline get one around their visible silhouette, from the object slots of the
-// primary hits: complete in every frame, whatever the samples have converged to.
+// primary hits: complete in every frame, whatever the samples have converged to. Where the view
+// is denoised, a pixel with samples shows the denoiser's lighting times its albedo.
 
 struct Resolve {
     // The camera viewport's origin and size in target pixels.
@@ -18,7 +19,8 @@ struct Resolve {
     outline_colours: array<vec4<f32>, 2>,
     // The outline's width in target pixels.
     outline_width: f32,
-    pad0: u32,
+    // 1: show the denoiser's result where a pixel has samples.
+    denoised: u32,
     // The target rectangle the outlined objects' projected bounds cover, widened by the line:
     // fragments outside it skip the search.
     outline_min: vec2<f32>,
@@ -35,6 +37,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(1) var<storage, read> aux: array<u32>;
 @group(0) @binding(2) var<uniform> resolve: Resolve;
 @group(0) @binding(3) var<storage, read> outlines: array<u32>;
+// The denoiser's last pass (denoise.wgsl): per pixel its lighting, to be multiplied by the albedo.
+@group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;
 
 @vertex
 fn vertex(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -68,6 +72,10 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
     let i = p.y * resolve.size.x + p.x;
     let a = accum[i];
     if a.w > 0.0 {
+        if resolve.denoised == 1u {
+            let albedo = unpack4x8unorm(aux[guides_start(resolve.size.x, resolve.size.y) + 3u * i]).rgb;
+            return vec4<f32>(denoised[i].rgb * max(albedo, vec3<f32>(0.02)), aux_f32(i));
+        }
         return vec4<f32>(a.rgb / a.w, aux_f32(i));
     }
     let k = resolve.preview_scale;

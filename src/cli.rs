@@ -68,6 +68,15 @@ pub enum Command {
     /// the project's view (a file is framed from above), with its exposure and tone curve, and
     /// save the image.
     Render(RenderArgs),
+    /// Print each image's relative mean squared error against a reference image of the same
+    /// frame (a render at many samples), then exit.
+    Compare {
+        /// The reference (.png).
+        reference: PathBuf,
+        /// The images to measure (.png, the reference's size).
+        #[arg(required = true)]
+        images: Vec<PathBuf>,
+    },
 }
 
 /// `treelight render`'s arguments.
@@ -91,6 +100,18 @@ pub struct RenderArgs {
     /// Replace the image if the file exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Whether the image is denoised (as the viewport is by default).
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub denoise: Switch,
+}
+
+/// On or off, on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Switch {
+    /// Enabled.
+    On,
+    /// Disabled.
+    Off,
 }
 
 /// The viewport modes on the command line.

@@ -5,6 +5,7 @@
 
 pub mod capture;
 pub mod cli;
+pub mod compare;
 pub mod editor;
 pub mod render_errors;
 pub mod render_file;

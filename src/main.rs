@@ -1,5 +1,6 @@
 //! `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--commands EDITS.ron] ...`,
-//! `treelight info FILE` or `treelight render [SCENE] --out IMAGE.png --spp N`.
+//! `treelight info FILE`, `treelight render [SCENE] --out IMAGE.png --spp N` or
+//! `treelight compare REFERENCE IMAGE...`.
 
 use clap::Parser;
 
@@ -16,6 +17,18 @@ fn main() -> std::process::ExitCode {
                 std::process::ExitCode::from(1)
             }
         };
+    }
+    if let Some(treelight::cli::Command::Compare { reference, images }) = &cli.command {
+        for image in images {
+            match treelight::compare::relative_mse(reference, image) {
+                Ok(e) => println!("{e:.6}  {}", image.display()),
+                Err(e) => {
+                    eprintln!("treelight: {e}");
+                    return std::process::ExitCode::from(1);
+                }
+            }
+        }
+        return std::process::ExitCode::SUCCESS;
     }
     if let Some(treelight::cli::Command::Render(args)) = &cli.command {
         if let Err(e) = treelight::render_file::check_output(args) {

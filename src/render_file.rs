@@ -177,6 +177,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         frame_budget_ms: 0.0,
         samples_per_frame: 1,
         max_samples: args.spp,
+        denoise: args.denoise == crate::cli::Switch::On,
         ..default()
     };
     let progress = ProgressBar::new(u64::from(args.spp)).with_style(

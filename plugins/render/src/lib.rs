@@ -32,11 +32,11 @@ pub use budget::{
 pub use energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_sum};
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
-    ATTRIBUTE_BYTES, GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve,
-    GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES, ResolveParams, SceneLight,
-    SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES, ViewParams, attribute_bytes,
-    attribute_record, decode_normal, encode_normal, light_bytes, object_bytes, outline_words,
-    set_outline,
+    ATTRIBUTE_BYTES, DENOISE_PASSES, GpuAoParams, GpuAttribute, GpuDenoise, GpuLight, GpuObject,
+    GpuPrimaryCamera, GpuResolve, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES,
+    ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES,
+    ViewParams, attribute_bytes, attribute_record, aux_bytes, decode_normal, denoise_pass_bytes,
+    encode_normal, light_bytes, object_bytes, outline_words, set_outline,
 };
 pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
 pub use upload::{
@@ -138,6 +138,12 @@ pub const PRIMARY_HITS_WIDE_WGSL: &str = concat!(
 /// WGSL: resamples an image into a layer of the base-colour texture array (`copy_to_layer`).
 pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../../shaders/texture_layer.wgsl");
 
+/// WGSL: the denoiser's pass (`denoise`), an edge-aware à-trous filter over a view's samples.
+pub const DENOISE_WGSL: &str = concat!(
+    include_str!("../../../shaders/denoise.wgsl"),
+    include_str!("../../../shaders/aux_layout.wgsl")
+);
+
 /// WGSL: the pass that draws the accumulated average into the view target.
 pub const RESOLVE_WGSL: &str = concat!(
     include_str!("../../../shaders/resolve.wgsl"),
@@ -227,6 +233,9 @@ pub struct PathTraced {
     pub frame_budget_share: f32,
     /// How [`Outlined`] meshes are outlined in this view.
     pub outline: OutlineStyle,
+    /// Whether the path-traced image is denoised: an edge-aware filter guided by the primary
+    /// hits' objects, normals, depths and albedo (the debug views never are).
+    pub denoise: bool,
 }
 
 /// How a path-traced view outlines [`Outlined`] meshes.
@@ -287,6 +296,7 @@ impl Default for PathTraced {
             frame_budget_ms: 4.0,
             frame_budget_share: 1.0,
             outline: OutlineStyle::default(),
+            denoise: true,
         }
     }
 }
@@ -383,6 +393,7 @@ impl Plugin for PathTracerPlugin {
                     "treelight/pathtrace_split.wgsl",
                 )),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
+                denoise: assets.add(Shader::from_wgsl(DENOISE_WGSL, "treelight/denoise.wgsl")),
                 texture_layer: assets.add(Shader::from_wgsl(
                     TEXTURE_LAYER_WGSL,
                     "treelight/texture_layer.wgsl",

@@ -66,6 +66,23 @@ fn path_trace(
             t.copy_out(slot, encoder);
         }
     }
+    if let Some(pipeline) = frame
+        .denoise
+        .and_then(|id| pipeline_cache.get_compute_pipeline(id))
+    {
+        let size = state.buffers.size();
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("treelight denoise"),
+                timestamp_writes: None,
+            });
+        pass.set_pipeline(pipeline);
+        for group in &state.buffers.denoise_bind_groups {
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+        }
+    }
     let Some(resolve) = pipeline_cache.get_render_pipeline(frame.resolve_pipeline) else {
         return;
     };

@@ -30,6 +30,7 @@ pub(crate) struct PathTracerShaders {
     /// The trace kernel over records split across bindings.
     pub trace_split: Handle<Shader>,
     pub resolve: Handle<Shader>,
+    pub denoise: Handle<Shader>,
     pub texture_layer: Handle<Shader>,
 }
 
@@ -45,9 +46,13 @@ pub(crate) struct PathTracerPipelines {
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
     pub view_layout: BindGroupLayoutDescriptor,
-    /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform and
-    /// the scene's outline bits.
+    /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform,
+    /// the scene's outline bits and the denoiser's result.
     pub resolve_layout: BindGroupLayoutDescriptor,
+    /// A denoiser pass's group: the accumulation, aux, the pass's uniform, its source and target.
+    pub denoise_layout: BindGroupLayoutDescriptor,
+    /// The denoiser's pass.
+    pub denoise: CachedComputePipelineId,
     /// The trace kernel for a scene whose records fit one binding each.
     trace: CachedComputePipelineId,
     /// The trace kernel over split records, queued when a scene first needs it.
@@ -107,9 +112,30 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 uniform_buffer_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );
+    let denoise_layout = BindGroupLayoutDescriptor::new(
+        "treelight denoise",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                uniform_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let denoise = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("treelight denoise".into()),
+        layout: vec![denoise_layout.clone()],
+        shader: shaders.denoise.clone(),
+        entry_point: Some("denoise".into()),
+        ..default()
+    });
     let trace = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
         label: Some("treelight path trace".into()),
         layout: vec![scene_layout.clone(), view_layout.clone()],
@@ -121,6 +147,8 @@ fn init_pipelines(
         scene_layout,
         view_layout,
         resolve_layout,
+        denoise_layout,
+        denoise,
         trace,
         trace_split: Mutex::new(None),
         trace_split_shader: shaders.trace_split.clone(),

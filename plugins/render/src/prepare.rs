@@ -395,6 +395,8 @@ pub(crate) struct ViewFrame {
     pub writes_depth: bool,
     /// The camera's viewport in target pixels: x, y, width, height.
     pub viewport: UVec4,
+    /// The denoiser's pipeline, when its passes run this frame (after the trace).
+    pub denoise: Option<CachedComputePipelineId>,
 }
 
 /// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
@@ -406,8 +408,12 @@ pub(crate) struct ViewBuffers {
     aux: Buffer,
     view_uniform: Buffer,
     resolve_uniform: Buffer,
+    /// The denoiser's two working images (the last pass leaves its result in the first).
+    denoised: [Buffer; 2],
     /// Group 1 of the trace kernel.
     pub trace_bind_group: BindGroup,
+    /// The denoiser's passes' groups, in order.
+    pub denoise_bind_groups: Vec<BindGroup>,
     /// The resolve pass's group.
     pub resolve_bind_group: BindGroup,
     /// The scene's outline buffer version the resolve group was made with.
@@ -433,6 +439,8 @@ pub(crate) struct ViewState {
     seen: bool,
     /// This frame's work, when the trace pipeline is ready.
     pub frame: Option<ViewFrame>,
+    /// Whether the denoiser's result is of the samples as they are now.
+    denoise_fresh: bool,
 }
 
 /// Per-view state, by render-world view entity.
@@ -461,7 +469,7 @@ fn resolve_group(
     device: &RenderDevice,
     pipelines: &PathTracerPipelines,
     cache: &PipelineCache,
-    (accum, aux, uniform): (&Buffer, &Buffer, &Buffer),
+    (accum, aux, uniform, denoised): (&Buffer, &Buffer, &Buffer, &Buffer),
     scene: &GpuScene,
 ) -> BindGroup {
     device.create_bind_group(
@@ -472,6 +480,7 @@ fn resolve_group(
             aux.as_entire_binding(),
             uniform.as_entire_binding(),
             scene.outlines.as_entire_binding(),
+            denoised.as_entire_binding(),
         )),
     )
 }
@@ -485,14 +494,15 @@ fn view_buffers(
 ) -> ViewBuffers {
     let pixels = size.x as u64 * size.y as u64;
     let accum = storage(device, "treelight accumulation", pixels * 16);
-    // Depth and object slot per pixel, then the preview (whose finest scale halves each axis):
-    // four words a block, then a slot a block (aux_layout.wgsl).
-    let blocks = size.x.div_ceil(2) as u64 * size.y.div_ceil(2) as u64;
     let aux = storage(
         device,
-        "treelight depth, objects and preview",
-        pixels * 8 + blocks * 20,
+        "treelight depth, objects, preview and guides",
+        crate::aux_bytes(size.x, size.y),
     );
+    let denoised = [
+        storage(device, "treelight denoised", pixels * 16),
+        storage(device, "treelight denoised", pixels * 16),
+    ];
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
     let resolve_uniform = uniform(
         device,
@@ -512,18 +522,53 @@ fn view_buffers(
         device,
         pipelines,
         cache,
-        (&accum, &aux, &resolve_uniform),
+        (&accum, &aux, &resolve_uniform, &denoised[0]),
         scene,
     );
+    // Pass k reads the other image than it writes, the last (even) one writing the first.
+    let denoise_bind_groups = (0..crate::DENOISE_PASSES)
+        .map(|k| {
+            let (source, target) = if k % 2 == 0 {
+                (&denoised[1], &denoised[0])
+            } else {
+                (&denoised[0], &denoised[1])
+            };
+            let pass_uniform = device.create_buffer_with_data(&BufferInitDescriptor {
+                label: Some("treelight denoise pass"),
+                contents: &crate::denoise_pass_bytes(size.x, size.y, k),
+                usage: BufferUsages::UNIFORM,
+            });
+            device.create_bind_group(
+                "treelight denoise",
+                &cache.get_bind_group_layout(&pipelines.denoise_layout),
+                &BindGroupEntries::sequential((
+                    accum.as_entire_binding(),
+                    aux.as_entire_binding(),
+                    pass_uniform.as_entire_binding(),
+                    source.as_entire_binding(),
+                    target.as_entire_binding(),
+                )),
+            )
+        })
+        .collect();
     ViewBuffers {
         accum,
         aux,
         view_uniform,
         resolve_uniform,
+        denoised,
+        denoise_bind_groups,
         trace_bind_group,
         resolve_bind_group,
         outline_version: scene.outline_version,
         size,
+    }
+}
+
+impl ViewBuffers {
+    /// The traced image's size in pixels.
+    pub fn size(&self) -> UVec2 {
+        self.size
     }
 }
 
@@ -542,6 +587,7 @@ impl ViewState {
             last_frame: None,
             seen: true,
             frame: None,
+            denoise_fresh: false,
         }
     }
 
@@ -663,8 +709,10 @@ fn prepare_views(
                 max_samples: 0,
                 frame_budget_ms: 0.0,
                 frame_budget_share: 0.0,
-                // The outline is drawn by the resolve, over the samples.
+                // The outline is drawn by the resolve, over the samples, and the denoiser
+                // filters them.
                 outline: OutlineStyle::default(),
+                denoise: false,
                 ..*settings
             },
             exposure: camera.exposure,
@@ -688,7 +736,7 @@ fn prepare_views(
                 &device,
                 &pipelines,
                 &pipeline_cache,
-                (&b.accum, &b.aux, &b.resolve_uniform),
+                (&b.accum, &b.aux, &b.resolve_uniform, &b.denoised[0]),
                 &scene,
             );
             b.outline_version = scene.outline_version;
@@ -711,6 +759,7 @@ fn prepare_views(
             state.key = Some(key);
             state.cursor = TileCursor::default();
             state.preview_scale = 0;
+            state.denoise_fresh = false;
         }
         let work = state.next_work(settings, restart);
         let traced = work.map_or(0, |(_, n)| n);
@@ -755,6 +804,15 @@ fn prepare_views(
             let (x, y) = params.workgroups();
             UVec2::new(x, y)
         });
+        // The denoiser runs over new samples (and once over samples it has not seen), in the
+        // path-traced view only.
+        let denoise_ready = pipeline_cache
+            .get_compute_pipeline(pipelines.denoise)
+            .is_some();
+        let denoising = settings.denoise && settings.view == DebugView::PathTraced && denoise_ready;
+        let denoise = (denoising && (dispatch.is_some() || !state.denoise_fresh))
+            .then_some(pipelines.denoise);
+        state.denoise_fresh = denoising;
         // The preview stands in for pixels without a sample until a whole sweep has run.
         let sweeps = state.cursor.sweeps(&state.order);
         let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
@@ -774,6 +832,7 @@ fn prepare_views(
                     viewport,
                     settings.outline.width + viewport.z as f32 / size.x as f32 + 1.0,
                 ),
+                denoised: denoising,
             }
             .to_bytes(),
         );
@@ -793,6 +852,7 @@ fn prepare_views(
             ),
             writes_depth: depth.is_some(),
             viewport,
+            denoise,
         });
         let samples = (sweeps * settings.samples_per_frame.clamp(1, 64) as u64) as u32;
         let figures = TraceFigures {

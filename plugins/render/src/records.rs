@@ -163,8 +163,8 @@ pub struct GpuResolve {
     pub outline_colours: [[f32; 4]; 2],
     /// The outline's width in target pixels.
     pub outline_width: f32,
-    /// Padding.
-    pub pad0: u32,
+    /// 1: show the denoiser's result (times the primary hits' albedo) where a pixel has samples.
+    pub denoised: u32,
     /// The corner of the target rectangle outside which no outline is drawn (the outlined objects'
     /// projected bounds, widened by the line): fragments outside it skip the search.
     pub outline_min: [f32; 2],
@@ -194,6 +194,8 @@ pub struct ResolveParams {
     /// Where the outlined objects can be in the target (pixels, min and max corners), from their
     /// projected bounds; outside it nothing is outlined. The whole target when unknown.
     pub outline_rect: [Vec2; 2],
+    /// Whether the denoiser ran over the samples: the resolve shows its result.
+    pub denoised: bool,
 }
 
 impl ResolveParams {
@@ -208,7 +210,7 @@ impl ResolveParams {
             outline_slots: self.outline_slots,
             outline_colours: [colour(self.outline.selected), colour(self.outline.active)],
             outline_width: self.outline.width.clamp(0.0, 8.0),
-            pad0: 0,
+            denoised: u32::from(self.denoised),
             outline_min: self.outline_rect[0].to_array(),
             outline_max: self.outline_rect[1].to_array(),
             pad1: 0,
@@ -216,6 +218,56 @@ impl ResolveParams {
         };
         bytemuck::bytes_of(&record).to_vec()
     }
+}
+
+/// Bytes of a `width × height` view's `aux` buffer (aux_layout.wgsl): per pixel its first sample's
+/// depth, object slot, albedo and normal, and its samples' summed squared luminance; per preview
+/// block (room made for the finest scale, 2 × 2 pixels) a sample and its depth, then its object
+/// slot.
+pub fn aux_bytes(width: u32, height: u32) -> u64 {
+    let pixels = u64::from(width) * u64::from(height);
+    let blocks = u64::from(width.div_ceil(2)) * u64::from(height.div_ceil(2));
+    pixels * 20 + blocks * 20
+}
+
+/// Passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.
+pub const DENOISE_PASSES: u32 = 5;
+
+/// `Denoise` of `denoise.wgsl`: one pass of the filter.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDenoise {
+    /// The image's width in pixels.
+    pub width: u32,
+    /// The image's height in pixels.
+    pub height: u32,
+    /// Pixels between taps.
+    pub step: u32,
+    /// 1 for the first pass, which reads the accumulation.
+    pub first: u32,
+    /// How strongly a luminance difference stops the filter, in standard deviations.
+    pub sigma_luminance: f32,
+    /// The exponent of the normals' cosine.
+    pub sigma_normal: f32,
+    /// How strongly a relative depth difference stops it, per pixel of tap distance.
+    pub sigma_depth: f32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The uniform of denoiser pass `pass` (0 first) over a `width × height` image.
+pub fn denoise_pass_bytes(width: u32, height: u32, pass: u32) -> Vec<u8> {
+    bytemuck::bytes_of(&GpuDenoise {
+        width,
+        height,
+        step: 1 << pass,
+        first: u32::from(pass == 0),
+        sigma_luminance: 8.0,
+        sigma_normal: 128.0,
+        sigma_depth: 0.02,
+        pad: 0,
+    })
+    .to_vec()
 }
 
 /// Words of the outline buffer for `slots` object slots: two bits a slot, sixteen slots a word.

@@ -481,6 +481,7 @@ fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
         outline_slots: scene.bvh.group_slots(),
         outline: style,
         outline_rect: [Vec2::ZERO, Vec2::new(WIDTH as f32, HEIGHT as f32)],
+        denoised: false,
     };
 
     // Every pixel traced (pixel centres, as the triangle-id view casts them).

@@ -260,11 +260,33 @@ fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
                 outline_slots,
                 outline_colours,
                 outline_width,
-                pad0,
+                denoised,
                 outline_min,
                 outline_max,
                 pad1,
                 pad2
+            ]
+        )
+    );
+}
+
+#[test]
+fn denoiser_records_have_the_crate_s_layout() {
+    let m = module(treelight_render::DENOISE_WGSL);
+    assert!(has_entry(&m, "denoise"));
+    assert_eq!(
+        wgsl_layout(&m, "Denoise"),
+        rust_layout!(
+            treelight_render::GpuDenoise,
+            [
+                width,
+                height,
+                step,
+                first,
+                sigma_luminance,
+                sigma_normal,
+                sigma_depth,
+                pad
             ]
         )
     );

@@ -217,6 +217,15 @@ fn toolbar(
         .on_hover_text(
             "How the viewport is drawn: Bevy's rasteriser, the path tracer, or one of its debug views",
         );
+    if render.traced == Some(treelight_render::DebugView::PathTraced) {
+        let toggle = ui
+            .checkbox(&mut render.settings.denoise, "Denoise")
+            .on_hover_text(
+                "Filter the path tracer's noise, guided by the surfaces' objects, normals, depths \
+                 and colours (no light crosses an object's edge)",
+            );
+        widgets.push("Denoise", toggle.rect);
+    }
     ui.separator();
     for (mode, key) in [
         (GizmoMode::Translate, "W"),

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod scenes;
+
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
 use treelight_render::{
@@ -437,9 +439,44 @@ impl Gpu {
         let blocks = (width.div_ceil(2) * height.div_ceil(2)) as usize;
         TraceTarget {
             accum: self.storage("accum", &vec![0u8; pixels * 16]),
-            aux: self.storage("aux", &vec![0u8; pixels * 8 + blocks * 20]),
+            aux: self.storage(
+                "aux",
+                &vec![0u8; treelight_render::aux_bytes(width, height) as usize],
+            ),
+            denoised: [
+                self.storage("denoised", &vec![0u8; pixels * 16]),
+                self.storage("denoised", &vec![0u8; pixels * 16]),
+            ],
+            width,
+            height,
             pixels,
             blocks,
+        }
+    }
+
+    /// The denoiser's passes over `target`'s samples, as the plugin runs them; the result (lighting
+    /// per pixel, to be multiplied by the albedo) lies in `target.denoised[0]`.
+    pub fn denoise(&self, target: &TraceTarget) {
+        let pipeline = self.pipeline(treelight_render::DENOISE_WGSL, "denoise");
+        let (w, h) = (target.width, target.height);
+        for k in 0..treelight_render::DENOISE_PASSES {
+            let uniform = self.uniform(&treelight_render::denoise_pass_bytes(w, h, k));
+            let (source, out) = if k % 2 == 0 {
+                (&target.denoised[1], &target.denoised[0])
+            } else {
+                (&target.denoised[0], &target.denoised[1])
+            };
+            self.dispatch_indexed(
+                &pipeline,
+                vec![vec![
+                    (0, target.accum.as_entire_binding()),
+                    (1, target.aux.as_entire_binding()),
+                    (2, uniform.as_entire_binding()),
+                    (3, source.as_entire_binding()),
+                    (4, out.as_entire_binding()),
+                ]],
+                (w.div_ceil(8), h.div_ceil(8)),
+            );
         }
     }
 
@@ -561,9 +598,14 @@ impl Gpu {
 pub struct TraceTarget {
     /// Per pixel: the sum of its samples (rgb) and their count (w).
     pub accum: wgpu::Buffer,
-    /// Per pixel the depth of its first sample's primary hit and that hit's object slot, then per
-    /// preview block one sample (rgb) and its depth, then per block its sample's object slot.
+    /// As `treelight_render::aux_bytes` lays it out.
     pub aux: wgpu::Buffer,
+    /// The denoiser's two working images.
+    pub denoised: [wgpu::Buffer; 2],
+    /// The image's width.
+    pub width: u32,
+    /// The image's height.
+    pub height: u32,
     /// Pixels in the image.
     pub pixels: usize,
     /// Preview blocks at the finest scale: the room the preview has in `aux`.
@@ -990,6 +1032,7 @@ impl Gpu {
                 (1, target.aux.as_entire_binding()),
                 (2, uniform.as_entire_binding()),
                 (3, outline_buffer.as_entire_binding()),
+                (4, target.denoised[0].as_entire_binding()),
             ]
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });

@@ -1,0 +1,216 @@
+//! The denoiser on the adapter, against converged references of the same frame:
+//!
+//! * Error: the relative MSE (sum of squared differences over the sum of the reference's squares)
+//!   of 4 and 16 samples per pixel, denoised, must fall below 0.6 and 0.8 of the same samples'
+//!   undenoised error on this 48-pixel frame; the figures are printed.
+//! * Edges: a dark object in front of a glowing one keeps its own brightness up to the edge: taps
+//!   on another object never count, so no light smears across the silhouette (the triangle-id
+//!   view's edges, read from the primary hits' object slots).
+
+mod support;
+
+use std::f32::consts::PI;
+use support::scenes::{Scene, Trace, camera, sphere, square, trace, trace_into};
+use support::{Gpu, floats};
+use treelight_bvh::glam::{Affine3A, Quat, Vec3};
+use treelight_render::{DebugView, SceneLight, SurfaceMaterial};
+
+const SIZE: u32 = 48;
+
+fn scene() -> Scene {
+    let mut s = Scene::new();
+    let grey = SurfaceMaterial {
+        base_color: [0.7, 0.7, 0.7, 1.0],
+        perceptual_roughness: 0.8,
+        ..Default::default()
+    };
+    s.add(
+        &square(3.0),
+        Affine3A::from_rotation_x(-PI / 2.0),
+        false,
+        &grey,
+    );
+    s.add(
+        &sphere(24),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.6),
+            Quat::IDENTITY,
+            Vec3::new(-0.5, 0.6, 0.0),
+        ),
+        false,
+        &SurfaceMaterial {
+            base_color: [0.8, 0.3, 0.2, 1.0],
+            ..grey
+        },
+    );
+    s.add(
+        &sphere(24),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.45),
+            Quat::IDENTITY,
+            Vec3::new(0.7, 0.45, 0.3),
+        ),
+        false,
+        &SurfaceMaterial {
+            base_color: [0.9, 0.9, 0.9, 1.0],
+            metallic: 1.0,
+            perceptual_roughness: 0.35,
+            ..Default::default()
+        },
+    );
+    s
+}
+
+fn frame(samples: u32) -> Trace {
+    Trace {
+        size: SIZE,
+        samples,
+        bounces: 4,
+        sky: Vec3::new(0.4, 0.5, 0.7),
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip: camera(
+            Vec3::new(0.0, 2.0, 3.5),
+            Vec3::new(0.0, 0.4, 0.0),
+            Vec3::Y,
+            45.0,
+        ),
+        lights: vec![SceneLight::Point {
+            position: Vec3::new(1.0, 3.0, 1.5),
+            power: Vec3::splat(4.0 * PI * 6.0),
+            radius: 0.3,
+            range: None,
+        }],
+    }
+}
+
+/// The denoised image of a trace: the last pass's lighting times each pixel's albedo guide.
+fn denoised(gpu: &Gpu, target: &support::TraceTarget) -> Vec<Vec3> {
+    gpu.denoise(target);
+    let light = floats(&gpu.read(&target.denoised[0]));
+    let aux = gpu.read(&target.aux);
+    let pixels = (target.width * target.height) as usize;
+    let blocks = target.width.div_ceil(2) as usize * target.height.div_ceil(2) as usize;
+    // aux_layout.wgsl: guides after depth, slots, the preview's samples and its slots.
+    let guides = 2 * pixels + 4 * blocks + blocks;
+    (0..pixels)
+        .map(|i| {
+            let w = (guides + 3 * i) * 4;
+            let albedo = Vec3::new(
+                aux[w] as f32 / 255.0,
+                aux[w + 1] as f32 / 255.0,
+                aux[w + 2] as f32 / 255.0,
+            )
+            .max(Vec3::splat(0.02));
+            Vec3::new(light[4 * i], light[4 * i + 1], light[4 * i + 2]) * albedo
+        })
+        .collect()
+}
+
+fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f32 {
+    let num: f32 = image
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (*a - *b).length_squared())
+        .sum();
+    let den: f32 = reference.iter().map(|b| b.length_squared()).sum();
+    num / den
+}
+
+#[test]
+fn denoised_low_sample_frames_are_closer_to_the_converged_one() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let s = scene();
+    let (reference, _) = trace(&gpu, &s, &layers, &frame(1024));
+    let mut table = String::from("spp  raw relMSE  denoised relMSE\n");
+    for spp in [4, 16] {
+        let (raw, _, target) = trace_into(&gpu, &s, &layers, &frame(spp));
+        let clean = denoised(&gpu, &target);
+        let (e_raw, e_clean) = (
+            relative_mse(&raw, &reference),
+            relative_mse(&clean, &reference),
+        );
+        table.push_str(&format!("{spp:>3}  {e_raw:.5}      {e_clean:.5}\n"));
+        // On this small image most of what is left is the blur of small features; the full-size
+        // figures are in BENCHMARKS.md.
+        let bound = if spp == 4 { 0.6 } else { 0.8 };
+        assert!(
+            e_clean < bound * e_raw,
+            "denoising {spp} spp leaves more than {bound} of its error:\n{table}"
+        );
+        assert!(clean.iter().all(|c| c.is_finite()));
+    }
+    eprintln!("{table}");
+}
+
+#[test]
+fn light_does_not_smear_across_an_object_s_edge() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let mut s = Scene::new();
+    // A glowing wall, and a dark card in front of it.
+    s.add(
+        &square(2.0),
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, -1.0)),
+        false,
+        &SurfaceMaterial {
+            base_color: [0.0, 0.0, 0.0, 1.0],
+            emissive: [40.0, 40.0, 40.0],
+            ..Default::default()
+        },
+    );
+    let card = s.add(
+        &square(0.5),
+        Affine3A::IDENTITY,
+        false,
+        &SurfaceMaterial {
+            base_color: [0.1, 0.1, 0.1, 1.0],
+            ..Default::default()
+        },
+    );
+    let t = |samples| Trace {
+        size: SIZE,
+        samples,
+        bounces: 2,
+        sky: Vec3::ZERO,
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip: camera(Vec3::new(0.0, 0.0, 2.5), Vec3::ZERO, Vec3::Y, 50.0),
+        lights: Vec::new(),
+    };
+    let (reference, slots) = trace(&gpu, &s, &layers, &t(64));
+    let (_, _, target) = trace_into(&gpu, &s, &layers, &t(4));
+    let clean = denoised(&gpu, &target);
+    // The card's pixels away from its silhouette (all eight neighbours on the card too): the
+    // wall's light reaches them only by smearing, the reference has them black.
+    let n = SIZE as i32;
+    let interior: Vec<usize> = (0..SIZE * SIZE)
+        .map(|i| i as usize)
+        .filter(|&i| {
+            let (x, y) = ((i as i32) % n, (i as i32) / n);
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (qx, qy) = (x + dx, y + dy);
+                    qx >= 0
+                        && qy >= 0
+                        && qx < n
+                        && qy < n
+                        && slots[(qy * n + qx) as usize] == card.index()
+                })
+            })
+        })
+        .collect();
+    assert!(interior.len() > 100, "{} interior pixels", interior.len());
+    let reference_max = interior
+        .iter()
+        .map(|&i| reference[i].max_element())
+        .fold(0.0f32, f32::max);
+    let worst = interior
+        .iter()
+        .map(|&i| clean[i].max_element())
+        .fold(0.0f32, f32::max);
+    assert!(reference_max < 0.01, "the card is lit: {reference_max}");
+    assert!(
+        worst < 0.05,
+        "the wall's light smeared onto the card: {worst} (the wall glows at 40)"
+    );
+}

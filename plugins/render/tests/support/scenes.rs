@@ -1,0 +1,180 @@
+//! Small scenes for the kernels' tests: meshes with their shading records and materials, traced
+//! as the plugin traces a view.
+
+use super::{Gpu, Layers, floats, put_record};
+use std::f32::consts::PI;
+use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use treelight_bvh::{Bvh, GroupId, Triangle};
+use treelight_render::{
+    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork,
+    ViewParams, attribute_bytes, light_bytes, object_bytes,
+};
+
+/// A triangle with its corners' normals (when it has them) and UVs.
+pub type ShadedTriangle = (Triangle, Option<[Vec3; 3]>, [Vec2; 3]);
+
+/// A scene as the kernel reads it: the tree, each group's material and corners' shading.
+pub struct Scene {
+    pub bvh: Bvh,
+    pub attrs: Vec<u8>,
+    pub objects: Vec<u8>,
+}
+
+impl Scene {
+    pub fn new() -> Self {
+        Self {
+            bvh: Bvh::default(),
+            attrs: Vec::new(),
+            objects: Vec::new(),
+        }
+    }
+
+    /// Adds a mesh: triangles with per-corner normals and UVs (object space), placed by
+    /// `transform` (kept whole: traced as an instance).
+    pub fn add(
+        &mut self,
+        tris: &[ShadedTriangle],
+        transform: Affine3A,
+        keep_whole: bool,
+        material: &SurfaceMaterial,
+    ) -> GroupId {
+        let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
+        let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
+        let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
+        self.attrs.resize(need.max(self.attrs.len()), 0);
+        for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
+            let (_, n, uv) = tris[k];
+            put_record(
+                &mut self.attrs,
+                id,
+                &attribute_bytes(n, Some(uv), g.index()),
+            );
+        }
+        let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
+        self.objects.resize(need.max(self.objects.len()), 0);
+        put_record(
+            &mut self.objects,
+            g.index(),
+            &object_bytes(Mat3::from(transform.matrix3), material),
+        );
+        g
+    }
+}
+
+/// A unit sphere of `rings` × `2 rings` quads with smooth normals.
+pub fn sphere(rings: u32) -> Vec<ShadedTriangle> {
+    let segments = rings * 2;
+    let p = |i: u32, j: u32| {
+        let theta = PI * i as f32 / rings as f32;
+        let phi = 2.0 * PI * j as f32 / segments as f32;
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        )
+    };
+    let uv = |i: u32, j: u32| Vec2::new(j as f32 / segments as f32, i as f32 / rings as f32);
+    let mut out = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let c = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+            for f in [[0, 1, 2], [0, 2, 3]] {
+                let [a, b, d] = f.map(|k| c[k]);
+                let (pa, pb, pd) = (p(a.0, a.1), p(b.0, b.1), p(d.0, d.1));
+                if (pb - pa).cross(pd - pa).length_squared() < 1e-12 {
+                    continue;
+                }
+                out.push((
+                    Triangle::new(pa, pb, pd),
+                    Some([pa, pb, pd]),
+                    [uv(a.0, a.1), uv(b.0, b.1), uv(d.0, d.1)],
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Two triangles over the square `half` from the origin in the z = 0 plane, facing +z; UVs 0..1
+/// across it, v growing downwards.
+pub fn square(half: f32) -> Vec<ShadedTriangle> {
+    let c = [
+        Vec2::new(-half, -half),
+        Vec2::new(half, -half),
+        Vec2::new(half, half),
+        Vec2::new(-half, half),
+    ];
+    let uv = |p: Vec2| Vec2::new(p.x / (2.0 * half) + 0.5, 0.5 - p.y / (2.0 * half));
+    [[0, 1, 2], [0, 2, 3]]
+        .iter()
+        .map(|f| {
+            let p = f.map(|k| c[k]);
+            (
+                Triangle::new(p[0].extend(0.0), p[1].extend(0.0), p[2].extend(0.0)),
+                None,
+                p.map(uv),
+            )
+        })
+        .collect()
+}
+
+pub fn camera(eye: Vec3, target: Vec3, up: Vec3, fov: f32) -> Mat4 {
+    let view = Mat4::look_at_rh(eye, target, up);
+    let proj = Mat4::perspective_infinite_reverse_rh(fov.to_radians(), 1.0, 0.1);
+    (proj * view).inverse()
+}
+
+/// What to trace: a square image of `size` pixels, `samples` per pixel.
+pub struct Trace {
+    pub size: u32,
+    pub samples: u32,
+    pub bounces: u32,
+    pub sky: Vec3,
+    pub mode: u32,
+    pub world_from_clip: Mat4,
+    pub lights: Vec<SceneLight>,
+}
+
+/// The mean radiance per pixel and each pixel's primary object slot.
+pub fn trace(gpu: &Gpu, scene: &Scene, layers: &Layers, t: &Trace) -> (Vec<Vec3>, Vec<u32>) {
+    let (image, slots, _) = trace_into(gpu, scene, layers, t);
+    (image, slots)
+}
+
+/// [`trace`], with the target its samples are in.
+pub fn trace_into(
+    gpu: &Gpu,
+    scene: &Scene,
+    layers: &Layers,
+    t: &Trace,
+) -> (Vec<Vec3>, Vec<u32>, super::TraceTarget) {
+    let lights: Vec<u8> = t.lights.iter().flat_map(light_bytes).collect();
+    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &lights);
+    let target = gpu.trace_target(t.size, t.size);
+    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let per = t.samples.min(16);
+    for _ in 0..t.samples / per {
+        let params = ViewParams {
+            world_from_clip: t.world_from_clip,
+            sky: t.sky,
+            exposure: 1.0,
+            width: t.size,
+            height: t.size,
+            root: scene.bvh.gpu_root(),
+            max_bounces: t.bounces,
+            samples: per,
+            mode: t.mode,
+            light_count: t.lights.len() as u32,
+            indirect_clamp: 0.0,
+            work: TraceWork::WHOLE_IMAGE,
+            part_shift: treelight_render::MAX_PART_SHIFT,
+        };
+        gpu.path_trace(&pipeline, &buffers, &params, &target, layers);
+    }
+    let image = floats(&gpu.read(&target.accum))
+        .chunks_exact(4)
+        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
+        .collect();
+    let slots = gpu.read_objects(&target);
+    (image, slots, target)
+}
