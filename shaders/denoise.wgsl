@@ -1,6 +1,6 @@
 // The denoiser: an edge-aware à-trous filter (SVGF's spatial part) over a view's accumulated
-// samples, guided by what the trace kernel keeps of each pixel's first primary hit (object slot,
-// shading normal, depth, albedo) and by the noise of each pixel's mean (from its samples' squared
+// samples, guided by what the trace kernel keeps of each pixel's primary hits (the first one's
+// object slot, shading normal and depth; the mean albedo of all) and by the noise of each pixel's mean (from its samples' squared
 // luminance, averaged over its neighbours). Lighting is
 // filtered apart from the surface colour (divided by the albedo here, multiplied back by the
 // resolve), so textures stay sharp; taps on another object never count, so nothing smears across
@@ -56,13 +56,14 @@ struct Guide {
 
 fn guide(i: u32) -> Guide {
     let pixels = params.width * params.height;
-    let g = guides_start(params.width, params.height) + 3u * i;
+    let g = guides_start(params.width, params.height) + 5u * i;
     var out: Guide;
     out.slot = aux[pixels + i];
-    out.normal = decode_normal(aux[g + 1u]);
+    out.normal = decode_normal(aux[g]);
     out.depth = bitcast<f32>(aux[i]);
-    out.albedo = unpack4x8unorm(aux[g]).rgb;
-    let m = bitcast<f32>(aux[g + 2u]);
+    let sum = vec3<f32>(bitcast<f32>(aux[g + 2u]), bitcast<f32>(aux[g + 3u]), bitcast<f32>(aux[g + 4u]));
+    out.albedo = sum / max(accum[i].w, 1.0);
+    let m = bitcast<f32>(aux[g + 1u]);
     out.moment = abs(m);
     out.mixed = m < 0.0;
     return out;

@@ -141,7 +141,7 @@ var<private> primary_depth: f32;
 // The object slot of the current sample's primary hit (NONE when it escapes).
 var<private> primary_object: u32;
 // The albedo and shading normal of the current sample's primary hit (white and zero when it
-// escapes): the denoiser's guides.
+// escapes): the denoiser's guides (the first sample's normal, the albedo summed over samples).
 var<private> primary_albedo: vec3<f32>;
 var<private> primary_normal: vec3<f32>;
 
@@ -824,12 +824,19 @@ fn path_trace(
     // denoiser keeps such mixed pixels from standing in for their neighbours.
     var moment = 0.0;
     var mixed = false;
-    let guides = guides_start(view.width, view.height) + 3u * pixel;
+    // And the sum of the primary hits' albedo: lighting is filtered apart from it.
+    var albedo = vec3<f32>(0.0);
+    let guides = guides_start(view.width, view.height) + 5u * pixel;
     let slot_at = view.width * view.height + pixel;
     if first > 0u {
-        let m = bitcast<f32>(aux[guides + 2u]);
+        let m = bitcast<f32>(aux[guides + 1u]);
         moment = abs(m);
         mixed = m < 0.0;
+        albedo = vec3<f32>(
+            bitcast<f32>(aux[guides + 2u]),
+            bitcast<f32>(aux[guides + 3u]),
+            bitcast<f32>(aux[guides + 4u]),
+        );
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -841,15 +848,18 @@ fn path_trace(
         sum += value;
         let l = luminance(value);
         moment += l * l;
+        albedo += clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0));
         if first + k == 0u {
             aux[pixel] = bitcast<u32>(primary_depth);
             aux[slot_at] = primary_object;
-            aux[guides] = pack4x8unorm(vec4<f32>(clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0));
-            aux[guides + 1u] = encode_normal(primary_normal);
+            aux[guides] = encode_normal(primary_normal);
         } else if primary_object != aux[slot_at] {
             mixed = true;
         }
     }
-    aux[guides + 2u] = bitcast<u32>(select(moment, -moment, mixed));
+    aux[guides + 1u] = bitcast<u32>(select(moment, -moment, mixed));
+    aux[guides + 2u] = bitcast<u32>(albedo.r);
+    aux[guides + 3u] = bitcast<u32>(albedo.g);
+    aux[guides + 4u] = bitcast<u32>(albedo.b);
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -73,7 +73,8 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
     let a = accum[i];
     if a.w > 0.0 {
         if resolve.denoised == 1u {
-            let albedo = unpack4x8unorm(aux[guides_start(resolve.size.x, resolve.size.y) + 3u * i]).rgb;
+            let g = guides_start(resolve.size.x, resolve.size.y) + 5u * i + 2u;
+            let albedo = vec3<f32>(aux_f32(g), aux_f32(g + 1u), aux_f32(g + 2u)) / a.w;
             return vec4<f32>(denoised[i].rgb * max(albedo, vec3<f32>(0.02)), aux_f32(i));
         }
         return vec4<f32>(a.rgb / a.w, aux_f32(i));

@@ -29,6 +29,9 @@ pub struct Cli {
     /// How the viewport starts: rasterised, path traced, or a debug view of the path tracer.
     #[arg(long, value_enum, default_value_t = ViewArg::Path)]
     pub view: ViewArg,
+    /// Look through the scene's camera of this name (a glTF file's) once the scene has loaded.
+    #[arg(long, value_name = "NAME")]
+    pub camera: Option<String>,
     /// Milliseconds of GPU time a frame may spend path tracing (it may also take as long as the
     /// rest of the frame takes); 0 traces every pixel every frame.
     #[arg(long, value_name = "MS", default_value_t = 4.0)]
@@ -100,6 +103,10 @@ pub struct RenderArgs {
     /// Replace the image if the file exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Render through the scene's camera of this name (a glTF file's) instead of the project's
+    /// view.
+    #[arg(long, value_name = "NAME")]
+    pub camera: Option<String>,
     /// Whether the image is denoised (as the viewport is by default).
     #[arg(long, value_enum, default_value_t = Switch::On)]
     pub denoise: Switch,

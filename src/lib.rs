@@ -130,6 +130,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             );
         }
     }
+    if let Some(name) = &cli.camera {
+        app.insert_resource(editor::viewport::camera::LookThrough::Named(name.clone()));
+    }
     let capturing = cli.screenshot.is_some() || cli.frames.is_some();
     if let Some(path) = &cli.save {
         let mut save = SaveWhenSettled::new(path.clone());

@@ -7,7 +7,7 @@
 //! pixel has `spp` samples, written atomically, with a progress bar on the terminal meanwhile.
 
 use crate::cli::RenderArgs;
-use crate::editor::viewport::camera::{OrbitCamera, apply_orbit, follow_document};
+use crate::editor::viewport::camera::{OrbitCamera, apply_orbit, follow_document, look_through};
 use crate::editor::viewport::look::apply_look;
 use bevy::app::ScheduleRunnerPlugin;
 use bevy::camera::RenderTarget;
@@ -25,6 +25,7 @@ use treelight_document::DocumentPlugin;
 use treelight_document::app::{
     SceneLoading, fail_on_errors, run_schedules_on_one_thread, task_pools,
 };
+use treelight_document::camera::SceneCamera;
 use treelight_document::default_scene::open_default_scene;
 use treelight_document::edit::history::apply_edit_requests;
 use treelight_render::{PathTraced, PathTracerStats};
@@ -101,6 +102,8 @@ struct RenderJob {
     gate: CaptureGate,
     /// The screenshot was asked for.
     captured: bool,
+    /// The scene camera to render through, by name.
+    camera: Option<String>,
 }
 
 /// Whether the render world's pipeline cache has no pipeline waiting to be compiled (written each
@@ -197,6 +200,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         settled: false,
         gate: CaptureGate::default(),
         captured: false,
+        camera: args.camera.clone(),
     });
     let orbit = OrbitCamera::default();
     app.world_mut().spawn((
@@ -240,6 +244,22 @@ fn sky_to_render_camera(
     }
 }
 
+/// The render camera, and the scene's cameras it may look through (`--camera`).
+#[derive(bevy::ecs::system::SystemParam)]
+struct RenderView<'w, 's> {
+    camera: Single<'w, 's, Entity, With<RenderCamera>>,
+    pose: Single<'w, 's, (&'static mut OrbitCamera, &'static mut Projection), With<RenderCamera>>,
+    scene_cameras: Query<
+        'w,
+        's,
+        (
+            &'static Name,
+            &'static GlobalTransform,
+            &'static SceneCamera,
+        ),
+    >,
+}
+
 /// Waits for the scene to settle and the path tracer's copy of it to stop changing; then shows the
 /// samples traced so far, and once every pixel has its samples, asks for the image. A scene the
 /// adapter cannot trace ends the run with its reason.
@@ -248,7 +268,7 @@ fn follow_samples(
     mut job: ResMut<RenderJob>,
     stats: Res<PathTracerStats>,
     loading: SceneLoading,
-    camera: Single<Entity, With<RenderCamera>>,
+    mut view: RenderView,
     ready: Res<PipelinesReady>,
     mut exit: MessageWriter<AppExit>,
 ) {
@@ -273,11 +293,35 @@ fn follow_samples(
         if !(settled && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
             return;
         }
+        if let Some(name) = job.camera.take() {
+            let Some((_, at, camera)) = view.scene_cameras.iter().find(|c| c.0.as_str() == name)
+            else {
+                let names: Vec<&str> = view.scene_cameras.iter().map(|c| c.0.as_str()).collect();
+                job.progress.abandon_with_message("failed");
+                error!(
+                    "{}: no camera named '{name}' in the scene (it has {})",
+                    job.out.display(),
+                    if names.is_empty() {
+                        "none".to_owned()
+                    } else {
+                        names.join(", ")
+                    }
+                );
+                exit.write(AppExit::error());
+                return;
+            };
+            let (o, p) = &mut *view.pose;
+            look_through(o, p, at, camera);
+            // The view changed, restarting the accumulation a frame or two from now: wait as for
+            // the last upload, so the samples counted are all through the camera.
+            job.uploaded.1 = 0;
+            return;
+        }
         // The last geometry that reached the GPU restarted the accumulation: every sample counted
         // from here on saw the whole scene (a later change of it starts the count again).
         job.settled = true;
     }
-    let samples = stats.samples(*camera);
+    let samples = stats.samples(*view.camera);
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
     let spp = job.spp;

@@ -120,6 +120,9 @@ pub struct EditorState {
     /// What the viewport camera has of it: its EV100 and Bevy's tonemapper, by name.
     #[serde(default)]
     pub camera_look: Option<(f32, String)>,
+    /// The viewport camera's position and the direction it looks, world space.
+    #[serde(default)]
+    pub camera_pose: Option<([f32; 3], [f32; 3])>,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -415,6 +418,8 @@ pub fn write_state_report(
         inputs: inputs.0,
         look: *look,
         camera_look: lens.single().ok().map(|(e, t)| (e.ev100, format!("{t:?}"))),
+        camera_pose: camera
+            .map(|(_, g)| (g.translation().to_array(), g.forward().as_vec3().to_array())),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

@@ -663,3 +663,46 @@ fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_ed
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn camera_looks_through_a_file_s_camera_and_a_missing_one_is_a_notice() {
+    use treelight::report::EditorState;
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("plugins/import/tests/data/cameras.gltf");
+    let dir = temp_dir("look-through");
+    let state = dir.join("state.ron");
+    let read_state =
+        || -> EditorState { ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap() };
+    let run = |camera: &str| {
+        run_editor(&[
+            scene.to_str().unwrap(),
+            "--camera",
+            camera,
+            "--state",
+            state.to_str().unwrap(),
+            "--frames",
+            "30",
+        ])
+    };
+    // "Side" stands at (4, 0, 0) looking along -x.
+    run("Side");
+    let s = read_state();
+    let (at, looking) = s.camera_pose.expect("the viewport camera's pose");
+    let near = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-3);
+    assert!(near(at, [4.0, 0.0, 0.0]), "at {at:?}");
+    assert!(near(looking, [-1.0, 0.0, 0.0]), "looking {looking:?}");
+    // The file's cameras are objects of the scene.
+    for name in ["Front", "Side", "Top"] {
+        assert!(s.objects.iter().any(|o| o.name == name), "no object {name}");
+    }
+    run("Nope");
+    let s = read_state();
+    assert!(
+        s.notices
+            .iter()
+            .any(|n| n.contains("no camera named 'Nope'") && n.contains("Side")),
+        "{:?}",
+        s.notices
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -115,3 +115,48 @@ fn a_project_s_exposure_is_in_its_render() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_render_through_a_file_s_camera_sees_what_that_camera_sees() {
+    let dir = temp_dir("render-camera");
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("plugins/import/tests/data/cameras.gltf");
+    let scene = scene.to_str().unwrap();
+    let size = ["--width", "64", "--height", "40", "--spp", "4"];
+    let shot = |camera: &str| {
+        let out = dir.join(format!("{camera}.png"));
+        let (ok, log) = render(
+            &[
+                &[scene, "--out", out.to_str().unwrap(), "--camera", camera][..],
+                &size[..],
+            ]
+            .concat(),
+        );
+        assert!(ok, "{log}");
+        load_rgb(&out)
+    };
+    // From the front, the red card fills the middle of the picture; from the side it is edge-on,
+    // and from the top (orthographic, looking down) it is a line too.
+    let red = |img: &image::RgbImage| {
+        let m = mean_rgb(img, 28, 16, 36, 24);
+        m[0] > 2.0 * m[1] && m[0] > 2.0 * m[2] && m[0] > 20.0
+    };
+    let front = shot("Front");
+    assert!(red(&front), "the front camera does not see the card");
+    assert!(!red(&shot("Side")), "the side camera sees the card face on");
+    assert!(!red(&shot("Top")), "the top camera sees the card face on");
+    // A name the file does not have is refused, with the names it has.
+    let (ok, log) = render(&[
+        scene,
+        "--out",
+        dir.join("nope.png").to_str().unwrap(),
+        "--camera",
+        "Nope",
+    ]);
+    assert!(!ok, "{log}");
+    assert!(
+        log.contains("no camera named 'Nope'") && log.contains("Front") && log.contains("Top"),
+        "{log}"
+    );
+    assert!(!dir.join("nope.png").exists());
+}

@@ -9,6 +9,7 @@
 
 pub mod app;
 pub mod atomic_file;
+pub mod camera;
 pub mod contain;
 pub mod default_scene;
 pub mod edit;

@@ -6,8 +6,8 @@ use crate::material::MaterialReader;
 use crate::sandbox::{read_scene_file, read_uri};
 use crate::texture::ImageCache;
 use crate::{
-    ImportError, ImportedLight, ImportedLightKind, ImportedMaterial, ImportedMesh, ImportedNode,
-    ImportedScene, MAX_ELEMENTS, MeshGeometry, check_indices, check_positions,
+    ImportError, ImportedCamera, ImportedLight, ImportedLightKind, ImportedMaterial, ImportedMesh,
+    ImportedNode, ImportedScene, MAX_ELEMENTS, MeshGeometry, check_indices, check_positions,
 };
 use glam::Mat4;
 use gltf::Semantic;
@@ -142,12 +142,16 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         let light = node
             .light()
             .and_then(|l| checked_light(&l, &name, &mut scene.warnings));
+        let camera = node
+            .camera()
+            .and_then(|c| checked_camera(&c, &name, &mut scene.warnings));
         scene.nodes.push(ImportedNode {
             name,
             parent: parent_index,
             local,
             key,
             light,
+            camera,
         });
         if let Some(mesh) = node.mesh() {
             let base = node
@@ -594,6 +598,64 @@ fn check_accessor(
 }
 
 /// A node's light, if its values are ones a light can take; otherwise a warning naming the node.
+/// A node's camera, if its values make one (else a warning naming the node).
+fn checked_camera(
+    c: &gltf::Camera,
+    node: &str,
+    warnings: &mut Vec<String>,
+) -> Option<ImportedCamera> {
+    let camera = match c.projection() {
+        gltf::camera::Projection::Perspective(p) => ImportedCamera::Perspective {
+            yfov: p.yfov(),
+            near: p.znear(),
+            far: p.zfar(),
+            aspect: p.aspect_ratio(),
+        },
+        gltf::camera::Projection::Orthographic(o) => ImportedCamera::Orthographic {
+            ymag: o.ymag(),
+            xmag: o.xmag(),
+            near: o.znear(),
+            far: o.zfar(),
+        },
+    };
+    let ok = match camera {
+        ImportedCamera::Perspective {
+            yfov,
+            near,
+            far,
+            aspect,
+        } => {
+            yfov.is_finite()
+                && yfov > 0.0
+                && yfov < std::f32::consts::PI
+                && near.is_finite()
+                && near > 0.0
+                && far.is_none_or(|f| f.is_finite() && f > near)
+                && aspect.is_none_or(|a| a.is_finite() && a > 0.0)
+        }
+        ImportedCamera::Orthographic {
+            ymag,
+            xmag,
+            near,
+            far,
+        } => {
+            [ymag, xmag, near, far].iter().all(|v| v.is_finite())
+                && ymag != 0.0
+                && xmag != 0.0
+                && near >= 0.0
+                && far > near
+        }
+    };
+    if !ok {
+        warnings.push(format!(
+            "'{node}': its camera has a field of view, size or near and far planes that make no \
+             view, skipped"
+        ));
+        return None;
+    }
+    Some(camera)
+}
+
 fn checked_light(
     l: &gltf::khr_lights_punctual::Light,
     node: &str,

@@ -152,6 +152,35 @@ pub struct ImportedNode {
     pub key: String,
     /// The light at the node (glTF's `KHR_lights_punctual`), shining along the node's -z axis.
     pub light: Option<ImportedLight>,
+    /// The camera at the node, looking along the node's -z axis with +y up.
+    pub camera: Option<ImportedCamera>,
+}
+
+/// A glTF camera, checked: finite values, a field of view within (0, π), `0 < near < far`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ImportedCamera {
+    /// A pinhole camera.
+    Perspective {
+        /// Vertical field of view, radians.
+        yfov: f32,
+        /// Distance to the near plane.
+        near: f32,
+        /// Distance to the far plane; `None`: infinite.
+        far: Option<f32>,
+        /// Width over height the file meant; `None`: the viewport's.
+        aspect: Option<f32>,
+    },
+    /// A parallel projection.
+    Orthographic {
+        /// Half the view's height.
+        ymag: f32,
+        /// Half the view's width.
+        xmag: f32,
+        /// Distance to the near plane.
+        near: f32,
+        /// Distance to the far plane.
+        far: f32,
+    },
 }
 
 /// A punctual light as glTF gives it, checked: finite, non-negative colour and intensity, a

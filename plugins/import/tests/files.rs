@@ -1000,3 +1000,44 @@ fn hostile_punctual_lights_are_refused_or_skipped_never_a_panic() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn gltf_cameras_come_with_their_nodes_and_bad_ones_are_named() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/cameras.gltf");
+    let s = load_scene(&path).unwrap();
+    let camera = |name: &str| {
+        s.nodes
+            .iter()
+            .find(|n| n.name == name)
+            .unwrap_or_else(|| panic!("no node {name}"))
+            .camera
+    };
+    assert_eq!(
+        camera("Front"),
+        Some(treelight_import::ImportedCamera::Perspective {
+            yfov: 0.6,
+            near: 0.1,
+            far: None,
+            aspect: Some(1.6)
+        })
+    );
+    assert_eq!(camera("Side"), camera("Front"));
+    assert_eq!(
+        camera("Top"),
+        Some(treelight_import::ImportedCamera::Orthographic {
+            ymag: 3.0,
+            xmag: 3.0,
+            near: 0.1,
+            far: 20.0
+        })
+    );
+    assert_eq!(camera("Card"), None);
+    assert_eq!(camera("Bad"), None);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("'Bad'") && w.contains("camera")),
+        "{:?}",
+        s.warnings
+    );
+}

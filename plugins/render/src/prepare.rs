@@ -439,8 +439,9 @@ pub(crate) struct ViewState {
     seen: bool,
     /// This frame's work, when the trace pipeline is ready.
     pub frame: Option<ViewFrame>,
-    /// Whether the denoiser's result is of the samples as they are now.
-    denoise_fresh: bool,
+    /// The sweeps over the image the denoiser's result is of; `None` since the last restart until
+    /// it runs.
+    denoised_sweeps: Option<u64>,
 }
 
 /// Per-view state, by render-world view entity.
@@ -587,7 +588,7 @@ impl ViewState {
             last_frame: None,
             seen: true,
             frame: None,
-            denoise_fresh: false,
+            denoised_sweeps: None,
         }
     }
 
@@ -759,7 +760,7 @@ fn prepare_views(
             state.key = Some(key);
             state.cursor = TileCursor::default();
             state.preview_scale = 0;
-            state.denoise_fresh = false;
+            state.denoised_sweeps = None;
         }
         let work = state.next_work(settings, restart);
         let traced = work.map_or(0, |(_, n)| n);
@@ -804,17 +805,23 @@ fn prepare_views(
             let (x, y) = params.workgroups();
             UVec2::new(x, y)
         });
-        // The denoiser runs over new samples (and once over samples it has not seen), in the
-        // path-traced view only.
-        let denoise_ready = pipeline_cache
-            .get_compute_pipeline(pipelines.denoise)
-            .is_some();
-        let denoising = settings.denoise && settings.view == DebugView::PathTraced && denoise_ready;
-        let denoise = (denoising && (dispatch.is_some() || !state.denoise_fresh))
-            .then_some(pipelines.denoise);
-        state.denoise_fresh = denoising;
         // The preview stands in for pixels without a sample until a whole sweep has run.
         let sweeps = state.cursor.sweeps(&state.order);
+        // The denoiser, in the path-traced view only, runs once each sweep over the image has
+        // completed (every pixel has new samples; a cheap adapter takes several frames a sweep,
+        // and the filter costs about one), or for a view with a sample limit once at the limit.
+        let denoising = settings.denoise
+            && settings.view == DebugView::PathTraced
+            && pipeline_cache
+                .get_compute_pipeline(pipelines.denoise)
+                .is_some();
+        let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
+        let due = settings.max_samples == 0 || sweeps * spf >= u64::from(settings.max_samples);
+        let denoise = (denoising && sweeps > 0 && due && state.denoised_sweeps != Some(sweeps))
+            .then_some(pipelines.denoise);
+        if denoise.is_some() {
+            state.denoised_sweeps = Some(sweeps);
+        }
         let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
         queue.write_buffer(
             &state.buffers.resolve_uniform,
@@ -832,7 +839,7 @@ fn prepare_views(
                     viewport,
                     settings.outline.width + viewport.z as f32 / size.x as f32 + 1.0,
                 ),
-                denoised: denoising,
+                denoised: denoising && state.denoised_sweeps.is_some(),
             }
             .to_bytes(),
         );

@@ -221,13 +221,13 @@ impl ResolveParams {
 }
 
 /// Bytes of a `width × height` view's `aux` buffer (aux_layout.wgsl): per pixel its first sample's
-/// depth, object slot, albedo and normal, and its samples' summed squared luminance; per preview
+/// depth, object slot and normal, its samples' summed squared luminance and albedo; per preview
 /// block (room made for the finest scale, 2 × 2 pixels) a sample and its depth, then its object
 /// slot.
 pub fn aux_bytes(width: u32, height: u32) -> u64 {
     let pixels = u64::from(width) * u64::from(height);
     let blocks = u64::from(width.div_ceil(2)) * u64::from(height.div_ceil(2));
-    pixels * 20 + blocks * 20
+    pixels * 28 + blocks * 20
 }
 
 /// Passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.

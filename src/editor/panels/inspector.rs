@@ -49,6 +49,10 @@ pub struct InspectorState {
     pub material: Option<MaterialView>,
     /// Its light, for a light.
     pub light: Option<LightValue>,
+    /// What camera it is, for a camera (glTF's): its projection in words.
+    pub camera: Option<String>,
+    /// Set when the user asks to look through it.
+    pub look_through: bool,
     /// How many objects are selected.
     pub selected: usize,
 }
@@ -65,6 +69,8 @@ impl InspectorState {
             scale: t.scale,
             material: None,
             light: None,
+            camera: None,
+            look_through: false,
             selected: 1,
         }
     }
@@ -111,6 +117,18 @@ pub fn inspector_ui(
     if let Some(light) = state.light.as_mut() {
         ui.separator();
         light_ui(ui, light, widgets);
+    }
+    if let Some(camera) = &state.camera {
+        ui.separator();
+        ui.strong("Camera");
+        ui.label(camera);
+        let button = ui
+            .button("Look through")
+            .on_hover_text("Put the viewport where this camera is, looking where it looks");
+        widgets.push("Look through", button.rect);
+        if button.clicked() {
+            state.look_through = true;
+        }
     }
     let Some(material) = state.material.as_mut() else {
         return;
@@ -440,6 +458,8 @@ pub struct InspectorAccess<'w, 's> {
     widgets: ResMut<'w, WidgetRects>,
     requests: ResMut<'w, EditRequests>,
     textures: ResMut<'w, EguiUserTextures>,
+    cameras: Query<'w, 's, &'static treelight_document::camera::SceneCamera, With<SceneObject>>,
+    look: ResMut<'w, crate::editor::viewport::camera::LookThrough>,
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,
 }
@@ -451,6 +471,7 @@ fn inspected(access: &mut InspectorAccess) -> Option<InspectorState> {
     let mut state = InspectorState::new(*o.id, o.name.as_str(), o.transform);
     state.selected = access.selection.entities().len();
     state.light = access.lights.get(e).ok().and_then(LightValue::of_parts);
+    state.camera = access.cameras.get(e).ok().map(|c| c.describe());
     if let Ok(handle) = access.material_of.get(e)
         && let Some(m) = access.materials.get(&handle.0)
     {
@@ -484,6 +505,11 @@ pub fn inspector_tab(InMut(ui): InMut<egui::Ui>, mut access: InspectorAccess) {
         access
             .requests
             .apply(EditCommand::MakeMaterialUnique { id: state.id });
+    }
+    if edited.as_ref().is_some_and(|s| s.look_through)
+        && let Some(e) = access.selection.active()
+    {
+        *access.look = crate::editor::viewport::camera::LookThrough::Object(e);
     }
     let ctx = ui.ctx();
     let active = ctx.dragged_id().or_else(|| ctx.memory(|m| m.focused()));

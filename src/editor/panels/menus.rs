@@ -82,6 +82,8 @@ pub enum MenuAction {
     View(ViewChange),
     /// View → Reset layout.
     ResetLayout,
+    /// View → Look through → a scene camera.
+    LookThrough(Entity),
     /// An entry of the File menu.
     File(crate::editor::files::file_menu::FileAction),
 }
@@ -98,6 +100,8 @@ pub struct MenuState<'a> {
     pub recent: &'a [std::path::PathBuf],
     /// The open project (Relink… is offered when it misses sources).
     pub project: &'a treelight_document::project::format::ProjectState,
+    /// The scene's cameras and their names, for View → Look through.
+    pub cameras: Vec<(Entity, String)>,
 }
 
 /// Draws the menu bar; returns what was chosen.
@@ -307,6 +311,19 @@ fn view_menu(
             action = Some(MenuAction::View(change));
         }
     }
+    ui.add_enabled_ui(!state.cameras.is_empty(), |ui| {
+        ui.menu_button("Look through", |ui| {
+            for (e, name) in &state.cameras {
+                if ui.button(name).clicked() {
+                    action = Some(MenuAction::LookThrough(*e));
+                }
+            }
+        })
+        .response
+        .on_hover_text("Put the viewport where one of the scene's cameras is")
+        .on_disabled_hover_text("The scene has no cameras (glTF files can bring some)");
+    });
+    ui.separator();
     if ui
         .button("Reset panel layout")
         .on_hover_text("Put the panels back where they start")
@@ -337,13 +354,20 @@ fn help_menu(ui: &mut egui::Ui) {
 
 /// What the menu bar reads to enable its entries.
 #[derive(SystemParam)]
-pub struct MenuView<'w> {
+pub struct MenuView<'w, 's> {
     history: Res<'w, EditHistory>,
     selection: Res<'w, Selection>,
     clipboard: Res<'w, EditClipboard>,
     recent: Res<'w, RecentProjects>,
     project: Res<'w, ProjectState>,
+    cameras: Query<'w, 's, (Entity, &'static Name), SceneCameras>,
 }
+
+/// Filter for the scene's cameras.
+type SceneCameras = (
+    With<treelight_document::camera::SceneCamera>,
+    With<treelight_document::object::SceneObject>,
+);
 
 /// Draws the menu bar into `ui`; what was chosen leaves as a [`MenuAction`].
 pub fn menu_bar_tab(
@@ -359,6 +383,11 @@ pub fn menu_bar_tab(
         can_paste: !view.clipboard.0.is_empty(),
         recent: &view.recent.0,
         project: &view.project,
+        cameras: view
+            .cameras
+            .iter()
+            .map(|(e, n)| (e, n.as_str().to_owned()))
+            .collect(),
     };
     let (mut render_copy, mut gizmo_copy) = (*render, *gizmo);
     if let Some(action) = menu_bar(ui, &state, &mut render_copy, &mut gizmo_copy) {
@@ -378,6 +407,7 @@ pub struct MenuTargets<'w, 's> {
     index: Res<'w, SceneIndex>,
     view: ResMut<'w, ViewRequest>,
     dock: ResMut<'w, EditorDock>,
+    look: ResMut<'w, crate::editor::viewport::camera::LookThrough>,
     scene: Res<'w, SceneBvh>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
 }
@@ -444,6 +474,9 @@ pub fn apply_menu_actions(
                 }
             }
             MenuAction::View(change) => t.view.0 = Some(change),
+            MenuAction::LookThrough(e) => {
+                *t.look = crate::editor::viewport::camera::LookThrough::Object(e)
+            }
             MenuAction::ResetLayout => *t.dock = EditorDock::default(),
             _ => {}
         }

@@ -248,13 +248,107 @@ pub fn change_view(
     }
 }
 
+/// A scene camera to look through, asked for by the inspector, the View menu or `--camera`.
+#[derive(Resource, Debug, Default)]
+pub enum LookThrough {
+    /// Nothing asked.
+    #[default]
+    None,
+    /// This camera object.
+    Object(Entity),
+    /// The scene camera of this name, once the scene has one (`--camera NAME`).
+    Named(String),
+}
+
+/// Puts the orbit camera where `camera` is, looking where it looks (its roll dropped, as the orbit
+/// camera has none), at the same distance from the focus as before, with its projection.
+pub fn look_through(
+    orbit: &mut OrbitCamera,
+    projection: &mut Projection,
+    at: &GlobalTransform,
+    camera: &treelight_document::camera::SceneCamera,
+) {
+    let position = at.translation();
+    let forward = at.forward().as_vec3();
+    orbit.yaw = (-forward.x).atan2(-forward.z);
+    orbit.pitch = forward
+        .y
+        .clamp(-1.0, 1.0)
+        .asin()
+        .clamp(-OrbitCamera::MAX_PITCH, OrbitCamera::MAX_PITCH);
+    // The direction the clamped angles give, so the camera stays where the scene's camera is.
+    let looking = orbit.rotation() * Vec3::NEG_Z;
+    orbit.focus = position + looking * orbit.radius;
+    *projection = camera.bevy_projection();
+}
+
+/// Whether `--camera`'s camera was found (or the scene settled without it: then a notice).
+#[derive(Resource, Debug, Default)]
+struct NamedCameraMissing(bool);
+
+/// Looks through the camera asked for: at once for an object, or once the scene holds a camera of
+/// the asked name (a notice says so when the scene has settled without one).
+fn apply_look_through(
+    mut request: ResMut<LookThrough>,
+    cameras: Query<(
+        Entity,
+        &Name,
+        &GlobalTransform,
+        &treelight_document::camera::SceneCamera,
+    )>,
+    mut orbit: Query<(&mut OrbitCamera, &mut Projection)>,
+    loading: treelight_document::app::SceneLoading,
+    mut missing: ResMut<NamedCameraMissing>,
+    mut notices: ResMut<treelight_document::notice::Notices>,
+) {
+    let found = match &*request {
+        LookThrough::None => return,
+        LookThrough::Object(e) => cameras.get(*e).ok(),
+        // Once the scene has settled, so that framing the opened file does not undo it.
+        LookThrough::Named(_) if !loading.settled() => return,
+        LookThrough::Named(name) => cameras.iter().find(|c| c.1.as_str() == name),
+    };
+    let Some((_, _, at, camera)) = found else {
+        if let LookThrough::Named(name) = &*request
+            && !missing.0
+        {
+            missing.0 = true;
+            let names: Vec<&str> = cameras.iter().map(|c| c.1.as_str()).collect();
+            notices.error(format!(
+                "no camera named '{name}' in the scene (it has {})",
+                if names.is_empty() {
+                    "none".to_owned()
+                } else {
+                    names.join(", ")
+                }
+            ));
+        }
+        if matches!(*request, LookThrough::Object(_)) {
+            *request = LookThrough::None;
+        }
+        return;
+    };
+    if let Ok((mut o, mut p)) = orbit.single_mut() {
+        look_through(&mut o, &mut p, at, camera);
+    }
+    *request = LookThrough::None;
+}
+
 /// The orbit camera and its keys.
 pub struct CameraPlugin;
 
 impl Plugin for CameraPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ViewRequest>()
+            .init_resource::<LookThrough>()
+            .init_resource::<NamedCameraMissing>()
             .add_systems(Startup, setup_cameras)
+            // After transforms are propagated, so a camera spawned this frame is where it stands;
+            // the orbit camera follows in the next frame's Update.
+            .add_systems(
+                PostUpdate,
+                apply_look_through.after(bevy::transform::TransformSystems::Propagate),
+            )
             .add_systems(
                 Update,
                 (

@@ -25,6 +25,8 @@ pub struct ObjectItem {
     pub spot_light: Has<SpotLight>,
     /// Whether it is a directional light.
     pub directional_light: Has<DirectionalLight>,
+    /// Whether it is a camera (a scene file's).
+    pub camera: Has<treelight_document::camera::SceneCamera>,
     /// Whether it is shown.
     pub visibility: Option<&'static Visibility>,
     /// Its parent.

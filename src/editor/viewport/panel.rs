@@ -29,6 +29,8 @@ use treelight_document::object::SceneId;
 pub enum IconKind {
     /// A light.
     Light(LightKind),
+    /// A camera (a glTF file's).
+    Camera,
     /// An empty group (an assembly's root or a node without a mesh).
     Empty,
 }
@@ -37,6 +39,7 @@ impl IconKind {
     fn glyph(self) -> &'static str {
         match self {
             IconKind::Light(kind) => super::object_item::light_glyph(kind),
+            IconKind::Camera => "📷",
             IconKind::Empty => "◇",
         }
     }

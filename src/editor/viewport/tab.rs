@@ -152,6 +152,8 @@ fn viewport_scene(view: &SceneView, show_boxes: bool) -> ViewportScene {
     for o in objects.iter() {
         let kind = if let Some(light) = o.light_kind() {
             IconKind::Light(light)
+        } else if o.camera {
+            IconKind::Camera
         } else if o.mesh.is_none() {
             IconKind::Empty
         } else {

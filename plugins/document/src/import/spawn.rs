@@ -222,8 +222,14 @@ pub fn spawn_scene(
                 .id(),
         );
     }
-    // The file's lights on their nodes (KHR_lights_punctual), in the editor's units.
+    // The file's lights on their nodes (KHR_lights_punctual), in the editor's units, and its
+    // cameras.
     for (n, &e) in scene.nodes.iter().zip(&nodes) {
+        if let Some(c) = n.camera {
+            commands
+                .entity(e)
+                .insert(crate::camera::SceneCamera::from_imported(&c));
+        }
         if let Some(l) = n.light {
             commands.queue(move |world: &mut World| {
                 if let Ok(mut e) = world.get_entity_mut(e) {

@@ -458,6 +458,11 @@ impl Gpu {
     /// per pixel, to be multiplied by the albedo) lies in `target.denoised[0]`.
     pub fn denoise(&self, target: &TraceTarget) {
         let pipeline = self.pipeline(treelight_render::DENOISE_WGSL, "denoise");
+        self.denoise_with(&pipeline, target);
+    }
+
+    /// [`Gpu::denoise`] with a pipeline made once.
+    pub fn denoise_with(&self, pipeline: &wgpu::ComputePipeline, target: &TraceTarget) {
         let (w, h) = (target.width, target.height);
         for k in 0..treelight_render::DENOISE_PASSES {
             let uniform = self.uniform(&treelight_render::denoise_pass_bytes(w, h, k));
@@ -467,7 +472,7 @@ impl Gpu {
                 (&target.denoised[0], &target.denoised[1])
             };
             self.dispatch_indexed(
-                &pipeline,
+                pipeline,
                 vec![vec![
                     (0, target.accum.as_entire_binding()),
                     (1, target.aux.as_entire_binding()),
