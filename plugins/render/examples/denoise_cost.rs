@@ -50,12 +50,12 @@ fn main() {
     };
     let (_, _, target) = trace_into(&gpu, &scene, &layers, &frame);
     let pipeline = gpu.pipeline(treelight_render::DENOISE_WGSL, "denoise");
-    gpu.denoise_with(&pipeline, &target);
+    gpu.denoise_with(&pipeline, &target, 1);
     gpu.wait();
     let mut times: Vec<f64> = (0..7)
         .map(|_| {
             let start = Instant::now();
-            gpu.denoise_with(&pipeline, &target);
+            gpu.denoise_with(&pipeline, &target, 1);
             gpu.wait();
             start.elapsed().as_secs_f64() * 1e3
         })

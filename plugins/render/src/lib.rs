@@ -36,9 +36,13 @@ pub use records::{
     GpuPrimaryCamera, GpuResolve, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES,
     ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES,
     ViewParams, attribute_bytes, attribute_record, aux_bytes, decode_normal, denoise_pass_bytes,
-    encode_normal, light_bytes, object_bytes, outline_words, set_outline,
+    denoise_passes, denoise_target, encode_normal, light_bytes, object_bytes, outline_words,
+    set_outline,
 };
-pub use texture_layers::{MAX_TEXTURE_LAYERS, TEXTURE_LAYER_SIZE};
+pub use texture_layers::{
+    MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,
+    layer_side_for, layers_at,
+};
 pub use upload::{
     BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -321,6 +325,9 @@ pub struct PathTracerFigures {
     pub trace_off: Option<String>,
     /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
     pub scene_buffer_bytes: u64,
+    /// The side, in texels, every texture is traced at: [`TEXTURE_LAYER_SIZE`] until more
+    /// textures are in use than its budget holds, then smaller (0 before any texture).
+    pub texture_side: u32,
 }
 
 /// One path-traced camera's latest frame under its budget.

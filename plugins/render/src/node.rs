@@ -66,9 +66,9 @@ fn path_trace(
             t.copy_out(slot, encoder);
         }
     }
-    if let Some(pipeline) = frame
+    if let Some((pipeline, passes)) = frame
         .denoise
-        .and_then(|id| pipeline_cache.get_compute_pipeline(id))
+        .and_then(|(id, n)| Some((pipeline_cache.get_compute_pipeline(id)?, n)))
     {
         let size = state.buffers.size();
         let mut pass = ctx
@@ -78,8 +78,11 @@ fn path_trace(
                 timestamp_writes: None,
             });
         pass.set_pipeline(pipeline);
-        for group in &state.buffers.denoise_bind_groups {
-            pass.set_bind_group(0, group, &[]);
+        for (k, groups) in state.buffers.denoise_bind_groups[..passes as usize]
+            .iter()
+            .enumerate()
+        {
+            pass.set_bind_group(0, &groups[crate::denoise_target(k as u32, passes)], &[]);
             pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
         }
     }

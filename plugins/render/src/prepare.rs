@@ -395,8 +395,9 @@ pub(crate) struct ViewFrame {
     pub writes_depth: bool,
     /// The camera's viewport in target pixels: x, y, width, height.
     pub viewport: UVec4,
-    /// The denoiser's pipeline, when its passes run this frame (after the trace).
-    pub denoise: Option<CachedComputePipelineId>,
+    /// The denoiser's pipeline and how many passes it makes, when it runs this frame (after the
+    /// trace).
+    pub denoise: Option<(CachedComputePipelineId, u32)>,
 }
 
 /// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
@@ -412,8 +413,8 @@ pub(crate) struct ViewBuffers {
     denoised: [Buffer; 2],
     /// Group 1 of the trace kernel.
     pub trace_bind_group: BindGroup,
-    /// The denoiser's passes' groups, in order.
-    pub denoise_bind_groups: Vec<BindGroup>,
+    /// The denoiser's passes' groups, in order, each writing the first image or the second.
+    pub denoise_bind_groups: Vec<[BindGroup; 2]>,
     /// The resolve pass's group.
     pub resolve_bind_group: BindGroup,
     /// The scene's outline buffer version the resolve group was made with.
@@ -526,30 +527,27 @@ fn view_buffers(
         (&accum, &aux, &resolve_uniform, &denoised[0]),
         scene,
     );
-    // Pass k reads the other image than it writes, the last (even) one writing the first.
+    // Pass k writes either image (reading the other): the last pass of a run writes the first.
     let denoise_bind_groups = (0..crate::DENOISE_PASSES)
         .map(|k| {
-            let (source, target) = if k % 2 == 0 {
-                (&denoised[1], &denoised[0])
-            } else {
-                (&denoised[0], &denoised[1])
-            };
             let pass_uniform = device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("treelight denoise pass"),
                 contents: &crate::denoise_pass_bytes(size.x, size.y, k),
                 usage: BufferUsages::UNIFORM,
             });
-            device.create_bind_group(
-                "treelight denoise",
-                &cache.get_bind_group_layout(&pipelines.denoise_layout),
-                &BindGroupEntries::sequential((
-                    accum.as_entire_binding(),
-                    aux.as_entire_binding(),
-                    pass_uniform.as_entire_binding(),
-                    source.as_entire_binding(),
-                    target.as_entire_binding(),
-                )),
-            )
+            [0, 1].map(|target| {
+                device.create_bind_group(
+                    "treelight denoise",
+                    &cache.get_bind_group_layout(&pipelines.denoise_layout),
+                    &BindGroupEntries::sequential((
+                        accum.as_entire_binding(),
+                        aux.as_entire_binding(),
+                        pass_uniform.as_entire_binding(),
+                        denoised[1 - target].as_entire_binding(),
+                        denoised[target].as_entire_binding(),
+                    )),
+                )
+            })
         })
         .collect();
     ViewBuffers {
@@ -818,7 +816,7 @@ fn prepare_views(
         let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
         let due = settings.max_samples == 0 || sweeps * spf >= u64::from(settings.max_samples);
         let denoise = (denoising && sweeps > 0 && due && state.denoised_sweeps != Some(sweeps))
-            .then_some(pipelines.denoise);
+            .then_some((pipelines.denoise, crate::denoise_passes(sweeps * spf)));
         if denoise.is_some() {
             state.denoised_sweeps = Some(sweeps);
         }

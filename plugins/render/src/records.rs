@@ -230,8 +230,27 @@ pub fn aux_bytes(width: u32, height: u32) -> u64 {
     pixels * 28 + blocks * 20
 }
 
-/// Passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.
+/// Most passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.
 pub const DENOISE_PASSES: u32 = 5;
+
+/// Passes the denoiser makes over pixels of `samples` samples each: the noise falls with the
+/// samples, and so does the reach the filter needs (each pass doubles it); beyond what the noise
+/// asks for, blurring costs detail. All five at up to 8 samples, one fewer each fourfold more.
+pub fn denoise_passes(samples: u64) -> u32 {
+    let mut passes = DENOISE_PASSES;
+    let mut at = 8;
+    while samples > at && passes > 1 {
+        passes -= 1;
+        at *= 4;
+    }
+    passes
+}
+
+/// Which of the denoiser's two images pass `pass` of `passes` writes: the last always the first
+/// image (the resolve reads it), the ones before alternating.
+pub fn denoise_target(pass: u32, passes: u32) -> usize {
+    ((passes - 1 - pass) % 2) as usize
+}
 
 /// `Denoise` of `denoise.wgsl`: one pass of the filter.
 #[repr(C)]
@@ -803,6 +822,22 @@ mod tests {
             worst = worst.min(decode_normal(encode_normal(n)).dot(n));
         }
         assert!(worst > 0.99999, "worst cosine {worst}");
+    }
+
+    #[test]
+    fn the_denoiser_reaches_less_far_as_samples_grow_and_ends_in_the_first_image() {
+        let passes: Vec<u32> = [1, 8, 9, 32, 33, 128, 129, 512, 513, 100_000]
+            .iter()
+            .map(|&n| denoise_passes(n))
+            .collect();
+        assert_eq!(passes, [5, 5, 4, 4, 3, 3, 2, 2, 1, 1]);
+        for n in 1..=DENOISE_PASSES {
+            // The last pass writes the first image; each pass reads what the one before wrote.
+            assert_eq!(denoise_target(n - 1, n), 0);
+            for k in 1..n {
+                assert_ne!(denoise_target(k, n), denoise_target(k - 1, n));
+            }
+        }
     }
 
     #[test]

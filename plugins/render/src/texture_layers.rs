@@ -23,12 +23,39 @@ use bevy::render::texture::GpuImage;
 use bevy::render::{Render, RenderStartup, RenderSystems};
 use std::collections::HashMap;
 
-/// Side of every layer of the base-colour texture array, in texels: images are resampled to it
-/// (averaging when they are larger). 4 MiB per layer.
+/// Side of every layer of the texture array, in texels, while the images fit at it: images are
+/// resampled to it (averaging when they are larger). 4 MiB per layer.
 pub const TEXTURE_LAYER_SIZE: u32 = 1024;
 
-/// Most layers the array may grow to (fewer if the device allows fewer): 1 GiB at most.
-pub const MAX_TEXTURE_LAYERS: u32 = 256;
+/// The smallest side layers shrink to when more images are used than fit at a larger one.
+pub const MIN_TEXTURE_LAYER_SIZE: u32 = 128;
+
+/// Bytes the texture array may hold: 256 layers at full size.
+pub const TEXTURE_BUDGET_BYTES: u64 = 1 << 30;
+
+/// Layers at full size the budget holds.
+pub const MAX_TEXTURE_LAYERS: u32 =
+    (TEXTURE_BUDGET_BYTES / (TEXTURE_LAYER_SIZE as u64 * TEXTURE_LAYER_SIZE as u64 * 4)) as u32;
+
+/// Layers of `side` texels the budget and a device of `device_layers` hold.
+pub fn layers_at(side: u32, device_layers: u32) -> u32 {
+    let per_layer = u64::from(side) * u64::from(side) * 4;
+    (TEXTURE_BUDGET_BYTES / per_layer).min(u64::from(device_layers)) as u32
+}
+
+/// The side layers take when `count` images need one each: the largest, halving from
+/// [`TEXTURE_LAYER_SIZE`] down to [`MIN_TEXTURE_LAYER_SIZE`], at which they all fit; `None` when
+/// not even the smallest holds them.
+pub fn layer_side_for(count: u32, device_layers: u32) -> Option<u32> {
+    let mut side = TEXTURE_LAYER_SIZE;
+    while side >= MIN_TEXTURE_LAYER_SIZE {
+        if layers_at(side, device_layers) >= count {
+            return Some(side);
+        }
+        side /= 2;
+    }
+    None
+}
 
 const LAYER_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 
@@ -60,6 +87,12 @@ pub(crate) struct TextureLayers {
     pub sampler: Sampler,
     capacity: u32,
     max_layers: u32,
+    /// The side of the layers, in texels ([`layer_side_for`] the images in use).
+    side: u32,
+    /// Layers the device allows in one array.
+    device_layers: u32,
+    /// The layers are to be made again at `side` (every image copied anew).
+    resize: bool,
     slots: HashMap<AssetId<Image>, Slot>,
     free: Vec<u32>,
     next: u32,
@@ -72,12 +105,12 @@ pub(crate) struct TextureLayers {
     pub array_version: u64,
 }
 
-fn array_texture(device: &RenderDevice, layers: u32) -> (Texture, TextureView) {
+fn array_texture(device: &RenderDevice, side: u32, layers: u32) -> (Texture, TextureView) {
     let texture = device.create_texture(&TextureDescriptor {
         label: Some("treelight base colour layers"),
         size: Extent3d {
-            width: TEXTURE_LAYER_SIZE,
-            height: TEXTURE_LAYER_SIZE,
+            width: side,
+            height: side,
             depth_or_array_layers: layers,
         },
         mip_level_count: 1,
@@ -104,7 +137,8 @@ fn init_texture_layers(
     shaders: Res<PathTracerShaders>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let (texture, view) = array_texture(&device, 1);
+    let (texture, view) = array_texture(&device, TEXTURE_LAYER_SIZE, 1);
+    let device_layers = device.limits().max_texture_array_layers;
     let sampler = device.create_sampler(&SamplerDescriptor {
         label: Some("treelight base colour"),
         address_mode_u: AddressMode::ClampToEdge,
@@ -135,10 +169,10 @@ fn init_texture_layers(
         view,
         sampler,
         capacity: 1,
-        max_layers: device
-            .limits()
-            .max_texture_array_layers
-            .min(MAX_TEXTURE_LAYERS),
+        max_layers: layers_at(TEXTURE_LAYER_SIZE, device_layers),
+        side: TEXTURE_LAYER_SIZE,
+        device_layers,
+        resize: false,
         slots: HashMap::new(),
         free: Vec::new(),
         next: 0,
@@ -181,17 +215,33 @@ impl TextureLayers {
                     self.next += 1;
                     self.next - 1
                 }
-                None => {
-                    if !self.warned {
-                        self.warned = true;
+                None => match layer_side_for(self.next + 1, self.device_layers) {
+                    // Every image again at a smaller side, so one more fits.
+                    Some(side) if side < self.side => {
+                        self.side = side;
+                        self.max_layers = layers_at(side, self.device_layers);
+                        self.resize = true;
                         warn!(
-                            "treelight: more than {} base-colour textures; further ones are traced \
-                             untextured",
-                            self.max_layers
+                            "treelight: {} textures are in use; the path tracer now holds each at \
+                             {side} × {side} texels to stay within its {} MiB",
+                            self.next + 1,
+                            TEXTURE_BUDGET_BYTES >> 20
                         );
+                        self.next += 1;
+                        self.next - 1
                     }
-                    return None;
-                }
+                    _ => {
+                        if !self.warned {
+                            self.warned = true;
+                            warn!(
+                                "treelight: more than {} textures; further ones are traced \
+                                 untextured",
+                                self.max_layers
+                            );
+                        }
+                        return None;
+                    }
+                },
             };
             self.slots.insert(
                 image,
@@ -249,8 +299,24 @@ pub(crate) fn fill_texture_layers(
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
+    stats: Res<crate::PathTracerStats>,
 ) {
     let layers = &mut *layers;
+    if layers.resize {
+        // Made again at the new side; every image is copied into it anew below.
+        let capacity = layers.next.max(1);
+        let (texture, view) = array_texture(&device, layers.side, capacity);
+        layers.texture = texture;
+        layers.view = view;
+        layers.capacity = capacity;
+        layers.resize = false;
+        layers.generation += 1;
+        layers.array_version += 1;
+        for slot in layers.slots.values_mut() {
+            slot.copied_from = None;
+        }
+        stats.update(|f| f.texture_side = layers.side);
+    }
     let stale: Vec<(u32, &GpuImage)> = layers
         .slots
         .iter()
@@ -273,14 +339,14 @@ pub(crate) fn fill_texture_layers(
         let capacity = (layers.capacity * 2)
             .max(layers.next)
             .min(layers.max_layers);
-        let (texture, view) = array_texture(&device, capacity);
+        let (texture, view) = array_texture(&device, layers.side, capacity);
         // Keep the layers already filled.
         encoder.copy_texture_to_texture(
             texel_copy(&layers.texture),
             texel_copy(&texture),
             Extent3d {
-                width: TEXTURE_LAYER_SIZE,
-                height: TEXTURE_LAYER_SIZE,
+                width: layers.side,
+                height: layers.side,
                 depth_or_array_layers: layers.capacity,
             },
         );
@@ -321,7 +387,7 @@ pub(crate) fn fill_texture_layers(
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
-        let groups = TEXTURE_LAYER_SIZE.div_ceil(8);
+        let groups = layers.side.div_ceil(8);
         pass.dispatch_workgroups(groups, groups, 1);
         drop(pass);
         copied.push((layer, gpu.texture.id()));
@@ -334,6 +400,7 @@ pub(crate) fn fill_texture_layers(
     }
     if !copied.is_empty() {
         layers.generation += 1;
+        stats.update(|f| f.texture_side = layers.side);
     }
 }
 
@@ -343,5 +410,25 @@ fn texel_copy(texture: &Texture) -> TexelCopyTextureInfo<'_> {
         mip_level: 0,
         origin: Origin3d::ZERO,
         aspect: TextureAspect::All,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_images_than_fit_shrink_every_layer_rather_than_drop_some() {
+        // The budget holds 256 layers at full size, four times as many at half.
+        assert_eq!(MAX_TEXTURE_LAYERS, 256);
+        assert_eq!(layer_side_for(256, 2048), Some(1024));
+        assert_eq!(layer_side_for(257, 2048), Some(512));
+        assert_eq!(layer_side_for(1024, 2048), Some(512));
+        assert_eq!(layer_side_for(1025, 2048), Some(256));
+        // The device's own limit on layers counts too.
+        assert_eq!(layer_side_for(300, 256), None);
+        assert_eq!(layer_side_for(4096, 65536), Some(256));
+        assert_eq!(layer_side_for(1 << 14, 1 << 20), Some(128));
+        assert_eq!(layer_side_for((1 << 14) + 1, 1 << 20), None);
     }
 }

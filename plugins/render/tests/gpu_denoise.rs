@@ -84,8 +84,8 @@ fn frame(samples: u32) -> Trace {
 }
 
 /// The denoised image of a trace: the last pass's lighting times each pixel's albedo guide.
-fn denoised(gpu: &Gpu, target: &support::TraceTarget) -> Vec<Vec3> {
-    gpu.denoise(target);
+fn denoised(gpu: &Gpu, target: &support::TraceTarget, samples: u32) -> Vec<Vec3> {
+    gpu.denoise(target, samples);
     let light = floats(&gpu.read(&target.denoised[0]));
     let aux = floats(&gpu.read(&target.aux));
     let accum = floats(&gpu.read(&target.accum));
@@ -124,7 +124,7 @@ fn denoised_low_sample_frames_are_closer_to_the_converged_one() {
     let mut table = String::from("spp  raw relMSE  denoised relMSE\n");
     for spp in [4, 16] {
         let (raw, _, target) = trace_into(&gpu, &s, &layers, &frame(spp));
-        let clean = denoised(&gpu, &target);
+        let clean = denoised(&gpu, &target, spp);
         let (e_raw, e_clean) = (
             relative_mse(&raw, &reference),
             relative_mse(&clean, &reference),
@@ -178,7 +178,7 @@ fn light_does_not_smear_across_an_object_s_edge() {
     };
     let (reference, slots) = trace(&gpu, &s, &layers, &t(64));
     let (_, _, target) = trace_into(&gpu, &s, &layers, &t(4));
-    let clean = denoised(&gpu, &target);
+    let clean = denoised(&gpu, &target, 4);
     // The card's pixels away from its silhouette (all eight neighbours on the card too): the
     // wall's light reaches them only by smearing, the reference has them black.
     let n = SIZE as i32;

@@ -41,6 +41,7 @@ impl Plugin for ViewportPlugin {
                 render_mode::fall_back_when_too_large.before(render_mode::apply_viewport_render),
                 look::sky_to_tracer.before(render_mode::apply_viewport_render),
                 render_mode::apply_viewport_render,
+                render_mode::report_texture_downsizing,
                 look::apply_look,
                 tab::fit_camera_viewport,
             ),

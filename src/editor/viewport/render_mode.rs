@@ -69,6 +69,25 @@ pub fn fall_back_when_too_large(
     }
 }
 
+/// Tells the user, once each time it happens, that the scene's textures are traced smaller than
+/// they are because more of them are in use than the path tracer's texture budget holds at full
+/// size.
+pub fn report_texture_downsizing(
+    stats: Res<PathTracerStats>,
+    mut notices: ResMut<Notices>,
+    mut told: Local<u32>,
+) {
+    let side = stats.figures().texture_side;
+    if side > 0 && side < treelight_render::TEXTURE_LAYER_SIZE && side != *told {
+        *told = side;
+        notices.warn(format!(
+            "The scene uses more textures than the path tracer's {} MiB hold at full size: each is \
+             traced at {side} × {side} texels (the raster view keeps them whole).",
+            treelight_render::TEXTURE_BUDGET_BYTES >> 20
+        ));
+    }
+}
+
 /// Puts the chosen mode on the viewport camera.
 pub fn apply_viewport_render(
     mut commands: Commands,

@@ -454,23 +454,26 @@ impl Gpu {
         }
     }
 
-    /// The denoiser's passes over `target`'s samples, as the plugin runs them; the result (lighting
+    /// The denoiser's passes over `target`'s samples (`samples` a pixel), as the plugin runs them; the result (lighting
     /// per pixel, to be multiplied by the albedo) lies in `target.denoised[0]`.
-    pub fn denoise(&self, target: &TraceTarget) {
+    pub fn denoise(&self, target: &TraceTarget, samples: u32) {
         let pipeline = self.pipeline(treelight_render::DENOISE_WGSL, "denoise");
-        self.denoise_with(&pipeline, target);
+        self.denoise_with(&pipeline, target, samples);
     }
 
-    /// [`Gpu::denoise`] with a pipeline made once.
-    pub fn denoise_with(&self, pipeline: &wgpu::ComputePipeline, target: &TraceTarget) {
+    /// [`Gpu::denoise`] with a pipeline made once, for pixels of `samples` samples.
+    pub fn denoise_with(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        target: &TraceTarget,
+        samples: u32,
+    ) {
         let (w, h) = (target.width, target.height);
-        for k in 0..treelight_render::DENOISE_PASSES {
+        let passes = treelight_render::denoise_passes(u64::from(samples));
+        for k in 0..passes {
             let uniform = self.uniform(&treelight_render::denoise_pass_bytes(w, h, k));
-            let (source, out) = if k % 2 == 0 {
-                (&target.denoised[1], &target.denoised[0])
-            } else {
-                (&target.denoised[0], &target.denoised[1])
-            };
+            let t = treelight_render::denoise_target(k, passes);
+            let (source, out) = (&target.denoised[1 - t], &target.denoised[t]);
             self.dispatch_indexed(
                 pipeline,
                 vec![vec![
