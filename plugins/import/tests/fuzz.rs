@@ -122,7 +122,8 @@ struct Seed {
 }
 
 /// The seed corpus: the real files (a long OBJ cut to its first lines, FlightHelmet without its
-/// 2048² textures so that a case stays small), and a hand-written triangle.
+/// 2048² textures so that a case stays small), the test files with punctual lights and cameras, the
+/// textured box with a material using every map and extension, and a hand-written triangle.
 fn seeds() -> Vec<Seed> {
     let file = |rel: &str| std::fs::read(shared(rel)).unwrap();
     let mut helmet: Value =
@@ -132,6 +133,46 @@ fn seeds() -> Vec<Seed> {
     for m in helmet["materials"].as_array_mut().unwrap() {
         *m = json!({"name": m["name"].clone(), "pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 0.2, 1]}});
     }
+    let data = |name: &str| {
+        std::fs::read(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data")
+                .join(name),
+        )
+        .unwrap()
+    };
+    // The textured box with a material using every map, alpha mode and material extension.
+    let mut materials: Value =
+        serde_json::from_slice(&file("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    materials["extensionsUsed"] = json!([
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_specular",
+        "KHR_materials_clearcoat",
+        "KHR_materials_emissive_strength",
+        "KHR_texture_transform"
+    ]);
+    materials["materials"][0] = json!({
+        "name": "everything",
+        "pbrMetallicRoughness": {
+            "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}},
+            "metallicRoughnessTexture": {"index": 0},
+            "metallicFactor": 0.3
+        },
+        "normalTexture": {"index": 0, "scale": 0.5},
+        "occlusionTexture": {"index": 0, "strength": 0.25},
+        "emissiveTexture": {"index": 0},
+        "emissiveFactor": [1, 0.5, 0],
+        "alphaMode": "MASK",
+        "alphaCutoff": 0.3,
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 0.6},
+            "KHR_materials_ior": {"ior": 1.33},
+            "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1, 0.9, 0.8]},
+            "KHR_materials_clearcoat": {"clearcoatFactor": 0.75, "clearcoatRoughnessFactor": 0.2},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 4}
+        }
+    });
     let bunny: Vec<u8> = String::from_utf8(file("obj/stanford-bunny.obj"))
         .unwrap()
         .lines()
@@ -195,6 +236,30 @@ fn seeds() -> Vec<Seed> {
                 "IndexOutOfRange.bin".into(),
                 file("broken_gltf/IndexOutOfRange/IndexOutOfRange.bin"),
             )],
+        },
+        Seed {
+            name: "lights.gltf".into(),
+            bytes: data("lights.gltf"),
+            beside: vec![],
+        },
+        Seed {
+            name: "cameras.gltf".into(),
+            bytes: data("cameras.gltf"),
+            beside: vec![],
+        },
+        Seed {
+            name: "Materials.gltf".into(),
+            bytes: serde_json::to_vec(&materials).unwrap(),
+            beside: vec![
+                (
+                    "BoxTextured0.bin".into(),
+                    file("gltf/BoxTextured-glTF/BoxTextured0.bin"),
+                ),
+                (
+                    "CesiumLogoFlat.png".into(),
+                    file("gltf/BoxTextured-glTF/CesiumLogoFlat.png"),
+                ),
+            ],
         },
         Seed {
             name: "bunny.obj".into(),
