@@ -193,7 +193,14 @@ fn finish(
     options: Res<Options>,
     mut frame: Local<u32>,
     mut exit: MessageWriter<AppExit>,
+    stats: Res<PathTracerStats>,
+    cameras: Query<Entity, With<PathTraced>>,
 ) {
+    // Frames count from the first traced samples: how long the kernels take to compile differs
+    // between machines.
+    if !cameras.iter().any(|e| stats.samples(e) > 0) {
+        return;
+    }
     *frame += 1;
     let Some(frames) = options.frames else {
         return;

@@ -28,6 +28,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(2) var<uniform> params: Denoise;
 @group(0) @binding(3) var<storage, read> source: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> filtered: array<vec4<f32>>;
+// The trace kernel's guides, five words a pixel (see pathtrace.wgsl).
+@group(0) @binding(5) var<storage, read> guides: array<u32>;
 
 fn decode_normal(w: u32) -> vec3<f32> {
     let e = unpack2x16snorm(w);
@@ -56,14 +58,14 @@ struct Guide {
 
 fn guide(i: u32) -> Guide {
     let pixels = params.width * params.height;
-    let g = guides_start(params.width, params.height) + 5u * i;
+    let g = 5u * i;
     var out: Guide;
     out.slot = aux[pixels + i];
-    out.normal = decode_normal(aux[g]);
+    out.normal = decode_normal(guides[g]);
     out.depth = bitcast<f32>(aux[i]);
-    let sum = vec3<f32>(bitcast<f32>(aux[g + 2u]), bitcast<f32>(aux[g + 3u]), bitcast<f32>(aux[g + 4u]));
+    let sum = vec3<f32>(bitcast<f32>(guides[g + 2u]), bitcast<f32>(guides[g + 3u]), bitcast<f32>(guides[g + 4u]));
     out.albedo = sum / max(accum[i].w, 1.0);
-    let m = bitcast<f32>(aux[g + 1u]);
+    let m = bitcast<f32>(guides[g + 1u]);
     out.moment = abs(m);
     out.mixed = m < 0.0;
     return out;

@@ -110,6 +110,10 @@ struct View {
 @group(1) @binding(0) var<uniform> view: View;
 @group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read_write> aux: array<u32>;
+// The denoiser's guides, five words a pixel: the first sample's shading normal (octahedral, in
+// pack2x16snorm); the sum of its samples' squared luminance (an f32, negated once they met more
+// than one object); the sum of their primary hits' albedo (three f32).
+@group(1) @binding(3) var<storage, read_write> guides: array<u32>;
 
 fn part_shift() -> u32 {
     return view.part_shift;
@@ -826,16 +830,16 @@ fn path_trace(
     var mixed = false;
     // And the sum of the primary hits' albedo: lighting is filtered apart from it.
     var albedo = vec3<f32>(0.0);
-    let guides = guides_start(view.width, view.height) + 5u * pixel;
+    let g = 5u * pixel;
     let slot_at = view.width * view.height + pixel;
     if first > 0u {
-        let m = bitcast<f32>(aux[guides + 1u]);
+        let m = bitcast<f32>(guides[g + 1u]);
         moment = abs(m);
         mixed = m < 0.0;
         albedo = vec3<f32>(
-            bitcast<f32>(aux[guides + 2u]),
-            bitcast<f32>(aux[guides + 3u]),
-            bitcast<f32>(aux[guides + 4u]),
+            bitcast<f32>(guides[g + 2u]),
+            bitcast<f32>(guides[g + 3u]),
+            bitcast<f32>(guides[g + 4u]),
         );
     }
     for (var k = 0u; k < view.samples; k += 1u) {
@@ -852,14 +856,14 @@ fn path_trace(
         if first + k == 0u {
             aux[pixel] = bitcast<u32>(primary_depth);
             aux[slot_at] = primary_object;
-            aux[guides] = encode_normal(primary_normal);
+            guides[g] = encode_normal(primary_normal);
         } else if primary_object != aux[slot_at] {
             mixed = true;
         }
     }
-    aux[guides + 1u] = bitcast<u32>(select(moment, -moment, mixed));
-    aux[guides + 2u] = bitcast<u32>(albedo.r);
-    aux[guides + 3u] = bitcast<u32>(albedo.g);
-    aux[guides + 4u] = bitcast<u32>(albedo.b);
+    guides[g + 1u] = bitcast<u32>(select(moment, -moment, mixed));
+    guides[g + 2u] = bitcast<u32>(albedo.r);
+    guides[g + 3u] = bitcast<u32>(albedo.g);
+    guides[g + 4u] = bitcast<u32>(albedo.b);
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -39,6 +39,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(3) var<storage, read> outlines: array<u32>;
 // The denoiser's last pass (denoise.wgsl): per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;
+// The trace kernel's guides (pathtrace.wgsl): the albedo summed over a pixel's samples at 2 to 4.
+@group(0) @binding(5) var<storage, read> guides: array<u32>;
 
 @vertex
 fn vertex(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -73,8 +75,8 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
     let a = accum[i];
     if a.w > 0.0 {
         if resolve.denoised == 1u {
-            let g = guides_start(resolve.size.x, resolve.size.y) + 5u * i + 2u;
-            let albedo = vec3<f32>(aux_f32(g), aux_f32(g + 1u), aux_f32(g + 2u)) / a.w;
+            let g = 5u * i + 2u;
+            let albedo = vec3<f32>(bitcast<f32>(guides[g]), bitcast<f32>(guides[g + 1u]), bitcast<f32>(guides[g + 2u])) / a.w;
             return vec4<f32>(denoised[i].rgb * max(albedo, vec3<f32>(0.02)), aux_f32(i));
         }
         return vec4<f32>(a.rgb / a.w, aux_f32(i));

@@ -36,8 +36,8 @@ pub use records::{
     GpuPrimaryCamera, GpuResolve, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES,
     ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES,
     ViewParams, attribute_bytes, attribute_record, aux_bytes, decode_normal, denoise_pass_bytes,
-    denoise_passes, denoise_target, encode_normal, light_bytes, object_bytes, outline_words,
-    set_outline,
+    denoise_passes, denoise_target, encode_normal, guide_bytes, light_bytes, object_bytes,
+    outline_words, set_outline,
 };
 pub use texture_layers::{
     MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,

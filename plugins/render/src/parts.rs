@@ -27,13 +27,14 @@ pub fn part_bindings(kind: BufferKind) -> &'static [u32] {
     }
 }
 
-/// Storage buffers the trace kernel binds: the scene's parts, then the view's accumulation and aux.
+/// Storage buffers the trace kernel binds: the scene's parts, then the view's accumulation, aux
+/// and guides.
 pub fn trace_storage_buffers() -> u32 {
     BufferKind::ALL
         .iter()
         .map(|&k| part_count(k) as u32)
         .sum::<u32>()
-        + 2
+        + 3
 }
 
 /// The largest part shift any adapter gets: record references carry 30 bits of index.
@@ -161,10 +162,12 @@ mod tests {
         for k in BufferKind::ALL {
             assert_eq!(part_bindings(k).len(), part_count(k), "{k:?}");
         }
-        all.extend([6, 7]);
+        // The texture array, its sampler and the energy table fill the rest of group 0.
+        all.extend([6, 7, crate::ENERGY_BINDING]);
         all.sort_unstable();
-        assert_eq!(all, (0..29).collect::<Vec<u32>>());
-        assert_eq!(trace_storage_buffers(), 29);
+        assert_eq!(all, (0..30).collect::<Vec<u32>>());
+        // 27 parts, then the view's accumulation, aux and guides.
+        assert_eq!(trace_storage_buffers(), 30);
     }
 
     #[test]

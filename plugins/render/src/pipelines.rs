@@ -44,12 +44,14 @@ pub(crate) struct PathTracerPipelines {
     /// Group 0 of the trace kernel: the record buffers (the split kinds' parts at
     /// [`part_bindings`]), the texture array and its sampler, the energy table.
     pub scene_layout: BindGroupLayoutDescriptor,
-    /// Group 1 of the trace kernel: the view uniform, the accumulation, and the depth and preview.
+    /// Group 1 of the trace kernel: the view uniform, the accumulation, the depth and preview, and
+    /// the denoiser's guides.
     pub view_layout: BindGroupLayoutDescriptor,
     /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform,
-    /// the scene's outline bits and the denoiser's result.
+    /// the scene's outline bits, the denoiser's result and the guides.
     pub resolve_layout: BindGroupLayoutDescriptor,
-    /// A denoiser pass's group: the accumulation, aux, the pass's uniform, its source and target.
+    /// A denoiser pass's group: the accumulation, aux, the pass's uniform, its source and target,
+    /// the guides.
     pub denoise_layout: BindGroupLayoutDescriptor,
     /// The denoiser's pass.
     pub denoise: CachedComputePipelineId,
@@ -100,6 +102,7 @@ fn init_pipelines(
                 uniform_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
     );
@@ -111,6 +114,7 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 uniform_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
             ),
@@ -126,6 +130,7 @@ fn init_pipelines(
                 uniform_buffer_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );

@@ -411,6 +411,8 @@ pub(crate) struct ViewBuffers {
     resolve_uniform: Buffer,
     /// The denoiser's two working images (the last pass leaves its result in the first).
     denoised: [Buffer; 2],
+    /// What the trace keeps for the denoiser: five words a pixel.
+    guides: Buffer,
     /// Group 1 of the trace kernel.
     pub trace_bind_group: BindGroup,
     /// The denoiser's passes' groups, in order, each writing the first image or the second.
@@ -471,7 +473,7 @@ fn resolve_group(
     device: &RenderDevice,
     pipelines: &PathTracerPipelines,
     cache: &PipelineCache,
-    (accum, aux, uniform, denoised): (&Buffer, &Buffer, &Buffer, &Buffer),
+    [accum, aux, uniform, denoised, guides]: [&Buffer; 5],
     scene: &GpuScene,
 ) -> BindGroup {
     device.create_bind_group(
@@ -483,6 +485,7 @@ fn resolve_group(
             uniform.as_entire_binding(),
             scene.outlines.as_entire_binding(),
             denoised.as_entire_binding(),
+            guides.as_entire_binding(),
         )),
     )
 }
@@ -498,8 +501,13 @@ fn view_buffers(
     let accum = storage(device, "treelight accumulation", pixels * 16);
     let aux = storage(
         device,
-        "treelight depth, objects, preview and guides",
+        "treelight depth, objects and preview",
         crate::aux_bytes(size.x, size.y),
+    );
+    let guides = storage(
+        device,
+        "treelight denoiser guides",
+        crate::guide_bytes(size.x, size.y),
     );
     let denoised = [
         storage(device, "treelight denoised", pixels * 16),
@@ -518,13 +526,14 @@ fn view_buffers(
             view_uniform.as_entire_binding(),
             accum.as_entire_binding(),
             aux.as_entire_binding(),
+            guides.as_entire_binding(),
         )),
     );
     let resolve_bind_group = resolve_group(
         device,
         pipelines,
         cache,
-        (&accum, &aux, &resolve_uniform, &denoised[0]),
+        [&accum, &aux, &resolve_uniform, &denoised[0], &guides],
         scene,
     );
     // Pass k writes either image (reading the other): the last pass of a run writes the first.
@@ -545,6 +554,7 @@ fn view_buffers(
                         pass_uniform.as_entire_binding(),
                         denoised[1 - target].as_entire_binding(),
                         denoised[target].as_entire_binding(),
+                        guides.as_entire_binding(),
                     )),
                 )
             })
@@ -556,6 +566,7 @@ fn view_buffers(
         view_uniform,
         resolve_uniform,
         denoised,
+        guides,
         denoise_bind_groups,
         trace_bind_group,
         resolve_bind_group,
@@ -676,8 +687,10 @@ fn prepare_views(
             .round()
             .as_uvec2()
             .max(UVec2::ONE);
-        // The accumulation, a view's largest buffer, is one binding too.
-        let view_bytes = size.x as u64 * size.y as u64 * 16;
+        // The denoiser's guides, a view's largest buffer, are one binding too.
+        let view_bytes = crate::guide_bytes(size.x, size.y)
+            .max(crate::aux_bytes(size.x, size.y))
+            .max(size.x as u64 * size.y as u64 * 16);
         if view_bytes > max_bytes {
             let why = format!(
                 "a {}×{} view needs {} in one buffer and this adapter binds at most {}",
@@ -735,7 +748,13 @@ fn prepare_views(
                 &device,
                 &pipelines,
                 &pipeline_cache,
-                (&b.accum, &b.aux, &b.resolve_uniform, &b.denoised[0]),
+                [
+                    &b.accum,
+                    &b.aux,
+                    &b.resolve_uniform,
+                    &b.denoised[0],
+                    &b.guides,
+                ],
                 &scene,
             );
             b.outline_version = scene.outline_version;

@@ -221,13 +221,17 @@ impl ResolveParams {
 }
 
 /// Bytes of a `width × height` view's `aux` buffer (aux_layout.wgsl): per pixel its first sample's
-/// depth, object slot and normal, its samples' summed squared luminance and albedo; per preview
-/// block (room made for the finest scale, 2 × 2 pixels) a sample and its depth, then its object
-/// slot.
+/// depth and object slot; per preview block (room made for the finest scale, 2 × 2 pixels) a sample
+/// and its depth, then its object slot.
 pub fn aux_bytes(width: u32, height: u32) -> u64 {
     let pixels = u64::from(width) * u64::from(height);
     let blocks = u64::from(width.div_ceil(2)) * u64::from(height.div_ceil(2));
-    pixels * 28 + blocks * 20
+    pixels * 8 + blocks * 20
+}
+
+/// Bytes of a `width × height` view's denoiser guides (pathtrace.wgsl): five words a pixel.
+pub fn guide_bytes(width: u32, height: u32) -> u64 {
+    u64::from(width) * u64::from(height) * 20
 }
 
 /// Most passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.

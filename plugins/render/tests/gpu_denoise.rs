@@ -87,18 +87,15 @@ fn frame(samples: u32) -> Trace {
 fn denoised(gpu: &Gpu, target: &support::TraceTarget, samples: u32) -> Vec<Vec3> {
     gpu.denoise(target, samples);
     let light = floats(&gpu.read(&target.denoised[0]));
-    let aux = floats(&gpu.read(&target.aux));
+    let guides = floats(&gpu.read(&target.guides));
     let accum = floats(&gpu.read(&target.accum));
     let pixels = (target.width * target.height) as usize;
-    let blocks = target.width.div_ceil(2) as usize * target.height.div_ceil(2) as usize;
-    // aux_layout.wgsl: guides after depth, slots, the preview's samples and its slots; the
-    // albedo summed over the samples at words 2 to 4 of five.
-    let guides = 2 * pixels + 4 * blocks + blocks;
     (0..pixels)
         .map(|i| {
-            let w = guides + 5 * i + 2;
+            // The albedo summed over the pixel's samples: words 2 to 4 of its five.
+            let w = 5 * i + 2;
             let n = accum[4 * i + 3].max(1.0);
-            let albedo = Vec3::new(aux[w], aux[w + 1], aux[w + 2]) / n;
+            let albedo = Vec3::new(guides[w], guides[w + 1], guides[w + 2]) / n;
             Vec3::new(light[4 * i], light[4 * i + 1], light[4 * i + 2])
                 * albedo.max(Vec3::splat(0.02))
         })

@@ -447,6 +447,10 @@ impl Gpu {
                 self.storage("denoised", &vec![0u8; pixels * 16]),
                 self.storage("denoised", &vec![0u8; pixels * 16]),
             ],
+            guides: self.storage(
+                "guides",
+                &vec![0u8; treelight_render::guide_bytes(width, height) as usize],
+            ),
             width,
             height,
             pixels,
@@ -482,6 +486,7 @@ impl Gpu {
                     (2, uniform.as_entire_binding()),
                     (3, source.as_entire_binding()),
                     (4, out.as_entire_binding()),
+                    (5, target.guides.as_entire_binding()),
                 ]],
                 (w.div_ceil(8), h.div_ceil(8)),
             );
@@ -518,6 +523,7 @@ impl Gpu {
             (0, uniform.as_entire_binding()),
             (1, target.accum.as_entire_binding()),
             (2, target.aux.as_entire_binding()),
+            (3, target.guides.as_entire_binding()),
         ];
         self.dispatch_indexed(pipeline, vec![scene_group, view_group], view.workgroups());
     }
@@ -597,6 +603,7 @@ impl Gpu {
             (0, uniform.as_entire_binding()),
             (1, target.accum.as_entire_binding()),
             (2, target.aux.as_entire_binding()),
+            (3, target.guides.as_entire_binding()),
         ];
         self.dispatch_indexed(pipeline, vec![scene_group, view_group], view.workgroups());
     }
@@ -610,6 +617,8 @@ pub struct TraceTarget {
     pub aux: wgpu::Buffer,
     /// The denoiser's two working images.
     pub denoised: [wgpu::Buffer; 2],
+    /// The trace kernel's guides for the denoiser, five words a pixel.
+    pub guides: wgpu::Buffer,
     /// The image's width.
     pub width: u32,
     /// The image's height.
@@ -1041,6 +1050,7 @@ impl Gpu {
                 (2, uniform.as_entire_binding()),
                 (3, outline_buffer.as_entire_binding()),
                 (4, target.denoised[0].as_entire_binding()),
+                (5, target.guides.as_entire_binding()),
             ]
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });
