@@ -824,16 +824,18 @@ fn prepare_views(
         });
         // The preview stands in for pixels without a sample until a whole sweep has run.
         let sweeps = state.cursor.sweeps(&state.order);
-        // The denoiser, in the path-traced view only, runs once each sweep over the image has
-        // completed (every pixel has new samples; a cheap adapter takes several frames a sweep,
-        // and the filter costs about one), or for a view with a sample limit once at the limit.
+        // The denoiser, in the path-traced view only, runs when a sweep over the image completes
+        // (every pixel has new samples) and the sweeps have doubled since it last ran, and once at
+        // a view's sample limit: its result improves most early, and on a software adapter one
+        // run costs about a frame.
         let denoising = settings.denoise
             && settings.view == DebugView::PathTraced
             && pipeline_cache
                 .get_compute_pipeline(pipelines.denoise)
                 .is_some();
         let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
-        let due = settings.max_samples == 0 || sweeps * spf >= u64::from(settings.max_samples);
+        let due = sweeps.is_power_of_two()
+            || (settings.max_samples > 0 && sweeps * spf >= u64::from(settings.max_samples));
         let denoise = (denoising && sweeps > 0 && due && state.denoised_sweeps != Some(sweeps))
             .then_some((pipelines.denoise, crate::denoise_passes(sweeps * spf)));
         if denoise.is_some() {
