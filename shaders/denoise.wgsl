@@ -6,7 +6,7 @@
 // resolve), so textures stay sharp; taps on another object never count, so nothing smears across
 // an object's edge or over the selection outline. Five passes, taps 1, 2, 4, 8 and 16 pixels apart:
 // the first reads the accumulation, each writes (rgb: demodulated colour, w: its variance) for
-// the next, the last for the resolve. The crate appends aux_layout.wgsl.
+// the next, the last for the resolve. The crate appends octahedral.wgsl.
 
 struct Denoise {
     width: u32,
@@ -30,16 +30,6 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(4) var<storage, read_write> filtered: array<vec4<f32>>;
 // The trace kernel's guides, five words a pixel (see pathtrace.wgsl).
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
-
-fn decode_normal(w: u32) -> vec3<f32> {
-    let e = unpack2x16snorm(w);
-    var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
-    let t = max(-n.z, 0.0);
-    n.x += select(t, -t, n.x >= 0.0);
-    n.y += select(t, -t, n.y >= 0.0);
-    let l = length(n);
-    return select(vec3<f32>(0.0), n / l, l > 0.0);
-}
 
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));

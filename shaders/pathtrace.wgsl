@@ -154,28 +154,6 @@ fn rand() -> f32 {
     return f32(rng_state >> 8u) / 16777216.0;
 }
 
-fn decode_normal(w: u32) -> vec3<f32> {
-    let e = unpack2x16snorm(w);
-    var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
-    let t = max(-n.z, 0.0);
-    n.x += select(t, -t, n.x >= 0.0);
-    n.y += select(t, -t, n.y >= 0.0);
-    return normalize(n);
-}
-
-// A unit vector (or zero) as octahedral snorm16x2, decode_normal's inverse.
-fn encode_normal(n: vec3<f32>) -> u32 {
-    let l1 = abs(n.x) + abs(n.y) + abs(n.z);
-    if l1 == 0.0 {
-        return 0u;
-    }
-    var p = n.xy / l1;
-    if n.z < 0.0 {
-        p = (vec2<f32>(1.0) - abs(p.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
-    }
-    return pack2x16snorm(p);
-}
-
 fn normal_to_world(o: Object, n: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(o.normal_rows[0].xyz, n), dot(o.normal_rows[1].xyz, n), dot(o.normal_rows[2].xyz, n));
 }

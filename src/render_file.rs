@@ -7,7 +7,9 @@
 //! pixel has `spp` samples, written atomically, with a progress bar on the terminal meanwhile.
 
 use crate::cli::RenderArgs;
-use crate::editor::viewport::camera::{OrbitCamera, apply_orbit, follow_document, look_through};
+use crate::editor::viewport::camera::{
+    OrbitCamera, apply_orbit, follow_document, look_through, no_camera_named,
+};
 use crate::editor::viewport::look::apply_look;
 use bevy::app::ScheduleRunnerPlugin;
 use bevy::camera::RenderTarget;
@@ -296,16 +298,11 @@ fn follow_samples(
         if let Some(name) = job.camera.take() {
             let Some((_, at, camera)) = view.scene_cameras.iter().find(|c| c.0.as_str() == name)
             else {
-                let names: Vec<&str> = view.scene_cameras.iter().map(|c| c.0.as_str()).collect();
                 job.progress.abandon_with_message("failed");
                 error!(
-                    "{}: no camera named '{name}' in the scene (it has {})",
+                    "{}: {}",
                     job.out.display(),
-                    if names.is_empty() {
-                        "none".to_owned()
-                    } else {
-                        names.join(", ")
-                    }
+                    no_camera_named(&name, view.scene_cameras.iter().map(|c| c.0.as_str()))
                 );
                 exit.write(AppExit::error());
                 return;

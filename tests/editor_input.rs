@@ -336,6 +336,12 @@ fn widget(st: &EditorState, name: &str) -> (f32, f32) {
     widget_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
 }
 
+/// Clicks the named widget the report lists.
+fn click_widget(s: &mut Session, st: &EditorState, name: &str) {
+    let (x, y) = widget(st, name);
+    s.click(x, y);
+}
+
 fn row_centre(st: &EditorState, id: treelight_document::object::SceneId) -> (f32, f32) {
     widget(st, &format!("row {}", id.0))
 }
@@ -804,8 +810,7 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
     assert!(!has_helmet(&st));
     let st = s.frames(5);
     assert!(!has_helmet(&st), "imported before the answer");
-    let at = widget(&st, "Import anyway");
-    s.click(at.0, at.1);
+    click_widget(&mut s, &st, "Import anyway");
     s.wait_until("the import", std::time::Duration::from_secs(60), has_helmet);
 }
 
@@ -862,8 +867,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     // Another curve from the menu: a step of its own, on the camera.
     s.click(widget(&st, "Tone curve").0, widget(&st, "Tone curve").1);
     let st = s.frames(2);
-    let item = widget(&st, "Tone curve None (clip)");
-    s.click(item.0, item.1);
+    click_widget(&mut s, &st, "Tone curve None (clip)");
     let st = s.frames(2);
     assert_eq!(st.look.tone, treelight_document::look::ToneCurve::None);
     assert_eq!(st.camera_look.as_ref().unwrap().1, "None");
@@ -906,11 +910,9 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     s.click(row.0, row.1);
     let st = s.frames(2);
     assert_eq!(st.selection, vec![lamp.id]);
-    let kind = widget(&st, "Light kind");
-    s.click(kind.0, kind.1);
+    click_widget(&mut s, &st, "Light kind");
     let st = s.frames(2);
-    let spot = widget(&st, "Light kind Spot light");
-    s.click(spot.0, spot.1);
+    click_widget(&mut s, &st, "Light kind Spot light");
     let st = s.frames(2);
     let now = object(&st, "Lamp light").light.unwrap();
     assert_eq!(now.kind, treelight_document::light::LightKind::Spot);
@@ -962,8 +964,7 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
         s.frames(1);
     }
     let st = s.frames(2);
-    let go = widget(&st, "Render");
-    s.click(go.0, go.1);
+    click_widget(&mut s, &st, "Render");
     let out = dir.join("room.png");
     let st = s.wait_until(
         "the render is saved",
@@ -990,11 +991,9 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
     // Again: the file exists, so the editor asks; Cancel keeps it.
     let before = std::fs::read(&out).unwrap();
     let st = s.frames(2);
-    let go = widget(&st, "Render");
-    s.click(go.0, go.1);
+    click_widget(&mut s, &st, "Render");
     let st = s.frames(2);
-    let cancel = widget(&st, "Cancel");
-    s.click(cancel.0, cancel.1);
+    click_widget(&mut s, &st, "Cancel");
     let st = s.frames(3);
     assert!(
         st.widgets.iter().all(|(n, _)| n != "Replace"),

@@ -83,6 +83,19 @@ impl MaterialReader<'_, '_> {
         self.map(info.texture(), tex_coord, map, role)
     }
 
+    /// A normal or occlusion map, whose `KHR_texture_transform` (`transform`) the gltf crate leaves
+    /// as raw JSON: it may override the UV set `tex_coord`.
+    fn raw_map(
+        &mut self,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        transform: Option<&Value>,
+        role: &str,
+    ) -> Result<Option<TextureRef>, ImportError> {
+        let (map, set) = raw_transform(transform).unwrap_or((UV_IDENTITY, None));
+        self.map(texture, set.unwrap_or(tex_coord), map, role)
+    }
+
     /// Warns that `what` of material `name` is not read.
     fn unread(&mut self, name: &str, what: &str) {
         self.warnings.push(format!(
@@ -169,10 +182,12 @@ impl MaterialReader<'_, '_> {
         )?;
         out.emissive_texture = self.info(m.emissive_texture(), "emission texture")?;
         if let Some(n) = m.normal_texture() {
-            let (map, set) = raw_transform(n.extension_value("KHR_texture_transform"))
-                .unwrap_or((UV_IDENTITY, None));
-            out.normal_texture =
-                self.map(n.texture(), set.unwrap_or(n.tex_coord()), map, "normal map")?;
+            out.normal_texture = self.raw_map(
+                n.texture(),
+                n.tex_coord(),
+                n.extension_value("KHR_texture_transform"),
+                "normal map",
+            )?;
             out.normal_scale = self.factor(
                 &name,
                 "normal scale",
@@ -183,12 +198,10 @@ impl MaterialReader<'_, '_> {
             );
         }
         if let Some(o) = m.occlusion_texture() {
-            let (map, set) = raw_transform(o.extension_value("KHR_texture_transform"))
-                .unwrap_or((UV_IDENTITY, None));
-            out.occlusion_texture = self.map(
+            out.occlusion_texture = self.raw_map(
                 o.texture(),
-                set.unwrap_or(o.tex_coord()),
-                map,
+                o.tex_coord(),
+                o.extension_value("KHR_texture_transform"),
                 "occlusion map",
             )?;
             out.occlusion_strength = self.factor(

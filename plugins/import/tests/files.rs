@@ -92,38 +92,16 @@ fn base_colour_textures_are_decoded_once_with_their_wrap_modes() {
 #[test]
 fn every_material_map_alpha_mode_and_extension_is_read() {
     let (dir, path, mut json) = copy_box_textured("material-ext");
-    let used = [
-        "KHR_materials_transmission",
-        "KHR_materials_ior",
-        "KHR_materials_specular",
-        "KHR_materials_clearcoat",
-        "KHR_materials_emissive_strength",
-        "KHR_texture_transform",
-    ];
-    json["extensionsUsed"] = serde_json::json!(used);
-    json["materials"][0] = serde_json::json!({
-        "name": "everything",
-        "pbrMetallicRoughness": {
-            "baseColorFactor": [1.0, 0.5, 0.25, 0.8],
-            "baseColorTexture": {"index": 0},
-            "metallicRoughnessTexture": {"index": 0},
-            "metallicFactor": 0.3,
-            "roughnessFactor": 0.7
-        },
-        "normalTexture": {"index": 0, "scale": 0.5},
-        "occlusionTexture": {"index": 0, "strength": 0.25},
-        "emissiveTexture": {"index": 0},
-        "emissiveFactor": [1.0, 0.5, 0.0],
-        "alphaMode": "MASK",
-        "alphaCutoff": 0.3,
-        "extensions": {
-            "KHR_materials_transmission": {"transmissionFactor": 0.6},
-            "KHR_materials_ior": {"ior": 1.33},
-            "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1.0, 0.9, 0.8]},
-            "KHR_materials_clearcoat": {"clearcoatFactor": 0.75, "clearcoatRoughnessFactor": 0.2},
-            "KHR_materials_emissive_strength": {"emissiveStrength": 4.0}
-        }
-    });
+    // A material using every map (all on texture 0), alpha mode and material extension.
+    let fixture: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/material-everything.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    json["extensionsUsed"] = fixture["extensionsUsed"].clone();
+    json["materials"][0] = fixture["material"].clone();
     std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
     let s = load_scene(&path).unwrap();
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);

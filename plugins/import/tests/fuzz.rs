@@ -144,35 +144,9 @@ fn seeds() -> Vec<Seed> {
     // The textured box with a material using every map, alpha mode and material extension.
     let mut materials: Value =
         serde_json::from_slice(&file("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
-    materials["extensionsUsed"] = json!([
-        "KHR_materials_transmission",
-        "KHR_materials_ior",
-        "KHR_materials_specular",
-        "KHR_materials_clearcoat",
-        "KHR_materials_emissive_strength",
-        "KHR_texture_transform"
-    ]);
-    materials["materials"][0] = json!({
-        "name": "everything",
-        "pbrMetallicRoughness": {
-            "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}},
-            "metallicRoughnessTexture": {"index": 0},
-            "metallicFactor": 0.3
-        },
-        "normalTexture": {"index": 0, "scale": 0.5},
-        "occlusionTexture": {"index": 0, "strength": 0.25},
-        "emissiveTexture": {"index": 0},
-        "emissiveFactor": [1, 0.5, 0],
-        "alphaMode": "MASK",
-        "alphaCutoff": 0.3,
-        "extensions": {
-            "KHR_materials_transmission": {"transmissionFactor": 0.6},
-            "KHR_materials_ior": {"ior": 1.33},
-            "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1, 0.9, 0.8]},
-            "KHR_materials_clearcoat": {"clearcoatFactor": 0.75, "clearcoatRoughnessFactor": 0.2},
-            "KHR_materials_emissive_strength": {"emissiveStrength": 4}
-        }
-    });
+    let fixture: Value = serde_json::from_slice(&data("material-everything.json")).unwrap();
+    materials["extensionsUsed"] = fixture["extensionsUsed"].clone();
+    materials["materials"][0] = fixture["material"].clone();
     let bunny: Vec<u8> = String::from_utf8(file("obj/stanford-bunny.obj"))
         .unwrap()
         .lines()

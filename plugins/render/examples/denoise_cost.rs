@@ -6,48 +6,15 @@
 #[path = "../tests/support/mod.rs"]
 mod support;
 
-use std::f32::consts::PI;
 use std::time::Instant;
 use support::Gpu;
-use support::scenes::{Scene, Trace, camera, sphere, square, trace_into};
-use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_render::{DebugView, SceneLight, SurfaceMaterial};
+use support::scenes::{lit_frame, spheres_on_a_floor, trace_into};
 
 fn main() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
-    let mut scene = Scene::new();
-    scene.add(
-        &square(3.0),
-        Affine3A::from_rotation_x(-PI / 2.0),
-        false,
-        &SurfaceMaterial::default(),
-    );
-    scene.add(
-        &sphere(32),
-        Affine3A::from_translation(Vec3::new(0.0, 1.0, 0.0)),
-        false,
-        &SurfaceMaterial::default(),
-    );
-    let frame = Trace {
-        size: 1440,
-        samples: 1,
-        bounces: 2,
-        sky: Vec3::new(0.4, 0.5, 0.7),
-        mode: DebugView::PathTraced.shader_index(),
-        world_from_clip: camera(
-            Vec3::new(0.0, 2.0, 4.0),
-            Vec3::new(0.0, 0.6, 0.0),
-            Vec3::Y,
-            45.0,
-        ),
-        lights: vec![SceneLight::Point {
-            position: Vec3::new(1.0, 3.0, 1.5),
-            power: Vec3::splat(4.0 * PI * 6.0),
-            radius: 0.3,
-            range: None,
-        }],
-    };
+    let scene = spheres_on_a_floor();
+    let frame = lit_frame(1440, 1);
     let (_, _, target) = trace_into(&gpu, &scene, &layers, &frame);
     let pipeline = gpu.pipeline(treelight_render::DENOISE_WGSL, "denoise");
     gpu.denoise_with(&pipeline, &target, 1);

@@ -67,7 +67,8 @@ pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../../shaders/scene_whole.wgsl"),
     include_str!("../../../shaders/attrs_whole.wgsl"),
     include_str!("../../../shaders/sampling.wgsl"),
-    include_str!("../../../shaders/aux_layout.wgsl")
+    include_str!("../../../shaders/aux_layout.wgsl"),
+    include_str!("../../../shaders/octahedral.wgsl")
 );
 
 /// WGSL: [`PATHTRACE_WGSL`] for a scene whose nodes, triangles and shading records are split across
@@ -80,7 +81,8 @@ pub const PATHTRACE_SPLIT_WGSL: &str = concat!(
     include_str!("../../../shaders/scene_parts.wgsl"),
     include_str!("../../../shaders/attrs_parts.wgsl"),
     include_str!("../../../shaders/sampling.wgsl"),
-    include_str!("../../../shaders/aux_layout.wgsl")
+    include_str!("../../../shaders/aux_layout.wgsl"),
+    include_str!("../../../shaders/octahedral.wgsl")
 );
 
 /// WGSL: one primary ray per pixel writing the hit triangle id (`primary_hits`), and from those
@@ -145,7 +147,7 @@ pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../../shaders/texture_laye
 /// WGSL: the denoiser's pass (`denoise`), an edge-aware à-trous filter over a view's samples.
 pub const DENOISE_WGSL: &str = concat!(
     include_str!("../../../shaders/denoise.wgsl"),
-    include_str!("../../../shaders/aux_layout.wgsl")
+    include_str!("../../../shaders/octahedral.wgsl")
 );
 
 /// WGSL: the pass that draws the accumulated average into the view target.
@@ -369,6 +371,14 @@ impl PathTracerStats {
             .unwrap_or_else(|p| p.into_inner())
             .trace_off
             .clone()
+    }
+
+    /// The side every texture is traced at ([`PathTracerFigures::texture_side`]).
+    pub fn texture_side(&self) -> u32 {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .texture_side
     }
 
     pub(crate) fn update(&self, f: impl FnOnce(&mut PathTracerFigures)) {

@@ -86,7 +86,6 @@ pub(crate) struct TextureLayers {
     /// Bilinear, clamped: the kernel wraps coordinates itself, per material.
     pub sampler: Sampler,
     capacity: u32,
-    max_layers: u32,
     /// The side of the layers, in texels ([`layer_side_for`] the images in use).
     side: u32,
     /// Layers the device allows in one array.
@@ -169,7 +168,6 @@ fn init_texture_layers(
         view,
         sampler,
         capacity: 1,
-        max_layers: layers_at(TEXTURE_LAYER_SIZE, device_layers),
         side: TEXTURE_LAYER_SIZE,
         device_layers,
         resize: false,
@@ -194,6 +192,11 @@ fn wrap_of(mode: ImageAddressMode) -> TextureWrap {
 }
 
 impl TextureLayers {
+    /// Layers the array may grow to at its current side.
+    fn max_layers(&self) -> u32 {
+        layers_at(self.side, self.device_layers)
+    }
+
     /// Starts a pass over the scene's materials: layers nobody asks for again are freed at its end.
     pub fn begin_pass(&mut self) {
         for s in self.slots.values_mut() {
@@ -211,7 +214,7 @@ impl TextureLayers {
         if !self.slots.contains_key(&image) {
             let layer = match self.free.pop() {
                 Some(l) => l,
-                None if self.next < self.max_layers => {
+                None if self.next < self.max_layers() => {
                     self.next += 1;
                     self.next - 1
                 }
@@ -219,7 +222,6 @@ impl TextureLayers {
                     // Every image again at a smaller side, so one more fits.
                     Some(side) if side < self.side => {
                         self.side = side;
-                        self.max_layers = layers_at(side, self.device_layers);
                         self.resize = true;
                         warn!(
                             "treelight: {} textures are in use; the path tracer now holds each at \
@@ -236,7 +238,7 @@ impl TextureLayers {
                             warn!(
                                 "treelight: more than {} textures; further ones are traced \
                                  untextured",
-                                self.max_layers
+                                self.max_layers()
                             );
                         }
                         return None;
@@ -338,7 +340,7 @@ pub(crate) fn fill_texture_layers(
     if grow {
         let capacity = (layers.capacity * 2)
             .max(layers.next)
-            .min(layers.max_layers);
+            .min(layers.max_layers());
         let (texture, view) = array_texture(&device, layers.side, capacity);
         // Keep the layers already filled.
         encoder.copy_texture_to_texture(

@@ -9,79 +9,14 @@
 
 mod support;
 
-use std::f32::consts::PI;
-use support::scenes::{Scene, Trace, camera, sphere, square, trace, trace_into};
+use support::scenes::{
+    Scene, Trace, camera, lit_frame, spheres_on_a_floor, square, trace, trace_into,
+};
 use support::{Gpu, floats};
-use treelight_bvh::glam::{Affine3A, Quat, Vec3};
-use treelight_render::{DebugView, SceneLight, SurfaceMaterial};
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_render::{DebugView, SurfaceMaterial};
 
 const SIZE: u32 = 48;
-
-fn scene() -> Scene {
-    let mut s = Scene::new();
-    let grey = SurfaceMaterial {
-        base_color: [0.7, 0.7, 0.7, 1.0],
-        perceptual_roughness: 0.8,
-        ..Default::default()
-    };
-    s.add(
-        &square(3.0),
-        Affine3A::from_rotation_x(-PI / 2.0),
-        false,
-        &grey,
-    );
-    s.add(
-        &sphere(24),
-        Affine3A::from_scale_rotation_translation(
-            Vec3::splat(0.6),
-            Quat::IDENTITY,
-            Vec3::new(-0.5, 0.6, 0.0),
-        ),
-        false,
-        &SurfaceMaterial {
-            base_color: [0.8, 0.3, 0.2, 1.0],
-            ..grey
-        },
-    );
-    s.add(
-        &sphere(24),
-        Affine3A::from_scale_rotation_translation(
-            Vec3::splat(0.45),
-            Quat::IDENTITY,
-            Vec3::new(0.7, 0.45, 0.3),
-        ),
-        false,
-        &SurfaceMaterial {
-            base_color: [0.9, 0.9, 0.9, 1.0],
-            metallic: 1.0,
-            perceptual_roughness: 0.35,
-            ..Default::default()
-        },
-    );
-    s
-}
-
-fn frame(samples: u32) -> Trace {
-    Trace {
-        size: SIZE,
-        samples,
-        bounces: 4,
-        sky: Vec3::new(0.4, 0.5, 0.7),
-        mode: DebugView::PathTraced.shader_index(),
-        world_from_clip: camera(
-            Vec3::new(0.0, 2.0, 3.5),
-            Vec3::new(0.0, 0.4, 0.0),
-            Vec3::Y,
-            45.0,
-        ),
-        lights: vec![SceneLight::Point {
-            position: Vec3::new(1.0, 3.0, 1.5),
-            power: Vec3::splat(4.0 * PI * 6.0),
-            radius: 0.3,
-            range: None,
-        }],
-    }
-}
 
 /// The denoised image of a trace: the last pass's lighting times each pixel's albedo guide.
 fn denoised(gpu: &Gpu, target: &support::TraceTarget, samples: u32) -> Vec<Vec3> {
@@ -116,11 +51,11 @@ fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f32 {
 fn denoised_low_sample_frames_are_closer_to_the_converged_one() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
-    let s = scene();
-    let (reference, _) = trace(&gpu, &s, &layers, &frame(1024));
+    let s = spheres_on_a_floor();
+    let (reference, _) = trace(&gpu, &s, &layers, &lit_frame(SIZE, 1024));
     let mut table = String::from("spp  raw relMSE  denoised relMSE\n");
     for spp in [4, 16] {
-        let (raw, _, target) = trace_into(&gpu, &s, &layers, &frame(spp));
+        let (raw, _, target) = trace_into(&gpu, &s, &layers, &lit_frame(SIZE, spp));
         let clean = denoised(&gpu, &target, spp);
         let (e_raw, e_clean) = (
             relative_mse(&raw, &reference),

@@ -260,6 +260,19 @@ pub enum LookThrough {
     Named(String),
 }
 
+/// The message for a scene without a camera of `name`, listing the cameras it has.
+pub fn no_camera_named<'a>(name: &str, cameras: impl Iterator<Item = &'a str>) -> String {
+    let names: Vec<&str> = cameras.collect();
+    format!(
+        "no camera named '{name}' in the scene (it has {})",
+        if names.is_empty() {
+            "none".to_owned()
+        } else {
+            names.join(", ")
+        }
+    )
+}
+
 /// Puts the orbit camera where `camera` is, looking where it looks (its roll dropped, as the orbit
 /// camera has none), at the same distance from the focus as before, with its projection.
 pub fn look_through(
@@ -313,15 +326,7 @@ fn apply_look_through(
             && !missing.0
         {
             missing.0 = true;
-            let names: Vec<&str> = cameras.iter().map(|c| c.1.as_str()).collect();
-            notices.error(format!(
-                "no camera named '{name}' in the scene (it has {})",
-                if names.is_empty() {
-                    "none".to_owned()
-                } else {
-                    names.join(", ")
-                }
-            ));
+            notices.error(no_camera_named(name, cameras.iter().map(|c| c.1.as_str())));
         }
         if matches!(*request, LookThrough::Object(_)) {
             *request = LookThrough::None;

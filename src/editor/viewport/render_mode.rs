@@ -77,7 +77,7 @@ pub fn report_texture_downsizing(
     mut notices: ResMut<Notices>,
     mut told: Local<u32>,
 ) {
-    let side = stats.figures().texture_side;
+    let side = stats.texture_side();
     if side > 0 && side < treelight_render::TEXTURE_LAYER_SIZE && side != *told {
         *told = side;
         notices.warn(format!(

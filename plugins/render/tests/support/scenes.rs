@@ -3,11 +3,11 @@
 
 use super::{Gpu, Layers, floats, put_record};
 use std::f32::consts::PI;
-use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork,
-    ViewParams, attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, DebugView, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
+    TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -177,4 +177,73 @@ pub fn trace_into(
         .collect();
     let slots = gpu.read_objects(&target);
     (image, slots, target)
+}
+
+/// A grey floor, a red sphere and a rough metal one, lit by [`lit_frame`]'s light and sky.
+pub fn spheres_on_a_floor() -> Scene {
+    let mut s = Scene::new();
+    let grey = SurfaceMaterial {
+        base_color: [0.7, 0.7, 0.7, 1.0],
+        perceptual_roughness: 0.8,
+        ..Default::default()
+    };
+    s.add(
+        &square(3.0),
+        Affine3A::from_rotation_x(-PI / 2.0),
+        false,
+        &grey,
+    );
+    s.add(
+        &sphere(24),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.6),
+            Quat::IDENTITY,
+            Vec3::new(-0.5, 0.6, 0.0),
+        ),
+        false,
+        &SurfaceMaterial {
+            base_color: [0.8, 0.3, 0.2, 1.0],
+            ..grey
+        },
+    );
+    s.add(
+        &sphere(24),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.45),
+            Quat::IDENTITY,
+            Vec3::new(0.7, 0.45, 0.3),
+        ),
+        false,
+        &SurfaceMaterial {
+            base_color: [0.9, 0.9, 0.9, 1.0],
+            metallic: 1.0,
+            perceptual_roughness: 0.35,
+            ..Default::default()
+        },
+    );
+    s
+}
+
+/// A `size`² view of [`spheres_on_a_floor`] at `samples` a pixel, under a soft point light and a
+/// blue sky.
+pub fn lit_frame(size: u32, samples: u32) -> Trace {
+    Trace {
+        size,
+        samples,
+        bounces: 4,
+        sky: Vec3::new(0.4, 0.5, 0.7),
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip: camera(
+            Vec3::new(0.0, 2.0, 3.5),
+            Vec3::new(0.0, 0.4, 0.0),
+            Vec3::Y,
+            45.0,
+        ),
+        lights: vec![SceneLight::Point {
+            position: Vec3::new(1.0, 3.0, 1.5),
+            power: Vec3::splat(4.0 * PI * 6.0),
+            radius: 0.3,
+            range: None,
+        }],
+    }
 }
