@@ -3,8 +3,9 @@
 // Materials are glTF's metallic-roughness model with its maps: a GGX specular lobe compensated for
 // the energy single scattering loses, over a Lambert lobe or a thin-walled GGX transmission lobe
 // (weighted by what the specular leaves), under an optional clear coat. Punctual lights are
-// sampled directly (next-event estimation), emissive surfaces and the sky are found by the BSDF
-// samples. The crate appends a traversal
+// sampled directly (next-event estimation), emissive surfaces and a flat sky are found by the BSDF
+// samples; a panorama sky is both sampled directly, in proportion to its brightness, and found by
+// the BSDF samples, the two weighed by multiple importance sampling. The crate appends a traversal
 // (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
 struct Attr {
@@ -87,6 +88,9 @@ struct View {
     tile_stride: u32,
     // Records per part of a split buffer: 1 << part_shift (scene_parts.wgsl).
     part_shift: u32,
+    // The panorama sky: cos and sin of its turn about +Y, its radiance scale, and ENV_* flags as a
+    // whole number (environment.rs).
+    environment: vec4<f32>,
 }
 
 // Group 0, the scene: the records and the texture array, shared by every view and bound again only
@@ -102,6 +106,12 @@ struct View {
 // The GGX lobe's albedo (A, B) over view cosine and perceptual roughness, ENERGY_SIZE² entries two
 // to a vec4 (energy.rs): the lobe reflects f0 A + B of the light.
 @group(0) @binding(29) var<uniform> energy: array<vec4<f32>, 512>;
+// The panorama sky (equirectangular: rows from the zenith down, the middle column along -Z), its
+// sampler (wrapping around the horizon), and its distribution: per row of cells the conditional
+// cumulative distribution over the row's cells, then in the last column the marginal's.
+@group(0) @binding(30) var environment_map: texture_2d<f32>;
+@group(0) @binding(31) var environment_sampler: sampler;
+@group(0) @binding(32) var environment_cdf: texture_2d<f32>;
 // Group 1, the view: its uniform; per pixel the running sum of its samples (rgb) and their count
 // (w); and `aux` (one buffer, as WebGPU allows a stage eight; words, floats by their bits), in four parts: per pixel the depth of
 // its first sample's primary hit; per pixel that hit's object slot (the bits of a u32, NONE where the
@@ -133,6 +143,9 @@ const MAP_EMISSIVE: u32 = 4u;
 const ALPHA_MASK: u32 = 1u;
 const ALPHA_BLEND: u32 = 2u;
 const ENERGY_SIZE: u32 = 32u;
+const ENV_PANORAMA: u32 = 1u;
+const ENV_SHOWN: u32 = 2u;
+const ENV_SAMPLED: u32 = 4u;
 // The smallest perceptual roughness shaded (Bevy's clamp; it keeps point-light highlights finite).
 const MIN_ROUGHNESS: f32 = 0.089;
 // Node records visited (4-wide: about half the binary nodes a ray would visit) that the heatmap shows
@@ -546,6 +559,158 @@ fn uniform_sphere() -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
+fn env_flags() -> u32 {
+    return u32(view.environment.w);
+}
+
+// The panorama's own direction of a world direction, and back (its turn about +Y).
+fn env_from_world(w: vec3<f32>) -> vec3<f32> {
+    let c = view.environment.x;
+    let s = view.environment.y;
+    return vec3<f32>(w.x * c - w.z * s, w.y, w.x * s + w.z * c);
+}
+
+fn env_to_world(m: vec3<f32>) -> vec3<f32> {
+    let c = view.environment.x;
+    let s = view.environment.y;
+    return vec3<f32>(m.x * c + m.z * s, m.y, -m.x * s + m.z * c);
+}
+
+fn env_uv(m: vec3<f32>) -> vec2<f32> {
+    return vec2<f32>(0.5 + atan2(m.x, -m.z) / (2.0 * PI), acos(clamp(m.y, -1.0, 1.0)) / PI);
+}
+
+fn env_direction(uv: vec2<f32>) -> vec3<f32> {
+    let theta = uv.y * PI;
+    let phi = (uv.x - 0.5) * 2.0 * PI;
+    return vec3<f32>(sin(theta) * sin(phi), cos(theta), -sin(theta) * cos(phi));
+}
+
+// Radiance arriving from the sky along world direction d (towards the sky).
+fn sky_radiance(d: vec3<f32>) -> vec3<f32> {
+    if (env_flags() & ENV_PANORAMA) == 0u {
+        return view.sky.rgb;
+    }
+    let uv = env_uv(env_from_world(d));
+    return textureSampleLevel(environment_map, environment_sampler, uv, 0.0).rgb * view.environment.z;
+}
+
+// What a camera ray that leaves the scene sees: the sky, or the flat sky colour where a panorama
+// lights the scene unseen.
+fn background(d: vec3<f32>) -> vec3<f32> {
+    let flags = env_flags();
+    if (flags & ENV_PANORAMA) != 0u && (flags & ENV_SHOWN) == 0u {
+        return view.sky.rgb;
+    }
+    return sky_radiance(d);
+}
+
+fn env_cdf(x: u32, y: u32) -> f32 {
+    return textureLoad(environment_cdf, vec2<u32>(x, y), 0).r;
+}
+
+// The probability of the distribution's cell (x, y) (of cw across).
+fn env_cell_probability(x: u32, y: u32, cw: u32) -> f32 {
+    var row = env_cdf(cw, y);
+    if y > 0u {
+        row -= env_cdf(cw, y - 1u);
+    }
+    var cell = env_cdf(x, y);
+    if x > 0u {
+        cell -= env_cdf(x - 1u, y);
+    }
+    return row * cell;
+}
+
+// The density per steradian of env_sample drawing world direction d.
+fn env_pdf(d: vec3<f32>) -> f32 {
+    let dims = textureDimensions(environment_cdf);
+    let cw = dims.x - 1u;
+    let ch = dims.y;
+    let uv = env_uv(env_from_world(d));
+    let s = sin(uv.y * PI);
+    if !(s > 0.0) {
+        return 0.0;
+    }
+    let x = min(u32(fract(uv.x) * f32(cw)), cw - 1u);
+    let y = min(u32(uv.y * f32(ch)), ch - 1u);
+    return env_cell_probability(x, y, cw) * f32(cw * ch) / (2.0 * PI * PI * s);
+}
+
+// The first of `n` cumulative values (column `column` of the distribution, or row `row`'s cells)
+// above `r`.
+fn env_search(n: u32, r: f32, column: u32, row: u32, in_column: bool) -> u32 {
+    var lo = 0u;
+    var hi = n - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        var c: f32;
+        if in_column {
+            c = env_cdf(column, mid);
+        } else {
+            c = env_cdf(mid, row);
+        }
+        if c > r {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+// A world direction drawn in proportion to the panorama's brightness (xyz) and its density (w).
+fn env_sample(r1: f32, r2: f32) -> vec4<f32> {
+    let dims = textureDimensions(environment_cdf);
+    let cw = dims.x - 1u;
+    let ch = dims.y;
+    let y = env_search(ch, r2, cw, 0u, true);
+    var below = 0.0;
+    if y > 0u {
+        below = env_cdf(cw, y - 1u);
+    }
+    let fy = clamp((r2 - below) / max(env_cdf(cw, y) - below, 1e-30), 0.0, 0.999999);
+    let x = env_search(cw, r1, 0u, y, false);
+    var left = 0.0;
+    if x > 0u {
+        left = env_cdf(x - 1u, y);
+    }
+    let fx = clamp((r1 - left) / max(env_cdf(x, y) - left, 1e-30), 0.0, 0.999999);
+    let uv = vec2<f32>((f32(x) + fx) / f32(cw), (f32(y) + fy) / f32(ch));
+    let s = sin(uv.y * PI);
+    if !(s > 0.0) {
+        return vec4<f32>(0.0, 1.0, 0.0, 0.0);
+    }
+    let p = env_cell_probability(x, y, cw) * f32(cw * ch) / (2.0 * PI * PI * s);
+    return vec4<f32>(env_to_world(env_direction(uv)), p);
+}
+
+// The panorama's light at s through one shadow ray drawn from its distribution, weighed against
+// the BSDF's samples, which find the same light when they leave the scene (power heuristic).
+fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
+    let e = env_sample(rand(), rand());
+    let wi = e.xyz;
+    let p_light = e.w;
+    if !(p_light > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let cos_l = dot(s.ns, wi);
+    let cos_g = dot(s.ng, wi);
+    if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && s.transmission <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let f = bsdf(s, l, wo, wi);
+    if max(f.x, max(f.y, f.z)) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if occluded(view.root, offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, FAR) {
+        return vec3<f32>(0.0);
+    }
+    let p_bsdf = pdf(s, l, wo, wi);
+    let w = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf);
+    return f * sky_radiance(wi) * (abs(cos_l) * w / p_light);
+}
+
 // Light arriving at s from every light, through shadow rays, reflected (or passed through a thin
 // wall) towards wo.
 fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
@@ -589,6 +754,10 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
         }
         sum += bsdf(s, l, wo, wi) * li * abs(cos_l);
     }
+    if (env_flags() & ENV_SAMPLED) != 0u {
+        // Ambient light, which the occlusion map dims, as it dims the BSDF's samples of it.
+        sum += environment_light(s, l, wo) * s.occlusion;
+    }
     return sum;
 }
 
@@ -607,10 +776,21 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
     var d = d0;
     var throughput = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
+    // The density of the BSDF sample that gave d (for the panorama's weight where it escapes).
+    var last_pdf = 0.0;
     for (var bounce = 0u; bounce <= view.max_bounces; bounce += 1u) {
         let hit = closest_hit(view.root, o, d, FAR);
         if hit.triangle == NONE {
-            radiance += indirect(throughput * view.sky.rgb, bounce);
+            if bounce == 0u {
+                radiance += background(d);
+            } else {
+                var w = 1.0;
+                if (env_flags() & ENV_SAMPLED) != 0u {
+                    let p_light = env_pdf(d);
+                    w = last_pdf * last_pdf / (last_pdf * last_pdf + p_light * p_light);
+                }
+                radiance += indirect(throughput * sky_radiance(d) * w, bounce);
+            }
             break;
         }
         if bounce == 0u {
@@ -640,6 +820,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         }
         // The occlusion map dims the light bounced off the surface, not what lights strike it.
         throughput *= bsdf(s, l, wo, wi) * (abs(cos_s) * s.occlusion / p);
+        last_pdf = p;
         // Russian roulette once the path has done most of its work.
         if bounce >= 2u {
             let q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);

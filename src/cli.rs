@@ -17,7 +17,8 @@ pub struct Cli {
     /// Save a screenshot of the whole window to this PNG file after `--frames` frames, then exit.
     #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
-    /// Frames to render before taking the screenshot (or before exiting, without --screenshot).
+    /// Frames to render, once the scene has loaded, before taking the screenshot (or before
+    /// exiting, without --screenshot).
     #[arg(long, value_name = "N")]
     pub frames: Option<u32>,
     /// Window width in logical pixels.

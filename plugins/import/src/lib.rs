@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 mod budget;
+mod environment;
 mod gltf_compressed;
 mod gltf_scene;
 mod material;
@@ -23,6 +24,10 @@ use thiserror::Error;
 
 pub use budget::{BUDGET_VARIABLE, ImportOptions, available_memory, default_memory_budget};
 
+pub use environment::{
+    EnvironmentImage, MAX_ENVIRONMENT_FILE, MAX_ENVIRONMENT_SIDE, MAX_ENVIRONMENT_WIDTH,
+    coordinates_of, direction_of, read_environment,
+};
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;
 pub use ply_scene::load_ply;

@@ -14,6 +14,7 @@
 
 mod budget;
 mod energy;
+mod environment;
 mod extract;
 mod node;
 mod parts;
@@ -30,6 +31,10 @@ pub use budget::{
     preview_scale,
 };
 pub use energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_sum};
+pub use environment::{
+    ENVIRONMENT_BINDINGS, EnvironmentTexels, MAX_DISTRIBUTION_WIDTH, PathTracedEnvironment,
+    environment_uniform, panorama_coordinates, panorama_direction,
+};
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
     ATTRIBUTE_BYTES, DENOISE_PASSES, GpuAoParams, GpuAttribute, GpuDenoise, GpuLight, GpuObject,
@@ -420,6 +425,7 @@ impl Plugin for PathTracerPlugin {
         // The strong handles live in the main world so the shaders stay loaded.
         app.insert_resource(shaders.clone());
         raster_skip::build(app);
+        environment::build(app);
         let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) else {
             return;
         };

@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use bevy::render::RenderStartup;
 use bevy::render::render_resource::BindGroupLayoutEntry;
 use bevy::render::render_resource::binding_types::{
-    sampler, storage_buffer_read_only_sized, storage_buffer_sized, texture_2d_array,
+    sampler, storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, texture_2d_array,
     uniform_buffer_sized,
 };
 use bevy::render::render_resource::{
@@ -42,7 +42,7 @@ pub(crate) fn build(render_app: &mut SubApp) {
 #[derive(Resource)]
 pub(crate) struct PathTracerPipelines {
     /// Group 0 of the trace kernel: the record buffers (the split kinds' parts at
-    /// [`part_bindings`]), the texture array and its sampler, the energy table.
+    /// [`part_bindings`]), the texture array and its sampler, the energy table, the panorama sky.
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, the depth and preview, and
     /// the denoiser's guides.
@@ -91,6 +91,17 @@ fn init_pipelines(
     scene_entries.push(
         uniform_buffer_sized(false, None)
             .build(crate::energy::ENERGY_BINDING, ShaderStages::COMPUTE),
+    );
+    let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+    scene_entries.push(
+        texture_2d(TextureSampleType::Float { filterable: true })
+            .build(env_image, ShaderStages::COMPUTE),
+    );
+    scene_entries
+        .push(sampler(SamplerBindingType::Filtering).build(env_sampler, ShaderStages::COMPUTE));
+    scene_entries.push(
+        texture_2d(TextureSampleType::Float { filterable: false })
+            .build(env_cdf, ShaderStages::COMPUTE),
     );
     scene_entries.sort_by_key(|e| e.binding);
     let scene_layout = BindGroupLayoutDescriptor::new("treelight scene", &scene_entries);

@@ -4,6 +4,7 @@
 //! work that fits this frame's budget: what the node is to dispatch and draw.
 
 use crate::budget::{FrameBudget, TILE, TileCursor, TileOrder, TraceClock, preview_scale};
+use crate::environment::{ExtractedEnvironment, GpuEnvironment};
 use crate::extract::SceneSync;
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
@@ -68,8 +69,9 @@ pub(crate) struct GpuScene {
     /// Group 0 of the trace kernel over the current buffers and texture array; `None` after a
     /// buffer grew, until it is made again.
     pub bind_group: Option<BindGroup>,
-    /// The texture array's version the bind group was made with.
+    /// The texture array's and the panorama's versions the bind group was made with.
     bound_array: u64,
+    bound_environment: u64,
     /// Two bits of outline per object slot, read by the views' resolve passes.
     outlines: Buffer,
     /// Words `outlines` holds.
@@ -169,6 +171,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         tree_generation: 0,
         bind_group: None,
         bound_array: 0,
+        bound_environment: 0,
         outlines: outline_buffer(&device, 64),
         outline_capacity: 64,
         outline_slots: 0,
@@ -324,15 +327,19 @@ fn apply_scene_uploads(
 fn prepare_scene_bind_group(
     mut scene: ResMut<GpuScene>,
     layers: Option<Res<TextureLayers>>,
+    environment: Option<Res<GpuEnvironment>>,
     pipelines: Option<Res<PathTracerPipelines>>,
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
 ) {
-    let (Some(layers), Some(pipelines)) = (layers, pipelines) else {
+    let (Some(layers), Some(environment), Some(pipelines)) = (layers, environment, pipelines)
+    else {
         return;
     };
     if scene.too_large.is_some()
-        || (scene.bind_group.is_some() && scene.bound_array == layers.array_version)
+        || (scene.bind_group.is_some()
+            && scene.bound_array == layers.array_version
+            && scene.bound_environment == environment.version)
     {
         return;
     }
@@ -360,9 +367,25 @@ fn prepare_scene_bind_group(
         binding: crate::energy::ENERGY_BINDING,
         resource: scene.energy.as_entire_binding(),
     });
+    let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+    entries.extend([
+        BindGroupEntry {
+            binding: env_image,
+            resource: BindingResource::TextureView(&environment.image),
+        },
+        BindGroupEntry {
+            binding: env_sampler,
+            resource: BindingResource::Sampler(&environment.sampler),
+        },
+        BindGroupEntry {
+            binding: env_cdf,
+            resource: BindingResource::TextureView(&environment.distribution),
+        },
+    ]);
     let group = device.create_bind_group("treelight scene", &layout, &entries);
     scene.bind_group = Some(group);
     scene.bound_array = layers.array_version;
+    scene.bound_environment = environment.version;
 }
 
 /// What a view's accumulated samples depend on: any change restarts the accumulation.
@@ -373,6 +396,8 @@ struct AccumulationKey {
     texture_generation: u64,
     /// Only for the heatmap, which shows the tree itself.
     tree_generation: u64,
+    /// The panorama uploaded, and its uniform word.
+    environment: (u64, Vec4),
     /// The settings that change the image (not the sample limit or the budget).
     settings: PathTraced,
     exposure: f32,
@@ -659,10 +684,12 @@ fn prepare_views(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
+    environment: Res<ExtractedEnvironment>,
 ) {
     let (Some(pipelines), Some(layers)) = (pipelines, layers) else {
         return;
     };
+    let environment_word = environment.uniform();
     if scene.too_large.is_some() {
         return;
     }
@@ -717,6 +744,7 @@ fn prepare_views(
             } else {
                 0
             },
+            environment: (environment.generation, environment_word),
             settings: PathTraced {
                 max_samples: 0,
                 frame_budget_ms: 0.0,
@@ -816,6 +844,7 @@ fn prepare_views(
                 indirect_clamp: clamp,
                 work,
                 part_shift: scene.layout.shift,
+                environment: environment_word,
             };
             queue.write_buffer(&state.buffers.view_uniform, 0, &params.to_bytes());
             timing = state.timer.as_mut().and_then(|t| t.assign(samples));

@@ -2,7 +2,7 @@
 //! so a test can hold their layouts against naga's), and the functions that fill them. Kept free of
 //! Bevy's render types so the GPU tests can feed the kernels the same bytes the plugin uploads.
 
-use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3};
+use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3, Vec4};
 use bytemuck::{Pod, Zeroable};
 
 /// Bytes of one per-triangle shading record.
@@ -143,6 +143,9 @@ pub struct GpuView {
     pub tile_stride: u32,
     /// Records per part of a split buffer, as a power of two ([`crate::PartLayout`]).
     pub part_shift: u32,
+    /// The panorama sky ([`crate::PathTracedEnvironment`]): cos and sin of its turn, its radiance
+    /// scale, its flags as a whole number (zero: the flat sky colour).
+    pub environment: [f32; 4],
 }
 
 /// `Resolve` of `resolve.wgsl`: where the view sits in its target, and where to find its pixels.
@@ -742,6 +745,9 @@ pub struct ViewParams {
     pub work: TraceWork,
     /// Records per part of the split buffers, as a power of two ([`crate::PartLayout`]).
     pub part_shift: u32,
+    /// The panorama sky's uniform word (zero for the flat `sky`; see
+    /// [`crate::PathTracedEnvironment`]).
+    pub environment: Vec4,
 }
 
 impl ViewParams {
@@ -774,6 +780,7 @@ impl ViewParams {
             tile_total: order.total,
             tile_stride: order.stride,
             part_shift: self.part_shift,
+            environment: self.environment.to_array(),
         }
     }
 
@@ -870,6 +877,7 @@ mod tests {
             indirect_clamp: 0.0,
             work: TraceWork::Tiles { start: 0, count: 1 },
             part_shift: crate::MAX_PART_SHIFT,
+            environment: Vec4::ZERO,
         };
         assert_eq!(v.to_bytes().len() as u64, VIEW_BYTES);
     }

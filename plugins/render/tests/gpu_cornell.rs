@@ -12,6 +12,7 @@ mod support;
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
+use support::brdf::brdf;
 use support::{Gpu, Rng, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
@@ -272,6 +273,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
             indirect_clamp: 0.0,
             work: TraceWork::WHOLE_IMAGE,
             part_shift: split_shift.unwrap_or(treelight_render::MAX_PART_SHIFT),
+            environment: treelight_bvh::glam::Vec4::ZERO,
         };
         match &split {
             Some(parts) => gpu.path_trace_split(&pipeline, parts, &params, &target, &layers),
@@ -282,50 +284,6 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
         .chunks_exact(4)
         .map(|c| Vec3::new(c[0], c[1], c[2]) / SAMPLES as f32)
         .collect()
-}
-
-/// `(A, B)` of the GGX lobe from the crate's table, bilinear as the kernel reads it.
-fn split_sum(mu: f32, r: f32) -> (f32, f32) {
-    let t = treelight_render::energy_table();
-    let n = treelight_render::ENERGY_SIZE;
-    let last = (n - 1) as f32;
-    let (x, y) = (mu.clamp(0.0, 1.0).sqrt() * last, r.clamp(0.0, 1.0) * last);
-    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
-    let (fx, fy) = (x - i as f32, y - j as f32);
-    let at = |i: usize, j: usize| {
-        let k = (j * n + i) * 2;
-        Vec2::new(t[k], t[k + 1])
-    };
-    let v = at(i, j)
-        .lerp(at(i + 1, j), fx)
-        .lerp(at(i, j + 1).lerp(at(i + 1, j + 1), fx), fy);
-    (v.x, v.y)
-}
-
-/// The kernel's BRDF model (opaque, no coat), written again from its definition: a GGX lobe
-/// compensated for multiple scattering over a Lambert lobe weighted by what the dielectric's
-/// specular leaves.
-fn brdf(m: &SurfaceMaterial, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
-    let (nl, nv) = (n.dot(wi), n.dot(wo));
-    if nl <= 0.0 || nv <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let albedo = Vec3::new(m.base_color[0], m.base_color[1], m.base_color[2]);
-    let r = m.perceptual_roughness.clamp(0.089, 1.0);
-    let a2 = (r * r) * (r * r);
-    let h = (wo + wi).normalize();
-    let (nh, vh) = (n.dot(h).max(0.0), wo.dot(h).max(0.0));
-    let f0_d = Vec3::splat(0.16 * m.reflectance * m.reflectance);
-    let f0 = f0_d.lerp(albedo, m.metallic);
-    let (a, b) = split_sum(nv.max(1e-4), r);
-    let e = (a + b).max(1e-3);
-    let compensation = Vec3::ONE + f0 * ((1.0 - e) / e);
-    let e_d = (Vec3::ONE + f0_d * ((1.0 - e) / e)) * (f0_d * a + Vec3::splat(b));
-    let base = (1.0 - m.metallic) * (Vec3::ONE - e_d).max(Vec3::ZERO);
-    let f = f0 + (Vec3::ONE - f0) * (1.0 - vh).powi(5);
-    let d = a2 / (PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
-    let g1 = |x: f32| 2.0 * x / (x + (a2 + (1.0 - a2) * x * x).sqrt());
-    compensation * f * (d * g1(nl) * g1(nv) / (4.0 * nl * nv)) + base * albedo / PI
 }
 
 /// The light a point-like light (radius 0) sends to `p`: the direction towards it, its distance

@@ -174,6 +174,7 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         indirect_clamp: 0.0,
         work: TraceWork::WHOLE_IMAGE,
         part_shift: treelight_render::MAX_PART_SHIFT,
+        environment: treelight_bvh::glam::Vec4::ZERO,
     };
     let target = gpu.trace_target(SIZE, SIZE);
     let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");

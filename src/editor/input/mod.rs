@@ -1,7 +1,8 @@
 //! Input: the keys pressed this frame as chords ([`key_chords`]), the one key map that the
 //! handlers, the menus and Help read ([`keymap`]), and the edit shortcuts with the clipboard
-//! ([`shortcuts`]).
+//! ([`shortcuts`]), and egui's click windows kept wide enough for slow frames ([`click_timing`]).
 
+pub mod click_timing;
 pub mod key_chords;
 pub mod keymap;
 pub mod shortcuts;
@@ -18,7 +19,10 @@ impl Plugin for InputPlugin {
             .init_resource::<shortcuts::EditClipboard>()
             .add_systems(
                 Update,
-                shortcuts::edit_shortcuts.before(apply_edit_requests),
+                (
+                    shortcuts::edit_shortcuts.before(apply_edit_requests),
+                    click_timing::widen_click_windows,
+                ),
             );
     }
 }

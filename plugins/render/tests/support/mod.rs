@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod brdf;
 pub mod scenes;
 
 use treelight_bvh::glam::Vec3;
@@ -267,6 +268,22 @@ pub struct Layers {
     pub size: u32,
     /// The GGX albedo table the kernel binds beside the layers.
     pub energy: wgpu::Buffer,
+    /// The panorama sky: its image, its sampler and its distribution (1×1 stand-ins without one).
+    pub environment: (wgpu::TextureView, wgpu::Sampler, wgpu::TextureView),
+    /// The view uniform's word for it (`treelight_render::environment_uniform`).
+    pub environment_word: treelight_bvh::glam::Vec4,
+}
+
+impl Layers {
+    /// The scene group's panorama entries.
+    pub fn environment_entries(&self) -> [(u32, wgpu::BindingResource<'_>); 3] {
+        let [a, b, c] = treelight_render::ENVIRONMENT_BINDINGS;
+        [
+            (a, wgpu::BindingResource::TextureView(&self.environment.0)),
+            (b, wgpu::BindingResource::Sampler(&self.environment.1)),
+            (c, wgpu::BindingResource::TextureView(&self.environment.2)),
+        ]
+    }
 }
 
 impl Gpu {
@@ -303,7 +320,63 @@ impl Gpu {
             sampler,
             size,
             energy: self.uniform(treelight_render::energy_bytes()),
+            environment: self.environment(None),
+            environment_word: treelight_bvh::glam::Vec4::ZERO,
         }
+    }
+
+    /// The panorama's textures as the plugin makes them (`environment.rs`), or its stand-ins.
+    pub fn environment(
+        &self,
+        texels: Option<&treelight_render::EnvironmentTexels>,
+    ) -> (wgpu::TextureView, wgpu::Sampler, wgpu::TextureView) {
+        let (size, rgba, cells, cdf): ([u32; 2], &[u16], [u32; 2], &[f32]) = match texels {
+            Some(t) => ([t.width, t.height], &t.rgba16, t.cells, &t.cdf),
+            None => ([1, 1], &[0, 0, 0, 0], [1, 1], &[1.0, 1.0]),
+        };
+        let texture = |label, [width, height]: [u32; 2], format, bytes: &[u8]| {
+            self.device
+                .create_texture_with_data(
+                    &self.queue,
+                    &wgpu::TextureDescriptor {
+                        label: Some(label),
+                        size: wgpu::Extent3d {
+                            width,
+                            height,
+                            depth_or_array_layers: 1,
+                        },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format,
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    bytes,
+                )
+                .create_view(&Default::default())
+        };
+        let image = texture(
+            "environment",
+            size,
+            wgpu::TextureFormat::Rgba16Float,
+            bytemuck::cast_slice(rgba),
+        );
+        let distribution = texture(
+            "environment distribution",
+            [cells[0] + 1, cells[1]],
+            wgpu::TextureFormat::R32Float,
+            bytemuck::cast_slice(cdf),
+        );
+        let sampler = self.device.create_sampler(&wgpu::SamplerDescriptor {
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        (image, sampler, distribution)
     }
 
     /// Runs the plugin's `copy_to_layer` kernel from an sRGB RGBA8 image into `layer`.
@@ -518,6 +591,7 @@ impl Gpu {
                 treelight_render::ENERGY_BINDING,
                 layers.energy.as_entire_binding(),
             )])
+            .chain(layers.environment_entries())
             .collect();
         let view_group = vec![
             (0, uniform.as_entire_binding()),
@@ -599,6 +673,7 @@ impl Gpu {
             treelight_render::ENERGY_BINDING,
             layers.energy.as_entire_binding(),
         ));
+        scene_group.extend(layers.environment_entries());
         let view_group = vec![
             (0, uniform.as_entire_binding()),
             (1, target.accum.as_entire_binding()),

@@ -168,6 +168,7 @@ pub fn trace_into(
             indirect_clamp: 0.0,
             work: TraceWork::WHOLE_IMAGE,
             part_shift: treelight_render::MAX_PART_SHIFT,
+            environment: layers.environment_word,
         };
         gpu.path_trace(&pipeline, &buffers, &params, &target, layers);
     }
