@@ -10,7 +10,7 @@ use crate::cli::RenderArgs;
 use crate::editor::viewport::camera::{
     OrbitCamera, apply_orbit, follow_document, look_through, no_camera_named,
 };
-use crate::editor::viewport::look::apply_look;
+use crate::editor::viewport::look::{apply_look, environment_to_tracer};
 use bevy::app::ScheduleRunnerPlugin;
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
@@ -30,7 +30,7 @@ use treelight_document::app::{
 use treelight_document::camera::SceneCamera;
 use treelight_document::default_scene::open_default_scene;
 use treelight_document::edit::history::apply_edit_requests;
-use treelight_render::{PathTraced, PathTracerStats};
+use treelight_render::{PathTraced, PathTracedEnvironment, PathTracerStats, PreparedEnvironment};
 
 /// Whether `out` is a file `treelight render` can write: a `.png` in an existing folder, not
 /// already there unless `overwrite`.
@@ -227,6 +227,7 @@ pub fn render_app(args: &RenderArgs) -> App {
             apply_orbit.after(follow_document),
             apply_look,
             sky_to_render_camera,
+            environment_to_tracer,
             follow_samples.after(apply_orbit),
         ),
     )
@@ -272,6 +273,7 @@ fn follow_samples(
     loading: SceneLoading,
     mut view: RenderView,
     ready: Res<PipelinesReady>,
+    sky: (Res<PathTracedEnvironment>, Res<PreparedEnvironment>),
     mut exit: MessageWriter<AppExit>,
 ) {
     if job.captured {
@@ -292,7 +294,12 @@ fn follow_samples(
         } else {
             (figures.total_upload_bytes, 0)
         };
-        if !(settled && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
+        // The sky panorama, once read, is converted for the tracer on a thread of its own.
+        let sky_ready = sky.1.ready_for(&sky.0);
+        if !sky_ready {
+            job.uploaded.1 = 0;
+        }
+        if !(settled && sky_ready && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
             return;
         }
         if let Some(name) = job.camera.take() {

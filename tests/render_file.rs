@@ -116,6 +116,100 @@ fn a_project_s_exposure_is_in_its_render() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A panorama: its upper half green towards −Z (u from 1/4 to 3/4), red towards +Z, over a dark
+/// ground.
+fn write_two_sided_sky(path: &std::path::Path) {
+    let (w, h) = (128u32, 64u32);
+    let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+        let u = (x as f32 + 0.5) / w as f32;
+        image::Rgb(if y >= h / 2 {
+            [0.05, 0.05, 0.05]
+        } else if (0.25..0.75).contains(&u) {
+            [0.1, 2.0, 0.1]
+        } else {
+            [2.0, 0.1, 0.1]
+        })
+    });
+    image::DynamicImage::ImageRgb32F(img).save(path).unwrap();
+}
+
+#[test]
+fn a_project_s_sky_panorama_is_seen_turned_and_hidden_in_its_render() {
+    let dir = temp_dir("render-sky");
+    let sky = dir.join("two-sided.hdr");
+    write_two_sided_sky(&sky);
+    let size = ["--width", "64", "--height", "48", "--spp", "4"];
+    let render_project = |name: &str, environment: &str| {
+        let project = project_with(
+            &dir,
+            name,
+            &format!("[SetEnvironment(environment: {environment})]"),
+        );
+        let out = dir.join(format!("{name}.png"));
+        let (ok, log) = render(
+            &[
+                &[project.to_str().unwrap(), "--out", out.to_str().unwrap()][..],
+                &size[..],
+            ]
+            .concat(),
+        );
+        (ok, log, out)
+    };
+    let sky_path = sky.to_str().unwrap();
+    let shot = |name: &str, rotation: f32, shown: bool| {
+        let (ok, log, out) = render_project(
+            name,
+            &format!(
+                "(image: Some({sky_path:?}), rotation_degrees: {rotation:.1}, intensity: 150.0, \
+                 shown: {shown})"
+            ),
+        );
+        assert!(ok, "{log}");
+        load_rgb(&out)
+    };
+    // The default view looks into the room along −Z: the sky above its roof is the panorama's
+    // green half, and the red half once the panorama turns half round.
+    let corner = |img: &image::RgbImage| mean_rgb(img, 0, 0, 8, 6);
+    let front = corner(&shot("front", 0.0, true));
+    assert!(front[1] > 2.0 * front[0] && front[1] > 60.0, "{front:?}");
+    let turned = corner(&shot("turned", 180.0, true));
+    assert!(
+        turned[0] > 2.0 * turned[1] && turned[0] > 60.0,
+        "{turned:?}"
+    );
+    // Hidden, the corner shows the look's sky colour, as a render without a panorama does.
+    let plain = dir.join("plain.png");
+    let (ok, log) = render(&[&["--out", plain.to_str().unwrap()][..], &size[..]].concat());
+    assert!(ok, "{log}");
+    let hidden = corner(&shot("hidden", 0.0, false));
+    let flat = corner(&load_rgb(&plain));
+    assert!(
+        hidden.iter().zip(flat).all(|(a, b)| (a - b).abs() < 6.0),
+        "{hidden:?} vs {flat:?}"
+    );
+    // A panorama that is not one ends the render with its name, and writes nothing.
+    let broken = dir.join("broken.hdr");
+    std::fs::write(&broken, b"#?RADIANCE\n\n-Y 4 +X 8\n").unwrap();
+    let project = dir.join("broken.treelight");
+    let text = std::fs::read_to_string(dir.join("front.treelight")).unwrap();
+    assert!(
+        text.contains("\"two-sided.hdr\""),
+        "stored beside the project: {text}"
+    );
+    std::fs::write(&project, text.replace("two-sided.hdr", "broken.hdr")).unwrap();
+    let out = dir.join("broken.png");
+    let (ok, log) = render(
+        &[
+            &[project.to_str().unwrap(), "--out", out.to_str().unwrap()][..],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(!ok && log.contains("broken.hdr"), "{log}");
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn a_render_through_a_file_s_camera_sees_what_that_camera_sees() {
     let dir = temp_dir("render-camera");

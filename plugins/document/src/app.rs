@@ -13,14 +13,15 @@ use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use treelight_scene::{SceneBvhConfig, SceneBvhPlugin};
 
-/// Whether the scene has settled: no import being read or spawned, no project opening, and the
-/// scene BVH idle (what the state report and a windowless render wait for).
+/// Whether the scene has settled: no import or sky panorama being read or spawned, no project
+/// opening, and the scene BVH idle (what the state report and a windowless render wait for).
 #[derive(bevy::ecs::system::SystemParam)]
 pub struct SceneLoading<'w> {
     pending: Res<'w, crate::import::parse::PendingImports>,
     parsed: Res<'w, crate::import::parse::ParsedImports>,
     opening: Res<'w, crate::project::open::OpeningProjects>,
     scene: Res<'w, treelight_scene::SceneBvh>,
+    environment: Res<'w, crate::environment::LoadedEnvironment>,
 }
 
 impl SceneLoading<'_> {
@@ -30,6 +31,7 @@ impl SceneLoading<'_> {
             && self.parsed.0.is_empty()
             && !self.opening.busy()
             && self.scene.is_idle()
+            && !self.environment.loading()
     }
 }
 

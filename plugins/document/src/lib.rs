@@ -13,6 +13,7 @@ pub mod camera;
 pub mod contain;
 pub mod default_scene;
 pub mod edit;
+pub mod environment;
 pub mod folders;
 pub mod import;
 pub mod light;
@@ -40,6 +41,8 @@ impl Plugin for DocumentPlugin {
             .add_message::<outbox::DocumentEvent>()
             .init_resource::<outbox::DocumentView>()
             .init_resource::<look::SceneLook>()
+            .init_resource::<environment::SceneEnvironment>()
+            .init_resource::<environment::LoadedEnvironment>()
             .init_resource::<notice::Notices>()
             .init_resource::<project::format::ProjectState>()
             .init_resource::<requests::ProjectRequests>()
@@ -55,6 +58,7 @@ impl Plugin for DocumentPlugin {
                     )
                         .chain(),
                     requests::save_when_settled.after(apply_edit_requests),
+                    environment::load_environment.after(apply_edit_requests),
                     notice::expire_notices,
                 ),
             );

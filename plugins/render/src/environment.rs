@@ -291,9 +291,10 @@ impl EnvironmentTexels {
     }
 }
 
-/// The main world's prepared panorama, for extraction.
+/// The main world's copy of the panorama as the path tracer takes it, made from
+/// [`PathTracedEnvironment::image`] on a thread of its own.
 #[derive(Resource, Default)]
-pub(crate) struct PreparedEnvironment {
+pub struct PreparedEnvironment {
     /// Counts the panoramas prepared, so the render world knows when to upload.
     generation: u64,
     texels: Option<Arc<EnvironmentTexels>>,
@@ -301,6 +302,17 @@ pub(crate) struct PreparedEnvironment {
     source: Option<AssetId<Image>>,
     /// A conversion under way on its own thread.
     pending: Option<(AssetId<Image>, Conversion)>,
+}
+
+impl PreparedEnvironment {
+    /// Whether the panorama `environment` names is ready for the views (or none is named): a
+    /// render that must show it waits for this.
+    pub fn ready_for(&self, environment: &PathTracedEnvironment) -> bool {
+        match &environment.image {
+            None => self.pending.is_none() && self.source.is_none(),
+            Some(handle) => self.pending.is_none() && self.source == Some(handle.id()),
+        }
+    }
 }
 
 pub(crate) fn build(app: &mut App) {

@@ -33,7 +33,7 @@ pub use budget::{
 pub use energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_sum};
 pub use environment::{
     ENVIRONMENT_BINDINGS, EnvironmentTexels, MAX_DISTRIBUTION_WIDTH, PathTracedEnvironment,
-    environment_uniform, panorama_coordinates, panorama_direction,
+    PreparedEnvironment, environment_uniform, panorama_coordinates, panorama_direction,
 };
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{

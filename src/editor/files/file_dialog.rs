@@ -17,6 +17,8 @@ pub enum DialogPurpose {
     Relink,
     /// A folder whose scene files the Assets panel lists.
     AssetFolder,
+    /// An HDR panorama to light the scene.
+    Environment,
 }
 
 impl DialogPurpose {
@@ -27,6 +29,7 @@ impl DialogPurpose {
             DialogPurpose::SaveAs => "Save project as",
             DialogPurpose::Relink => "Choose the file for the missing source",
             DialogPurpose::AssetFolder => "Add a folder to the Assets panel",
+            DialogPurpose::Environment => "Choose a sky panorama (.hdr, .exr)",
         }
     }
 
@@ -41,6 +44,7 @@ impl DialogPurpose {
             DialogPurpose::Import | DialogPurpose::Relink | DialogPurpose::AssetFolder => {
                 matches!(ext.as_deref(), Some("gltf" | "glb" | "obj" | "ply"))
             }
+            DialogPurpose::Environment => matches!(ext.as_deref(), Some("hdr" | "exr")),
         }
     }
 }
@@ -191,6 +195,7 @@ impl FileDialog {
                         DialogPurpose::Import => "Import",
                         DialogPurpose::Relink => "Relink",
                         DialogPurpose::AssetFolder => "Add this folder",
+                        DialogPurpose::Environment => "Use",
                     };
                     let ready =
                         !self.name.trim().is_empty() || self.purpose == DialogPurpose::AssetFolder;

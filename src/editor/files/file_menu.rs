@@ -56,6 +56,8 @@ pub struct FileUi {
     pub asset_folders: Vec<PathBuf>,
     /// File → Render image… was chosen, until the render window opens.
     pub render_image: bool,
+    /// A sky panorama chosen in the dialog, until the viewport's look takes it.
+    pub environment_chosen: Option<PathBuf>,
 }
 
 /// The menu's entries, chosen in the menu bar or by their keys.
@@ -152,6 +154,7 @@ impl FileUi {
                 }
             }
             (Some(dir), DialogPurpose::AssetFolder) => self.asset_folders.push(dir),
+            (Some(file), DialogPurpose::Environment) => self.environment_chosen = Some(file),
             // A cancelled save also drops what was to follow it.
             (None, _) => self.then = None,
         }
@@ -196,6 +199,17 @@ impl FileUi {
                 self.open_dialog(DialogPurpose::AssetFolder, dir, String::new());
             }
         }
+    }
+
+    /// Opens the dialog that chooses a sky panorama, in the folder of `current` (the one in use)
+    /// or the project's.
+    pub fn choose_environment(&mut self, current: Option<&std::path::Path>, state: &ProjectState) {
+        let dir = current
+            .and_then(|p| p.parent())
+            .filter(|d| !d.as_os_str().is_empty())
+            .map(|d| d.to_owned())
+            .unwrap_or_else(|| Self::start_dir(state));
+        self.open_dialog(DialogPurpose::Environment, dir, String::new());
     }
 
     /// What `after` does once its question is settled.

@@ -70,6 +70,12 @@ impl NativeDialog {
                             .await
                     }
                     DialogPurpose::AssetFolder => dialog.pick_folder().await,
+                    DialogPurpose::Environment => {
+                        dialog
+                            .add_filter("HDR panoramas", &["hdr", "exr"])
+                            .pick_file()
+                            .await
+                    }
                     DialogPurpose::SaveAs => {
                         dialog
                             .add_filter("Treelight project", &["treelight"])

@@ -1,6 +1,7 @@
-//! The scene's look in the viewport: the toolbar's exposure, tone-curve and sky controls, which edit
-//! the document's [`SceneLook`] through commands (one scrub is one step), and the systems that put
-//! it on the 3D camera (so the raster view and the path tracer show the same exposure and curve) and
+//! The scene's look in the viewport: the toolbar's exposure, tone-curve and sky controls (a colour,
+//! or an HDR panorama turned, scaled, shown or hidden), which edit the document's [`SceneLook`] and
+//! [`SceneEnvironment`] through commands (one scrub is one step), and the systems that put the look
+//! on the 3D camera (so the raster view and the path tracer show the same exposure and curve) and
 //! the sky into the path tracer's settings.
 
 use crate::editor::viewport::camera::OrbitCamera;
@@ -11,7 +12,11 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
+use treelight_document::environment::{
+    LoadedEnvironment, MAX_ENVIRONMENT_INTENSITY, SceneEnvironment,
+};
 use treelight_document::look::{MAX_EXPOSURE_STOPS, SceneLook, ToneCurve};
+use treelight_render::PathTracedEnvironment;
 
 /// Bevy's tonemapper for a curve.
 pub fn tonemapping(curve: ToneCurve) -> Tonemapping {
@@ -54,15 +59,71 @@ pub fn sky_to_tracer(
     }
 }
 
-/// The toolbar's look controls: exposure in stops (drag or type; double-click resets) and the tone
-/// curve, named "Exposure" and "Tone curve" in `widgets`. Returns the requests for what the user
-/// changed.
+/// The document's panorama, once read, in the path tracer's environment (every traced view of the
+/// app: the viewport's, a render's).
+pub fn environment_to_tracer(
+    environment: Res<SceneEnvironment>,
+    loaded: Res<LoadedEnvironment>,
+    mut tracer: ResMut<PathTracedEnvironment>,
+) {
+    if !environment.is_changed() && !loaded.is_changed() {
+        return;
+    }
+    tracer.set_if_neq(PathTracedEnvironment {
+        image: environment.image.as_ref().and(loaded.image.clone()),
+        rotation: environment.rotation_radians(),
+        intensity: environment.intensity,
+        shown: environment.shown,
+    });
+}
+
+/// Opens the file dialog when the sky menu's Choose… was clicked, and turns the file chosen into
+/// the scene's panorama (keeping its rotation, intensity and visibility).
+pub fn choose_panorama(
+    actions: Res<crate::editor::viewport::panel::ViewportActions>,
+    mut files: ResMut<crate::editor::files::file_menu::FileUi>,
+    state: Res<treelight_document::project::format::ProjectState>,
+    environment: Res<SceneEnvironment>,
+    mut requests: ResMut<treelight_document::edit::history::EditRequests>,
+) {
+    if actions.choose_panorama {
+        files.choose_environment(environment.image.as_deref(), &state);
+    }
+    if let Some(image) = files.environment_chosen.take() {
+        requests.0.push(EditRequest::Apply {
+            command: EditCommand::SetEnvironment {
+                environment: SceneEnvironment {
+                    image: Some(image),
+                    ..environment.clone()
+                },
+            },
+            continuing: false,
+        });
+    }
+}
+
+/// What the toolbar's look controls ask for.
+#[derive(Default)]
+pub struct LookEdits {
+    /// Edit requests for what the user changed.
+    pub requests: Vec<EditRequest>,
+    /// Whether the user asked to choose a sky panorama file.
+    pub choose_panorama: bool,
+}
+
+/// The toolbar's look controls: exposure in stops (drag or type; double-click resets), the tone
+/// curve, and the sky (a colour and strength, or a panorama with its rotation, intensity and
+/// visibility), named "Exposure", "Tone curve", "Sky" and the sky menu's entries in `widgets`.
 pub fn look_controls(
     ui: &mut egui::Ui,
     look: &SceneLook,
+    environment: &SceneEnvironment,
     widgets: &mut WidgetRects,
-) -> Vec<EditRequest> {
+) -> LookEdits {
     let mut out = Vec::new();
+    let mut choose_panorama = false;
+    let mut new_environment = environment.clone();
+    let mut environment_continuing = false;
     let mut exposure = look.exposure;
     let response = ui
         .add(
@@ -129,6 +190,14 @@ pub fn look_controls(
                     || s.has_focus()
                     || c.is_pointer_button_down_on();
             });
+            ui.separator();
+            environment_continuing = panorama_controls(
+                ui,
+                environment,
+                &mut new_environment,
+                &mut choose_panorama,
+                widgets,
+            );
         })
         .response
         .on_hover_text("The sky's colour and brightness");
@@ -153,7 +222,87 @@ pub fn look_controls(
             continuing: false,
         });
     }
-    out
+    if new_environment != *environment {
+        out.push(EditRequest::Apply {
+            command: EditCommand::SetEnvironment {
+                environment: new_environment,
+            },
+            continuing: environment_continuing,
+        });
+    }
+    LookEdits {
+        requests: out,
+        choose_panorama,
+    }
+}
+
+/// The sky menu's panorama: its file (choose, remove), rotation, intensity and whether it is
+/// seen. Edits `edited`; returns whether a scrub continues.
+fn panorama_controls(
+    ui: &mut egui::Ui,
+    environment: &SceneEnvironment,
+    edited: &mut SceneEnvironment,
+    choose: &mut bool,
+    widgets: &mut WidgetRects,
+) -> bool {
+    ui.label("Or an HDR panorama (.hdr, .exr): it lights the scene in place of the colour");
+    let mut continuing = false;
+    ui.horizontal(|ui| {
+        let name = environment.image.as_deref().map_or("None".into(), |p| {
+            p.file_name()
+                .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into())
+        });
+        ui.label(format!("Panorama: {name}"));
+        let pick = ui
+            .button("Choose…")
+            .on_hover_text("Choose an HDR panorama file");
+        widgets.push("Choose panorama", pick.rect);
+        *choose |= pick.clicked();
+        if environment.image.is_some() {
+            let remove = ui
+                .button("Remove")
+                .on_hover_text("Light the scene with the colour again");
+            widgets.push("Remove panorama", remove.rect);
+            if remove.clicked() {
+                edited.image = None;
+            }
+        }
+    });
+    if environment.image.is_none() {
+        return false;
+    }
+    ui.horizontal(|ui| {
+        ui.label("Rotation");
+        let r = ui.add(
+            egui::DragValue::new(&mut edited.rotation_degrees)
+                .speed(1.0)
+                .range(-180.0..=180.0)
+                .max_decimals(1)
+                .suffix("°"),
+        );
+        widgets.push("Panorama rotation", r.rect);
+        ui.label("Intensity");
+        let i = ui
+            .add(
+                egui::DragValue::new(&mut edited.intensity)
+                    .speed((environment.intensity * 0.01).max(1.0))
+                    .range(0.0..=MAX_ENVIRONMENT_INTENSITY)
+                    .max_decimals(1)
+                    .suffix(" nits"),
+            )
+            .on_hover_text("The brightness of a panorama value of 1");
+        widgets.push("Panorama intensity", i.rect);
+        continuing = [&r, &i]
+            .iter()
+            .any(|w| (w.dragged() && !w.drag_started()) || w.has_focus());
+    });
+    let shown = ui
+        .checkbox(&mut edited.shown, "Show behind the scene")
+        .on_hover_text(
+            "Hidden, the sky colour is seen behind the scene, while the panorama still lights it",
+        );
+    widgets.push("Show panorama", shown.rect);
+    continuing
 }
 
 #[cfg(test)]

@@ -20,6 +20,7 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
+use treelight_document::environment::SceneEnvironment;
 use treelight_document::light::LightKind;
 use treelight_document::look::SceneLook;
 use treelight_document::object::SceneId;
@@ -93,6 +94,8 @@ pub struct ViewportActions {
     /// A scene file from the Assets panel over the viewport: the file, the pointer, whether Shift
     /// aligns it to the surface, and whether it was dropped this frame.
     pub palette_file: Option<(std::path::PathBuf, Vec2, bool, bool)>,
+    /// The sky menu's Choose… was clicked: the file dialog opens for a panorama.
+    pub choose_panorama: bool,
 }
 
 /// Pixels within which a second click counts as the same spot.
@@ -206,7 +209,8 @@ fn toolbar(
     render: &mut ViewportRender,
     gizmo: &mut GizmoSettings,
     look: &SceneLook,
-    requests: &mut Vec<EditRequest>,
+    environment: &SceneEnvironment,
+    actions: &mut ViewportActions,
     widgets: &mut WidgetRects,
 ) {
     egui::ComboBox::from_id_salt("render-mode")
@@ -285,7 +289,9 @@ fn toolbar(
     .response
     .on_hover_text("Snapping steps for moves, rotations and scaling (hold Ctrl while dragging)");
     ui.separator();
-    requests.extend(super::look::look_controls(ui, look, widgets));
+    let edits = super::look::look_controls(ui, look, environment, widgets);
+    actions.requests.extend(edits.requests);
+    actions.choose_panorama |= edits.choose_panorama;
 }
 
 /// What the pointer and keys did over the viewport this frame.
@@ -310,6 +316,8 @@ pub struct ViewportPanel<'a> {
     pub gizmo: &'a mut GizmoSettings,
     /// The scene's exposure and tone curve (changed through requests in `actions`).
     pub look: &'a SceneLook,
+    /// The scene's sky panorama (changed likewise).
+    pub environment: &'a SceneEnvironment,
     /// Where the named widgets are, for the report.
     pub widgets: &'a mut WidgetRects,
     /// The drag in progress.
@@ -340,7 +348,8 @@ impl ViewportPanel<'_> {
                 self.render,
                 self.gizmo,
                 self.look,
-                &mut self.actions.requests,
+                self.environment,
+                self.actions,
                 self.widgets,
             )
         });

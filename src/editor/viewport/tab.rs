@@ -39,6 +39,7 @@ pub struct SceneView<'w, 's> {
     children: Query<'w, 's, &'static Children>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
     look: Res<'w, SceneLook>,
+    environment: Res<'w, treelight_document::environment::SceneEnvironment>,
 }
 
 /// What the viewport changes.
@@ -82,6 +83,7 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
         render: &mut render_copy,
         gizmo: &mut gizmo_copy,
         look: &view.look,
+        environment: &view.environment,
         widgets: &mut widgets,
         drag: &mut drag.0,
         interaction: &mut interaction,

@@ -3,6 +3,7 @@
 //! it.
 
 use super::snapshot::ObjectSnapshot;
+use crate::environment::SceneEnvironment;
 use crate::look::SceneLook;
 use crate::object::SceneObject;
 use crate::object::{EditedObjects, SceneId, SceneIndex};
@@ -349,6 +350,11 @@ pub enum EditCommand {
         /// The new look.
         look: SceneLook,
     },
+    /// Sets the panorama lighting the scene, its turn, intensity and whether it is seen.
+    SetEnvironment {
+        /// The new environment.
+        environment: SceneEnvironment,
+    },
 }
 
 /// Why a command cannot be applied.
@@ -395,6 +401,9 @@ pub enum EditError {
     /// An exposure that is not finite or past the widest compensation.
     #[error("the exposure is not finite or beyond ±{max} stops, or the sky is negative or brighter than {sky:e} nits", max = crate::look::MAX_EXPOSURE_STOPS, sky = crate::look::MAX_SKY)]
     BadLook,
+    /// A panorama that is not a `.hdr` or `.exr` file, or a rotation or intensity out of range.
+    #[error("the sky panorama is not a .hdr or .exr file, or its rotation is beyond a full turn, or its intensity is negative or above {max:e} nits", max = crate::environment::MAX_ENVIRONMENT_INTENSITY)]
+    BadEnvironment,
 }
 
 /// What undoes an applied command.
@@ -423,6 +432,8 @@ pub enum Undo {
     Light(SceneId, LightValue),
     /// Give the scene this look back.
     Look(SceneLook),
+    /// Give the scene this environment back.
+    Environment(SceneEnvironment),
     /// Undo each of these, last first.
     Many(Vec<Undo>),
 }
@@ -493,6 +504,32 @@ impl EditCommand {
                     (false, true) => tone,
                     (false, false) if look.sky != before.sky => "Sky colour".into(),
                     _ => exposure,
+                }
+            }
+            EditCommand::SetEnvironment { environment } => {
+                let before = world
+                    .get_resource::<SceneEnvironment>()
+                    .cloned()
+                    .unwrap_or_default();
+                match &environment.image {
+                    None if before.image.is_some() => "Remove the sky panorama".into(),
+                    Some(p) if before.image.as_ref() != Some(p) => format!(
+                        "Sky panorama {}",
+                        p.file_name().map_or_else(
+                            || p.display().to_string(),
+                            |n| n.to_string_lossy().into()
+                        )
+                    ),
+                    _ if environment.shown != before.shown => if environment.shown {
+                        "Show the sky panorama"
+                    } else {
+                        "Hide the sky panorama"
+                    }
+                    .into(),
+                    _ if environment.intensity != before.intensity => {
+                        format!("Sky intensity {:.0} nits", environment.intensity)
+                    }
+                    _ => format!("Sky rotation {:.0}°", environment.rotation_degrees),
                 }
             }
         }
@@ -590,6 +627,11 @@ impl EditCommand {
             EditCommand::SetLook { look } => {
                 if !look.is_valid() {
                     return Err(EditError::BadLook);
+                }
+            }
+            EditCommand::SetEnvironment { environment } => {
+                if !environment.is_valid() {
+                    return Err(EditError::BadEnvironment);
                 }
             }
         }
@@ -755,6 +797,14 @@ impl EditCommand {
                     .unwrap_or_default();
                 world.insert_resource(*look);
                 Undo::Look(before)
+            }
+            EditCommand::SetEnvironment { environment } => {
+                let before = world
+                    .get_resource::<SceneEnvironment>()
+                    .cloned()
+                    .unwrap_or_default();
+                world.insert_resource(environment.clone());
+                Undo::Environment(before)
             }
         })
     }
@@ -1079,6 +1129,7 @@ impl Undo {
                 }
             }
             Undo::Look(look) => world.insert_resource(*look),
+            Undo::Environment(environment) => world.insert_resource(environment.clone()),
             Undo::Many(list) => {
                 for undo in list.iter().rev() {
                     undo.revert(world);

@@ -101,6 +101,11 @@ impl Edit for Step {
             (EditCommand::SetLook { look: a }, EditCommand::SetLook { look: b }) => {
                 a.tone == b.tone
             }
+            // One scrub of the panorama's rotation or intensity; another file is a step of its own.
+            (
+                EditCommand::SetEnvironment { environment: a },
+                EditCommand::SetEnvironment { environment: b },
+            ) => a.image == b.image && a.shown == b.shown,
             _ => false,
         };
         if other.continuing && same_target {

@@ -181,6 +181,13 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         deleted,
         camera,
         look: world.get_resource::<crate::look::SceneLook>().copied(),
+        environment: world
+            .get_resource::<crate::environment::SceneEnvironment>()
+            .filter(|e| **e != crate::environment::SceneEnvironment::default())
+            .map(|e| crate::environment::SceneEnvironment {
+                image: e.image.as_deref().map(|i| store_source(path, i)),
+                ..e.clone()
+            }),
     };
     (project, unsaved)
 }

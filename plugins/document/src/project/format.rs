@@ -2,11 +2,12 @@
 //! built from, what the user changed of their nodes (keyed by source keys: transform, parent,
 //! visibility, name, material values, deletions), the ids of the nodes left as they were (runs of
 //! consecutive ids), the objects added in the editor (shapes, lights, groups, copies of imported
-//! meshes), the camera and the look (exposure and tone curve); never a copy of the geometry, and no line per unchanged node, so a
+//! meshes), the camera, the look (exposure and tone curve) and the sky panorama; never a copy of the geometry, and no line per unchanged node, so a
 //! project grows with the edits, not the sources. Opening one imports its sources again and
 //! applies the rest ([`super::restore`]); saving writes a temporary file beside the target,
 //! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
-//! every node, and version 2 files, without a look, still open.
+//! every node, version 2 files, without a look, and version 3 files, without a sky panorama,
+//! still open.
 
 use crate::edit::command::{MaterialValue, TransformValue, in_range};
 pub use crate::light::LightValue;
@@ -19,8 +20,9 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// The version this editor writes.
-pub const PROJECT_VERSION: u32 = 3;
-/// The oldest version it reads (1 listed every source node as an object; 2 had no look).
+pub const PROJECT_VERSION: u32 = 4;
+/// The oldest version it reads (1 listed every source node as an object; 2 had no look; 3 no
+/// sky panorama).
 pub const OLDEST_VERSION: u32 = 1;
 
 /// Largest project file read, bytes.
@@ -147,6 +149,10 @@ pub struct ProjectFile {
     /// The exposure and tone curve (version 3; older projects have the defaults).
     #[serde(default)]
     pub look: Option<crate::look::SceneLook>,
+    /// The sky panorama, its file relative to the project's folder when inside it (version 4;
+    /// older projects have none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub environment: Option<crate::environment::SceneEnvironment>,
 }
 
 /// Why a project cannot be opened or saved; each names the file.
@@ -206,6 +212,13 @@ impl ProjectFile {
                 "its exposure is not finite or beyond ±{} stops, or its sky is out of range",
                 crate::look::MAX_EXPOSURE_STOPS
             ));
+        }
+        if self.environment.as_ref().is_some_and(|e| !e.is_valid()) {
+            return Err(
+                "its sky panorama is not a .hdr or .exr file, or its rotation or intensity is out \
+                 of range"
+                    .into(),
+            );
         }
         if self.sources.len() > MAX_SOURCES || self.objects.len() > MAX_OBJECTS {
             return Err("it names more sources or objects than a project can hold".into());

@@ -220,6 +220,7 @@ pub fn empty_scene(world: &mut World) {
     }
     *world.resource_mut::<EditHistory>() = EditHistory::default();
     world.insert_resource(crate::look::SceneLook::default());
+    world.insert_resource(crate::environment::SceneEnvironment::default());
     world.write_message(DocumentEvent::Replaced);
     world.resource_mut::<SourceCatalog>().0.clear();
 }
@@ -483,6 +484,15 @@ pub fn open_project_parsed(
     }
     // Checked by validation: finite and within range.
     world.insert_resource(project.look.unwrap_or_default());
+    // Checked by validation too; the file is read (and a missing one reported) by the loader.
+    let environment = project.environment.clone().unwrap_or_default();
+    world.insert_resource(crate::environment::SceneEnvironment {
+        image: environment
+            .image
+            .as_deref()
+            .map(|i| crate::project::format::resolve_source(path, i)),
+        ..environment
+    });
     for s in &project.source_ids {
         if parsed[s.source].is_none() {
             state
