@@ -272,8 +272,11 @@ fn follow_samples(
     stats: Res<PathTracerStats>,
     loading: SceneLoading,
     mut view: RenderView,
-    ready: Res<PipelinesReady>,
-    sky: (Res<PathTracedEnvironment>, Res<PreparedEnvironment>),
+    (ready, sky, prepared_sky): (
+        Res<PipelinesReady>,
+        Res<PathTracedEnvironment>,
+        Res<PreparedEnvironment>,
+    ),
     mut exit: MessageWriter<AppExit>,
 ) {
     if job.captured {
@@ -295,7 +298,7 @@ fn follow_samples(
             (figures.total_upload_bytes, 0)
         };
         // The sky panorama, once read, is converted for the tracer on a thread of its own.
-        let sky_ready = sky.1.ready_for(&sky.0);
+        let sky_ready = prepared_sky.ready_for(&sky);
         if !sky_ready {
             job.uploaded.1 = 0;
         }

@@ -123,6 +123,10 @@ pub struct EditorState {
     /// The viewport camera's position and the direction it looks, world space.
     #[serde(default)]
     pub camera_pose: Option<([f32; 3], [f32; 3])>,
+    /// The document's sky panorama, and whether it is ready in the path tracer (read, and converted
+    /// for the views).
+    #[serde(default)]
+    pub environment: (treelight_document::environment::SceneEnvironment, bool),
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -285,6 +289,12 @@ type RenderedParams<'w, 's> = (
 /// tonemapper.
 type LookParams<'w, 's> = (
     Res<'w, treelight_document::look::SceneLook>,
+    (
+        Res<'w, treelight_document::environment::SceneEnvironment>,
+        Res<'w, treelight_document::environment::LoadedEnvironment>,
+        Res<'w, treelight_render::PathTracedEnvironment>,
+        Res<'w, treelight_render::PreparedEnvironment>,
+    ),
     Query<
         'w,
         's,
@@ -313,7 +323,7 @@ pub fn write_state_report(
     project: Res<treelight_document::project::format::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
     files: Res<crate::editor::files::file_menu::FileUi>,
-    (clock, render, notices, (look, lens)): (
+    (clock, render, notices, (look, (environment, loaded, traced, prepared), lens)): (
         Option<Res<MainThreadClock>>,
         Res<crate::editor::viewport::render_mode::ViewportRender>,
         Res<treelight_document::notice::Notices>,
@@ -420,6 +430,10 @@ pub fn write_state_report(
         camera_look: lens.single().ok().map(|(e, t)| (e.ev100, format!("{t:?}"))),
         camera_pose: camera
             .map(|(_, g)| (g.translation().to_array(), g.forward().as_vec3().to_array())),
+        environment: (
+            environment.clone(),
+            loaded.image.is_some() && traced.image.is_some() && prepared.ready_for(&traced),
+        ),
     };
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,

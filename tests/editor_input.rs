@@ -1006,3 +1006,72 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
     assert_eq!(std::fs::read(&out).unwrap(), before);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The viewport's left edge, below the toolbar: sky beside the room in the default view.
+fn sky_beside_the_room(img: &image::RgbImage, viewport: [f32; 4]) -> [f32; 3] {
+    let [x, y, _, _] = viewport.map(|v| v as u32);
+    support::mean_rgb(img, x + 4, y + 60, x + 40, y + 140)
+}
+
+#[test]
+fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back() {
+    let mut s = Session::start("panorama", &[]);
+    support::write_two_sided_sky(&s.dir().join("sky.hdr"));
+    let st = s.wait_until(
+        "the scene settles",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.samples >= 4,
+    );
+    let (head, _) = st.history;
+    let before = sky_beside_the_room(&s.screenshot(), st.viewport);
+    // Sky → Choose… → the dialog, in the folder the editor runs in; the file's name, Return.
+    click_widget(&mut s, &st, "Sky");
+    let st = s.frames(2);
+    // Opening the menu changes nothing.
+    assert_eq!(st.history.0, head, "{:?}", st.history);
+    click_widget(&mut s, &st, "Choose panorama");
+    s.wait_until("the dialog", std::time::Duration::from_secs(30), |st| {
+        st.dialog.is_some()
+    });
+    for c in ['s', 'k', 'y'] {
+        s.key(&[], keysym::letter(c));
+    }
+    s.key(&[], keysym::PERIOD);
+    for c in ['h', 'd', 'r'] {
+        s.key(&[], keysym::letter(c));
+    }
+    s.key(&[], keysym::RETURN);
+    s.wait_until(
+        "the panorama, ready in the path tracer",
+        std::time::Duration::from_secs(60),
+        |st| st.dialog.is_none() && st.environment.1 && st.settled,
+    );
+    // Its upload restarts the accumulation a frame or two later.
+    s.frames(3);
+    let st = s.wait_until(
+        "the picture converges again",
+        std::time::Duration::from_secs(60),
+        |st| st.samples >= 4,
+    );
+    let image = st.environment.0.image.clone().expect("a panorama");
+    assert_eq!(image.file_name().unwrap(), "sky.hdr");
+    assert_eq!(st.history.0, head + 1, "one step");
+    assert!(st.dirty);
+    // The view looks along −Z, at the panorama's green half.
+    let green = sky_beside_the_room(&s.screenshot(), st.viewport);
+    assert!(
+        green[1] > green[0] + 30.0 && green[1] > green[2] + 30.0,
+        "{before:?} -> {green:?}"
+    );
+    // Undo: the flat sky again.
+    s.key(&[keysym::CONTROL], keysym::letter('z'));
+    let st = s.wait_until("the flat sky", std::time::Duration::from_secs(60), |st| {
+        st.environment.0.image.is_none() && st.samples >= 4
+    });
+    assert_eq!(st.history.0, head);
+    let after = sky_beside_the_room(&s.screenshot(), st.viewport);
+    assert!(
+        after.iter().zip(before).all(|(a, b)| (a - b).abs() < 8.0),
+        "{before:?} -> {after:?}"
+    );
+}

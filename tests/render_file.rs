@@ -4,7 +4,7 @@
 
 mod support;
 
-use support::{load_rgb, mean_rgb, run_without_display, temp_dir};
+use support::{load_rgb, mean_rgb, run_without_display, temp_dir, write_two_sided_sky};
 
 fn render(args: &[&str]) -> (bool, String) {
     run_without_display(&[&["render"], args].concat())
@@ -114,23 +114,6 @@ fn a_project_s_exposure_is_in_its_render() {
         "the sky's red: {before:?} -> {after:?}"
     );
     std::fs::remove_dir_all(&dir).ok();
-}
-
-/// A panorama: its upper half green towards −Z (u from 1/4 to 3/4), red towards +Z, over a dark
-/// ground.
-fn write_two_sided_sky(path: &std::path::Path) {
-    let (w, h) = (128u32, 64u32);
-    let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
-        let u = (x as f32 + 0.5) / w as f32;
-        image::Rgb(if y >= h / 2 {
-            [0.05, 0.05, 0.05]
-        } else if (0.25..0.75).contains(&u) {
-            [0.1, 2.0, 0.1]
-        } else {
-            [2.0, 0.1, 0.1]
-        })
-    });
-    image::DynamicImage::ImageRgb32F(img).save(path).unwrap();
 }
 
 #[test]

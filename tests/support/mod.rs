@@ -135,3 +135,20 @@ pub fn mean_rgb(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u32) -> [f
     }
     sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f32)
 }
+
+/// A panorama: its upper half green towards −Z (u from 1/4 to 3/4), red towards +Z, over a dark
+/// ground.
+pub fn write_two_sided_sky(path: &std::path::Path) {
+    let (w, h) = (128u32, 64u32);
+    let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+        let u = (x as f32 + 0.5) / w as f32;
+        image::Rgb(if y >= h / 2 {
+            [0.05, 0.05, 0.05]
+        } else if (0.25..0.75).contains(&u) {
+            [0.1, 2.0, 0.1]
+        } else {
+            [2.0, 0.1, 0.1]
+        })
+    });
+    image::DynamicImage::ImageRgb32F(img).save(path).unwrap();
+}

@@ -32,6 +32,8 @@ pub mod keysym {
     pub const F12: u32 = 0xffc9;
     /// Return.
     pub const RETURN: u32 = 0xff0d;
+    /// The full stop.
+    pub const PERIOD: u32 = 0x2e;
     /// A lower-case letter.
     pub const fn letter(c: char) -> u32 {
         c as u32

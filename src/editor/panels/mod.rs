@@ -39,6 +39,8 @@ impl Plugin for PanelsPlugin {
                     notices::show_notices,
                     menus::apply_menu_actions,
                     file_dialogs,
+                    // Before the viewport's actions are taken: the sky menu's Choose….
+                    crate::editor::viewport::look::choose_panorama,
                     apply_viewport_actions,
                 )
                     .chain()

@@ -171,6 +171,7 @@ pub fn look_controls(
     };
     let mut new_strength = strength;
     let mut sky_continuing = false;
+    let mut colour_changed = false;
     let sky = ui
         .menu_button("Sky", |ui| {
             ui.label("What rays leaving the scene meet: it lights the scene and is seen behind it");
@@ -189,6 +190,7 @@ pub fn look_controls(
                 sky_continuing = (s.dragged() && !s.drag_started())
                     || s.has_focus()
                     || c.is_pointer_button_down_on();
+                colour_changed = c.changed();
             });
             ui.separator();
             environment_continuing = panorama_controls(
@@ -203,7 +205,9 @@ pub fn look_controls(
         .on_hover_text("The sky's colour and brightness");
     widgets.push("Sky", sky.rect);
     let new_sky = colour.map(|c| c * new_strength);
-    if new_strength != strength || (strength > 0.0 && colour != look.sky.map(|c| c / strength)) {
+    // The colour button gives back the colour through its own conversions: only a change the
+    // user made counts (opening the menu once made a step of its own).
+    if new_strength != strength || colour_changed {
         out.push(EditRequest::Apply {
             command: EditCommand::SetLook {
                 look: SceneLook {

@@ -44,7 +44,6 @@ impl Plugin for ViewportPlugin {
                 render_mode::report_texture_downsizing,
                 look::apply_look,
                 look::environment_to_tracer,
-                look::choose_panorama,
                 tab::fit_camera_viewport,
             ),
         );
