@@ -1,6 +1,4 @@
-//! `--screenshot PATH --frames N`: render N frames once the scene has loaded, save the whole
-//! window, exit. Frames while a file is still read or the tree still built do not count: on a busy
-//! machine they would make the picture show whatever had loaded by then.
+//! `--screenshot PATH --frames N`: render N frames, save the whole window, exit.
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
@@ -11,24 +9,20 @@ use std::path::PathBuf;
 pub struct CaptureRequest {
     /// Where to save; `None` exits after `frames` frames without a screenshot.
     pub path: Option<PathBuf>,
-    /// Frames to render first, once the scene has settled.
+    /// Frames to render first.
     pub frames: u32,
-    /// Frames rendered since the scene settled.
+    /// Frames rendered so far.
     pub rendered: u32,
     /// Whether the screenshot was requested.
     pub requested: bool,
 }
 
-/// Counts frames once the scene has settled; at the chosen one, asks for a screenshot (or exits).
+/// Counts frames; at the chosen one, asks for a screenshot (or exits).
 pub fn count_frames_and_capture(
     mut commands: Commands,
     mut request: ResMut<CaptureRequest>,
     mut exit: MessageWriter<AppExit>,
-    loading: treelight_document::app::SceneLoading,
 ) {
-    if request.rendered == 0 && !loading.settled() {
-        return;
-    }
     request.rendered += 1;
     if request.requested || request.rendered < request.frames {
         return;

@@ -17,8 +17,7 @@ pub struct Cli {
     /// Save a screenshot of the whole window to this PNG file after `--frames` frames, then exit.
     #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
-    /// Frames to render, once the scene has loaded, before taking the screenshot (or before
-    /// exiting, without --screenshot).
+    /// Frames to render before taking the screenshot (or before exiting, without --screenshot).
     #[arg(long, value_name = "N")]
     pub frames: Option<u32>,
     /// Window width in logical pixels.
@@ -89,8 +88,9 @@ pub struct RenderArgs {
     /// A project (.treelight) or a scene file (.gltf, .glb, .obj or .ply); the default scene
     /// without one.
     pub scene: Option<PathBuf>,
-    /// The image to write (.png).
-    #[arg(long, value_name = "IMAGE.png")]
+    /// The image to write: .png (tone-mapped, 8 bits) or .exr (the exposed radiance in linear
+    /// floats, no tone curve).
+    #[arg(long, value_name = "IMAGE.png|.exr")]
     pub out: PathBuf,
     /// Samples per pixel.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]

@@ -1,4 +1,4 @@
-//! `treelight render [SCENE] --out IMAGE.png --spp N [--width W --height H] [--overwrite]`: the
+//! `treelight render [SCENE] --out IMAGE.png|.exr --spp N [--width W --height H] [--overwrite]`: the
 //! scene path traced without a window (Bevy renders into an image; no display is needed), from the
 //! project's saved view or, for a scene file, framed from above as the editor frames it, with the
 //! scene's exposure and tone curve. The samples count once the scene is loaded, its tree idle and
@@ -32,11 +32,11 @@ use treelight_document::default_scene::open_default_scene;
 use treelight_document::edit::history::apply_edit_requests;
 use treelight_render::{PathTraced, PathTracedEnvironment, PathTracerStats, PreparedEnvironment};
 
-/// Whether `out` is a file `treelight render` can write: a `.png` in an existing folder, not
-/// already there unless `overwrite`.
+/// Whether `out` is a file `treelight render` can write: a `.png` or `.exr` in an existing folder,
+/// not already there unless `overwrite`.
 pub fn check_output(args: &RenderArgs) -> Result<(), String> {
     let out = &args.out;
-    check_png_path(out)?;
+    check_image_path(out, &["png", "exr"])?;
     if out.exists() && !args.overwrite {
         return Err(format!(
             "{}: the file exists (--overwrite replaces it)",
@@ -46,14 +46,19 @@ pub fn check_output(args: &RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Whether a render can be written to `out`: a `.png` in a folder that exists (both renders ask
-/// this; what to do about an existing file is each one's own).
-pub fn check_png_path(out: &Path) -> Result<(), String> {
+/// Whether a render can be written to `out`: a file of one of the `formats` (extensions) in a
+/// folder that exists (both renders ask this; what to do about an existing file is each one's own).
+pub fn check_image_path(out: &Path, formats: &[&str]) -> Result<(), String> {
     if !out
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        .is_some_and(|e| formats.iter().any(|f| e.eq_ignore_ascii_case(f)))
     {
-        return Err(format!("{}: the image must be a .png file", out.display()));
+        let names: Vec<String> = formats.iter().map(|f| format!(".{f}")).collect();
+        return Err(format!(
+            "{}: the image must be a {} file",
+            out.display(),
+            names.join(" or ")
+        ));
     }
     let folder = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
@@ -173,8 +178,14 @@ pub fn render_app(args: &RenderArgs) -> App {
     ));
     run_schedules_on_one_thread(&mut app);
     app.add_plugins(PipelineWatchPlugin);
-    let mut target =
-        Image::new_target_texture(args.width, args.height, TextureFormat::Rgba8UnormSrgb, None);
+    // An EXR holds the exposed radiance itself: a float target, and no tone curve or dither.
+    let linear = is_exr(&args.out);
+    let format = if linear {
+        TextureFormat::Rgba16Float
+    } else {
+        TextureFormat::Rgba8UnormSrgb
+    };
+    let mut target = Image::new_target_texture(args.width, args.height, format, None);
     target.asset_usage = bevy::asset::RenderAssetUsages::default();
     let target = app.world_mut().resource_mut::<Assets<Image>>().add(target);
     let tracer = PathTraced {
@@ -232,6 +243,9 @@ pub fn render_app(args: &RenderArgs) -> App {
         ),
     )
     .add_systems(Last, fail_on_errors);
+    if linear {
+        app.add_systems(Update, keep_linear.after(apply_look));
+    }
     app
 }
 
@@ -348,7 +362,12 @@ fn save_image(
     job: Res<RenderJob>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    match save_png(&captured.image, &job.out) {
+    let saved = if is_exr(&job.out) {
+        save_exr(&captured.image, &job.out)
+    } else {
+        save_png(&captured.image, &job.out)
+    };
+    match saved {
         Ok(()) => {
             job.progress.finish_with_message("saved");
             info!(
@@ -364,6 +383,50 @@ fn save_image(
             exit.write(AppExit::error());
         }
     }
+}
+
+/// Whether `path` names an OpenEXR file.
+fn is_exr(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// An EXR render's camera shows the exposed radiance as it is: no tone curve, no dither.
+fn keep_linear(
+    mut cameras: Query<
+        (
+            &mut bevy::core_pipeline::tonemapping::Tonemapping,
+            &mut bevy::core_pipeline::tonemapping::DebandDither,
+        ),
+        With<RenderCamera>,
+    >,
+) {
+    use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
+    for (mut curve, mut dither) in &mut cameras {
+        curve.set_if_neq(Tonemapping::None);
+        dither.set_if_neq(DebandDither::Disabled);
+    }
+}
+
+/// Writes a captured float image to `path` as an RGB OpenEXR of linear floats, atomically.
+pub fn save_exr(image: &Image, path: &Path) -> Result<(), String> {
+    let (w, h) = (image.width(), image.height());
+    let mut rgb = image::Rgb32FImage::new(w, h);
+    for (x, y, p) in rgb.enumerate_pixels_mut() {
+        let c = image
+            .get_color_at(x, y)
+            .map_err(|e| e.to_string())?
+            .to_linear();
+        *p = image::Rgb([c.red, c.green, c.blue]);
+    }
+    let mut bytes = Vec::new();
+    image::DynamicImage::ImageRgb32F(rgb)
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::OpenExr,
+        )
+        .map_err(|e| e.to_string())?;
+    treelight_document::atomic_file::write_atomically(path, &bytes).map_err(|e| e.to_string())
 }
 
 /// Writes a captured image to `path` as an RGB PNG, atomically (a temporary file renamed over the

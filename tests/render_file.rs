@@ -237,3 +237,55 @@ fn a_render_through_a_file_s_camera_sees_what_that_camera_sees() {
     );
     assert!(!dir.join("nope.png").exists());
 }
+
+#[test]
+fn an_exr_render_holds_the_exposed_radiance_that_the_png_shows_clipped() {
+    let dir = temp_dir("render-exr");
+    let size = ["--width", "48", "--height", "32", "--spp", "4"];
+    // With no tone curve, the PNG is the same samples clipped at 1 and sRGB-encoded.
+    let project = project_with(&dir, "clip", "[SetLook(look: (exposure: 0.0, tone: None))]");
+    let shot = |name: &str| {
+        let out = dir.join(name);
+        let (ok, log) = render(
+            &[
+                &[project.to_str().unwrap(), "--out", out.to_str().unwrap()][..],
+                &size[..],
+            ]
+            .concat(),
+        );
+        assert!(ok, "{log}");
+        out
+    };
+    let exr = image::open(shot("linear.exr")).unwrap().to_rgb32f();
+    let png = load_rgb(&shot("clipped.png"));
+    assert_eq!(exr.dimensions(), png.dimensions());
+    assert!(
+        exr.pixels()
+            .flat_map(|p| p.0)
+            .all(|v| v.is_finite() && v >= 0.0)
+    );
+    // The lamp is brighter than white: the EXR keeps what the PNG clips.
+    assert!(exr.pixels().any(|p| p.0.iter().any(|&v| v > 1.5)));
+    let srgb = |v: f32| {
+        let v = v.clamp(0.0, 1.0);
+        let s = if v <= 0.003_130_8 {
+            v * 12.92
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
+        s * 255.0
+    };
+    let mut worst = 0.0f32;
+    for (e, p) in exr.pixels().zip(png.pixels()) {
+        for c in 0..3 {
+            worst = worst.max((srgb(e.0[c]) - f32::from(p.0[c])).abs());
+        }
+    }
+    // Half floats and the PNG's dither: a few levels at most.
+    assert!(worst <= 4.0, "a pixel {worst} levels off");
+    // Other formats are refused before anything is rendered.
+    let jpg = dir.join("x.jpg");
+    let (ok, log) = render(&["--out", jpg.to_str().unwrap()]);
+    assert!(!ok && log.contains("must be a .png or .exr file"), "{log}");
+    std::fs::remove_dir_all(&dir).ok();
+}

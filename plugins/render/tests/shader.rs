@@ -221,7 +221,8 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 tiles_x,
                 tile_total,
                 tile_stride,
-                part_shift
+                part_shift,
+                environment
             ]
         )
     );

@@ -7,7 +7,7 @@ use crate::editor::files::ask_yes_or_cancel;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::widget_rects::WidgetRects;
-use crate::render_file::{CaptureGate, PipelinesReady, check_png_path, save_png};
+use crate::render_file::{CaptureGate, PipelinesReady, check_image_path, save_png};
 use bevy::camera::{Exposure, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -110,7 +110,7 @@ impl RenderImageUi {
         if path.extension().is_none() {
             path.set_extension("png");
         }
-        check_png_path(&path)?;
+        check_image_path(&path, &["png"])?;
         Ok(path)
     }
 }
