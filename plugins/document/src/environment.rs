@@ -151,7 +151,16 @@ pub fn load_environment(
     let spawned = std::thread::Builder::new()
         .name("treelight sky panorama".into())
         .spawn(move || {
-            let _ = result.set(treelight_import::read_environment(&file));
+            // A decoder that panics on a hostile file is an error naming it, not a read that
+            // never ends (the scene would never settle).
+            let read = std::panic::catch_unwind(|| treelight_import::read_environment(&file))
+                .unwrap_or_else(|p| {
+                    Err(ImportError {
+                        file: file.clone(),
+                        problem: crate::contain::crashed("reading it".into(), &*p),
+                    })
+                });
+            let _ = result.set(read);
         });
     match spawned {
         Ok(_) => loaded.reading = Some((path, slot)),

@@ -159,3 +159,92 @@ fn hostile_panoramas_are_refused_naming_the_file() {
     }
     assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
 }
+
+/// A small generator of mutations (xorshift), seeded so a failure names its case.
+struct Mutator(u64);
+
+impl Mutator {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+
+    /// Flips, overwrites, inserts or cuts bytes; header numbers get large values.
+    fn damage(&mut self, bytes: &mut Vec<u8>) {
+        for _ in 0..1 + self.below(4) {
+            let at = self.below(bytes.len());
+            match self.below(6) {
+                0 => bytes[at] ^= 1 << self.below(8),
+                1 => bytes[at] = self.next() as u8,
+                2 => bytes.truncate(at),
+                3 => bytes
+                    .splice(at..at, b"99999".iter().copied())
+                    .for_each(drop),
+                4 => bytes[at..].iter_mut().take(4).for_each(|b| *b = 0xff),
+                _ => bytes
+                    .splice(at..at, (0..16).map(|_| self.next() as u8))
+                    .for_each(drop),
+            }
+            if bytes.is_empty() {
+                return;
+            }
+        }
+    }
+}
+
+#[test]
+fn mutated_panoramas_never_panic_and_stay_within_bounds() {
+    let dir = folder("mutations");
+    let cases: usize = std::env::var("TREELIGHT_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(300);
+    let mut seeds = Vec::new();
+    for name in ["seed.hdr", "seed.exr"] {
+        let path = dir.join(name);
+        save(panorama(32, 16, 3.0), &path);
+        seeds.push((name, std::fs::read(&path).unwrap()));
+    }
+    let started = std::time::Instant::now();
+    let mut failures = Vec::new();
+    let mut read = 0;
+    for k in 0..cases {
+        let mut m = Mutator(0x9e37_79b9_7f4a_7c15 ^ (k as u64 + 1).wrapping_mul(0xff51_afd7));
+        let (name, seed) = &seeds[k % seeds.len()];
+        let mut bytes = seed.clone();
+        m.damage(&mut bytes);
+        let path = dir.join(format!("{k}-{name}"));
+        std::fs::write(&path, &bytes).unwrap();
+        match std::panic::catch_unwind(|| read_environment(&path)) {
+            Ok(Ok(sky)) => {
+                read += 1;
+                // What loads is what a panorama must be: finite, not negative, at most 4096 wide.
+                if sky.width > MAX_ENVIRONMENT_WIDTH
+                    || sky.rgb.len() != (sky.width * sky.height) as usize
+                    || sky.rgb.iter().flatten().any(|v| !v.is_finite() || *v < 0.0)
+                {
+                    failures.push(format!("case {k} ({name}) loaded out of bounds"));
+                }
+            }
+            Ok(Err(e)) if !e.to_string().contains(&format!("{k}-{name}")) => {
+                failures.push(format!(
+                    "case {k} ({name}): the error does not name it: {e}"
+                ));
+            }
+            Ok(Err(_)) => {}
+            Err(_) => failures.push(format!("case {k} ({name}) panicked")),
+        }
+        std::fs::remove_file(&path).ok();
+    }
+    eprintln!(
+        "{cases} mutated panoramas, {read} read, in {:?}",
+        started.elapsed()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

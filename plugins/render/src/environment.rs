@@ -379,7 +379,13 @@ fn prepare_texels(
     let spawned = std::thread::Builder::new()
         .name("treelight environment".into())
         .spawn(move || {
-            let _ = result.set(EnvironmentTexels::from_image(&image).map(Arc::new));
+            // A panic converting the image leaves the flat sky, not a conversion that never ends.
+            let texels = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                EnvironmentTexels::from_image(&image)
+            }))
+            .ok()
+            .flatten();
+            let _ = result.set(texels.map(Arc::new));
         });
     if spawned.is_ok() {
         prepared.pending = Some((id, slot));
