@@ -6,6 +6,7 @@
 use crate::ImportError;
 use crate::budget::{Budget, ImportOptions};
 use crate::sandbox::{open_regular, read_at_most};
+use crate::texture::decode_limits;
 use std::io::Cursor;
 use std::path::Path;
 
@@ -106,24 +107,16 @@ fn decode_environment(
     if width == 0 || height == 0 {
         return Err(ImportError::new(path, "the image is empty"));
     }
-    if width > MAX_ENVIRONMENT_SIDE || height > MAX_ENVIRONMENT_SIDE {
-        return Err(ImportError::new(
-            path,
-            format!(
-                "its header declares {width}×{height} pixels, over the limit of \
-                 {MAX_ENVIRONMENT_SIDE} a side"
-            ),
-        ));
-    }
     // The decoder's RGBA f32 image, and the RGB f32 copy.
-    let pixels = u64::from(width) * u64::from(height);
-    let decoded_bytes = pixels * 28;
-    budget.charge(decoded_bytes, || format!("its {width}×{height} pixels"))?;
+    let limits = decode_limits(
+        path,
+        (width, height),
+        MAX_ENVIRONMENT_SIDE,
+        (28, 16 << 20),
+        budget,
+        || format!("its {width}×{height} pixels"),
+    )?;
     let mut reader = image::ImageReader::with_format(Cursor::new(bytes), format);
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_ENVIRONMENT_SIDE);
-    limits.max_image_height = Some(MAX_ENVIRONMENT_SIDE);
-    limits.max_alloc = Some(decoded_bytes + (16 << 20));
     reader.limits(limits);
     let decoded = reader
         .decode()

@@ -191,6 +191,34 @@ fn decode(
     }
 }
 
+/// The decoder's limits for an image whose header declares `size`: refused past `max_side` a side,
+/// its decoded `bytes_per_pixel` charged to `budget` (as `what`) before any pixel is decoded, and the
+/// decoder held to that much and `scratch` bytes for its own use.
+pub(crate) fn decode_limits(
+    path: &Path,
+    (width, height): (u32, u32),
+    max_side: u32,
+    (bytes_per_pixel, scratch): (u64, u64),
+    budget: &mut Budget,
+    what: impl FnOnce() -> String,
+) -> Result<image::Limits, ImportError> {
+    if width > max_side || height > max_side {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "its header declares {width}×{height} pixels, over the limit of {max_side} a side"
+            ),
+        ));
+    }
+    let bytes = u64::from(width) * u64::from(height) * bytes_per_pixel;
+    budget.charge(bytes, what)?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(max_side);
+    limits.max_image_height = Some(max_side);
+    limits.max_alloc = Some(bytes + scratch);
+    Ok(limits)
+}
+
 /// Decodes PNG or JPEG bytes: the header's dimensions are checked against [`MAX_TEXTURE_SIDE`]
 /// and the decoded size charged to `budget` before any pixel is decoded.
 pub(crate) fn decode_bytes(
@@ -214,23 +242,16 @@ pub(crate) fn decode_bytes(
     let (width, height) = probe
         .into_dimensions()
         .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))?;
-    if width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
-        return Err(ImportError::new(
-            path,
-            format!(
-                "its header declares {width}×{height} pixels, over the limit of \
-                 {MAX_TEXTURE_SIDE} a side"
-            ),
-        ));
-    }
     // The decoder's image (up to 16-bit RGBA) and the RGBA8 copy made of any other layout.
-    let pixels = u64::from(width) * u64::from(height);
-    budget.charge(pixels * 12, || format!("image '{name}' ({width}×{height})"))?;
+    let limits = decode_limits(
+        path,
+        (width, height),
+        MAX_TEXTURE_SIDE,
+        (12, 1 << 20),
+        budget,
+        || format!("image '{name}' ({width}×{height})"),
+    )?;
     let mut reader = open()?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
-    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
-    limits.max_alloc = Some(pixels * 12 + (1 << 20));
     reader.limits(limits);
     let decoded = reader
         .decode()
