@@ -1,5 +1,5 @@
 //! Command line: `treelight [SCENE_FILE] [--screenshot PATH --frames N] [--view MODE]
-//! [--frame-budget MS] [--commands EDITS.ron] [--state PATH]`.
+//! [--frame-budget MS] [--samples N] [--trace-scale SCALE] [--commands EDITS.ron] [--state PATH]`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -36,6 +36,15 @@ pub struct Cli {
     /// rest of the frame takes); 0 traces every pixel every frame.
     #[arg(long, value_name = "MS", default_value_t = 4.0)]
     pub frame_budget: f32,
+    /// Samples per pixel the path-traced view accumulates before it stops (the toolbar's
+    /// Quality menu changes it).
+    #[arg(long, value_name = "N", default_value_t = 4096,
+          value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub samples: u32,
+    /// Traced pixels per viewport pixel along each axis (1: full resolution; 0.5 on a software
+    /// adapter unless given).
+    #[arg(long, value_name = "SCALE", value_parser = trace_scale)]
+    pub trace_scale: Option<f32>,
     /// A RON list of edit commands to apply once the scene has loaded and its BVH is idle.
     #[arg(long, value_name = "EDITS.ron")]
     pub commands: Option<PathBuf>,
@@ -57,6 +66,14 @@ pub struct Cli {
     /// for a scene that needs more than it has, and says so).
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..))]
     pub gpu_binding_limit: Option<u32>,
+}
+
+/// A resolution scale from the command line: a number from 0.05 to 4.
+fn trace_scale(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(v) if (0.05..=4.0).contains(&v) => Ok(v),
+        _ => Err(format!("{text} is not a scale from 0.05 to 4")),
+    }
 }
 
 /// What `treelight` can do without opening its window.

@@ -118,8 +118,11 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             } else {
                 0.0
             },
+            max_samples: cli.samples,
+            resolution_scale: cli.trace_scale.unwrap_or(1.0),
             ..default()
         },
+        scale_chosen: cli.trace_scale.is_some(),
     });
     match &cli.scene {
         Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),

@@ -1,8 +1,11 @@
 //! `treelight render`: the default scene path traced to a PNG where there is no display at all,
 //! the same image for the same samples, a project's exposure and sky in the picture, and the refusals
-//! (an existing file without `--overwrite`, another format, a scene file that does not open).
+//! (an existing file without `--overwrite`, another format, a scene file that does not open); and a
+//! render equal to what the editor's viewport accumulates from the same samples.
 
 mod support;
+#[path = "support/xdrive.rs"]
+mod xdrive;
 
 use support::{load_rgb, mean_rgb, run_without_display, temp_dir, write_two_sided_sky};
 
@@ -288,4 +291,102 @@ fn an_exr_render_holds_the_exposed_radiance_that_the_png_shows_clipped() {
     let (ok, log) = render(&["--out", jpg.to_str().unwrap()]);
     assert!(!ok && log.contains("must be a .png or .exr file"), "{log}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The viewport's path-traced view, once it has its samples, against `treelight render` of the same
+/// scene, view and size at the same samples: each pixel's n-th sample draws from (pixel, n) alone,
+/// so the two are the same image (up to Bevy's dither, which follows the pixel's place on the
+/// screen, and what the editor draws over the view).
+#[test]
+fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
+    const SPP: u32 = 6;
+    let mut s = xdrive::Session::start(
+        "render-equals-viewport",
+        &[
+            "--width",
+            "760",
+            "--height",
+            "520",
+            "--samples",
+            &SPP.to_string(),
+            "--trace-scale",
+            "1",
+            "--frame-budget",
+            "0",
+        ],
+    );
+    let state = s.wait_until(
+        "the viewport's samples",
+        std::time::Duration::from_secs(300),
+        |st| st.samples >= SPP,
+    );
+    assert_eq!(state.samples, SPP, "the viewport stops at --samples");
+    // The frame that reached the count also denoised it; let the picture reach the screen.
+    let state = s.frames(3);
+    assert_eq!(state.samples, SPP);
+    let shot = s.screenshot();
+    let [x, y, w, h] = state.viewport.map(|v| v as u32);
+    assert!(w > 200 && h > 150, "viewport {:?}", state.viewport);
+    let viewport = image::imageops::crop_imm(&shot, x, y, w, h).to_image();
+    viewport.save(s.dir().join("viewport.png")).unwrap();
+
+    let out = s.dir().join("render.png");
+    let (ok, log) = render(&[
+        "--out",
+        out.to_str().unwrap(),
+        "--spp",
+        &SPP.to_string(),
+        "--width",
+        &w.to_string(),
+        "--height",
+        &h.to_string(),
+    ]);
+    assert!(ok, "{log}");
+    let rendered = load_rgb(&out);
+    // What the editor draws over the view: the toolbar along its top (down to the Denoise box's
+    // bottom and its frame) and the lights' icons.
+    let toolbar = state
+        .widgets
+        .iter()
+        .find(|(name, _)| name == "Denoise")
+        .map(|(_, r)| r[1] + r[3] + 4.0 - y as f32)
+        .expect("the Denoise box on the toolbar");
+    let icons: Vec<[f32; 2]> = state
+        .objects
+        .iter()
+        .filter(|o| o.light.is_some())
+        .filter_map(|o| o.screen)
+        .map(|p| [p[0] - x as f32, p[1] - y as f32])
+        .collect();
+    let drawn_over = |px: u32, py: u32| {
+        let (px, py) = (px as f32 + 0.5, py as f32 + 0.5);
+        py < toolbar
+            || icons
+                .iter()
+                .any(|c| (px - c[0]).powi(2) + (py - c[1]).powi(2) < 16.0 * 16.0)
+    };
+    let (mut compared, mut far, mut sum) = (0u64, 0u64, 0u64);
+    for (px, py, a) in viewport.enumerate_pixels() {
+        if drawn_over(px, py) {
+            continue;
+        }
+        let b = rendered.get_pixel(px, py);
+        let d = (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap();
+        compared += 1;
+        sum += u64::from(d);
+        if d > 2 {
+            far += 1;
+        }
+    }
+    let mean = sum as f64 / compared as f64;
+    // Bevy's dither moves a level or two; samples of their own would move most pixels by tens.
+    assert!(
+        compared * 10 > u64::from(w * h) * 8,
+        "{compared} pixels compared"
+    );
+    assert!(
+        far == 0 && mean < 1.0,
+        "{far} of {compared} pixels differ by more than 2 levels, mean difference {mean:.2}; see {}",
+        s.dir().display()
+    );
 }

@@ -202,6 +202,47 @@ pub fn gizmo_frame(
     GizmoFrame::new(pivot, axes, view)
 }
 
+/// The path tracer's resolution and the samples per pixel at which it stops.
+fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender) {
+    ui.menu_button("Quality", |ui| {
+        ui.label(egui::RichText::new("Resolution").strong());
+        for (scale, name) in crate::editor::viewport::render_mode::TRACE_SCALES {
+            let chosen = render.settings.resolution_scale == scale;
+            if ui
+                .radio(chosen, name)
+                .on_hover_text(format!(
+                    "Trace {} the viewport's pixels along each axis (the image is upscaled)",
+                    if scale == 1.0 {
+                        "all".to_string()
+                    } else {
+                        format!("{:.0}% of", scale * 100.0)
+                    }
+                ))
+                .clicked()
+            {
+                render.settings.resolution_scale = scale;
+                render.scale_chosen = true;
+            }
+        }
+        ui.separator();
+        ui.horizontal(|ui| {
+            ui.label("Stop at");
+            ui.add(
+                egui::DragValue::new(&mut render.settings.max_samples)
+                    .range(1..=65536)
+                    .speed(8.0)
+                    .suffix(" samples"),
+            )
+            .on_hover_text(
+                "Samples per pixel the view accumulates before it stops tracing (an edit or a \
+                 camera move starts it again)",
+            );
+        });
+    })
+    .response
+    .on_hover_text("The path tracer's resolution and how many samples a view accumulates");
+}
+
 /// The viewport's toolbar: render mode, gizmo mode, axes and snapping, then the look (exposure and
 /// tone curve, as edit requests).
 fn toolbar(
@@ -232,6 +273,9 @@ fn toolbar(
                  and colours (no light crosses an object's edge)",
             );
         widgets.push("Denoise", toggle.rect);
+    }
+    if render.traced.is_some() {
+        quality_menu(ui, render);
     }
     ui.separator();
     for (mode, key) in [

@@ -14,13 +14,20 @@ pub struct ViewportRender {
     pub traced: Option<DebugView>,
     /// The path tracer's settings for the viewport camera.
     pub settings: PathTraced,
+    /// Whether the user chose the resolution scale (on the command line or in the toolbar), so the
+    /// adapter's default does not replace it.
+    pub scale_chosen: bool,
 }
+
+/// The resolution scales the toolbar offers, with their names.
+pub const TRACE_SCALES: [(f32, &str); 3] = [(1.0, "Full"), (0.5, "Half"), (0.25, "Quarter")];
 
 impl Default for ViewportRender {
     fn default() -> Self {
         Self {
             traced: Some(DebugView::PathTraced),
             settings: PathTraced::default(),
+            scale_chosen: false,
         }
     }
 }
@@ -43,7 +50,8 @@ pub fn adapt_to_adapter(
     adapter: Option<Res<RenderAdapterInfo>>,
     mut render: ResMut<ViewportRender>,
 ) {
-    if adapter.is_some_and(|a| a.device_type == wgpu_types::DeviceType::Cpu) {
+    if !render.scale_chosen && adapter.is_some_and(|a| a.device_type == wgpu_types::DeviceType::Cpu)
+    {
         render.settings.resolution_scale = 0.5;
         info!("software adapter: the viewport is path traced at half resolution");
     }
