@@ -77,7 +77,7 @@ fn trace_scale(text: &str) -> Result<f32, String> {
 }
 
 /// What `treelight` can do without opening its window.
-#[derive(clap::Subcommand, Debug, Clone, PartialEq, Eq)]
+#[derive(clap::Subcommand, Debug, Clone, PartialEq)]
 pub enum Command {
     /// Print what a scene file (.gltf, .glb, .obj, .ply) or project (.treelight) holds, then exit.
     Info {
@@ -100,7 +100,7 @@ pub enum Command {
 }
 
 /// `treelight render`'s arguments.
-#[derive(clap::Args, Debug, Clone, PartialEq, Eq)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct RenderArgs {
     /// A project (.treelight) or a scene file (.gltf, .glb, .obj or .ply); the default scene
     /// without one.
@@ -128,6 +128,34 @@ pub struct RenderArgs {
     /// Whether the image is denoised (as the viewport is by default).
     #[arg(long, value_enum, default_value_t = Switch::On)]
     pub denoise: Switch,
+    /// Light the scene with this sky panorama (.hdr or .exr, equirectangular) in place of the
+    /// project's sky.
+    #[arg(long, value_name = "FILE.hdr|.exr")]
+    pub sky: Option<PathBuf>,
+    /// Turn the sky panorama this many degrees about the vertical (counter-clockwise seen from
+    /// above; the project's turn without it).
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true, value_parser = sky_rotation)]
+    pub sky_rotation: Option<f32>,
+    /// Nits of a sky panorama value of 1 (the project's, else 1000, without it).
+    #[arg(long, value_name = "NITS", value_parser = sky_intensity)]
+    pub sky_intensity: Option<f32>,
+}
+
+/// A panorama's turn from the command line: degrees within a full turn either way.
+fn sky_rotation(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(v) if v.is_finite() && v.abs() <= 360.0 => Ok(v),
+        _ => Err(format!("{text} is not a turn from -360 to 360 degrees")),
+    }
+}
+
+/// A panorama's intensity from the command line: nits from 0 to the scene's maximum.
+fn sky_intensity(text: &str) -> Result<f32, String> {
+    let max = treelight_document::environment::MAX_ENVIRONMENT_INTENSITY;
+    match text.parse::<f32>() {
+        Ok(v) if (0.0..=max).contains(&v) => Ok(v),
+        _ => Err(format!("{text} is not an intensity from 0 to {max} nits")),
+    }
 }
 
 /// On or off, on the command line.

@@ -1,5 +1,5 @@
-//! `treelight render [SCENE] --out IMAGE.png|.exr --spp N [--width W --height H] [--overwrite]`: the
-//! scene path traced without a window (Bevy renders into an image; no display is needed), from the
+//! `treelight render [SCENE] --out IMAGE.png|.exr --spp N [--width W --height H] [--sky FILE.hdr]
+//! [--overwrite]`: the scene path traced without a window (Bevy renders into an image; no display is needed), from the
 //! project's saved view or, for a scene file, framed from above as the editor frames it, with the
 //! scene's exposure and tone curve. The samples count once the scene is loaded, its tree idle and
 //! the path tracer's copy of it no longer changing (the scene's geometry reaching the GPU restarts
@@ -29,7 +29,9 @@ use treelight_document::app::{
 };
 use treelight_document::camera::SceneCamera;
 use treelight_document::default_scene::open_default_scene;
-use treelight_document::edit::history::apply_edit_requests;
+use treelight_document::edit::command::EditCommand;
+use treelight_document::edit::history::{EditRequests, apply_edit_requests};
+use treelight_document::environment::SceneEnvironment;
 use treelight_render::{PathTraced, PathTracedEnvironment, PathTracerStats, PreparedEnvironment};
 
 /// Whether `out` is a file `treelight render` can write: a `.png` or `.exr` in an existing folder,
@@ -37,6 +39,17 @@ use treelight_render::{PathTraced, PathTracedEnvironment, PathTracerStats, Prepa
 pub fn check_output(args: &RenderArgs) -> Result<(), String> {
     let out = &args.out;
     check_image_path(out, &["png", "exr"])?;
+    if let Some(sky) = &args.sky {
+        if !treelight_document::environment::is_environment_file(sky) {
+            return Err(format!(
+                "{}: a sky panorama must be a .hdr or .exr file",
+                sky.display()
+            ));
+        }
+        if !sky.is_file() {
+            return Err(format!("{}: no such file", sky.display()));
+        }
+    }
     if out.exists() && !args.overwrite {
         return Err(format!(
             "{}: the file exists (--overwrite replaces it)",
@@ -111,6 +124,42 @@ struct RenderJob {
     captured: bool,
     /// The scene camera to render through, by name.
     camera: Option<String>,
+    /// What the command line changes of the scene's sky panorama, put on it once the scene has
+    /// settled (a project's own sky is read by then).
+    sky: Option<SkyArgs>,
+}
+
+/// `--sky`, `--sky-rotation` and `--sky-intensity`.
+struct SkyArgs {
+    image: Option<PathBuf>,
+    rotation_degrees: Option<f32>,
+    intensity: Option<f32>,
+}
+
+impl SkyArgs {
+    fn from(args: &RenderArgs) -> Option<Self> {
+        let sky = Self {
+            // Absolute, as the panorama is read wherever the project is.
+            image: args
+                .sky
+                .as_ref()
+                .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone())),
+            rotation_degrees: args.sky_rotation,
+            intensity: args.sky_intensity,
+        };
+        (sky.image.is_some() || sky.rotation_degrees.is_some() || sky.intensity.is_some())
+            .then_some(sky)
+    }
+
+    /// The scene's sky with what the command line changes of it.
+    fn applied_to(&self, scene: &SceneEnvironment) -> SceneEnvironment {
+        SceneEnvironment {
+            image: self.image.clone().or_else(|| scene.image.clone()),
+            rotation_degrees: self.rotation_degrees.unwrap_or(scene.rotation_degrees),
+            intensity: self.intensity.unwrap_or(scene.intensity),
+            shown: scene.shown,
+        }
+    }
 }
 
 /// Whether the render world's pipeline cache has no pipeline waiting to be compiled (written each
@@ -214,6 +263,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         gate: CaptureGate::default(),
         captured: false,
         camera: args.camera.clone(),
+        sky: SkyArgs::from(args),
     });
     let orbit = OrbitCamera::default();
     app.world_mut().spawn((
@@ -291,6 +341,7 @@ fn follow_samples(
         Res<PathTracedEnvironment>,
         Res<PreparedEnvironment>,
     ),
+    (scene_sky, mut requests): (Res<SceneEnvironment>, ResMut<EditRequests>),
     mut exit: MessageWriter<AppExit>,
 ) {
     if job.captured {
@@ -318,6 +369,15 @@ fn follow_samples(
         }
         if !(settled && sky_ready && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
             return;
+        }
+        if let Some(wanted) = job.sky.take() {
+            let environment = wanted.applied_to(&scene_sky);
+            if environment != *scene_sky {
+                requests.apply(EditCommand::SetEnvironment { environment });
+                // The panorama is read and converted before the samples count, as a project's.
+                job.uploaded.1 = 0;
+                return;
+            }
         }
         if let Some(name) = job.camera.take() {
             let Some((_, at, camera)) = view.scene_cameras.iter().find(|c| c.0.as_str() == name)

@@ -173,6 +173,56 @@ fn a_project_s_sky_panorama_is_seen_turned_and_hidden_in_its_render() {
         hidden.iter().zip(flat).all(|(a, b)| (a - b).abs() < 6.0),
         "{hidden:?} vs {flat:?}"
     );
+    // `--sky` lights a scene without a project the same way, `--sky-rotation` turns it, and both
+    // override a project's own.
+    let with_sky = |name: &str, scene: Option<&str>, extra: &[&str]| {
+        let out = dir.join(format!("{name}.png"));
+        let mut args: Vec<&str> = scene.into_iter().collect();
+        args.extend(["--out", out.to_str().unwrap()]);
+        args.extend(extra);
+        args.extend(size);
+        let (ok, log) = render(&args);
+        (ok, log, out)
+    };
+    let (ok, log, out) = with_sky("cli", None, &["--sky", sky_path, "--sky-intensity", "150"]);
+    assert!(ok, "{log}");
+    let cli = corner(&load_rgb(&out));
+    assert!(
+        cli.iter().zip(front).all(|(a, b)| (a - b).abs() < 6.0),
+        "--sky {cli:?} vs the project's {front:?}"
+    );
+    let (ok, log, out) = with_sky(
+        "cli-turned",
+        None,
+        &[
+            "--sky",
+            sky_path,
+            "--sky-intensity=150",
+            "--sky-rotation=-180",
+        ],
+    );
+    assert!(ok, "{log}");
+    let cli_turned = corner(&load_rgb(&out));
+    assert!(cli_turned[0] > 2.0 * cli_turned[1], "{cli_turned:?}");
+    let turned_project = dir.join("turned.treelight");
+    let (ok, log, out) = with_sky(
+        "unturned",
+        Some(turned_project.to_str().unwrap()),
+        &["--sky-rotation", "0"],
+    );
+    assert!(ok, "{log}");
+    let unturned = corner(&load_rgb(&out));
+    assert!(unturned[1] > 2.0 * unturned[0], "{unturned:?}");
+    for (bad, why) in [
+        (dir.join("missing.hdr"), "no such file"),
+        (dir.join("plain.png"), "must be a .hdr or .exr"),
+    ] {
+        let (ok, log, out) = with_sky("refused", None, &["--sky", bad.to_str().unwrap()]);
+        let name = bad.file_name().unwrap().to_str().unwrap();
+        assert!(!ok && log.contains(name) && log.contains(why), "{log}");
+        assert!(!out.exists());
+    }
+
     // A panorama that is not one ends the render with its name, and writes nothing.
     let broken = dir.join("broken.hdr");
     std::fs::write(&broken, b"#?RADIANCE\n\n-Y 4 +X 8\n").unwrap();
