@@ -336,12 +336,13 @@ fn follow_samples(
     stats: Res<PathTracerStats>,
     loading: SceneLoading,
     mut view: RenderView,
-    (ready, sky, prepared_sky): (
+    (ready, sky, prepared_sky, scene_sky, mut requests): (
         Res<PipelinesReady>,
         Res<PathTracedEnvironment>,
         Res<PreparedEnvironment>,
+        Res<SceneEnvironment>,
+        ResMut<EditRequests>,
     ),
-    (scene_sky, mut requests): (Res<SceneEnvironment>, ResMut<EditRequests>),
     mut exit: MessageWriter<AppExit>,
 ) {
     if job.captured {
