@@ -327,6 +327,17 @@ struct RenderView<'w, 's> {
     >,
 }
 
+/// The scene's sky panorama: the document's, the path tracer's and whether its conversion is
+/// ready; the requests that change it; and whether the render world's pipelines are.
+#[derive(bevy::ecs::system::SystemParam)]
+struct SkyAndPipelines<'w> {
+    pipelines: Res<'w, PipelinesReady>,
+    scene: Res<'w, SceneEnvironment>,
+    tracer: Res<'w, PathTracedEnvironment>,
+    prepared: Res<'w, PreparedEnvironment>,
+    requests: ResMut<'w, EditRequests>,
+}
+
 /// Waits for the scene to settle and the path tracer's copy of it to stop changing; then shows the
 /// samples traced so far, and once every pixel has its samples, asks for the image. A scene the
 /// adapter cannot trace ends the run with its reason.
@@ -336,13 +347,7 @@ fn follow_samples(
     stats: Res<PathTracerStats>,
     loading: SceneLoading,
     mut view: RenderView,
-    (ready, sky, prepared_sky, scene_sky, mut requests): (
-        Res<PipelinesReady>,
-        Res<PathTracedEnvironment>,
-        Res<PreparedEnvironment>,
-        Res<SceneEnvironment>,
-        ResMut<EditRequests>,
-    ),
+    mut sky: SkyAndPipelines,
     mut exit: MessageWriter<AppExit>,
 ) {
     if job.captured {
@@ -364,7 +369,7 @@ fn follow_samples(
             (figures.total_upload_bytes, 0)
         };
         // The sky panorama, once read, is converted for the tracer on a thread of its own.
-        let sky_ready = prepared_sky.ready_for(&sky);
+        let sky_ready = sky.prepared.ready_for(&sky.tracer);
         if !sky_ready {
             job.uploaded.1 = 0;
         }
@@ -372,9 +377,10 @@ fn follow_samples(
             return;
         }
         if let Some(wanted) = job.sky.take() {
-            let environment = wanted.applied_to(&scene_sky);
-            if environment != *scene_sky {
-                requests.apply(EditCommand::SetEnvironment { environment });
+            let environment = wanted.applied_to(&sky.scene);
+            if environment != *sky.scene {
+                sky.requests
+                    .apply(EditCommand::SetEnvironment { environment });
                 // The panorama is read and converted before the samples count, as a project's.
                 job.uploaded.1 = 0;
                 return;
@@ -407,7 +413,7 @@ fn follow_samples(
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
     let spp = job.spp;
-    if !job.gate.open(samples, spp, &ready) {
+    if !job.gate.open(samples, spp, &sky.pipelines) {
         return;
     }
     job.captured = true;
