@@ -3,6 +3,8 @@
 #[path = "../plugins/document/tests/support/assembly.rs"]
 mod assembly;
 mod support;
+#[path = "support/xdrive.rs"]
+mod xdrive;
 use support::*;
 
 #[test]
@@ -708,4 +710,122 @@ fn camera_looks_through_a_file_s_camera_and_a_missing_one_is_a_notice() {
         s.notices
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The raster view shows the sky panorama behind the scene as the path tracer does: a panorama
+/// whose colour is its direction, seen through both views from the same place, turned a quarter.
+#[test]
+fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
+    let shots: Vec<(image::RgbImage, Vec<[f32; 4]>)> = ["raster", "path"]
+        .iter()
+        .map(|view| {
+            let name = format!("sky-box-{view}");
+            let dir = temp_dir(&name);
+            // One small triangle: the view is all sky.
+            let obj = dir.join("speck.obj");
+            std::fs::write(&obj, "v 0 0 0\nv 0.01 0 0\nv 0 0 0.01\nf 1 2 3\n").unwrap();
+            let sky = dir.join("directions.hdr");
+            let (w, h) = (256u32, 128u32);
+            let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+                let d = treelight_render::panorama_direction(
+                    (x as f32 + 0.5) / w as f32,
+                    (y as f32 + 0.5) / h as f32,
+                );
+                image::Rgb([
+                    0.1 + 0.4 * (d.x + 1.0),
+                    0.1 + 0.4 * (d.y + 1.0),
+                    0.1 + 0.4 * (d.z + 1.0),
+                ])
+            });
+            image::DynamicImage::ImageRgb32F(img).save(&sky).unwrap();
+            let commands = dir.join("sky.ron");
+            std::fs::write(
+                &commands,
+                format!(
+                    "[SetEnvironment(environment: (image: Some({:?}), rotation_degrees: 90.0, \
+                     intensity: 1000.0, shown: true))]",
+                    sky.to_str().unwrap()
+                ),
+            )
+            .unwrap();
+            let mut s = xdrive::Session::start(
+                &name,
+                &[
+                    obj.to_str().unwrap(),
+                    "--commands",
+                    commands.to_str().unwrap(),
+                    "--view",
+                    view,
+                    "--trace-scale",
+                    "1",
+                    "--samples",
+                    "2",
+                    "--width",
+                    "900",
+                    "--height",
+                    "600",
+                ],
+            );
+            s.wait_until("the panorama", std::time::Duration::from_secs(120), |st| {
+                st.environment.1 && (*view == "raster" || st.samples >= 2)
+            });
+            // The cube map is made on a thread of its own once the panorama is read.
+            let state = s.frames(10);
+            assert!(
+                !state.notices.iter().any(|n| n.contains("panorama")),
+                "{:?}",
+                state.notices
+            );
+            let shot = s.screenshot();
+            let [x, y, w, h] = state.viewport.map(|v| v as u32);
+            let toolbar = state
+                .widgets
+                .iter()
+                .find(|(n, _)| n == "Viewport toolbar")
+                .map(|(_, r)| r[1] + r[3] + 2.0)
+                .unwrap();
+            let top = toolbar as u32;
+            let view_img = image::imageops::crop_imm(&shot, x, top, w, y + h - top).to_image();
+            view_img.save(dir.join("view.png")).unwrap();
+            // The notices over the view's corner, in the cropped image's pixels.
+            let notices: Vec<[f32; 4]> = state
+                .widgets
+                .iter()
+                .filter(|(n, _)| n.starts_with("Notice"))
+                .map(|(_, r)| [r[0] - x as f32, r[1] - top as f32, r[2], r[3]])
+                .collect();
+            (view_img, notices)
+        })
+        .collect();
+    let (raster, traced) = (&shots[0].0, &shots[1].0);
+    assert_eq!(raster.dimensions(), traced.dimensions());
+    let covered = |px: u32, py: u32| {
+        let (px, py) = (px as f32, py as f32);
+        shots.iter().flat_map(|s| &s.1).any(|r| {
+            px + 4.0 >= r[0]
+                && px <= r[0] + r[2] + 4.0
+                && py + 4.0 >= r[1]
+                && py <= r[1] + r[3] + 4.0
+        })
+    };
+    let (mut sum, mut far, mut n) = (0u64, 0u64, 0u64);
+    for (px, py, a) in raster.enumerate_pixels() {
+        if covered(px, py) {
+            continue;
+        }
+        let b = traced.get_pixel(px, py);
+        let d = (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap();
+        sum += u64::from(d);
+        far += u64::from(d > 8);
+        n += 1;
+    }
+    let mean = sum as f64 / n as f64;
+    // A sky that differs (no panorama, a face mirrored, the wrong turn, no tone curve) differs by
+    // tens of levels.
+    let colours = distinct_colours(raster, 0, 0, raster.width(), raster.height());
+    assert!(colours > 300, "the raster sky has {colours} colours");
+    assert!(
+        mean < 2.0 && far * 200 < n,
+        "raster against traced sky: mean difference {mean:.2}, {far} of {n} pixels over 8 levels"
+    );
 }

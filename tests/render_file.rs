@@ -393,14 +393,13 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
     ]);
     assert!(ok, "{log}");
     let rendered = load_rgb(&out);
-    // What the editor draws over the view: the toolbar along its top (down to the Denoise box's
-    // bottom and its frame) and the lights' icons.
+    // What the editor draws over the view: the toolbar along its top and the lights' icons.
     let toolbar = state
         .widgets
         .iter()
-        .find(|(name, _)| name == "Denoise")
-        .map(|(_, r)| r[1] + r[3] + 4.0 - y as f32)
-        .expect("the Denoise box on the toolbar");
+        .find(|(name, _)| name == "Viewport toolbar")
+        .map(|(_, r)| r[1] + r[3] + 2.0 - y as f32)
+        .expect("the viewport's toolbar");
     let icons: Vec<[f32; 2]> = state
         .objects
         .iter()

@@ -1,11 +1,16 @@
 //! Notices stacked in the window's top-right corner; each can be dismissed.
 
+use crate::editor::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 use treelight_document::notice::{Level, Notices};
 
-/// Shows the notices.
-pub fn show_notices(mut contexts: EguiContexts, mut notices: ResMut<Notices>) -> Result {
+/// Shows the notices (each a named widget, "Notice 1" at the top, for the report).
+pub fn show_notices(
+    mut contexts: EguiContexts,
+    mut notices: ResMut<Notices>,
+    mut widgets: ResMut<WidgetRects>,
+) -> Result {
     let ctx = contexts.ctx_mut()?;
     let mut dismissed = None;
     for (k, n) in notices.0.iter().enumerate() {
@@ -14,7 +19,7 @@ pub fn show_notices(mut contexts: EguiContexts, mut notices: ResMut<Notices>) ->
             Level::Warning => (egui::Color32::from_rgb(255, 200, 90), "Warning"),
             Level::Error => (egui::Color32::from_rgb(255, 110, 100), "Error"),
         };
-        egui::Area::new(egui::Id::new(("notice", k)))
+        let shown = egui::Area::new(egui::Id::new(("notice", k)))
             .anchor(
                 egui::Align2::RIGHT_TOP,
                 egui::vec2(-16.0, 40.0 + 64.0 * k as f32),
@@ -31,6 +36,7 @@ pub fn show_notices(mut contexts: EguiContexts, mut notices: ResMut<Notices>) ->
                     ui.label(&n.text);
                 });
             });
+        widgets.push(format!("Notice {}", k + 1), shown.response.rect);
     }
     if let Some(k) = dismissed {
         notices.0.remove(k);

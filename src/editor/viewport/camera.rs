@@ -379,6 +379,10 @@ pub fn setup_cameras(mut commands: Commands, mut egui_settings: ResMut<EguiGloba
     commands.spawn((
         Name::new("Editor camera"),
         Camera3d::default(),
+        // Always HDR, so the tone curve is applied after everything the raster view draws (the
+        // sky panorama's cube map too), as it is to the path tracer's image; and switching views
+        // keeps one picture pipeline.
+        bevy::camera::Hdr,
         orbit.transform(),
         orbit,
     ));

@@ -1,7 +1,7 @@
 //! The viewport: its tab ([`tab`], drawn by [`panel`]) and what is done there ([`actions`]: picking
 //! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
 //! ([`selection`]), the render mode ([`render_mode`]) and the look ([`look`]: exposure and tone
-//! curve), where added things go ([`place`]) and files
+//! curve; [`sky_box`]: the sky panorama behind the raster view), where added things go ([`place`]) and files
 //! dropped on the window ([`drop`], [`x11_pointer`]); what the viewport and the panels read of each
 //! object ([`object_item`]).
 
@@ -15,6 +15,7 @@ pub mod panel;
 pub mod place;
 pub mod render_mode;
 pub mod selection;
+pub mod sky_box;
 pub mod tab;
 pub mod x11_pointer;
 
@@ -33,6 +34,7 @@ impl Plugin for ViewportPlugin {
         .init_resource::<tab::ViewportRect>()
         .init_resource::<panel::ViewportInteraction>()
         .init_resource::<panel::ViewportActions>()
+        .init_resource::<sky_box::SkyBoxCube>()
         .add_systems(Startup, render_mode::adapt_to_adapter)
         .add_systems(
             Update,
@@ -44,6 +46,8 @@ impl Plugin for ViewportPlugin {
                 render_mode::report_texture_downsizing,
                 look::apply_look,
                 look::environment_to_tracer,
+                sky_box::make_sky_box,
+                sky_box::sky_box_to_camera.after(sky_box::make_sky_box),
                 tab::fit_camera_viewport,
             ),
         );

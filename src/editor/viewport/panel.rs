@@ -386,7 +386,7 @@ impl ViewportPanel<'_> {
                 .layout(egui::Layout::left_to_right(egui::Align::Min)),
         );
         // One row: a separator in the overlay itself would run down the whole viewport.
-        overlay.horizontal(|ui| {
+        let bar = overlay.horizontal(|ui| {
             toolbar(
                 ui,
                 self.render,
@@ -397,6 +397,7 @@ impl ViewportPanel<'_> {
                 self.widgets,
             )
         });
+        self.widgets.push("Viewport toolbar", bar.response.rect);
 
         let painter = ui.painter_at(rect);
         let Some((camera, cam_gt)) = self.scene.camera.as_ref() else {
