@@ -1,6 +1,7 @@
 // Draws the accumulated samples into the camera's view target (HDR, before Bevy's tonemapping), and
 // the depth of their primary hits into its depth buffer, so what is drawn after (gizmos, overlays)
-// is hidden behind traced surfaces. A pixel with no sample yet shows the preview, upscaled. Objects
+// is hidden behind traced surfaces. A pixel with no sample yet shows the preview, upscaled (or, with
+// temporal reuse, what the temporal pass made of the samples, the preview and the last frame). Objects
 // marked for an outline get one around their visible silhouette, from the object slots of the
 // primary hits: complete in every frame, whatever the samples have converged to. Where the view
 // is denoised, a pixel with samples shows the denoiser's lighting times its albedo.
@@ -25,7 +26,8 @@ struct Resolve {
     // fragments outside it skip the search.
     outline_min: vec2<f32>,
     outline_max: vec2<f32>,
-    pad1: u32,
+    // 1: show the temporal pass's picture (temporal.wgsl) in place of the samples and preview.
+    temporal: u32,
     pad2: u32,
 }
 
@@ -41,6 +43,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;
 // The trace kernel's guides (pathtrace.wgsl): the albedo summed over a pixel's samples at 2 to 4.
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
+// The temporal pass's picture: per traced pixel (rgb, weight).
+@group(0) @binding(6) var<storage, read> shown: array<vec4<f32>>;
 
 @vertex
 fn vertex(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -73,6 +77,17 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
     let p = pixel_under(position);
     let i = p.y * resolve.size.x + p.x;
     let a = accum[i];
+    if resolve.temporal == 1u {
+        // Its depth: the pixel's own first sample's, else its preview block's.
+        var depth = 0.0;
+        let k = resolve.preview_scale;
+        if a.w > 0.0 {
+            depth = aux_f32(i);
+        } else if k > 0u {
+            depth = preview_at(vec2<i32>(p / k), blocks(k)).w;
+        }
+        return vec4<f32>(shown[i].rgb, depth);
+    }
     if a.w > 0.0 {
         if resolve.denoised == 1u {
             let g = 5u * i + 2u;

@@ -243,6 +243,8 @@ pub fn render_app(args: &RenderArgs) -> App {
         samples_per_frame: 1,
         max_samples: args.spp,
         denoise: args.denoise == crate::cli::Switch::On,
+        // A still image: only its own samples.
+        temporal: false,
         ..default()
     };
     let progress = ProgressBar::new(u64::from(args.spp)).with_style(

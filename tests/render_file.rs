@@ -349,7 +349,9 @@ fn an_exr_render_holds_the_exposed_radiance_that_the_png_shows_clipped() {
 /// screen, and what the editor draws over the view).
 #[test]
 fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
-    const SPP: u32 = 6;
+    // The viewport carries its picture through camera moves until a pixel has
+    // `TEMPORAL_FADE_SAMPLES` of its own; from there on it shows its samples alone, as a render does.
+    const SPP: u32 = treelight_render::TEMPORAL_FADE_SAMPLES as u32;
     let mut s = xdrive::Session::start(
         "render-equals-viewport",
         &[
@@ -428,7 +430,7 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
         }
     }
     let mean = sum as f64 / compared as f64;
-    // Bevy's dither moves a level or two; samples of their own would move most pixels by tens.
+    // Bevy's dither moves a level or two; other samples would move most pixels by several.
     assert!(
         compared * 10 > u64::from(w * h) * 8,
         "{compared} pixels compared"

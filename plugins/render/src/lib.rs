@@ -38,11 +38,12 @@ pub use environment::{
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
     ATTRIBUTE_BYTES, DENOISE_PASSES, GpuAoParams, GpuAttribute, GpuDenoise, GpuLight, GpuObject,
-    GpuPrimaryCamera, GpuResolve, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES,
-    ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TextureWrap, TraceWork, VIEW_BYTES,
-    ViewParams, attribute_bytes, attribute_record, aux_bytes, decode_normal, denoise_pass_bytes,
+    GpuPrimaryCamera, GpuResolve, GpuTemporal, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap,
+    OBJECT_BYTES, ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TEMPORAL_FADE_SAMPLES,
+    TEMPORAL_MAX_WEIGHT, TemporalRestart, TextureWrap, TraceWork, VIEW_BYTES, ViewParams,
+    attribute_bytes, attribute_record, aux_bytes, decode_normal, denoise_pass_bytes,
     denoise_passes, denoise_target, encode_normal, guide_bytes, light_bytes, object_bytes,
-    outline_words, set_outline,
+    outline_words, set_outline, temporal_bytes,
 };
 pub use texture_layers::{
     MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,
@@ -155,6 +156,13 @@ pub const DENOISE_WGSL: &str = concat!(
     include_str!("../../../shaders/octahedral.wgsl")
 );
 
+/// WGSL: the temporal pass (`temporal`): each frame's picture from its samples, its preview and
+/// the last frame's picture carried through the camera's move.
+pub const TEMPORAL_WGSL: &str = concat!(
+    include_str!("../../../shaders/temporal.wgsl"),
+    include_str!("../../../shaders/aux_layout.wgsl")
+);
+
 /// WGSL: the pass that draws the accumulated average into the view target.
 pub const RESOLVE_WGSL: &str = concat!(
     include_str!("../../../shaders/resolve.wgsl"),
@@ -247,6 +255,11 @@ pub struct PathTraced {
     /// Whether the path-traced image is denoised: an edge-aware filter guided by the primary
     /// hits' objects, normals, depths and albedo (the debug views never are).
     pub denoise: bool,
+    /// Whether, while denoising, what the view showed is carried through camera moves: each pixel's
+    /// primary hit is found where the last frame saw it and that picture mixed in until the pixel
+    /// has samples enough of its own. For views that move (an editor's); a still render gains
+    /// nothing.
+    pub temporal: bool,
 }
 
 /// How a path-traced view outlines [`Outlined`] meshes.
@@ -308,6 +321,7 @@ impl Default for PathTraced {
             frame_budget_share: 1.0,
             outline: OutlineStyle::default(),
             denoise: true,
+            temporal: true,
         }
     }
 }
@@ -416,6 +430,7 @@ impl Plugin for PathTracerPlugin {
                 )),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
                 denoise: assets.add(Shader::from_wgsl(DENOISE_WGSL, "treelight/denoise.wgsl")),
+                temporal: assets.add(Shader::from_wgsl(TEMPORAL_WGSL, "treelight/temporal.wgsl")),
                 texture_layer: assets.add(Shader::from_wgsl(
                     TEXTURE_LAYER_WGSL,
                     "treelight/texture_layer.wgsl",

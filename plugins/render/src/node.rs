@@ -24,7 +24,8 @@ pub(crate) fn build(render_app: &mut SubApp) {
 }
 
 /// Traces this frame's share of the view's work (clearing the accumulation first on a restart, and
-/// timing the pass where the adapter can), then draws the image and its depth into the view.
+/// timing the pass where the adapter can), denoises and carries the last frame's picture over
+/// when due, then draws the image and its depth into the view.
 fn path_trace(
     view: ViewQuery<(&ViewTarget, Option<&ViewDepthTexture>)>,
     pipeline_cache: Res<PipelineCache>,
@@ -86,6 +87,21 @@ fn path_trace(
             pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
         }
     }
+    if let Some(pipeline) = frame
+        .temporal
+        .and_then(|id| pipeline_cache.get_compute_pipeline(id))
+    {
+        let size = state.buffers.size();
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("treelight temporal"),
+                timestamp_writes: None,
+            });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &state.buffers.temporal_bind_groups[frame.parity], &[]);
+        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+    }
     let Some(resolve) = pipeline_cache.get_render_pipeline(frame.resolve_pipeline) else {
         return;
     };
@@ -108,6 +124,6 @@ fn path_trace(
     let v = frame.viewport.as_vec4();
     pass.set_viewport(v.x, v.y, v.z, v.w, 0.0, 1.0);
     pass.set_pipeline(resolve);
-    pass.set_bind_group(0, &state.buffers.resolve_bind_group, &[]);
+    pass.set_bind_group(0, &state.buffers.resolve_bind_groups[frame.parity], &[]);
     pass.draw(0..3, 0..1);
 }

@@ -31,6 +31,7 @@ pub(crate) struct PathTracerShaders {
     pub trace_split: Handle<Shader>,
     pub resolve: Handle<Shader>,
     pub denoise: Handle<Shader>,
+    pub temporal: Handle<Shader>,
     pub texture_layer: Handle<Shader>,
 }
 
@@ -48,13 +49,18 @@ pub(crate) struct PathTracerPipelines {
     /// the denoiser's guides.
     pub view_layout: BindGroupLayoutDescriptor,
     /// The resolve pass's group: the accumulation, the depth, objects and preview, its uniform,
-    /// the scene's outline bits, the denoiser's result and the guides.
+    /// the scene's outline bits, the denoiser's result, the guides and the temporal pass's picture.
     pub resolve_layout: BindGroupLayoutDescriptor,
     /// A denoiser pass's group: the accumulation, aux, the pass's uniform, its source and target,
     /// the guides.
     pub denoise_layout: BindGroupLayoutDescriptor,
     /// The denoiser's pass.
     pub denoise: CachedComputePipelineId,
+    /// The temporal pass's group: the accumulation, aux, its uniform, the denoiser's result, the
+    /// guides, the last frame's picture, this frame's, the prior.
+    pub temporal_layout: BindGroupLayoutDescriptor,
+    /// The temporal pass.
+    pub temporal: CachedComputePipelineId,
     /// The trace kernel for a scene whose records fit one binding each.
     trace: CachedComputePipelineId,
     /// The trace kernel over split records, queued when a scene first needs it.
@@ -128,9 +134,33 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );
+    let temporal_layout = BindGroupLayoutDescriptor::new(
+        "treelight temporal",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                uniform_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let temporal = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("treelight temporal".into()),
+        layout: vec![temporal_layout.clone()],
+        shader: shaders.temporal.clone(),
+        entry_point: Some("temporal".into()),
+        ..default()
+    });
     let denoise_layout = BindGroupLayoutDescriptor::new(
         "treelight denoise",
         &BindGroupLayoutEntries::sequential(
@@ -165,6 +195,8 @@ fn init_pipelines(
         resolve_layout,
         denoise_layout,
         denoise,
+        temporal_layout,
+        temporal,
         trace,
         trace_split: Mutex::new(None),
         trace_split_shader: shaders.trace_split.clone(),

@@ -8,7 +8,7 @@ use crate::environment::{ExtractedEnvironment, GpuEnvironment};
 use crate::extract::SceneSync;
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
-use crate::records::{ResolveParams, TraceWork, VIEW_BYTES, ViewParams};
+use crate::records::{ResolveParams, TemporalRestart, TraceWork, VIEW_BYTES, ViewParams};
 use crate::texture_layers::TextureLayers;
 use crate::timing::TraceTimer;
 use crate::upload::BufferKind;
@@ -423,6 +423,11 @@ pub(crate) struct ViewFrame {
     /// The denoiser's pipeline and how many passes it makes, when it runs this frame (after the
     /// trace).
     pub denoise: Option<(CachedComputePipelineId, u32)>,
+    /// The temporal pass's pipeline, when it runs this frame (after the denoiser).
+    pub temporal: Option<CachedComputePipelineId>,
+    /// Which of the view's two pictures the temporal pass writes this frame (and the resolve
+    /// shows): the bind groups' index.
+    pub parity: usize,
 }
 
 /// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
@@ -442,8 +447,14 @@ pub(crate) struct ViewBuffers {
     pub trace_bind_group: BindGroup,
     /// The denoiser's passes' groups, in order, each writing the first image or the second.
     pub denoise_bind_groups: Vec<[BindGroup; 2]>,
-    /// The resolve pass's group.
-    pub resolve_bind_group: BindGroup,
+    /// The temporal pass's pictures: the one each frame writes, the other the last frame's; per
+    /// pixel (rgb, weight), then (depth, object slot).
+    shown: [Buffer; 2],
+    temporal_uniform: Buffer,
+    /// The temporal pass's groups: the `k`-th writes picture `k`, reading the other.
+    pub temporal_bind_groups: [BindGroup; 2],
+    /// The resolve pass's groups: the `k`-th shows picture `k`.
+    pub resolve_bind_groups: [BindGroup; 2],
     /// The scene's outline buffer version the resolve group was made with.
     outline_version: u64,
     size: UVec2,
@@ -470,6 +481,11 @@ pub(crate) struct ViewState {
     /// The sweeps over the image the denoiser's result is of; `None` since the last restart until
     /// it runs.
     denoised_sweeps: Option<u64>,
+    /// The picture the temporal pass writes next; the other holds the last frame's.
+    parity: usize,
+    /// The camera the last frame's picture was seen through (its clip from world), when the
+    /// temporal pass made it (it can be carried over).
+    last_picture: Option<Mat4>,
 }
 
 /// Per-view state, by render-world view entity.
@@ -498,7 +514,7 @@ fn resolve_group(
     device: &RenderDevice,
     pipelines: &PathTracerPipelines,
     cache: &PipelineCache,
-    [accum, aux, uniform, denoised, guides]: [&Buffer; 5],
+    [accum, aux, uniform, denoised, guides, shown]: [&Buffer; 6],
     scene: &GpuScene,
 ) -> BindGroup {
     device.create_bind_group(
@@ -511,8 +527,29 @@ fn resolve_group(
             scene.outlines.as_entire_binding(),
             denoised.as_entire_binding(),
             guides.as_entire_binding(),
+            shown.as_entire_binding(),
         )),
     )
+}
+
+/// Both resolve groups of a view: the `k`-th shows picture `k` of `shown`.
+fn resolve_groups(
+    device: &RenderDevice,
+    pipelines: &PathTracerPipelines,
+    cache: &PipelineCache,
+    [accum, aux, uniform, denoised, guides]: [&Buffer; 5],
+    shown: &[Buffer; 2],
+    scene: &GpuScene,
+) -> [BindGroup; 2] {
+    [0, 1].map(|k| {
+        resolve_group(
+            device,
+            pipelines,
+            cache,
+            [accum, aux, uniform, denoised, guides, &shown[k]],
+            scene,
+        )
+    })
 }
 
 fn view_buffers(
@@ -554,13 +591,33 @@ fn view_buffers(
             guides.as_entire_binding(),
         )),
     );
-    let resolve_bind_group = resolve_group(
+    let shown = [
+        storage(device, "treelight temporal picture", pixels * 32),
+        storage(device, "treelight temporal picture", pixels * 32),
+    ];
+    // Per pixel (rgb, weight); its bind groups keep it.
+    let prior = storage(device, "treelight temporal prior", pixels * 16);
+    let temporal_uniform = uniform(
         device,
-        pipelines,
-        cache,
-        [&accum, &aux, &resolve_uniform, &denoised[0], &guides],
-        scene,
+        "treelight temporal",
+        size_of::<crate::GpuTemporal>() as u64,
     );
+    let temporal_bind_groups = [0, 1].map(|k| {
+        device.create_bind_group(
+            "treelight temporal",
+            &cache.get_bind_group_layout(&pipelines.temporal_layout),
+            &BindGroupEntries::sequential((
+                accum.as_entire_binding(),
+                aux.as_entire_binding(),
+                temporal_uniform.as_entire_binding(),
+                denoised[0].as_entire_binding(),
+                guides.as_entire_binding(),
+                shown[1 - k].as_entire_binding(),
+                shown[k].as_entire_binding(),
+                prior.as_entire_binding(),
+            )),
+        )
+    });
     // Pass k writes either image (reading the other): the last pass of a run writes the first.
     let denoise_bind_groups = (0..crate::DENOISE_PASSES)
         .map(|k| {
@@ -585,6 +642,14 @@ fn view_buffers(
             })
         })
         .collect();
+    let resolve_bind_groups = resolve_groups(
+        device,
+        pipelines,
+        cache,
+        [&accum, &aux, &resolve_uniform, &denoised[0], &guides],
+        &shown,
+        scene,
+    );
     ViewBuffers {
         accum,
         aux,
@@ -594,7 +659,10 @@ fn view_buffers(
         guides,
         denoise_bind_groups,
         trace_bind_group,
-        resolve_bind_group,
+        shown,
+        temporal_uniform,
+        temporal_bind_groups,
+        resolve_bind_groups,
         outline_version: scene.outline_version,
         size,
     }
@@ -623,6 +691,8 @@ impl ViewState {
             seen: true,
             frame: None,
             denoised_sweeps: None,
+            parity: 0,
+            last_picture: None,
         }
     }
 
@@ -753,6 +823,7 @@ fn prepare_views(
                 // filters them.
                 outline: OutlineStyle::default(),
                 denoise: false,
+                temporal: false,
                 ..*settings
             },
             exposure: camera.exposure,
@@ -769,10 +840,11 @@ fn prepare_views(
             state.buffers = view_buffers(&device, &pipelines, &pipeline_cache, size, &scene);
             state.order = TileOrder::new(size.x, size.y);
             state.key = None;
+            state.last_picture = None;
         }
         if state.buffers.outline_version != scene.outline_version {
             let b = &mut state.buffers;
-            b.resolve_bind_group = resolve_group(
+            b.resolve_bind_groups = resolve_groups(
                 &device,
                 &pipelines,
                 &pipeline_cache,
@@ -783,6 +855,7 @@ fn prepare_views(
                     &b.denoised[0],
                     &b.guides,
                 ],
+                &b.shown,
                 &scene,
             );
             b.outline_version = scene.outline_version;
@@ -801,6 +874,14 @@ fn prepare_views(
             continue;
         }
         let restart = state.key != Some(key);
+        // Whether the camera alone moved since the last frame's picture: it can be carried over.
+        let camera_moved = restart
+            && state.key.is_some_and(|old| {
+                AccumulationKey {
+                    world_from_clip: key.world_from_clip,
+                    ..old
+                } == key
+            });
         if restart {
             state.key = Some(key);
             state.cursor = TileCursor::default();
@@ -871,6 +952,41 @@ fn prepare_views(
             state.denoised_sweeps = Some(sweeps);
         }
         let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
+        // Temporal reuse, with the denoiser, in the path-traced view.
+        let temporal = (denoising && settings.temporal)
+            .then(|| {
+                pipeline_cache
+                    .get_compute_pipeline(pipelines.temporal)
+                    .map(|_| pipelines.temporal)
+            })
+            .flatten();
+        let parity = state.parity;
+        if temporal.is_some() {
+            let carried = if !restart {
+                TemporalRestart::Keep
+            } else if camera_moved && state.last_picture.is_some() {
+                TemporalRestart::Reproject
+            } else {
+                TemporalRestart::Clear
+            };
+            let reproject = state.last_picture.unwrap_or(Mat4::IDENTITY) * world_from_clip;
+            queue.write_buffer(
+                &state.buffers.temporal_uniform,
+                0,
+                &crate::temporal_bytes(
+                    reproject,
+                    size.x,
+                    size.y,
+                    shown_preview,
+                    state.denoised_sweeps.is_some(),
+                    carried,
+                ),
+            );
+            state.last_picture = Some(clip_from_world);
+            state.parity = 1 - parity;
+        } else {
+            state.last_picture = None;
+        }
         queue.write_buffer(
             &state.buffers.resolve_uniform,
             0,
@@ -888,6 +1004,7 @@ fn prepare_views(
                     settings.outline.width + viewport.z as f32 / size.x as f32 + 1.0,
                 ),
                 denoised: denoising && state.denoised_sweeps.is_some(),
+                temporal: temporal.is_some(),
             }
             .to_bytes(),
         );
@@ -908,6 +1025,8 @@ fn prepare_views(
             writes_depth: depth.is_some(),
             viewport,
             denoise,
+            temporal,
+            parity,
         });
         let samples = (sweeps * settings.samples_per_frame.clamp(1, 64) as u64) as u32;
         let figures = TraceFigures {

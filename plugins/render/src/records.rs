@@ -173,8 +173,8 @@ pub struct GpuResolve {
     pub outline_min: [f32; 2],
     /// The opposite corner.
     pub outline_max: [f32; 2],
-    /// Padding.
-    pub pad1: u32,
+    /// 1: show the temporal pass's picture in place of the samples and the preview.
+    pub temporal: u32,
     /// Padding.
     pub pad2: u32,
 }
@@ -199,6 +199,8 @@ pub struct ResolveParams {
     pub outline_rect: [Vec2; 2],
     /// Whether the denoiser ran over the samples: the resolve shows its result.
     pub denoised: bool,
+    /// Whether the temporal pass ran: the resolve shows its picture.
+    pub temporal: bool,
 }
 
 impl ResolveParams {
@@ -216,7 +218,7 @@ impl ResolveParams {
             denoised: u32::from(self.denoised),
             outline_min: self.outline_rect[0].to_array(),
             outline_max: self.outline_rect[1].to_array(),
-            pad1: 0,
+            temporal: u32::from(self.temporal),
             pad2: 0,
         };
         bytemuck::bytes_of(&record).to_vec()
@@ -257,6 +259,76 @@ pub fn denoise_passes(samples: u64) -> u32 {
 /// image (the resolve reads it), the ones before alternating.
 pub fn denoise_target(pass: u32, passes: u32) -> usize {
     ((passes - 1 - pass) % 2) as usize
+}
+
+/// `Temporal` of `temporal.wgsl`: the temporal pass over a view.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTemporal {
+    /// The previous camera's clip space from the current one's (column-major).
+    pub reproject: [[f32; 4]; 4],
+    /// The traced image's width in pixels.
+    pub width: u32,
+    /// Its height.
+    pub height: u32,
+    /// Pixels per preview block where a pixel has no sample yet; 0: no preview.
+    pub preview_scale: u32,
+    /// 1: the denoiser's result stands for a pixel's samples.
+    pub denoised: u32,
+    /// 0: keep the prior; 1: rebuild it from the last frame; 2: clear it.
+    pub restart: u32,
+    /// The most samples the prior weighs as.
+    pub max_weight: f32,
+    /// A pixel's own samples at which the prior no longer counts.
+    pub fade_samples: f32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The most samples the last frame's picture weighs as in the next (about an eighth of a second
+/// of frames at 60 a second, the window an orbit's picture is averaged over).
+pub const TEMPORAL_MAX_WEIGHT: f32 = 16.0;
+
+/// A pixel's own samples from which the view shows them alone (the prior fades out linearly
+/// before): a still view converges to exactly its samples.
+pub const TEMPORAL_FADE_SAMPLES: f32 = 8.0;
+
+/// What to do with the temporal pass's prior this frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TemporalRestart {
+    /// Nothing changed: keep it.
+    Keep,
+    /// The camera alone moved: carry the last frame's picture over.
+    Reproject,
+    /// Something else changed: drop it.
+    Clear,
+}
+
+/// The temporal pass's uniform for a `width × height` image.
+pub fn temporal_bytes(
+    reproject: Mat4,
+    width: u32,
+    height: u32,
+    preview_scale: u32,
+    denoised: bool,
+    restart: TemporalRestart,
+) -> Vec<u8> {
+    bytemuck::bytes_of(&GpuTemporal {
+        reproject: reproject.to_cols_array_2d(),
+        width,
+        height,
+        preview_scale,
+        denoised: u32::from(denoised),
+        restart: match restart {
+            TemporalRestart::Keep => 0,
+            TemporalRestart::Reproject => 1,
+            TemporalRestart::Clear => 2,
+        },
+        max_weight: TEMPORAL_MAX_WEIGHT,
+        fade_samples: TEMPORAL_FADE_SAMPLES,
+        pad: 0,
+    })
+    .to_vec()
 }
 
 /// `Denoise` of `denoise.wgsl`: one pass of the filter.

@@ -483,6 +483,7 @@ fn the_resolve_outlines_exactly_the_marked_objects_silhouettes() {
         outline: style,
         outline_rect: [Vec2::ZERO, Vec2::new(WIDTH as f32, HEIGHT as f32)],
         denoised: false,
+        temporal: false,
     };
 
     // Every pixel traced (pixel centres, as the triangle-id view casts them).

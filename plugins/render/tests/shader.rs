@@ -264,7 +264,7 @@ fn primary_hits_and_resolve_records_have_the_crate_s_layout() {
                 denoised,
                 outline_min,
                 outline_max,
-                pad1,
+                temporal,
                 pad2
             ]
         )
@@ -287,6 +287,29 @@ fn denoiser_records_have_the_crate_s_layout() {
                 sigma_luminance,
                 sigma_normal,
                 sigma_depth,
+                pad
+            ]
+        )
+    );
+}
+
+#[test]
+fn temporal_records_have_the_crate_s_layout() {
+    let m = module(treelight_render::TEMPORAL_WGSL);
+    assert!(has_entry(&m, "temporal"));
+    assert_eq!(
+        wgsl_layout(&m, "Temporal"),
+        rust_layout!(
+            treelight_render::GpuTemporal,
+            [
+                reproject,
+                width,
+                height,
+                preview_scale,
+                denoised,
+                restart,
+                max_weight,
+                fade_samples,
                 pad
             ]
         )

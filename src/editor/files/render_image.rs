@@ -289,6 +289,8 @@ fn start(
                 resolution_scale: 1.0,
                 samples_per_frame: 1,
                 max_samples: s.spp,
+                // A still image: only its own samples.
+                temporal: false,
                 outline: OutlineStyle {
                     width: 0.0,
                     ..default()

@@ -270,7 +270,8 @@ fn toolbar(
             .checkbox(&mut render.settings.denoise, "Denoise")
             .on_hover_text(
                 "Filter the path tracer's noise, guided by the surfaces' objects, normals, depths \
-                 and colours (no light crosses an object's edge)",
+                 and colours (no light crosses an object's edge); while the camera moves, the last \
+                 frames' picture is carried along",
             );
         widgets.push("Denoise", toggle.rect);
     }

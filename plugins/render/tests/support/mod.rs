@@ -1116,6 +1116,8 @@ impl Gpu {
         let uniform = self.uniform(&params.to_bytes());
         let words: Vec<u8> = outlines.iter().flat_map(|w| w.to_le_bytes()).collect();
         let outline_buffer = self.storage("outlines", &words);
+        // The temporal pass's picture, for a resolve told to show it.
+        let shown = self.zeroed((target.pixels * 32) as u64);
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &pipeline.get_bind_group_layout(0),
@@ -1126,6 +1128,7 @@ impl Gpu {
                 (3, outline_buffer.as_entire_binding()),
                 (4, target.denoised[0].as_entire_binding()),
                 (5, target.guides.as_entire_binding()),
+                (6, shown.as_entire_binding()),
             ]
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });

@@ -1,0 +1,422 @@
+//! The temporal pass on the adapter, as the plugin runs it through a camera's move:
+//!
+//! * An orbit of preview frames (one sample per 2×2 block each, a new seed each frame, as the
+//!   editor traces while the camera moves): with the last frame's picture carried over, each
+//!   frame's error against the converged frame at its camera falls well below the preview's own.
+//!   The figures are printed (frames to a fixed error, with and without).
+//! * Disocclusion: a black sphere slides across a bright wall. What the move uncovers takes
+//!   nothing from the sphere, and the sphere nothing from the wall (object slots and depths, read
+//!   independently from the primary hits, say which pixel shows what).
+//! * A still view converges to exactly its own samples: from the fade's sample count on, the
+//!   picture is the accumulation's mean, bit for bit.
+
+mod support;
+
+use support::scenes::{Scene, camera, lit_frame, sphere, spheres_on_a_floor, square};
+use support::{Gpu, Layers, TraceTarget, floats};
+use treelight_bvh::glam::{Affine3A, Mat4, Quat, Vec3};
+use treelight_render::{
+    DebugView, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TEMPORAL_FADE_SAMPLES, TemporalRestart,
+    TraceWork, ViewParams, light_bytes, temporal_bytes,
+};
+
+const SIZE: u32 = 48;
+
+/// The temporal pass's buffers beside a trace target: its two pictures and its prior.
+struct Pictures {
+    shown: [wgpu::Buffer; 2],
+    prior: wgpu::Buffer,
+    parity: usize,
+}
+
+impl Pictures {
+    fn new(gpu: &Gpu) -> Self {
+        let pixels = (SIZE * SIZE) as usize;
+        Self {
+            shown: [
+                gpu.storage("shown", &vec![0u8; pixels * 32]),
+                gpu.storage("shown", &vec![0u8; pixels * 32]),
+            ],
+            prior: gpu.storage("prior", &vec![0u8; pixels * 16]),
+            parity: 0,
+        }
+    }
+
+    /// One temporal pass over `target` (as the plugin runs it after the trace); returns the
+    /// picture (rgb per pixel) and the prior's weights.
+    fn run(
+        &mut self,
+        gpu: &Gpu,
+        pipeline: &wgpu::ComputePipeline,
+        target: &TraceTarget,
+        reproject: Mat4,
+        preview_scale: u32,
+        restart: TemporalRestart,
+    ) -> (Vec<Vec3>, Vec<f32>) {
+        let uniform = gpu.uniform(&temporal_bytes(
+            reproject,
+            SIZE,
+            SIZE,
+            preview_scale,
+            false,
+            restart,
+        ));
+        let k = self.parity;
+        gpu.dispatch_indexed(
+            pipeline,
+            vec![vec![
+                (0, target.accum.as_entire_binding()),
+                (1, target.aux.as_entire_binding()),
+                (2, uniform.as_entire_binding()),
+                (3, target.denoised[0].as_entire_binding()),
+                (4, target.guides.as_entire_binding()),
+                (5, self.shown[1 - k].as_entire_binding()),
+                (6, self.shown[k].as_entire_binding()),
+                (7, self.prior.as_entire_binding()),
+            ]],
+            (SIZE.div_ceil(8), SIZE.div_ceil(8)),
+        );
+        self.parity = 1 - k;
+        let picture = floats(&gpu.read(&self.shown[k]))
+            .chunks_exact(4)
+            .take((SIZE * SIZE) as usize)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        let prior = floats(&gpu.read(&self.prior))
+            .chunks_exact(4)
+            .map(|c| c[3])
+            .collect();
+        (picture, prior)
+    }
+}
+
+/// Traces `work` at `world_from_clip` into a fresh target (`samples` a pixel for whole-image work).
+#[allow(clippy::too_many_arguments)]
+fn trace_frame(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[wgpu::Buffer; 6],
+    layers: &Layers,
+    scene: &Scene,
+    lights: &[SceneLight],
+    world_from_clip: Mat4,
+    work: TraceWork,
+    samples: u32,
+    bounces: u32,
+) -> TraceTarget {
+    let target = gpu.trace_target(SIZE, SIZE);
+    let per = samples.clamp(1, 16);
+    for _ in 0..samples.div_ceil(per) {
+        let params = ViewParams {
+            world_from_clip,
+            sky: Vec3::new(0.4, 0.5, 0.7),
+            exposure: 1.0,
+            width: SIZE,
+            height: SIZE,
+            root: scene.bvh.gpu_root(),
+            max_bounces: bounces,
+            samples: per,
+            mode: DebugView::PathTraced.shader_index(),
+            light_count: lights.len() as u32,
+            indirect_clamp: 0.0,
+            work,
+            part_shift: treelight_render::MAX_PART_SHIFT,
+            environment: layers.environment_word,
+        };
+        gpu.path_trace(pipeline, buffers, &params, &target, layers);
+    }
+    target
+}
+
+fn mean_image(gpu: &Gpu, target: &TraceTarget) -> Vec<Vec3> {
+    floats(&gpu.read(&target.accum))
+        .chunks_exact(4)
+        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
+        .collect()
+}
+
+fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f32 {
+    let num: f32 = image
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (*a - *b).length_squared())
+        .sum();
+    let den: f32 = reference.iter().map(|b| b.length_squared()).sum();
+    num / den
+}
+
+/// The camera of frame `t` of an orbit about the spheres, `step` degrees a frame.
+fn orbit(t: u32, step: f32) -> Mat4 {
+    let a = (t as f32 * step).to_radians();
+    let eye = Vec3::new(3.5 * a.sin(), 2.0, 3.5 * a.cos());
+    camera(eye, Vec3::new(0.0, 0.4, 0.0), Vec3::Y, 45.0)
+}
+
+#[test]
+fn an_orbit_carried_over_is_closer_to_the_converged_frames_than_its_previews() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let scene = spheres_on_a_floor();
+    let lights = lit_frame(SIZE, 1).lights;
+    let light_data: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
+    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
+    let mut pictures = Pictures::new(&gpu);
+    // The preview's light (one bounce, as the plugin traces it while the camera moves).
+    const BOUNCES: u32 = 1;
+    const FRAMES: u32 = 16;
+    let mut table = String::from("frame  preview relMSE  carried over relMSE\n");
+    let mut late = (0.0, 0.0);
+    let mut previous: Option<Mat4> = None;
+    for t in 0..FRAMES {
+        let world_from_clip = orbit(t, 1.5);
+        let reference = mean_image(
+            &gpu,
+            &trace_frame(
+                &gpu,
+                &trace,
+                &buffers,
+                &layers,
+                &scene,
+                &lights,
+                world_from_clip,
+                TraceWork::WHOLE_IMAGE,
+                256,
+                BOUNCES,
+            ),
+        );
+        let target = trace_frame(
+            &gpu,
+            &trace,
+            &buffers,
+            &layers,
+            &scene,
+            &lights,
+            world_from_clip,
+            TraceWork::Preview {
+                scale: 2,
+                seed: t + 1,
+            },
+            1,
+            BOUNCES,
+        );
+        let (restart, reproject) = match previous {
+            Some(prev) => (TemporalRestart::Reproject, prev.inverse() * world_from_clip),
+            None => (TemporalRestart::Clear, Mat4::IDENTITY),
+        };
+        previous = Some(world_from_clip);
+        // Without the last frame: the preview alone (a restart with nothing to carry).
+        let mut alone = Pictures::new(&gpu);
+        let (preview, _) = alone.run(
+            &gpu,
+            &temporal,
+            &target,
+            Mat4::IDENTITY,
+            2,
+            TemporalRestart::Clear,
+        );
+        let (carried, _) = pictures.run(&gpu, &temporal, &target, reproject, 2, restart);
+        assert!(carried.iter().all(|c| c.is_finite()));
+        let (e_preview, e_carried) = (
+            relative_mse(&preview, &reference),
+            relative_mse(&carried, &reference),
+        );
+        table.push_str(&format!("{t:>5}  {e_preview:.5}         {e_carried:.5}\n"));
+        if t >= FRAMES / 2 {
+            late.0 += e_preview;
+            late.1 += e_carried;
+        }
+    }
+    eprintln!("{table}");
+    assert!(
+        late.1 < 0.5 * late.0,
+        "carrying the picture over leaves more than half the preview's error:\n{table}"
+    );
+}
+
+#[test]
+fn what_a_move_uncovers_takes_nothing_from_what_hid_it() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let mut scene = Scene::new();
+    let wall = SurfaceMaterial {
+        base_color: [0.0, 0.0, 0.0, 1.0],
+        emissive: [4.0, 4.0, 4.0],
+        ..Default::default()
+    };
+    let black = SurfaceMaterial {
+        base_color: [0.0, 0.0, 0.0, 1.0],
+        perceptual_roughness: 1.0,
+        reflectance: 0.0,
+        ..Default::default()
+    };
+    let wall_id = scene.add(
+        &square(4.0),
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, -2.0)),
+        false,
+        &wall,
+    );
+    let ball_id = scene.add(
+        &sphere(24),
+        Affine3A::from_scale_rotation_translation(Vec3::splat(0.5), Quat::IDENTITY, Vec3::ZERO),
+        false,
+        &black,
+    );
+    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &[]);
+    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
+    let at = |x: f32| {
+        camera(
+            Vec3::new(x, 0.0, 3.0),
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::Y,
+            45.0,
+        )
+    };
+    let (before, after) = (at(0.0), at(0.4));
+    let mut pictures = Pictures::new(&gpu);
+    let first = trace_frame(
+        &gpu,
+        &trace,
+        &buffers,
+        &layers,
+        &scene,
+        &[],
+        before,
+        TraceWork::WHOLE_IMAGE,
+        16,
+        2,
+    );
+    pictures.run(
+        &gpu,
+        &temporal,
+        &first,
+        Mat4::IDENTITY,
+        0,
+        TemporalRestart::Clear,
+    );
+    // One sample a pixel after the move: the last picture weighs far more than the new sample.
+    let second = trace_frame(
+        &gpu,
+        &trace,
+        &buffers,
+        &layers,
+        &scene,
+        &[],
+        after,
+        TraceWork::WHOLE_IMAGE,
+        1,
+        2,
+    );
+    let (picture, prior) = pictures.run(
+        &gpu,
+        &temporal,
+        &second,
+        before.inverse() * after,
+        0,
+        TemporalRestart::Reproject,
+    );
+    let own = mean_image(&gpu, &second);
+    let wall_level = own.iter().map(|c| c.max_element()).fold(0.0, f32::max);
+    assert!(wall_level > 1.0, "the wall glows: {wall_level}");
+    let objects_before = gpu.read_objects(&first);
+    let objects_after = gpu.read_objects(&second);
+    let (mut uncovered, mut covered, mut carried) = (0, 0, 0);
+    for (i, c) in picture.iter().enumerate() {
+        let o = objects_after[i];
+        carried += usize::from(prior[i] > 1.0);
+        if o == ball_id.index() {
+            // The sphere stays dark wherever it is now, whatever was there before (a black
+            // surface: only its Fresnel rim reflects the wall, at most a quarter of it).
+            assert!(
+                c.max_element() < 0.25 * wall_level,
+                "pixel {i} on the sphere reads {c}, the wall {wall_level}"
+            );
+            covered += usize::from(objects_before[i] == wall_id.index());
+        } else if o == wall_id.index() {
+            // The wall glows the same wherever it is seen (its own sample here says how much).
+            assert!(
+                (*c - own[i]).abs().max_element() < 0.01 * own[i].max_element(),
+                "pixel {i} on the wall reads {c}, its sample {}",
+                own[i]
+            );
+            uncovered += usize::from(objects_before[i] == ball_id.index());
+        }
+    }
+    // The move did uncover and cover pixels, and most pixels carried the last picture over.
+    assert!(
+        uncovered > 20 && covered > 20,
+        "{uncovered} uncovered, {covered} covered"
+    );
+    assert!(carried > picture.len() / 2, "{carried} pixels carried over");
+}
+
+#[test]
+fn a_still_view_shows_exactly_its_samples_once_it_has_enough() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let scene = spheres_on_a_floor();
+    let lights = lit_frame(SIZE, 1).lights;
+    let light_data: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
+    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
+    let mut pictures = Pictures::new(&gpu);
+    let (a, b) = (orbit(0, 0.0), orbit(1, 3.0));
+    let first = trace_frame(
+        &gpu,
+        &trace,
+        &buffers,
+        &layers,
+        &scene,
+        &lights,
+        a,
+        TraceWork::WHOLE_IMAGE,
+        32,
+        4,
+    );
+    pictures.run(
+        &gpu,
+        &temporal,
+        &first,
+        Mat4::IDENTITY,
+        0,
+        TemporalRestart::Clear,
+    );
+    let fade = TEMPORAL_FADE_SAMPLES as u32;
+    for (samples, restart) in [
+        (1, TemporalRestart::Reproject),
+        (fade / 2, TemporalRestart::Keep),
+        (fade, TemporalRestart::Keep),
+        (2 * fade, TemporalRestart::Keep),
+    ] {
+        let target = trace_frame(
+            &gpu,
+            &trace,
+            &buffers,
+            &layers,
+            &scene,
+            &lights,
+            b,
+            TraceWork::WHOLE_IMAGE,
+            samples,
+            4,
+        );
+        let (picture, prior) = pictures.run(&gpu, &temporal, &target, a.inverse() * b, 0, restart);
+        let mean = mean_image(&gpu, &target);
+        let same = picture.iter().zip(&mean).filter(|(p, m)| p == m).count();
+        if samples >= fade {
+            assert_eq!(same, picture.len(), "at {samples} samples a pixel");
+        } else {
+            // Before, the prior still counts where it was carried over.
+            let carried = prior.iter().filter(|&&w| w > 0.0).count();
+            assert!(carried > picture.len() / 2, "{carried} carried");
+            assert!(
+                same < picture.len() / 2,
+                "{same} of {} unchanged",
+                picture.len()
+            );
+        }
+    }
+}
