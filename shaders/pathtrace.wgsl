@@ -148,6 +148,12 @@ const ENV_SHOWN: u32 = 2u;
 const ENV_SAMPLED: u32 = 4u;
 // The smallest perceptual roughness shaded (Bevy's clamp; it keeps point-light highlights finite).
 const MIN_ROUGHNESS: f32 = 0.089;
+// Transmitting surfaces up to this roughness are clear (and blended ones whatever theirs): light
+// passes them straight, tinted (shadow rays too, so a window lets the sun in); rougher ones scatter
+// what they pass (frosted).
+const CLEAR_ROUGHNESS: f32 = 0.15;
+// Clear surfaces a path or a shadow ray passes at most (each pane of a window counts).
+const MAX_PASSES: u32 = 8u;
 // Node records visited (4-wide: about half the binary nodes a ray would visit) that the heatmap shows
 // as its hottest colour.
 const HEATMAP_MAX: f32 = 80.0;
@@ -161,6 +167,12 @@ var<private> primary_object: u32;
 // escapes): the denoiser's guides (the first sample's normal, the albedo summed over samples).
 var<private> primary_albedo: vec3<f32>;
 var<private> primary_normal: vec3<f32>;
+// A shadow ray under way: what the clear surfaces it passed leave of its light (`shadow`).
+var<private> shadow_filter: vec3<f32>;
+var<private> shadow_origin: vec3<f32>;
+var<private> shadow_direction: vec3<f32>;
+var<private> shadow_passes: u32;
+var<private> filtering_shadow: bool;
 
 fn rand() -> f32 {
     rng_state = pcg(rng_state);
@@ -199,6 +211,8 @@ struct Surface {
     f0_dielectric: vec3<f32>,
     // Fraction of the dielectric's unreflected light that passes through (thin-walled).
     transmission: f32,
+    // It transmits and is smooth enough for light to pass straight (see CLEAR_ROUGHNESS).
+    clear: bool,
     clearcoat: f32,
     coat_roughness: f32,
     coat_alpha: f32,
@@ -243,20 +257,43 @@ fn sample_map(o: Object, layer: u32, map: u32, t: vec2<f32>) -> vec4<f32> {
 }
 
 // Whether the surface is there at a candidate hit: where a masked material's alpha is below its
-// cutoff, rays pass through (shadow rays too). Called by the traversal for every candidate.
+// cutoff, rays pass through (shadow rays too). A shadow ray passes clear surfaces too, keeping what
+// they transmit (`shadow`). Called by the traversal for every candidate.
 fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
     let slot = slot_of(triangle, instance);
-    let wrap = objects[slot].wrap;
-    if ((wrap >> 20u) & 3u) != ALPHA_MASK {
-        return true;
+    let o = objects[slot];
+    let mode = (o.wrap >> 20u) & 3u;
+    if mode == ALPHA_MASK {
+        var a = o.base_color.a;
+        if o.texture != NONE {
+            a *= sample_map(o, o.texture, MAP_BASE, texture_uv(o, mesh_uv(attr_at(triangle), u, v))).a;
+        }
+        if a < o.emissive.w {
+            return false;
+        }
     }
-    var a = objects[slot].base_color.a;
-    let layer = objects[slot].texture;
-    if layer != NONE {
-        let o = objects[slot];
-        a *= sample_map(o, layer, MAP_BASE, texture_uv(o, mesh_uv(attr_at(triangle), u, v))).a;
+    if filtering_shadow && (o.params.w > 0.0 || mode == ALPHA_BLEND) {
+        let s = surface_at(Hit(0.0, triangle, u, v, 0u, instance), shadow_origin, shadow_direction);
+        if s.clear && shadow_passes < MAX_PASSES {
+            shadow_passes += 1u;
+            shadow_filter *= clear_transmittance(s, abs(dot(s.ng, shadow_direction)));
+            return max(shadow_filter.x, max(shadow_filter.y, shadow_filter.z)) <= 0.0;
+        }
     }
-    return a >= objects[slot].emissive.w;
+    return true;
+}
+
+// What reaches o + t_max d from o along d (t_max from o): what the clear surfaces on the way
+// transmit; zero where anything else is in the way.
+fn shadow(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
+    shadow_filter = vec3<f32>(1.0);
+    shadow_origin = o;
+    shadow_direction = d;
+    shadow_passes = 0u;
+    filtering_shadow = true;
+    let blocked = occluded(view.root, o, d, t_max);
+    filtering_shadow = false;
+    return select(shadow_filter, vec3<f32>(0.0), blocked);
 }
 
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
@@ -347,7 +384,18 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.clearcoat = clamp(obj.coat.x, 0.0, 1.0);
     s.coat_roughness = clamp(obj.coat.y, MIN_ROUGHNESS, 1.0);
     s.coat_alpha = s.coat_roughness * s.coat_roughness;
+    // Blending is coverage: what it lets through passes straight, however rough the surface.
+    s.clear = s.transmission > 0.0
+        && (s.roughness <= CLEAR_ROUGHNESS || alpha_mode(obj) == ALPHA_BLEND);
     return s;
+}
+
+// What a clear surface passes of light crossing it at cosine `c` to its normal: the base colour's
+// transmitted share of what the dielectric and the coat do not reflect.
+fn clear_transmittance(s: Surface, c: f32) -> vec3<f32> {
+    let coat = s.clearcoat * schlick(vec3<f32>(0.04), c).x;
+    return (1.0 - s.metallic) * s.transmission * s.albedo
+        * (vec3<f32>(1.0) - schlick(s.f0_dielectric, c)) * (1.0 - coat);
 }
 
 // Folds a texture coordinate into 0..1: 0 clamp, 1 repeat, 2 mirror.
@@ -479,7 +527,8 @@ fn bsdf(s: Surface, l: Lobes, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if nl < 0.0 {
-        if s.transmission <= 0.0 {
+        // A clear surface passes light straight (path_radiance, shadow), not through a lobe.
+        if s.transmission <= 0.0 || s.clear {
             return vec3<f32>(0.0);
         }
         // Through a thin wall: the reflection lobe mirrored to the far side, tinted by the base colour.
@@ -510,8 +559,11 @@ fn pdf(s: Surface, l: Lobes, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     }
     let a2 = s.alpha * s.alpha;
     var p = l.p.x * microfacet_pdf(s.ns, wo, wi, a2)
-        + l.p.w * microfacet_pdf(s.ns, wo, wi, s.coat_alpha * s.coat_alpha)
-        + l.p.z * microfacet_pdf(s.ns, wo, wi - 2.0 * nl * s.ns, a2);
+        + l.p.w * microfacet_pdf(s.ns, wo, wi, s.coat_alpha * s.coat_alpha);
+    // A clear surface's transmission is a choice apart (passing straight), not a direction drawn.
+    if !s.clear {
+        p += l.p.z * microfacet_pdf(s.ns, wo, wi - 2.0 * nl * s.ns, a2);
+    }
     if nl > 0.0 {
         p += l.p.y * nl / PI;
     }
@@ -538,7 +590,14 @@ fn sample_direction(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     let frame = basis(s.ns);
     let u1 = rand();
     let u2 = rand();
-    let pick = rand();
+    var pick = rand();
+    if s.clear {
+        // The lobes other than transmission (passing straight was not chosen), in proportion.
+        pick *= 1.0 - l.p.z;
+        if pick >= l.p.x + l.p.y {
+            pick += l.p.z;
+        }
+    }
     if pick < l.p.x {
         return ggx_reflection(frame, wo, s.alpha, u1, u2);
     }
@@ -696,19 +755,20 @@ fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     }
     let cos_l = dot(s.ns, wi);
     let cos_g = dot(s.ng, wi);
-    if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && s.transmission <= 0.0) {
+    if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
         return vec3<f32>(0.0);
     }
     let f = bsdf(s, l, wo, wi);
     if max(f.x, max(f.y, f.z)) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    if occluded(view.root, offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, FAR) {
+    let through = shadow(offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, FAR);
+    if max(through.x, max(through.y, through.z)) <= 0.0 {
         return vec3<f32>(0.0);
     }
     let p_bsdf = pdf(s, l, wo, wi);
     let w = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf);
-    return f * sky_radiance(wi) * (abs(cos_l) * w / p_light);
+    return f * through * sky_radiance(wi) * (abs(cos_l) * w / p_light);
 }
 
 // Light arriving at s from every light, through shadow rays, reflected (or passed through a thin
@@ -746,13 +806,14 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
         let cos_g = dot(s.ng, wi);
         // The shading and geometric normals must agree on the side; the far side only counts
         // through a transmitting surface.
-        if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && s.transmission <= 0.0) {
+        if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
             continue;
         }
-        if occluded(view.root, offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, t_max) {
+        let through = shadow(offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, t_max);
+        if max(through.x, max(through.y, through.z)) <= 0.0 {
             continue;
         }
-        sum += bsdf(s, l, wo, wi) * li * abs(cos_l);
+        sum += bsdf(s, l, wo, wi) * through * li * abs(cos_l);
     }
     if (env_flags() & ENV_SAMPLED) != 0u {
         // Ambient light, which the occlusion map dims, as it dims the BSDF's samples of it.
@@ -778,7 +839,10 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
     var radiance = vec3<f32>(0.0);
     // The density of the BSDF sample that gave d (for the panorama's weight where it escapes).
     var last_pdf = 0.0;
-    for (var bounce = 0u; bounce <= view.max_bounces; bounce += 1u) {
+    var bounce = 0u;
+    // Clear surfaces passed straight: not bounces (a window does not cost the light behind it one).
+    var passes = 0u;
+    loop {
         let hit = closest_hit(view.root, o, d, FAR);
         if hit.triangle == NONE {
             if bounce == 0u {
@@ -793,23 +857,39 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             }
             break;
         }
-        if bounce == 0u {
+        let primary = bounce == 0u && passes == 0u;
+        if primary {
             primary_depth = clip_depth(o + d * hit.t);
             primary_object = object_slot(hit);
         }
         let s = surface_at(hit, o, d);
-        if bounce == 0u {
+        if primary {
             primary_albedo = s.albedo;
             primary_normal = s.ns;
         }
         let wo = -d;
         radiance += indirect(throughput * s.emissive, bounce);
-        if bounce == view.max_bounces {
+        let last = bounce == view.max_bounces;
+        let l = lobes_at(s, wo);
+        if !last {
+            // Light found by a shadow ray from this hit reaches the eye after bounce + 1
+            // reflections.
+            radiance += indirect(throughput * direct_light(s, l, wo), bounce + 1u);
+        }
+        // A clear surface passes the path straight on, with its transmission lobe's probability;
+        // the light beyond counts as seen from the last bounce (its pdf weighs the sky's share).
+        if s.clear && rand() < l.p.z {
+            if passes == MAX_PASSES {
+                break;
+            }
+            passes += 1u;
+            throughput *= clear_transmittance(s, abs(dot(s.ng, wo))) / l.p.z;
+            o = offset(s.p, -s.ng);
+            continue;
+        }
+        if last {
             break;
         }
-        let l = lobes_at(s, wo);
-        // Light found by a shadow ray from this hit reaches the eye after bounce + 1 reflections.
-        radiance += indirect(throughput * direct_light(s, l, wo), bounce + 1u);
         let wi = sample_direction(s, l, wo);
         let p = pdf(s, l, wo, wi);
         let cos_s = dot(s.ns, wi);
@@ -831,6 +911,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         }
         o = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
         d = wi;
+        bounce += 1u;
     }
     return radiance * view.sky.w;
 }

@@ -95,6 +95,10 @@ pub struct EditorState {
     /// Of that, the editor's UI systems (panels, menus, the viewport's input and overlay).
     #[serde(default)]
     pub ui_ms: f32,
+    /// The viewport's path tracer: whether it denoises, its resolution scale and the samples per
+    /// pixel at which it stops.
+    #[serde(default)]
+    pub quality: (bool, f32, u32),
     /// How the viewport is drawn: "Raster" or the path tracer's view.
     #[serde(default)]
     pub view: String,
@@ -417,6 +421,11 @@ pub fn write_state_report(
         },
         main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
         ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
+        quality: (
+            render.settings.denoise,
+            render.settings.resolution_scale,
+            render.settings.max_samples,
+        ),
         view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
         samples: camera_ids.single().map_or(0, |c| tracer.samples(c)),

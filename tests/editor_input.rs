@@ -1075,3 +1075,37 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
         "{before:?} -> {after:?}"
     );
 }
+
+/// The toolbar's Quality menu, by real input: Denoise off, half resolution, and the view restarts
+/// its samples at the new resolution (a quarter of the pixels traced).
+#[test]
+fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
+    let mut s = Session::start("quality", &["--trace-scale", "1"]);
+    let st = s.wait_until(
+        "the view has samples",
+        std::time::Duration::from_secs(60),
+        |st| st.settled && st.samples >= 1,
+    );
+    assert_eq!(
+        st.quality,
+        (true, 1.0, 4096),
+        "the defaults and --trace-scale"
+    );
+    click_widget(&mut s, &st, "Quality");
+    let st = s.frames(2);
+    click_widget(&mut s, &st, "Denoise");
+    let st = s.frames(2);
+    assert!(!st.quality.0, "Denoise is off: {:?}", st.quality);
+    // The menu stays open for the next choice.
+    click_widget(&mut s, &st, "Resolution Half");
+    let st = s.frames(2);
+    assert_eq!(st.quality, (false, 0.5, 4096));
+    s.key(&[], keysym::ESCAPE);
+    let st = s.frames(2);
+    assert!(
+        widget_at(&st, "Resolution Half").is_none(),
+        "Escape closes the menu"
+    );
+    // Nothing of the scene changed: no step.
+    assert_eq!(st.history.0, 0);
+}

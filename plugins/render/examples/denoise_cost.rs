@@ -1,5 +1,6 @@
 //! The denoiser's cost per frame: its five passes over a traced image of 1080p's pixel count
-//! (1440 × 1440 = 1920 × 1080 pixels), timed from submission to completion, on whatever adapter
+//! (1440 × 1440 = 1920 × 1080 pixels), and the temporal pass after them (carrying the last frame's
+//! picture through a camera move), each timed from submission to completion, on whatever adapter
 //! the machine has. `cargo run -p treelight_render --example denoise_cost` (the dev profile is
 //! optimised).
 
@@ -9,6 +10,8 @@ mod support;
 use std::time::Instant;
 use support::Gpu;
 use support::scenes::{lit_frame, spheres_on_a_floor, trace_into};
+use support::temporal::Pictures;
+use treelight_render::TemporalRestart;
 
 fn main() {
     let gpu = Gpu::new();
@@ -19,19 +22,37 @@ fn main() {
     let pipeline = gpu.pipeline(treelight_render::DENOISE_WGSL, "denoise");
     gpu.denoise_with(&pipeline, &target, 1);
     gpu.wait();
-    let mut times: Vec<f64> = (0..7)
-        .map(|_| {
-            let start = Instant::now();
-            gpu.denoise_with(&pipeline, &target, 1);
-            gpu.wait();
-            start.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
+    let median = |mut run: Box<dyn FnMut()>| {
+        let mut times: Vec<f64> = (0..7)
+            .map(|_| {
+                let start = Instant::now();
+                run();
+                gpu.wait();
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        times.sort_by(f64::total_cmp);
+        (times[times.len() / 2], times[0], times.len())
+    };
+    let (m, min, n) = median(Box::new(|| gpu.denoise_with(&pipeline, &target, 1)));
     println!(
-        "denoiser, 1440×1440 (1080p's pixels), 5 passes: median {:.1} ms, min {:.1} ms over {} runs",
-        times[times.len() / 2],
-        times[0],
-        times.len()
+        "denoiser, 1440×1440 (1080p's pixels), 5 passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
+    );
+    let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
+    let mut pictures = Pictures::new(&gpu, 1440, 1440);
+    let step = frame.world_from_clip.inverse() * frame.world_from_clip;
+    pictures.pass(&gpu, &temporal, &target, step, 0, TemporalRestart::Clear);
+    let (m, min, n) = median(Box::new(|| {
+        pictures.pass(
+            &gpu,
+            &temporal,
+            &target,
+            step,
+            0,
+            TemporalRestart::Reproject,
+        );
+    }));
+    println!(
+        "temporal pass, 1440×1440, reprojecting every pixel: median {m:.1} ms, min {min:.1} ms over {n} runs"
     );
 }

@@ -115,6 +115,36 @@ fn expected_floor_radiance(env: &EnvironmentTexels, intensity: f32) -> Vec3 {
     sum.as_vec3() * intensity
 }
 
+/// A clear pane's share of light crossing it at cosine `c`: the base colour's transmitted share of
+/// what the dielectric (f0 0.04, Schlick's Fresnel) does not reflect.
+fn pane_transmittance(tint: Vec3, c: f32) -> Vec3 {
+    tint * (1.0 - (0.04 + 0.96 * (1.0 - c).powi(5)))
+}
+
+/// [`expected_floor_radiance`] with every direction's light through a clear horizontal pane of
+/// `tint` above the floor.
+fn expected_floor_radiance_under_a_pane(
+    env: &EnvironmentTexels,
+    intensity: f32,
+    tint: Vec3,
+) -> Vec3 {
+    let m = floor_material();
+    let (nu, nv) = (W * 16, H / 2 * 16);
+    let (du, dv) = (1.0 / nu as f32, 0.5 / nv as f32);
+    let mut sum = DVec3::ZERO;
+    for j in 0..nv {
+        let v = (j as f32 + 0.5) * dv;
+        let solid = (v * PI).sin() * (PI * dv) * (2.0 * PI * du);
+        for i in 0..nu {
+            let u = (i as f32 + 0.5) * du;
+            let wi = panorama_direction(u, v);
+            let f = brdf(&m, Vec3::Y, Vec3::Y, wi) * pane_transmittance(tint, wi.y);
+            sum += (f * radiance(env, wi) * (wi.y * solid)).as_dvec3();
+        }
+    }
+    sum.as_vec3() * intensity
+}
+
 fn layers_with(
     gpu: &Gpu,
     env: &EnvironmentTexels,
@@ -163,6 +193,47 @@ fn a_floor_under_a_small_sun_reflects_the_panorama_s_light_and_is_smooth_at_64_s
             spread * 100.0
         );
     }
+}
+
+/// A clear pane (transmission 1, smooth, tinted) over the floor lets the sun and the sky through,
+/// tinted and less what it reflects at each angle: shadow rays pass it, and the paths that pass it
+/// to the sky are weighed against them, so nothing is counted twice.
+#[test]
+fn a_floor_under_a_clear_pane_gets_the_panorama_s_light_through_it() {
+    let gpu = Gpu::new();
+    let env = sun_and_sky();
+    let tint = Vec3::new(0.9, 0.6, 0.3);
+    let mut scene = floor();
+    scene.add(
+        &square(1000.0),
+        Affine3A::from_translation(Vec3::Y) * Affine3A::from_rotation_x(-PI / 2.0),
+        false,
+        &SurfaceMaterial {
+            base_color: [tint.x, tint.y, tint.z, 1.0],
+            perceptual_roughness: 0.0,
+            transmission: 1.0,
+            ..Default::default()
+        },
+    );
+    let intensity = 0.5;
+    let expected = expected_floor_radiance_under_a_pane(&env, intensity, tint);
+    let layers = layers_with(&gpu, &env, 0.0, intensity, true);
+    // Looking down from under the pane.
+    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO, Vec3::NEG_Z);
+    let proj = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 10.0, 0.1);
+    let frame = Trace {
+        world_from_clip: (proj * view).inverse(),
+        ..looking_down(32, 256)
+    };
+    let (image, slots) = trace(&gpu, &scene, &layers, &frame);
+    assert!(slots.iter().all(|&s| s == 0), "every ray meets the floor");
+    let mean = image.iter().copied().sum::<Vec3>() / image.len() as f32;
+    let error = ((mean - expected).abs() / expected).max_element();
+    assert!(
+        error < 0.03,
+        "the floor is {mean}, the panorama's light through the pane gives {expected} ({:.2}% off)",
+        error * 100.0
+    );
 }
 
 /// A panorama whose every texel says where it is: red across, green down (linear, so bilinear

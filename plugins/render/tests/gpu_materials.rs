@@ -295,3 +295,97 @@ fn a_mask_that_cuts_everything_away_casts_no_shadow() {
         "the solid occluder casts no shadow: {darker} pixels darker, {shaded} against {lit}"
     );
 }
+
+/// A clear pane (transmission 1, smooth) between a point light and the floor lets the light
+/// through tinted by its colour, less what it reflects (Schlick, f0 0.04: 4% from straight above);
+/// a frosted one (rough) scatters what it passes, so its shadow stays dark to the light's shadow
+/// rays.
+#[test]
+fn a_clear_pane_casts_a_tinted_shadow_and_a_frosted_one_a_dark_one() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let floor = Affine3A::from_rotation_x(-PI / 2.0);
+    let pane = Affine3A::from_rotation_translation(
+        treelight_bvh::glam::Quat::from_rotation_x(-PI / 2.0),
+        Vec3::new(0.0, 0.6, 0.0),
+    );
+    let light = Vec3::new(0.0, 2.0, 0.0);
+    let t = Trace {
+        size: 32,
+        samples: 16,
+        bounces: 1,
+        sky: Vec3::ZERO,
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip: camera(Vec3::new(0.0, 2.5, 2.5), Vec3::ZERO, Vec3::Y, 50.0),
+        lights: vec![SceneLight::Point {
+            position: light,
+            power: Vec3::splat(4.0 * PI * 4.0),
+            radius: 0.0,
+            range: None,
+        }],
+    };
+    let tint = Vec3::new(0.9, 0.6, 0.3);
+    let scene_with = |roughness: Option<f32>| {
+        let mut s = Scene::new();
+        s.add(&square(2.0), floor, false, &SurfaceMaterial::default());
+        if let Some(r) = roughness {
+            s.add(
+                &square(0.5),
+                pane,
+                false,
+                &SurfaceMaterial {
+                    base_color: [tint.x, tint.y, tint.z, 1.0],
+                    perceptual_roughness: r,
+                    transmission: 1.0,
+                    ..Default::default()
+                },
+            );
+        }
+        s
+    };
+    let (bare, _) = trace(&gpu, &scene_with(None), &layers, &t);
+    let (clear, slots) = trace(&gpu, &scene_with(Some(0.0)), &layers, &t);
+    let (frosted, _) = trace(&gpu, &scene_with(Some(0.6)), &layers, &t);
+    // Under the pane the light comes from at least 60° up: Schlick's term adds under 0.1%.
+    let through = tint * 0.96;
+    // The frosted pane blocks the light's shadow rays: its ratio to the bare floor is the share of
+    // a pixel's samples the pane leaves lit (its shadow's edge crosses some pixels). The clear
+    // pane passes the rest, tinted. Pixels beside the pane's own (some samples see the floor
+    // through it) are left out.
+    let size = t.size as usize;
+    let beside_the_pane = |k: usize| {
+        let (x, y) = ((k % size) as i64, (k / size) as i64);
+        (-1..=1).any(|dy| {
+            (-1..=1).any(|dx| {
+                let (i, j) = (x + dx, y + dy);
+                (0..size as i64).contains(&i)
+                    && (0..size as i64).contains(&j)
+                    && slots[j as usize * size + i as usize] != 0
+            })
+        })
+    };
+    let (mut shadowed, mut checked) = (0, 0);
+    for (k, &slot) in slots.iter().enumerate() {
+        if slot != 0 || bare[k].x <= 0.0 || beside_the_pane(k) {
+            continue;
+        }
+        let lit = frosted[k] / bare[k];
+        assert!(
+            (lit - Vec3::splat(lit.x)).abs().max_element() < 1e-4 && lit.x <= 1.0 + 1e-4,
+            "pixel {k}: the frosted pane lets {lit} through"
+        );
+        let want = lit + (Vec3::ONE - lit) * through;
+        let got = clear[k] / bare[k];
+        assert!(
+            (got - want).abs().max_element() < 0.005,
+            "pixel {k}: the clear pane passes {got}, {:.0}% of it in its shadow: {want}",
+            (1.0 - lit.x) * 100.0
+        );
+        checked += 1;
+        shadowed += usize::from(lit.x < 0.01);
+    }
+    assert!(
+        shadowed > 20 && checked > 100,
+        "{shadowed} pixels wholly in the pane's shadow, {checked} checked"
+    );
+}

@@ -13,82 +13,15 @@
 mod support;
 
 use support::scenes::{Scene, camera, lit_frame, sphere, spheres_on_a_floor, square};
+use support::temporal::Pictures;
 use support::{Gpu, Layers, TraceTarget, floats};
 use treelight_bvh::glam::{Affine3A, Mat4, Quat, Vec3};
 use treelight_render::{
     DebugView, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TEMPORAL_FADE_SAMPLES, TemporalRestart,
-    TraceWork, ViewParams, light_bytes, temporal_bytes,
+    TraceWork, ViewParams, light_bytes,
 };
 
 const SIZE: u32 = 48;
-
-/// The temporal pass's buffers beside a trace target: its two pictures and its prior.
-struct Pictures {
-    shown: [wgpu::Buffer; 2],
-    prior: wgpu::Buffer,
-    parity: usize,
-}
-
-impl Pictures {
-    fn new(gpu: &Gpu) -> Self {
-        let pixels = (SIZE * SIZE) as usize;
-        Self {
-            shown: [
-                gpu.storage("shown", &vec![0u8; pixels * 32]),
-                gpu.storage("shown", &vec![0u8; pixels * 32]),
-            ],
-            prior: gpu.storage("prior", &vec![0u8; pixels * 16]),
-            parity: 0,
-        }
-    }
-
-    /// One temporal pass over `target` (as the plugin runs it after the trace); returns the
-    /// picture (rgb per pixel) and the prior's weights.
-    fn run(
-        &mut self,
-        gpu: &Gpu,
-        pipeline: &wgpu::ComputePipeline,
-        target: &TraceTarget,
-        reproject: Mat4,
-        preview_scale: u32,
-        restart: TemporalRestart,
-    ) -> (Vec<Vec3>, Vec<f32>) {
-        let uniform = gpu.uniform(&temporal_bytes(
-            reproject,
-            SIZE,
-            SIZE,
-            preview_scale,
-            false,
-            restart,
-        ));
-        let k = self.parity;
-        gpu.dispatch_indexed(
-            pipeline,
-            vec![vec![
-                (0, target.accum.as_entire_binding()),
-                (1, target.aux.as_entire_binding()),
-                (2, uniform.as_entire_binding()),
-                (3, target.denoised[0].as_entire_binding()),
-                (4, target.guides.as_entire_binding()),
-                (5, self.shown[1 - k].as_entire_binding()),
-                (6, self.shown[k].as_entire_binding()),
-                (7, self.prior.as_entire_binding()),
-            ]],
-            (SIZE.div_ceil(8), SIZE.div_ceil(8)),
-        );
-        self.parity = 1 - k;
-        let picture = floats(&gpu.read(&self.shown[k]))
-            .chunks_exact(4)
-            .take((SIZE * SIZE) as usize)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let prior = floats(&gpu.read(&self.prior))
-            .chunks_exact(4)
-            .map(|c| c[3])
-            .collect();
-        (picture, prior)
-    }
-}
 
 /// Traces `work` at `world_from_clip` into a fresh target (`samples` a pixel for whole-image work).
 #[allow(clippy::too_many_arguments)]
@@ -162,7 +95,7 @@ fn an_orbit_carried_over_is_closer_to_the_converged_frames_than_its_previews() {
     let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
     let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
-    let mut pictures = Pictures::new(&gpu);
+    let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
     // The preview's light (one bounce, as the plugin traces it while the camera moves).
     const BOUNCES: u32 = 1;
     const FRAMES: u32 = 16;
@@ -207,7 +140,7 @@ fn an_orbit_carried_over_is_closer_to_the_converged_frames_than_its_previews() {
         };
         previous = Some(world_from_clip);
         // Without the last frame: the preview alone (a restart with nothing to carry).
-        let mut alone = Pictures::new(&gpu);
+        let mut alone = Pictures::new(&gpu, SIZE, SIZE);
         let (preview, _) = alone.run(
             &gpu,
             &temporal,
@@ -275,7 +208,7 @@ fn what_a_move_uncovers_takes_nothing_from_what_hid_it() {
         )
     };
     let (before, after) = (at(0.0), at(0.4));
-    let mut pictures = Pictures::new(&gpu);
+    let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
     let first = trace_frame(
         &gpu,
         &trace,
@@ -362,7 +295,7 @@ fn a_still_view_shows_exactly_its_samples_once_it_has_enough() {
     let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
     let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
-    let mut pictures = Pictures::new(&gpu);
+    let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
     let (a, b) = (orbit(0, 0.0), orbit(1, 3.0));
     let first = trace_frame(
         &gpu,

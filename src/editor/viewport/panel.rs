@@ -202,14 +202,26 @@ pub fn gizmo_frame(
     GizmoFrame::new(pivot, axes, view)
 }
 
-/// The path tracer's resolution and the samples per pixel at which it stops.
-fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender) {
-    ui.menu_button("Quality", |ui| {
+/// The path tracer's denoiser, its resolution and the samples per pixel at which it stops.
+fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender, widgets: &mut WidgetRects) {
+    let menu = ui.menu_button("Quality", |ui| {
+        if render.traced == Some(treelight_render::DebugView::PathTraced) {
+            let toggle = ui
+                .checkbox(&mut render.settings.denoise, "Denoise")
+                .on_hover_text(
+                    "Filter the path tracer's noise, guided by the surfaces' objects, normals, \
+                     depths and colours (no light crosses an object's edge); while the camera \
+                     moves, the last frames' picture is carried along",
+                );
+            widgets.push("Denoise", toggle.rect);
+            ui.separator();
+        }
         ui.label(egui::RichText::new("Resolution").strong());
         for (scale, name) in crate::editor::viewport::render_mode::TRACE_SCALES {
             let chosen = render.settings.resolution_scale == scale;
-            if ui
-                .radio(chosen, name)
+            let radio = ui.radio(chosen, name);
+            widgets.push(format!("Resolution {name}"), radio.rect);
+            if radio
                 .on_hover_text(format!(
                     "Trace {} the viewport's pixels along each axis (the image is upscaled)",
                     if scale == 1.0 {
@@ -238,9 +250,11 @@ fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender) {
                  camera move starts it again)",
             );
         });
-    })
-    .response
-    .on_hover_text("The path tracer's resolution and how many samples a view accumulates");
+    });
+    widgets.push("Quality", menu.response.rect);
+    menu.response.on_hover_text(
+        "The path tracer's denoiser and resolution, and how many samples a view accumulates",
+    );
 }
 
 /// The viewport's toolbar: render mode, gizmo mode, axes and snapping, then the look (exposure and
@@ -265,18 +279,8 @@ fn toolbar(
         .on_hover_text(
             "How the viewport is drawn: Bevy's rasteriser, the path tracer, or one of its debug views",
         );
-    if render.traced == Some(treelight_render::DebugView::PathTraced) {
-        let toggle = ui
-            .checkbox(&mut render.settings.denoise, "Denoise")
-            .on_hover_text(
-                "Filter the path tracer's noise, guided by the surfaces' objects, normals, depths \
-                 and colours (no light crosses an object's edge); while the camera moves, the last \
-                 frames' picture is carried along",
-            );
-        widgets.push("Denoise", toggle.rect);
-    }
     if render.traced.is_some() {
-        quality_menu(ui, render);
+        quality_menu(ui, render, widgets);
     }
     ui.separator();
     for (mode, key) in [

@@ -5,6 +5,7 @@
 
 pub mod brdf;
 pub mod scenes;
+pub mod temporal;
 
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
