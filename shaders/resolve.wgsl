@@ -43,8 +43,9 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;
 // The trace kernel's guides (pathtrace.wgsl): the albedo summed over a pixel's samples at 2 to 4.
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
-// The temporal pass's picture: per traced pixel (rgb, weight).
-@group(0) @binding(6) var<storage, read> shown: array<vec4<f32>>;
+// The temporal pass's picture: per traced pixel rgb and weight in half floats, depth, object slot
+// (temporal.wgsl).
+@group(0) @binding(6) var<storage, read> shown: array<vec4<u32>>;
 
 @vertex
 fn vertex(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -86,7 +87,8 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
         } else if k > 0u {
             depth = preview_at(vec2<i32>(p / k), blocks(k)).w;
         }
-        return vec4<f32>(shown[i].rgb, depth);
+        let w = shown[i];
+        return vec4<f32>(unpack2x16float(w.x), unpack2x16float(w.y).x, depth);
     }
     if a.w > 0.0 {
         if resolve.denoised == 1u {

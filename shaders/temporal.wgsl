@@ -36,12 +36,24 @@ const PREVIEW_WEIGHT: f32 = 1.0;
 @group(0) @binding(3) var<storage, read> denoised: array<vec4<f32>>;
 // The trace kernel's guides: the albedo summed over a pixel's samples at words 2 to 4 of five.
 @group(0) @binding(4) var<storage, read> guides: array<u32>;
-// The last frame's picture and this frame's: per pixel (rgb, weight), then per pixel (depth, the
-// object slot's bits, 1 where the pixel's samples met more than one object, 0).
-@group(0) @binding(5) var<storage, read> history: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> shown: array<vec4<f32>>;
+// The last frame's picture and this frame's, 16 bytes a pixel (as the accumulation, so a view that
+// binds one binds the other): rgb and weight in half floats (`pack_picture`), the primary hit's
+// depth (negated less one where the pixel's samples met more than one object) and object slot.
+@group(0) @binding(5) var<storage, read> history: array<vec4<u32>>;
+@group(0) @binding(6) var<storage, read_write> shown: array<vec4<u32>>;
 // Per pixel the prior: (rgb, weight).
 @group(0) @binding(7) var<storage, read_write> prior: array<vec4<f32>>;
+
+// Colour and weight in two words of half floats (colour clamped to what a half float holds).
+fn pack_picture(colour: vec3<f32>, weight: f32) -> vec2<u32> {
+    let c = min(colour, vec3<f32>(65000.0));
+    return vec2<u32>(pack2x16float(c.xy), pack2x16float(vec2<f32>(c.z, weight)));
+}
+
+fn unpack_picture(p: vec4<u32>) -> vec4<f32> {
+    let zw = unpack2x16float(p.y);
+    return vec4<f32>(unpack2x16float(p.x), zw.x, zw.y);
+}
 
 struct Estimate {
     colour: vec3<f32>,
@@ -143,7 +155,6 @@ fn reprojected(p: vec2<u32>, e: Estimate) -> vec4<f32> {
     let at = vec2<f32>((q.x + 1.0) * 0.5, (1.0 - q.y) * 0.5) * size - vec2<f32>(0.5);
     let base = vec2<i32>(floor(at));
     let t = at - floor(at);
-    let pixels = params.width * params.height;
     var colour = vec3<f32>(0.0);
     var weight = 0.0;
     var total = 0.0;
@@ -154,11 +165,13 @@ fn reprojected(p: vec2<u32>, e: Estimate) -> vec4<f32> {
             continue;
         }
         let j = u32(tap.y) * params.width + u32(tap.x);
-        let seen = history[pixels + j];
-        if seen.z > 0.0 || bitcast<u32>(seen.y) != e.object || !same_depth(q.z, seen.x, e.object) {
+        let seen = history[j];
+        let seen_depth = bitcast<f32>(seen.z);
+        // A negative depth marks a pixel whose samples met more than one object.
+        if seen_depth < 0.0 || seen.w != e.object || !same_depth(q.z, seen_depth, e.object) {
             continue;
         }
-        let h = history[j];
+        let h = unpack_picture(seen);
         if !(h.w > 0.0) {
             continue;
         }
@@ -181,7 +194,6 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = id.xy;
     let i = p.y * params.width + p.x;
-    let pixels = params.width * params.height;
     let e = estimate(p);
     if params.restart == 1u {
         prior[i] = reprojected(p, e);
@@ -194,6 +206,10 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     if h > 0.0 {
         colour = (e.colour * e.weight + r.rgb * h) / (e.weight + h);
     }
-    shown[i] = vec4<f32>(colour, min(e.weight + h, params.max_weight));
-    shown[pixels + i] = vec4<f32>(e.depth, bitcast<f32>(e.object), select(0.0, 1.0, e.mixed), 0.0);
+    let depth = select(e.depth, -1.0 - e.depth, e.mixed);
+    shown[i] = vec4<u32>(
+        pack_picture(colour, min(e.weight + h, params.max_weight)),
+        bitcast<u32>(depth),
+        e.object,
+    );
 }

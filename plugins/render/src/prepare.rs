@@ -448,7 +448,7 @@ pub(crate) struct ViewBuffers {
     /// The denoiser's passes' groups, in order, each writing the first image or the second.
     pub denoise_bind_groups: Vec<[BindGroup; 2]>,
     /// The temporal pass's pictures: the one each frame writes, the other the last frame's; per
-    /// pixel (rgb, weight), then (depth, object slot).
+    /// pixel rgb and weight in half floats, depth and object slot (as large as the accumulation).
     shown: [Buffer; 2],
     temporal_uniform: Buffer,
     /// The temporal pass's groups: the `k`-th writes picture `k`, reading the other.
@@ -592,8 +592,8 @@ fn view_buffers(
         )),
     );
     let shown = [
-        storage(device, "treelight temporal picture", pixels * 32),
-        storage(device, "treelight temporal picture", pixels * 32),
+        storage(device, "treelight temporal picture", pixels * 16),
+        storage(device, "treelight temporal picture", pixels * 16),
     ];
     // Per pixel (rgb, weight); its bind groups keep it.
     let prior = storage(device, "treelight temporal prior", pixels * 16);

@@ -8,7 +8,7 @@
 //!   nothing from the sphere, and the sphere nothing from the wall (object slots and depths, read
 //!   independently from the primary hits, say which pixel shows what).
 //! * A still view converges to exactly its own samples: from the fade's sample count on, the
-//!   picture is the accumulation's mean, bit for bit.
+//!   picture is the accumulation's mean (in the half floats the picture holds).
 
 mod support;
 
@@ -338,7 +338,17 @@ fn a_still_view_shows_exactly_its_samples_once_it_has_enough() {
         );
         let (picture, prior) = pictures.run(&gpu, &temporal, &target, a.inverse() * b, 0, restart);
         let mean = mean_image(&gpu, &target);
-        let same = picture.iter().zip(&mean).filter(|(p, m)| p == m).count();
+        // The picture holds half floats: the mean as a half float rounds it.
+        let same = picture
+            .iter()
+            .zip(&mean)
+            .filter(|(p, m)| {
+                (**p - **m)
+                    .abs()
+                    .cmple(m.abs() / 1024.0 + Vec3::splat(1e-7))
+                    .all()
+            })
+            .count();
         if samples >= fade {
             assert_eq!(same, picture.len(), "at {samples} samples a pixel");
         } else {

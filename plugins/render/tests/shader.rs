@@ -17,9 +17,14 @@ fn module(source: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| {
         panic!("{}", e.emit_to_string(source));
     });
-    Validator::new(ValidationFlags::all(), Capabilities::default())
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{e:?}"));
+    // Half floats packed in 32-bit words (the temporal pass's pictures): every Vulkan, Metal, DX12
+    // and WebGPU adapter has it (wgpu's `DownlevelFlags::SHADER_F16_IN_F32`).
+    Validator::new(
+        ValidationFlags::all(),
+        Capabilities::default() | Capabilities::SHADER_FLOAT16_IN_FLOAT32,
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{e:?}"));
     module
 }
 

@@ -204,55 +204,60 @@ pub fn gizmo_frame(
 
 /// The path tracer's denoiser, its resolution and the samples per pixel at which it stops.
 fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender, widgets: &mut WidgetRects) {
-    let menu = ui.menu_button("Quality", |ui| {
-        if render.traced == Some(treelight_render::DebugView::PathTraced) {
-            let toggle = ui
-                .checkbox(&mut render.settings.denoise, "Denoise")
-                .on_hover_text(
-                    "Filter the path tracer's noise, guided by the surfaces' objects, normals, \
+    // A settings popup: it stays open while its boxes are ticked, until a click outside it.
+    let config = egui::containers::menu::MenuConfig::new()
+        .close_behavior(egui::PopupCloseBehavior::CloseOnClickOutside);
+    let (button, _) = egui::containers::menu::MenuButton::new("Quality")
+        .config(config)
+        .ui(ui, |ui| {
+            if render.traced == Some(treelight_render::DebugView::PathTraced) {
+                let toggle = ui
+                    .checkbox(&mut render.settings.denoise, "Denoise")
+                    .on_hover_text(
+                        "Filter the path tracer's noise, guided by the surfaces' objects, normals, \
                      depths and colours (no light crosses an object's edge); while the camera \
                      moves, the last frames' picture is carried along",
-                );
-            widgets.push("Denoise", toggle.rect);
-            ui.separator();
-        }
-        ui.label(egui::RichText::new("Resolution").strong());
-        for (scale, name) in crate::editor::viewport::render_mode::TRACE_SCALES {
-            let chosen = render.settings.resolution_scale == scale;
-            let radio = ui.radio(chosen, name);
-            widgets.push(format!("Resolution {name}"), radio.rect);
-            if radio
-                .on_hover_text(format!(
-                    "Trace {} the viewport's pixels along each axis (the image is upscaled)",
-                    if scale == 1.0 {
-                        "all".to_string()
-                    } else {
-                        format!("{:.0}% of", scale * 100.0)
-                    }
-                ))
-                .clicked()
-            {
-                render.settings.resolution_scale = scale;
-                render.scale_chosen = true;
+                    );
+                widgets.push("Denoise", toggle.rect);
+                ui.separator();
             }
-        }
-        ui.separator();
-        ui.horizontal(|ui| {
-            ui.label("Stop at");
-            ui.add(
-                egui::DragValue::new(&mut render.settings.max_samples)
-                    .range(1..=65536)
-                    .speed(8.0)
-                    .suffix(" samples"),
-            )
-            .on_hover_text(
-                "Samples per pixel the view accumulates before it stops tracing (an edit or a \
+            ui.label(egui::RichText::new("Resolution").strong());
+            for (scale, name) in crate::editor::viewport::render_mode::TRACE_SCALES {
+                let chosen = render.settings.resolution_scale == scale;
+                let radio = ui.radio(chosen, name);
+                widgets.push(format!("Resolution {name}"), radio.rect);
+                if radio
+                    .on_hover_text(format!(
+                        "Trace {} the viewport's pixels along each axis (the image is upscaled)",
+                        if scale == 1.0 {
+                            "all".to_string()
+                        } else {
+                            format!("{:.0}% of", scale * 100.0)
+                        }
+                    ))
+                    .clicked()
+                {
+                    render.settings.resolution_scale = scale;
+                    render.scale_chosen = true;
+                }
+            }
+            ui.separator();
+            ui.horizontal(|ui| {
+                ui.label("Stop at");
+                ui.add(
+                    egui::DragValue::new(&mut render.settings.max_samples)
+                        .range(1..=65536)
+                        .speed(8.0)
+                        .suffix(" samples"),
+                )
+                .on_hover_text(
+                    "Samples per pixel the view accumulates before it stops tracing (an edit or a \
                  camera move starts it again)",
-            );
+                );
+            });
         });
-    });
-    widgets.push("Quality", menu.response.rect);
-    menu.response.on_hover_text(
+    widgets.push("Quality", button.rect);
+    button.on_hover_text(
         "The path tracer's denoiser and resolution, and how many samples a view accumulates",
     );
 }

@@ -1118,7 +1118,7 @@ impl Gpu {
         let words: Vec<u8> = outlines.iter().flat_map(|w| w.to_le_bytes()).collect();
         let outline_buffer = self.storage("outlines", &words);
         // The temporal pass's picture, for a resolve told to show it.
-        let shown = self.zeroed((target.pixels * 32) as u64);
+        let shown = self.zeroed((target.pixels * 16) as u64);
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &pipeline.get_bind_group_layout(0),

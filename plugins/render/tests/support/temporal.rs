@@ -20,8 +20,8 @@ impl Pictures {
             width,
             height,
             shown: [
-                gpu.storage("shown", &vec![0u8; pixels * 32]),
-                gpu.storage("shown", &vec![0u8; pixels * 32]),
+                gpu.storage("shown", &vec![0u8; pixels * 16]),
+                gpu.storage("shown", &vec![0u8; pixels * 16]),
             ],
             prior: gpu.storage("prior", &vec![0u8; pixels * 16]),
             parity: 0,
@@ -40,10 +40,13 @@ impl Pictures {
         restart: TemporalRestart,
     ) -> (Vec<Vec3>, Vec<f32>) {
         let k = self.pass(gpu, pipeline, target, reproject, preview_scale, restart);
-        let picture = floats(&gpu.read(&self.shown[k]))
+        // Two words of half floats a pixel: red and green, blue and the weight.
+        let half = |w: u32, high: bool| {
+            half::f16::from_bits(if high { (w >> 16) as u16 } else { w as u16 }).to_f32()
+        };
+        let picture = super::words(&gpu.read(&self.shown[k]))
             .chunks_exact(4)
-            .take((self.width * self.height) as usize)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .map(|c| Vec3::new(half(c[0], false), half(c[0], true), half(c[1], false)))
             .collect();
         let prior = floats(&gpu.read(&self.prior))
             .chunks_exact(4)
