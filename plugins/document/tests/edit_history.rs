@@ -75,7 +75,9 @@ fn flight_helmet_in(mut app: App) -> App {
         ))
         .id();
     for m in &scene.meshes {
-        let mesh = world.resource_mut::<Assets<Mesh>>().add(to_bevy_mesh(m));
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(to_bevy_mesh(m, false));
         world.spawn((
             Name::new(m.name.clone()),
             SceneObject,

@@ -2,6 +2,9 @@
 //! thread, saved in projects relative to their folder (so a moved folder keeps it), and a broken
 //! file named in a notice while the scene keeps its flat sky.
 
+#[path = "support/world.rs"]
+mod world;
+
 use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -9,22 +12,13 @@ use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, apply_request};
 use treelight_document::environment::{LoadedEnvironment, SceneEnvironment};
 use treelight_document::notice::Notices;
-use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::read_project;
 use treelight_document::project::restore::open_project;
-
-fn editor_world() -> App {
-    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
-    app.insert_resource(DocumentView(Some(CameraValue::default())));
-    app
-}
+use world::{editor_world, fresh_dir};
 
 fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("treelight-sky-{name}-{}", std::process::id()));
-    std::fs::remove_dir_all(&d).ok();
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    fresh_dir("sky", name)
 }
 
 /// A `w × h` Radiance HDR file of one colour per half (flat scanlines, as the format allows).

@@ -137,3 +137,84 @@ fn an_import_past_the_free_memory_waits_for_an_answer_where_the_app_asks() {
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
 }
+
+/// The raster view draws normal maps with Bevy's shader, which needs tangents: FlightHelmet's
+/// meshes (every material normal-mapped) get them, unit length, perpendicular to their normals,
+/// with a sign; BoxTextured (no normal map) keeps its vertices as they were.
+#[test]
+fn normal_mapped_meshes_get_tangents_and_others_do_not() {
+    use bevy::mesh::VertexAttributeValues;
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf");
+    let import = |file: &Path| {
+        let mut app =
+            treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+        app.world_mut()
+            .resource_mut::<PendingImports>()
+            .start(file.to_owned());
+        let start = std::time::Instant::now();
+        loop {
+            app.update();
+            let made = app
+                .world()
+                .resource::<Notices>()
+                .0
+                .iter()
+                .any(|n| n.text.contains("opened"));
+            if made {
+                break;
+            }
+            assert!(
+                start.elapsed().as_secs() < 60,
+                "{} never opened",
+                file.display()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        app
+    };
+    let mut helmet = import(&scenes.join("FlightHelmet/FlightHelmet.gltf"));
+    let handles: Vec<Handle<Mesh>> = helmet
+        .world_mut()
+        .query::<&Mesh3d>()
+        .iter(helmet.world())
+        .map(|m| m.0.clone())
+        .collect();
+    assert!(!handles.is_empty());
+    let assets = helmet.world().resource::<Assets<Mesh>>();
+    for h in &handles {
+        let mesh = assets.get(h).expect("the mesh asset");
+        let Some(VertexAttributeValues::Float32x4(tangents)) =
+            mesh.attribute(Mesh::ATTRIBUTE_TANGENT)
+        else {
+            panic!("a normal-mapped mesh without tangents");
+        };
+        let Some(VertexAttributeValues::Float32x3(normals)) =
+            mesh.attribute(Mesh::ATTRIBUTE_NORMAL)
+        else {
+            panic!("no normals");
+        };
+        assert_eq!(tangents.len(), normals.len());
+        for (t, n) in tangents.iter().zip(normals) {
+            let (t3, n3) = (Vec3::new(t[0], t[1], t[2]), Vec3::from(*n).normalize());
+            assert!(
+                (t3.length() - 1.0).abs() < 1e-4 && t3.dot(n3).abs() < 1e-3,
+                "{t:?}"
+            );
+            assert!(t[3] == 1.0 || t[3] == -1.0);
+        }
+    }
+    let mut boxed = import(&scenes.join("BoxTextured-glTF/BoxTextured.gltf"));
+    let handles: Vec<Handle<Mesh>> = boxed
+        .world_mut()
+        .query::<&Mesh3d>()
+        .iter(boxed.world())
+        .map(|m| m.0.clone())
+        .collect();
+    let assets = boxed.world().resource::<Assets<Mesh>>();
+    assert!(!handles.is_empty());
+    assert!(handles.iter().all(|h| {
+        assets
+            .get(h)
+            .is_some_and(|m| m.attribute(Mesh::ATTRIBUTE_TANGENT).is_none())
+    }));
+}

@@ -6,6 +6,8 @@
 
 #[path = "support/assembly.rs"]
 mod assembly;
+#[path = "support/world.rs"]
+mod world;
 
 use bevy::prelude::*;
 use std::collections::BTreeMap;
@@ -20,7 +22,6 @@ use treelight_document::edit::history::apply_request;
 use treelight_document::light::LightValue;
 use treelight_document::look::{SceneLook, ToneCurve};
 use treelight_document::object::SceneId;
-use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::primitive::Primitive;
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::PROJECT_VERSION;
@@ -28,13 +29,7 @@ use treelight_document::project::format::ProjectError;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::format::read_project;
 use treelight_document::project::restore::open_project;
-
-fn editor_world() -> App {
-    // The editor's headless app (the one `--save` runs), with the editor's starting view to save.
-    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
-    app.insert_resource(DocumentView(Some(CameraValue::default())));
-    app
-}
+use world::{editor_world, fresh_dir};
 
 fn helmet() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -42,9 +37,7 @@ fn helmet() -> PathBuf {
 }
 
 fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("treelight-project-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    fresh_dir("project", name)
 }
 
 fn apply(app: &mut App, command: EditCommand) {

@@ -229,6 +229,10 @@ fn a_floor_under_a_clear_pane_gets_the_panorama_s_light_through_it() {
     assert!(slots.iter().all(|&s| s == 0), "every ray meets the floor");
     let mean = image.iter().copied().sum::<Vec3>() / image.len() as f32;
     let error = ((mean - expected).abs() / expected).max_element();
+    eprintln!(
+        "under the pane: {mean} against {expected} ({:.2}% off)",
+        error * 100.0
+    );
     assert!(
         error < 0.03,
         "the floor is {mean}, the panorama's light through the pane gives {expected} ({:.2}% off)",

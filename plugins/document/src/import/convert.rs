@@ -9,8 +9,10 @@ use treelight_import::{
     ImportedAlphaMode, ImportedMaterial, ImportedMesh, ImportedTexture, TextureRef, WrapMode,
 };
 
-/// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none).
-pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
+/// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none),
+/// with tangents when a normal map is drawn on it (`tangents`; see [`tangents_needed`]), so the
+/// raster view shows the map as the path tracer does.
+pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
     let mut mesh = Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
@@ -24,7 +26,85 @@ pub fn to_bevy_mesh(m: &ImportedMesh) -> Mesh {
         Some(n) => mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, n.clone()),
         None => mesh.compute_smooth_normals(),
     }
+    if tangents
+        && let (Some(uvs), Some(bevy::mesh::VertexAttributeValues::Float32x3(normals))) =
+            (&m.geometry.uvs, mesh.attribute(Mesh::ATTRIBUTE_NORMAL))
+    {
+        let t = vertex_tangents(&m.geometry.positions, normals, uvs, &m.geometry.indices);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, t);
+    }
     mesh
+}
+
+/// For each mesh of `scene`, whether its Bevy mesh needs tangents: a normal map is drawn on it, or
+/// on another mesh sharing its vertices (`same_as`).
+pub fn tangents_needed(scene: &treelight_import::ImportedScene) -> Vec<bool> {
+    let mut needed = vec![false; scene.meshes.len()];
+    for (j, m) in scene.meshes.iter().enumerate() {
+        let mapped = m
+            .material
+            .and_then(|k| scene.materials.get(k))
+            .is_some_and(|mat| mat.normal_texture.is_some());
+        if mapped && let Some(n) = needed.get_mut(m.same_as.unwrap_or(j)) {
+            *n = true;
+        }
+    }
+    needed
+}
+
+/// Per-vertex tangents for normal mapping (glTF's convention, as Bevy's shader reads them): xyz the
+/// direction of increasing u in the surface, w the sign that makes `cross(normal, xyz) * w` the
+/// direction of increasing v. Each triangle's dP/du and dP/dv are summed at its corners (Lengyel's
+/// method), then made perpendicular to the vertex normal; a vertex whose triangles have no UV
+/// gradient gets any perpendicular.
+pub fn vertex_tangents(
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    uvs: &[[f32; 2]],
+    indices: &[u32],
+) -> Vec<[f32; 4]> {
+    let n = positions.len();
+    let mut along_u = vec![Vec3::ZERO; n];
+    let mut along_v = vec![Vec3::ZERO; n];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+        if a.max(b).max(c) >= n || a.max(b).max(c) >= uvs.len() {
+            continue;
+        }
+        let p = |i: usize| Vec3::from(positions[i]);
+        let q = |i: usize| Vec2::from(uvs[i]);
+        let (e1, e2) = (p(b) - p(a), p(c) - p(a));
+        let (d1, d2) = (q(b) - q(a), q(c) - q(a));
+        let det = d1.x * d2.y - d2.x * d1.y;
+        // A NaN determinant fails this too.
+        if det.abs().partial_cmp(&1e-20) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
+        let u = (e1 * d2.y - e2 * d1.y) / det;
+        let v = (e2 * d1.x - e1 * d2.x) / det;
+        if !(u.is_finite() && v.is_finite()) {
+            continue;
+        }
+        for i in [a, b, c] {
+            along_u[i] += u;
+            along_v[i] += v;
+        }
+    }
+    (0..n)
+        .map(|i| {
+            let normal = normals.get(i).map_or(Vec3::Y, |&v| Vec3::from(v));
+            let normal = normal.try_normalize().unwrap_or(Vec3::Y);
+            let t = (along_u[i] - normal * normal.dot(along_u[i]))
+                .try_normalize()
+                .unwrap_or_else(|| normal.any_orthonormal_vector());
+            let w = if normal.cross(t).dot(along_v[i]) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            [t.x, t.y, t.z, w]
+        })
+        .collect()
 }
 
 /// How a map's texels are stored on the GPU: colour (sRGB-encoded) or data (linear), with the
@@ -210,6 +290,41 @@ mod tests {
             width: 1,
             height: 1,
             rgba8: rgba.to_vec(),
+        }
+    }
+
+    #[test]
+    fn tangents_point_along_u_and_their_sign_gives_v() {
+        // A floor quad: u along +x, v along +z (glTF's v runs down the image), normal up.
+        let positions = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+        ];
+        let normals = [[0.0, 1.0, 0.0]; 4];
+        let uvs = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let indices = [0, 2, 1, 0, 3, 2];
+        for t in vertex_tangents(&positions, &normals, &uvs, &indices) {
+            let (xyz, w) = (Vec3::new(t[0], t[1], t[2]), t[3]);
+            assert!((xyz - Vec3::X).length() < 1e-6, "{t:?}");
+            // cross(y, x) = -z, so v (+z) needs w = -1.
+            assert!((Vec3::Y.cross(xyz) * w - Vec3::Z).length() < 1e-6, "{t:?}");
+        }
+        // Mirrored UVs flip the sign; tangents stay perpendicular to a tilted normal.
+        let mirrored = [[1.0, 0.0], [0.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+        let tilted = [[0.0, 0.8, 0.6]; 4];
+        for t in vertex_tangents(&positions, &tilted, &mirrored, &indices) {
+            let (xyz, w) = (Vec3::new(t[0], t[1], t[2]), t[3]);
+            assert!(xyz.dot(Vec3::new(0.0, 0.8, 0.6)).abs() < 1e-6);
+            assert!((xyz.length() - 1.0).abs() < 1e-6);
+            assert!(xyz.x < -0.9 && w == 1.0, "{t:?}");
+        }
+        // No UV gradient (every corner at one UV), and indices out of range: still unit tangents.
+        let flat = [[0.5, 0.5]; 4];
+        for t in vertex_tangents(&positions, &normals, &flat, &[0, 1, 9]) {
+            let xyz = Vec3::new(t[0], t[1], t[2]);
+            assert!((xyz.length() - 1.0).abs() < 1e-6 && xyz.y.abs() < 1e-6);
         }
     }
 

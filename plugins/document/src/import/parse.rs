@@ -37,13 +37,15 @@ pub struct Prebuilt {
 impl From<ImportedScene> for ParsedScene {
     fn from(scene: ImportedScene) -> Self {
         use bevy::camera::primitives::MeshAabb;
+        let tangents = crate::import::convert::tangents_needed(&scene);
         let meshes: Vec<Option<Mesh>> = scene
             .meshes
             .iter()
-            .map(|m| {
+            .zip(&tangents)
+            .map(|(m, &t)| {
                 m.same_as
                     .is_none()
-                    .then(|| crate::import::convert::to_bevy_mesh(m))
+                    .then(|| crate::import::convert::to_bevy_mesh(m, t))
             })
             .collect();
         let own: Vec<_> = meshes

@@ -2,7 +2,7 @@
 //! and the keys that let a project find each node again.
 
 use crate::import::convert::{
-    ImageKey, material, material_maps, put_map, to_bevy_image, to_bevy_mesh,
+    ImageKey, material, material_maps, put_map, tangents_needed, to_bevy_image, to_bevy_mesh,
 };
 use crate::import::parse::Prebuilt;
 use crate::object::{SceneId, SceneObject};
@@ -245,6 +245,7 @@ pub fn spawn_scene(
     // A mesh the file places at several nodes becomes one asset: the scene BVH then holds its
     // triangles once, each placement an instance.
     let mut mesh_handles: Vec<Handle<Mesh>> = Vec::with_capacity(scene.meshes.len());
+    let mut tangents: Option<Vec<bool>> = None;
     for (i, m) in scene.meshes.iter().enumerate() {
         let mat = m
             .material
@@ -258,7 +259,10 @@ pub fn spawn_scene(
                     .meshes
                     .get_mut(i)
                     .and_then(Option::take)
-                    .unwrap_or_else(|| to_bevy_mesh(m)),
+                    .unwrap_or_else(|| {
+                        let needed = tangents.get_or_insert_with(|| tangents_needed(scene));
+                        to_bevy_mesh(m, needed.get(i).copied().unwrap_or(false))
+                    }),
             ),
         };
         mesh_handles.push(mesh.clone());
