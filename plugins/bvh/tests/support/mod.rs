@@ -62,6 +62,13 @@ pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
                     assert_eq!(bvh.hit_group(&a), bvh.hit_group(&b), "ray {k}");
                 }
             }
+            // The same triangle of a kept-whole group: the tree meets it with the ray carried into
+            // object space, brute force with the triangle carried into world space, and at a
+            // grazing angle the two roundings move t further (proptest found 1.2e-4 of t).
+            (Some(a), Some(b))
+                if a.triangle == b.triangle
+                    && a.instance != treelight_bvh::NONE
+                    && (a.t - b.t).abs() <= 1e-3 * b.t.abs().max(1.0) => {}
             (Some(h), None) | (None, Some(h)) => assert!(
                 grazes_instanced_edge(&h),
                 "ray {k}: bvh {a:?} vs brute force {b:?}"
@@ -76,8 +83,14 @@ pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
             ),
         }
         if let Some(b) = b {
+            // As above: a kept-whole group's triangle is met in object space, up to 1e-3 of t away.
+            let slack = if b.instance != treelight_bvh::NONE {
+                1e-3
+            } else {
+                1e-4
+            };
             assert!(
-                bvh.any_hit(&ray.with_range(ray.t_min, b.t * 1.0001 + 1e-6))
+                bvh.any_hit(&ray.with_range(ray.t_min, b.t * (1.0 + slack) + 1e-6))
                     .is_some()
                     || grazes_instanced_edge(&b),
                 "ray {k}: any_hit missed"
