@@ -423,10 +423,11 @@ pub(crate) struct ViewFrame {
     /// The denoiser's pipeline and how many passes it makes, when it runs this frame (after the
     /// trace).
     pub denoise: Option<(CachedComputePipelineId, u32)>,
-    /// The temporal pass's pipeline, when it runs this frame (after the denoiser).
+    /// The temporal pass's pipeline, when it runs this frame (after the denoiser; not while the
+    /// view is idle).
     pub temporal: Option<CachedComputePipelineId>,
-    /// Which of the view's two pictures the temporal pass writes this frame (and the resolve
-    /// shows): the bind groups' index.
+    /// Which of the view's two pictures the resolve shows this frame (the one the temporal pass
+    /// writes when it runs): the bind groups' index.
     pub parity: usize,
 }
 
@@ -960,8 +961,17 @@ fn prepare_views(
                     .map(|_| pipelines.temporal)
             })
             .flatten();
-        let parity = state.parity;
-        if temporal.is_some() {
+        // The picture changes only with new samples, a denoised result or a restart: an idle view
+        // shows the last one again without running the pass.
+        let picture_changes =
+            restart || work.is_some() || denoise.is_some() || state.last_picture.is_none();
+        let run_temporal = temporal.filter(|_| picture_changes);
+        let parity = if run_temporal.is_some() || temporal.is_none() {
+            state.parity
+        } else {
+            1 - state.parity
+        };
+        if run_temporal.is_some() {
             let carried = if !restart {
                 TemporalRestart::Keep
             } else if camera_moved && state.last_picture.is_some() {
@@ -984,7 +994,7 @@ fn prepare_views(
             );
             state.last_picture = Some(clip_from_world);
             state.parity = 1 - parity;
-        } else {
+        } else if temporal.is_none() {
             state.last_picture = None;
         }
         queue.write_buffer(
@@ -1025,7 +1035,7 @@ fn prepare_views(
             writes_depth: depth.is_some(),
             viewport,
             denoise,
-            temporal,
+            temporal: run_temporal,
             parity,
         });
         let samples = (sweeps * settings.samples_per_frame.clamp(1, 64) as u64) as u32;
