@@ -769,24 +769,35 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
             s.wait_until("the panorama", std::time::Duration::from_secs(120), |st| {
                 st.environment.1 && (*view == "raster" || st.samples >= 2)
             });
-            // The cube map is made on a thread of its own once the panorama is read.
-            let state = s.frames(10);
-            assert!(
-                !state.notices.iter().any(|n| n.contains("panorama")),
-                "{:?}",
-                state.notices
-            );
-            let shot = s.screenshot();
-            let [x, y, w, h] = state.viewport.map(|v| v as u32);
-            let toolbar = state
-                .widgets
-                .iter()
-                .find(|(n, _)| n == "Viewport toolbar")
-                .map(|(_, r)| r[1] + r[3] + 2.0)
-                .unwrap();
-            let top = toolbar as u32;
-            let view_img = image::imageops::crop_imm(&shot, x, top, w, y + h - top).to_image();
+            // The cube map is made on a thread of its own once the panorama is read, and Bevy
+            // compiles the sky's pipeline in the background: on a loaded machine that takes a
+            // while. Until the sky shows, the view is one flat colour.
+            let start = std::time::Instant::now();
+            let (state, view_img, top) = loop {
+                let state = s.frames(5);
+                assert!(
+                    !state.notices.iter().any(|n| n.contains("panorama")),
+                    "{:?}",
+                    state.notices
+                );
+                let shot = s.screenshot();
+                let [x, y, w, h] = state.viewport.map(|v| v as u32);
+                let toolbar = state
+                    .widgets
+                    .iter()
+                    .find(|(n, _)| n == "Viewport toolbar")
+                    .map(|(_, r)| r[1] + r[3] + 2.0)
+                    .unwrap();
+                let top = toolbar as u32;
+                let view_img = image::imageops::crop_imm(&shot, x, top, w, y + h - top).to_image();
+                let shown =
+                    distinct_colours(&view_img, 0, 0, view_img.width(), view_img.height()) > 300;
+                if shown || start.elapsed() > std::time::Duration::from_secs(120) {
+                    break (state, view_img, top);
+                }
+            };
             view_img.save(dir.join("view.png")).unwrap();
+            let [x, _, _, _] = state.viewport.map(|v| v as u32);
             // The notices over the view's corner, in the cropped image's pixels.
             let notices: Vec<[f32; 4]> = state
                 .widgets
