@@ -12,7 +12,7 @@ mod support;
 use support::scenes::{
     Scene, Trace, camera, lit_frame, spheres_on_a_floor, square, trace, trace_into,
 };
-use support::{Gpu, floats};
+use support::{Gpu, floats, relative_mse};
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_render::{DebugView, SurfaceMaterial};
 
@@ -35,16 +35,6 @@ fn denoised(gpu: &Gpu, target: &support::TraceTarget, samples: u32) -> Vec<Vec3>
                 * albedo.max(Vec3::splat(0.02))
         })
         .collect()
-}
-
-fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f32 {
-    let num: f32 = image
-        .iter()
-        .zip(reference)
-        .map(|(a, b)| (*a - *b).length_squared())
-        .sum();
-    let den: f32 = reference.iter().map(|b| b.length_squared()).sum();
-    num / den
 }
 
 #[test]

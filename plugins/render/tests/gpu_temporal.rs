@@ -12,70 +12,24 @@
 
 mod support;
 
-use support::scenes::{Scene, camera, lit_frame, sphere, spheres_on_a_floor, square};
-use support::temporal::Pictures;
-use support::{Gpu, Layers, TraceTarget, floats};
-use treelight_bvh::glam::{Affine3A, Mat4, Quat, Vec3};
-use treelight_render::{
-    DebugView, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TEMPORAL_FADE_SAMPLES, TemporalRestart,
-    TraceWork, ViewParams, light_bytes,
+use support::scenes::{
+    Frames, Scene, Trace, camera, lit_frame, mean_image, sphere, spheres_on_a_floor, square,
 };
+use support::temporal::Pictures;
+use support::{Gpu, relative_mse};
+use treelight_bvh::glam::{Affine3A, Mat4, Quat, Vec3};
+use treelight_render::{SurfaceMaterial, TEMPORAL_FADE_SAMPLES, TemporalRestart, TraceWork};
 
 const SIZE: u32 = 48;
 
-/// Traces `work` at `world_from_clip` into a fresh target (`samples` a pixel for whole-image work).
-#[allow(clippy::too_many_arguments)]
-fn trace_frame(
-    gpu: &Gpu,
-    pipeline: &wgpu::ComputePipeline,
-    buffers: &[wgpu::Buffer; 6],
-    layers: &Layers,
-    scene: &Scene,
-    lights: &[SceneLight],
-    world_from_clip: Mat4,
-    work: TraceWork,
-    samples: u32,
-    bounces: u32,
-) -> TraceTarget {
-    let target = gpu.trace_target(SIZE, SIZE);
-    let per = samples.clamp(1, 16);
-    for _ in 0..samples.div_ceil(per) {
-        let params = ViewParams {
-            world_from_clip,
-            sky: Vec3::new(0.4, 0.5, 0.7),
-            exposure: 1.0,
-            width: SIZE,
-            height: SIZE,
-            root: scene.bvh.gpu_root(),
-            max_bounces: bounces,
-            samples: per,
-            mode: DebugView::PathTraced.shader_index(),
-            light_count: lights.len() as u32,
-            indirect_clamp: 0.0,
-            work,
-            part_shift: treelight_render::MAX_PART_SHIFT,
-            environment: layers.environment_word,
-        };
-        gpu.path_trace(pipeline, buffers, &params, &target, layers);
+/// [`lit_frame`]'s view of `SIZE`² through `world_from_clip`, `samples` a pixel, `bounces` deep.
+fn lit(world_from_clip: Mat4, samples: u32, bounces: u32) -> Trace {
+    Trace {
+        world_from_clip,
+        samples,
+        bounces,
+        ..lit_frame(SIZE, samples)
     }
-    target
-}
-
-fn mean_image(gpu: &Gpu, target: &TraceTarget) -> Vec<Vec3> {
-    floats(&gpu.read(&target.accum))
-        .chunks_exact(4)
-        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
-        .collect()
-}
-
-fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f32 {
-    let num: f32 = image
-        .iter()
-        .zip(reference)
-        .map(|(a, b)| (*a - *b).length_squared())
-        .sum();
-    let den: f32 = reference.iter().map(|b| b.length_squared()).sum();
-    num / den
 }
 
 /// The camera of frame `t` of an orbit about the spheres, `step` degrees a frame.
@@ -90,10 +44,7 @@ fn an_orbit_carried_over_is_closer_to_the_converged_frames_than_its_previews() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
     let scene = spheres_on_a_floor();
-    let lights = lit_frame(SIZE, 1).lights;
-    let light_data: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
-    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
-    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let frames = Frames::new(&gpu, &scene, &layers, &lit_frame(SIZE, 1).lights);
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
     let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
     // The preview's light (one bounce, as the plugin traces it while the camera moves).
@@ -106,33 +57,14 @@ fn an_orbit_carried_over_is_closer_to_the_converged_frames_than_its_previews() {
         let world_from_clip = orbit(t, 1.5);
         let reference = mean_image(
             &gpu,
-            &trace_frame(
-                &gpu,
-                &trace,
-                &buffers,
-                &layers,
-                &scene,
-                &lights,
-                world_from_clip,
-                TraceWork::WHOLE_IMAGE,
-                256,
-                BOUNCES,
-            ),
+            &frames.trace(&lit(world_from_clip, 256, BOUNCES), TraceWork::WHOLE_IMAGE),
         );
-        let target = trace_frame(
-            &gpu,
-            &trace,
-            &buffers,
-            &layers,
-            &scene,
-            &lights,
-            world_from_clip,
+        let target = frames.trace(
+            &lit(world_from_clip, 1, BOUNCES),
             TraceWork::Preview {
                 scale: 2,
                 seed: t + 1,
             },
-            1,
-            BOUNCES,
         );
         let (restart, reproject) = match previous {
             Some(prev) => (TemporalRestart::Reproject, prev.inverse() * world_from_clip),
@@ -196,8 +128,7 @@ fn what_a_move_uncovers_takes_nothing_from_what_hid_it() {
         false,
         &black,
     );
-    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &[]);
-    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let frames = Frames::new(&gpu, &scene, &layers, &[]);
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
     let at = |x: f32| {
         camera(
@@ -208,19 +139,13 @@ fn what_a_move_uncovers_takes_nothing_from_what_hid_it() {
         )
     };
     let (before, after) = (at(0.0), at(0.4));
+    // No light but the wall's own (and the sky).
+    let dark = |world_from_clip: Mat4, samples: u32| Trace {
+        lights: Vec::new(),
+        ..lit(world_from_clip, samples, 2)
+    };
     let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
-    let first = trace_frame(
-        &gpu,
-        &trace,
-        &buffers,
-        &layers,
-        &scene,
-        &[],
-        before,
-        TraceWork::WHOLE_IMAGE,
-        16,
-        2,
-    );
+    let first = frames.trace(&dark(before, 16), TraceWork::WHOLE_IMAGE);
     pictures.run(
         &gpu,
         &temporal,
@@ -230,18 +155,7 @@ fn what_a_move_uncovers_takes_nothing_from_what_hid_it() {
         TemporalRestart::Clear,
     );
     // One sample a pixel after the move: the last picture weighs far more than the new sample.
-    let second = trace_frame(
-        &gpu,
-        &trace,
-        &buffers,
-        &layers,
-        &scene,
-        &[],
-        after,
-        TraceWork::WHOLE_IMAGE,
-        1,
-        2,
-    );
+    let second = frames.trace(&dark(after, 1), TraceWork::WHOLE_IMAGE);
     let (picture, prior) = pictures.run(
         &gpu,
         &temporal,
@@ -290,25 +204,11 @@ fn a_still_view_shows_exactly_its_samples_once_it_has_enough() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
     let scene = spheres_on_a_floor();
-    let lights = lit_frame(SIZE, 1).lights;
-    let light_data: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
-    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &light_data);
-    let trace = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
+    let frames = Frames::new(&gpu, &scene, &layers, &lit_frame(SIZE, 1).lights);
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
     let mut pictures = Pictures::new(&gpu, SIZE, SIZE);
     let (a, b) = (orbit(0, 0.0), orbit(1, 3.0));
-    let first = trace_frame(
-        &gpu,
-        &trace,
-        &buffers,
-        &layers,
-        &scene,
-        &lights,
-        a,
-        TraceWork::WHOLE_IMAGE,
-        32,
-        4,
-    );
+    let first = frames.trace(&lit(a, 32, 4), TraceWork::WHOLE_IMAGE);
     pictures.run(
         &gpu,
         &temporal,
@@ -324,18 +224,7 @@ fn a_still_view_shows_exactly_its_samples_once_it_has_enough() {
         (fade, TemporalRestart::Keep),
         (2 * fade, TemporalRestart::Keep),
     ] {
-        let target = trace_frame(
-            &gpu,
-            &trace,
-            &buffers,
-            &layers,
-            &scene,
-            &lights,
-            b,
-            TraceWork::WHOLE_IMAGE,
-            samples,
-            4,
-        );
+        let target = frames.trace(&lit(b, samples, 4), TraceWork::WHOLE_IMAGE);
         let (picture, prior) = pictures.run(&gpu, &temporal, &target, a.inverse() * b, 0, restart);
         let mean = mean_image(&gpu, &target);
         // The picture holds half floats: the mean as a half float rounds it.

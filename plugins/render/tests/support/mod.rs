@@ -852,6 +852,21 @@ pub fn words(bytes: &[u8]) -> Vec<u32> {
         .collect()
 }
 
+/// The relative MSE of `image` against `reference`: the sum of squared differences over the sum of
+/// the reference's squares.
+pub fn relative_mse(
+    image: &[treelight_bvh::glam::Vec3],
+    reference: &[treelight_bvh::glam::Vec3],
+) -> f32 {
+    let num: f32 = image
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (*a - *b).length_squared())
+        .sum();
+    let den: f32 = reference.iter().map(|b| b.length_squared()).sum();
+    num / den
+}
+
 pub fn floats(bytes: &[u8]) -> Vec<f32> {
     words(bytes).into_iter().map(f32::from_bits).collect()
 }

@@ -148,36 +148,69 @@ pub fn trace_into(
     layers: &Layers,
     t: &Trace,
 ) -> (Vec<Vec3>, Vec<u32>, super::TraceTarget) {
-    let lights: Vec<u8> = t.lights.iter().flat_map(light_bytes).collect();
-    let buffers = gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &lights);
-    let target = gpu.trace_target(t.size, t.size);
-    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
-    let per = t.samples.min(16);
-    for _ in 0..t.samples / per {
-        let params = ViewParams {
-            world_from_clip: t.world_from_clip,
-            sky: t.sky,
-            exposure: 1.0,
-            width: t.size,
-            height: t.size,
-            root: scene.bvh.gpu_root(),
-            max_bounces: t.bounces,
-            samples: per,
-            mode: t.mode,
-            light_count: t.lights.len() as u32,
-            indirect_clamp: 0.0,
-            work: TraceWork::WHOLE_IMAGE,
-            part_shift: treelight_render::MAX_PART_SHIFT,
-            environment: layers.environment_word,
-        };
-        gpu.path_trace(&pipeline, &buffers, &params, &target, layers);
-    }
-    let image = floats(&gpu.read(&target.accum))
-        .chunks_exact(4)
-        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
-        .collect();
+    let target = Frames::new(gpu, scene, layers, &t.lights).trace(t, TraceWork::WHOLE_IMAGE);
+    let image = mean_image(gpu, &target);
     let slots = gpu.read_objects(&target);
     (image, slots, target)
+}
+
+/// Each pixel's mean sample in `target`.
+pub fn mean_image(gpu: &Gpu, target: &super::TraceTarget) -> Vec<Vec3> {
+    floats(&gpu.read(&target.accum))
+        .chunks_exact(4)
+        .map(|c| Vec3::new(c[0], c[1], c[2]) / c[3].max(1.0))
+        .collect()
+}
+
+/// A scene's buffers (with its lights) and the trace kernel, made once for the frames traced of
+/// it.
+pub struct Frames<'a> {
+    gpu: &'a Gpu,
+    scene: &'a Scene,
+    layers: &'a Layers,
+    buffers: [wgpu::Buffer; 6],
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl<'a> Frames<'a> {
+    pub fn new(gpu: &'a Gpu, scene: &'a Scene, layers: &'a Layers, lights: &[SceneLight]) -> Self {
+        let lights: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+        Self {
+            gpu,
+            scene,
+            layers,
+            buffers: gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &lights),
+            pipeline: gpu.pipeline(PATHTRACE_WGSL, "path_trace"),
+        }
+    }
+
+    /// Traces `work` of `t` into a fresh target: `t.samples` a pixel for whole-image work, in
+    /// dispatches of at most 16 (`t.lights` must be the lights the frames were made with).
+    pub fn trace(&self, t: &Trace, work: TraceWork) -> super::TraceTarget {
+        let target = self.gpu.trace_target(t.size, t.size);
+        let per = t.samples.clamp(1, 16);
+        for _ in 0..t.samples.div_ceil(per) {
+            let params = ViewParams {
+                world_from_clip: t.world_from_clip,
+                sky: t.sky,
+                exposure: 1.0,
+                width: t.size,
+                height: t.size,
+                root: self.scene.bvh.gpu_root(),
+                max_bounces: t.bounces,
+                samples: per,
+                mode: t.mode,
+                light_count: t.lights.len() as u32,
+                indirect_clamp: 0.0,
+                work,
+                part_shift: treelight_render::MAX_PART_SHIFT,
+                environment: self.layers.environment_word,
+            };
+            self.gpu
+                .path_trace(&self.pipeline, &self.buffers, &params, &target, self.layers);
+        }
+        target
+    }
 }
 
 /// A grey floor, a red sphere and a rough metal one, lit by [`lit_frame`]'s light and sky.
