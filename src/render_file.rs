@@ -46,8 +46,11 @@ pub fn check_output(args: &RenderArgs) -> Result<(), String> {
                 sky.display()
             ));
         }
-        if !sky.is_file() {
+        if !sky.exists() {
             return Err(format!("{}: no such file", sky.display()));
+        }
+        if !sky.is_file() {
+            return Err(format!("{}: not a regular file", sky.display()));
         }
     }
     if out.exists() && !args.overwrite {

@@ -213,8 +213,11 @@ fn a_project_s_sky_panorama_is_seen_turned_and_hidden_in_its_render() {
     assert!(ok, "{log}");
     let unturned = corner(&load_rgb(&out));
     assert!(unturned[1] > 2.0 * unturned[0], "{unturned:?}");
+    std::fs::create_dir_all(dir.join("folder.hdr")).unwrap();
     for (bad, why) in [
         (dir.join("missing.hdr"), "no such file"),
+        // A folder named like a panorama: refused before anything is read.
+        (dir.join("folder.hdr"), "not a regular file"),
         (dir.join("plain.png"), "must be a .hdr or .exr"),
     ] {
         let (ok, log, out) = with_sky("refused", None, &["--sky", bad.to_str().unwrap()]);
