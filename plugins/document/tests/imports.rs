@@ -48,6 +48,36 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
         .collect();
     assert_eq!(roots.len(), 2, "{roots:?}");
     assert_eq!(app.world().resource::<TracingImports>().jobs.len(), 0);
+    // The two imports of one file show one mesh and one texture, each under a material of its
+    // own: the tree holds the box once and the path tracer's array one layer.
+    let world = app.world_mut();
+    let mut q = world.query::<(
+        &treelight_document::import::spawn::MeshSource,
+        &Mesh3d,
+        &MeshMaterial3d<StandardMaterial>,
+    )>();
+    let shown: Vec<_> = q
+        .iter(world)
+        .filter(|(s, ..)| s.0.file == file)
+        .map(|(s, m, mat)| (s.0.import, m.0.id(), mat.0.clone()))
+        .collect();
+    assert_eq!(shown.len(), 2, "{shown:?}");
+    assert_ne!(shown[0].0, shown[1].0);
+    assert_eq!(shown[0].1, shown[1].1, "the mesh is not shared");
+    assert_ne!(shown[0].2.id(), shown[1].2.id(), "the material is shared");
+    let materials = world.resource::<Assets<StandardMaterial>>();
+    let texture = |m: &Handle<StandardMaterial>| {
+        materials
+            .get(m)
+            .and_then(|m| m.base_color_texture.as_ref())
+            .map(Handle::id)
+    };
+    assert!(texture(&shown[0].2).is_some());
+    assert_eq!(
+        texture(&shown[0].2),
+        texture(&shown[1].2),
+        "the texture is not shared"
+    );
 }
 
 #[test]

@@ -1222,3 +1222,182 @@ fn a_file_s_lights_come_in_as_editor_lights_and_their_edits_are_saved() {
     assert!(refused.is_err());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// An import's mesh asset ids (one per mesh object) and its distinct material asset ids.
+type ImportAssets = (Vec<AssetId<Mesh>>, Vec<AssetId<StandardMaterial>>);
+
+/// The mesh and material asset ids of the objects of each import of a file, by import number.
+fn assets_by_import(world: &mut World) -> BTreeMap<u32, ImportAssets> {
+    use treelight_document::import::spawn::MeshSource;
+    let mut out: BTreeMap<u32, (Vec<_>, Vec<_>)> = BTreeMap::new();
+    let mut q = world.query::<(&MeshSource, &Mesh3d, &MeshMaterial3d<StandardMaterial>)>();
+    for (source, mesh, material) in q.iter(world) {
+        let entry = out.entry(source.0.import).or_default();
+        entry.0.push(mesh.0.id());
+        entry.1.push(material.0.id());
+    }
+    for (meshes, materials) in out.values_mut() {
+        meshes.sort();
+        materials.sort();
+        materials.dedup();
+    }
+    out
+}
+
+#[test]
+fn a_file_imported_twice_shares_its_meshes_and_saves_as_two_compact_sources() {
+    let dir = temp("twice");
+    let (file, _) = assembly::generated_assembly(&dir, 300, 2);
+    let import = |app: &mut App, x: f32| {
+        apply(
+            app,
+            EditCommand::Import {
+                file: file.clone(),
+                root: None,
+                transform: Some(Transform::from_xyz(x, 0.0, 0.0).into()),
+            },
+        )
+    };
+    let mut once = editor_world();
+    import(&mut once, 0.0);
+    world::settle_tree(&mut once);
+    let triangles_once = once
+        .world()
+        .resource::<treelight_scene::SceneBvh>()
+        .stats()
+        .triangles;
+
+    let mut app = editor_world();
+    import(&mut app, 0.0);
+    import(&mut app, 20.0);
+    // The second import shows the first one's meshes (the tree holds their triangles once, each
+    // placement an instance) under materials of its own.
+    let assets = assets_by_import(app.world_mut());
+    let imports: Vec<_> = assets.values().collect();
+    assert_eq!(imports.len(), 2);
+    assert_eq!(imports[0].0.len(), 300);
+    assert_eq!(imports[0].0, imports[1].0, "the meshes are not shared");
+    assert!(
+        imports[0].1.iter().all(|m| !imports[1].1.contains(m)),
+        "an import's material edits would show on the other"
+    );
+    world::settle_tree(&mut app);
+    assert_eq!(
+        app.world()
+            .resource::<treelight_scene::SceneBvh>()
+            .stats()
+            .triangles,
+        triangles_once
+    );
+
+    // Unedited, the two imports are two sources of one file, each its root and one run of ids.
+    let before = state(app.world_mut());
+    let path = dir.join("twice.treelight");
+    save_project(app.world_mut(), &path).unwrap();
+    let bytes = std::fs::metadata(&path).unwrap().len();
+    // One import's project is under 2 KB; the second adds its root and a run.
+    assert!(bytes < 3072, "two unedited imports save as {bytes} bytes");
+    let saved = read_project(&path).unwrap();
+    assert_eq!(saved.sources.len(), 2);
+    assert_eq!(saved.sources[0], saved.sources[1]);
+    assert_eq!(saved.objects.len(), 3, "{:?}", saved.objects);
+    assert_eq!(saved.source_ids.len(), 2);
+    assert!(saved.source_ids.iter().all(|s| s.runs.len() == 1));
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), before);
+    let reopened = assets_by_import(fresh.world_mut());
+    let reopened: Vec<_> = reopened.values().collect();
+    assert_eq!(
+        reopened[0].0, reopened[1].0,
+        "reopened, the meshes are not shared"
+    );
+
+    // Edits to each import stay with that import: a part of the second moved and one renamed, a
+    // part of the first deleted. A third import, deleted, is not written.
+    let parts = |app: &mut App, import: u32| -> Vec<SceneId> {
+        use treelight_document::import::spawn::SourceKey;
+        let world = app.world_mut();
+        let mut q = world.query::<(&SceneId, &SourceKey)>();
+        let mut v: Vec<(u32, SceneId)> = q
+            .iter(world)
+            .filter(|(_, k)| k.import == import && k.index > 0)
+            .map(|(i, k)| (k.index, *i))
+            .collect();
+        v.sort();
+        v.into_iter().map(|(_, i)| i).collect()
+    };
+    let numbers = imports_numbers(&mut app);
+    let first = parts(&mut app, numbers[0]);
+    let second = parts(&mut app, numbers[1]);
+    apply(
+        &mut app,
+        EditCommand::SetTransform {
+            id: second[7],
+            transform: Transform::from_xyz(1.0, 3.0, 0.0).into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Rename {
+            id: second[8],
+            name: "renamed".into(),
+        },
+    );
+    apply(
+        &mut app,
+        EditCommand::Delete {
+            ids: vec![first[9]],
+        },
+    );
+    import(&mut app, 40.0);
+    let third_root = state(app.world_mut())
+        .into_iter()
+        .filter(|(_, o)| o.name == "assembly.gltf")
+        .map(|(id, _)| id)
+        .max()
+        .unwrap();
+    apply(
+        &mut app,
+        EditCommand::Delete {
+            ids: vec![third_root],
+        },
+    );
+    let edited = state(app.world_mut());
+    save_project(app.world_mut(), &path).unwrap();
+    let saved = read_project(&path).unwrap();
+    assert_eq!(saved.sources.len(), 2, "the deleted import was written");
+    assert_eq!(saved.objects.len(), 3 + 2);
+    assert_eq!(saved.deleted.len(), 1);
+    assert!(std::fs::metadata(&path).unwrap().len() < 4096);
+    let mut fresh = editor_world();
+    open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(state(fresh.world_mut()), edited);
+
+    // With the file gone, both sources and what they hold are kept apart by the next save, and
+    // come back as they were once it is back.
+    let kept = dir.join("kept.gltf");
+    std::fs::rename(&file, &kept).unwrap();
+    let mut missing = editor_world();
+    let report = open_project(missing.world_mut(), &path).unwrap();
+    assert_eq!(report.missing_sources.len(), 2, "{report:?}");
+    save_project(missing.world_mut(), &path).unwrap();
+    let resaved = read_project(&path).unwrap();
+    assert_eq!(
+        (&resaved.sources, &resaved.source_ids, resaved.deleted.len()),
+        (&saved.sources, &saved.source_ids, 1)
+    );
+    std::fs::rename(&kept, &file).unwrap();
+    let mut back = editor_world();
+    open_project(back.world_mut(), &path).unwrap();
+    back.update();
+    assert_eq!(state(back.world_mut()), edited);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The import numbers of the imports in the scene, in order.
+fn imports_numbers(app: &mut App) -> Vec<u32> {
+    assets_by_import(app.world_mut()).into_keys().collect()
+}

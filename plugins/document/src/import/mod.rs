@@ -8,6 +8,7 @@ pub mod convert;
 pub mod finish;
 pub mod jobs;
 pub mod parse;
+pub mod share;
 pub mod spawn;
 
 use bevy::prelude::*;
@@ -23,6 +24,7 @@ impl Plugin for ImportPlugin {
         app.init_resource::<parse::PendingImports>()
             .init_resource::<parse::ParsedImports>()
             .init_resource::<spawn::SourceCatalog>()
+            .init_resource::<share::SharedAssets>()
             .init_resource::<jobs::TracingImports>()
             .init_resource::<jobs::CancelImports>()
             .init_resource::<ask::ImportQuestions>()

@@ -32,12 +32,25 @@ pub struct Prebuilt {
     /// Each mesh's bounds (of `meshes[i]`, or of the mesh it repeats), so that Bevy need not
     /// compute them on the main thread when the objects are spawned.
     pub bounds: Vec<Option<bevy::camera::primitives::Aabb>>,
+    /// The content of each of `meshes` ([`crate::import::share::mesh_hash`]), so that a mesh
+    /// already in the scene is shared without hashing it on the main thread.
+    pub mesh_hashes: Vec<Option<u64>>,
+    /// The content of each of the scene's textures ([`crate::import::share::texture_hash`]).
+    pub texture_hashes: Vec<u64>,
 }
 
 impl From<ImportedScene> for ParsedScene {
     fn from(scene: ImportedScene) -> Self {
         use bevy::camera::primitives::MeshAabb;
         let tangents = crate::import::convert::tangents_needed(&scene);
+        use crate::import::share::{mesh_hash, texture_hash};
+        let mesh_hashes = scene
+            .meshes
+            .iter()
+            .zip(&tangents)
+            .map(|(m, &t)| m.same_as.is_none().then(|| mesh_hash(&m.geometry, t)))
+            .collect();
+        let texture_hashes = scene.textures.iter().map(texture_hash).collect();
         let meshes: Vec<Option<Mesh>> = scene
             .meshes
             .iter()
@@ -75,6 +88,8 @@ impl From<ImportedScene> for ParsedScene {
                 meshes,
                 images,
                 bounds,
+                mesh_hashes,
+                texture_hashes,
             },
         }
     }

@@ -5,11 +5,13 @@ use crate::import::convert::{
     ImageKey, material, material_maps, put_map, tangents_needed, to_bevy_image, to_bevy_mesh,
 };
 use crate::import::parse::Prebuilt;
+use crate::import::share::{SharedAssets, image_hash, mesh_hash, texture_hash};
 use crate::object::{SceneId, SceneObject};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use treelight_import::{ImportedMaterial, ImportedScene};
 
 /// Filter for entities that light the scene.
@@ -106,13 +108,20 @@ pub fn spawn_scene_in_world(
 ) -> Result<SpawnedScene, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
         bevy::ecs::system::SystemState::new(world);
+    let import = world
+        .get_resource_mut::<SourceCatalog>()
+        .map_or(0, |mut c| c.add(file, source_keys(scene)));
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
-    let objects = spawn_scene(&mut commands, file, scene, prebuilt, &mut assets, ids);
+    let objects = spawn_scene(
+        &mut commands,
+        (file, import),
+        scene,
+        prebuilt,
+        &mut assets,
+        ids,
+    );
     let root = objects[0];
     state.apply(world);
-    if let Some(mut catalog) = world.get_resource_mut::<SourceCatalog>() {
-        catalog.0.insert(file.to_owned(), source_keys(scene));
-    }
     let mut top = vec![root];
     let mut lights = world.query_filtered::<(), AnyLight>();
     if add_sun && lights.iter(world).next().is_none() {
@@ -142,6 +151,8 @@ pub struct SceneAssets<'w> {
     pub materials: ResMut<'w, Assets<StandardMaterial>>,
     /// Textures.
     pub images: ResMut<'w, Assets<Image>>,
+    /// The meshes and images of earlier imports, by content.
+    pub shared: ResMut<'w, SharedAssets>,
 }
 
 /// Where an imported object came from: the file and the node's key in it (names from the top,
@@ -155,6 +166,9 @@ pub struct SourceKey {
     pub key: String,
     /// The key's place in [`source_keys`] of the file as imported.
     pub index: u32,
+    /// Which import of the file the object came from, as [`SourceCatalog`] numbers them: a file
+    /// imported twice is two sources of a project, each keeping its own edits.
+    pub import: u32,
 }
 
 /// Which file's mesh an object shows: its own node's for an imported mesh, the original's for a
@@ -162,18 +176,68 @@ pub struct SourceKey {
 #[derive(Component, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct MeshSource(pub SourceKey);
 
-/// Every node key each imported file had when it was imported, so a project can tell which nodes
-/// the user deleted.
+/// Every import of a file since the scene was opened, by number: the file and the node keys it
+/// had when imported, so a project can tell which nodes the user deleted.
 #[derive(Resource, Default, Debug)]
-pub struct SourceCatalog(pub HashMap<PathBuf, Vec<String>>);
+pub struct SourceCatalog {
+    imports: HashMap<u32, SourceImport>,
+    next: u32,
+}
+
+/// One import of a file, in the [`SourceCatalog`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceImport {
+    /// The file.
+    pub file: PathBuf,
+    /// Its [`source_keys`] when imported; shared by the imports of one file that found the same.
+    pub keys: Arc<Vec<String>>,
+}
+
+impl SourceCatalog {
+    /// Notes an import of `file` whose nodes have `keys`; returns its number.
+    pub fn add(&mut self, file: &Path, keys: Vec<String>) -> u32 {
+        let keys = self
+            .imports
+            .values()
+            .find(|i| i.file == file && *i.keys == keys)
+            .map_or_else(|| Arc::new(keys), |i| i.keys.clone());
+        let number = self.next;
+        self.next += 1;
+        self.imports.insert(
+            number,
+            SourceImport {
+                file: file.to_owned(),
+                keys,
+            },
+        );
+        number
+    }
+
+    /// The import numbered `import`.
+    pub fn get(&self, import: u32) -> Option<&SourceImport> {
+        self.imports.get(&import)
+    }
+
+    /// Every import, by number.
+    pub fn iter(&self) -> impl Iterator<Item = (u32, &SourceImport)> {
+        self.imports.iter().map(|(n, i)| (*n, i))
+    }
+
+    /// Forgets every import (a new scene).
+    pub fn clear(&mut self) {
+        self.imports.clear();
+    }
+}
 
 /// Spawns the file as an assembly: one root named after the file, its node hierarchy beneath as
 /// parent and child entities with local transforms, each mesh on its node (or, for a node with
 /// several meshes or for files without nodes, as a child of its own), each with the id `ids` gives
-/// in [`source_keys`] order. Returns the objects in that order, the root first.
+/// in [`source_keys`] order, as import number `import` of `file` ([`SourceCatalog`]). A mesh or
+/// image equal to one already in the scene is that one ([`SharedAssets`]). Returns the objects in
+/// that order, the root first.
 pub fn spawn_scene(
     commands: &mut Commands,
-    file: &Path,
+    (file, import): (&Path, u32),
     scene: &ImportedScene,
     prebuilt: &mut Prebuilt,
     assets: &mut SceneAssets,
@@ -197,6 +261,7 @@ pub fn spawn_scene(
                 file: file.to_owned(),
                 key: String::new(),
                 index: 0,
+                import,
             },
         ))
         .id();
@@ -216,6 +281,7 @@ pub fn spawn_scene(
                         file: file.to_owned(),
                         key: n.key.clone(),
                         index: 1 + k as u32,
+                        import,
                     },
                     ChildOf(parent),
                 ))
@@ -254,16 +320,20 @@ pub fn spawn_scene(
             .unwrap_or_else(|| fallback.clone());
         let mesh = match m.same_as.and_then(|j| mesh_handles.get(j)) {
             Some(h) => h.clone(),
-            None => assets.meshes.add(
-                prebuilt
-                    .meshes
-                    .get_mut(i)
-                    .and_then(Option::take)
-                    .unwrap_or_else(|| {
-                        let needed = tangents.get_or_insert_with(|| tangents_needed(scene));
-                        to_bevy_mesh(m, needed.get(i).copied().unwrap_or(false))
-                    }),
-            ),
+            None => {
+                let needed = tangents.get_or_insert_with(|| tangents_needed(scene));
+                let with_tangents = needed.get(i).copied().unwrap_or(false);
+                let hash = prebuilt
+                    .mesh_hashes
+                    .get(i)
+                    .copied()
+                    .flatten()
+                    .unwrap_or_else(|| mesh_hash(&m.geometry, with_tangents));
+                let made = prebuilt.meshes.get_mut(i).and_then(Option::take);
+                assets.shared.mesh(hash, &mut assets.meshes, || {
+                    made.unwrap_or_else(|| to_bevy_mesh(m, with_tangents))
+                })
+            }
         };
         mesh_handles.push(mesh.clone());
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
@@ -277,6 +347,7 @@ pub fn spawn_scene(
                     file: file.to_owned(),
                     key: scene.nodes[n].key.clone(),
                     index: 1 + n as u32,
+                    import,
                 };
                 commands.entity(nodes[n]).insert((shape, MeshSource(key)));
                 nodes[n]
@@ -292,6 +363,7 @@ pub fn spawn_scene(
                     file: file.to_owned(),
                     key,
                     index: objects.len() as u32,
+                    import,
                 };
                 let e = commands
                     .spawn((
@@ -330,6 +402,7 @@ fn material_handles(
     assets: &mut SceneAssets,
 ) -> Vec<Handle<StandardMaterial>> {
     let mut images: HashMap<ImageKey, Handle<Image>> = HashMap::new();
+    let mut texture_hashes: HashMap<usize, u64> = HashMap::new();
     scene
         .materials
         .iter()
@@ -341,10 +414,18 @@ fn material_handles(
                 };
                 let key = (r.texture, r.wrap, role);
                 let image = images.entry(key).or_insert_with(|| {
+                    let texture = *texture_hashes.entry(r.texture).or_insert_with(|| {
+                        prebuilt
+                            .texture_hashes
+                            .get(r.texture)
+                            .copied()
+                            .unwrap_or_else(|| texture_hash(t))
+                    });
                     let made = prebuilt.images.remove(&key);
-                    assets
-                        .images
-                        .add(made.unwrap_or_else(|| to_bevy_image(t, r.wrap, role)))
+                    let hash = image_hash(texture, r.wrap, role);
+                    assets.shared.image(hash, &mut assets.images, || {
+                        made.unwrap_or_else(|| to_bevy_image(t, r.wrap, role))
+                    })
                 });
                 put_map(&mut mat, slot, image.clone());
             }

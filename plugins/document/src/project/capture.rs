@@ -36,18 +36,20 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     let world: &World = world;
     let catalog = world.resource::<SourceCatalog>();
     let edited = world.resource::<EditedObjects>();
-    // Each imported file's nodes by key index: gone (deleted), listed, or left as they were (only
-    // their ids are written, as runs). A source's root is always listed: an import places it.
-    let mut nodes: HashMap<&Path, Vec<Node>> = HashMap::new();
+    // Each import's nodes by key index: gone (deleted), listed, or left as they were (only their
+    // ids are written, as runs). A source's root is always listed: an import places it. Each
+    // import of a file is a source of its own.
+    let mut nodes: HashMap<u32, Vec<Node>> = HashMap::new();
     let mut rows = Vec::new();
     for row in q.iter(world) {
         if let Some(k) = row.6 {
             let listed = k.index == 0 || edited.0.contains(row.1);
-            let slots = nodes
-                .entry(k.file.as_path())
-                .or_insert_with(|| vec![Node::Gone; catalog.0.get(&k.file).map_or(0, Vec::len)]);
+            let slots = nodes.entry(k.import).or_insert_with(|| {
+                vec![Node::Gone; catalog.get(k.import).map_or(0, |i| i.keys.len())]
+            });
             match slots.get_mut(k.index as usize) {
-                // A second import of the same file: its nodes are listed in full.
+                // Not the key the catalog has at this place (an object that found its way into
+                // another import): listed in full.
                 Some(slot) if *slot == Node::Gone => {
                     *slot = if listed {
                         Node::Listed
@@ -66,12 +68,12 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     rows.sort_by_key(|r| *r.1);
     let materials = world.resource::<Assets<StandardMaterial>>();
     let state = world.resource::<ProjectState>();
-    let mut sources: Vec<PathBuf> = Vec::new();
-    let source_of = |file: &Path, sources: &mut Vec<PathBuf>| -> usize {
-        match sources.iter().position(|s| s == file) {
+    let mut sources: Vec<(SourceOf, PathBuf)> = Vec::new();
+    let source_of = |of: SourceOf, file: &Path, sources: &mut Vec<(SourceOf, PathBuf)>| -> usize {
+        match sources.iter().position(|s| s.0 == of) {
             Some(i) => i,
             None => {
-                sources.push(file.to_owned());
+                sources.push((of, file.to_owned()));
                 sources.len() - 1
             }
         }
@@ -83,12 +85,12 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         let light = LightValue::of(&world.entity(*e));
         let kind = if let Some(k) = key {
             ObjectKind::Node(SourceNode {
-                source: source_of(&k.file, &mut sources),
+                source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
                 key: k.key.clone(),
             })
         } else if let Some(MeshSource(k)) = mesh_source {
             ObjectKind::MeshOf(SourceNode {
-                source: source_of(&k.file, &mut sources),
+                source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
                 key: k.key.clone(),
             })
         } else if let Some(PrimitiveShape(s)) = shape {
@@ -113,18 +115,23 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             kind,
         });
     }
-    // Deleted nodes: those each file had when imported that are gone now.
+    // Deleted nodes: those each import had that are gone now, for the imports that left an
+    // object (one wholly deleted or undone is not written).
     let mut deleted = Vec::new();
     let mut source_ids = Vec::new();
-    let mut files: Vec<&PathBuf> = catalog.0.keys().collect();
-    files.sort();
-    for file in files {
-        let keys = &catalog.0[file];
-        let slots = nodes.get(file.as_path());
+    let mut imports: Vec<(u32, &crate::import::spawn::SourceImport)> = catalog
+        .iter()
+        .filter(|(n, _)| sources.iter().any(|s| s.0 == SourceOf::Import(*n)))
+        .collect();
+    imports.sort_by_key(|i| i.0);
+    for (import, source) in imports {
+        let (file, keys) = (&source.file, &source.keys);
+        let of = SourceOf::Import(import);
+        let slots = nodes.get(&import);
         let slot = |i: usize| slots.and_then(|s| s.get(i)).copied().unwrap_or(Node::Gone);
         if slots.is_some_and(|s| s.iter().any(|n| matches!(n, Node::Unlisted(_)))) {
             source_ids.push(SourceIds {
-                source: source_of(file, &mut sources),
+                source: source_of(of, file, &mut sources),
                 keys: keys_hash(keys.iter().map(String::as_str)),
                 runs: id_runs((0..keys.len()).map(|i| match slot(i) {
                     Node::Unlisted(id) => Some(id),
@@ -141,41 +148,39 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         if gone.is_empty() {
             continue;
         }
-        let source = source_of(file, &mut sources);
+        let source = source_of(of, file, &mut sources);
         deleted.extend(gone.into_iter().map(|k| SourceNode {
             source,
             key: k.clone(),
         }));
     }
-    // What a missing source held stays as it was.
+    // What a missing source held stays as it was, each such source apart.
+    let missing_file = |i: usize| state.missing_sources.get(i).cloned().unwrap_or_default();
     for o in &state.missing {
         let mut o = o.clone();
         if let ObjectKind::Node(n) | ObjectKind::MeshOf(n) = &mut o.kind {
-            let file = state
-                .missing_sources
-                .get(n.source)
-                .cloned()
-                .unwrap_or_default();
-            n.source = source_of(&file, &mut sources);
+            let file = missing_file(n.source);
+            n.source = source_of(SourceOf::Missing(n.source), &file, &mut sources);
         }
         objects.push(o);
     }
-    for (file, key) in &state.missing_deleted {
+    for (i, key) in &state.missing_deleted {
         deleted.push(SourceNode {
-            source: source_of(file, &mut sources),
+            source: source_of(SourceOf::Missing(*i), &missing_file(*i), &mut sources),
             key: key.clone(),
         });
     }
-    for (file, ids) in &state.missing_ids {
+    for ids in &state.missing_ids {
+        let file = missing_file(ids.source);
         source_ids.push(SourceIds {
-            source: source_of(file, &mut sources),
+            source: source_of(SourceOf::Missing(ids.source), &file, &mut sources),
             ..ids.clone()
         });
     }
     let camera = world.get_resource::<DocumentView>().and_then(|v| v.0);
     let project = ProjectFile {
         version: PROJECT_VERSION,
-        sources: sources.iter().map(|s| store_source(path, s)).collect(),
+        sources: sources.iter().map(|s| store_source(path, &s.1)).collect(),
         source_ids,
         objects,
         deleted,
@@ -190,6 +195,14 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             }),
     };
     (project, unsaved)
+}
+
+/// Which source of the saved project an object's node belongs to: an import in the scene (by its
+/// number), or a source the open project is missing (by its index there).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum SourceOf {
+    Import(u32),
+    Missing(usize),
 }
 
 /// What became of one of a source's nodes, for the save.

@@ -4,7 +4,8 @@
 //! consecutive ids), the objects added in the editor (shapes, lights, groups, copies of imported
 //! meshes), the camera, the look (exposure and tone curve) and the sky panorama; never a copy of the geometry, and no line per unchanged node, so a
 //! project grows with the edits, not the sources. Opening one imports its sources again and
-//! applies the rest ([`super::restore`]); saving writes a temporary file beside the target,
+//! applies the rest ([`super::restore`]); a file imported several times is listed once per
+//! import, each its own source with its own edits and ids. Saving writes a temporary file beside the target,
 //! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
 //! every node, version 2 files, without a look, and version 3 files, without a sky panorama,
 //! still open.
@@ -179,10 +180,10 @@ pub struct ProjectState {
     /// The files the missing objects' source indices name (every source of the project as
     /// opened, resolved).
     pub missing_sources: Vec<PathBuf>,
-    /// Deleted source nodes of missing sources, kept likewise.
-    pub missing_deleted: Vec<(PathBuf, String)>,
-    /// The node ids of missing sources, kept likewise.
-    pub missing_ids: Vec<(PathBuf, SourceIds)>,
+    /// Deleted source nodes of missing sources (by index into `missing_sources`), kept likewise.
+    pub missing_deleted: Vec<(usize, String)>,
+    /// The node ids of missing sources (their indices into `missing_sources`), kept likewise.
+    pub missing_ids: Vec<SourceIds>,
 }
 
 /// What opening a project found missing, for the user.

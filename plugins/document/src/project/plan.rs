@@ -48,7 +48,7 @@ impl OpenPlan<'_> {
 /// Plans the opening of `project` over its parsed sources, and checks the hierarchy it makes.
 pub(crate) fn plan<'a>(
     project: &ProjectFile,
-    parsed: &'a [Option<ImportedScene>],
+    parsed: &'a [Option<std::sync::Arc<ImportedScene>>],
 ) -> Result<OpenPlan<'a>, String> {
     // Sources whose keys the project names past the root: they need the index.
     let mut named: HashSet<usize> = HashSet::new();

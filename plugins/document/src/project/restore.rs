@@ -14,6 +14,7 @@ use crate::project::plan::OpenPlan;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The sources the open project is missing: files that held objects or deletions still kept.
 pub fn missing_sources(state: &ProjectState) -> Vec<PathBuf> {
@@ -30,8 +31,10 @@ pub fn missing_sources(state: &ProjectState) -> Vec<PathBuf> {
             add(p);
         }
     }
-    for (p, _) in &state.missing_deleted {
-        add(p);
+    for (i, _) in &state.missing_deleted {
+        if let Some(p) = state.missing_sources.get(*i) {
+            add(p);
+        }
     }
     // Objects whose nodes are gone from a file that is there are not a missing source.
     out.retain(|p| !p.is_file());
@@ -125,13 +128,14 @@ pub struct OpenProgress {
 /// A project's sources, read: what [`open_project_parsed`] puts in the scene.
 pub struct ParsedSources {
     resolved: Vec<PathBuf>,
-    parsed: Vec<Option<treelight_import::ImportedScene>>,
+    parsed: Vec<Option<Arc<treelight_import::ImportedScene>>>,
     report: OpenReport,
 }
 
 impl ParsedSources {
-    /// Each source's scene, in the project's order (`None` for a missing or unreadable one).
-    pub fn scenes(&self) -> &[Option<treelight_import::ImportedScene>] {
+    /// Each source's scene, in the project's order (`None` for a missing or unreadable one); a
+    /// file the project imports several times is read once, its scene shared.
+    pub fn scenes(&self) -> &[Option<Arc<treelight_import::ImportedScene>>] {
         &self.parsed
     }
 }
@@ -146,7 +150,7 @@ pub fn parse_sources(
 ) -> Result<ParsedSources, ProjectError> {
     use std::sync::atomic::Ordering;
     let mut report = OpenReport::default();
-    let mut parsed: Vec<Option<treelight_import::ImportedScene>> = Vec::new();
+    let mut parsed: Vec<Option<Arc<treelight_import::ImportedScene>>> = Vec::new();
     let resolved: Vec<PathBuf> = project
         .sources
         .iter()
@@ -161,6 +165,23 @@ pub fn parse_sources(
                 path.to_owned(),
                 "opening cancelled".into(),
             ));
+        }
+        // A file imported again: read once.
+        if let Some(j) = resolved[..i].iter().position(|f| f == file) {
+            parsed.push(parsed[j].clone());
+            if parsed[j].is_none()
+                && let Some(m) = report
+                    .missing_sources
+                    .iter()
+                    .find(|m| m.0 == *file)
+                    .cloned()
+            {
+                report.missing_sources.push(m);
+            }
+            if let Some(p) = progress {
+                p.done.store(i + 1, Ordering::Relaxed);
+            }
+            continue;
         }
         match check_source(file) {
             Err(problem) => {
@@ -178,7 +199,7 @@ pub fn parse_sources(
                 parsed.push(None);
             }
             Ok(true) => match treelight_import::load_scene(file) {
-                Ok(scene) => parsed.push(Some(scene)),
+                Ok(scene) => parsed.push(Some(Arc::new(scene))),
                 Err(e) => {
                     report.missing_sources.push((file.clone(), e.to_string()));
                     parsed.push(None);
@@ -222,7 +243,7 @@ pub fn empty_scene(world: &mut World) {
     world.insert_resource(crate::look::SceneLook::default());
     world.insert_resource(crate::environment::SceneEnvironment::default());
     world.write_message(DocumentEvent::Replaced);
-    world.resource_mut::<SourceCatalog>().0.clear();
+    world.resource_mut::<SourceCatalog>().clear();
 }
 
 /// Empties the scene for a project, and reserves the ids the project holds (those kept while
@@ -252,7 +273,7 @@ fn clear_scene(world: &mut World, project: &ProjectFile, read: &[bool]) {
 /// source's objects in key order.
 fn spawn_sources(
     world: &mut World,
-    parsed: &[Option<treelight_import::ImportedScene>],
+    parsed: &[Option<Arc<treelight_import::ImportedScene>>],
     resolved: &[PathBuf],
     plan: &OpenPlan,
 ) -> Vec<Vec<Entity>> {
@@ -469,9 +490,7 @@ pub fn open_project_parsed(
     // Deleted nodes go last: their children the user moved elsewhere are elsewhere by now.
     for d in &project.deleted {
         if parsed[d.source].is_none() {
-            state
-                .missing_deleted
-                .push((resolved[d.source].clone(), d.key.clone()));
+            state.missing_deleted.push((d.source, d.key.clone()));
         } else if let Some(e) = node(d.source, &d.key)
             && world.get_entity(e).is_ok()
         {
@@ -495,9 +514,7 @@ pub fn open_project_parsed(
     });
     for s in &project.source_ids {
         if parsed[s.source].is_none() {
-            state
-                .missing_ids
-                .push((resolved[s.source].clone(), s.clone()));
+            state.missing_ids.push(s.clone());
         }
     }
     world.insert_resource(state);

@@ -19,3 +19,27 @@ pub fn fresh_dir(kind: &str, name: &str) -> PathBuf {
     std::fs::create_dir_all(&d).unwrap();
     d
 }
+
+/// Updates until the scene BVH holds what the world shows and its worker is idle.
+pub fn settle_tree(app: &mut App) {
+    let start = std::time::Instant::now();
+    for _ in 0..3 {
+        app.update();
+    }
+    loop {
+        app.update();
+        if app
+            .world()
+            .resource::<treelight_scene::SceneBvh>()
+            .is_idle()
+        {
+            app.update();
+            return;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "the BVH did not settle"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+}
