@@ -840,3 +840,83 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
         "raster against traced sky: mean difference {mean:.2}, {far} of {n} pixels over 8 levels"
     );
 }
+
+#[test]
+fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
+    // A sphere, alone (no light, no floor), under a uniform grey panorama that is hidden from the
+    // camera: only the panorama lights it. Seen raster and traced from the same place, the
+    // sphere's middle must agree; unlit, the raster sphere is black.
+    let middles: Vec<f64> = ["raster", "path"]
+        .iter()
+        .map(|view| {
+            let name = format!("sky-light-{view}");
+            let dir = temp_dir(&name);
+            let sky = dir.join("grey.hdr");
+            let img = image::Rgb32FImage::from_pixel(128, 64, image::Rgb([0.5, 0.5, 0.5]));
+            image::DynamicImage::ImageRgb32F(img).save(&sky).unwrap();
+            let project = dir.join("ball.treelight");
+            std::fs::write(
+                &project,
+                "(version: 4, objects: [(id: (1), name: \"Ball\", transform: (translation: \
+                 (0.0, 0.0, 0.0), rotation: (0.0, 0.0, 0.0, 1.0), scale: (1.0, 1.0, 1.0)), kind: \
+                 Shape(Sphere))], camera: Some((focus: (0.0, 0.0, 0.0), radius: 2.0, yaw: 0.3, \
+                 pitch: 0.2)), environment: Some((image: Some(\"grey.hdr\"), rotation_degrees: \
+                 0.0, intensity: 1000.0, shown: false)))",
+            )
+            .unwrap();
+            let mut s = xdrive::Session::start(
+                &name,
+                &[
+                    project.to_str().unwrap(),
+                    "--view",
+                    view,
+                    "--trace-scale",
+                    "1",
+                    "--samples",
+                    "16",
+                    "--width",
+                    "640",
+                    "--height",
+                    "400",
+                ],
+            );
+            s.wait_until("the panorama", std::time::Duration::from_secs(120), |st| {
+                st.environment.1 && (*view == "raster" || st.samples >= 16)
+            });
+            // The sphere's middle: a box a tenth of the view's height across at its centre.
+            let middle = |s: &mut xdrive::Session| {
+                let state = s.frames(5);
+                let shot = s.screenshot();
+                let [x, y, w, h] = state.viewport.map(|v| v as u32);
+                let (cx, cy, r) = (x + w / 2, y + h / 2, h / 20);
+                let crop =
+                    image::imageops::crop_imm(&shot, cx - r, cy - r, 2 * r, 2 * r).to_image();
+                crop.save(dir.join("middle.png")).ok();
+                let sum: u64 = crop
+                    .pixels()
+                    .map(|p| p.0.iter().map(|&c| u64::from(c)).sum::<u64>())
+                    .sum();
+                sum as f64 / (3 * crop.width() * crop.height()) as f64
+            };
+            // Bevy filters the light from the cube map on the GPU once the cube is made (on a
+            // thread of its own) and its pipelines are compiled: on a loaded machine, a while.
+            let start = std::time::Instant::now();
+            loop {
+                let m = middle(&mut s);
+                if *view == "path"
+                    || m > 20.0
+                    || start.elapsed() > std::time::Duration::from_secs(120)
+                {
+                    s.screenshot().save(dir.join("view.png")).ok();
+                    break m;
+                }
+            }
+        })
+        .collect();
+    let (raster, traced) = (middles[0], middles[1]);
+    assert!(traced > 40.0, "the traced sphere is dark: {traced}");
+    assert!(
+        (raster - traced).abs() < 0.15 * traced,
+        "the raster sphere's middle is {raster:.1} levels, the traced one's {traced:.1}"
+    );
+}

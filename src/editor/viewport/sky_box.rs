@@ -1,12 +1,14 @@
-//! The sky panorama behind the raster view: Bevy's [`Skybox`] needs a cube map, so the panorama
-//! the path tracer samples as it is (equirectangular) is resampled into six faces on a thread of
-//! its own, turned and scaled as the path tracer turns and scales it. Shown only while the view is
-//! rasterised and the panorama is set to be seen (the path tracer draws its own sky).
+//! The sky panorama in the raster view: Bevy's [`Skybox`] needs a cube map, so the panorama the
+//! path tracer samples as it is (equirectangular) is resampled into six faces on a thread of its
+//! own, turned and scaled as the path tracer turns and scales it. Shown behind the scene while the
+//! view is rasterised and the panorama is set to be seen (the path tracer draws its own sky); and,
+//! shown or hidden, it lights the raster view's meshes as it lights the path tracer's, through
+//! Bevy's environment map light filtered from the same cube on the GPU.
 
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::render_mode::ViewportRender;
 use bevy::asset::RenderAssetUsages;
-use bevy::light::Skybox;
+use bevy::light::{EnvironmentMapLight, GeneratedEnvironmentMapLight, Skybox};
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     Extent3d, TextureDimension, TextureFormat, TextureViewDescriptor, TextureViewDimension,
@@ -58,7 +60,8 @@ fn panorama_at(rgba: &[[f32; 4]], width: u32, height: u32, d: Vec3) -> [f32; 3] 
 /// A cube map of the panorama for Bevy's [`Skybox`], and the factor its half floats were divided
 /// by (a panorama brighter than a half float holds is stored scaled down).
 pub fn cube_from_panorama(rgba: &[[f32; 4]], width: u32, height: u32) -> (Image, f32) {
-    let side = (width / 4).clamp(16, MAX_FACE_SIDE);
+    // A power of two: Bevy filters the environment light's mip chain from it.
+    let side = (width / 4).next_power_of_two().clamp(16, MAX_FACE_SIDE);
     let mut texels = Vec::with_capacity(6 * (side * side) as usize);
     for face in 0..6 {
         for row in 0..side {
@@ -160,15 +163,34 @@ pub fn make_sky_box(
     }
 }
 
+/// The environment light the viewport camera has: the one Bevy filters from the cube, with the
+/// panorama's turn and scale.
+type SkyLight<'a> = (
+    Option<&'a GeneratedEnvironmentMapLight>,
+    Option<&'a mut EnvironmentMapLight>,
+);
+
 /// Puts the panorama's cube map behind the viewport camera while it rasterises and the panorama is
-/// shown, turned and scaled as the path tracer has it; takes it away otherwise.
+/// shown, and lights the raster view with it whether shown or not, turned and scaled as the path
+/// tracer has it; takes both away otherwise.
 pub fn sky_box_to_camera(
     mut commands: Commands,
     cube: Res<SkyBoxCube>,
     environment: Res<SceneEnvironment>,
     render: Res<ViewportRender>,
-    cameras: Query<(Entity, Option<&Skybox>), With<OrbitCamera>>,
+    mut cameras: Query<(Entity, Option<&Skybox>, SkyLight), With<OrbitCamera>>,
 ) {
+    let light = match (&cube.cube, &environment.image) {
+        (Some((image, scale)), Some(_)) if render.traced.is_none() => {
+            Some(GeneratedEnvironmentMapLight {
+                environment_map: image.clone(),
+                intensity: environment.intensity * scale,
+                rotation: Quat::from_rotation_y(environment.rotation_radians()),
+                ..default()
+            })
+        }
+        _ => None,
+    };
     let wanted = match (&cube.cube, &environment.image) {
         (Some((image, scale)), Some(_)) if environment.shown && render.traced.is_none() => {
             Some(Skybox {
@@ -179,7 +201,30 @@ pub fn sky_box_to_camera(
         }
         _ => None,
     };
-    for (entity, current) in &cameras {
+    for (entity, current, (generated, mut filtered)) in &mut cameras {
+        match (&light, generated) {
+            (None, Some(_)) => {
+                commands
+                    .entity(entity)
+                    .remove::<(GeneratedEnvironmentMapLight, EnvironmentMapLight)>();
+            }
+            // A new cube: filtered again.
+            (Some(l), g) if g.is_none_or(|g| g.environment_map != l.environment_map) => {
+                commands
+                    .entity(entity)
+                    .remove::<EnvironmentMapLight>()
+                    .insert(l.clone());
+            }
+            // A new turn or scale: the maps filtered from the cube stay.
+            (Some(l), Some(g)) if g.intensity != l.intensity || g.rotation != l.rotation => {
+                if let Some(f) = filtered.as_mut() {
+                    f.intensity = l.intensity;
+                    f.rotation = l.rotation;
+                }
+                commands.entity(entity).insert(l.clone());
+            }
+            _ => {}
+        }
         match (&wanted, current) {
             (None, Some(_)) => {
                 commands.entity(entity).remove::<Skybox>();
