@@ -233,7 +233,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum GeometrySource {
     Draco(usize, usize),
-    Accessors([Option<usize>; 4]),
+    Accessors([Option<usize>; 5]),
 }
 
 impl GeometrySource {
@@ -247,6 +247,7 @@ impl GeometrySource {
             at(Semantic::Normals),
             at(Semantic::TexCoords(0)),
             prim.indices().map(|a| a.index()),
+            at(Semantic::Tangents),
         ])
     }
 }
@@ -334,6 +335,7 @@ fn read_primitive(
             positions: d.positions,
             normals: d.normals,
             uvs: d.uvs,
+            tangents: None,
             indices: d.indices,
         },
         None => match read_accessors(path, prim, name, buffers, budget)? {
@@ -347,10 +349,12 @@ fn read_primitive(
         positions,
         normals,
         uvs,
+        tangents,
         indices,
     } = geometry;
     let normals = normals.filter(|v| v.len() == n);
     let uvs = uvs.filter(|v| v.len() == n);
+    let tangents = tangents.filter(|v| v.len() == n);
     if !indices.len().is_multiple_of(3) {
         return Err(ImportError::new(
             path,
@@ -365,6 +369,7 @@ fn read_primitive(
         positions,
         normals,
         uvs,
+        tangents,
         indices,
     }))
 }
@@ -403,6 +408,17 @@ const NORMAL: AttributeRule = AttributeRule {
         (DataType::I16, Some(true)),
     ],
     expected: "3 floats, or 3 normalized signed 8- or 16-bit integers",
+};
+
+const TANGENT: AttributeRule = AttributeRule {
+    what: "TANGENT",
+    dims: Dimensions::Vec4,
+    types: &[
+        (DataType::F32, Some(false)),
+        (DataType::I8, Some(true)),
+        (DataType::I16, Some(true)),
+    ],
+    expected: "4 floats, or 4 normalized signed 8- or 16-bit integers",
 };
 
 const TEXCOORD: AttributeRule = AttributeRule {
@@ -490,11 +506,17 @@ fn read_accessors(
     if let Some(a) = &uvs_acc {
         check_type(path, name, a, &TEXCOORD)?;
     }
+    let tangents_acc = prim.get(&Semantic::Tangents);
+    if let Some(a) = &tangents_acc {
+        check_type(path, name, a, &TANGENT)?;
+    }
     let vertices = acc.count();
     let index_count = prim.indices().map_or(vertices, |a| a.count());
     budget.charge_elements(
         vertices,
-        12 + normals_acc.as_ref().map_or(0, |_| 12) + uvs_acc.as_ref().map_or(0, |_| 8),
+        12 + normals_acc.as_ref().map_or(0, |_| 12)
+            + uvs_acc.as_ref().map_or(0, |_| 8)
+            + tangents_acc.as_ref().map_or(0, |_| 16),
         || format!("mesh '{name}''s {vertices} vertices"),
     )?;
     budget.charge_elements(index_count, 4, || {
@@ -522,6 +544,19 @@ fn read_accessors(
         Some(a) => Some(read_floats::<2>(&a, buffers).ok_or_else(unreadable)?),
         None => None,
     };
+    // Quantized tangents are only near unit length, and w is a sign; a file with a tangent that
+    // is no direction has its tangents made from the UVs instead, as for a file without.
+    let tangents = match tangents_acc {
+        Some(a) => read_floats::<4>(&a, buffers)
+            .ok_or_else(unreadable)?
+            .into_iter()
+            .map(|[x, y, z, w]| {
+                let t = glam::Vec3::new(x, y, z).try_normalize()?;
+                Some([t.x, t.y, t.z, if w < 0.0 { -1.0 } else { 1.0 }])
+            })
+            .collect::<Option<Vec<_>>>(),
+        None => None,
+    };
     let indices = match prim.indices() {
         Some(a) => read_indices(&a, buffers).ok_or_else(unreadable)?,
         None => (0..positions.len() as u32).collect(),
@@ -530,6 +565,7 @@ fn read_accessors(
         positions,
         normals,
         uvs,
+        tangents,
         indices,
     }))
 }

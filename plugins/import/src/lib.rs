@@ -227,6 +227,9 @@ pub struct MeshGeometry {
     pub normals: Option<Vec<[f32; 3]>>,
     /// Texture coordinates, one per position, if the file has them.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Vertex tangents for normal maps, one per position, if the file has them (glTF's
+    /// `TANGENT`): xyz of unit length, w the bitangent's sign (±1).
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Triangle list indices into the vertex arrays, all in range.
     pub indices: Vec<u32>,
 }

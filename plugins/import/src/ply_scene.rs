@@ -219,6 +219,7 @@ pub(crate) fn read_ply(path: &Path, budget: &mut Budget) -> Result<ImportedScene
                 positions,
                 normals,
                 uvs,
+                tangents: None,
                 indices,
             }),
             material: Some(0),

@@ -23,7 +23,17 @@ fn flight_helmet_loads_all_meshes_with_transforms() {
                 .all(|&i| (i as usize) < m.geometry.positions.len())
         );
         assert!(m.geometry.normals.is_some(), "{} lacks normals", m.name);
+        // Every mesh has the file's tangents: unit length, with the bitangent's sign.
+        let tangents = m.geometry.tangents.as_ref().expect("the file's tangents");
+        assert_eq!(tangents.len(), m.geometry.positions.len());
+        assert!(tangents.iter().all(|t| {
+            let l = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            (l - 1.0).abs() < 1e-5 && (t[3] == 1.0 || t[3] == -1.0)
+        }));
     }
+    // A file without them has none.
+    let boxed = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    assert!(boxed.meshes.iter().all(|m| m.geometry.tangents.is_none()));
 }
 
 #[test]

@@ -88,7 +88,7 @@ fn index_accessors_of_floats_or_signed_bytes_are_refused_with_the_mesh_named() {
 fn attribute_accessors_of_the_wrong_shape_or_type_are_refused() {
     let dir = folder("attribute-types");
     type Case = (&'static str, fn(&mut Value), &'static str);
-    let cases: [Case; 3] = [
+    let cases: [Case; 4] = [
         (
             "uvs-vec3.gltf",
             |g| {
@@ -112,6 +112,13 @@ fn attribute_accessors_of_the_wrong_shape_or_type_are_refused() {
                 g["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(2);
             },
             "its NORMAL accessor 2 holds Vec3 U8",
+        ),
+        (
+            "tangents-vec3.gltf",
+            |g| {
+                g["meshes"][0]["primitives"][0]["attributes"]["TANGENT"] = json!(0);
+            },
+            "its TANGENT accessor 0 holds Vec3 F32",
         ),
     ];
     for (file, edit, expected) in cases {

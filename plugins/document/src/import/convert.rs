@@ -11,7 +11,8 @@ use treelight_import::{
 
 /// A Bevy triangle-list mesh from an imported one (smooth normals computed where the file has none),
 /// with tangents when a normal map is drawn on it (`tangents`; see [`tangents_needed`]), so the
-/// raster view shows the map as the path tracer does.
+/// raster view shows the map as the path tracer does: the file's where it has them, else made from
+/// the UVs.
 pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
     let mut mesh = Mesh::new(
         PrimitiveTopology::TriangleList,
@@ -26,7 +27,9 @@ pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
         Some(n) => mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, n.clone()),
         None => mesh.compute_smooth_normals(),
     }
-    if tangents
+    if tangents && let Some(t) = &m.geometry.tangents {
+        mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, t.clone());
+    } else if tangents
         && let (Some(uvs), Some(bevy::mesh::VertexAttributeValues::Float32x3(normals))) =
             (&m.geometry.uvs, mesh.attribute(Mesh::ATTRIBUTE_NORMAL))
     {
