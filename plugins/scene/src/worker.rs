@@ -474,6 +474,8 @@ fn idle_work(
 #[derive(Default)]
 pub(crate) struct CostClock {
     at: Option<Instant>,
+    /// When the last pass was given up for a command: not tried again for as long.
+    given_up: Option<Instant>,
     /// The tree changed since the published cost was computed.
     stale: bool,
 }
@@ -511,19 +513,38 @@ fn publish_stats(
         shared.pending.fetch_sub(n, Ordering::AcqRel);
     }
     // The counts are out; the cost, a pass over the tree, follows when it is due.
+    let quarter = Duration::from_millis(250);
     let due = !waiting
-        && clock
-            .at
-            .is_none_or(|at| at.elapsed() >= Duration::from_millis(250));
+        && clock.at.is_none_or(|at| at.elapsed() >= quarter)
+        && clock.given_up.is_none_or(|at| at.elapsed() >= quarter);
     clock.stale = !due;
     if due {
+        // A pass over the whole tree: given up as soon as a command comes, so that edits never
+        // wait for it (it is due again next time).
         let (cost, memory) = {
             let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
-            (tree.bvh.sah_cost(), tree.memory_bytes())
+            let config = tree.bvh.config();
+            // Those this caller is still finishing are not new.
+            let ours = match in_flight {
+                InFlight::Finishing(n) => n,
+                InFlight::Done(_) => 0,
+            };
+            let cost = tree.bvh.sah_cost_unless(config.c_t, config.c_i, || {
+                shared.pending.load(Ordering::Acquire) > ours
+            });
+            (cost, tree.memory_bytes())
         };
         let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
-        s.sah_cost = cost;
         (s.tree_bytes, s.shading_bytes) = memory;
-        clock.at = Some(Instant::now());
+        match cost {
+            Some(cost) => {
+                s.sah_cost = cost;
+                clock.at = Some(Instant::now());
+            }
+            None => {
+                clock.stale = true;
+                clock.given_up = Some(Instant::now());
+            }
+        }
     }
 }

@@ -28,30 +28,67 @@ impl Bvh {
 
     /// SAH cost with explicit constants.
     pub fn sah_cost_with(&self, c_t: f32, c_i: f32) -> f32 {
-        if !self.has_live_instances() {
-            // Without kept-whole groups every live node is in the tree, unscaled: a linear pass over
-            // the flat arrays gives the same sum as a traversal, several times faster (no pointer
-            // chasing), which matters to callers that publish the cost of a million-node tree.
-            self.cost_over_root(|| {
-                let inner: f64 = self
-                    .inner
-                    .iter()
-                    .filter(|n| n.parent != FREE)
-                    .map(|n| n.aabb.area() as f64)
-                    .sum();
-                let leaves: f64 = self
-                    .tri
-                    .boxes
-                    .iter()
-                    .zip(&self.tri.parent)
-                    .filter(|(_, p)| **p != FREE)
-                    .map(|(b, _)| b.area() as f64)
-                    .sum();
-                c_t as f64 * inner + c_i as f64 * leaves
-            })
-        } else {
-            self.sah_cost_traversed(c_t, c_i)
+        self.sah_cost_unless(c_t, c_i, || false).unwrap_or(0.0)
+    }
+
+    /// [`Bvh::sah_cost_with`], given up (`None`) as soon as `stop` says so: it is asked every
+    /// 65,536 nodes, so a caller with something more pressing to do (an edit waiting for the
+    /// tree) never waits for a pass over millions of nodes.
+    pub fn sah_cost_unless(&self, c_t: f32, c_i: f32, stop: impl Fn() -> bool) -> Option<f32> {
+        const SLICE: usize = 1 << 16;
+        // Every live node is in the tree, or in one object-space subtree that instances place: a
+        // linear pass over the flat arrays sums them all, several times faster than a traversal
+        // (no pointer chasing), which matters to callers that publish the cost of a tree of
+        // millions. Each placed subtree's own sum (a traversal of it alone: the groups kept whole,
+        // usually few) then comes out of that and back in once per instance, scaled by its area
+        // in the world.
+        let (c_t, c_i) = (c_t as f64, c_i as f64);
+        let mut inner = 0.0f64;
+        for slice in self.inner.chunks(SLICE) {
+            if stop() {
+                return None;
+            }
+            inner += slice
+                .iter()
+                .filter(|n| n.parent != FREE)
+                .map(|n| n.aabb.area() as f64)
+                .sum::<f64>();
         }
+        let mut leaves = 0.0f64;
+        for (boxes, parents) in self
+            .tri
+            .boxes
+            .chunks(SLICE)
+            .zip(self.tri.parent.chunks(SLICE))
+        {
+            if stop() {
+                return None;
+            }
+            leaves += boxes
+                .iter()
+                .zip(parents)
+                .filter(|(_, p)| **p != FREE)
+                .map(|(b, _)| b.area() as f64)
+                .sum::<f64>();
+        }
+        Some(self.cost_over_root(|| {
+            let mut total = c_t * inner + c_i * leaves;
+            let mut placed: std::collections::HashMap<u32, f64> = std::collections::HashMap::new();
+            for inst in self.instances.iter().filter(|i| i.group != FREE) {
+                let below = *placed.entry(inst.root.0).or_insert_with(|| {
+                    let v = self.subtree_cost(inst.root, c_t, c_i, &mut Default::default());
+                    total -= v;
+                    v
+                });
+                let world = inst.aabb.area() as f64;
+                let object = self.aabb(inst.root).area() as f64;
+                total += c_t * world;
+                if object > 0.0 {
+                    total += below * world / object;
+                }
+            }
+            total
+        }))
     }
 
     /// SAH cost by a traversal from the root (what [`Bvh::sah_cost_with`] computes by other means
