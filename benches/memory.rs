@@ -4,9 +4,10 @@
 //! report is read until the whole assembly is in the tree and the scene has settled. Prints, per
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
 //! groups' shading, the path tracer's scene buffers) and per triangle, the resident and peak
-//! resident sets less the default scene's, and when the first and the last triangles were in the
-//! tree (from the start of the process, which includes parsing the file), and the frame rate once
-//! settled (the median of 8 s of reports) next to the default scene's.
+//! resident sets less the default scene's; when the file was parsed (from the start of the
+//! process), how long after that the tree held its first triangles and the viewport showed a whole
+//! path-traced picture with them, when the tree held all of them (from the start); and the frame
+//! rate once settled (the median of 8 s of reports) next to the default scene's.
 //!
 //! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
 //! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
@@ -31,6 +32,13 @@ struct Run {
     /// Seconds from the start until the tree held triangles, and all of them.
     first: Option<f64>,
     all: Option<f64>,
+    /// Seconds from the start until the file was parsed (its "opened" notice), and until the
+    /// viewport showed a whole path-traced picture of some of its triangles.
+    parsed: Option<f64>,
+    pictured: Option<f64>,
+    /// Frames from the parse's until the tree held triangles, and until the whole picture.
+    frames_to_first: Option<u64>,
+    frames_to_picture: Option<u64>,
 }
 
 /// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
@@ -100,9 +108,11 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     let mut child = cmd.spawn().expect("xvfb-run");
     // (since when, the buffers' size then, the frame then)
     let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64, u64)>);
+    let (mut parsed, mut pictured) = (None, None);
+    let (mut parse_frame, mut frames_to_first, mut frames_to_picture) = (None, None, None);
     let mut last: Option<EditorState> = None;
     while start.elapsed() < Duration::from_secs(900) {
-        std::thread::sleep(Duration::from_millis(250));
+        std::thread::sleep(Duration::from_millis(if all.is_none() { 50 } else { 250 }));
         let Some(s) = std::fs::read_to_string(&state)
             .ok()
             .and_then(|t| ron::from_str::<EditorState>(&t).ok())
@@ -110,8 +120,18 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
             continue;
         };
         let t = start.elapsed().as_secs_f64();
+        if parsed.is_none() && s.notices.iter().any(|n| n.starts_with("opened ")) {
+            parsed = Some(t);
+            parse_frame = Some(s.frame);
+        }
+        let since_parse = parse_frame.map(|f| s.frame.saturating_sub(f));
         if s.memory.triangles > 0 && first.is_none() {
             first = Some(t);
+            frames_to_first = since_parse;
+        }
+        if pictured.is_none() && s.memory.scene_buffers > 0 && s.samples >= 1 {
+            pictured = Some(t);
+            frames_to_picture = since_parse;
         }
         let complete = s.memory.triangles >= triangles;
         if complete && all.is_none() {
@@ -176,6 +196,10 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         hwm,
         first,
         all,
+        parsed,
+        pictured,
+        frames_to_first,
+        frames_to_picture,
     }
 }
 
@@ -205,9 +229,9 @@ fn main() {
         base.fps
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | first in tree (s) | all in tree (s) | frames/s |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | frames/s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let r = run(Some(&file), triangles as u64, &dir);
@@ -216,7 +240,7 @@ fn main() {
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.1} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
@@ -225,7 +249,11 @@ fn main() {
             cell(counted),
             cell(r.rss.saturating_sub(base.rss)),
             cell(r.hwm.saturating_sub(base.hwm)),
-            r.first.unwrap_or(f64::NAN),
+            r.parsed.unwrap_or(f64::NAN),
+            r.first.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
+            r.frames_to_first.map_or("?".into(), |f| f.to_string()),
+            r.pictured.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
+            r.frames_to_picture.map_or("?".into(), |f| f.to_string()),
             r.all.unwrap_or(f64::NAN),
             r.fps,
         );
