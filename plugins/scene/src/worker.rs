@@ -103,10 +103,6 @@ impl Command {
     }
 }
 
-/// New triangles a batch's part brings before it is published (a mesh is never split: huge ones
-/// go in chunks of their own).
-const SUB_BATCH: usize = 1 << 17;
-
 /// State shared between the worker and the main world.
 pub(crate) struct Shared {
     pub tree: RwLock<SceneTree>,
@@ -242,115 +238,93 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
             }
         }
-        // In arrival order, cut where the new meshes reach SUB_BATCH triangles: each part is
-        // built, inserted and published before the next, so the first meshes of a large import
-        // are traced while the rest are built.
-        let mut parts: Vec<Vec<Command>> = vec![Vec::new()];
-        let mut part_triangles = 0usize;
-        for c in commands {
-            if let Command::Upsert(m) = &c {
-                if part_triangles >= SUB_BATCH {
-                    parts.push(Vec::new());
-                    part_triangles = 0;
-                }
-                part_triangles += m.triangles.len();
-            }
-            parts.last_mut().expect("one part at least").push(c);
-        }
-        let last_part = parts.len() - 1;
-        for (k, commands) in parts.into_iter().enumerate() {
-            // The expensive part, in parallel and without the lock: world transforms and bBVH builds.
-            let prepared: Vec<Option<PreparedGroup>> = commands
-                .par_iter()
-                .map(|c| match c {
+        // The expensive part, in parallel and without the lock: world transforms and bBVH builds.
+        let prepared: Vec<Option<PreparedGroup>> = commands
+            .par_iter()
+            .map(|c| match c {
+                Command::Upsert(NewMesh {
+                    name,
+                    triangles,
+                    transform,
+                    entity,
+                    ..
+                }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
+                    Ok(p) => Some(p),
+                    Err(e) => {
+                        warn!("entity {entity} ('{name}') is not traced: {e}");
+                        None
+                    }
+                },
+                _ => None,
+            })
+            .collect();
+        {
+            let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
+            let tree = &mut *guard;
+            for (c, p) in commands.into_iter().zip(prepared) {
+                match c {
+                    // Made into an upsert on arrival; a crash never gets this far.
+                    Command::Copied { .. } | Command::Crash => {}
+                    Command::Remove { entity } => {
+                        tree.remove_entity(entity);
+                        last_move.remove(&entity);
+                    }
                     Command::Upsert(NewMesh {
-                        name,
-                        triangles,
-                        transform,
                         entity,
+                        mesh,
+                        sent,
+                        shading,
                         ..
-                    }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
-                        Ok(p) => Some(p),
-                        Err(e) => {
-                            warn!("entity {entity} ('{name}') is not traced: {e}");
-                            None
-                        }
-                    },
-                    _ => None,
-                })
-                .collect();
-            {
-                let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
-                let tree = &mut *guard;
-                for (c, p) in commands.into_iter().zip(prepared) {
-                    match c {
-                        // Made into an upsert on arrival; a crash never gets this far.
-                        Command::Copied { .. } | Command::Crash => {}
-                        Command::Remove { entity } => {
+                    }) => {
+                        // A mesh that failed to build keeps its previous version, if any.
+                        if let Some(p) = p {
+                            inserted_tris += p.len();
                             tree.remove_entity(entity);
-                            last_move.remove(&entity);
-                        }
-                        Command::Upsert(NewMesh {
-                            entity,
-                            mesh,
-                            sent,
-                            shading,
-                            ..
-                        }) => {
-                            // A mesh that failed to build keeps its previous version, if any.
-                            if let Some(p) = p {
-                                inserted_tris += p.len();
-                                tree.remove_entity(entity);
-                                match tree.bvh.insert_prepared(p) {
-                                    Ok(g) => {
-                                        tree.bind(entity, g, shading, mesh);
-                                        tree.supersede(entity, mesh);
-                                        refiner.offer(g);
-                                    }
-                                    Err(e) => warn!("entity {entity} is not traced: {e}"),
+                            match tree.bvh.insert_prepared(p) {
+                                Ok(g) => {
+                                    tree.bind(entity, g, shading, mesh);
+                                    tree.supersede(entity, mesh);
+                                    refiner.offer(g);
                                 }
-                                last_move.remove(&entity);
+                                Err(e) => warn!("entity {entity} is not traced: {e}"),
                             }
-                            latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
-                        }
-                        Command::Instance {
-                            entity,
-                            mesh,
-                            name,
-                            transform,
-                            sent,
-                        } => {
                             last_move.remove(&entity);
-                            match tree.share(entity, mesh, transform) {
-                                Ok(()) => {}
-                                Err(treelight_bvh::BvhError::UnknownGroup) => warn!(
-                                    "entity {entity} ('{name}') is not traced: no traced entity holds its mesh"
-                                ),
-                                Err(e) => warn!("entity {entity} ('{name}') is not traced: {e}"),
-                            }
-                            latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
                         }
-                        Command::Move { entity, transform } => {
-                            if let Some(groups) = tree.entity_groups.get(&entity) {
-                                // The chunks of one mesh move as one edit.
-                                tree.bvh.batch(|bvh| {
-                                    for &g in groups {
-                                        if let Err(e) = bvh.set_group_transform(g, transform) {
-                                            warn!("entity {entity} cannot move in the tree: {e}");
-                                        }
+                        latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
+                    }
+                    Command::Instance {
+                        entity,
+                        mesh,
+                        name,
+                        transform,
+                        sent,
+                    } => {
+                        last_move.remove(&entity);
+                        match tree.share(entity, mesh, transform) {
+                            Ok(()) => {}
+                            Err(treelight_bvh::BvhError::UnknownGroup) => warn!(
+                                "entity {entity} ('{name}') is not traced: no traced entity holds its mesh"
+                            ),
+                            Err(e) => warn!("entity {entity} ('{name}') is not traced: {e}"),
+                        }
+                        latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
+                    }
+                    Command::Move { entity, transform } => {
+                        if let Some(groups) = tree.entity_groups.get(&entity) {
+                            // The chunks of one mesh move as one edit.
+                            tree.bvh.batch(|bvh| {
+                                for &g in groups {
+                                    if let Err(e) = bvh.set_group_transform(g, transform) {
+                                        warn!("entity {entity} cannot move in the tree: {e}");
                                     }
-                                });
-                                last_move.insert(entity, Instant::now());
-                            }
+                                }
+                            });
+                            last_move.insert(entity, Instant::now());
                         }
                     }
                 }
-                idle.after_edit(&config.idle_updates, &tree.bvh);
             }
-            if k < last_part {
-                shared.version.fetch_add(1, Ordering::Release);
-                publish_stats(&shared, &mut clock, InFlight::Finishing(received), |_| {});
-            }
+            idle.after_edit(&config.idle_updates, &tree.bvh);
         }
         // Ready: readers see the new tree from here on.
         let latency = latest_sent.map(|sent| sent.elapsed());
@@ -540,8 +514,8 @@ fn publish_stats(
     }
     // The counts are out; the cost, a pass over the tree, follows when it is due.
     let quarter = Duration::from_millis(250);
-    // Never while commands of this batch are still being applied (between a large import's parts
-    // or a huge mesh's chunks): the cost follows once they are in.
+    // Never while commands of this batch are still being applied (between a huge mesh's
+    // chunks): the cost follows once they are in.
     let finishing = matches!(in_flight, InFlight::Finishing(n) if n > 0);
     let due = !waiting
         && !finishing
@@ -554,8 +528,13 @@ fn publish_stats(
         let (cost, memory) = {
             let tree = shared.tree.read().unwrap_or_else(|p| p.into_inner());
             let config = tree.bvh.config();
+            // Those this caller is still finishing are not new.
+            let ours = match in_flight {
+                InFlight::Finishing(n) => n,
+                InFlight::Done(_) => 0,
+            };
             let cost = tree.bvh.sah_cost_unless(config.c_t, config.c_i, || {
-                shared.pending.load(Ordering::Acquire) > 0
+                shared.pending.load(Ordering::Acquire) > ours
             });
             (cost, tree.memory_bytes())
         };
