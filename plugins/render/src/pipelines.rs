@@ -154,13 +154,12 @@ fn init_pipelines(
             ),
         ),
     );
-    let temporal = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("treelight temporal".into()),
-        layout: vec![temporal_layout.clone()],
-        shader: shaders.temporal.clone(),
-        entry_point: Some("temporal".into()),
-        ..default()
-    });
+    let temporal = pipeline_cache.queue_compute_pipeline(compute_pipeline(
+        "treelight temporal",
+        vec![temporal_layout.clone()],
+        shaders.temporal.clone(),
+        "temporal",
+    ));
     let denoise_layout = BindGroupLayoutDescriptor::new(
         "treelight denoise",
         &BindGroupLayoutEntries::sequential(
@@ -175,20 +174,18 @@ fn init_pipelines(
             ),
         ),
     );
-    let denoise = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("treelight denoise".into()),
-        layout: vec![denoise_layout.clone()],
-        shader: shaders.denoise.clone(),
-        entry_point: Some("denoise".into()),
-        ..default()
-    });
-    let trace = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("treelight path trace".into()),
-        layout: vec![scene_layout.clone(), view_layout.clone()],
-        shader: shaders.trace.clone(),
-        entry_point: Some("path_trace".into()),
-        ..default()
-    });
+    let denoise = pipeline_cache.queue_compute_pipeline(compute_pipeline(
+        "treelight denoise",
+        vec![denoise_layout.clone()],
+        shaders.denoise.clone(),
+        "denoise",
+    ));
+    let trace = pipeline_cache.queue_compute_pipeline(compute_pipeline(
+        "treelight path trace",
+        vec![scene_layout.clone(), view_layout.clone()],
+        shaders.trace.clone(),
+        "path_trace",
+    ));
     commands.insert_resource(PathTracerPipelines {
         scene_layout,
         view_layout,
@@ -205,6 +202,22 @@ fn init_pipelines(
     });
 }
 
+/// A compute pipeline of `shader`'s `entry` over `layout`.
+fn compute_pipeline(
+    label: &'static str,
+    layout: Vec<BindGroupLayoutDescriptor>,
+    shader: Handle<Shader>,
+    entry: &'static str,
+) -> ComputePipelineDescriptor {
+    ComputePipelineDescriptor {
+        label: Some(label.into()),
+        layout,
+        shader,
+        entry_point: Some(entry.into()),
+        ..default()
+    }
+}
+
 impl PathTracerPipelines {
     /// The trace kernel for a scene split across bindings (`split`) or not; the split one is
     /// queued on first use.
@@ -214,13 +227,12 @@ impl PathTracerPipelines {
         }
         let mut id = self.trace_split.lock().unwrap_or_else(|p| p.into_inner());
         *id.get_or_insert_with(|| {
-            cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                label: Some("treelight path trace, split records".into()),
-                layout: vec![self.scene_layout.clone(), self.view_layout.clone()],
-                shader: self.trace_split_shader.clone(),
-                entry_point: Some("path_trace".into()),
-                ..default()
-            })
+            cache.queue_compute_pipeline(compute_pipeline(
+                "treelight path trace, split records",
+                vec![self.scene_layout.clone(), self.view_layout.clone()],
+                self.trace_split_shader.clone(),
+                "path_trace",
+            ))
         })
     }
 
