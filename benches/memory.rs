@@ -129,7 +129,9 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
             first = Some(t);
             frames_to_first = since_parse;
         }
-        if pictured.is_none() && s.memory.scene_buffers > 0 && s.samples >= 1 {
+        // The traced view's samples restart with each change: a whole picture showing some of
+        // the file's triangles.
+        if pictured.is_none() && s.memory.triangles > 0 && s.samples >= 1 {
             pictured = Some(t);
             frames_to_picture = since_parse;
         }
