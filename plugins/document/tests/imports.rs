@@ -266,3 +266,58 @@ fn normal_mapped_meshes_get_tangents_and_others_do_not() {
             .is_some_and(|m| m.attribute(Mesh::ATTRIBUTE_TANGENT).is_none())
     }));
 }
+
+/// A map that reads the second UV set (`TEXCOORD_1`) is drawn through it in the raster view: the
+/// Bevy mesh carries the set as `ATTRIBUTE_UV_1` and the material reads the map on that channel.
+#[test]
+fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
+    use bevy::mesh::{UvChannel, VertexAttributeValues};
+    let from =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
+    let dir = std::env::temp_dir().join(format!("treelight-uv1-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in std::fs::read_dir(&from).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    let file = dir.join("BoxTextured.gltf");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let edited = text
+        .replace("\"TEXCOORD_0\": 3", "\"TEXCOORD_0\": 3, \"TEXCOORD_1\": 3")
+        .replace(
+            "\"baseColorTexture\": {",
+            "\"baseColorTexture\": {\"texCoord\": 1,",
+        );
+    assert_ne!(edited, text);
+    std::fs::write(&file, edited).unwrap();
+    let scene = treelight_import::load_scene(&file).unwrap();
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    treelight_document::import::spawn::spawn_scene_in_world(
+        app.world_mut(),
+        &file,
+        &scene,
+        &mut Default::default(),
+        false,
+        &[],
+    )
+    .unwrap();
+    let world = app.world_mut();
+    let (mesh, material) = world
+        .query::<(&Mesh3d, &MeshMaterial3d<StandardMaterial>)>()
+        .iter(world)
+        .map(|(m, mat)| (m.0.clone(), mat.0.clone()))
+        .next()
+        .unwrap();
+    let mesh = world.resource::<Assets<Mesh>>().get(&mesh).unwrap();
+    let Some(VertexAttributeValues::Float32x2(set1)) = mesh.attribute(Mesh::ATTRIBUTE_UV_1) else {
+        panic!("no second UV set");
+    };
+    assert_eq!(Some(set1), scene.meshes[0].geometry.uvs1.as_ref());
+    let material = world
+        .resource::<Assets<StandardMaterial>>()
+        .get(&material)
+        .unwrap();
+    assert!(material.base_color_texture.is_some());
+    assert_eq!(material.base_color_channel, UvChannel::Uv1);
+    std::fs::remove_dir_all(&dir).ok();
+}

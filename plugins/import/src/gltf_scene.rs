@@ -233,7 +233,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum GeometrySource {
     Draco(usize, usize),
-    Accessors([Option<usize>; 5]),
+    Accessors([Option<usize>; 6]),
 }
 
 impl GeometrySource {
@@ -248,6 +248,7 @@ impl GeometrySource {
             at(Semantic::TexCoords(0)),
             prim.indices().map(|a| a.index()),
             at(Semantic::Tangents),
+            at(Semantic::TexCoords(1)),
         ])
     }
 }
@@ -335,6 +336,7 @@ fn read_primitive(
             positions: d.positions,
             normals: d.normals,
             uvs: d.uvs,
+            uvs1: None,
             tangents: None,
             indices: d.indices,
         },
@@ -349,11 +351,13 @@ fn read_primitive(
         positions,
         normals,
         uvs,
+        uvs1,
         tangents,
         indices,
     } = geometry;
     let normals = normals.filter(|v| v.len() == n);
     let uvs = uvs.filter(|v| v.len() == n);
+    let uvs1 = uvs1.filter(|v| v.len() == n);
     let tangents = tangents.filter(|v| v.len() == n);
     if !indices.len().is_multiple_of(3) {
         return Err(ImportError::new(
@@ -369,6 +373,7 @@ fn read_primitive(
         positions,
         normals,
         uvs,
+        uvs1,
         tangents,
         indices,
     }))
@@ -426,6 +431,11 @@ const TEXCOORD: AttributeRule = AttributeRule {
     dims: Dimensions::Vec2,
     types: FLOAT_OR_SMALL_INTEGER,
     expected: "2 floats, or 2 8- or 16-bit integers",
+};
+
+const TEXCOORD_1: AttributeRule = AttributeRule {
+    what: "TEXCOORD_1",
+    ..TEXCOORD
 };
 
 /// Refuses an accessor whose shape or component type does not fit what it is read as.
@@ -506,6 +516,10 @@ fn read_accessors(
     if let Some(a) = &uvs_acc {
         check_type(path, name, a, &TEXCOORD)?;
     }
+    let uvs1_acc = prim.get(&Semantic::TexCoords(1));
+    if let Some(a) = &uvs1_acc {
+        check_type(path, name, a, &TEXCOORD_1)?;
+    }
     let tangents_acc = prim.get(&Semantic::Tangents);
     if let Some(a) = &tangents_acc {
         check_type(path, name, a, &TANGENT)?;
@@ -516,6 +530,7 @@ fn read_accessors(
         vertices,
         12 + normals_acc.as_ref().map_or(0, |_| 12)
             + uvs_acc.as_ref().map_or(0, |_| 8)
+            + uvs1_acc.as_ref().map_or(0, |_| 8)
             + tangents_acc.as_ref().map_or(0, |_| 16),
         || format!("mesh '{name}''s {vertices} vertices"),
     )?;
@@ -544,6 +559,10 @@ fn read_accessors(
         Some(a) => Some(read_floats::<2>(&a, buffers).ok_or_else(unreadable)?),
         None => None,
     };
+    let uvs1 = match uvs1_acc {
+        Some(a) => Some(read_floats::<2>(&a, buffers).ok_or_else(unreadable)?),
+        None => None,
+    };
     // Quantized tangents are only near unit length, and w is a sign; a file with a tangent that
     // is no direction has its tangents made from the UVs instead, as for a file without.
     let tangents = match tangents_acc {
@@ -565,6 +584,7 @@ fn read_accessors(
         positions,
         normals,
         uvs,
+        uvs1,
         tangents,
         indices,
     }))

@@ -227,6 +227,9 @@ pub struct MeshGeometry {
     pub normals: Option<Vec<[f32; 3]>>,
     /// Texture coordinates, one per position, if the file has them.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// A second set of texture coordinates (glTF's `TEXCOORD_1`, which maps such as baked
+    /// occlusion may read), one per position, if the file has them.
+    pub uvs1: Option<Vec<[f32; 2]>>,
     /// Vertex tangents for normal maps, one per position, if the file has them (glTF's
     /// `TANGENT`): xyz of unit length, w the bitangent's sign (±1).
     pub tangents: Option<Vec<[f32; 4]>>,

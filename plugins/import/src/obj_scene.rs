@@ -81,6 +81,7 @@ pub(crate) fn read_obj(path: &Path, budget: &mut Budget) -> Result<ImportedScene
                 positions,
                 normals,
                 uvs,
+                uvs1: None,
                 tangents: None,
                 indices: m.mesh.indices,
             }),

@@ -219,6 +219,7 @@ pub(crate) fn read_ply(path: &Path, budget: &mut Budget) -> Result<ImportedScene
                 positions,
                 normals,
                 uvs,
+                uvs1: None,
                 tangents: None,
                 indices,
             }),

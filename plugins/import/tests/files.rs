@@ -160,7 +160,7 @@ fn hostile_material_values_are_clamped_with_a_warning() {
             "roughnessFactor": 1e30,
             "metallicFactor": -3.0
         },
-        "normalTexture": {"index": 0, "scale": 1e9, "texCoord": 1},
+        "normalTexture": {"index": 0, "scale": 1e9, "texCoord": 2},
         "occlusionTexture": {
             "index": 0,
             "extensions": {"KHR_texture_transform": {"scale": [1e39, 1.0]}}
@@ -208,11 +208,11 @@ fn hostile_material_values_are_clamped_with_a_warning() {
         m.alpha_mode,
         treelight_import::ImportedAlphaMode::Mask { cutoff: 1.0 }
     );
-    // A second UV set and an infinite transform: those maps are left out, each with a warning.
+    // A third UV set and an infinite transform: those maps are left out, each with a warning.
     assert!(m.normal_texture.is_none() && m.occlusion_texture.is_none());
     let text = s.warnings.join("\n");
     for part in [
-        "texture coordinate set 1",
+        "texture coordinate set 2",
         "non-finite KHR_texture_transform",
         "roughness factor",
         "index of refraction",
@@ -603,6 +603,38 @@ fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
 
 /// A copy of BoxTextured (its .gltf, .bin and image) in a fresh folder named after `tag`: the folder,
 /// the .gltf's path and its JSON, to edit and write back.
+#[test]
+fn a_second_uv_set_is_read_for_the_maps_that_name_it() {
+    // BoxTextured with its UVs again as TEXCOORD_1, and the base colour and
+    // occlusion maps reading set 1.
+    let (dir, path, mut json) = copy_box_textured("uv-set-1");
+    let set0 = json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"].clone();
+    json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = set0;
+    json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] =
+        serde_json::json!(1);
+    json["materials"][0]["occlusionTexture"] = serde_json::json!({"index": 0, "texCoord": 1});
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    let g = &s.meshes[0].geometry;
+    assert_eq!(g.uvs1.as_ref().map(Vec::len), Some(g.positions.len()));
+    assert_eq!(g.uvs1, g.uvs);
+    let m = &s.materials[0];
+    assert_eq!(m.base_color_texture.map(|t| t.tex_coord), Some(1));
+    assert_eq!(m.occlusion_texture.map(|t| t.tex_coord), Some(1));
+    // The path tracer reads set 0 only: the base colour map is named, the occlusion map (which it
+    // traces for itself) is not.
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("base colour texture") && s.warnings[0].contains("set 1"),
+        "{:?}",
+        s.warnings
+    );
+    // A file without a second set reads none.
+    let plain = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
+    assert!(plain.meshes.iter().all(|m| m.geometry.uvs1.is_none()));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn copy_box_textured(tag: &str) -> (PathBuf, PathBuf, serde_json::Value) {
     let dir = std::env::temp_dir().join(format!("treelight-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

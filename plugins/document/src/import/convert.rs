@@ -23,6 +23,9 @@ pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
     if let Some(uvs) = &m.geometry.uvs {
         mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
     }
+    if let Some(uvs) = &m.geometry.uvs1 {
+        mesh.insert_attribute(Mesh::ATTRIBUTE_UV_1, uvs.clone());
+    }
     match &m.geometry.normals {
         Some(n) => mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, n.clone()),
         None => mesh.compute_smooth_normals(),
@@ -171,14 +174,35 @@ pub fn material_maps(m: &ImportedMaterial) -> Vec<(MapSlot, TextureRef, ImageRol
     .collect()
 }
 
-/// Puts `image` into the material's `slot`.
-pub fn put_map(m: &mut StandardMaterial, slot: MapSlot, image: Handle<Image>) {
+/// Puts `image` into the material's `slot`, read through UV set `tex_coord` (0 or 1).
+pub fn put_map(m: &mut StandardMaterial, slot: MapSlot, image: Handle<Image>, tex_coord: u32) {
+    use bevy::mesh::UvChannel;
+    let channel = if tex_coord == 1 {
+        UvChannel::Uv1
+    } else {
+        UvChannel::Uv0
+    };
     match slot {
-        MapSlot::BaseColor => m.base_color_texture = Some(image),
-        MapSlot::MetallicRoughness => m.metallic_roughness_texture = Some(image),
-        MapSlot::Normal => m.normal_map_texture = Some(image),
-        MapSlot::Occlusion => m.occlusion_texture = Some(image),
-        MapSlot::Emissive => m.emissive_texture = Some(image),
+        MapSlot::BaseColor => {
+            m.base_color_texture = Some(image);
+            m.base_color_channel = channel;
+        }
+        MapSlot::MetallicRoughness => {
+            m.metallic_roughness_texture = Some(image);
+            m.metallic_roughness_channel = channel;
+        }
+        MapSlot::Normal => {
+            m.normal_map_texture = Some(image);
+            m.normal_map_channel = channel;
+        }
+        MapSlot::Occlusion => {
+            m.occlusion_texture = Some(image);
+            m.occlusion_channel = channel;
+        }
+        MapSlot::Emissive => {
+            m.emissive_texture = Some(image);
+            m.emissive_channel = channel;
+        }
     }
 }
 
@@ -362,6 +386,7 @@ mod tests {
             texture: 0,
             wrap: [WrapMode::Repeat; 2],
             uv_transform: UV_IDENTITY,
+            tex_coord: 0,
         };
         let m = ImportedMaterial {
             base_color_texture: Some(r),

@@ -39,6 +39,13 @@ pub fn mesh_hash(geometry: &MeshGeometry, tangents: bool) -> u64 {
         }
         None => h.write_u8(0),
     }
+    match &geometry.uvs1 {
+        Some(uv) => {
+            h.write_u8(1);
+            h.write(bytemuck::cast_slice(uv));
+        }
+        None => h.write_u8(0),
+    }
     match &geometry.tangents {
         Some(t) => {
             h.write_u8(1);

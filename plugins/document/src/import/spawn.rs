@@ -427,7 +427,7 @@ fn material_handles(
                         made.unwrap_or_else(|| to_bevy_image(t, r.wrap, role))
                     })
                 });
-                put_map(&mut mat, slot, image.clone());
+                put_map(&mut mat, slot, image.clone(), r.tex_coord);
             }
             assets.materials.add(mat)
         })
