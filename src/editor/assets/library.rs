@@ -14,6 +14,7 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::SystemTime;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
+use treelight_document::import::parse::{ContentHashes, ParsedScene};
 use treelight_document::notice::Notices;
 
 /// Side of a thumbnail, pixels.
@@ -66,6 +67,9 @@ pub struct ThumbnailImage {
     /// The file as read, kept for the ghost a drag over the viewport shows (not for files over
     /// [`GHOST_TRIANGLES`], which are imported on drop without one rather than held in memory).
     pub scene: Option<std::sync::Arc<treelight_import::ImportedScene>>,
+    /// The content of its meshes and textures, so that placing it again finds them in the scene
+    /// without hashing them on the main thread (empty without `scene`).
+    pub hashes: ContentHashes,
     /// The file's world-space bounds, for placing it (made here, not in each frame of a drag).
     pub bounds: (Vec3, Vec3),
 }
@@ -245,18 +249,14 @@ impl AssetLibrary {
         changed
     }
 
-    /// The file as read for its thumbnail, once it has been, with its bounds.
-    pub fn parsed(
-        &self,
-        file: &Path,
-    ) -> Option<(
-        std::sync::Arc<treelight_import::ImportedScene>,
-        (Vec3, Vec3),
-    )> {
+    /// The file as read for its thumbnail, once it has been: ready to be imported (its meshes and
+    /// images made only where the scene lacks them).
+    pub fn parsed(&self, file: &Path) -> Option<ParsedScene> {
         match self.thumbnails.get(file) {
-            Some(Thumbnail::Ready { image, .. }) => {
-                image.scene.clone().map(|scene| (scene, image.bounds))
-            }
+            Some(Thumbnail::Ready { image, .. }) => image
+                .scene
+                .clone()
+                .map(|scene| ParsedScene::read_ahead(scene, image.hashes.clone(), image.bounds)),
             _ => None,
         }
     }
@@ -327,11 +327,17 @@ pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {
             px.copy_from_slice(&[c, c, (c as f32 * 0.96) as u8, 255]);
         }
     }
+    let kept = triangles.len() <= GHOST_TRIANGLES;
     Ok(ThumbnailImage {
         rgba,
         triangles: triangles.len(),
         bounds: treelight_document::import::parse::scene_bounds(&scene).unwrap_or((b.min, b.max)),
-        scene: (triangles.len() <= GHOST_TRIANGLES).then(|| std::sync::Arc::new(scene)),
+        hashes: if kept {
+            ContentHashes::of(&scene)
+        } else {
+            ContentHashes::default()
+        },
+        scene: kept.then(|| std::sync::Arc::new(scene)),
     })
 }
 

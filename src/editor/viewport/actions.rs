@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditHistory, EditRequest, EditRequests};
 use treelight_document::import::finish::drop_transform;
-use treelight_document::import::parse::{ParsedImports, ParsedScene, PendingImports};
+use treelight_document::import::parse::{ParsedImports, PendingImports};
 use treelight_document::object::SceneIndex;
 use treelight_document::placement::{box_corners, place_transform, surface_under_excluding};
 use treelight_scene::{SceneBvh, cast_on};
@@ -149,7 +149,7 @@ fn place_file(
     drop_ray: impl Fn() -> Option<bevy::math::Ray3d>,
 ) {
     let read = s.library.parsed(&file);
-    match (ray, read.as_ref().map(|(_, bounds)| *bounds)) {
+    match (ray, read.as_ref().and_then(|r| r.bounds)) {
         (Some(ray), Some(bounds)) => {
             let surface = surface_under_excluding(&p.scene, ray, 5.0, ghost_parts);
             let transform = drop_transform(bounds, surface);
@@ -166,8 +166,8 @@ fn place_file(
                     // The import command takes the file as the panel read it, under the id its
                     // root will have.
                     let root = s.index.allocate();
-                    if let Some((read, _)) = &read {
-                        s.parsed.0.insert(root, ParsedScene::from((**read).clone()));
+                    if let Some(read) = read {
+                        s.parsed.0.insert(root, read);
                     }
                     let command = EditCommand::Import {
                         file,

@@ -7,13 +7,14 @@ use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task};
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 use treelight_import::{ImportError, ImportedScene};
 
 /// A file parsed, with its meshes and textures already made into Bevy assets (off the main thread,
 /// so the frame that adds them to the scene only moves them in).
 pub struct ParsedScene {
     /// What the file holds.
-    pub scene: ImportedScene,
+    pub scene: Arc<ImportedScene>,
     /// Its Bevy meshes and images.
     pub parts: Prebuilt,
     /// Its world-space bounds ([`scene_bounds`]), made with the rest off the main thread.
@@ -39,18 +40,64 @@ pub struct Prebuilt {
     pub texture_hashes: Vec<u64>,
 }
 
+/// The content of a scene's meshes (`None` for one that repeats an earlier one) and textures, as
+/// [`crate::import::share`] hashes them: what finds an import's assets among those already in the
+/// scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContentHashes {
+    /// By mesh.
+    pub meshes: Vec<Option<u64>>,
+    /// By texture.
+    pub textures: Vec<u64>,
+}
+
+impl ContentHashes {
+    /// The hashes of `scene`'s meshes (as the Bevy meshes made of them, tangents or not) and
+    /// textures.
+    pub fn of(scene: &ImportedScene) -> Self {
+        use crate::import::share::{mesh_hash, texture_hash};
+        let tangents = crate::import::convert::tangents_needed(scene);
+        Self {
+            meshes: scene
+                .meshes
+                .iter()
+                .zip(&tangents)
+                .map(|(m, &t)| m.same_as.is_none().then(|| mesh_hash(&m.geometry, t)))
+                .collect(),
+            textures: scene.textures.iter().map(texture_hash).collect(),
+        }
+    }
+}
+
+impl ParsedScene {
+    /// A scene read ahead of its import (the Assets panel's, with its hashes and bounds made on
+    /// the panel's thread): nothing is made now; spawning it makes the meshes and images not
+    /// already in the scene, so a second placement of one file makes none.
+    pub fn read_ahead(
+        scene: Arc<ImportedScene>,
+        hashes: ContentHashes,
+        bounds: (Vec3, Vec3),
+    ) -> Self {
+        Self {
+            scene,
+            parts: Prebuilt {
+                mesh_hashes: hashes.meshes,
+                texture_hashes: hashes.textures,
+                ..default()
+            },
+            bounds: Some(bounds),
+        }
+    }
+}
+
 impl From<ImportedScene> for ParsedScene {
     fn from(scene: ImportedScene) -> Self {
         use bevy::camera::primitives::MeshAabb;
         let tangents = crate::import::convert::tangents_needed(&scene);
-        use crate::import::share::{mesh_hash, texture_hash};
-        let mesh_hashes = scene
-            .meshes
-            .iter()
-            .zip(&tangents)
-            .map(|(m, &t)| m.same_as.is_none().then(|| mesh_hash(&m.geometry, t)))
-            .collect();
-        let texture_hashes = scene.textures.iter().map(texture_hash).collect();
+        let ContentHashes {
+            meshes: mesh_hashes,
+            textures: texture_hashes,
+        } = ContentHashes::of(&scene);
         let meshes: Vec<Option<Mesh>> = scene
             .meshes
             .iter()
@@ -83,7 +130,7 @@ impl From<ImportedScene> for ParsedScene {
         }
         Self {
             bounds: scene_bounds(&scene),
-            scene,
+            scene: Arc::new(scene),
             parts: Prebuilt {
                 meshes,
                 images,
