@@ -25,35 +25,22 @@ pub fn mesh_hash(geometry: &MeshGeometry, tangents: bool) -> u64 {
     h.write(bytemuck::cast_slice(&geometry.positions));
     h.write_usize(geometry.indices.len());
     h.write(bytemuck::cast_slice(&geometry.indices));
-    match &geometry.normals {
-        Some(n) => {
-            h.write_u8(1);
-            h.write(bytemuck::cast_slice(n));
-        }
-        None => h.write_u8(0),
-    }
-    match &geometry.uvs {
-        Some(uv) => {
-            h.write_u8(1);
-            h.write(bytemuck::cast_slice(uv));
-        }
-        None => h.write_u8(0),
-    }
-    match &geometry.uvs1 {
-        Some(uv) => {
-            h.write_u8(1);
-            h.write(bytemuck::cast_slice(uv));
-        }
-        None => h.write_u8(0),
-    }
-    match &geometry.tangents {
-        Some(t) => {
-            h.write_u8(1);
-            h.write(bytemuck::cast_slice(t));
-        }
-        None => h.write_u8(0),
-    }
+    write_optional(&mut h, geometry.normals.as_deref());
+    write_optional(&mut h, geometry.uvs.as_deref());
+    write_optional(&mut h, geometry.uvs1.as_deref());
+    write_optional(&mut h, geometry.tangents.as_deref());
     h.finish()
+}
+
+/// An optional attribute: whether it is there, then its bytes.
+fn write_optional<T: bytemuck::Pod>(h: &mut impl Hasher, values: Option<&[T]>) {
+    match values {
+        Some(v) => {
+            h.write_u8(1);
+            h.write(bytemuck::cast_slice(v));
+        }
+        None => h.write_u8(0),
+    }
 }
 
 /// The content of a decoded texture.
