@@ -280,10 +280,11 @@ fn scene_writes(
     p.need(BufferKind::Attributes, c.triangle_capacity as u64);
     p.need(BufferKind::Objects, bvh.group_slots() as u64);
 
-    // Shading records of new groups (triangles that only moved keep theirs): which group and which
-    // of its triangles each id is, sorted by id, then written run by run.
+    // Shading records of new and re-laid groups (triangles that only moved keep theirs): which
+    // group and which of its triangles each id is, sorted by id, then written run by run.
     let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
-    for &g in &changes.fresh_groups {
+    let relaid = changes.relaid_groups.iter().map(|r| r.0);
+    for g in changes.fresh_groups.iter().copied().chain(relaid) {
         let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
             continue;
         };
@@ -307,7 +308,11 @@ fn scene_writes(
     });
 
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
+    // A re-laid group's record is compared with the one of the group it replaced: the same one
+    // in a new slot changes no pixel.
     sync.objects.resize(bvh.group_slots() as usize, None);
+    let replaced: std::collections::HashMap<GroupId, GroupId> =
+        changes.relaid_groups.iter().copied().collect();
     layers.begin_pass();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
@@ -317,9 +322,12 @@ fn scene_writes(
             Mat3::from(transform.matrix3),
             &material_of(e, handles, assets, layers),
         );
+        let before = replaced
+            .get(&g)
+            .and_then(|old| sync.objects.get(old.index() as usize).cloned().flatten());
         let slot = &mut sync.objects[g.index() as usize];
         if slot.as_ref() != Some(&rec) {
-            p.geometry_changed = true;
+            p.geometry_changed |= before.as_ref() != Some(&rec);
             p.writes.push(BufferWrite {
                 buffer: BufferKind::Objects,
                 offset: g.index() as u64 * crate::OBJECT_BYTES,

@@ -236,6 +236,9 @@ pub struct SceneTree {
     /// Groups inserted since a renderer last took the changes (bounded by the live groups: removed
     /// ones leave the set).
     fresh_groups: HashSet<GroupId>,
+    /// Groups re-laid since a renderer last asked (a mesh rebuilt by another builder), each with
+    /// the group it replaced.
+    relaid_groups: HashMap<GroupId, GroupId>,
     /// The mesh asset each traced entity shows, and the entities showing each: entities with the
     /// same mesh share its triangles in the tree ([`Bvh::insert_instance`]).
     entity_mesh: HashMap<Entity, AssetId<Mesh>>,
@@ -397,6 +400,11 @@ impl SceneTree {
         }
         if let Some(&mesh) = self.entity_mesh.get(&e) {
             self.bind(e, new, shading, mesh);
+            // The same triangles, laid out anew: their shading moves with them, no hit changes.
+            if self.fresh_groups.remove(&new) {
+                let was = self.relaid_groups.remove(&old).unwrap_or(old);
+                self.relaid_groups.insert(new, was);
+            }
         }
     }
 
@@ -405,6 +413,7 @@ impl SceneTree {
         self.group_entity.remove(&g);
         self.shading.remove(&g);
         self.fresh_groups.remove(&g);
+        self.relaid_groups.remove(&g);
     }
 
     fn drop_group(&mut self, g: GroupId) {
@@ -437,6 +446,10 @@ pub struct SceneChanges {
     /// Groups inserted since then, still alive, by slot: their triangles' shading data must be
     /// uploaded ([`SceneTree::shading`]).
     pub fresh_groups: Vec<GroupId>,
+    /// Groups re-laid since then (a still mesh rebuilt by a better builder: the same triangles in
+    /// new slots), by slot, each with the group it replaced: their shading must be uploaded again,
+    /// but no hit changed.
+    pub relaid_groups: Vec<(GroupId, GroupId)>,
 }
 
 /// A ray hit on the scene.
@@ -610,9 +623,12 @@ impl SceneBvh {
         }
         let mut fresh: Vec<GroupId> = tree.fresh_groups.drain().collect();
         fresh.sort_unstable_by_key(|g| g.index());
+        let mut relaid: Vec<(GroupId, GroupId)> = tree.relaid_groups.drain().collect();
+        relaid.sort_unstable_by_key(|g| g.0.index());
         let changes = SceneChanges {
             bvh: tree.bvh.take_changes(),
             fresh_groups: fresh,
+            relaid_groups: relaid,
         };
         Some(f(&tree, &changes))
     }

@@ -181,8 +181,8 @@ impl Refiner {
         if self.stale || sent != Some((e, g)) {
             return false;
         }
-        // Same triangle order, so the shading fits.
-        let Ok(new) = tree.bvh.swap_group(g, p) else {
+        // Same triangle order, so the shading fits; the same triangles, so no hit changes.
+        let Ok(new) = tree.bvh.keeping_geometry(|bvh| bvh.swap_group(g, p)) else {
             return false;
         };
         tree.replace_group(e, g, new);

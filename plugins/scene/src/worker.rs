@@ -439,13 +439,17 @@ fn idle_work(
                 // A mesh in chunks stays instances (see insert_in_chunks).
                 continue;
             }
-            tree.bvh.without_updates(|bvh| {
-                for &g in groups {
-                    match bvh.bake_group(g) {
-                        Ok(()) => refiner.offer(g),
-                        Err(err) => warn!("entity {e} could not be baked: {err}"),
+            // World-space copies of the same triangles: a re-laying, not an edit (a renderer
+            // keeps its accumulated image).
+            tree.bvh.keeping_geometry(|bvh| {
+                bvh.without_updates(|bvh| {
+                    for &g in groups {
+                        match bvh.bake_group(g) {
+                            Ok(()) => refiner.offer(g),
+                            Err(err) => warn!("entity {e} could not be baked: {err}"),
+                        }
                     }
-                }
+                })
             });
         }
         // A full-sweep rebuild finished off the lock goes in. Rebuilds start only while no

@@ -12,6 +12,11 @@ pub(crate) struct ChangeLog {
     inst_dirty: Vec<bool>,
     inst_list: Vec<u32>,
     pub(crate) root_changed: bool,
+    /// Inside [`crate::Bvh::keeping_geometry`] (nested scopes count): triangle and instance marks
+    /// re-lay what is there, so they do not count as an edit.
+    pub(crate) keeping: u32,
+    /// A triangle or instance was written or removed outside such a scope since the last take.
+    edited: bool,
 }
 
 impl ChangeLog {
@@ -56,15 +61,18 @@ impl ChangeLog {
 
     #[inline]
     pub(crate) fn mark_triangle(&mut self, id: u32, len: usize) {
+        self.edited |= self.keeping == 0;
         mark_one(&mut self.tri_dirty, &mut self.tri_list, id, len);
     }
 
     /// Marks ids appended at the end of the triangle array.
     pub(crate) fn mark_new_triangles(&mut self, ids: Range<u32>) {
+        self.edited |= self.keeping == 0;
         mark_appended(&mut self.tri_dirty, &mut self.tri_list, ids);
     }
 
     pub(crate) fn mark_instance(&mut self, i: u32) {
+        self.edited |= self.keeping == 0;
         mark_one(&mut self.inst_dirty, &mut self.inst_list, i, 0);
     }
 
@@ -80,6 +88,7 @@ impl ChangeLog {
             self.mark_instance(i);
         }
         self.root_changed = true;
+        self.edited = true;
     }
 
     pub(crate) fn take(
@@ -104,7 +113,9 @@ impl ChangeLog {
         }
         instances.sort_unstable();
         let root_changed = std::mem::replace(&mut self.root_changed, false);
+        let geometry_edited = std::mem::replace(&mut self.edited, false);
         ChangeSet {
+            geometry_edited,
             inner_ranges: coalesce(&inner),
             written_triangles: written,
             removed_triangles: removed,
@@ -156,6 +167,9 @@ pub(crate) fn coalesce(ids: &[u32]) -> Vec<Range<u32>> {
 /// Everything that changed since the previous [`crate::Bvh::take_changes`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ChangeSet {
+    /// Whether a triangle or instance was written or removed by an edit, not only re-laid
+    /// ([`crate::Bvh::keeping_geometry`]): see [`ChangeSet::geometry_changed`].
+    pub geometry_edited: bool,
     /// Inner node ids whose GPU records must be rewritten, as sorted disjoint ranges.
     pub inner_ranges: Vec<Range<u32>>,
     /// Triangle ids added or moved: their vertex data must be uploaded.
@@ -175,13 +189,12 @@ pub struct ChangeSet {
 }
 
 impl ChangeSet {
-    /// Whether what a ray hits may have changed: triangles written or removed, or instances changed.
-    /// A change set without any is a pure restructuring (global updates, re-insertions), after which
-    /// every ray still finds the same closest hit.
+    /// Whether what a ray hits may have changed: triangles written or removed, or instances changed,
+    /// by an edit. A change set without any is a restructuring (global updates, re-insertions, a
+    /// group baked or rebuilt within [`crate::Bvh::keeping_geometry`]), after which every ray still
+    /// finds the same closest hit: its records must be uploaded, an accumulated image kept.
     pub fn geometry_changed(&self) -> bool {
-        !self.written_triangles.is_empty()
-            || !self.removed_triangles.is_empty()
-            || !self.instances.is_empty()
+        self.geometry_edited
     }
 
     /// Number of inner node records to rewrite.

@@ -111,6 +111,17 @@ impl Bvh {
         r
     }
 
+    /// Runs `relay` as a re-laying of what the tree holds, not an edit: a group baked into the tree
+    /// or rebuilt by another builder, every ray meeting the same closest hit before and after. The
+    /// triangles and instances it writes are still in the change set (their records move), but they
+    /// do not make it [`crate::ChangeSet::geometry_changed`]. The caller vouches for that.
+    pub fn keeping_geometry<R>(&mut self, relay: impl FnOnce(&mut Self) -> R) -> R {
+        self.changes.keeping += 1;
+        let r = relay(self);
+        self.changes.keeping -= 1;
+        r
+    }
+
     /// Makes several edits as one: the update batches they would trigger run once, after the last.
     /// For edits of one object made of several groups (a mesh inserted in chunks), whose first
     /// edits would otherwise pay for updating parts of the tree the next ones replace.
