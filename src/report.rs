@@ -131,6 +131,10 @@ pub struct EditorState {
     /// for the views).
     #[serde(default)]
     pub environment: (treelight_document::environment::SceneEnvironment, bool),
+    /// Whether the viewport's path-traced samples (`samples`) show a sky panorama rather than the
+    /// flat sky colour: a driver that changes the sky waits for this to follow.
+    #[serde(default)]
+    pub traced_panorama: bool,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -337,6 +341,12 @@ pub fn write_state_report(
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
+    // The samples and the sky they show, from one copy of the figures.
+    let view_samples = camera_ids.single().map_or((0, false), |c| {
+        let figures = tracer.figures();
+        let samples = figures.samples.get(&c).copied().unwrap_or(0);
+        (samples, figures.traces.get(&c).is_some_and(|t| t.panorama))
+    });
     let parent_of = |e: Entity| {
         objects
             .get(e)
@@ -428,7 +438,8 @@ pub fn write_state_report(
         ),
         view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
-        samples: camera_ids.single().map_or(0, |c| tracer.samples(c)),
+        samples: view_samples.0,
+        traced_panorama: view_samples.1,
         memory: memory_report(&meshes, &scene, &tracer),
         fps: diagnostics
             .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)

@@ -1065,11 +1065,10 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
         |st| st.dialog.is_none() && st.environment.1 && st.settled,
     );
     // Its upload restarts the accumulation a frame or two later.
-    s.frames(3);
     let st = s.wait_until(
-        "the picture converges again",
+        "the picture converges again, under the panorama",
         std::time::Duration::from_secs(60),
-        |st| st.samples >= 4,
+        |st| st.traced_panorama && st.samples >= 4,
     );
     let image = st.environment.0.image.clone().expect("a panorama");
     assert_eq!(image.file_name().unwrap(), "sky.hdr");
@@ -1084,7 +1083,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
     // Undo: the flat sky again.
     s.key(&[keysym::CONTROL], keysym::letter('z'));
     let st = s.wait_until("the flat sky", std::time::Duration::from_secs(60), |st| {
-        st.environment.0.image.is_none() && st.samples >= 4
+        st.environment.0.image.is_none() && !st.traced_panorama && st.samples >= 4
     });
     assert_eq!(st.history.0, head);
     let after = sky_beside_the_room(&s.screenshot(), st.viewport);

@@ -654,8 +654,13 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     // A light already there: the import adds none of its own.
     app.world_mut()
         .spawn((PointLight::default(), Transform::default()));
-    let path =
+    let sample =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/CesiumMan.glb");
+    // A copy of its own, removed once imported: a redo must not need the file again.
+    let dir = std::env::temp_dir().join(format!("treelight-test-redo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("CesiumMan.glb");
+    std::fs::copy(&sample, &path).unwrap();
     let scene = treelight_import::load_scene(&path).unwrap();
     // The import is a command: one step, undone and redone like any other.
     apply_request(
@@ -678,6 +683,9 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
         world_state(app.world_mut()).is_empty(),
         "undo removes the import"
     );
+    // The redo takes back what the undo held (meshes, materials, ids): no second parse, so it
+    // neither waits on a big file nor fails once the file is gone.
+    std::fs::remove_dir_all(&dir).unwrap();
     apply_request(app.world_mut(), EditRequest::Redo).unwrap();
     app.update();
     assert_eq!(

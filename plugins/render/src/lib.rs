@@ -360,6 +360,9 @@ pub struct TraceFigures {
     pub cost: Option<(f64, CostSource)>,
     /// Whether the frame traced the coarse preview (the view had just changed).
     pub previewing: bool,
+    /// Whether the camera's samples were traced under a sky panorama (not the flat sky colour):
+    /// read with [`PathTracerFigures::samples`], it tells which sky those samples show.
+    pub panorama: bool,
 }
 
 /// Figures about the path tracer (bytes uploaded, samples per camera), readable from the main world.

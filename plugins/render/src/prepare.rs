@@ -1043,6 +1043,7 @@ fn prepare_views(
             traced_per_frame: traced,
             cost: state.clock.cost(),
             previewing: work.is_some_and(|(w, _)| matches!(w, TraceWork::Preview { .. })),
+            panorama: environment_word.w as u32 & 1 != 0,
         };
         stats.update(|f| {
             f.samples.insert(main_entity.id(), samples);

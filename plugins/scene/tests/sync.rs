@@ -807,15 +807,44 @@ fn a_still_mesh_is_rebuilt_by_full_sweep_in_idle_time_and_traces_the_same() {
             .to_vec()
     };
     let cube_group = groups(&app, small);
+    let first = groups(&app, big);
+    // What a renderer would take from here on: (whether a hit may have changed, re-laid groups).
+    let take = |app: &App| {
+        let scene = app.world().resource::<SceneBvh>();
+        loop {
+            let taken = scene.try_take_changes(false, |_, c| {
+                (c.bvh.geometry_changed(), c.relaid_groups.clone())
+            });
+            if let Some(t) = taken {
+                return t;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    };
+    take(&app);
+    let mut relaid = Vec::new();
     let refined = |app: &App| app.world().resource::<SceneBvh>().stats().meshes_refined;
     let start = Instant::now();
     while refined(&app) == 0 {
         app.update();
+        let (changed, r) = take(&app);
+        // The bakes and the rebuild lay the same triangles out anew: no hit changes, so a
+        // renderer keeps its accumulated image.
+        assert!(!changed, "a bake or a rebuild counted as an edit");
+        relaid.extend(r);
         assert!(start.elapsed() < Duration::from_secs(30), "never rebuilt");
         std::thread::sleep(Duration::from_millis(5));
     }
     let rebuilt = groups(&app, big);
     settle(&mut app);
+    let (changed, r) = take(&app);
+    assert!(!changed);
+    relaid.extend(r);
+    assert_eq!(
+        relaid,
+        vec![(rebuilt[0], first[0])],
+        "the rebuilt group, with the one it replaced"
+    );
     assert_eq!(rebuilt.len(), 1, "still one group");
     assert_eq!(groups(&app, small), cube_group, "the cube is left as built");
     {
@@ -834,6 +863,7 @@ fn a_still_mesh_is_rebuilt_by_full_sweep_in_idle_time_and_traces_the_same() {
         .entity_mut(big)
         .insert(Transform::from_xyz(3.0, -1.0, 0.0).with_rotation(Quat::from_rotation_y(0.4)));
     settle(&mut app);
+    assert!(take(&app).0, "a move is an edit");
     check(&mut app, &rays(100, 0x5eed));
     std::thread::sleep(Duration::from_millis(200));
     settle(&mut app);
