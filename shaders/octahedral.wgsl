@@ -3,7 +3,11 @@
 // that read or write them.
 
 fn decode_normal(w: u32) -> vec3<f32> {
-    let e = unpack2x16snorm(w);
+    return octahedral_direction(unpack2x16snorm(w));
+}
+
+// The unit vector at octahedral coordinates `e` (each -1..1).
+fn octahedral_direction(e: vec2<f32>) -> vec3<f32> {
     var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
     let t = max(-n.z, 0.0);
     n.x += select(t, -t, n.x >= 0.0);

@@ -15,7 +15,9 @@ struct Attr {
     group: u32,
     uv01: vec4<f32>,
     uv2: vec2<f32>,
-    pad: vec2<u32>,
+    // The corners' object-space tangents, three octahedral 10-bit pairs, a sign and a flag
+    // (`records::encode_tangents`); zero without.
+    tangents: vec2<u32>,
 }
 
 struct Object {
@@ -296,6 +298,36 @@ fn shadow(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
     return select(shadow_filter, vec3<f32>(0.0), blocked);
 }
 
+// Bit 31 of a shading record's first tangent word: the corners' tangents are there.
+const TANGENTS_PRESENT: u32 = 0x80000000u;
+
+// The three corner tangents of a shading record (object space, unit length).
+fn corner_tangents(w: vec2<u32>) -> array<vec3<f32>, 3> {
+    let e = vec3<f32>(1.0 / 511.0);
+    let a = vec3<f32>(vec3<u32>(w.x, w.x >> 10u, w.x >> 20u) & vec3<u32>(0x3ffu)) * e - vec3<f32>(1.0);
+    let b = vec3<f32>(vec3<u32>(w.y, w.y >> 10u, w.y >> 20u) & vec3<u32>(0x3ffu)) * e - vec3<f32>(1.0);
+    return array<vec3<f32>, 3>(
+        octahedral_direction(a.xy),
+        octahedral_direction(vec2<f32>(a.z, b.x)),
+        octahedral_direction(b.yz),
+    );
+}
+
+// The shading normal `ns` bent by the material's normal map at `t`, in the frame of tangent `tn`
+// and bitangent `b`; kept as it is where the map would tilt it below the surface (`ng`).
+fn normal_mapped(
+    obj: Object,
+    t: vec2<f32>,
+    ns: vec3<f32>,
+    ng: vec3<f32>,
+    tn: vec3<f32>,
+    b: vec3<f32>,
+) -> vec3<f32> {
+    let m = sample_map(obj, obj.maps.y, MAP_NORMAL, t).xyz * 2.0 - vec3<f32>(1.0);
+    let mapped = normalize(tn * m.x + b * (m.y * obj.coat.z) + ns * max(m.z, 1e-3));
+    return select(ns, mapped, dot(mapped, ng) > 0.0);
+}
+
 fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let tri = tri_at(hit.triangle);
     let attr = attr_at(hit.triangle);
@@ -334,7 +366,19 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         r *= mr.g;
         s.metallic *= mr.b;
     }
-    if obj.maps.y != NONE {
+    if obj.maps.y != NONE && (attr.tangents.x & TANGENTS_PRESENT) != 0u {
+        // The mesh's own tangents (the raster view's too), interpolated like the normals.
+        let w = 1.0 - hit.u - hit.v;
+        let tangents = corner_tangents(attr.tangents);
+        // Object space, as the normals are, whether or not the triangles were baked to world space.
+        let tu = vector_to_world(obj, tangents[0] * w + tangents[1] * hit.u + tangents[2] * hit.v);
+        let tangent = tu - ns * dot(ns, tu);
+        if dot(tangent, tangent) > 1e-30 {
+            let tn = normalize(tangent);
+            let flip = select(1.0, -1.0, ((attr.tangents.x >> 30u) & 1u) != 0u);
+            ns = normal_mapped(obj, t, ns, ng, tn, cross(ns, tn) * flip);
+        }
+    } else if obj.maps.y != NONE {
         // Tangents per triangle, from its positions and texture coordinates (dP/du, dP/dv).
         let t0 = texture_uv(obj, attr.uv01.xy);
         let d1 = texture_uv(obj, attr.uv01.zw) - t0;
@@ -353,12 +397,7 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             if dot(tangent, tangent) > 1e-30 {
                 let tn = normalize(tangent);
                 let b = cross(ns, tn) * select(1.0, -1.0, dot(cross(ns, tn), tv) < 0.0);
-                let m = sample_map(obj, obj.maps.y, MAP_NORMAL, t).xyz * 2.0 - vec3<f32>(1.0);
-                let mapped = normalize(tn * m.x + b * (m.y * obj.coat.z) + ns * max(m.z, 1e-3));
-                // A map tilting the normal below the surface is ignored there.
-                if dot(mapped, ng) > 0.0 {
-                    ns = mapped;
-                }
+                ns = normal_mapped(obj, t, ns, ng, tn, b);
             }
         }
     }

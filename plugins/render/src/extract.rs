@@ -299,11 +299,13 @@ fn scene_writes(
             && let Some(shading) = tree.shading.get(&g)
         {
             let k = k as usize;
-            out.extend_from_slice(bytemuck::bytes_of(&attribute_record(
+            let record = attribute_record(
                 shading.normals.get(k).copied(),
                 shading.uvs.get(k).copied(),
                 g.index(),
-            )));
+            )
+            .with_tangents(shading.tangents.get(k).copied());
+            out.extend_from_slice(bytemuck::bytes_of(&record));
         }
     });
 

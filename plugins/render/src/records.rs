@@ -28,8 +28,9 @@ pub struct GpuAttribute {
     pub uv01: [f32; 4],
     /// UV of corner 2.
     pub uv2: [f32; 2],
-    /// Padding to 48 bytes.
-    pub pad: [u32; 2],
+    /// The corners' object-space tangents ([`encode_tangents`]); zero when the mesh has none (the
+    /// kernel then makes one per triangle from its UVs).
+    pub tangents: [u32; 2],
 }
 
 /// `Object` of `pathtrace.wgsl`: one group's normal matrix and material.
@@ -464,8 +465,71 @@ pub fn attribute_record(
         group: (group & !HAS_NORMALS) | flag,
         uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
         uv2: [uv[2].x, uv[2].y],
-        pad: [0; 2],
+        tangents: [0; 2],
     }
+}
+
+impl GpuAttribute {
+    /// The record with its corners' tangents (xyz and the bitangent's sign in w, glTF's
+    /// convention), or without any.
+    pub fn with_tangents(mut self, tangents: Option<[Vec4; 3]>) -> Self {
+        self.tangents = tangents.map_or([0; 2], encode_tangents);
+        self
+    }
+}
+
+/// Steps of a tangent's octahedral coordinates either side of zero (10-bit snorm).
+const TANGENT_STEPS: f32 = 511.0;
+
+/// A triangle's three corner tangents in 64 bits, where a record has room for them: each direction
+/// octahedral in two 10-bit snorms (within a quarter degree, ample for a frame that bends a normal
+/// map), one
+/// bitangent sign for the triangle (from corner 0: a sign flips only across a UV seam, where the
+/// corners are split), and a flag. The first word holds corner 0's two and corner 1's x, the sign
+/// (bit 30) and the flag (bit 31); the second corner 1's y and corner 2's two.
+pub fn encode_tangents(t: [Vec4; 3]) -> [u32; 2] {
+    let oct = |v: Vec4| -> [u32; 2] {
+        let n = v.truncate().normalize_or(Vec3::X);
+        let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+        let (mut x, mut y) = (n.x / l1, n.y / l1);
+        if n.z < 0.0 {
+            let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+            (x, y) = ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y));
+        }
+        let q = |v: f32| ((v.clamp(-1.0, 1.0) * TANGENT_STEPS).round() + TANGENT_STEPS) as u32;
+        [q(x), q(y)]
+    };
+    let [a, b, c] = t.map(oct);
+    let flip = u32::from(t[0].w < 0.0);
+    [
+        a[0] | (a[1] << 10) | (b[0] << 20) | (flip << 30) | (1 << 31),
+        b[1] | (c[0] << 10) | (c[1] << 20),
+    ]
+}
+
+/// The inverse of [`encode_tangents`], as the kernel computes it: the corners' unit directions and
+/// the bitangent's sign, or `None` for a record without tangents.
+pub fn decode_tangents(w: [u32; 2]) -> Option<([Vec3; 3], f32)> {
+    if w[0] >> 31 == 0 {
+        return None;
+    }
+    let field = |word: u32, at: u32| ((word >> at) & 0x3ff) as f32 / TANGENT_STEPS - 1.0;
+    let dir = |x: f32, y: f32| {
+        let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
+        let t = (-n.z).max(0.0);
+        n.x += if n.x >= 0.0 { -t } else { t };
+        n.y += if n.y >= 0.0 { -t } else { t };
+        n.normalize()
+    };
+    let sign = if (w[0] >> 30) & 1 == 1 { -1.0 } else { 1.0 };
+    Some((
+        [
+            dir(field(w[0], 0), field(w[0], 10)),
+            dir(field(w[0], 20), field(w[1], 0)),
+            dir(field(w[1], 10), field(w[1], 20)),
+        ],
+        sign,
+    ))
 }
 
 /// How a texture coordinate outside 0..1 folds back, along one axis.
@@ -562,7 +626,8 @@ pub struct SurfaceMaterial {
     pub base_color_texture: Option<LayerTexture>,
     /// Roughness (green) and metalness (blue), multiplying the factors.
     pub metallic_roughness_texture: Option<LayerTexture>,
-    /// Tangent-space normal map (tangents made per triangle from its UVs).
+    /// Tangent-space normal map, along the mesh's tangents (made per triangle from its UVs where it has
+    /// none).
     pub normal_texture: Option<LayerTexture>,
     /// Sign of the normal map's green channel: -1 for maps whose y points down (Bevy's
     /// `flip_normal_map_y`).
@@ -905,6 +970,34 @@ mod tests {
             worst = worst.min(decode_normal(encode_normal(n)).dot(n));
         }
         assert!(worst > 0.99999, "worst cosine {worst}");
+    }
+
+    #[test]
+    fn tangents_survive_their_packing_with_their_sign() {
+        let mut worst: f32 = 1.0;
+        for i in 0..600 {
+            let dir = |k: usize| {
+                let j = (3 * i + k) as f32;
+                let z = 1.0 - 2.0 * (j + 0.5) / 1800.0;
+                let r = (1.0 - z * z).sqrt();
+                Vec3::new(r * (j * 2.399_963).cos(), r * (j * 2.399_963).sin(), z)
+            };
+            let w = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let t = [0, 1, 2].map(|k| dir(k).extend(w));
+            let (got, sign) = decode_tangents(encode_tangents(t)).expect("tangents");
+            assert_eq!(sign, w);
+            for k in 0..3 {
+                worst = worst.min(got[k].dot(t[k].truncate()));
+            }
+        }
+        for axis in [Vec3::X, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z] {
+            let (got, _) = decode_tangents(encode_tangents([axis.extend(1.0); 3])).unwrap();
+            assert!(got.iter().all(|g| g.dot(axis) > 0.99999), "{axis}: {got:?}");
+        }
+        assert!(worst > 0.25f32.to_radians().cos(), "worst cosine {worst}");
+        let bare = attribute_record(None, None, 3);
+        assert_eq!(decode_tangents(bare.tangents), None);
+        assert_eq!(decode_tangents(bare.with_tangents(None).tangents), None);
     }
 
     #[test]

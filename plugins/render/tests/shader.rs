@@ -165,7 +165,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
     assert!(has_entry(&m, "path_trace"));
     assert_eq!(
         wgsl_layout(&m, "Attr"),
-        rust_layout!(GpuAttribute, [normals, group, uv01, uv2, pad])
+        rust_layout!(GpuAttribute, [normals, group, uv01, uv2, tangents])
     );
     assert_eq!(
         wgsl_layout(&m, "Object"),

@@ -48,6 +48,7 @@ impl MeshChunks {
         TriangleShading {
             normals: gather(&self.shading.normals, ids, whole),
             uvs: gather(&self.shading.uvs, ids, whole),
+            tangents: gather(&self.shading.tangents, ids, whole),
         }
     }
 }
@@ -65,7 +66,7 @@ fn gather<T: Copy>(all: &[T], ids: &[u32], whole: usize) -> Vec<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use treelight_bvh::glam::Vec2;
+    use treelight_bvh::glam::{Vec2, Vec4};
 
     const RULE: PieceRule = PieceRule {
         cut_above: 64,
@@ -82,6 +83,7 @@ mod tests {
             triangles.push(Triangle::new(p, p + Vec3::X, p + Vec3::Z));
             shading.normals.push([Vec3::splat(k as f32); 3]);
             shading.uvs.push([Vec2::splat(k as f32); 3]);
+            shading.tangents.push([Vec4::splat(k as f32); 3]);
         }
         let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
         let eye = Vec3::new(100.0, 5.0, -10.0);
@@ -100,9 +102,19 @@ mod tests {
             assert!(!group.is_empty() && group.len() <= 64);
             assert_eq!(shading.normals.len(), group.len());
             assert_eq!(shading.uvs.len(), group.len());
-            for (n, uv) in shading.normals.iter().zip(&shading.uvs) {
+            assert_eq!(shading.tangents.len(), group.len());
+            for ((n, uv), tangent) in shading
+                .normals
+                .iter()
+                .zip(&shading.uvs)
+                .zip(&shading.tangents)
+            {
                 let t = n[0].x as usize;
                 assert_eq!(uv[0].x as usize, t, "normals and UVs of one triangle");
+                assert_eq!(
+                    tangent[0].x as usize, t,
+                    "normals and tangents of one triangle"
+                );
                 assert!(!seen[t], "triangle {t} in two chunks");
                 seen[t] = true;
             }
@@ -111,7 +123,7 @@ mod tests {
         // Shading that does not match the triangles is left out, not misread.
         let short = TriangleShading {
             normals: vec![[Vec3::ZERO; 3]; 10],
-            uvs: Vec::new(),
+            ..Default::default()
         };
         let triangles = chunks.triangles.clone();
         let chunks = MeshChunks::cut(triangles, Arc::new(short), RULE, &transform, None);

@@ -259,6 +259,7 @@ impl SceneTree {
             .map(|s| {
                 s.normals.capacity() * size_of::<[Vec3; 3]>()
                     + s.uvs.capacity() * size_of::<[Vec2; 3]>()
+                    + s.tangents.capacity() * size_of::<[Vec4; 3]>()
             })
             .sum();
         (self.bvh.memory_bytes().total(), shading)

@@ -3,7 +3,7 @@
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use std::fmt;
 use treelight_bvh::Triangle;
-use treelight_bvh::glam::{Vec2, Vec3};
+use treelight_bvh::glam::{Vec2, Vec3, Vec4};
 
 /// Why a mesh cannot be traced.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +48,10 @@ pub struct TriangleShading {
     pub normals: Vec<[Vec3; 3]>,
     /// `UV_0` of each triangle's corners; empty when the mesh has none.
     pub uvs: Vec<[Vec2; 3]>,
+    /// Object-space tangents of each triangle's corners (xyz, and the bitangent's sign in w, as
+    /// glTF and Bevy's `ATTRIBUTE_TANGENT` have them), so a renderer bends normal maps along the
+    /// same frame as Bevy's; empty when the mesh has none.
+    pub tangents: Vec<[Vec4; 3]>,
 }
 
 /// A mesh as the scene BVH and a renderer see it.
@@ -93,6 +97,7 @@ struct Arrays {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
     uvs: Vec<[f32; 2]>,
+    tangents: Vec<[f32; 4]>,
     indices: Vec<u32>,
 }
 
@@ -113,6 +118,7 @@ impl Arrays {
             positions: room(sh.vertices, [0.0; 3], touch),
             normals: room(per_vertex(sh.normals), [0.0; 3], touch),
             uvs: room(per_vertex(sh.uvs), [0.0; 2], touch),
+            tangents: room(per_vertex(sh.tangents), [0.0; 4], touch),
             indices: room(if sh.indexed { 3 * sh.triangles } else { 0 }, 0, touch),
         }
     }
@@ -137,8 +143,8 @@ fn positions_of(mesh: &Mesh) -> Result<&[[f32; 3]], MeshSkip> {
     }
 }
 
-/// What a copy is sized by: vertex count, triangle count, whether indexed, and whether normals and
-/// UVs are usable.
+/// What a copy is sized by: vertex count, triangle count, whether indexed, and whether normals, UVs
+/// and tangents are usable.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Shape {
     vertices: usize,
@@ -146,6 +152,7 @@ struct Shape {
     indexed: bool,
     normals: bool,
     uvs: bool,
+    tangents: bool,
 }
 
 fn shape(mesh: &Mesh) -> Result<Shape, MeshSkip> {
@@ -164,12 +171,17 @@ fn shape(mesh: &Mesh) -> Result<Shape, MeshSkip> {
         mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0),
         Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == vertices
     );
+    let tangents = matches!(
+        mesh.try_attribute_option(Mesh::ATTRIBUTE_TANGENT),
+        Ok(Some(VertexAttributeValues::Float32x4(v))) if v.len() == vertices
+    );
     Ok(Shape {
         vertices,
         triangles: indices.map_or(vertices, Indices::len) / 3,
         indexed: indices.is_some(),
         normals,
         uvs,
+        tangents,
     })
 }
 
@@ -186,6 +198,7 @@ impl GeometryCopy {
         let bytes = 4
             * (3 * sh.vertices * (1 + sh.normals as usize)
                 + 2 * sh.vertices * sh.uvs as usize
+                + 4 * sh.vertices * sh.tangents as usize
                 + 3 * sh.triangles * sh.indexed as usize);
         let arrays = if background && bytes >= BACKGROUND_BYTES {
             let spawned = std::thread::Builder::new()
@@ -206,20 +219,21 @@ impl GeometryCopy {
         })
     }
 
-    /// Array elements to copy: positions, usable normals and UVs, and indices.
+    /// Array elements to copy: positions, usable normals, UVs and tangents, and indices.
     pub fn total(&self) -> usize {
         self.sections().iter().sum()
     }
 
-    /// Elements in each section, in copy order: positions, normals, UVs, indices (0 for one that
-    /// is not copied).
-    fn sections(&self) -> [usize; 4] {
+    /// Elements in each section, in copy order: positions, normals, UVs, tangents, indices (0 for
+    /// one that is not copied).
+    fn sections(&self) -> [usize; 5] {
         let sh = self.shape;
         let v = sh.vertices;
         [
             v,
             if sh.normals { v } else { 0 },
             if sh.uvs { v } else { 0 },
+            if sh.tangents { v } else { 0 },
             if sh.indexed { 3 * sh.triangles } else { 0 },
         ]
     }
@@ -271,7 +285,7 @@ impl GeometryCopy {
         Ok(self.next == self.total())
     }
 
-    /// Elements `from..to` of section `k` (positions, normals, UVs, indices).
+    /// Elements `from..to` of section `k` (positions, normals, UVs, tangents, indices).
     fn copy_section(
         &mut self,
         mesh: &Mesh,
@@ -298,6 +312,11 @@ impl GeometryCopy {
             2 => {
                 if let VertexAttributeValues::Float32x2(uv) = attribute(Mesh::ATTRIBUTE_UV_0)? {
                     a.uvs.extend_from_slice(&uv[from..to]);
+                }
+            }
+            3 => {
+                if let VertexAttributeValues::Float32x4(t) = attribute(Mesh::ATTRIBUTE_TANGENT)? {
+                    a.tangents.extend_from_slice(&t[from..to]);
                 }
             }
             _ => {
@@ -368,9 +387,21 @@ impl GeometryCopy {
         } else {
             Vec::new()
         };
+        let tangents = if self.shape.tangents && a.tangents.len() == v && v > 0 {
+            corners
+                .iter()
+                .map(|c| c.map(|i| Vec4::from_array(a.tangents[i as usize])))
+                .collect()
+        } else {
+            Vec::new()
+        };
         MeshGeometry {
             triangles,
-            shading: TriangleShading { normals, uvs },
+            shading: TriangleShading {
+                normals,
+                uvs,
+                tangents,
+            },
         }
     }
 }
@@ -432,7 +463,11 @@ mod tests {
     #[test]
     fn copying_in_chunks_equals_copying_at_once() {
         use bevy::math::primitives::Sphere;
-        let mesh = Sphere::new(1.0).mesh().uv(13, 7);
+        let mut mesh = Sphere::new(1.0).mesh().uv(13, 7);
+        // Tangents that name their vertex.
+        let vertices = mesh.count_vertices();
+        let tangents: Vec<[f32; 4]> = (0..vertices).map(|i| [i as f32, 0.0, 0.0, -1.0]).collect();
+        mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
         let whole = mesh_geometry(&mesh).unwrap();
         assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
         let mut copy = GeometryCopy::new(&mesh).unwrap();
@@ -450,9 +485,16 @@ mod tests {
             unreachable!()
         };
         let ix: Vec<usize> = mesh.indices().unwrap().iter().collect();
-        for (t, f) in whole.triangles.iter().zip(ix.chunks_exact(3)) {
+        assert_eq!(whole.shading.tangents.len(), whole.triangles.len());
+        for ((t, f), tangents) in whole
+            .triangles
+            .iter()
+            .zip(ix.chunks_exact(3))
+            .zip(&whole.shading.tangents)
+        {
             for k in 0..3 {
                 assert_eq!(t.v[k], Vec3::from_array(p[f[k]]));
+                assert_eq!(tangents[k], Vec4::new(f[k] as f32, 0.0, 0.0, -1.0));
             }
         }
         // A mesh swapped for another between chunks is read again from the start.
@@ -493,8 +535,10 @@ mod tests {
             RenderAssetUsages::default(),
         )
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3])
-        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; 2]);
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; 2])
+        .with_inserted_attribute(Mesh::ATTRIBUTE_TANGENT, vec![[1.0f32, 0.0, 0.0, 1.0]; 4]);
         let g = mesh_geometry(&bare).unwrap();
+        assert!(g.shading.tangents.is_empty());
         assert!(
             g.shading.normals.is_empty(),
             "mismatched counts are left out"
