@@ -22,6 +22,11 @@ use treelight_document::object::SceneIndex;
 use treelight_document::object::SceneObject;
 use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhSystems};
 
+mod support {
+    pub mod drag;
+}
+use support::drag::{FRAME, median};
+
 #[derive(Resource, Default)]
 struct PluginClock {
     started: Option<Instant>,
@@ -119,17 +124,9 @@ fn spawn_mesh(app: &mut App, mesh: Mesh, at: Vec3, parent: Option<Entity>) -> (E
     (e, *world.get::<SceneId>(e).unwrap())
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn max(v: &[f64]) -> f64 {
     v.iter().copied().fold(0.0, f64::max)
 }
-
-/// Frames of a drag come at 60 per second, as a display would pace them.
-const FRAME: Duration = Duration::from_micros(16_667);
 
 fn tree_holds_everything(app: &App, triangles: u32) -> bool {
     let scene = app.world().resource::<SceneBvh>();
@@ -147,41 +144,22 @@ fn drag(
 ) -> (Vec<f64>, Vec<f64>, Option<Duration>, Duration) {
     let e = app.world().resource::<SceneIndex>().entity(id).unwrap();
     let start = *app.world().get::<Transform>(e).unwrap();
-    let (mut frame_ms, mut plugin_ms) = (Vec::new(), Vec::new());
-    let mut last = Instant::now();
+    let mut plugin_ms = Vec::new();
     let first = Instant::now();
     let mut first_follow = None;
-    for k in 1..=frames {
+    let at = |k: u32| {
         let mut t = start;
         t.translation.x += 0.02 * k as f32;
         t.rotation = Quat::from_rotation_y(0.01 * k as f32);
-        let command = EditCommand::SetTransform {
-            id,
-            transform: t.into(),
-        };
-        let request = if k == frames {
-            EditRequest::Apply {
-                command,
-                continuing: false,
-            }
-        } else {
-            EditRequest::Preview(command)
-        };
-        app.world_mut()
-            .resource_mut::<EditRequests>()
-            .0
-            .push(request);
-        last = Instant::now();
-        app.update();
-        let spent = last.elapsed();
-        frame_ms.push(spent.as_secs_f64() * 1e3);
+        t
+    };
+    let frames = support::drag::drag(app, id, frames, at, |app| {
         plugin_ms.push(app.world().resource::<PluginClock>().spent.as_secs_f64() * 1e3);
-        std::thread::sleep(FRAME.saturating_sub(spent));
         // Caught up with this frame's move before the next frame's arrives?
         if first_follow.is_none() && tree_holds_everything(app, triangles) {
             first_follow = Some(first.elapsed());
         }
-    }
+    });
     // The commit lands where the last preview was; wait (frames still at 60 Hz) until the tree
     // has it.
     while !tree_holds_everything(app, triangles) {
@@ -189,7 +167,12 @@ fn drag(
         app.update();
         std::thread::sleep(FRAME.saturating_sub(t.elapsed()));
     }
-    (frame_ms, plugin_ms, first_follow, last.elapsed())
+    (
+        frames.frame_ms,
+        plugin_ms,
+        first_follow,
+        frames.commit.elapsed(),
+    )
 }
 
 fn main() {

@@ -16,7 +16,6 @@
 use bevy::math::Ray3d;
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
-use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, EditRequests};
 use treelight_document::import::parse::PendingImports;
 use treelight_document::object::SceneObject;
@@ -24,9 +23,10 @@ use treelight_scene::{SceneBvh, SceneBvhConfig};
 
 #[path = "../tests/support/assembly.rs"]
 mod assembly;
-
-/// Frames of a drag come at 60 per second, as a display would pace them.
-const FRAME: Duration = Duration::from_micros(16_667);
+mod support {
+    pub mod drag;
+}
+use support::drag::{FRAME, median};
 
 /// Runs frames at 60 Hz until `done` holds; the time it took.
 fn until(app: &mut App, what: &str, mut done: impl FnMut(&mut App) -> bool) -> Duration {
@@ -63,11 +63,6 @@ fn frames_until(app: &mut App, what: &str, mut done: impl FnMut(&mut App) -> boo
         std::thread::sleep(FRAME.saturating_sub(t.elapsed()));
     }
     frames
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn main() {
@@ -159,41 +154,20 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|");
     for run in ["first move", "second move"] {
-        let mut frames = Vec::new();
-        for k in 1..=60 {
+        let at = |k: u32| {
             let mut t = start_transform;
             t.translation.y += 3.0 * k as f32 / 60.0;
-            let command = EditCommand::SetTransform {
-                id,
-                transform: t.into(),
-            };
-            let request = if k == 60 {
-                EditRequest::Apply {
-                    command,
-                    continuing: false,
-                }
-            } else {
-                EditRequest::Preview(command)
-            };
-            app.world_mut()
-                .resource_mut::<EditRequests>()
-                .0
-                .push(request);
-            let t = Instant::now();
-            app.update();
-            frames.push(t.elapsed().as_secs_f64() * 1e3);
-            if k < 60 {
-                std::thread::sleep(FRAME.saturating_sub(t.elapsed()));
-            }
-        }
-        let commit = Instant::now() - Duration::from_secs_f64(frames[59] / 1e3);
+            t
+        };
+        let support::drag::DragFrames { frame_ms, commit } =
+            support::drag::drag(&mut app, id, 60, at, |_| {});
         // Lifted 3 units (the last preview 2.95).
         let dropped = frames_until(&mut app, "the part where dropped", |app| {
             part_at(app, part, x, z).is_some_and(|d| (d - (rest - 3.0)).abs() < 0.01)
         });
         let dropped_ms = commit.elapsed().as_secs_f64() * 1e3;
-        let max = frames.iter().copied().fold(0.0, f64::max);
-        let frame_median = median(frames);
+        let max = frame_ms.iter().copied().fold(0.0, f64::max);
+        let frame_median = median(frame_ms);
         app.world_mut()
             .resource_mut::<EditRequests>()
             .0
