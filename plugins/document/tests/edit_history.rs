@@ -720,7 +720,7 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     let root = rows.iter().find(|r| r.3.is_none()).unwrap();
     assert_eq!(root.1, "CesiumMan.glb");
     for n in &scene.nodes {
-        assert!(rows.iter().any(|r| r.2 == n.key), "{}", n.key);
+        assert!(rows.iter().any(|r| *r.2 == *n.key), "{}", n.key);
     }
     // The mesh sits where the file puts it: its global transform is the mesh's world transform.
     let mesh_row = rows.iter().find(|r| r.5).unwrap();
@@ -734,8 +734,10 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     let root_id = *world.get::<SceneId>(root.0).unwrap();
     let keys = |world: &mut World| {
         let mut q = world.query::<(&SceneId, &SourceKey)>();
-        let mut v: Vec<(SceneId, String)> =
-            q.iter(world).map(|(i, k)| (*i, k.key.clone())).collect();
+        let mut v: Vec<(SceneId, String)> = q
+            .iter(world)
+            .map(|(i, k)| (*i, k.key.to_string()))
+            .collect();
         v.sort();
         v
     };

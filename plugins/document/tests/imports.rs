@@ -58,7 +58,7 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
     )>();
     let shown: Vec<_> = q
         .iter(world)
-        .filter(|(s, ..)| s.0.file == file)
+        .filter(|(s, ..)| *s.0.file == *file)
         .map(|(s, m, mat)| (s.0.import, m.0.id(), mat.0.clone()))
         .collect();
     assert_eq!(shown.len(), 2, "{shown:?}");

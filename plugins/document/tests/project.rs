@@ -930,7 +930,7 @@ fn a_version_1_project_opens_and_saves_again_compact() {
                 kind: treelight_document::project::format::ObjectKind::Node(
                     treelight_document::project::format::SourceNode {
                         source: 0,
-                        key: key.clone(),
+                        key: key.to_string(),
                     },
                 ),
                 material: None,

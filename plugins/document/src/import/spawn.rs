@@ -160,10 +160,11 @@ pub struct SceneAssets<'w> {
 /// the file.
 #[derive(Component, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct SourceKey {
-    /// The file.
-    pub file: PathBuf,
-    /// The node's key in the file; the mesh's index (`mesh N`) for files without nodes.
-    pub key: String,
+    /// The file (one copy shared by every object of an import).
+    pub file: Arc<Path>,
+    /// The node's key in the file; the mesh's index (`mesh N`) for files without nodes. Shared with
+    /// the object's [`MeshSource`].
+    pub key: Arc<str>,
     /// The key's place in [`source_keys`] of the file as imported.
     pub index: u32,
     /// Which import of the file the object came from, as [`SourceCatalog`] numbers them: a file
@@ -250,6 +251,8 @@ pub fn spawn_scene(
         || file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
+    // One copy of the path for every object's key.
+    let file: Arc<Path> = Arc::from(file);
     let root = commands
         .spawn((
             Name::new(root_name),
@@ -258,8 +261,8 @@ pub fn spawn_scene(
             Transform::IDENTITY,
             Visibility::default(),
             SourceKey {
-                file: file.to_owned(),
-                key: String::new(),
+                file: file.clone(),
+                key: Arc::from(""),
                 index: 0,
                 import,
             },
@@ -278,8 +281,8 @@ pub fn spawn_scene(
                     Transform::from_matrix(n.local),
                     Visibility::default(),
                     SourceKey {
-                        file: file.to_owned(),
-                        key: n.key.clone(),
+                        file: file.clone(),
+                        key: Arc::from(n.key.as_str()),
                         index: 1 + k as u32,
                         import,
                     },
@@ -344,8 +347,8 @@ pub fn spawn_scene(
             None => {
                 let n = node.unwrap_or_default();
                 let key = SourceKey {
-                    file: file.to_owned(),
-                    key: scene.nodes[n].key.clone(),
+                    file: file.clone(),
+                    key: Arc::from(scene.nodes[n].key.as_str()),
                     index: 1 + n as u32,
                     import,
                 };
@@ -360,8 +363,8 @@ pub fn spawn_scene(
                     None => (root, Transform::from_matrix(m.transform)),
                 };
                 let key = SourceKey {
-                    file: file.to_owned(),
-                    key,
+                    file: file.clone(),
+                    key: Arc::from(key),
                     index: objects.len() as u32,
                     import,
                 };

@@ -86,12 +86,12 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         let kind = if let Some(k) = key {
             ObjectKind::Node(SourceNode {
                 source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
-                key: k.key.clone(),
+                key: k.key.to_string(),
             })
         } else if let Some(MeshSource(k)) = mesh_source {
             ObjectKind::MeshOf(SourceNode {
                 source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
-                key: k.key.clone(),
+                key: k.key.to_string(),
             })
         } else if let Some(PrimitiveShape(s)) = shape {
             ObjectKind::Shape(*s)
