@@ -360,41 +360,45 @@ impl GeometryCopy {
             .into_iter()
             .filter(|c| c.iter().all(|&i| (i as usize) < v))
             .collect();
-        let per_corner = |all: &[[f32; 3]]| -> Vec<[Vec3; 3]> {
+        // Each triangle's corners of one copied array, only when it was copied in full (the
+        // positions always are; normals, UVs and tangents when the mesh has them).
+        fn per_corner<T: Copy, U>(
+            corners: &[[u32; 3]],
+            all: &[T],
+            v: usize,
+            to: impl Fn(T) -> U,
+        ) -> Vec<[U; 3]> {
             if all.len() != v || v == 0 {
                 return Vec::new();
             }
             corners
                 .iter()
-                .map(|c| c.map(|i| Vec3::from_array(all[i as usize])))
+                .map(|c| c.map(|i| to(all[i as usize])))
                 .collect()
-        };
-        let triangles = per_corner(&a.positions)
+        }
+        let triangles = per_corner(&corners, &a.positions, v, Vec3::from_array)
             .into_iter()
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
-        // Normals and UVs only when copied in full (`per_corner` checks the normals' count).
-        let normals = if self.shape.normals {
-            per_corner(&a.normals)
-        } else {
-            Vec::new()
-        };
-        let uvs = if self.shape.uvs && a.uvs.len() == v && v > 0 {
-            corners
-                .iter()
-                .map(|c| c.map(|i| Vec2::from_array(a.uvs[i as usize])))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let tangents = if self.shape.tangents && a.tangents.len() == v && v > 0 {
-            corners
-                .iter()
-                .map(|c| c.map(|i| Vec4::from_array(a.tangents[i as usize])))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let sh = self.shape;
+        let normals = per_corner(
+            &corners,
+            &a.normals,
+            if sh.normals { v } else { 0 },
+            Vec3::from_array,
+        );
+        let uvs = per_corner(
+            &corners,
+            &a.uvs,
+            if sh.uvs { v } else { 0 },
+            Vec2::from_array,
+        );
+        let tangents = per_corner(
+            &corners,
+            &a.tangents,
+            if sh.tangents { v } else { 0 },
+            Vec4::from_array,
+        );
         MeshGeometry {
             triangles,
             shading: TriangleShading {
