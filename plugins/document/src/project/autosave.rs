@@ -6,7 +6,7 @@
 //! process dies) and each copy names its editor, so the offer at start names only copies whose
 //! editor is gone: a project's own copy when newer than it, or else the newest unsaved scene's.
 //! Copies older than a week are removed; a save, and quitting with the changes discarded, remove
-//! the copy that became stale.
+//! the copy that became stale; an editor starting removes the locks of editors that are gone.
 
 use crate::edit::history::EditHistory;
 use crate::notice::Notices;
@@ -54,8 +54,13 @@ pub struct EditorLock {
     _file: std::fs::File,
 }
 
+/// How old a released lock must be before it is removed: a younger one may belong to an editor
+/// that made the file and has not locked it yet.
+const LOCK_GRACE: Duration = Duration::from_secs(60);
+
 impl EditorLock {
-    /// Takes this process's lock in `dir` (made if need be).
+    /// Takes this process's lock in `dir` (made if need be), and removes the locks that editors no
+    /// longer running left behind (a missing lock says the same as a released one).
     pub fn take(dir: &Path) -> std::io::Result<Self> {
         std::fs::create_dir_all(dir)?;
         let file = std::fs::OpenOptions::new()
@@ -64,6 +69,14 @@ impl EditorLock {
             .write(true)
             .open(lock_path(dir, std::process::id()))?;
         file.lock()?;
+        for (_, stale) in left_by_gone_editors(dir, "editor-", ".lock") {
+            let young = modified(&stale)
+                .and_then(|t| t.elapsed().ok())
+                .is_none_or(|age| age < LOCK_GRACE);
+            if !young {
+                let _ = std::fs::remove_file(stale);
+            }
+        }
         Ok(Self { _file: file })
     }
 }
@@ -384,6 +397,38 @@ mod tests {
         let f = std::fs::File::create(lock_path(cache, pid)).unwrap();
         f.lock().unwrap();
         f
+    }
+
+    #[test]
+    fn taking_the_lock_removes_locks_editors_left_behind_a_minute_ago_or_more() {
+        let cache = std::env::temp_dir().join(format!("treelight-stale-{}", std::process::id()));
+        std::fs::remove_dir_all(&cache).ok();
+        std::fs::create_dir_all(&cache).unwrap();
+        let released = |pid: u32, age: Duration| {
+            let path = lock_path(&cache, pid);
+            let f = std::fs::File::create(&path).unwrap();
+            f.set_modified(SystemTime::now() - age).unwrap();
+            path
+        };
+        let gone = released(4_000_011, Duration::from_secs(3600));
+        let starting = released(4_000_012, Duration::from_secs(1));
+        let held = hold_lock(&cache, 4_000_013);
+        let f = std::fs::File::options()
+            .write(true)
+            .open(lock_path(&cache, 4_000_013))
+            .unwrap();
+        f.set_modified(SystemTime::now() - Duration::from_secs(3600))
+            .unwrap();
+        let own = EditorLock::take(&cache).unwrap();
+        assert!(!gone.exists(), "a lock released long ago is removed");
+        assert!(starting.exists(), "a young one may be an editor starting");
+        assert!(editor_running(&cache, 4_000_013), "a held lock stays");
+        assert!(
+            editor_running(&cache, std::process::id()),
+            "and this editor's own"
+        );
+        drop((own, held));
+        std::fs::remove_dir_all(&cache).ok();
     }
 
     #[test]
