@@ -19,11 +19,11 @@ pub type AnyLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight
 
 /// Every key [`spawn_scene`] gives the objects of `scene`: the root's (empty), each node's, and
 /// each mesh's that is not on its node, in the order it spawns them.
-pub fn source_keys(scene: &ImportedScene) -> Vec<String> {
+pub fn source_keys(scene: &ImportedScene) -> Vec<Arc<str>> {
     source_tree(scene)
         .keys
         .into_iter()
-        .map(|k| k.into_owned())
+        .map(|k| Arc::from(k.as_ref()))
         .collect()
 }
 
@@ -108,13 +108,19 @@ pub fn spawn_scene_in_world(
 ) -> Result<SpawnedScene, String> {
     let mut state: bevy::ecs::system::SystemState<(Commands, SceneAssets)> =
         bevy::ecs::system::SystemState::new(world);
-    let import = world
-        .get_resource_mut::<SourceCatalog>()
-        .map_or(0, |mut c| c.add(file, source_keys(scene)));
+    let keys = source_keys(scene);
+    let (import, keys) = match world.get_resource_mut::<SourceCatalog>() {
+        Some(mut c) => {
+            let import = c.add(file, keys);
+            (import, c.get(import).map(|i| i.keys.clone()))
+        }
+        None => (0, Some(Arc::new(keys))),
+    };
+    let keys = keys.unwrap_or_default();
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
     let objects = spawn_scene(
         &mut commands,
-        (file, import),
+        (file, import, &keys),
         scene,
         prebuilt,
         &mut assets,
@@ -190,13 +196,14 @@ pub struct SourceCatalog {
 pub struct SourceImport {
     /// The file.
     pub file: PathBuf,
-    /// Its [`source_keys`] when imported; shared by the imports of one file that found the same.
-    pub keys: Arc<Vec<String>>,
+    /// Its [`source_keys`] when imported; shared by the imports of one file that found the same,
+    /// and each key with the [`SourceKey`] of its object.
+    pub keys: Arc<Vec<Arc<str>>>,
 }
 
 impl SourceCatalog {
     /// Notes an import of `file` whose nodes have `keys`; returns its number.
-    pub fn add(&mut self, file: &Path, keys: Vec<String>) -> u32 {
+    pub fn add(&mut self, file: &Path, keys: Vec<Arc<str>>) -> u32 {
         let keys = self
             .imports
             .values()
@@ -238,7 +245,7 @@ impl SourceCatalog {
 /// that order, the root first.
 pub fn spawn_scene(
     commands: &mut Commands,
-    (file, import): (&Path, u32),
+    (file, import, keys): (&Path, u32, &[Arc<str>]),
     scene: &ImportedScene,
     prebuilt: &mut Prebuilt,
     assets: &mut SceneAssets,
@@ -251,8 +258,11 @@ pub fn spawn_scene(
         || file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    // One copy of the path for every object's key.
+    // One copy of the path for every object's key, and of each key for its object.
     let file: Arc<Path> = Arc::from(file);
+    let key_at = |i: usize, made: &dyn Fn() -> String| {
+        keys.get(i).cloned().unwrap_or_else(|| Arc::from(made()))
+    };
     let root = commands
         .spawn((
             Name::new(root_name),
@@ -262,7 +272,7 @@ pub fn spawn_scene(
             Visibility::default(),
             SourceKey {
                 file: file.clone(),
-                key: Arc::from(""),
+                key: key_at(0, &String::new),
                 index: 0,
                 import,
             },
@@ -282,7 +292,7 @@ pub fn spawn_scene(
                     Visibility::default(),
                     SourceKey {
                         file: file.clone(),
-                        key: Arc::from(n.key.as_str()),
+                        key: key_at(1 + k, &|| n.key.clone()),
                         index: 1 + k as u32,
                         import,
                     },
@@ -348,7 +358,7 @@ pub fn spawn_scene(
                 let n = node.unwrap_or_default();
                 let key = SourceKey {
                     file: file.clone(),
-                    key: Arc::from(scene.nodes[n].key.as_str()),
+                    key: key_at(1 + n, &|| scene.nodes[n].key.clone()),
                     index: 1 + n as u32,
                     import,
                 };
@@ -364,7 +374,7 @@ pub fn spawn_scene(
                 };
                 let key = SourceKey {
                     file: file.clone(),
-                    key: Arc::from(key),
+                    key: key_at(objects.len(), &|| key.clone()),
                     index: objects.len() as u32,
                     import,
                 };

@@ -132,14 +132,14 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         if slots.is_some_and(|s| s.iter().any(|n| matches!(n, Node::Unlisted(_)))) {
             source_ids.push(SourceIds {
                 source: source_of(of, file, &mut sources),
-                keys: keys_hash(keys.iter().map(String::as_str)),
+                keys: keys_hash(keys.iter().map(|k| &**k)),
                 runs: id_runs((0..keys.len()).map(|i| match slot(i) {
                     Node::Unlisted(id) => Some(id),
                     _ => None,
                 })),
             });
         }
-        let gone: Vec<&String> = keys
+        let gone: Vec<&std::sync::Arc<str>> = keys
             .iter()
             .enumerate()
             .filter(|(i, _)| slot(*i) == Node::Gone)
@@ -151,7 +151,7 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         let source = source_of(of, file, &mut sources);
         deleted.extend(gone.into_iter().map(|k| SourceNode {
             source,
-            key: k.clone(),
+            key: k.to_string(),
         }));
     }
     // What a missing source held stays as it was, each such source apart.
