@@ -424,13 +424,7 @@ pub struct GpuAoParams {
 /// A unit vector in 32 bits: octahedral mapping, two snorm16 (x in the low half, as WGSL's
 /// `unpack2x16snorm` reads it). Precise to about 0.005°, a third of an f32 vector's size.
 pub fn encode_normal(n: Vec3) -> u32 {
-    let n = n.normalize_or(Vec3::Z);
-    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-    let (mut x, mut y) = (n.x / l1, n.y / l1);
-    if n.z < 0.0 {
-        let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
-        (x, y) = ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y));
-    }
+    let [x, y] = octahedral(n.normalize_or(Vec3::Z));
     let snorm = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
     snorm(x) | (snorm(y) << 16)
 }
@@ -438,8 +432,24 @@ pub fn encode_normal(n: Vec3) -> u32 {
 /// The inverse of [`encode_normal`], as the shader computes it.
 pub fn decode_normal(w: u32) -> Vec3 {
     let unorm = |h: u32| ((h as u16 as i16) as f32 / 32767.0).max(-1.0);
-    let (ex, ey) = (unorm(w & 0xffff), unorm(w >> 16));
-    let mut n = Vec3::new(ex, ey, 1.0 - ex.abs() - ey.abs());
+    octahedral_direction(unorm(w & 0xffff), unorm(w >> 16))
+}
+
+/// The octahedral coordinates (each -1..1) of unit vector `n`: the normals' and the tangents'.
+fn octahedral(n: Vec3) -> [f32; 2] {
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    let (x, y) = (n.x / l1, n.y / l1);
+    if n.z >= 0.0 {
+        return [x, y];
+    }
+    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+    [(1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y)]
+}
+
+/// The unit vector at octahedral coordinates `(x, y)`, [`octahedral`]'s inverse (the shaders'
+/// `octahedral_direction`).
+fn octahedral_direction(x: f32, y: f32) -> Vec3 {
+    let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
     let t = (-n.z).max(0.0);
     n.x += if n.x >= 0.0 { -t } else { t };
     n.y += if n.y >= 0.0 { -t } else { t };
@@ -488,17 +498,8 @@ const TANGENT_STEPS: f32 = 511.0;
 /// corners are split), and a flag. The first word holds corner 0's two and corner 1's x, the sign
 /// (bit 30) and the flag (bit 31); the second corner 1's y and corner 2's two.
 pub fn encode_tangents(t: [Vec4; 3]) -> [u32; 2] {
-    let oct = |v: Vec4| -> [u32; 2] {
-        let n = v.truncate().normalize_or(Vec3::X);
-        let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-        let (mut x, mut y) = (n.x / l1, n.y / l1);
-        if n.z < 0.0 {
-            let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
-            (x, y) = ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y));
-        }
-        let q = |v: f32| ((v.clamp(-1.0, 1.0) * TANGENT_STEPS).round() + TANGENT_STEPS) as u32;
-        [q(x), q(y)]
-    };
+    let q = |v: f32| ((v.clamp(-1.0, 1.0) * TANGENT_STEPS).round() + TANGENT_STEPS) as u32;
+    let oct = |v: Vec4| octahedral(v.truncate().normalize_or(Vec3::X)).map(q);
     let [a, b, c] = t.map(oct);
     let flip = u32::from(t[0].w < 0.0);
     [
@@ -514,13 +515,7 @@ pub fn decode_tangents(w: [u32; 2]) -> Option<([Vec3; 3], f32)> {
         return None;
     }
     let field = |word: u32, at: u32| ((word >> at) & 0x3ff) as f32 / TANGENT_STEPS - 1.0;
-    let dir = |x: f32, y: f32| {
-        let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
-        let t = (-n.z).max(0.0);
-        n.x += if n.x >= 0.0 { -t } else { t };
-        n.y += if n.y >= 0.0 { -t } else { t };
-        n.normalize()
-    };
+    let dir = octahedral_direction;
     let sign = if (w[0] >> 30) & 1 == 1 { -1.0 } else { 1.0 };
     Some((
         [
