@@ -80,10 +80,16 @@ fn mesh_counts(scene: &ImportedScene) -> Vec<u32> {
 fn own_mesh_key(scene: &ImportedScene, i: usize, counts: &[u32]) -> Option<String> {
     let node = scene.meshes[i].node.filter(|&n| n < scene.nodes.len());
     match node {
-        Some(n) if counts[n] == 1 => None,
+        _ if !has_own_object(scene, i, counts) => None,
         Some(n) => Some(format!("{}/mesh {i}", scene.nodes[n].key)),
         None => Some(format!("mesh {i}")),
     }
+}
+
+/// Whether mesh `i` gets an object of its own: it is not its node's only mesh.
+fn has_own_object(scene: &ImportedScene, i: usize, counts: &[u32]) -> bool {
+    let node = scene.meshes[i].node.filter(|&n| n < scene.nodes.len());
+    node.is_none_or(|n| counts[n] != 1)
 }
 
 /// What [`spawn_scene_in_world`] made.
@@ -110,13 +116,9 @@ pub fn spawn_scene_in_world(
         bevy::ecs::system::SystemState::new(world);
     let keys = source_keys(scene);
     let (import, keys) = match world.get_resource_mut::<SourceCatalog>() {
-        Some(mut c) => {
-            let import = c.add(file, keys);
-            (import, c.get(import).map(|i| i.keys.clone()))
-        }
-        None => (0, Some(Arc::new(keys))),
+        Some(mut c) => c.add(file, keys),
+        None => (0, Arc::new(keys)),
     };
-    let keys = keys.unwrap_or_default();
     let (mut commands, mut assets) = state.get_mut(world).map_err(|e| e.to_string())?;
     let objects = spawn_scene(
         &mut commands,
@@ -202,8 +204,9 @@ pub struct SourceImport {
 }
 
 impl SourceCatalog {
-    /// Notes an import of `file` whose nodes have `keys`; returns its number.
-    pub fn add(&mut self, file: &Path, keys: Vec<Arc<str>>) -> u32 {
+    /// Notes an import of `file` whose nodes have `keys`; returns its number and the keys as the
+    /// catalog keeps them (shared with an earlier import of the file that found the same).
+    pub fn add(&mut self, file: &Path, keys: Vec<Arc<str>>) -> (u32, Arc<Vec<Arc<str>>>) {
         let keys = self
             .imports
             .values()
@@ -215,10 +218,10 @@ impl SourceCatalog {
             number,
             SourceImport {
                 file: file.to_owned(),
-                keys,
+                keys: keys.clone(),
             },
         );
-        number
+        (number, keys)
     }
 
     /// The import numbered `import`.
@@ -260,9 +263,7 @@ pub fn spawn_scene(
     );
     // One copy of the path for every object's key, and of each key for its object.
     let file: Arc<Path> = Arc::from(file);
-    let key_at = |i: usize, made: &dyn Fn() -> String| {
-        keys.get(i).cloned().unwrap_or_else(|| Arc::from(made()))
-    };
+    let key_at = |i: usize| keys.get(i).cloned().unwrap_or_default();
     let root = commands
         .spawn((
             Name::new(root_name),
@@ -272,7 +273,7 @@ pub fn spawn_scene(
             Visibility::default(),
             SourceKey {
                 file: file.clone(),
-                key: key_at(0, &String::new),
+                key: key_at(0),
                 index: 0,
                 import,
             },
@@ -292,7 +293,7 @@ pub fn spawn_scene(
                     Visibility::default(),
                     SourceKey {
                         file: file.clone(),
-                        key: key_at(1 + k, &|| n.key.clone()),
+                        key: key_at(1 + k),
                         index: 1 + k as u32,
                         import,
                     },
@@ -352,13 +353,13 @@ pub fn spawn_scene(
         let shape = (Mesh3d(mesh), MeshMaterial3d(mat));
         let bound = prebuilt.bounds.get(i).copied().flatten();
         let node = m.node.filter(|&n| n < nodes.len());
-        let spawned = match own_mesh_key(scene, i, &counts) {
+        let spawned = match has_own_object(scene, i, &counts) {
             // A node's only mesh lives on the node itself.
-            None => {
+            false => {
                 let n = node.unwrap_or_default();
                 let key = SourceKey {
                     file: file.clone(),
-                    key: key_at(1 + n, &|| scene.nodes[n].key.clone()),
+                    key: key_at(1 + n),
                     index: 1 + n as u32,
                     import,
                 };
@@ -367,14 +368,14 @@ pub fn spawn_scene(
             }
             // Each of several meshes of one node is a child of it; a mesh of a file without nodes
             // stands under the root with its own transform.
-            Some(key) => {
+            true => {
                 let (parent, transform) = match node {
                     Some(n) => (nodes[n], Transform::IDENTITY),
                     None => (root, Transform::from_matrix(m.transform)),
                 };
                 let key = SourceKey {
                     file: file.clone(),
-                    key: key_at(objects.len(), &|| key.clone()),
+                    key: key_at(objects.len()),
                     index: objects.len() as u32,
                     import,
                 };
