@@ -182,28 +182,18 @@ pub fn put_map(m: &mut StandardMaterial, slot: MapSlot, image: Handle<Image>, te
     } else {
         UvChannel::Uv0
     };
-    match slot {
-        MapSlot::BaseColor => {
-            m.base_color_texture = Some(image);
-            m.base_color_channel = channel;
-        }
-        MapSlot::MetallicRoughness => {
-            m.metallic_roughness_texture = Some(image);
-            m.metallic_roughness_channel = channel;
-        }
-        MapSlot::Normal => {
-            m.normal_map_texture = Some(image);
-            m.normal_map_channel = channel;
-        }
-        MapSlot::Occlusion => {
-            m.occlusion_texture = Some(image);
-            m.occlusion_channel = channel;
-        }
-        MapSlot::Emissive => {
-            m.emissive_texture = Some(image);
-            m.emissive_channel = channel;
-        }
-    }
+    let (texture, uvs) = match slot {
+        MapSlot::BaseColor => (&mut m.base_color_texture, &mut m.base_color_channel),
+        MapSlot::MetallicRoughness => (
+            &mut m.metallic_roughness_texture,
+            &mut m.metallic_roughness_channel,
+        ),
+        MapSlot::Normal => (&mut m.normal_map_texture, &mut m.normal_map_channel),
+        MapSlot::Occlusion => (&mut m.occlusion_texture, &mut m.occlusion_channel),
+        MapSlot::Emissive => (&mut m.emissive_texture, &mut m.emissive_channel),
+    };
+    *texture = Some(image);
+    *uvs = channel;
 }
 
 /// The texels of `t` as `role` stores them.
