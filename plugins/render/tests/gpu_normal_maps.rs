@@ -5,13 +5,11 @@
 
 mod support;
 
-use support::{Gpu, floats, put_record, srgb_to_linear};
+use support::scenes::{Scene, ShadedTriangle, Trace, camera, trace, view_ray};
+use support::{Gpu, srgb_to_linear};
+use treelight_bvh::Triangle;
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
-use treelight_bvh::{Bvh, Triangle};
-use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SurfaceMaterial,
-    TextureWrap, TraceWork, ViewParams, attribute_record, object_bytes,
-};
+use treelight_render::{DebugView, LayerTexture, SurfaceMaterial, TextureWrap};
 
 const SIZE: u32 = 192;
 const SAMPLES: u32 = 4;
@@ -45,9 +43,7 @@ fn corner_tangents() -> [Vec4; 4] {
 }
 
 fn world_from_clip() -> Mat4 {
-    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 2.6), Vec3::ZERO, Vec3::Y);
-    let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, 0.1);
-    (proj * view).inverse()
+    camera(Vec3::new(0.0, 0.0, 2.6), Vec3::ZERO, Vec3::Y, 50.0)
 }
 
 /// Barycentric weights of `p` in the triangle `a b c` (2D).
@@ -126,21 +122,16 @@ fn the_normals_view_bends_normals_along_the_mesh_s_tangents_or_its_uvs() {
             keep_whole: true,
         },
     ];
+    // The quad's two triangles with their UVs, flat (no normals), and the corner tangents.
     let c = corners();
-    let tris: Vec<Triangle> = FACES
+    let tris: Vec<ShadedTriangle> = FACES
         .iter()
         .map(|f| {
             let [a, b, d] = f.map(|k| c[k].extend(0.0));
-            Triangle::new(a, b, d)
+            (Triangle::new(a, b, d), None, f.map(|k| quad_uv(c[k])))
         })
         .collect();
-    let mut bvh = Bvh::default();
-    let groups: Vec<_> = quads
-        .iter()
-        .map(|q| bvh.insert_group(&tris, q.transform, q.keep_whole).unwrap())
-        .collect();
-    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
-    let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
+    let tangents = FACES.map(|f| f.map(|k| corner_tangents()[k]));
     let material = SurfaceMaterial {
         base_color: [0.8, 0.8, 0.8, 1.0],
         normal_texture: Some(LayerTexture {
@@ -149,42 +140,21 @@ fn the_normals_view_bends_normals_along_the_mesh_s_tangents_or_its_uvs() {
         }),
         ..Default::default()
     };
-    for (q, &g) in quads.iter().zip(&groups) {
-        for (k, &id) in bvh.group_triangles(g).unwrap().iter().enumerate() {
-            let uvs = FACES[k].map(|c| quad_uv(corners()[c]));
-            let tangents = q
-                .file_tangents
-                .then(|| FACES[k].map(|c| corner_tangents()[c]));
-            let record = attribute_record(None, Some(uvs), g.index()).with_tangents(tangents);
-            put_record(&mut attrs, id, bytemuck::bytes_of(&record));
-        }
-        put_record(
-            &mut objects,
-            g.index(),
-            &object_bytes(Mat3::from(q.transform.matrix3), &material),
-        );
+    let mut scene = Scene::new();
+    for q in &quads {
+        let tangents = q.file_tangents.then_some(&tangents[..]);
+        scene.add_with_tangents(&tris, tangents, q.transform, q.keep_whole, &material);
     }
-    let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &[]);
-    let params = ViewParams {
-        world_from_clip: world_from_clip(),
-        sky: Vec3::ZERO,
-        exposure: 1.0,
-        width: SIZE,
-        height: SIZE,
-        root: bvh.gpu_root(),
-        max_bounces: 1,
+    let view = Trace {
+        size: SIZE,
         samples: SAMPLES,
+        bounces: 1,
+        sky: Vec3::ZERO,
         mode: DebugView::Normals.shader_index(),
-        light_count: 0,
-        indirect_clamp: 0.0,
-        work: TraceWork::WHOLE_IMAGE,
-        part_shift: treelight_render::MAX_PART_SHIFT,
-        environment: Vec4::ZERO,
+        world_from_clip: world_from_clip(),
+        lights: Vec::new(),
     };
-    let target = gpu.trace_target(SIZE, SIZE);
-    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
-    gpu.path_trace(&pipeline, &buffers, &params, &target, &layers);
-    let image = floats(&gpu.read(&target.accum));
+    let (image, _) = trace(&gpu, &scene, &layers, &view);
 
     let wfc = world_from_clip();
     let mut checked = [0u32; 3];
@@ -194,14 +164,8 @@ fn the_normals_view_bends_normals_along_the_mesh_s_tangents_or_its_uvs() {
     let mut apart = [0.0f32; 3];
     // Where the ray through a point of the view (pixels, y down) meets the quads' plane.
     let plane_hit = |px: Vec2| {
-        let ndc = Vec2::new(
-            px.x / SIZE as f32 * 2.0 - 1.0,
-            1.0 - px.y / SIZE as f32 * 2.0,
-        );
-        let near = wfc.project_point3(ndc.extend(1.0));
-        let far = wfc.project_point3(ndc.extend(0.5));
-        let d = far - near;
-        near + d * (-near.z / d.z)
+        let (o, d) = view_ray(wfc, SIZE, px);
+        o + d * (-o.z / d.z)
     };
     for y in 0..SIZE {
         for x in 0..SIZE {
@@ -225,8 +189,7 @@ fn the_normals_view_bends_normals_along_the_mesh_s_tangents_or_its_uvs() {
                 if spread > 0.02 {
                     continue;
                 }
-                let px = &image[((y * SIZE + x) * 4) as usize..][..3];
-                let got = Vec3::new(px[0], px[1], px[2]) / SAMPLES as f32 * 2.0 - Vec3::ONE;
+                let got = image[(y * SIZE + x) as usize] * 2.0 - Vec3::ONE;
                 worst[i] = worst[i].max((got - want).abs().max_element() - spread);
                 apart[i] = apart[i].max((from_uvs - want).abs().max_element());
                 checked[i] += 1;

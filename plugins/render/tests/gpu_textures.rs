@@ -5,13 +5,11 @@
 
 mod support;
 
-use support::{Gpu, Rng, floats, linear_to_srgb, put_record, srgb_to_linear};
-use treelight_bvh::glam::{Affine2, Affine3A, Mat3, Mat4, Vec2, Vec3};
-use treelight_bvh::{Bvh, Triangle};
-use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, LayerTexture, OBJECT_BYTES, PATHTRACE_WGSL, SurfaceMaterial,
-    TextureWrap, TraceWork, ViewParams, attribute_bytes, object_bytes,
-};
+use support::scenes::{Scene, ShadedTriangle, Trace, camera, trace, view_ray};
+use support::{Gpu, Rng, linear_to_srgb, srgb_to_linear};
+use treelight_bvh::Triangle;
+use treelight_bvh::glam::{Affine2, Affine3A, Mat4, Vec2, Vec3};
+use treelight_render::{DebugView, LayerTexture, SurfaceMaterial, TextureWrap};
 
 fn random_image(rng: &mut Rng, w: u32, h: u32) -> Vec<u8> {
     (0..w * h * 4).map(|_| rng.byte()).collect()
@@ -96,9 +94,7 @@ fn quad_uv(p: Vec2) -> Vec2 {
 }
 
 fn world_from_clip() -> Mat4 {
-    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 2.6), Vec3::ZERO, Vec3::Y);
-    let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, 0.1);
-    (proj * view).inverse()
+    camera(Vec3::new(0.0, 0.0, 2.6), Vec3::ZERO, Vec3::Y, 50.0)
 }
 
 /// Colours of the 4×4 blocks of 2×2 texels the texture is made of.
@@ -130,17 +126,13 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
     ];
     let at = |k: usize| corners[k].extend(0.0);
     let faces = [[0, 1, 2], [0, 2, 3]];
-    let tris: Vec<Triangle> = faces
+    let tris: Vec<ShadedTriangle> = faces
         .iter()
-        .map(|f| Triangle::new(at(f[0]), at(f[1]), at(f[2])))
+        .map(|f| {
+            let t = Triangle::new(at(f[0]), at(f[1]), at(f[2]));
+            (t, None, f.map(|c| quad_uv(corners[c])))
+        })
         .collect();
-    let mut bvh = Bvh::default();
-    let g = bvh.insert_group(&tris, Affine3A::IDENTITY, false).unwrap();
-    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
-    for (k, &id) in bvh.group_triangles(g).unwrap().iter().enumerate() {
-        let uvs = faces[k].map(|c| quad_uv(corners[c]));
-        put_record(&mut attrs, id, &attribute_bytes(None, Some(uvs), g.index()));
-    }
     let uv_transform = Affine2::from_mat2_translation(
         treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
         Vec2::new(-0.3, 0.1),
@@ -152,34 +144,18 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         uv_transform,
         ..Default::default()
     };
-    let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
-    put_record(
-        &mut objects,
-        g.index(),
-        &object_bytes(Mat3::IDENTITY, &material),
-    );
-    let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &[]);
-    const SAMPLES: u32 = 8;
-    let params = ViewParams {
-        world_from_clip: world_from_clip(),
+    let mut scene = Scene::new();
+    scene.add(&tris, Affine3A::IDENTITY, false, &material);
+    let view = Trace {
+        size: SIZE,
+        samples: 8,
+        bounces: 1,
         sky: Vec3::ZERO,
-        exposure: 1.0,
-        width: SIZE,
-        height: SIZE,
-        root: bvh.gpu_root(),
-        max_bounces: 1,
-        samples: SAMPLES,
         mode: DebugView::Albedo.shader_index(),
-        light_count: 0,
-        indirect_clamp: 0.0,
-        work: TraceWork::WHOLE_IMAGE,
-        part_shift: treelight_render::MAX_PART_SHIFT,
-        environment: treelight_bvh::glam::Vec4::ZERO,
+        world_from_clip: world_from_clip(),
+        lights: Vec::new(),
     };
-    let target = gpu.trace_target(SIZE, SIZE);
-    let pipeline = gpu.pipeline(PATHTRACE_WGSL, "path_trace");
-    gpu.path_trace(&pipeline, &buffers, &params, &target, &layers);
-    let image = floats(&gpu.read(&target.accum));
+    let (image, _) = trace(&gpu, &scene, &layers, &view);
 
     // Expected albedo per pixel, where a pixel's jittered samples all fall inside one block's flat
     // middle (bilinear taps there see only that block's colour).
@@ -187,14 +163,8 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
     let (mut checked, mut mirrored, mut clamped, mut worst) = (0, 0, 0, 0.0f32);
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let ndc = Vec2::new(
-                (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
-                1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0,
-            );
-            let near = wfc.project_point3(ndc.extend(1.0));
-            let far = wfc.project_point3(ndc.extend(0.5));
-            let d = far - near;
-            let hit = near + d * (-near.z / d.z);
+            let (o, d) = view_ray(wfc, SIZE, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let hit = o + d * (-o.z / d.z);
             if hit.x.abs() > 0.95 || hit.y.abs() > 0.95 {
                 continue;
             }
@@ -229,10 +199,10 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
                 continue;
             }
             let c = block_colour(block.x as u32, block.y as u32);
-            let px = &image[((y * SIZE + x) * 4) as usize..][..3];
+            let px = image[(y * SIZE + x) as usize];
             for k in 0..3 {
                 let want = BASE[k] * srgb_to_linear(c[k] as f32 / 255.0);
-                worst = worst.max((px[k] / SAMPLES as f32 - want).abs());
+                worst = worst.max((px[k] - want).abs());
             }
             checked += 1;
             mirrored += (t.x > 1.0 || t.x < 0.0) as u32;

@@ -3,11 +3,11 @@
 
 use super::{Gpu, Layers, floats, put_record};
 use std::f32::consts::PI;
-use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
+use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
     ATTRIBUTE_BYTES, DebugView, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
-    TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+    TraceWork, ViewParams, attribute_record, light_bytes, object_bytes,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -38,17 +38,28 @@ impl Scene {
         keep_whole: bool,
         material: &SurfaceMaterial,
     ) -> GroupId {
+        self.add_with_tangents(tris, None, transform, keep_whole, material)
+    }
+
+    /// [`Scene::add`], with each triangle's corner tangents (xyz and the bitangent's sign) when
+    /// `tangents` gives them.
+    pub fn add_with_tangents(
+        &mut self,
+        tris: &[ShadedTriangle],
+        tangents: Option<&[[Vec4; 3]]>,
+        transform: Affine3A,
+        keep_whole: bool,
+        material: &SurfaceMaterial,
+    ) -> GroupId {
         let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
         let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
         let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
         self.attrs.resize(need.max(self.attrs.len()), 0);
         for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
             let (_, n, uv) = tris[k];
-            put_record(
-                &mut self.attrs,
-                id,
-                &attribute_bytes(n, Some(uv), g.index()),
-            );
+            let record =
+                attribute_record(n, Some(uv), g.index()).with_tangents(tangents.map(|t| t[k]));
+            put_record(&mut self.attrs, id, bytemuck::bytes_of(&record));
         }
         let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
         self.objects.resize(need.max(self.objects.len()), 0);
@@ -122,6 +133,18 @@ pub fn camera(eye: Vec3, target: Vec3, up: Vec3, fov: f32) -> Mat4 {
     let view = Mat4::look_at_rh(eye, target, up);
     let proj = Mat4::perspective_infinite_reverse_rh(fov.to_radians(), 1.0, 0.1);
     (proj * view).inverse()
+}
+
+/// The ray (origin on the near plane, direction, not unit) through point `px` of a square view of
+/// `size` pixels (y down) through `world_from_clip`, as the kernel makes its camera rays.
+pub fn view_ray(world_from_clip: Mat4, size: u32, px: Vec2) -> (Vec3, Vec3) {
+    let ndc = Vec2::new(
+        px.x / size as f32 * 2.0 - 1.0,
+        1.0 - px.y / size as f32 * 2.0,
+    );
+    let near = world_from_clip.project_point3(ndc.extend(1.0));
+    let far = world_from_clip.project_point3(ndc.extend(0.5));
+    (near, far - near)
 }
 
 /// What to trace: a square image of `size` pixels, `samples` per pixel.
