@@ -360,8 +360,7 @@ impl GeometryCopy {
             .into_iter()
             .filter(|c| c.iter().all(|&i| (i as usize) < v))
             .collect();
-        // Each triangle's corners of one copied array, only when it was copied in full (the
-        // positions always are; normals, UVs and tangents when the mesh has them).
+        // Each triangle's corners of one copied array, only when it was copied in full.
         fn per_corner<T: Copy, U>(
             corners: &[[u32; 3]],
             all: &[T],
@@ -380,25 +379,10 @@ impl GeometryCopy {
             .into_iter()
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
-        let sh = self.shape;
-        let normals = per_corner(
-            &corners,
-            &a.normals,
-            if sh.normals { v } else { 0 },
-            Vec3::from_array,
-        );
-        let uvs = per_corner(
-            &corners,
-            &a.uvs,
-            if sh.uvs { v } else { 0 },
-            Vec2::from_array,
-        );
-        let tangents = per_corner(
-            &corners,
-            &a.tangents,
-            if sh.tangents { v } else { 0 },
-            Vec4::from_array,
-        );
+        // An attribute the mesh lacks was never copied: its array is empty.
+        let normals = per_corner(&corners, &a.normals, v, Vec3::from_array);
+        let uvs = per_corner(&corners, &a.uvs, v, Vec2::from_array);
+        let tangents = per_corner(&corners, &a.tangents, v, Vec4::from_array);
         MeshGeometry {
             triangles,
             shading: TriangleShading {
