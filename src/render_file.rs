@@ -22,7 +22,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use treelight_document::DocumentPlugin;
 use treelight_document::app::{
     SceneLoading, fail_on_errors, run_schedules_on_one_thread, task_pools,
@@ -125,6 +125,11 @@ struct RenderJob {
     gate: CaptureGate,
     /// The screenshot was asked for.
     captured: bool,
+    /// When the first samples were seen, and how many each pixel had then: the trace's rate,
+    /// reported once every pixel has its samples (then `None` again).
+    counting: Option<(Instant, u32)>,
+    /// The image's size in pixels.
+    pixels: u64,
     /// The scene camera to render through, by name.
     camera: Option<String>,
     /// What the command line changes of the scene's sky panorama, put on it once the scene has
@@ -267,6 +272,8 @@ pub fn render_app(args: &RenderArgs) -> App {
         settled: false,
         gate: CaptureGate::default(),
         captured: false,
+        counting: None,
+        pixels: u64::from(args.width) * u64::from(args.height),
         camera: args.camera.clone(),
         sky: SkyArgs::from(args),
     });
@@ -415,6 +422,22 @@ fn follow_samples(
         job.settled = true;
     }
     let samples = stats.samples(*view.camera);
+    // The rate counts from the first samples seen (the pipelines are compiled by then) to the last.
+    if samples > 0 && job.counting.is_none() {
+        job.counting = Some((Instant::now(), samples));
+    }
+    if samples >= job.spp
+        && let Some((since, first)) = job.counting.take()
+    {
+        let seconds = since.elapsed().as_secs_f64();
+        let traced = u64::from(job.spp.saturating_sub(first)) * job.pixels;
+        if traced > 0 {
+            info!(
+                "traced {traced} samples in {seconds:.3} s: {:.2} million samples a second",
+                traced as f64 / seconds / 1e6
+            );
+        }
+    }
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
     let spp = job.spp;

@@ -928,58 +928,9 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
 
 #[test]
 fn the_raster_view_reads_a_map_through_the_second_uv_set() {
-    // A quad whose first UV set points at the red half of a two-texel texture and whose second
-    // points at the green half; its base colour map reads the second set.
+    // A quad whose base colour map reads its second UV set, the green half of its texture.
     let dir = temp_dir("uv-set-1");
-    image::RgbImage::from_fn(2, 1, |x, _| {
-        if x == 0 {
-            image::Rgb([230, 20, 20])
-        } else {
-            image::Rgb([20, 230, 20])
-        }
-    })
-    .save(dir.join("red-green.png"))
-    .unwrap();
-    let mut bin: Vec<u8> = Vec::new();
-    let floats = |bin: &mut Vec<u8>, v: &[f32]| {
-        for f in v {
-            bin.extend_from_slice(&f.to_le_bytes());
-        }
-    };
-    floats(
-        &mut bin,
-        &[
-            -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0,
-        ],
-    );
-    floats(&mut bin, &[0.25, 0.5].repeat(4));
-    floats(&mut bin, &[0.75, 0.5].repeat(4));
-    for i in [0u32, 1, 2, 0, 2, 3] {
-        bin.extend_from_slice(&i.to_le_bytes());
-    }
-    std::fs::write(dir.join("quad.bin"), &bin).unwrap();
-    let gltf = format!(
-        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
-        "nodes":[{{"name":"quad","mesh":0}}],
-        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1,"TEXCOORD_1":2}},"indices":3,"material":0}}]}}],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}},"metallicFactor":0.0}}}}],
-        "textures":[{{"source":0,"sampler":0}}],"samplers":[{{"magFilter":9728,"minFilter":9728}}],
-        "images":[{{"uri":"red-green.png"}}],
-        "accessors":[
-          {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
-          {{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}},
-          {{"bufferView":2,"componentType":5126,"count":4,"type":"VEC2"}},
-          {{"bufferView":3,"componentType":5125,"count":6,"type":"SCALAR"}}],
-        "bufferViews":[
-          {{"buffer":0,"byteOffset":0,"byteLength":48}},
-          {{"buffer":0,"byteOffset":48,"byteLength":32}},
-          {{"buffer":0,"byteOffset":80,"byteLength":32}},
-          {{"buffer":0,"byteOffset":112,"byteLength":24}}],
-        "buffers":[{{"uri":"quad.bin","byteLength":{}}}]}}"#,
-        bin.len()
-    );
-    let file = dir.join("quad.gltf");
-    std::fs::write(&file, gltf).unwrap();
+    let file = write_second_uv_set_quad(&dir);
     let mut s = xdrive::Session::start(
         "uv-set-1",
         &[

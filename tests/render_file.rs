@@ -444,3 +444,36 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
         s.dir().display()
     );
 }
+
+/// A material that reads its maps through the second UV set is path traced through it, as the
+/// raster view draws it: the quad is its texture's green half, no pixel the red half of set 0.
+#[test]
+fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
+    let dir = temp_dir("render-uv-set-1");
+    let quad = support::write_second_uv_set_quad(&dir);
+    let out = dir.join("quad.png");
+    let (ok, log) = render(&[
+        quad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--spp",
+        "4",
+    ]);
+    assert!(ok, "{log}");
+    let img = load_rgb(&out);
+    let (mut red, mut green) = (0u32, 0u32);
+    for p in img.pixels() {
+        let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
+        red += u32::from(r > g.max(b) + 40);
+        green += u32::from(g > r.max(b) + 40);
+    }
+    img.save(dir.join("seen.png")).ok();
+    assert!(
+        green > 96 * 64 / 8 && red == 0,
+        "the quad is not the second set's green: {green} green pixels, {red} red"
+    );
+}

@@ -268,7 +268,8 @@ fn normal_mapped_meshes_get_tangents_and_others_do_not() {
 }
 
 /// A map that reads the second UV set (`TEXCOORD_1`) is drawn through it in the raster view: the
-/// Bevy mesh carries the set as `ATTRIBUTE_UV_1` and the material reads the map on that channel.
+/// Bevy mesh carries the set as `ATTRIBUTE_UV_1` and the material reads the map (here an occlusion
+/// map beside a base colour map on set 0) on that channel.
 #[test]
 fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
     use bevy::mesh::{UvChannel, VertexAttributeValues};
@@ -285,8 +286,8 @@ fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
     let edited = text
         .replace("\"TEXCOORD_0\": 3", "\"TEXCOORD_0\": 3, \"TEXCOORD_1\": 3")
         .replace(
-            "\"baseColorTexture\": {",
-            "\"baseColorTexture\": {\"texCoord\": 1,",
+            "\"name\": \"Texture\"",
+            "\"occlusionTexture\": {\"index\": 0, \"texCoord\": 1}, \"name\": \"Texture\"",
         );
     assert_ne!(edited, text);
     std::fs::write(&file, edited).unwrap();
@@ -317,7 +318,8 @@ fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
         .resource::<Assets<StandardMaterial>>()
         .get(&material)
         .unwrap();
-    assert!(material.base_color_texture.is_some());
-    assert_eq!(material.base_color_channel, UvChannel::Uv1);
+    assert!(material.base_color_texture.is_some() && material.occlusion_texture.is_some());
+    assert_eq!(material.base_color_channel, UvChannel::Uv0);
+    assert_eq!(material.occlusion_channel, UvChannel::Uv1);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -225,6 +225,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     if used_default {
         scene.materials.push(ImportedMaterial::default());
     }
+    crate::uv_sets::first_set_for_tracing(&mut scene);
     Ok(scene)
 }
 

@@ -16,6 +16,7 @@ mod obj_scene;
 mod ply_scene;
 mod sandbox;
 mod texture;
+mod uv_sets;
 
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
@@ -225,10 +226,14 @@ pub struct MeshGeometry {
     pub positions: Vec<[f32; 3]>,
     /// Vertex normals, one per position, if the file has them.
     pub normals: Option<Vec<[f32; 3]>>,
-    /// Texture coordinates, one per position, if the file has them.
+    /// Texture coordinates, one per position, if the file has them: glTF's `TEXCOORD_0`, or its
+    /// `TEXCOORD_1` where the mesh's material reads all its colour, metallic-roughness, normal and
+    /// emission maps through that set (the sets are then exchanged, and the maps' `tex_coord`s, so
+    /// that a consumer reading one set draws the material whole).
     pub uvs: Option<Vec<[f32; 2]>>,
-    /// A second set of texture coordinates (glTF's `TEXCOORD_1`, which maps such as baked
-    /// occlusion may read), one per position, if the file has them.
+    /// A second set of texture coordinates (which maps such as baked occlusion may read), one per
+    /// position, if the file has them: glTF's `TEXCOORD_1`, or `TEXCOORD_0` where the sets were
+    /// exchanged.
     pub uvs1: Option<Vec<[f32; 2]>>,
     /// Vertex tangents for normal maps, one per position, if the file has them (glTF's
     /// `TANGENT`): xyz of unit length, w the bitangent's sign (±1).

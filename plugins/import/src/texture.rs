@@ -59,7 +59,8 @@ pub struct TextureRef {
     /// The map from the mesh's UVs to the texture's (`KHR_texture_transform`), as the columns of a
     /// 2×3 affine matrix: x axis, y axis, translation. The identity without the extension.
     pub uv_transform: [[f32; 2]; 3],
-    /// The set of texture coordinates it reads: 0 (`TEXCOORD_0`) or 1 (`TEXCOORD_1`).
+    /// The set of texture coordinates it reads: 0 ([`crate::MeshGeometry::uvs`]) or 1
+    /// ([`crate::MeshGeometry::uvs1`]).
     pub tex_coord: u32,
 }
 
@@ -118,14 +119,6 @@ impl ImageCache {
                  read; its material is drawn without it"
             ));
             return Ok(None);
-        }
-        // The path tracer reads set 0 only. An occlusion map it can do without: it traces the
-        // occlusion itself.
-        if tex_coord == 1 && !role.ends_with("occlusion map") {
-            warnings.push(format!(
-                "{role} '{name}' uses texture coordinate set 1: the raster view draws it, the \
-                 path-traced view draws its material without it"
-            ));
         }
         if map.iter().flatten().any(|v| !v.is_finite()) {
             warnings.push(format!(

@@ -1,6 +1,6 @@
 //! Real files from ../shared/scenes, good and broken.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use treelight_import::{ImportedLight, ImportedLightKind, WrapMode, load_scene};
 
 fn scene(rel: &str) -> PathBuf {
@@ -601,40 +601,93 @@ fn gltf_node_hierarchies_are_kept_with_local_transforms_and_keys() {
     assert!(s.nodes[node].parent.is_some(), "{:?}", s.nodes);
 }
 
-/// A copy of BoxTextured (its .gltf, .bin and image) in a fresh folder named after `tag`: the folder,
-/// the .gltf's path and its JSON, to edit and write back.
+/// Appends `uvs` to the .bin beside `json`'s BoxTextured copy in `dir` as an accessor of its own,
+/// and returns its index.
+fn add_uv_accessor(dir: &Path, json: &mut serde_json::Value, uvs: &[[f32; 2]]) -> usize {
+    let bin = dir.join("BoxTextured0.bin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    let offset = bytes.len();
+    bytes.extend(uvs.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(&bin, &bytes).unwrap();
+    json["buffers"][0]["byteLength"] = serde_json::json!(bytes.len());
+    let views = json["bufferViews"].as_array_mut().unwrap();
+    views.push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": uvs.len() * 8}));
+    let view = views.len() - 1;
+    let accessors = json["accessors"].as_array_mut().unwrap();
+    accessors.push(serde_json::json!({
+        "bufferView": view, "componentType": 5126, "count": uvs.len(), "type": "VEC2"
+    }));
+    accessors.len() - 1
+}
+
+/// A material that reads every map it traces through `TEXCOORD_1` has its mesh's two sets
+/// exchanged, and its maps' sets with them: set 0 (what the path tracer reads) holds what its maps
+/// read, and the raster view's occlusion map still reads the file's set 0, now set 1.
 #[test]
-fn a_second_uv_set_is_read_for_the_maps_that_name_it() {
-    // BoxTextured with its UVs again as TEXCOORD_1, and the base colour and
-    // occlusion maps reading set 1.
+fn a_material_on_the_second_uv_set_reads_it_as_the_first() {
     let (dir, path, mut json) = copy_box_textured("uv-set-1");
-    let set0 = json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"].clone();
-    json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = set0;
+    let set1: Vec<[f32; 2]> = (0..24).map(|i| [i as f32 / 24.0, 0.25]).collect();
+    let accessor = add_uv_accessor(&dir, &mut json, &set1);
+    json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = serde_json::json!(accessor);
     json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] =
         serde_json::json!(1);
-    json["materials"][0]["occlusionTexture"] = serde_json::json!({"index": 0, "texCoord": 1});
+    json["materials"][0]["occlusionTexture"] = serde_json::json!({"index": 0});
     std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
-    let s = load_scene(&path).unwrap();
-    let g = &s.meshes[0].geometry;
-    assert_eq!(g.uvs1.as_ref().map(Vec::len), Some(g.positions.len()));
-    assert_eq!(g.uvs1, g.uvs);
-    let m = &s.materials[0];
-    assert_eq!(m.base_color_texture.map(|t| t.tex_coord), Some(1));
-    assert_eq!(m.occlusion_texture.map(|t| t.tex_coord), Some(1));
-    // The path tracer reads set 0 only: the base colour map is named, the occlusion map (which it
-    // traces for itself) is not.
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(
-        s.warnings[0].contains("base colour texture") && s.warnings[0].contains("set 1"),
-        "{:?}",
-        s.warnings
-    );
-    // A file without a second set reads none.
     let plain = load_scene(&scene("gltf/BoxTextured-glTF/BoxTextured.gltf")).unwrap();
     assert!(plain.meshes.iter().all(|m| m.geometry.uvs1.is_none()));
+    let s = load_scene(&path).unwrap();
+    let g = &s.meshes[0].geometry;
+    assert_eq!(g.uvs.as_ref(), Some(&set1));
+    assert_eq!(g.uvs1, plain.meshes[0].geometry.uvs);
+    let m = &s.materials[0];
+    assert_eq!(m.base_color_texture.map(|t| t.tex_coord), Some(0));
+    assert_eq!(m.occlusion_texture.map(|t| t.tex_coord), Some(1));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A material whose traced maps read both sets keeps the file's sets, and the warning names the
+/// maps the path tracer draws it without; an occlusion map on set 1 alone needs no exchange.
+#[test]
+fn a_material_on_both_uv_sets_is_named() {
+    let (dir, path, mut json) = copy_box_textured("uv-sets-both");
+    let set1: Vec<[f32; 2]> = (0..24).map(|i| [0.5, i as f32 / 24.0]).collect();
+    let accessor = add_uv_accessor(&dir, &mut json, &set1);
+    json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = serde_json::json!(accessor);
+    json["materials"][0]["normalTexture"] = serde_json::json!({"index": 0, "texCoord": 1});
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    assert_eq!(s.meshes[0].geometry.uvs1.as_ref(), Some(&set1));
+    let m = &s.materials[0];
+    assert_eq!(m.base_color_texture.map(|t| t.tex_coord), Some(0));
+    assert_eq!(m.normal_texture.map(|t| t.tex_coord), Some(1));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("'Texture'")
+            && s.warnings[0].contains("normal map")
+            && !s.warnings[0].contains("base colour"),
+        "{:?}",
+        s.warnings
+    );
+    // The occlusion map is traced, not read: on set 1 it asks for nothing.
+    json["materials"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("normalTexture");
+    json["materials"][0]["occlusionTexture"] = serde_json::json!({"index": 0, "texCoord": 1});
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    assert_eq!(s.meshes[0].geometry.uvs1.as_ref(), Some(&set1));
+    assert_eq!(
+        s.materials[0].occlusion_texture.map(|t| t.tex_coord),
+        Some(1)
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A copy of BoxTextured (its .gltf, .bin and image) in a fresh folder named after `tag`: the folder,
+/// the .gltf's path and its JSON, to edit and write back.
 fn copy_box_textured(tag: &str) -> (PathBuf, PathBuf, serde_json::Value) {
     let dir = std::env::temp_dir().join(format!("treelight-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
