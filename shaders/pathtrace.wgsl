@@ -40,8 +40,11 @@ struct Object {
     maps: vec4<u32>,
     // Clear coat strength and perceptual roughness, the normal map's green sign, unused.
     coat: vec4<f32>,
-    // Tint of the dielectric's specular reflection (rgb), unused.
-    specular: vec4<f32>,
+    // Tint of the dielectric's specular reflection.
+    specular: vec3<f32>,
+    // The slot a view's guides and outlines know the object by (NONE: its own): a group the scene
+    // re-laid without restarting the views keeps the slot of the group it replaced.
+    identity: u32,
 }
 
 struct Light {
@@ -235,6 +238,13 @@ fn object_slot(hit: Hit) -> u32 {
     return slot_of(hit.triangle, hit.instance);
 }
 
+// The slot a view records for a primary hit: its object's identity.
+fn object_identity(hit: Hit) -> u32 {
+    let slot = object_slot(hit);
+    let identity = objects[slot].identity;
+    return select(identity, slot, identity == NONE);
+}
+
 fn alpha_mode(o: Object) -> u32 {
     return (o.wrap >> 20u) & 3u;
 }
@@ -414,7 +424,7 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.roughness = clamp(r, MIN_ROUGHNESS, 1.0);
     s.alpha = s.roughness * s.roughness;
     let reflectance = obj.params.z;
-    s.f0_dielectric = min(vec3<f32>(0.16 * reflectance * reflectance) * obj.specular.rgb, vec3<f32>(1.0));
+    s.f0_dielectric = min(vec3<f32>(0.16 * reflectance * reflectance) * obj.specular, vec3<f32>(1.0));
     s.transmission = clamp(obj.params.w, 0.0, 1.0);
     if alpha_mode(obj) == ALPHA_BLEND {
         // Blending lets 1 - alpha through, as transmission of the base colour.
@@ -899,7 +909,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         let primary = bounce == 0u && passes == 0u;
         if primary {
             primary_depth = clip_depth(o + d * hit.t);
-            primary_object = object_slot(hit);
+            primary_object = object_identity(hit);
         }
         let s = surface_at(hit, o, d);
         if primary {
@@ -971,7 +981,7 @@ fn debug_value(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let hit = closest_hit(view.root, o, d, FAR);
     if hit.triangle != NONE {
         primary_depth = clip_depth(o + d * hit.t);
-        primary_object = object_slot(hit);
+        primary_object = object_identity(hit);
     }
     if view.mode == MODE_HEATMAP {
         return heat(f32(hit.visited) / HEATMAP_MAX);

@@ -477,3 +477,37 @@ fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
         "the quad is not the second set's green: {green} green pixels, {red} red"
     );
 }
+
+/// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes
+/// while the samples accumulate (without restarting them), and the denoiser, guided by the object
+/// each pixel's first sample hit, sees each mesh as the same object before and after.
+#[test]
+fn a_gltf_assembly_renders_the_same_twice_denoised() {
+    let dir = temp_dir("render-helmet");
+    let helmet = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
+    );
+    let images: Vec<Vec<u8>> = ["a.png", "b.png"]
+        .iter()
+        .map(|name| {
+            let out = dir.join(name);
+            let (ok, log) = render(&[
+                helmet,
+                "--out",
+                out.to_str().unwrap(),
+                "--width",
+                "160",
+                "--height",
+                "100",
+                "--spp",
+                "16",
+                "--denoise",
+                "on",
+            ]);
+            assert!(ok, "{log}");
+            load_rgb(&out).into_raw()
+        })
+        .collect();
+    assert!(images[0] == images[1], "two denoised renders differ");
+}

@@ -5,7 +5,7 @@
 use crate::Outlined;
 use crate::records::{
     SceneLight, SurfaceAlpha, SurfaceMaterial, attribute_record, light_bytes, object_bytes,
-    outline_words, set_outline,
+    outline_words, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
@@ -62,6 +62,8 @@ pub(crate) struct SceneSync {
     lights: Option<Vec<u8>>,
     /// The outline words as last sent.
     outlines: Vec<u32>,
+    /// The slots the views know re-laid groups by.
+    identities: crate::identity::SlotIdentities,
     pub pending: PendingUpload,
 }
 
@@ -178,7 +180,7 @@ fn extract_scene(
         let mut words = vec![0u32; outline_words(slots as usize)];
         for (e, o, ..) in &outlined {
             for g in tree.groups_of(e) {
-                set_outline(&mut words, g.index(), o.shader_value());
+                set_outline(&mut words, sync.identities.of(g.index()), o.shader_value());
             }
         }
         if words != sync.outlines {
@@ -273,7 +275,17 @@ fn scene_writes(
     let plan = UploadPlan::new(bvh, c, [u64::MAX; 3]);
     p.writes.extend(plan.writes);
     p.root = Some(plan.root);
-    p.geometry_changed |= c.geometry_changed() || !changes.fresh_groups.is_empty();
+    let restart = c.geometry_changed() || !changes.fresh_groups.is_empty();
+    p.geometry_changed |= restart;
+    // The views restart, or keep what they traced and know each re-laid group as the one it
+    // replaced.
+    if restart {
+        sync.identities.restart();
+    } else {
+        for &(new, old) in &changes.relaid_groups {
+            sync.identities.relaid(new.index(), old.index());
+        }
+    }
     p.need(BufferKind::Nodes, c.inner_capacity as u64);
     p.need(BufferKind::Triangles, c.triangle_capacity as u64);
     p.need(BufferKind::Instances, c.instance_capacity as u64);
@@ -320,16 +332,19 @@ fn scene_writes(
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
         };
-        let rec = object_bytes(
-            Mat3::from(transform.matrix3),
-            &material_of(e, handles, assets, layers),
+        let rec = with_identity(
+            object_bytes(
+                Mat3::from(transform.matrix3),
+                &material_of(e, handles, assets, layers),
+            ),
+            sync.identities.borrowed(g.index()),
         );
         let before = replaced
             .get(&g)
             .and_then(|old| sync.objects.get(old.index() as usize).cloned().flatten());
         let slot = &mut sync.objects[g.index() as usize];
         if slot.as_ref() != Some(&rec) {
-            p.geometry_changed |= before.as_ref() != Some(&rec);
+            p.geometry_changed |= !before.is_some_and(|b| same_drawing(&b, &rec));
             p.writes.push(BufferWrite {
                 buffer: BufferKind::Objects,
                 offset: g.index() as u64 * crate::OBJECT_BYTES,

@@ -16,6 +16,7 @@ mod budget;
 mod energy;
 mod environment;
 mod extract;
+mod identity;
 mod node;
 mod parts;
 mod pipelines;
