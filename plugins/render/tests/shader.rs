@@ -182,7 +182,8 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 wrap,
                 maps,
                 coat,
-                specular
+                specular,
+                identity
             ]
         )
     );
