@@ -125,9 +125,8 @@ struct RenderJob {
     gate: CaptureGate,
     /// The screenshot was asked for.
     captured: bool,
-    /// When the first samples were seen, and how many each pixel had then: the trace's rate,
-    /// reported once every pixel has its samples (then `None` again).
-    counting: Option<(Instant, u32)>,
+    /// How far the trace's rate has been measured.
+    rate: RateClock,
     /// The image's size in pixels.
     pixels: u64,
     /// The scene camera to render through, by name.
@@ -135,6 +134,16 @@ struct RenderJob {
     /// What the command line changes of the scene's sky panorama, put on it once the scene has
     /// settled (a project's own sky is read by then).
     sky: Option<SkyArgs>,
+}
+
+/// The trace's rate, from the first samples seen (the pipelines are compiled by then) to the last.
+enum RateClock {
+    /// No sample yet.
+    Waiting,
+    /// Since when, and how many samples each pixel had then.
+    Since(Instant, u32),
+    /// Reported.
+    Done,
 }
 
 /// `--sky`, `--sky-rotation` and `--sky-intensity`.
@@ -272,7 +281,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         settled: false,
         gate: CaptureGate::default(),
         captured: false,
-        counting: None,
+        rate: RateClock::Waiting,
         pixels: u64::from(args.width) * u64::from(args.height),
         camera: args.camera.clone(),
         sky: SkyArgs::from(args),
@@ -422,21 +431,20 @@ fn follow_samples(
         job.settled = true;
     }
     let samples = stats.samples(*view.camera);
-    // The rate counts from the first samples seen (the pipelines are compiled by then) to the last.
-    if samples > 0 && job.counting.is_none() {
-        job.counting = Some((Instant::now(), samples));
-    }
-    if samples >= job.spp
-        && let Some((since, first)) = job.counting.take()
-    {
-        let seconds = since.elapsed().as_secs_f64();
-        let traced = u64::from(job.spp.saturating_sub(first)) * job.pixels;
-        if traced > 0 {
-            info!(
-                "traced {traced} samples in {seconds:.3} s: {:.2} million samples a second",
-                traced as f64 / seconds / 1e6
-            );
+    match job.rate {
+        RateClock::Waiting if samples > 0 => job.rate = RateClock::Since(Instant::now(), samples),
+        RateClock::Since(since, first) if samples >= job.spp => {
+            let seconds = since.elapsed().as_secs_f64();
+            let traced = u64::from(job.spp.saturating_sub(first)) * job.pixels;
+            if traced > 0 {
+                info!(
+                    "traced {traced} samples in {seconds:.3} s: {:.2} million samples a second",
+                    traced as f64 / seconds / 1e6
+                );
+            }
+            job.rate = RateClock::Done;
         }
+        _ => {}
     }
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));

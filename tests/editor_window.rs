@@ -939,15 +939,7 @@ fn the_raster_view_reads_a_map_through_the_second_uv_set() {
     shot.save(dir.join("view.png")).ok();
     // The quad's pixels, wherever the notices leave it seen: saturated green, none red.
     let [x, y, w, h] = state.viewport.map(|v| v as u32);
-    let (mut red, mut green) = (0u32, 0u32);
-    for py in y..y + h {
-        for px in x..x + w {
-            let p = shot.get_pixel(px, py);
-            let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
-            red += u32::from(r > g.max(b) + 60);
-            green += u32::from(g > r.max(b) + 60);
-        }
-    }
+    let (red, green) = red_and_green_pixels(&shot, [x, y, x + w, y + h], 60);
     assert!(
         green > 2000 && red < 20,
         "the quad is not the second set's green: {green} green pixels, {red} red"

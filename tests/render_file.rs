@@ -465,12 +465,7 @@ fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
     ]);
     assert!(ok, "{log}");
     let img = load_rgb(&out);
-    let (mut red, mut green) = (0u32, 0u32);
-    for p in img.pixels() {
-        let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
-        red += u32::from(r > g.max(b) + 40);
-        green += u32::from(g > r.max(b) + 40);
-    }
+    let (red, green) = support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
     img.save(dir.join("seen.png")).ok();
     assert!(
         green > 96 * 64 / 8 && red == 0,

@@ -208,3 +208,22 @@ pub fn write_second_uv_set_quad(dir: &Path) -> PathBuf {
     std::fs::write(&file, gltf).unwrap();
     file
 }
+
+/// Pixels of `img` in `x0..x1`, `y0..y1` whose red, and whose green, exceeds both other channels by
+/// more than `margin` levels: (red, green).
+pub fn red_and_green_pixels(
+    img: &image::RgbImage,
+    [x0, y0, x1, y1]: [u32; 4],
+    margin: i32,
+) -> (u32, u32) {
+    let (mut red, mut green) = (0u32, 0u32);
+    for y in y0..y1.min(img.height()) {
+        for x in x0..x1.min(img.width()) {
+            let p = img.get_pixel(x, y);
+            let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
+            red += u32::from(r > g.max(b) + margin);
+            green += u32::from(g > r.max(b) + margin);
+        }
+    }
+    (red, green)
+}

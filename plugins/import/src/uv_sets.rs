@@ -89,15 +89,13 @@ pub(crate) fn first_set_for_tracing(scene: &mut ImportedScene) {
             mesh.geometry = copy;
         }
     }
-    // A mesh shares its data with the first earlier one of its kind that was exchanged alike.
-    let roots: Vec<usize> = (0..scene.meshes.len())
-        .map(|i| scene.meshes[i].same_as.unwrap_or(i))
-        .collect();
-    for i in 0..scene.meshes.len() {
-        if scene.meshes[i].same_as.is_some() {
-            scene.meshes[i].same_as =
-                (0..i).find(|&k| roots[k] == roots[i] && swapped[k] == swapped[i]);
-        }
+    // A mesh shares its data with the first one of its kind that was exchanged alike (one pass: a
+    // file may place one mesh a million times).
+    let mut first: HashMap<(usize, bool), usize> = HashMap::new();
+    for (i, (mesh, &swap)) in scene.meshes.iter_mut().zip(&swapped).enumerate() {
+        let kind = (mesh.same_as.unwrap_or(i), swap);
+        let earliest = *first.entry(kind).or_insert(i);
+        mesh.same_as = (earliest != i).then_some(earliest);
     }
 }
 
