@@ -3,12 +3,14 @@
 //! binary under Xvfb opens a generated assembly of bumpy tiles (the sizes below), and its `--state`
 //! report is read until the whole assembly is in the tree and the scene has settled. Prints, per
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
-//! groups' shading, the path tracer's scene buffers) and per triangle, the resident and peak
-//! resident sets less the default scene's; when the file was parsed (from the start of the
+//! groups' shading, the path tracer's scene buffers) and per triangle, the resident set once idle
+//! and the peak resident set, less the default scene's; when the file was parsed (from the start of the
 //! process), how long after that the tree held its first triangles and the viewport showed a whole
 //! path-traced picture with them, when the tree held all of them (from the start); when the view
-//! kept its samples (the worker's background rebuilds over); and the frame rate from then (the
-//! median of 8 s of reports) next to the default scene's.
+//! kept its samples (the worker's background bakes over), when its idle-time rebuilds were over
+//! (idle); and the frame rate then (the median of 8 s of reports) next to the default scene's. The
+//! owners' bytes and the resident set are read once idle; the editor's log is `editor.log` in the
+//! run's temporary folder.
 //!
 //! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
 //! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
@@ -27,7 +29,8 @@ struct Run {
     memory: MemoryReport,
     /// Frames per second once settled.
     fps: f64,
-    /// Resident and peak resident set of the editor's process, bytes.
+    /// Resident set of the editor's process once idle (the idle-time rebuilds over, 8 s after),
+    /// and its peak resident set until then, bytes.
     rss: u64,
     hwm: u64,
     /// Seconds from the start until the tree held triangles, and all of them.
@@ -40,8 +43,10 @@ struct Run {
     /// Frames from the parse's until the tree held triangles, and until the whole picture.
     frames_to_first: Option<u64>,
     frames_to_picture: Option<u64>,
-    /// Seconds from the start until the view kept 4 samples (the background rebuilds done).
+    /// Seconds from the start until the view kept 4 samples (the background bakes done).
     quiet: Option<f64>,
+    /// Seconds from the start until the worker's idle-time rebuilds were over (5 s without one).
+    idle: f64,
 }
 
 /// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
@@ -105,7 +110,10 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         .env("TREELIGHT_CONFIG_DIR", &config)
         .env("TREELIGHT_CACHE_DIR", config.join("cache"))
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
+        .stderr(
+            std::fs::File::create(dir.join("editor.log"))
+                .map_or(std::process::Stdio::null(), Into::into),
+        )
         .process_group(0);
     let start = Instant::now();
     let mut child = cmd.spawn().expect("xvfb-run");
@@ -163,7 +171,6 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
             _ => settled_since = None,
         }
     }
-    let (rss, hwm) = editor_pid(child.id()).map_or((0, 0), rss_and_peak);
     // Once every triangle is in, the worker still bakes and rebuilds the meshes in the background
     // (each one restarting the traced view's samples) for up to minutes: the frame rate is taken
     // once the view keeps its samples, the median of its reports over 8 s.
@@ -181,6 +188,20 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
             break;
         }
     }
+    // Then the worker rebuilds each still mesh with a better builder, for minutes: idle once its
+    // count has held for 5 s.
+    let mut rebuilt = (0, Instant::now());
+    while last.is_some() && quiet_from.elapsed() < Duration::from_secs(600) {
+        std::thread::sleep(Duration::from_millis(500));
+        if let Some(s) = state_now() {
+            if s.memory.meshes_rebuilt != rebuilt.0 {
+                rebuilt = (s.memory.meshes_rebuilt, Instant::now());
+            } else if rebuilt.1.elapsed() >= Duration::from_secs(5) {
+                break;
+            }
+        }
+    }
+    let idle = start.elapsed().as_secs_f64();
     let mut rates = Vec::new();
     let until = Instant::now() + Duration::from_secs(8);
     while last.is_some() && Instant::now() < until {
@@ -188,6 +209,11 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         if let Some(s) = state_now() {
             rates.push(s.fps);
         }
+    }
+    // Idle: the rebuilds over and the frame rate taken.
+    let (rss, hwm) = editor_pid(child.id()).map_or((0, 0), rss_and_peak);
+    if let Some(s) = state_now().filter(|_| last.is_some()) {
+        last = Some(s);
     }
     stop(&mut child);
     rates.sort_by(f64::total_cmp);
@@ -219,6 +245,7 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         frames_to_first,
         frames_to_picture,
         quiet,
+        idle,
     }
 }
 
@@ -248,9 +275,9 @@ fn main() {
         base.fps
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | frames/s then |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let r = run(Some(&file), triangles as u64, &dir);
@@ -259,7 +286,7 @@ fn main() {
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.1} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
@@ -275,6 +302,7 @@ fn main() {
             r.frames_to_picture.map_or("?".into(), |f| f.to_string()),
             r.all.unwrap_or(f64::NAN),
             r.quiet.unwrap_or(f64::NAN),
+            r.idle,
             r.fps,
         );
         std::fs::remove_file(&file).ok();

@@ -7,6 +7,7 @@ pub mod capture;
 pub mod cli;
 pub mod compare;
 pub mod editor;
+pub mod heap_trim;
 pub mod render_errors;
 pub mod render_file;
 pub mod report;
@@ -15,7 +16,7 @@ pub mod system_errors;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
-use bevy::render::settings::{RenderCreation, WgpuLimits, WgpuSettings};
+use bevy::render::settings::{MemoryHints, RenderCreation, WgpuLimits, WgpuSettings};
 use bevy_egui::EguiPlugin;
 use editor::viewport::render_mode::ViewportRender;
 use treelight_document::DocumentPlugin;
@@ -54,7 +55,12 @@ pub fn build_app(cli: &cli::Cli) -> App {
 /// start with its error).
 pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
-    let mut wgpu = WgpuSettings::default();
+    let mut wgpu = WgpuSettings {
+        // Smaller blocks of GPU memory: on a software adapter they are the process's memory, and
+        // the default's blocks of up to 256 MiB keep a large scene's staging and slack resident.
+        memory_hints: MemoryHints::MemoryUsage,
+        ..default()
+    };
     if let Some(kib) = cli.gpu_binding_limit {
         // The other limits are capped at WebGPU's defaults, except the storage buffers a stage
         // binds: the adapter's own, which the path tracer's split records need.
@@ -97,6 +103,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         DocumentPlugin,
         AutosavePlugin,
         editor::EditorPlugin,
+        heap_trim::HeapTrimPlugin,
     ))
     // Errors of systems and commands are reported, not fatal (`system_errors`).
     .set_error_handler(system_errors::report_error)
@@ -175,6 +182,18 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             requested: false,
         })
         .add_systems(Last, capture::count_frames_and_capture);
+    }
+    if let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) {
+        // The raster view's vertex and index slabs grow by half again up to this size, then a new
+        // one starts: the default (512 MiB) leaves a large scene's meshes a third of slack.
+        render_app.insert_resource(bevy::render::mesh::allocator::MeshAllocatorSettings {
+            slab_allocator_settings: bevy::render::slab_allocator::SlabAllocatorSettings {
+                max_slab_size: 64 << 20,
+                large_threshold: 32 << 20,
+                ..default()
+            },
+            ..default()
+        });
     }
     run_schedules_on_one_thread(&mut app);
     app

@@ -168,6 +168,9 @@ pub struct MemoryReport {
     pub scene_buffers: u64,
     /// Triangles in the tree.
     pub triangles: u64,
+    /// Meshes the scene's worker has rebuilt in idle time so far (a better tree for a still mesh).
+    #[serde(default)]
+    pub meshes_rebuilt: u64,
 }
 
 /// Bytes of a mesh's vertex attributes and indices still in the main world.
@@ -198,6 +201,7 @@ fn memory_report(
         shading: stats.shading_bytes as u64,
         scene_buffers: tracer.figures().scene_buffer_bytes,
         triangles: u64::from(stats.triangles),
+        meshes_rebuilt: stats.meshes_refined,
     }
 }
 

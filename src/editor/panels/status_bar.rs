@@ -154,7 +154,6 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
 
 /// The process's resident set, bytes (`VmRSS` in `/proc/self/status`); `None` where there is no
 /// such file.
-/// The process's resident set, bytes (Linux's `VmRSS`); `None` where the system does not say.
 pub fn resident_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;

@@ -1,0 +1,210 @@
+//! Hands the memory a large change freed back to the system. glibc's allocator keeps freed memory
+//! in its per-thread arenas, so after an import (its parse, the worker's temporaries and idle-time
+//! rebuilds, the upload's staging) the editor stays as large as at the import's peak. Once the
+//! scene's memory has moved by at least [`TRIM_AFTER`] bytes, or its worker has rebuilt meshes,
+//! and then the scene has held still with nothing pending, a background thread asks glibc to
+//! return its free pages (`malloc_trim`), which keeps allocation as fast as before; a different
+//! global allocator returns memory too, but copies where glibc's `realloc` remaps, and a growing
+//! BVH reallocates its arrays many times.
+
+use bevy::prelude::*;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use treelight_render::PathTracerStats;
+use treelight_scene::SceneBvh;
+
+use crate::editor::panels::status_bar::resident_bytes;
+
+/// How much the scene's own memory (the tree, its shading records, the path tracer's buffers) must
+/// have changed since the last trim, either way, for another.
+pub const TRIM_AFTER: u64 = 32 << 20;
+
+/// The shortest time between two looks at the scene's figures.
+const LOOK_EVERY: Duration = Duration::from_secs(1);
+
+/// While the scene keeps changing (the worker's idle-time rebuilds of a large import take
+/// minutes), the time between trims.
+const TRIM_EVERY_WHILE_BUSY: Duration = Duration::from_secs(10);
+
+/// Returns freed memory to the system after large changes to the scene (Linux with glibc; elsewhere
+/// the system's allocator is left to its own policy and the plugin adds nothing).
+pub struct HeapTrimPlugin;
+
+impl Plugin for HeapTrimPlugin {
+    fn build(&self, app: &mut App) {
+        if cfg!(all(target_os = "linux", target_env = "gnu")) {
+            app.init_resource::<HeapTrim>()
+                .add_systems(Last, trim_after_large_changes);
+        }
+    }
+}
+
+/// What the last trim saw, and whether one is running.
+#[derive(Resource, Default)]
+pub struct HeapTrim {
+    /// The scene's figures at the last trim.
+    trimmed_at: SceneMemory,
+    /// The scene's figures at the last look.
+    seen: SceneMemory,
+    /// When the figures were last looked at.
+    looked: Option<Instant>,
+    /// When the last trim started.
+    trimmed: Option<Instant>,
+    /// Set while a trim runs on its thread.
+    running: Arc<AtomicBool>,
+}
+
+/// What a trim is decided on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct SceneMemory {
+    /// The tree's, its shading's and the path tracer's buffers' bytes.
+    bytes: u64,
+    /// Meshes the worker has rebuilt in idle time so far (each rebuild frees a mesh's old tree).
+    rebuilt: u64,
+    /// Bytes the path tracer has uploaded so far: each upload passes through staging memory that
+    /// is freed once the GPU has it (the worker's idle-time bakes and rebuilds upload much).
+    uploaded: u64,
+}
+
+impl HeapTrim {
+    /// Whether to trim now, the scene being `now` with `pending` changes on its worker, the last
+    /// trim `since` ago: when its bytes have moved by [`TRIM_AFTER`], or as much was uploaded, or
+    /// meshes were rebuilt since the last trim, with nothing pending (so the change's temporaries,
+    /// the uploads' staging among them, are gone), and nothing changed since the last look or
+    /// the last trim was [`TRIM_EVERY_WHILE_BUSY`] ago. Remembers a trim it answers yes to.
+    fn due(&mut self, now: SceneMemory, pending: usize, since: Option<Duration>) -> bool {
+        let moving = std::mem::replace(&mut self.seen, now) != now;
+        let last = self.trimmed_at;
+        let worth = now.bytes.abs_diff(last.bytes) >= TRIM_AFTER
+            || now.uploaded.saturating_sub(last.uploaded) >= TRIM_AFTER
+            || now.rebuilt != last.rebuilt;
+        let busy_long = since.is_none_or(|t| t >= TRIM_EVERY_WHILE_BUSY);
+        if pending > 0 || !worth || (moving && !busy_long) {
+            return false;
+        }
+        self.trimmed_at = now;
+        true
+    }
+}
+
+/// Looks at the scene's memory once a [`LOOK_EVERY`] and starts a trim on its own thread when
+/// [`HeapTrim::due`] (and none is running).
+fn trim_after_large_changes(
+    mut trim: ResMut<HeapTrim>,
+    scene: Res<SceneBvh>,
+    tracer: Res<PathTracerStats>,
+) {
+    if trim.looked.is_some_and(|t| t.elapsed() < LOOK_EVERY) {
+        return;
+    }
+    trim.looked = Some(Instant::now());
+    let stats = scene.stats();
+    let figures = tracer.figures();
+    let now = SceneMemory {
+        bytes: (stats.tree_bytes + stats.shading_bytes) as u64 + figures.scene_buffer_bytes,
+        rebuilt: stats.meshes_refined,
+        uploaded: figures.total_upload_bytes,
+    };
+    let since = trim.trimmed.map(|t| t.elapsed());
+    if trim.running.load(Ordering::Acquire) || !trim.due(now, stats.pending, since) {
+        return;
+    }
+    trim.trimmed = Some(Instant::now());
+    trim.running.store(true, Ordering::Release);
+    let running = trim.running.clone();
+    let started = std::thread::Builder::new()
+        .name("treelight heap trim".into())
+        .spawn(move || {
+            let before = resident_bytes();
+            let started = Instant::now();
+            release_free_memory();
+            if let (Some(before), Some(after)) = (before, resident_bytes()) {
+                info!(
+                    "returned {} MiB of freed memory to the system in {:.0} ms ({} MiB resident)",
+                    before.saturating_sub(after) >> 20,
+                    started.elapsed().as_secs_f64() * 1e3,
+                    after >> 20
+                );
+            }
+            running.store(false, Ordering::Release);
+        });
+    if started.is_err() {
+        trim.running.store(false, Ordering::Release);
+    }
+}
+
+/// Returns the allocator's free pages to the system.
+fn release_free_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only takes the allocator's own locks; any thread may call it.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MIB: u64 = 1 << 20;
+    /// A last trim a moment ago.
+    const SOON: Option<Duration> = Some(Duration::from_millis(1500));
+
+    fn at(mib: u64, rebuilt: u64) -> SceneMemory {
+        SceneMemory {
+            bytes: mib * MIB,
+            rebuilt,
+            uploaded: 0,
+        }
+    }
+
+    #[test]
+    fn a_trim_waits_for_a_large_change_to_hold_still_with_nothing_pending() {
+        let mut t = HeapTrim::default();
+        // An import's memory growing: no trim while it moves.
+        assert!(!t.due(at(100, 0), 0, SOON));
+        assert!(!t.due(at(400, 0), 3, SOON));
+        // Still, but the worker has work pending.
+        assert!(!t.due(at(400, 0), 3, SOON));
+        // Still and done: trimmed once.
+        assert!(t.due(at(400, 0), 0, SOON));
+        assert!(!t.due(at(400, 0), 0, SOON));
+        // A small edit does not trim again.
+        assert!(!t.due(at(410, 0), 0, SOON));
+        assert!(!t.due(at(410, 0), 0, SOON));
+        // Idle-time rebuilds do, once they stop.
+        assert!(!t.due(at(410, 5), 0, SOON));
+        assert!(!t.due(at(410, 9), 0, SOON));
+        assert!(t.due(at(410, 9), 0, SOON));
+        // A large deletion does, once it holds still.
+        assert!(!t.due(at(100, 9), 0, SOON));
+        assert!(t.due(at(100, 9), 0, SOON));
+        assert!(!t.due(at(100, 9), 0, SOON));
+        // Uploads of re-laid records, the scene's size unchanged: once they stop, and only when
+        // they came to much.
+        let uploaded = |mib: u64| SceneMemory {
+            uploaded: mib * MIB,
+            ..at(100, 9)
+        };
+        assert!(!t.due(uploaded(10), 0, SOON));
+        assert!(!t.due(uploaded(10), 0, SOON));
+        assert!(!t.due(uploaded(60), 0, SOON));
+        assert!(t.due(uploaded(60), 0, SOON));
+    }
+
+    #[test]
+    fn a_scene_busy_for_long_is_trimmed_every_while() {
+        let mut t = HeapTrim::default();
+        let long = Some(TRIM_EVERY_WHILE_BUSY);
+        // Rebuilds going on: not while the last trim is recent, then once it is not.
+        assert!(!t.due(at(400, 1), 0, SOON));
+        assert!(!t.due(at(400, 2), 0, SOON));
+        assert!(t.due(at(400, 3), 0, long));
+        assert!(!t.due(at(400, 4), 0, SOON));
+        // Nor with the worker's queue full.
+        assert!(!t.due(at(400, 5), 2, long));
+        // The first trim has no last one to wait for.
+        assert!(HeapTrim::default().due(at(400, 1), 0, None));
+    }
+}
