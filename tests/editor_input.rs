@@ -1126,3 +1126,82 @@ fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
     // Nothing of the scene changed: no step.
     assert_eq!(st.history.0, 0);
 }
+
+#[test]
+fn a_selected_mesh_stays_outlined_after_the_worker_rebuilds_it() {
+    let bunny = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/obj/stanford-bunny.obj");
+    // A coarse trace, so that a sweep over the view takes a frame.
+    let mut s = Session::start(
+        "outline-rebuild",
+        &[bunny.to_str().unwrap(), "--trace-scale", "0.125"],
+    );
+    let st = s.frames(1);
+    let mesh = st
+        .objects
+        .iter()
+        .find(|o| o.mesh)
+        .expect("the bunny")
+        .clone();
+    let [x, y] = mesh.screen.expect("the bunny in view");
+    // Deleting the bunny and undoing that puts it back as a new group, and the view starts over.
+    // Once it has been still, the worker bakes it and then rebuilds its tree into another slot,
+    // neither restarting the view: its pixels keep the slot their first samples met. The scenario
+    // needs samples before the rebuild; the worker may be quicker, so it is tried up to 3 times.
+    for attempt in 1..=3 {
+        s.click(x, y);
+        s.key(&[], keysym::DELETE);
+        let before = s.frames(1).memory.meshes_rebuilt;
+        s.key(&[keysym::CONTROL], keysym::letter('z'));
+        s.frames(1);
+        // The samples seen before the rebuild (none after a restart), and the last seen.
+        let (mut sampled, mut last) = (None::<u32>, 0);
+        let start = std::time::Instant::now();
+        let rebuilt = loop {
+            assert!(
+                start.elapsed() < std::time::Duration::from_secs(120),
+                "the bunny was not rebuilt:\n{}",
+                s.log()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            let Some(st) = s.try_state() else { continue };
+            if ids_named(&st, &mesh.name).is_empty() {
+                continue;
+            }
+            if sampled.is_some() && st.samples < last {
+                // The view restarted after its first samples: not the scenario.
+                sampled = None;
+            }
+            last = st.samples;
+            if st.memory.meshes_rebuilt == before {
+                if st.samples > 0 {
+                    sampled = Some(st.samples);
+                }
+            } else {
+                break st;
+            }
+        };
+        let Some(first) = sampled else {
+            eprintln!("attempt {attempt}: rebuilt before the view had samples");
+            continue;
+        };
+        assert!(rebuilt.samples >= first, "the rebuild restarted the view");
+        // Selected now: outlined, the view still holding its samples from before the rebuild.
+        s.click(x, y);
+        let st = s.frames(2);
+        assert_eq!(st.selection, vec![mesh.id], "click on the bunny");
+        assert!(
+            st.samples >= rebuilt.samples,
+            "the view restarted: {} samples, {} at the rebuild",
+            st.samples,
+            rebuilt.samples
+        );
+        let outlined = outline_pixels(&s.screenshot(), st.viewport);
+        assert!(
+            outlined > 100,
+            "the rebuilt bunny is not outlined: {outlined} outline pixels"
+        );
+        return;
+    }
+    panic!("the worker rebuilt the bunny before the view had samples, 3 times");
+}
