@@ -4,9 +4,12 @@
 // luminance, averaged over its neighbours). Lighting is
 // filtered apart from the surface colour (divided by the albedo here, multiplied back by the
 // resolve), so textures stay sharp; taps on another object never count, so nothing smears across
-// an object's edge or over the selection outline. Five passes, taps 1, 2, 4, 8 and 16 pixels apart:
-// the first reads the accumulation, each writes (rgb: demodulated colour, w: its variance) for
-// the next, the last for the resolve. The crate appends octahedral.wgsl.
+// an object's edge or over the selection outline. A first pass reads the accumulation and filters
+// nothing: it holds each pixel's lighting to at most TAME times its brightest neighbour's (a rare
+// bright path among few samples is a firefly the filter would spread into a blotch) and estimates
+// its noise. Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes
+// (rgb: demodulated colour, w: its variance) for the next, the last for the resolve. The crate
+// appends octahedral.wgsl.
 
 struct Denoise {
     width: u32,
@@ -22,6 +25,8 @@ struct Denoise {
 }
 
 const NONE: u32 = 0xffffffffu;
+// How far above its brightest neighbour a pixel's lighting may stand.
+const TAME: f32 = 3.0;
 
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> aux: array<u32>;
@@ -77,6 +82,36 @@ fn demodulated(i: u32, g: Guide) -> vec3<f32> {
     return a.rgb / max(a.w, 1.0) / max(g.albedo, vec3<f32>(0.02));
 }
 
+// A pixel's demodulated colour, its luminance held to TAME times the brightest of its 8
+// neighbours' but lowered by no more than 3 standard deviations of its mean: a firefly (one rare
+// bright path among few samples) would spread into a blotch, while a bright feature a pixel wide
+// that the samples agree on stays.
+fn tamed(j: u32, g: Guide) -> vec3<f32> {
+    let c = demodulated(j, g);
+    let l = luminance(c);
+    let p = vec2<i32>(i32(j % params.width), i32(j / params.width));
+    let size = vec2<i32>(i32(params.width), i32(params.height));
+    var top = 0.0;
+    for (var dy = -1; dy <= 1; dy += 1) {
+        for (var dx = -1; dx <= 1; dx += 1) {
+            let q = p + vec2<i32>(dx, dy);
+            if (dx == 0 && dy == 0) || any(q < vec2<i32>(0)) || any(q >= size) {
+                continue;
+            }
+            let k = u32(q.y) * params.width + u32(q.x);
+            if accum[k].w <= 0.0 {
+                continue;
+            }
+            top = max(top, luminance(demodulated(k, guide(k))));
+        }
+    }
+    let bound = max(top * TAME, l - 3.0 * sqrt(mean_variance(j, g)));
+    if l > bound && bound > 0.0 {
+        return c * (bound / l);
+    }
+    return c;
+}
+
 // Whether q can stand in for p at all: the same object, and both inside it or both on its
 // silhouette (where samples met another object too: such pixels blend two surfaces, and only
 // those along the same edge blend them alike).
@@ -112,11 +147,10 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let gp = guide(i);
-    var centre: vec4<f32>;
     if params.first == 1u {
-        // The noise of the pixels' means, averaged over the 3 × 3 pixels of the same object
-        // around (a few samples say little about their own spread).
-        let c = demodulated(i, gp);
+        // The first pass filters nothing: it writes each pixel's lighting, tamed, and the noise
+        // of the pixels' means averaged over the 3 × 3 pixels of the same object around (a few
+        // samples say little about their own spread).
         var v = 0.0;
         var n = 0.0;
         for (var dy = -1; dy <= 1; dy += 1) {
@@ -134,10 +168,10 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                 n += 1.0;
             }
         }
-        centre = vec4<f32>(c, v / n);
-    } else {
-        centre = source[i];
+        filtered[i] = vec4<f32>(tamed(i, gp), v / n);
+        return;
     }
+    let centre = source[i];
     let sigma = params.sigma_luminance * sqrt(centre.w) + 1e-4;
     let lp = luminance(centre.rgb);
     let kernel = array<f32, 3>(3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
@@ -158,12 +192,7 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
             if j != i && !same_surface(gp, gq) {
                 continue;
             }
-            var v: vec4<f32>;
-            if params.first == 1u {
-                v = vec4<f32>(demodulated(j, gq), mean_variance(j, gq));
-            } else {
-                v = source[j];
-            }
+            let v = source[j];
             let k = kernel[abs(dx)] * kernel[abs(dy)];
             let distance = max(length(vec2<f32>(vec2<i32>(dx, dy) * i32(params.step))), 1.0);
             let wl = exp(-abs(luminance(v.rgb) - lp) / sigma);

@@ -1,7 +1,7 @@
-//! The denoiser's cost per frame: its five passes over a traced image of 1080p's pixel count
-//! (1440 × 1440 = 1920 × 1080 pixels), and the temporal pass after them (carrying the last frame's
-//! picture through a camera move), each timed from submission to completion, on whatever adapter
-//! the machine has. `cargo run -p treelight_render --example denoise_cost` (the dev profile is
+//! The denoiser's cost per frame: all its passes (the first, then five filter passes) over a
+//! traced image of 1080p's pixel count (1440 × 1440 = 1920 × 1080 pixels), and the temporal pass
+//! after them (carrying the last frame's picture through a camera move), each timed from
+//! submission to completion, on whatever adapter the machine has. `cargo run -p treelight_render --example denoise_cost` (the dev profile is
 //! optimised).
 
 #[path = "../tests/support/mod.rs"]
@@ -36,7 +36,7 @@ fn main() {
     };
     let (m, min, n) = median(Box::new(|| gpu.denoise_with(&pipeline, &target, 1)));
     println!(
-        "denoiser, 1440×1440 (1080p's pixels), 5 passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
+        "denoiser, 1440×1440 (1080p's pixels), the first and 5 filter passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
     );
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
     let mut pictures = Pictures::new(&gpu, 1440, 1440);

@@ -263,18 +263,19 @@ pub fn guide_bytes(width: u32, height: u32) -> u64 {
     u64::from(width) * u64::from(height) * 20
 }
 
-/// Most passes of the denoiser: taps 1, 2, 4, 8 and 16 pixels apart.
-pub const DENOISE_PASSES: u32 = 5;
+/// Most passes of the denoiser: the first, which tames fireflies and estimates each pixel's
+/// noise, then the filter's, taps 1, 2, 4, 8 and 16 pixels apart.
+pub const DENOISE_PASSES: u32 = 6;
 
-/// Passes the denoiser makes over pixels of `samples` samples each: the noise falls with the
-/// samples, and so does the reach the filter needs (each pass doubles it); beyond what the noise
-/// asks for, blurring costs detail. All five at up to 2 samples, one fewer each fourfold more
-/// (three at 16: against a converged frame of the default scene, less error at 4, 16 and 64
-/// samples than a step later or earlier).
+/// Passes the denoiser makes over pixels of `samples` samples each, its first included: the noise
+/// falls with the samples, and so does the reach the filter needs (each pass doubles it); beyond
+/// what the noise asks for, blurring costs detail. All five filter passes at up to 2 samples, one
+/// fewer each fourfold more (three at 16: against a converged frame of the default scene, less
+/// error at 4, 16 and 64 samples than a step later or earlier), and at least one.
 pub fn denoise_passes(samples: u64) -> u32 {
     let mut passes = DENOISE_PASSES;
     let mut at = 2;
-    while samples > at && passes > 1 {
+    while samples > at && passes > 2 {
         passes -= 1;
         at *= 4;
     }
@@ -367,7 +368,7 @@ pub struct GpuDenoise {
     pub height: u32,
     /// Pixels between taps.
     pub step: u32,
-    /// 1 for the first pass, which reads the accumulation.
+    /// 1 for the first pass, which reads the accumulation and filters nothing.
     pub first: u32,
     /// How strongly a luminance difference stops the filter, in standard deviations.
     pub sigma_luminance: f32,
@@ -379,12 +380,13 @@ pub struct GpuDenoise {
     pub pad: u32,
 }
 
-/// The uniform of denoiser pass `pass` (0 first) over a `width × height` image.
+/// The uniform of denoiser pass `pass` (0 first: it filters nothing) over a `width × height`
+/// image; filter pass `pass` has taps `2^(pass - 1)` pixels apart.
 pub fn denoise_pass_bytes(width: u32, height: u32, pass: u32) -> Vec<u8> {
     bytemuck::bytes_of(&GpuDenoise {
         width,
         height,
-        step: 1 << pass,
+        step: (1 << pass) >> 1,
         first: u32::from(pass == 0),
         sigma_luminance: 8.0,
         sigma_normal: 128.0,
@@ -1022,8 +1024,8 @@ mod tests {
             .iter()
             .map(|&n| denoise_passes(n))
             .collect();
-        assert_eq!(passes, [5, 5, 4, 4, 3, 3, 2, 2, 1, 1]);
-        for n in 1..=DENOISE_PASSES {
+        assert_eq!(passes, [6, 6, 5, 5, 4, 4, 3, 3, 2, 2]);
+        for n in 2..=DENOISE_PASSES {
             // The last pass writes the first image; each pass reads what the one before wrote.
             assert_eq!(denoise_target(n - 1, n), 0);
             for k in 1..n {
