@@ -16,7 +16,7 @@ pub mod system_errors;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
-use bevy::render::settings::{MemoryHints, RenderCreation, WgpuLimits, WgpuSettings};
+use bevy::render::settings::{RenderCreation, WgpuLimits, WgpuSettings};
 use bevy_egui::EguiPlugin;
 use editor::viewport::render_mode::ViewportRender;
 use treelight_document::DocumentPlugin;
@@ -55,12 +55,7 @@ pub fn build_app(cli: &cli::Cli) -> App {
 /// start with its error).
 pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
-    let mut wgpu = WgpuSettings {
-        // Smaller blocks of GPU memory: on a software adapter they are the process's memory, and
-        // the default's blocks of up to 256 MiB keep a large scene's staging and slack resident.
-        memory_hints: MemoryHints::MemoryUsage,
-        ..default()
-    };
+    let mut wgpu = WgpuSettings::default();
     if let Some(kib) = cli.gpu_binding_limit {
         // The other limits are capped at WebGPU's defaults, except the storage buffers a stage
         // binds: the adapter's own, which the path tracer's split records need.
