@@ -82,30 +82,13 @@ fn demodulated(i: u32, g: Guide) -> vec3<f32> {
     return a.rgb / max(a.w, 1.0) / max(g.albedo, vec3<f32>(0.02));
 }
 
-// A pixel's demodulated colour, its luminance held to TAME times the brightest of its 8
-// neighbours' but lowered by no more than 3 standard deviations of its mean: a firefly (one rare
-// bright path among few samples) would spread into a blotch, while a bright feature a pixel wide
-// that the samples agree on stays.
-fn tamed(j: u32, g: Guide) -> vec3<f32> {
-    let c = demodulated(j, g);
+// A pixel's demodulated colour `c`, its luminance held to TAME times `top` (the brightest of its
+// 8 neighbours') but lowered by no more than 3 standard deviations of its mean (`variance`): a
+// firefly (one rare bright path among few samples) would spread into a blotch, while a bright
+// feature a pixel wide that the samples agree on stays.
+fn tamed(c: vec3<f32>, top: f32, variance: f32) -> vec3<f32> {
     let l = luminance(c);
-    let p = vec2<i32>(i32(j % params.width), i32(j / params.width));
-    let size = vec2<i32>(i32(params.width), i32(params.height));
-    var top = 0.0;
-    for (var dy = -1; dy <= 1; dy += 1) {
-        for (var dx = -1; dx <= 1; dx += 1) {
-            let q = p + vec2<i32>(dx, dy);
-            if (dx == 0 && dy == 0) || any(q < vec2<i32>(0)) || any(q >= size) {
-                continue;
-            }
-            let k = u32(q.y) * params.width + u32(q.x);
-            if accum[k].w <= 0.0 {
-                continue;
-            }
-            top = max(top, luminance(demodulated(k, guide(k))));
-        }
-    }
-    let bound = max(top * TAME, l - 3.0 * sqrt(mean_variance(j, g)));
+    let bound = max(top * TAME, l - 3.0 * sqrt(variance));
     if l > bound && bound > 0.0 {
         return c * (bound / l);
     }
@@ -148,11 +131,12 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let gp = guide(i);
     if params.first == 1u {
-        // The first pass filters nothing: it writes each pixel's lighting, tamed, and the noise
-        // of the pixels' means averaged over the 3 × 3 pixels of the same object around (a few
-        // samples say little about their own spread).
+        // The first pass filters nothing: it writes each pixel's lighting, tamed by its 8
+        // neighbours, and the noise of the pixels' means averaged over the 3 × 3 pixels of the
+        // same object around (a few samples say little about their own spread).
         var v = 0.0;
         var n = 0.0;
+        var top = 0.0;
         for (var dy = -1; dy <= 1; dy += 1) {
             for (var dx = -1; dx <= 1; dx += 1) {
                 let q = p + vec2<i32>(dx, dy);
@@ -160,15 +144,21 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                     continue;
                 }
                 let j = u32(q.y) * params.width + u32(q.x);
-                let gq = guide(j);
-                if accum[j].w <= 0.0 || (j != i && !same_surface(gp, gq)) {
+                if accum[j].w <= 0.0 {
                     continue;
+                }
+                let gq = guide(j);
+                if j != i {
+                    top = max(top, luminance(demodulated(j, gq)));
+                    if !same_surface(gp, gq) {
+                        continue;
+                    }
                 }
                 v += mean_variance(j, gq);
                 n += 1.0;
             }
         }
-        filtered[i] = vec4<f32>(tamed(i, gp), v / n);
+        filtered[i] = vec4<f32>(tamed(demodulated(i, gp), top, mean_variance(i, gp)), v / n);
         return;
     }
     let centre = source[i];
