@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId,
+    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId, Triangle,
 };
 
 #[derive(Clone, Debug)]
@@ -501,6 +501,47 @@ fn bake_then_move_round_trips_without_drift() {
 }
 
 #[test]
+fn a_group_inserted_baked_keeps_no_object_copy_and_drifts_by_one_rounding_at_most() {
+    // The editor inserts a new mesh baked under its node's transform and keeps no object-space
+    // copy of it; its first move carries the world triangles back once, and from then on the group
+    // keeps that copy, so twenty moves and bakes later it is exactly where the first move put it.
+    let object = soup(500, 18);
+    let placed = xf(0.7, 2.0, 1.3);
+    let mut bvh = Bvh::default();
+    let g = bvh.insert_group(&object, placed, false).unwrap();
+    let ids = bvh.group_triangles(g).unwrap().to_vec();
+    let close = |a: &Triangle, b: &Triangle| {
+        a.v.iter()
+            .zip(&b.v)
+            .all(|(p, q)| (*p - *q).abs().max_element() <= 1e-5 * (1.0 + q.abs().max_element()))
+    };
+    let derived = bvh.group_object(g).unwrap();
+    assert!(derived.iter().zip(&object).all(|(a, b)| close(a, b)));
+    bvh.set_group_transform(g, xf(1.0, 3.0, 1.5)).unwrap();
+    let first = bvh.group_object(g).unwrap();
+    assert_eq!(
+        first, derived,
+        "a move starts from the object space carried back"
+    );
+    for k in 0..20 {
+        bvh.bake_group(g).unwrap();
+        assert_eq!(
+            bvh.group_object(g).unwrap(),
+            first,
+            "no drift after bake {k}"
+        );
+        bvh.set_group_transform(g, xf(k as f32, 3.0, 1.5)).unwrap();
+    }
+    bvh.set_group_transform(g, placed).unwrap();
+    bvh.bake_group(g).unwrap();
+    for (t, o) in ids.iter().zip(&object) {
+        let back = bvh.triangle(*t).unwrap();
+        assert!(close(back, &o.transformed(&placed)), "{back:?} vs {o:?}");
+    }
+    bvh.validate().unwrap();
+}
+
+#[test]
 fn export_round_trips_and_bakes_groups() {
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&soup(400, 3)).unwrap();
@@ -580,8 +621,8 @@ fn a_mesh_in_chunks_moves_as_one_edit_and_bakes_without_a_batch() {
 }
 
 #[test]
-fn a_baked_group_rebuilt_by_full_sweep_from_its_object_copy_traces_the_same() {
-    // The scene worker's idle refinement: a moved-then-baked group's object triangles and
+fn a_baked_group_rebuilt_by_full_sweep_from_its_world_triangles_traces_the_same() {
+    // The scene worker's idle refinement: a moved-then-baked group's world triangles and
     // transform, built again by full-sweep SAH and swapped in for the group.
     let object = soup(2_000, 21);
     let mut bvh = Bvh::default();
@@ -597,7 +638,7 @@ fn a_baked_group_rebuilt_by_full_sweep_from_its_object_copy_traces_the_same() {
         .collect();
     let binned_cost = bvh.sah_cost_with(1.0, 1.0);
     let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_object(g).unwrap().to_vec(),
+        bvh.group_world(g).unwrap(),
         bvh.group_transform(g).unwrap(),
     )
     .unwrap();
@@ -647,7 +688,7 @@ fn a_bake_or_a_rebuild_kept_as_the_same_geometry_is_no_geometry_change() {
     assert!(!c.written_triangles.is_empty(), "the baked triangles move");
     assert!(!c.geometry_changed());
     let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_object(g).unwrap().to_vec(),
+        bvh.group_world(g).unwrap(),
         bvh.group_transform(g).unwrap(),
     )
     .unwrap();

@@ -162,7 +162,7 @@ fn incremental_upload_traces_like_a_full_one() {
     // The baked mesh swapped for a full-sweep rebuild of itself (the scene worker's idle
     // refinement): the patched copy still traces like a fresh one.
     let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_object(baked).unwrap().to_vec(),
+        bvh.group_world(baked).unwrap(),
         bvh.group_transform(baked).unwrap(),
     )
     .unwrap();

@@ -129,7 +129,7 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     // idle refinement): the patched buffers still equal a full export.
     bvh.bake_group(g).unwrap();
     let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_object(g).unwrap().to_vec(),
+        bvh.group_world(g).unwrap(),
         bvh.group_transform(g).unwrap(),
     )
     .unwrap();

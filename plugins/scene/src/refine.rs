@@ -51,9 +51,9 @@ impl Refiner {
             .name("treelight-bvh-refine".into())
             .spawn(move || {
                 crate::priority::lower_current_thread(nice);
-                for (g, object, transform) in job_rx {
+                for (g, world, transform) in job_rx {
                     let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        Refinement::build(object, transform)
+                        Refinement::build(world, transform)
                     }));
                     let p = match built {
                         Ok(p) => p,
@@ -134,12 +134,11 @@ impl Refiner {
             let Some(e) = Self::candidate(tree, last_move, g) else {
                 continue;
             };
-            let (Ok(object), Ok(transform)) =
-                (tree.bvh.group_object(g), tree.bvh.group_transform(g))
+            let (Ok(world), Ok(transform)) = (tree.bvh.group_world(g), tree.bvh.group_transform(g))
             else {
                 continue;
             };
-            if self.jobs.send((g, object.to_vec(), transform)).is_ok() {
+            if self.jobs.send((g, world, transform)).is_ok() {
                 self.in_flight = Some((e, g));
                 self.stale = false;
             }

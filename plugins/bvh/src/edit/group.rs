@@ -30,7 +30,6 @@ impl GroupId {
 /// A group's bBVH, built off the thread that owns the tree (it is `Send`), ready for
 /// [`Bvh::insert_prepared`].
 pub struct PreparedGroup {
-    object: Vec<Triangle>,
     transform: Affine3A,
     whole: bool,
     /// Triangles as they will be stored: object space if whole, world space if baked.
@@ -60,10 +59,31 @@ impl PreparedGroup {
         validate_triangles(&object)?;
         check_transform(&transform)?;
         let stored: Vec<Triangle> = if keep_whole {
-            object.clone()
+            object
         } else {
             object.iter().map(|t| t.transformed(&transform)).collect()
         };
+        Self::build_stored(stored, transform, keep_whole, builder)
+    }
+
+    /// A baked group built from its triangles already in world space, placed by `transform` (what
+    /// [`Bvh::group_world`] and [`Bvh::group_transform`] return): its triangles are stored exactly as
+    /// given, so a rebuild of a baked group meets every ray the old one did.
+    pub fn build_world(
+        world: Vec<Triangle>,
+        transform: Affine3A,
+        builder: TopDown,
+    ) -> Result<Self, BvhError> {
+        check_transform(&transform)?;
+        Self::build_stored(world, transform, false, builder)
+    }
+
+    fn build_stored(
+        stored: Vec<Triangle>,
+        transform: Affine3A,
+        whole: bool,
+        builder: TopDown,
+    ) -> Result<Self, BvhError> {
         validate_triangles(&stored)?;
         let boxes: Vec<Aabb> = stored.iter().map(|t| t.aabb()).collect();
         let tree = match builder {
@@ -71,9 +91,8 @@ impl PreparedGroup {
             other => other.build(&boxes),
         };
         Ok(Self {
-            object,
             transform,
-            whole: keep_whole,
+            whole,
             stored,
             tree,
         })
@@ -81,12 +100,12 @@ impl PreparedGroup {
 
     /// Number of triangles.
     pub fn len(&self) -> usize {
-        self.object.len()
+        self.stored.len()
     }
 
     /// Whether the group has no triangles.
     pub fn is_empty(&self) -> bool {
-        self.object.is_empty()
+        self.stored.is_empty()
     }
 }
 
@@ -119,7 +138,7 @@ impl Bvh {
 
     /// Inserts a group built elsewhere: its bBVH root goes in with one search (IncrUPB's insertion).
     pub fn insert_prepared(&mut self, g: PreparedGroup) -> Result<GroupId, BvhError> {
-        self.check_room(g.object.len())?;
+        self.check_room(g.stored.len())?;
         let index = self.take_group_slot();
         let ids: Vec<u32> = g
             .stored
@@ -140,7 +159,7 @@ impl Bvh {
         let slot = &mut self.groups[index as usize];
         slot.alive = true;
         slot.triangles = ids;
-        slot.object = g.object;
+        slot.object = Vec::new();
         slot.transform = g.transform;
         slot.instance = instance;
         slot.source = NONE;
@@ -178,10 +197,17 @@ impl Bvh {
 
     /// Puts `new` in `old`'s place: inserts it, then removes `old` (the triangles never lapse). The
     /// new group's triangles are `new`'s in its order, so data kept per triangle in group order (a
-    /// mesh's shading) still fits when `new` was built from `old`'s [`Bvh::group_object`].
+    /// mesh's shading) still fits when `new` was built from `old`'s [`Bvh::group_world`] (or
+    /// [`Bvh::group_object`]); a baked `new` of as many triangles takes over `old`'s exact
+    /// object-space copy, if it kept one.
     pub fn swap_group(&mut self, old: GroupId, new: PreparedGroup) -> Result<GroupId, BvhError> {
-        self.group(old)?;
+        let same_count = self.group(old)?.triangles.len() == new.len();
+        let baked = !new.whole;
         let id = self.insert_prepared(new)?;
+        let copy = std::mem::take(&mut self.groups[old.index as usize].object);
+        if baked && same_count {
+            self.groups[id.index as usize].object = copy;
+        }
         self.remove_group(old)?;
         Ok(id)
     }
@@ -254,7 +280,8 @@ impl Bvh {
             return Ok(());
         }
         if g.instance == NONE {
-            self.unbake(id.index);
+            let object = self.baked_object(id.index).ok_or(BvhError::BadTransform)?;
+            self.unbake(id.index, object);
         }
         let index = id.index as usize;
         let instance = self.groups[index].instance;
@@ -281,10 +308,30 @@ impl Bvh {
         Ok(())
     }
 
-    /// Turns a baked group into an instance over an object-space subtree of the same triangle ids.
-    fn unbake(&mut self, index: u32) {
+    /// The object-space triangles a baked group goes back to when it is opened: its exact copy if it
+    /// kept one, else its world triangles carried back through its transform's inverse (rounded
+    /// once; the copy then kept rules out any further drift). `None` if that inverse leaves the
+    /// finite numbers.
+    fn baked_object(&self, index: u32) -> Option<Vec<Triangle>> {
         let g = &self.groups[index as usize];
-        let (triangles, object, transform) = (g.triangles.clone(), g.object.clone(), g.transform);
+        if !g.object.is_empty() {
+            return Some(g.object.clone());
+        }
+        let inverse = g.transform.inverse();
+        let object: Vec<Triangle> = g
+            .triangles
+            .iter()
+            .map(|&t| self.tri.items[t as usize].transformed(&inverse))
+            .collect();
+        validate_triangles(&object).is_ok().then_some(object)
+    }
+
+    /// Turns a baked group into an instance over an object-space subtree of the same triangle ids.
+    fn unbake(&mut self, index: u32, object: Vec<Triangle>) {
+        let g = &mut self.groups[index as usize];
+        // While whole, the stored triangles are the object-space ones.
+        g.object = Vec::new();
+        let (triangles, transform) = (g.triangles.clone(), g.transform);
         // The triangles keep the shape they have in the tree (a rigid transform away from the one
         // they get in object space): far quicker than a build, and as good for a mesh's own parts.
         let tree = self.induced_tree(&triangles);
@@ -312,8 +359,14 @@ impl Bvh {
             return Ok(());
         }
         let (triangles, transform) = (g.triangles.clone(), g.transform);
-        for (k, &t) in triangles.iter().enumerate() {
-            let w = self.groups[id.index as usize].object[k].transformed(&transform);
+        // The object-space triangles are about to be overwritten: kept, so that the group's next
+        // move starts from them exactly.
+        let object: Vec<Triangle> = triangles
+            .iter()
+            .map(|&t| self.tri.items[t as usize])
+            .collect();
+        for (&t, tri) in triangles.iter().zip(&object) {
+            let w = tri.transformed(&transform);
             self.tri.items[t as usize] = w;
             self.tri.boxes[t as usize] = w.aabb();
             self.changes.mark_triangle(t, self.tri.items.len());
@@ -332,6 +385,7 @@ impl Bvh {
         }
         self.free_instance(instance);
         self.groups[id.index as usize].instance = NONE;
+        self.groups[id.index as usize].object = object;
         self.record_subtree(root);
         self.maybe_update();
         Ok(())
@@ -346,9 +400,9 @@ impl Bvh {
         object: &[Triangle],
     ) -> Result<(), BvhError> {
         let g = self.group(id)?;
-        if g.object.len() != object.len() {
+        if g.triangles.len() != object.len() {
             return Err(BvhError::TriangleCountMismatch {
-                expected: g.object.len(),
+                expected: g.triangles.len(),
                 got: object.len(),
             });
         }
@@ -366,12 +420,15 @@ impl Bvh {
                 self.changes.mark_triangle(t, self.tri.items.len());
             }
             self.refit_subtree(self.instances[instance as usize].root);
-            self.groups[id.index as usize].object = object.to_vec();
             self.set_group_transform(id, transform)?;
             self.refresh_users(id.index);
             return Ok(());
         }
-        self.groups[id.index as usize].object = object.to_vec();
+        // A baked group's copy, if it keeps one, follows: its next move starts from these.
+        let g = &mut self.groups[id.index as usize];
+        if !g.object.is_empty() {
+            g.object = object.to_vec();
+        }
         Ok(())
     }
 
@@ -398,10 +455,32 @@ impl Bvh {
         Ok(&self.group(id)?.triangles)
     }
 
-    /// The group's triangles in object space, in the order of [`Bvh::group_triangles`] (what it
-    /// was built from, before its transform; none for a group that shares another's).
-    pub fn group_object(&self, id: GroupId) -> Result<&[Triangle], BvhError> {
-        Ok(&self.group(id)?.object)
+    /// The group's triangles in object space, in the order of [`Bvh::group_triangles`] (none for a
+    /// group that shares another's). Exactly what it was built from while it is kept whole, or once it
+    /// has been moved; a group inserted baked keeps no object-space copy, so its triangles come back
+    /// through its transform's inverse, within rounding.
+    pub fn group_object(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
+        let g = self.group(id)?;
+        if g.instance != NONE {
+            return Ok(g
+                .triangles
+                .iter()
+                .map(|&t| self.tri.items[t as usize])
+                .collect());
+        }
+        self.baked_object(id.index).ok_or(BvhError::BadTransform)
+    }
+
+    /// The group's triangles in world space, in the order of [`Bvh::group_triangles`] (none for a
+    /// group that shares another's): a baked group's exactly as stored.
+    pub fn group_world(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
+        let g = self.group(id)?;
+        let stored = g.triangles.iter().map(|&t| self.tri.items[t as usize]);
+        Ok(if g.instance != NONE {
+            stored.map(|t| t.transformed(&g.transform)).collect()
+        } else {
+            stored.collect()
+        })
     }
 
     /// The group's current transform.
@@ -476,7 +555,9 @@ impl Bvh {
             for (k, &t) in group.triangles.iter().enumerate() {
                 if ids.binary_search(&t).is_err() {
                     tris.push(t);
-                    object.push(group.object[k]);
+                    if let Some(o) = group.object.get(k) {
+                        object.push(*o);
+                    }
                 }
             }
             group.triangles = tris;

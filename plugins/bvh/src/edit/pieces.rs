@@ -165,10 +165,11 @@ impl Refinement {
         triangles >= Self::MIN_TRIANGLES
     }
 
-    /// The full-sweep build of a group from its object triangles and transform
-    /// ([`Bvh::group_object`](crate::Bvh::group_object), [`Bvh::group_transform`](crate::Bvh::group_transform)), baked.
-    pub fn build(object: Vec<Triangle>, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
-        PreparedGroup::build_with(object, transform, false, TopDown::SweepSah)
+    /// The full-sweep build of a baked group from its world triangles and transform
+    /// ([`Bvh::group_world`](crate::Bvh::group_world), [`Bvh::group_transform`](crate::Bvh::group_transform)):
+    /// the same triangles, so the same hits.
+    pub fn build(world: Vec<Triangle>, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
+        PreparedGroup::build_world(world, transform, TopDown::SweepSah)
     }
 }
 

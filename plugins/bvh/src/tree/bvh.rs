@@ -68,9 +68,13 @@ pub struct Bvh {
 pub(crate) struct Group {
     pub(crate) generation: u32,
     pub(crate) alive: bool,
-    /// Triangle ids, in the order of `object`.
+    /// Triangle ids, in the group's order (a mesh's own, for data kept per triangle).
     pub(crate) triangles: Vec<u32>,
-    /// Object-space copy of the triangles, kept so moves never accumulate rounding drift.
+    /// A baked group's object-space triangles, kept once it has been whole (moved): each later move
+    /// starts from them, so moves never accumulate rounding drift. Empty while whole (the stored
+    /// triangles are in object space) and for a group inserted baked and never moved, whose object
+    /// space comes back through its transform's inverse, rounded once: an unedited scene keeps no
+    /// second copy of its triangles.
     pub(crate) object: Vec<Triangle>,
     pub(crate) transform: Affine3A,
     /// The instance while kept whole, [`NONE`] while baked.

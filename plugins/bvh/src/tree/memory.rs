@@ -79,10 +79,18 @@ mod tests {
         assert!(loose.triangles >= 1000 * (36 + 24));
         assert!(loose.nodes >= 999 * 36);
         assert_eq!(empty.groups, 0);
-        bvh.insert_group(&tris, Affine3A::IDENTITY, true).unwrap();
+        let g = bvh
+            .insert_group(&tris, Affine3A::from_translation(Vec3::Y), false)
+            .unwrap();
         let grouped = bvh.memory_bytes();
-        // A group keeps an object-space copy of its triangles and their ids.
-        assert!(grouped.groups >= 1000 * (36 + 4));
+        // An unedited baked group holds its triangle ids, not a second copy of its triangles.
+        assert!(grouped.groups >= 1000 * 4 && grouped.groups < 1000 * 36);
+        // Once moved and baked again, it keeps its object-space triangles, so that later moves
+        // start from them exactly.
+        bvh.set_group_transform(g, Affine3A::from_translation(Vec3::Z))
+            .unwrap();
+        bvh.bake_group(g).unwrap();
+        assert!(bvh.memory_bytes().groups >= 1000 * (36 + 4));
         assert!(grouped.total() > loose.total());
     }
 }
