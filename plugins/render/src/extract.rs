@@ -4,8 +4,8 @@
 
 use crate::Outlined;
 use crate::records::{
-    SceneLight, SurfaceAlpha, SurfaceMaterial, attribute_record, light_bytes, object_bytes,
-    outline_words, same_drawing, set_outline, with_identity,
+    SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes, outline_words,
+    packed_attribute_record, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
@@ -311,12 +311,12 @@ fn scene_writes(
             && let Some(shading) = tree.shading.get(&g)
         {
             let k = k as usize;
-            let record = attribute_record(
+            let mut record = packed_attribute_record(
                 shading.normals.get(k).copied(),
                 shading.uvs.get(k).copied(),
                 g.index(),
-            )
-            .with_tangents(shading.tangents.get(k).copied());
+            );
+            record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
             out.extend_from_slice(bytemuck::bytes_of(&record));
         }
     });

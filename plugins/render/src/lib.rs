@@ -44,7 +44,8 @@ pub use records::{
     TEMPORAL_MAX_WEIGHT, TemporalRestart, TextureWrap, TraceWork, VIEW_BYTES, ViewParams,
     attribute_bytes, attribute_record, aux_bytes, decode_normal, decode_tangents,
     denoise_pass_bytes, denoise_passes, denoise_target, encode_normal, encode_tangents,
-    guide_bytes, light_bytes, object_bytes, outline_words, set_outline, temporal_bytes,
+    guide_bytes, light_bytes, object_bytes, outline_words, packed_attribute_record, set_outline,
+    temporal_bytes,
 };
 pub use texture_layers::{
     MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,

@@ -4,6 +4,7 @@
 
 use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3, Vec4};
 use bytemuck::{Pod, Zeroable};
+pub use treelight_scene::packed::{decode_normal, decode_tangents, encode_normal, encode_tangents};
 
 /// Bytes of one per-triangle shading record.
 pub const ATTRIBUTE_BYTES: u64 = size_of::<GpuAttribute>() as u64;
@@ -448,41 +449,6 @@ pub struct GpuAoParams {
     pub pad1: u32,
 }
 
-/// A unit vector in 32 bits: octahedral mapping, two snorm16 (x in the low half, as WGSL's
-/// `unpack2x16snorm` reads it). Precise to about 0.005°, a third of an f32 vector's size.
-pub fn encode_normal(n: Vec3) -> u32 {
-    let [x, y] = octahedral(n.normalize_or(Vec3::Z));
-    let snorm = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
-    snorm(x) | (snorm(y) << 16)
-}
-
-/// The inverse of [`encode_normal`], as the shader computes it.
-pub fn decode_normal(w: u32) -> Vec3 {
-    let unorm = |h: u32| ((h as u16 as i16) as f32 / 32767.0).max(-1.0);
-    octahedral_direction(unorm(w & 0xffff), unorm(w >> 16))
-}
-
-/// The octahedral coordinates (each -1..1) of unit vector `n`: the normals' and the tangents'.
-fn octahedral(n: Vec3) -> [f32; 2] {
-    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-    let (x, y) = (n.x / l1, n.y / l1);
-    if n.z >= 0.0 {
-        return [x, y];
-    }
-    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
-    [(1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y)]
-}
-
-/// The unit vector at octahedral coordinates `(x, y)`, [`octahedral`]'s inverse (the shaders'
-/// `octahedral_direction`).
-fn octahedral_direction(x: f32, y: f32) -> Vec3 {
-    let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
-    let t = (-n.z).max(0.0);
-    n.x += if n.x >= 0.0 { -t } else { t };
-    n.y += if n.y >= 0.0 { -t } else { t };
-    n.normalize()
-}
-
 /// One triangle's shading record: its corners' object-space normals (or none: flat shading), UVs and
 /// the slot of the group whose object record holds its material.
 pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group: u32) -> Vec<u8> {
@@ -495,10 +461,19 @@ pub fn attribute_record(
     uvs: Option<[Vec2; 3]>,
     group: u32,
 ) -> GpuAttribute {
+    packed_attribute_record(normals.map(|n| n.map(encode_normal)), uvs, group)
+}
+
+/// [`attribute_record`] from normals already packed ([`encode_normal`], as a scene keeps them).
+pub fn packed_attribute_record(
+    normals: Option<[u32; 3]>,
+    uvs: Option<[Vec2; 3]>,
+    group: u32,
+) -> GpuAttribute {
     let flag = if normals.is_some() { HAS_NORMALS } else { 0 };
     let uv = uvs.unwrap_or([Vec2::ZERO; 3]);
     GpuAttribute {
-        normals: normals.map_or([0; 3], |n| n.map(encode_normal)),
+        normals: normals.unwrap_or([0; 3]),
         group: (group & !HAS_NORMALS) | flag,
         uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
         uv2: [uv[2].x, uv[2].y],
@@ -513,45 +488,6 @@ impl GpuAttribute {
         self.tangents = tangents.map_or([0; 2], encode_tangents);
         self
     }
-}
-
-/// Steps of a tangent's octahedral coordinates either side of zero (10-bit snorm).
-const TANGENT_STEPS: f32 = 511.0;
-
-/// A triangle's three corner tangents in 64 bits, where a record has room for them: each direction
-/// octahedral in two 10-bit snorms (within a quarter degree, ample for a frame that bends a normal
-/// map), one
-/// bitangent sign for the triangle (from corner 0: a sign flips only across a UV seam, where the
-/// corners are split), and a flag. The first word holds corner 0's two and corner 1's x, the sign
-/// (bit 30) and the flag (bit 31); the second corner 1's y and corner 2's two.
-pub fn encode_tangents(t: [Vec4; 3]) -> [u32; 2] {
-    let q = |v: f32| ((v.clamp(-1.0, 1.0) * TANGENT_STEPS).round() + TANGENT_STEPS) as u32;
-    let oct = |v: Vec4| octahedral(v.truncate().normalize_or(Vec3::X)).map(q);
-    let [a, b, c] = t.map(oct);
-    let flip = u32::from(t[0].w < 0.0);
-    [
-        a[0] | (a[1] << 10) | (b[0] << 20) | (flip << 30) | (1 << 31),
-        b[1] | (c[0] << 10) | (c[1] << 20),
-    ]
-}
-
-/// The inverse of [`encode_tangents`], as the kernel computes it: the corners' unit directions and
-/// the bitangent's sign, or `None` for a record without tangents.
-pub fn decode_tangents(w: [u32; 2]) -> Option<([Vec3; 3], f32)> {
-    if w[0] >> 31 == 0 {
-        return None;
-    }
-    let field = |word: u32, at: u32| ((word >> at) & 0x3ff) as f32 / TANGENT_STEPS - 1.0;
-    let dir = octahedral_direction;
-    let sign = if (w[0] >> 30) & 1 == 1 { -1.0 } else { 1.0 };
-    Some((
-        [
-            dir(field(w[0], 0), field(w[0], 10)),
-            dir(field(w[0], 20), field(w[1], 0)),
-            dir(field(w[1], 10), field(w[1], 20)),
-        ],
-        sign,
-    ))
 }
 
 /// How a texture coordinate outside 0..1 folds back, along one axis.

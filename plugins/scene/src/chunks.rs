@@ -66,7 +66,7 @@ fn gather<T: Copy>(all: &[T], ids: &[u32], whole: usize) -> Vec<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use treelight_bvh::glam::{Vec2, Vec4};
+    use treelight_bvh::glam::Vec2;
 
     const RULE: PieceRule = PieceRule {
         cut_above: 64,
@@ -81,9 +81,9 @@ mod tests {
         for k in 0..900 {
             let p = Vec3::new((k % 30) as f32, 0.0, (k / 30) as f32);
             triangles.push(Triangle::new(p, p + Vec3::X, p + Vec3::Z));
-            shading.normals.push([Vec3::splat(k as f32); 3]);
+            shading.normals.push([k; 3]);
             shading.uvs.push([Vec2::splat(k as f32); 3]);
-            shading.tangents.push([Vec4::splat(k as f32); 3]);
+            shading.tangents.push([k; 2]);
         }
         let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
         let eye = Vec3::new(100.0, 5.0, -10.0);
@@ -109,10 +109,10 @@ mod tests {
                 .zip(&shading.uvs)
                 .zip(&shading.tangents)
             {
-                let t = n[0].x as usize;
+                let t = n[0] as usize;
                 assert_eq!(uv[0].x as usize, t, "normals and UVs of one triangle");
                 assert_eq!(
-                    tangent[0].x as usize, t,
+                    tangent[0] as usize, t,
                     "normals and tangents of one triangle"
                 );
                 assert!(!seen[t], "triangle {t} in two chunks");
@@ -122,7 +122,7 @@ mod tests {
         assert!(seen.into_iter().all(|s| s));
         // Shading that does not match the triangles is left out, not misread.
         let short = TriangleShading {
-            normals: vec![[Vec3::ZERO; 3]; 10],
+            normals: vec![[0; 3]; 10],
             ..Default::default()
         };
         let triangles = chunks.triangles.clone();

@@ -14,6 +14,7 @@
 
 mod chunks;
 mod mesh;
+pub mod packed;
 mod picking;
 pub mod priority;
 mod refine;
@@ -257,9 +258,9 @@ impl SceneTree {
             .values()
             .filter(|s| seen.insert(Arc::as_ptr(s)))
             .map(|s| {
-                s.normals.capacity() * size_of::<[Vec3; 3]>()
+                s.normals.capacity() * size_of::<[u32; 3]>()
                     + s.uvs.capacity() * size_of::<[Vec2; 3]>()
-                    + s.tangents.capacity() * size_of::<[Vec4; 3]>()
+                    + s.tangents.capacity() * size_of::<[u32; 2]>()
             })
             .sum();
         (self.bvh.memory_bytes().total(), shading)

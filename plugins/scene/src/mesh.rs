@@ -1,5 +1,6 @@
 //! Bevy meshes to engine triangles (object space).
 
+use crate::packed::{encode_normal, encode_tangents};
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use std::fmt;
 use treelight_bvh::Triangle;
@@ -43,15 +44,17 @@ impl fmt::Display for MeshSkip {
 /// hit. Kept apart from the triangles because the BVH never needs it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleShading {
-    /// Object-space vertex normals of each triangle's corners; empty when the mesh has none (the
-    /// renderer then shades flat).
-    pub normals: Vec<[Vec3; 3]>,
+    /// Object-space vertex normals of each triangle's corners, packed
+    /// ([`encode_normal`](crate::packed::encode_normal)); empty when the mesh has none (the renderer
+    /// then shades flat).
+    pub normals: Vec<[u32; 3]>,
     /// `UV_0` of each triangle's corners; empty when the mesh has none.
     pub uvs: Vec<[Vec2; 3]>,
     /// Object-space tangents of each triangle's corners (xyz, and the bitangent's sign in w, as
-    /// glTF and Bevy's `ATTRIBUTE_TANGENT` have them), so a renderer bends normal maps along the
-    /// same frame as Bevy's; empty when the mesh has none.
-    pub tangents: Vec<[Vec4; 3]>,
+    /// glTF and Bevy's `ATTRIBUTE_TANGENT` have them), packed
+    /// ([`encode_tangents`](crate::packed::encode_tangents)), so a renderer bends normal maps along
+    /// the same frame as Bevy's; empty when the mesh has none.
+    pub tangents: Vec<[u32; 2]>,
 }
 
 /// A mesh as the scene BVH and a renderer see it.
@@ -380,9 +383,14 @@ impl GeometryCopy {
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
         // An attribute the mesh lacks was never copied: its array is empty.
-        let normals = per_corner(&corners, &a.normals, v, Vec3::from_array);
+        let normals = per_corner(&corners, &a.normals, v, |n| {
+            encode_normal(Vec3::from_array(n))
+        });
         let uvs = per_corner(&corners, &a.uvs, v, Vec2::from_array);
-        let tangents = per_corner(&corners, &a.tangents, v, Vec4::from_array);
+        let tangents = per_corner(&corners, &a.tangents, v, Vec4::from_array)
+            .into_iter()
+            .map(encode_tangents)
+            .collect();
         MeshGeometry {
             triangles,
             shading: TriangleShading {
@@ -452,9 +460,13 @@ mod tests {
     fn copying_in_chunks_equals_copying_at_once() {
         use bevy::math::primitives::Sphere;
         let mut mesh = Sphere::new(1.0).mesh().uv(13, 7);
-        // Tangents that name their vertex.
+        // Tangents that tell their vertices apart.
         let vertices = mesh.count_vertices();
-        let tangents: Vec<[f32; 4]> = (0..vertices).map(|i| [i as f32, 0.0, 0.0, -1.0]).collect();
+        let tangent_of = |i: usize| {
+            let a = i as f32 * 0.37;
+            Vec4::new(a.cos(), a.sin(), 0.3, -1.0)
+        };
+        let tangents: Vec<[f32; 4]> = (0..vertices).map(|i| tangent_of(i).to_array()).collect();
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
         let whole = mesh_geometry(&mesh).unwrap();
         assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
@@ -482,8 +494,11 @@ mod tests {
         {
             for k in 0..3 {
                 assert_eq!(t.v[k], Vec3::from_array(p[f[k]]));
-                assert_eq!(tangents[k], Vec4::new(f[k] as f32, 0.0, 0.0, -1.0));
             }
+            assert_eq!(
+                *tangents,
+                encode_tangents([tangent_of(f[0]), tangent_of(f[1]), tangent_of(f[2])])
+            );
         }
         // A mesh swapped for another between chunks is read again from the start.
         let other = Cuboid::new(1.0, 2.0, 3.0).mesh().build();
@@ -514,7 +529,8 @@ mod tests {
         for (t, n) in g.triangles.iter().zip(&g.shading.normals) {
             // A cuboid's vertex normals are its face normals.
             let face = t.normal().normalize();
-            for c in n {
+            for &c in n {
+                let c = crate::packed::decode_normal(c);
                 assert!(c.dot(face) > 0.999, "{c} vs {face}");
             }
         }
