@@ -10,7 +10,7 @@
 //! kept its samples (the worker's background bakes over), when its idle-time rebuilds were over
 //! (idle); and the frame rate then (the median of 8 s of reports) next to the default scene's. The
 //! owners' bytes and the resident set are read once idle; the editor's log is `editor.log` in the
-//! run's temporary folder.
+//! run's temporary folder, with its mappings once idle (`smaps-NAME`, NAME the file's stem).
 //!
 //! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
 //! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
@@ -211,7 +211,19 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         }
     }
     // Idle: the rebuilds over and the frame rate taken.
-    let (rss, hwm) = editor_pid(child.id()).map_or((0, 0), rss_and_peak);
+    let pid = editor_pid(child.id());
+    let (rss, hwm) = pid.map_or((0, 0), rss_and_peak);
+    // The editor's mappings once idle, for a look at what the owners do not count.
+    if let Some(pid) = pid {
+        let name = file
+            .and_then(|f| f.file_stem())
+            .map_or("default".into(), |n| n.to_string_lossy().into_owned());
+        std::fs::copy(
+            format!("/proc/{pid}/smaps"),
+            dir.join(format!("smaps-{name}")),
+        )
+        .ok();
+    }
     if let Some(s) = state_now().filter(|_| last.is_some()) {
         last = Some(s);
     }
