@@ -102,8 +102,13 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     std::fs::remove_file(&state).ok();
     let config = dir.join("config");
     let mut cmd = Command::new("xvfb-run");
-    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"])
-        .arg(env!("CARGO_BIN_EXE_treelight"))
+    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"]);
+    // TREELIGHT_MEMORY_HEAPTRACK=1 runs the assembly's editor under heaptrack, its profile in the
+    // run's folder (far slower: for finding owners, not for the figures).
+    if file.is_some() && std::env::var_os("TREELIGHT_MEMORY_HEAPTRACK").is_some() {
+        cmd.args(["heaptrack", "-o"]).arg(dir.join("heaptrack"));
+    }
+    cmd.arg(env!("CARGO_BIN_EXE_treelight"))
         .args(file.map(|f| f.as_os_str()))
         .arg("--state")
         .arg(&state)
@@ -320,5 +325,6 @@ fn main() {
         std::fs::remove_file(&file).ok();
         std::fs::remove_file(dir.join("assembly.bin")).ok();
     }
-    std::fs::remove_dir_all(&dir).ok();
+    // The generated files are gone; the editors' logs and mappings stay for a look.
+    println!("\nThe editors' logs and mappings: {}", dir.display());
 }
