@@ -328,8 +328,14 @@ fn run(ops: &[Op], config: BvhConfig) {
                 }
             }
             Op::MoveTriangles { seed, count } => {
+                // Loose triangles and those of baked groups (world space).
                 let movable: Vec<u32> = (0..bvh.triangle_capacity())
-                    .filter(|&t| bvh.is_live_triangle(t) && bvh.triangle_group(t).is_none())
+                    .filter(|&t| {
+                        bvh.is_live_triangle(t)
+                            && bvh
+                                .triangle_group(t)
+                                .is_none_or(|g| bvh.is_group_whole(g) == Ok(false))
+                    })
                     .collect();
                 if !movable.is_empty() {
                     let mut r = Rng(seed | 1);
@@ -386,6 +392,21 @@ fn run(ops: &[Op], config: BvhConfig) {
         );
         mirror.apply(&mut bvh);
         mirror.check(&bvh);
+        // A group's object triangles (kept or carried back through its transform) are where its
+        // world triangles are, under its transform.
+        for &(g, _) in &groups {
+            let (object, world) = (bvh.group_object(g).unwrap(), bvh.group_world(g).unwrap());
+            let transform = bvh.group_transform(g).unwrap();
+            assert_eq!(object.len(), world.len());
+            for (o, w) in object.iter().zip(&world) {
+                for (p, q) in o.transformed(&transform).v.iter().zip(&w.v) {
+                    assert!(
+                        (*p - *q).abs().max_element() <= 1e-4 * (1.0 + q.abs().max_element()),
+                        "after step {step} {op:?}: {p} placed, {q} in the world"
+                    );
+                }
+            }
+        }
     }
     assert_hits_match(&bvh, &check_rays);
     let q = Aabb::new(Vec3::splat(-3.0), Vec3::new(4.0, 2.0, 5.0));

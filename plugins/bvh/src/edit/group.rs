@@ -408,6 +408,7 @@ impl Bvh {
         }
         validate_triangles(object)?;
         let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
+        let had_copy = !g.object.is_empty();
         if instance == NONE {
             let world: Vec<Triangle> = object.iter().map(|t| t.transformed(&transform)).collect();
             validate_triangles(&world)?;
@@ -424,10 +425,9 @@ impl Bvh {
             self.refresh_users(id.index);
             return Ok(());
         }
-        // A baked group's copy, if it keeps one, follows: its next move starts from these.
-        let g = &mut self.groups[id.index as usize];
-        if !g.object.is_empty() {
-            g.object = object.to_vec();
+        // A baked group's copy, if it kept one, follows: its next move starts from these.
+        if had_copy {
+            self.groups[id.index as usize].object = object.to_vec();
         }
         Ok(())
     }
@@ -569,7 +569,8 @@ impl Bvh {
 
     /// Moves baked or ungrouped triangles (world space) and refits. Unknown ids or bad vertices are
     /// rejected before anything changes. Triangles of groups kept whole must use
-    /// [`Bvh::update_group_vertices`].
+    /// [`Bvh::update_group_vertices`]. A baked group whose triangles move here keeps them where they
+    /// are moved to when the group itself moves later.
     pub fn set_triangles(&mut self, updates: &[(u32, Triangle)]) -> Result<(), BvhError> {
         if let Some(&(t, _)) = updates.iter().find(|(t, _)| !self.is_live_triangle(*t)) {
             return Err(BvhError::UnknownTriangle(t));
@@ -588,6 +589,14 @@ impl Bvh {
             let p = self.tri.parent[t as usize];
             if p != NONE {
                 self.refit_from(p);
+            }
+        }
+        // A baked group's object-space copy no longer holds triangles edited in the world: it
+        // goes, and the group's object space is carried back from the world when it moves.
+        for &(t, _) in updates {
+            let g = self.tri.group[t as usize];
+            if g != NONE {
+                self.groups[g as usize].object = Vec::new();
             }
         }
         Ok(())
