@@ -280,7 +280,14 @@ impl Bvh {
             return Ok(());
         }
         if g.instance == NONE {
-            let object = self.baked_object(id.index).ok_or(BvhError::BadTransform)?;
+            // The group's copy is taken, not cloned: while whole, the stored triangles are the
+            // object-space ones.
+            let slot = id.index as usize;
+            let object = if self.groups[slot].object.is_empty() {
+                self.baked_object(id.index).ok_or(BvhError::BadTransform)?
+            } else {
+                std::mem::take(&mut self.groups[slot].object)
+            };
             self.unbake(id.index, object);
         }
         let index = id.index as usize;
@@ -326,11 +333,10 @@ impl Bvh {
         validate_triangles(&object).is_ok().then_some(object)
     }
 
-    /// Turns a baked group into an instance over an object-space subtree of the same triangle ids.
+    /// Turns a baked group (its copy, if it kept one, already taken as `object`) into an instance
+    /// over an object-space subtree of the same triangle ids.
     fn unbake(&mut self, index: u32, object: Vec<Triangle>) {
-        let g = &mut self.groups[index as usize];
-        // While whole, the stored triangles are the object-space ones.
-        g.object = Vec::new();
+        let g = &self.groups[index as usize];
         let (triangles, transform) = (g.triangles.clone(), g.transform);
         // The triangles keep the shape they have in the tree (a rigid transform away from the one
         // they get in object space): far quicker than a build, and as good for a mesh's own parts.
