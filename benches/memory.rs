@@ -8,7 +8,8 @@
 //! process), how long after that the tree held its first triangles and the viewport showed a whole
 //! path-traced picture with them, when the tree held all of them (from the start); when the view
 //! kept its samples (the worker's background bakes over), when its idle-time rebuilds were over
-//! (idle); and the frame rate then (the median of 8 s of reports) next to the default scene's. The
+//! (idle); and the frame rate then (the median of 8 s of reports) next to the default scene's, with
+//! how much the resident set grew per frame over those 8 s (nothing should). The
 //! owners' bytes and the resident set are read once idle; the editor's log is `editor.log` in the
 //! run's temporary folder, with its mappings once idle (`smaps-NAME`, NAME the file's stem).
 //!
@@ -47,6 +48,8 @@ struct Run {
     quiet: Option<f64>,
     /// Seconds from the start until the worker's idle-time rebuilds were over (5 s without one).
     idle: f64,
+    /// Bytes the resident set grew by per frame over the 8 s once idle.
+    growth_per_frame: Option<f64>,
 }
 
 /// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
@@ -207,6 +210,13 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         }
     }
     let idle = start.elapsed().as_secs_f64();
+    // The resident set's growth over those 8 s, per frame drawn: a view that leaks with every
+    // frame (as lavapipe did with uniform-driven branches) shows here, not in the owners' counts.
+    let pid = editor_pid(child.id());
+    let idle_start = pid
+        .map(rss_and_peak)
+        .zip(state_now())
+        .map(|((rss, _), s)| (rss, s.frame));
     let mut rates = Vec::new();
     let until = Instant::now() + Duration::from_secs(8);
     while last.is_some() && Instant::now() < until {
@@ -216,8 +226,11 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         }
     }
     // Idle: the rebuilds over and the frame rate taken.
-    let pid = editor_pid(child.id());
     let (rss, hwm) = pid.map_or((0, 0), rss_and_peak);
+    let growth_per_frame = idle_start
+        .zip(state_now())
+        .filter(|((_, f0), s)| s.frame > *f0)
+        .map(|((r0, f0), s)| (rss as f64 - r0 as f64) / (s.frame - f0) as f64);
     // The editor's mappings once idle, for a look at what the owners do not count.
     if let Some(pid) = pid {
         let name = file
@@ -263,7 +276,13 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
         frames_to_picture,
         quiet,
         idle,
+        growth_per_frame,
     }
+}
+
+/// Bytes a frame as KiB, or `?` where no frame was drawn.
+fn kib(bytes: Option<f64>) -> String {
+    bytes.map_or("?".into(), |b| format!("{:.1}", b / 1024.0))
 }
 
 fn main() {
@@ -286,15 +305,17 @@ fn main() {
     std::fs::create_dir_all(&dir).unwrap();
     let base = run(None, 1, &dir);
     println!(
-        "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak, {:.1} frames/s.\n",
+        "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak, {:.1} frames/s, resident set \
+         growing by {} KiB a frame once idle.\n",
         base.rss as f64 / 1048576.0,
         base.hwm as f64 / 1048576.0,
-        base.fps
+        base.fps,
+        kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let r = run(Some(&file), triangles as u64, &dir);
@@ -303,7 +324,7 @@ fn main() {
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
@@ -321,6 +342,7 @@ fn main() {
             r.quiet.unwrap_or(f64::NAN),
             r.idle,
             r.fps,
+            kib(r.growth_per_frame),
         );
         std::fs::remove_file(&file).ok();
         std::fs::remove_file(dir.join("assembly.bin")).ok();

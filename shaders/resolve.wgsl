@@ -37,7 +37,9 @@ const NONE: u32 = 0xffffffffu;
 // pathtrace.wgsl); per object slot two bits of outline (0 none), sixteen slots a word.
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> aux: array<u32>;
-@group(0) @binding(2) var<uniform> resolve: Resolve;
+// Storage, not uniform: lavapipe recompiles a shader whose branches test uniforms at every
+// bind (`parameters` in prepare.rs).
+@group(0) @binding(2) var<storage, read> resolve: Resolve;
 @group(0) @binding(3) var<storage, read> outlines: array<u32>;
 // The denoiser's last pass (denoise.wgsl): per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;

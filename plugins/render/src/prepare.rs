@@ -439,7 +439,7 @@ pub(crate) struct ViewBuffers {
     pub accum: Buffer,
     aux: Buffer,
     view_uniform: Buffer,
-    resolve_uniform: Buffer,
+    resolve_params: Buffer,
     /// The denoiser's two working images (the last pass leaves its result in the first).
     denoised: [Buffer; 2],
     /// What the trace keeps for the denoiser: five words a pixel.
@@ -451,7 +451,7 @@ pub(crate) struct ViewBuffers {
     /// The temporal pass's pictures: the one each frame writes, the other the last frame's; per
     /// pixel rgb and weight in half floats, depth and object slot (as large as the accumulation).
     shown: [Buffer; 2],
-    temporal_uniform: Buffer,
+    temporal_params: Buffer,
     /// The temporal pass's groups: the `k`-th writes picture `k`, reading the other.
     pub temporal_bind_groups: [BindGroup; 2],
     /// The resolve pass's groups: the `k`-th shows picture `k`.
@@ -498,6 +498,19 @@ fn uniform(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
         label: Some(label),
         size,
         usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A pass's parameters, read from a storage buffer rather than a uniform one: lavapipe (Mesa 22)
+/// inlines the uniform values a shader's branches test, compiling a new variant at every bind
+/// where that halves the shader and never freeing the last, so a pass bound every frame with
+/// uniform flags grew the heap by megabytes a frame.
+fn parameters(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
 }
@@ -577,7 +590,7 @@ fn view_buffers(
         storage(device, "treelight denoised", pixels * 16),
     ];
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
-    let resolve_uniform = uniform(
+    let resolve_params = parameters(
         device,
         "treelight resolve",
         size_of::<crate::GpuResolve>() as u64,
@@ -598,7 +611,7 @@ fn view_buffers(
     ];
     // Per pixel (rgb, weight); its bind groups keep it.
     let prior = storage(device, "treelight temporal prior", pixels * 16);
-    let temporal_uniform = uniform(
+    let temporal_params = parameters(
         device,
         "treelight temporal",
         size_of::<crate::GpuTemporal>() as u64,
@@ -610,7 +623,7 @@ fn view_buffers(
             &BindGroupEntries::sequential((
                 accum.as_entire_binding(),
                 aux.as_entire_binding(),
-                temporal_uniform.as_entire_binding(),
+                temporal_params.as_entire_binding(),
                 denoised[0].as_entire_binding(),
                 guides.as_entire_binding(),
                 shown[1 - k].as_entire_binding(),
@@ -625,7 +638,8 @@ fn view_buffers(
             let pass_uniform = device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("treelight denoise pass"),
                 contents: &crate::denoise_pass_bytes(size.x, size.y, k),
-                usage: BufferUsages::UNIFORM,
+                // Not a uniform buffer, as `parameters` says.
+                usage: BufferUsages::STORAGE,
             });
             [0, 1].map(|target| {
                 device.create_bind_group(
@@ -647,7 +661,7 @@ fn view_buffers(
         device,
         pipelines,
         cache,
-        [&accum, &aux, &resolve_uniform, &denoised[0], &guides],
+        [&accum, &aux, &resolve_params, &denoised[0], &guides],
         &shown,
         scene,
     );
@@ -655,13 +669,13 @@ fn view_buffers(
         accum,
         aux,
         view_uniform,
-        resolve_uniform,
+        resolve_params,
         denoised,
         guides,
         denoise_bind_groups,
         trace_bind_group,
         shown,
-        temporal_uniform,
+        temporal_params,
         temporal_bind_groups,
         resolve_bind_groups,
         outline_version: scene.outline_version,
@@ -852,7 +866,7 @@ fn prepare_views(
                 [
                     &b.accum,
                     &b.aux,
-                    &b.resolve_uniform,
+                    &b.resolve_params,
                     &b.denoised[0],
                     &b.guides,
                 ],
@@ -981,7 +995,7 @@ fn prepare_views(
             };
             let reproject = state.last_picture.unwrap_or(Mat4::IDENTITY) * world_from_clip;
             queue.write_buffer(
-                &state.buffers.temporal_uniform,
+                &state.buffers.temporal_params,
                 0,
                 &crate::temporal_bytes(
                     reproject,
@@ -998,7 +1012,7 @@ fn prepare_views(
             state.last_picture = None;
         }
         queue.write_buffer(
-            &state.buffers.resolve_uniform,
+            &state.buffers.resolve_params,
             0,
             &ResolveParams {
                 origin: Vec2::new(viewport.x as f32, viewport.y as f32),

@@ -549,7 +549,10 @@ impl Gpu {
         let (w, h) = (target.width, target.height);
         let passes = treelight_render::denoise_passes(u64::from(samples));
         for k in 0..passes {
-            let uniform = self.uniform(&treelight_render::denoise_pass_bytes(w, h, k));
+            let params = self.storage(
+                "denoise pass",
+                &treelight_render::denoise_pass_bytes(w, h, k),
+            );
             let t = treelight_render::denoise_target(k, passes);
             let (source, out) = (&target.denoised[1 - t], &target.denoised[t]);
             self.dispatch_indexed(
@@ -557,7 +560,7 @@ impl Gpu {
                 vec![vec![
                     (0, target.accum.as_entire_binding()),
                     (1, target.aux.as_entire_binding()),
-                    (2, uniform.as_entire_binding()),
+                    (2, params.as_entire_binding()),
                     (3, source.as_entire_binding()),
                     (4, out.as_entire_binding()),
                     (5, target.guides.as_entire_binding()),
@@ -1129,7 +1132,7 @@ impl Gpu {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
-        let uniform = self.uniform(&params.to_bytes());
+        let params = self.storage("resolve", &params.to_bytes());
         let words: Vec<u8> = outlines.iter().flat_map(|w| w.to_le_bytes()).collect();
         let outline_buffer = self.storage("outlines", &words);
         // The temporal pass's picture, for a resolve told to show it.
@@ -1140,7 +1143,7 @@ impl Gpu {
             entries: &[
                 (0, target.accum.as_entire_binding()),
                 (1, target.aux.as_entire_binding()),
-                (2, uniform.as_entire_binding()),
+                (2, params.as_entire_binding()),
                 (3, outline_buffer.as_entire_binding()),
                 (4, target.denoised[0].as_entire_binding()),
                 (5, target.guides.as_entire_binding()),

@@ -65,21 +65,24 @@ impl Pictures {
         preview_scale: u32,
         restart: TemporalRestart,
     ) -> usize {
-        let uniform = gpu.uniform(&temporal_bytes(
-            reproject,
-            self.width,
-            self.height,
-            preview_scale,
-            false,
-            restart,
-        ));
+        let params = gpu.storage(
+            "temporal",
+            &temporal_bytes(
+                reproject,
+                self.width,
+                self.height,
+                preview_scale,
+                false,
+                restart,
+            ),
+        );
         let k = self.parity;
         gpu.dispatch_indexed(
             pipeline,
             vec![vec![
                 (0, target.accum.as_entire_binding()),
                 (1, target.aux.as_entire_binding()),
-                (2, uniform.as_entire_binding()),
+                (2, params.as_entire_binding()),
                 (3, target.denoised[0].as_entire_binding()),
                 (4, target.guides.as_entire_binding()),
                 (5, self.shown[1 - k].as_entire_binding()),
