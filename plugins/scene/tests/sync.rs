@@ -911,3 +911,47 @@ fn a_crashed_worker_is_reported_and_the_app_goes_on() {
     assert!(cast(&app, down).is_some());
     assert!(!app.world().resource::<SceneBvh>().is_idle());
 }
+
+#[test]
+fn once_idle_the_tree_keeps_no_spare_capacity() {
+    let mut app = app(Duration::from_millis(50));
+    // Meshes arriving a few at a time grow the tree's arrays by doubling, leaving spare capacity.
+    for k in 0..12 {
+        let mesh = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(Sphere::new(1.0).mesh().uv(40 + k, 20));
+        app.world_mut()
+            .spawn((Mesh3d(mesh), Transform::from_xyz(3.0 * k as f32, 0.0, 0.0)));
+        app.update();
+        app.update();
+    }
+    settle(&mut app);
+    // Once its idle work is over the worker gives the spare capacity back: the tree then holds as
+    // much as a copy of it would (a vector's clone has no spare capacity).
+    let start = Instant::now();
+    loop {
+        app.update();
+        let (live, exact) = {
+            let scene = app.world().resource::<SceneBvh>();
+            let tree = scene.read_blocking();
+            (tree.bvh.memory_bytes(), tree.bvh.clone().memory_bytes())
+        };
+        if live == exact {
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "still spare capacity once idle: {live:?}, against {exact:?} held"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // And nothing went with it.
+    let world = app.world();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let held: usize = meshes
+        .iter()
+        .map(|(_, m)| mesh_triangles(m).unwrap().len())
+        .sum();
+    assert_eq!(tree_triangles(&app) as usize, held);
+}
