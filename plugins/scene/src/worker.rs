@@ -184,8 +184,6 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         config.bake_after,
         shared.refine_failure.clone(),
     );
-    // Whether the tree's arrays have given back their spare capacity since the last change.
-    let mut shrunk = true;
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
         let first = if idle.is_pending() {
@@ -209,11 +207,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 &mut idle,
                 &mut clock,
                 &mut refiner,
-                &mut shrunk,
             );
             continue;
         };
-        shrunk = false;
         let mut batch = vec![first];
         batch.extend(rx.try_iter());
         if batch.iter().any(|c| matches!(c, Command::Crash)) {
@@ -417,7 +413,6 @@ fn idle_work(
     idle: &mut IdleWork,
     clock: &mut CostClock,
     refiner: &mut Refiner,
-    shrunk: &mut bool,
 ) {
     let still: Vec<Entity> = last_move
         .iter()
@@ -429,21 +424,8 @@ fn idle_work(
             // The last edits were published without their cost; it is due by now.
             publish_stats(shared, clock, InFlight::Finishing(0), |_| {});
         }
-        if !*shrunk {
-            // Nothing left to do: the arrays' spare capacity (up to half of each after an
-            // import) goes back. Large arrays are remapped, not copied, so the lock is brief.
-            let memory = {
-                let mut tree = shared.tree.write().unwrap_or_else(|p| p.into_inner());
-                tree.bvh.shrink_to_fit();
-                tree.memory_bytes()
-            };
-            let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
-            (s.tree_bytes, s.shading_bytes) = memory;
-            *shrunk = true;
-        }
         return;
     }
-    *shrunk = false;
     let baked = !still.is_empty();
     let (moves, refined) = {
         let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());

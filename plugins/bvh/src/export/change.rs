@@ -31,17 +31,6 @@ impl ChangeLog {
             + vec_bytes(&self.inst_list)
     }
 
-    /// Gives back the spare capacity: the flags' beyond their slots, the lists' beyond what they
-    /// hold (an import's lists, taken by now, can be millions long).
-    pub(crate) fn shrink_to_fit(&mut self) {
-        self.inner_dirty.shrink_to_fit();
-        self.inner_list.shrink_to_fit();
-        self.tri_dirty.shrink_to_fit();
-        self.tri_list.shrink_to_fit();
-        self.inst_dirty.shrink_to_fit();
-        self.inst_list.shrink_to_fit();
-    }
-
     /// Makes room for inner nodes up to `len` slots, so that growing to it copies nothing.
     pub(crate) fn reserve_inner(&mut self, len: usize) {
         self.inner_dirty

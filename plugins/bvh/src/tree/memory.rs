@@ -58,35 +58,6 @@ impl Bvh {
     }
 }
 
-impl Bvh {
-    /// Gives the arrays' spare capacity back to the allocator. The arrays grow by doubling, so
-    /// after a large import up to half of each can be unused; a tree done growing for now (the
-    /// scene worker's, once idle) need not keep it. The next insertion grows them again, and the
-    /// builders' scratch comes back on first use.
-    pub fn shrink_to_fit(&mut self) {
-        self.inner.shrink_to_fit();
-        self.inner_free.shrink_to_fit();
-        let t = &mut self.tri;
-        t.items.shrink_to_fit();
-        t.boxes.shrink_to_fit();
-        t.parent.shrink_to_fit();
-        t.group.shrink_to_fit();
-        t.free.shrink_to_fit();
-        self.instances.shrink_to_fit();
-        self.inst_free.shrink_to_fit();
-        for g in &mut self.groups {
-            g.triangles.shrink_to_fit();
-            g.object.shrink_to_fit();
-        }
-        self.groups.shrink_to_fit();
-        self.group_free.shrink_to_fit();
-        self.cache.nodes.shrink_to_fit();
-        self.cache.queued.shrink_to_fit();
-        self.changes.shrink_to_fit();
-        self.scratch.shrink_to_fit();
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use crate::{Bvh, BvhConfig, Triangle};
@@ -121,38 +92,5 @@ mod tests {
         bvh.bake_group(g).unwrap();
         assert!(bvh.memory_bytes().groups >= 1000 * (36 + 4));
         assert!(grouped.total() > loose.total());
-    }
-
-    #[test]
-    fn shrinking_gives_back_the_spare_capacity_and_keeps_the_tree() {
-        let tris: Vec<Triangle> = (0..3000)
-            .map(|i| {
-                let o = Vec3::new((i % 50) as f32, (i / 50) as f32, 0.0);
-                Triangle::new(o, o + Vec3::X, o + Vec3::Y)
-            })
-            .collect();
-        let mut bvh = Bvh::new(BvhConfig::default());
-        // Grown a mesh at a time, as the scene worker grows it: by doubling.
-        for chunk in tris.chunks(700) {
-            bvh.insert_group(chunk, Affine3A::IDENTITY, false).unwrap();
-        }
-        bvh.take_changes();
-        let nodes: Vec<_> = bvh.gpu_nodes();
-        let triangles: Vec<_> = (0..3000).map(|i| bvh.gpu_triangle(i)).collect();
-        let before = bvh.memory_bytes();
-        bvh.shrink_to_fit();
-        let after = bvh.memory_bytes();
-        assert!(after.total() < before.total(), "{before:?} -> {after:?}");
-        // Nothing but capacity went: the arrays hold what they held, at their lengths.
-        assert_eq!(after.triangles, 3000 * (36 + 24 + 4 + 4));
-        assert_eq!(bvh.gpu_nodes(), nodes);
-        assert_eq!(
-            (0..3000).map(|i| bvh.gpu_triangle(i)).collect::<Vec<_>>(),
-            triangles
-        );
-        bvh.validate().unwrap();
-        // And it grows again.
-        bvh.insert_triangles(&tris[..10]).unwrap();
-        bvh.validate().unwrap();
     }
 }

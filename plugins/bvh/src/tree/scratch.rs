@@ -25,16 +25,6 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    /// Gives back the tables' spare capacity (the per-triangle and per-node tables keep their
-    /// lengths); the working lists come back on first use.
-    pub(crate) fn shrink_to_fit(&mut self) {
-        self.search.stack.shrink_to_fit();
-        self.update_candidates = Vec::new();
-        self.graft_slots = Vec::new();
-        self.induced_local.shrink_to_fit();
-        self.induced_marked.shrink_to_fit();
-    }
-
     /// Heap bytes its tables hold.
     pub(crate) fn heap_bytes(&self) -> usize {
         use crate::tree::memory::vec_bytes;
