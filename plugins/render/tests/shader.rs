@@ -332,3 +332,25 @@ fn a_moved_field_would_fail_the_comparison() {
         rust_layout!(GpuLight, [kind, position, radiance, radius])
     );
 }
+
+/// The passes bound every frame (denoise, temporal, resolve) read their parameters from storage
+/// buffers: Mesa 22's lavapipe compiles a new variant of a shader whose branches test uniform
+/// values at every bind and never frees it, so a uniform here grows the editor's heap by
+/// megabytes a frame on a software adapter.
+#[test]
+fn the_per_frame_passes_bind_no_uniform_buffer() {
+    for (name, source) in [
+        ("denoise", treelight_render::DENOISE_WGSL),
+        ("temporal", treelight_render::TEMPORAL_WGSL),
+        ("resolve", RESOLVE_WGSL),
+    ] {
+        let m = module(source);
+        let uniforms: Vec<_> = m
+            .global_variables
+            .iter()
+            .filter(|(_, v)| v.space == naga::AddressSpace::Uniform)
+            .map(|(_, v)| v.name.clone().unwrap_or_default())
+            .collect();
+        assert!(uniforms.is_empty(), "{name} binds uniforms {uniforms:?}");
+    }
+}
