@@ -31,7 +31,7 @@ const TAME: f32 = 3.0;
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> aux: array<u32>;
 // Storage, not uniform: lavapipe recompiles a shader whose branches test uniforms at every
-// bind (`parameters` in prepare.rs).
+// bind (see `view_buffers` in prepare.rs).
 @group(0) @binding(2) var<storage, read> params: Denoise;
 @group(0) @binding(3) var<storage, read> source: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> filtered: array<vec4<f32>>;

@@ -32,7 +32,7 @@ const PREVIEW_WEIGHT: f32 = 1.0;
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> aux: array<u32>;
 // Storage, not uniform: lavapipe recompiles a shader whose branches test uniforms at every
-// bind (`parameters` in prepare.rs).
+// bind (see `view_buffers` in prepare.rs).
 @group(0) @binding(2) var<storage, read> params: Temporal;
 // The denoiser's last pass: per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(3) var<storage, read> denoised: array<vec4<f32>>;

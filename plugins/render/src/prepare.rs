@@ -502,19 +502,6 @@ fn uniform(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
     })
 }
 
-/// A pass's parameters, read from a storage buffer rather than a uniform one: lavapipe (Mesa 22)
-/// inlines the uniform values a shader's branches test, compiling a new variant at every bind
-/// where that halves the shader and never freeing the last, so a pass bound every frame with
-/// uniform flags grew the heap by megabytes a frame.
-fn parameters(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
-    device.create_buffer(&BufferDescriptor {
-        label: Some(label),
-        size,
-        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
-}
-
 fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
     device.create_buffer(&BufferDescriptor {
         label: Some(label),
@@ -590,7 +577,11 @@ fn view_buffers(
         storage(device, "treelight denoised", pixels * 16),
     ];
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
-    let resolve_params = parameters(
+    // The per-frame passes' parameters are storage buffers, not uniform ones: lavapipe (Mesa 22)
+    // inlines the uniform values a shader's branches test, compiling a new variant at every bind
+    // where that halves the shader and never freeing the last, so a pass bound every frame with
+    // uniform flags grew the heap by megabytes a frame.
+    let resolve_params = storage(
         device,
         "treelight resolve",
         size_of::<crate::GpuResolve>() as u64,
@@ -611,7 +602,7 @@ fn view_buffers(
     ];
     // Per pixel (rgb, weight); its bind groups keep it.
     let prior = storage(device, "treelight temporal prior", pixels * 16);
-    let temporal_params = parameters(
+    let temporal_params = storage(
         device,
         "treelight temporal",
         size_of::<crate::GpuTemporal>() as u64,
@@ -635,10 +626,10 @@ fn view_buffers(
     // Pass k writes either image (reading the other): the last pass of a run writes the first.
     let denoise_bind_groups = (0..crate::DENOISE_PASSES)
         .map(|k| {
-            let pass_uniform = device.create_buffer_with_data(&BufferInitDescriptor {
+            let pass_params = device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("treelight denoise pass"),
                 contents: &crate::denoise_pass_bytes(size.x, size.y, k),
-                // Not a uniform buffer, as `parameters` says.
+                // Not a uniform buffer, as for the resolve's parameters above.
                 usage: BufferUsages::STORAGE,
             });
             [0, 1].map(|target| {
@@ -648,7 +639,7 @@ fn view_buffers(
                     &BindGroupEntries::sequential((
                         accum.as_entire_binding(),
                         aux.as_entire_binding(),
-                        pass_uniform.as_entire_binding(),
+                        pass_params.as_entire_binding(),
                         denoised[1 - target].as_entire_binding(),
                         denoised[target].as_entire_binding(),
                         guides.as_entire_binding(),
