@@ -344,7 +344,6 @@ impl Bvh {
         self.remove_leaves_keep_triangles(&triangles);
         for (&t, tri) in triangles.iter().zip(&object) {
             self.tri.items[t as usize] = *tri;
-            self.tri.boxes[t as usize] = tri.aabb();
             self.changes.mark_triangle(t, self.tri.items.len());
         }
         let root = self.graft(&tree, &triangles);
@@ -374,7 +373,6 @@ impl Bvh {
         for (&t, tri) in triangles.iter().zip(&object) {
             let w = tri.transformed(&transform);
             self.tri.items[t as usize] = w;
-            self.tri.boxes[t as usize] = w.aabb();
             self.changes.mark_triangle(t, self.tri.items.len());
         }
         let inst = self.instances[instance as usize];
@@ -423,7 +421,6 @@ impl Bvh {
         } else {
             for (&t, tri) in triangles.iter().zip(object) {
                 self.tri.items[t as usize] = *tri;
-                self.tri.boxes[t as usize] = tri.aabb();
                 self.changes.mark_triangle(t, self.tri.items.len());
             }
             self.refit_subtree(self.instances[instance as usize].root);
@@ -590,7 +587,6 @@ impl Bvh {
         }
         for &(t, tri) in updates {
             self.tri.items[t as usize] = tri;
-            self.tri.boxes[t as usize] = tri.aabb();
             self.changes.mark_triangle(t, self.tri.items.len());
             let p = self.tri.parent[t as usize];
             if p != NONE {

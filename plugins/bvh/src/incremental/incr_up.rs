@@ -84,14 +84,14 @@ impl Bvh {
         // Whether each item was made by the last level: a triangle or cluster left alone by one
         // level stays alone, as the paper leaves an incoherent triangle.
         let mut fresh = Vec::with_capacity(ids.len());
-        // The first level reads the triangles' boxes straight from their array.
+        // The first level reads the triangles' boxes straight from their corners.
         let mut i = 0;
         while i < ids.len() {
             let a = ids[i];
             if let Some(&b) = ids.get(i + 1) {
                 let c = crate::incremental::insert::coherence(
-                    &self.tri.boxes[a as usize],
-                    &self.tri.boxes[b as usize],
+                    &self.tri.items[a as usize].aabb(),
+                    &self.tri.items[b as usize].aabb(),
                 );
                 if c < self.config.coherence_max {
                     items.push(self.make_pair(NodeRef::leaf(a), NodeRef::leaf(b)));

@@ -266,8 +266,8 @@ struct BufferBatches {
     /// Once nothing is pending they tile `order`.
     batches: Vec<Range<usize>>,
     taken: usize,
-    /// The buffer's triangle boxes, until its first step hands them to the owner.
-    boxes: Option<Vec<Aabb>>,
+    /// Whether no step of the buffer has gone to the owner yet.
+    untaken: bool,
 }
 
 /// Primitives the cut looks at per piece of a buffer cut ahead: a piece takes a fraction of
@@ -288,7 +288,7 @@ impl BufferBatches {
             pending,
             batches: Vec::new(),
             taken: 0,
-            boxes: Some(boxes),
+            untaken: true,
         }
     }
 
@@ -329,9 +329,8 @@ impl BufferBatches {
 struct Step {
     /// Index of the buffer whose triangles the bBVHs' leaves index.
     buffer: usize,
-    /// The buffer's triangle boxes, with its first step only: the owner stores them with the
-    /// triangles instead of computing them again.
-    boxes: Option<Vec<Aabb>>,
+    /// Whether this is the buffer's first step: the owner then stores its triangles.
+    first_of_buffer: bool,
     /// The inner nodes of all the step's bBVHs: each batch's `len - 1` in turn, indexed locally.
     nodes: Vec<InnerNode>,
     /// Each batch's root and number of inner nodes, in order.
@@ -430,7 +429,7 @@ impl BatchBuilder<'_> {
                 .collect();
             return Some(Step {
                 buffer: c.index,
-                boxes: c.boxes.take(),
+                first_of_buffer: std::mem::take(&mut c.untaken),
                 nodes,
                 roots,
             });
@@ -590,15 +589,15 @@ impl Bvh {
                 let mut last = NodeRef::NONE;
                 while let Some(Step {
                     buffer,
-                    boxes,
+                    first_of_buffer,
                     nodes,
                     roots,
                 }) = pipe.receive()
                 {
                     // A buffer's triangles get their ids when its first bBVHs arrive.
                     let buf = &buffers[buffer];
-                    if let Some(boxes) = boxes {
-                        self.alloc_triangles_boxed(&tris[buf.clone()], &boxes, &mut ids);
+                    if first_of_buffer {
+                        self.alloc_triangles_into(&tris[buf.clone()], &mut ids);
                     }
                     // The bBVH's own nodes are candidates for updates too: where batches meet,
                     // their boxes overlap, and only moving nodes inside them can fix that.

@@ -95,8 +95,6 @@ pub(crate) struct Group {
 pub(crate) struct Triangles {
     /// Each triangle as stored: world space, or object space inside an instanced group.
     pub(crate) items: Vec<Triangle>,
-    /// Each triangle's box.
-    pub(crate) boxes: Vec<Aabb>,
     /// Parent inner node of each triangle's leaf; [`FREE`] for a freed slot.
     pub(crate) parent: Vec<u32>,
     /// Group of each triangle, or [`NONE`].
@@ -233,7 +231,7 @@ impl Bvh {
     pub fn aabb(&self, r: NodeRef) -> Aabb {
         match r.kind() {
             NodeKind::Inner => self.inner[r.index() as usize].aabb,
-            NodeKind::Leaf => self.tri.boxes[r.index() as usize],
+            NodeKind::Leaf => self.tri.items[r.index() as usize].aabb(),
             NodeKind::Instance => self.instances[r.index() as usize].aabb,
             NodeKind::None => Aabb::EMPTY,
         }
@@ -341,14 +339,12 @@ impl Bvh {
     pub(crate) fn alloc_triangle(&mut self, t: Triangle, group: u32) -> u32 {
         let id = if let Some(id) = self.tri.free.pop() {
             self.tri.items[id as usize] = t;
-            self.tri.boxes[id as usize] = t.aabb();
             self.tri.parent[id as usize] = NONE;
             self.tri.group[id as usize] = group;
             id
         } else {
             let id = self.tri.items.len() as u32;
             self.tri.items.push(t);
-            self.tri.boxes.push(t.aabb());
             self.tri.parent.push(NONE);
             self.tri.group.push(group);
             id
@@ -359,32 +355,25 @@ impl Bvh {
     }
 
     /// Allocates ids for `tris`, in input order, growing the arrays by slices rather than
-    /// triangle by triangle (see [`Bvh::alloc_triangles_boxed`]).
+    /// triangle by triangle (see [`Bvh::alloc_triangles_into`]).
     pub(crate) fn alloc_triangles(&mut self, tris: &[Triangle]) -> Vec<u32> {
-        let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
         let mut ids = Vec::with_capacity(tris.len());
-        self.alloc_triangles_boxed(tris, &boxes, &mut ids);
+        self.alloc_triangles_into(tris, &mut ids);
         ids
     }
 
-    /// Allocates ids for `tris`, whose boxes `boxes` are already known, appending them to `ids`.
-    /// Reuses free slots first like [`Bvh::alloc_triangle`]; the rest are appended to the arrays as
-    /// slices, which for a fresh tree is every triangle.
-    pub(crate) fn alloc_triangles_boxed(
-        &mut self,
-        tris: &[Triangle],
-        boxes: &[Aabb],
-        ids: &mut Vec<u32>,
-    ) {
+    /// Allocates ids for `tris`, appending them to `ids`. Reuses free slots first like
+    /// [`Bvh::alloc_triangle`]; the rest are appended to the arrays as slices, which for a fresh
+    /// tree is every triangle.
+    pub(crate) fn alloc_triangles_into(&mut self, tris: &[Triangle], ids: &mut Vec<u32>) {
         let reused = self.tri.free.len().min(tris.len());
         for &t in &tris[..reused] {
             ids.push(self.alloc_triangle(t, NONE));
         }
-        let (tris, boxes) = (&tris[reused..], &boxes[reused..]);
+        let tris = &tris[reused..];
         let first = self.tri.items.len() as u32;
         let end = self.tri.items.len() + tris.len();
         self.tri.items.extend_from_slice(tris);
-        self.tri.boxes.extend_from_slice(boxes);
         self.tri.parent.resize(end, NONE);
         self.tri.group.resize(end, NONE);
         self.tri.live += tris.len() as u32;
@@ -409,7 +398,6 @@ impl Bvh {
     pub(crate) fn reserve_triangles(&mut self, n: usize) {
         let fresh = n.saturating_sub(self.tri.free.len());
         self.tri.items.reserve(fresh);
-        self.tri.boxes.reserve(fresh);
         self.tri.parent.reserve(fresh);
         self.tri.group.reserve(fresh);
         self.changes

@@ -55,20 +55,20 @@ impl Bvh {
                 .sum::<f64>();
         }
         let mut leaves = 0.0f64;
-        for (boxes, parents) in self
+        for (tris, parents) in self
             .tri
-            .boxes
+            .items
             .chunks(SLICE)
             .zip(self.tri.parent.chunks(SLICE))
         {
             if stop() {
                 return None;
             }
-            leaves += boxes
+            leaves += tris
                 .iter()
                 .zip(parents)
                 .filter(|(_, p)| **p != FREE)
-                .map(|(b, _)| b.area() as f64)
+                .map(|(t, _)| t.aabb().area() as f64)
                 .sum::<f64>();
         }
         Some(self.cost_over_root(|| {
@@ -127,7 +127,9 @@ impl Bvh {
                     sum += c_t * node.aabb.area() as f64;
                     stack.extend_from_slice(&node.children);
                 }
-                NodeKind::Leaf => sum += c_i * self.tri.boxes[n.index() as usize].area() as f64,
+                NodeKind::Leaf => {
+                    sum += c_i * self.tri.items[n.index() as usize].aabb().area() as f64
+                }
                 NodeKind::Instance => {
                     let inst = &self.instances[n.index() as usize];
                     let world = inst.aabb.area() as f64;

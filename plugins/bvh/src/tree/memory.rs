@@ -13,7 +13,7 @@ pub struct MemoryBytes {
     /// Inner nodes and their free list.
     pub nodes: usize,
     /// Triangles as stored (world space, or object space in a group kept whole), with their
-    /// boxes, parents, groups and free list.
+    /// parents, groups and free list.
     pub triangles: usize,
     /// Groups: their object-space copies of the triangles and their triangle-id lists.
     pub groups: usize,
@@ -44,7 +44,6 @@ impl Bvh {
         MemoryBytes {
             nodes: vec_bytes(&self.inner) + vec_bytes(&self.inner_free),
             triangles: vec_bytes(&t.items)
-                + vec_bytes(&t.boxes)
                 + vec_bytes(&t.parent)
                 + vec_bytes(&t.group)
                 + vec_bytes(&t.free),
@@ -75,8 +74,8 @@ mod tests {
         let empty = bvh.memory_bytes();
         bvh.insert_triangles(&tris).unwrap();
         let loose = bvh.memory_bytes();
-        // At least the triangles themselves, their boxes and one inner node each.
-        assert!(loose.triangles >= 1000 * (36 + 24));
+        // At least the triangles themselves, their parents and groups, and one inner node each.
+        assert!(loose.triangles >= 1000 * (36 + 8));
         assert!(loose.nodes >= 999 * 36);
         assert_eq!(empty.groups, 0);
         let g = bvh
