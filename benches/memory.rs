@@ -3,13 +3,15 @@
 //! binary under Xvfb opens a generated assembly of bumpy tiles (the sizes below), and its `--state`
 //! report is read until the whole assembly is in the tree and the scene has settled. Prints, per
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
-//! groups' shading, the path tracer's scene buffers) and per triangle, the resident set once idle
+//! groups' shading, the path tracer's scene buffers) and per triangle, the device allocator's
+//! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
+//! buffers, so it is not in the sum), the resident set once idle
 //! and the peak resident set, less the default scene's; when the file was parsed (from the start of the
 //! process), how long after that the tree held its first triangles and the viewport showed a whole
 //! path-traced picture with them, when the tree held all of them (from the start); when the view
 //! kept its samples (the worker's background bakes over), when its idle-time rebuilds were over
-//! (idle); and the frame rate then (the median of 8 s of reports, once the resident set has held
-//! within 1% for 4 s) next to the default scene's, with how much the resident set grew per frame
+//! (every mesh rebuilt, the scene settled: idle); and the frame rate then (the median of 8 s of
+//! reports, 20 s after the resident set has held within 1% for 8 s) next to the default scene's, with how much the resident set grew per frame
 //! over those 8 s (nothing should). The
 //! owners' bytes and the resident set are read once idle; the editor's log is `editor.log` in the
 //! run's temporary folder, with its mappings once idle (`smaps-NAME`, NAME the file's stem).
@@ -98,9 +100,10 @@ fn stop(child: &mut Child) {
     let _ = child.wait();
 }
 
-/// Runs the editor on `file` (or its default scene) until `triangles` are in the tree and the
-/// scene has settled for two seconds.
-fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
+/// Runs the editor on `file` (or its default scene) until `triangles` are in the tree, `meshes`
+/// meshes have been rebuilt (every mesh of an assembly is large enough to be) and the resident
+/// set holds still.
+fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     use std::os::unix::process::CommandExt;
     let state = dir.join("state.ron");
     std::fs::remove_file(&state).ok();
@@ -197,15 +200,16 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
             break;
         }
     }
-    // Then the worker rebuilds each still mesh with a better builder, for minutes: idle once its
-    // count has held for 5 s.
+    // Then the worker rebuilds each still mesh with a better builder, for minutes: idle once
+    // every mesh is rebuilt and the count has held for 5 s, the scene settled. (The count alone
+    // can hold for 5 s between two rebuilds while updates run.)
     let mut rebuilt = (0, Instant::now());
     while last.is_some() && quiet_from.elapsed() < Duration::from_secs(600) {
         std::thread::sleep(Duration::from_millis(500));
         if let Some(s) = state_now() {
-            if s.memory.meshes_rebuilt != rebuilt.0 {
+            if s.memory.meshes_rebuilt != rebuilt.0 || !s.settled {
                 rebuilt = (s.memory.meshes_rebuilt, Instant::now());
-            } else if rebuilt.1.elapsed() >= Duration::from_secs(5) {
+            } else if rebuilt.0 >= meshes && rebuilt.1.elapsed() >= Duration::from_secs(5) {
                 break;
             }
         }
@@ -214,7 +218,7 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     let pid = editor_pid(child.id());
     // The updates that follow the last rebuild rewrite most node records, and their uploads'
     // staging comes and goes for seconds: the resident set is read once it has held within 1%
-    // for 4 s (at most a minute).
+    // for 8 s (at most a minute).
     let mut recent: Vec<u64> = Vec::new();
     let settling = Instant::now();
     while let Some(pid) =
@@ -222,13 +226,18 @@ fn run(file: Option<&Path>, triangles: u64, dir: &Path) -> Run {
     {
         std::thread::sleep(Duration::from_millis(500));
         recent.push(rss_and_peak(pid).0);
-        if recent.len() >= 8 {
-            let window = &recent[recent.len() - 8..];
+        if recent.len() >= 16 {
+            let window = &recent[recent.len() - 16..];
             let (lo, hi) = (window.iter().min().unwrap(), window.iter().max().unwrap());
             if (hi - lo) * 100 <= *hi {
                 break;
             }
         }
+    }
+    // The frame rate is low for a while after the last rebuild (the updates that follow it, their
+    // uploads, the view's first denoised frames) and then holds: it is read 20 s on, over 8 s.
+    if last.is_some() {
+        std::thread::sleep(Duration::from_secs(20));
     }
     // The resident set's growth over those 8 s, per frame drawn: a view that leaks with every
     // frame (as lavapipe did with uniform-driven branches) shows here, not in the owners' counts.
@@ -322,7 +331,7 @@ fn main() {
     let dir: PathBuf =
         std::env::temp_dir().join(format!("treelight-memory-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let base = run(None, 1, &dir);
+    let base = run(None, 1, 0, &dir);
     println!(
         "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak, {:.1} frames/s, resident set \
          growing by {} KiB a frame once idle.\n",
@@ -332,24 +341,25 @@ fn main() {
         kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
-        let r = run(Some(&file), triangles as u64, &dir);
+        let r = run(Some(&file), triangles as u64, parts as u64, &dir);
         let m = &r.memory;
         let n = triangles as f64;
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
             cell(m.shading),
             cell(m.scene_buffers),
             cell(counted),
+            cell(m.gpu_reserved),
             cell(r.rss.saturating_sub(base.rss)),
             cell(r.hwm.saturating_sub(base.hwm)),
             r.parsed.unwrap_or(f64::NAN),

@@ -55,7 +55,12 @@ pub fn build_app(cli: &cli::Cli) -> App {
 /// start with its error).
 pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     let mut app = App::new();
-    let mut wgpu = WgpuSettings::default();
+    // The path tracer's large buffers get memory of their own whatever the hint; smaller blocks
+    // for the rest reserve less memory nothing uses (on a software adapter, the process's own).
+    let mut wgpu = WgpuSettings {
+        memory_hints: bevy::render::settings::MemoryHints::MemoryUsage,
+        ..default()
+    };
     if let Some(kib) = cli.gpu_binding_limit {
         // The other limits are capped at WebGPU's defaults, except the storage buffers a stage
         // binds: the adapter's own, which the path tracer's split records need.

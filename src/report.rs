@@ -166,6 +166,10 @@ pub struct MemoryReport {
     pub shading: u64,
     /// The path tracer's scene buffers.
     pub scene_buffers: u64,
+    /// The device allocator's memory blocks (every buffer and texture, and upload staging), where
+    /// the backend reports them; 0 where not.
+    #[serde(default)]
+    pub gpu_reserved: u64,
     /// Triangles in the tree.
     pub triangles: u64,
     /// Meshes the scene's worker has rebuilt in idle time so far (a better tree for a still mesh).
@@ -200,6 +204,7 @@ fn memory_report(
         tree: stats.tree_bytes as u64,
         shading: stats.shading_bytes as u64,
         scene_buffers: tracer.figures().scene_buffer_bytes,
+        gpu_reserved: tracer.figures().gpu_memory.map_or(0, |m| m.reserved),
         triangles: u64::from(stats.triangles),
         meshes_rebuilt: stats.meshes_refined,
     }

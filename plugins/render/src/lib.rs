@@ -16,6 +16,7 @@ mod budget;
 mod energy;
 mod environment;
 mod extract;
+mod gpu_memory;
 mod identity;
 mod node;
 mod parts;
@@ -351,6 +352,18 @@ pub struct PathTracerFigures {
     /// The side, in texels, every texture is traced at: [`TEXTURE_LAYER_SIZE`] until more
     /// textures are in use than its budget holds, then smaller (0 before any texture).
     pub texture_side: u32,
+    /// What the device's memory allocator holds (read about once a second), where the backend
+    /// reports it.
+    pub gpu_memory: Option<GpuMemory>,
+}
+
+/// The device's memory allocator: the app's buffers and textures and the staging of uploads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuMemory {
+    /// Bytes of the memory blocks it holds, used or not.
+    pub reserved: u64,
+    /// Bytes in use by live buffers and textures.
+    pub allocated: u64,
 }
 
 /// One path-traced camera's latest frame under its budget.
@@ -456,6 +469,7 @@ impl Plugin for PathTracerPlugin {
         extract::build(render_app);
         texture_layers::build(render_app);
         prepare::build(render_app);
+        gpu_memory::build(render_app);
         node::build(render_app);
     }
 }
