@@ -9,7 +9,7 @@ use bevy::log::warn;
 use bevy::mesh::Mesh;
 use bevy::prelude::Entity;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
@@ -91,6 +91,15 @@ impl Command {
         }
     }
 
+    /// The new triangles the command brings to the tree (0 for all but new or edited meshes).
+    fn new_triangles(&self) -> usize {
+        match self {
+            Command::Copied { copy, .. } => copy.triangles(),
+            Command::Upsert(m) => m.triangles.len(),
+            _ => 0,
+        }
+    }
+
     fn entity(&self) -> Entity {
         match self {
             Command::Upsert(m) => m.entity,
@@ -126,6 +135,27 @@ pub(crate) struct WorkerConfig {
     pub chunks: treelight_bvh::PieceRule,
     /// Nice steps below the app's threads ([`crate::priority::lower_current_thread`]).
     pub nice: i32,
+}
+
+/// New triangles one batch takes at most, beyond its first command. A large import's meshes
+/// arrive faster than the tree takes them; a batch of all of them would publish nothing until every
+/// one was in, so the first are published within a fraction of a second and the rest follow.
+const BATCH_TRIANGLES: usize = 1 << 19;
+
+/// `first` and the commands after it in `queue`, in order, while their new triangles stay within
+/// `budget`; the rest stay queued for the next batch.
+fn take_batch(first: Command, queue: &mut VecDeque<Command>, budget: usize) -> Vec<Command> {
+    let mut triangles = first.new_triangles();
+    let mut batch = vec![first];
+    while let Some(next) = queue.front() {
+        let n = next.new_triangles();
+        if n > 0 && triangles + n > budget {
+            break;
+        }
+        triangles += n;
+        batch.extend(queue.pop_front());
+    }
+    batch
 }
 
 /// Keeps only the last word on each entity, in first-mention order. A move after an upsert or an
@@ -184,9 +214,13 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         config.bake_after,
         shared.refine_failure.clone(),
     );
+    // Commands received but left for a later batch, oldest first.
+    let mut queued: VecDeque<Command> = VecDeque::new();
     loop {
         // With update steps to do, only look for commands; otherwise sleep until one comes.
-        let first = if idle.is_pending() {
+        let first = if let Some(c) = queued.pop_front() {
+            Some(c)
+        } else if idle.is_pending() {
             match rx.try_recv() {
                 Ok(c) => Some(c),
                 Err(TryRecvError::Empty) => None,
@@ -210,8 +244,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             );
             continue;
         };
-        let mut batch = vec![first];
-        batch.extend(rx.try_iter());
+        queued.extend(rx.try_iter());
+        let batch = take_batch(first, &mut queued, BATCH_TRIANGLES);
         if batch.iter().any(|c| matches!(c, Command::Crash)) {
             panic!("the scene worker was asked to crash");
         }
@@ -554,5 +588,61 @@ fn publish_stats(
                 clock.given_up = Some(Instant::now());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mesh(index: u32, triangles: usize) -> Command {
+        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        Command::Upsert(NewMesh {
+            entity: Entity::from_raw_u32(index).unwrap(),
+            mesh: AssetId::default(),
+            name: format!("mesh {index}"),
+            triangles: Arc::new(vec![t; triangles]),
+            shading: Arc::new(TriangleShading::default()),
+            transform: Affine3A::IDENTITY,
+            eye: None,
+            sent: Instant::now(),
+        })
+    }
+
+    fn moved(index: u32) -> Command {
+        Command::Move {
+            entity: Entity::from_raw_u32(index).unwrap(),
+            transform: Affine3A::IDENTITY,
+        }
+    }
+
+    fn entities(batch: &[Command]) -> Vec<u32> {
+        batch.iter().map(|c| c.entity().index_u32()).collect()
+    }
+
+    #[test]
+    fn a_batch_takes_new_meshes_in_order_up_to_its_budget() {
+        let mut queue: VecDeque<Command> =
+            [mesh(2, 40), moved(3), mesh(4, 30), mesh(5, 10), moved(6)].into();
+        // 50 + 40 fit in 100, then the move, then 30 more would not: the rest waits, in order.
+        let batch = take_batch(mesh(1, 50), &mut queue, 100);
+        assert_eq!(entities(&batch), [1, 2, 3]);
+        assert_eq!(entities(queue.make_contiguous()), [4, 5, 6]);
+        let first = queue.pop_front().unwrap();
+        let batch = take_batch(first, &mut queue, 100);
+        assert_eq!(entities(&batch), [4, 5, 6]);
+        assert!(queue.is_empty());
+    }
+
+    #[test]
+    fn a_first_mesh_over_the_budget_is_a_batch_of_its_own() {
+        let mut queue: VecDeque<Command> = [mesh(2, 1), moved(1)].into();
+        let batch = take_batch(mesh(1, 500), &mut queue, 100);
+        assert_eq!(entities(&batch), [1]);
+        assert_eq!(queue.len(), 2);
+        // Commands that bring no triangles never wait behind the budget.
+        let mut queue: VecDeque<Command> = [moved(2), moved(3)].into();
+        let batch = take_batch(mesh(1, 500), &mut queue, 100);
+        assert_eq!(entities(&batch), [1, 2, 3]);
     }
 }
