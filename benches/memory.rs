@@ -5,16 +5,16 @@
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
 //! groups' shading, the path tracer's scene buffers) and per triangle, the device allocator's
 //! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
-//! buffers, so it is not in the sum), the resident set once idle
-//! and the peak resident set, less the default scene's; when the file was parsed (from the start of the
-//! process), how long after that the tree held its first triangles and the viewport showed a whole
-//! path-traced picture with them, when the tree held all of them (from the start); when the view
-//! kept its samples (the worker's background bakes over), when its idle-time rebuilds were over
-//! (every mesh rebuilt, the scene settled: idle); and the frame rate then (the median of 8 s of
-//! reports, 20 s after the resident set has held within 1% for 8 s) next to the default scene's, with how much the resident set grew per frame
-//! over those 8 s (nothing should). The
-//! owners' bytes and the resident set are read once idle; the editor's log is `editor.log` in the
-//! run's temporary folder, with its mappings once idle (`smaps-NAME`, NAME the file's stem).
+//! buffers, so it is not in the sum), the resident set once idle and the peak resident set, less
+//! the default scene's; when the file was parsed (from the start of the process), how long after
+//! that the tree held its first triangles and the viewport showed a whole path-traced picture with
+//! them, when the tree held all of them (from the start); when the view kept its samples (the
+//! worker's background bakes over), when its idle-time rebuilds were over (every mesh rebuilt, the
+//! scene settled: idle); and the frame rate then (the median of 8 s of reports, 20 s after the
+//! resident set has held within 1% for 8 s) next to the default scene's, with how much the
+//! resident set grew per frame over those 8 s (nothing should). The owners' bytes and the resident
+//! set are read once idle; the editor's log is `editor.log` in the run's temporary folder, with its
+//! mappings once idle (`smaps-NAME`, NAME the file's stem).
 //!
 //! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
 //! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.

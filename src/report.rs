@@ -204,7 +204,7 @@ fn memory_report(
         tree: stats.tree_bytes as u64,
         shading: stats.shading_bytes as u64,
         scene_buffers: tracer.figures().scene_buffer_bytes,
-        gpu_reserved: tracer.figures().gpu_memory.map_or(0, |m| m.reserved),
+        gpu_reserved: tracer.figures().gpu_reserved_bytes.unwrap_or(0),
         triangles: u64::from(stats.triangles),
         meshes_rebuilt: stats.meshes_refined,
     }

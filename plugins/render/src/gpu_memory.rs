@@ -1,8 +1,9 @@
 //! What the device's memory allocator holds: every buffer and texture of the app (the path
 //! tracer's, Bevy's meshes and targets) and the staging of uploads, which on a software adapter
-//! is the process's own memory. Read now and then into [`PathTracerFigures::gpu_memory`].
+//! is the process's own memory. Read now and then into
+//! [`PathTracerFigures::gpu_reserved_bytes`](crate::PathTracerFigures::gpu_reserved_bytes).
 
-use crate::{GpuMemory, PathTracerStats};
+use crate::PathTracerStats;
 use bevy::prelude::*;
 use bevy::render::renderer::RenderDevice;
 use bevy::render::{Render, RenderSystems};
@@ -31,12 +32,9 @@ fn read_allocator(
     }
     last.0 = Some(Instant::now());
     // `None` where the backend keeps no such report (WebGPU, GL).
-    let memory = device
+    let reserved = device
         .wgpu_device()
         .generate_allocator_report()
-        .map(|r| GpuMemory {
-            reserved: r.total_reserved_bytes,
-            allocated: r.total_allocated_bytes,
-        });
-    stats.update(|f| f.gpu_memory = memory);
+        .map(|r| r.total_reserved_bytes);
+    stats.update(|f| f.gpu_reserved_bytes = reserved);
 }

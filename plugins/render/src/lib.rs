@@ -352,18 +352,10 @@ pub struct PathTracerFigures {
     /// The side, in texels, every texture is traced at: [`TEXTURE_LAYER_SIZE`] until more
     /// textures are in use than its budget holds, then smaller (0 before any texture).
     pub texture_side: u32,
-    /// What the device's memory allocator holds (read about once a second), where the backend
-    /// reports it.
-    pub gpu_memory: Option<GpuMemory>,
-}
-
-/// The device's memory allocator: the app's buffers and textures and the staging of uploads.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct GpuMemory {
-    /// Bytes of the memory blocks it holds, used or not.
-    pub reserved: u64,
-    /// Bytes in use by live buffers and textures.
-    pub allocated: u64,
+    /// Bytes of the device allocator's memory blocks, used or not: every buffer and texture of
+    /// the app and the uploads' staging (read about once a second); `None` where the backend keeps
+    /// no such report.
+    pub gpu_reserved_bytes: Option<u64>,
 }
 
 /// One path-traced camera's latest frame under its budget.
