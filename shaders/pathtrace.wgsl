@@ -11,12 +11,17 @@
 struct Attr {
     // Object-space corner normals, octahedral, snorm16x2 each.
     normals: vec3<u32>,
-    // The group's slot; bit 31 set when the normals are present.
+    // The group's slot; bit 31 set when the normals are present, bit 30 (TWO_UV_SETS) when the
+    // record holds two UV sets.
     group: u32,
+    // UVs of corners 0 and 1. With two sets: set 0's corner 0, then its corners 1 and 2 less
+    // corner 0 as half-float pairs.
     uv01: vec4<f32>,
+    // UV of corner 2. With two sets: set 1's corner 0.
     uv2: vec2<f32>,
     // The corners' object-space tangents, three octahedral 10-bit pairs, a sign and a flag
-    // (`records::encode_tangents`); zero without.
+    // (`records::encode_tangents`); zero without. With two sets: set 1's corners 1 and 2 less
+    // corner 0 as half-float pairs (tangents are then made per triangle).
     tangents: vec2<u32>,
 }
 
@@ -34,7 +39,7 @@ struct Object {
     // Layer of the base-colour texture array; NONE when untextured.
     texture: u32,
     // Wrap modes, four bits per map (MAP_*; u in the low two: 0 clamp, 1 repeat, 2 mirror); the
-    // alpha mode (ALPHA_*) in bits 20-21.
+    // alpha mode (ALPHA_*) in bits 20-21; from bit 22, one bit per map: it reads UV set 1.
     wrap: u32,
     // Layers of the metallic-roughness, normal, occlusion and emission maps (NONE: none).
     maps: vec4<u32>,
@@ -231,7 +236,7 @@ fn slot_of(triangle: u32, instance: u32) -> u32 {
     if instance != NONE {
         return instances[instance].group;
     }
-    return attr_at(triangle).group & ~HAS_NORMALS;
+    return attr_at(triangle).group & ~(HAS_NORMALS | TWO_UV_SETS);
 }
 
 fn object_slot(hit: Hit) -> u32 {
@@ -249,9 +254,38 @@ fn alpha_mode(o: Object) -> u32 {
     return (o.wrap >> 20u) & 3u;
 }
 
-// The mesh's UV at barycentrics (u, v) of a triangle's shading record.
-fn mesh_uv(attr: Attr, u: f32, v: f32) -> vec2<f32> {
-    return attr.uv01.xy * (1.0 - u - v) + attr.uv01.zw * u + attr.uv2 * v;
+// Bit 30 of a shading record's group word: it holds two UV sets.
+const TWO_UV_SETS: u32 = 0x40000000u;
+
+// The corners' UVs of set `uv_set` (0 or 1) in a triangle's shading record; set 0 for either
+// where the record holds one.
+fn corner_uvs(attr: Attr, uv_set: u32) -> array<vec2<f32>, 3> {
+    if (attr.group & TWO_UV_SETS) == 0u {
+        return array<vec2<f32>, 3>(attr.uv01.xy, attr.uv01.zw, attr.uv2);
+    }
+    var c = attr.uv01.xy;
+    var offsets = vec2<u32>(bitcast<u32>(attr.uv01.z), bitcast<u32>(attr.uv01.w));
+    if uv_set == 1u {
+        c = attr.uv2;
+        offsets = attr.tangents;
+    }
+    return array<vec2<f32>, 3>(c, c + unpack2x16float(offsets.x), c + unpack2x16float(offsets.y));
+}
+
+// Whether the record holds the corners' own tangents.
+fn has_corner_tangents(attr: Attr) -> bool {
+    return (attr.group & TWO_UV_SETS) == 0u && (attr.tangents.x & TANGENTS_PRESENT) != 0u;
+}
+
+// The UV set material map `map` reads.
+fn map_set(o: Object, map: u32) -> u32 {
+    return (o.wrap >> (22u + map)) & 1u;
+}
+
+// The mesh's UV of set `uv_set` at barycentrics (u, v) of a triangle's shading record.
+fn mesh_uv(attr: Attr, uv_set: u32, u: f32, v: f32) -> vec2<f32> {
+    let c = corner_uvs(attr, uv_set);
+    return c[0] * (1.0 - u - v) + c[1] * u + c[2] * v;
 }
 
 // A mesh UV through the material's UV transform.
@@ -278,7 +312,8 @@ fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
     if mode == ALPHA_MASK {
         var a = o.base_color.a;
         if o.texture != NONE {
-            a *= sample_map(o, o.texture, MAP_BASE, texture_uv(o, mesh_uv(attr_at(triangle), u, v))).a;
+            let uv = mesh_uv(attr_at(triangle), map_set(o, MAP_BASE), u, v);
+            a *= sample_map(o, o.texture, MAP_BASE, texture_uv(o, uv)).a;
         }
         if a < o.emissive.w {
             return false;
@@ -363,20 +398,28 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             ns = -ns;
         }
     }
-    let t = texture_uv(obj, mesh_uv(attr, hit.u, hit.v));
+    // Texture coordinates through each UV set (the second only where a map reads it).
+    let t0 = texture_uv(obj, mesh_uv(attr, 0u, hit.u, hit.v));
+    var t1 = t0;
+    if ((obj.wrap >> 22u) & 0x1fu) != 0u {
+        t1 = texture_uv(obj, mesh_uv(attr, 1u, hit.u, hit.v));
+    }
     var base = obj.base_color;
     if obj.texture != NONE {
-        base *= sample_map(obj, obj.texture, MAP_BASE, t);
+        base *= sample_map(obj, obj.texture, MAP_BASE, select(t0, t1, map_set(obj, MAP_BASE) == 1u));
     }
     s.albedo = base.rgb;
     s.metallic = clamp(obj.params.x, 0.0, 1.0);
     var r = obj.params.y;
     if obj.maps.x != NONE {
+        let t = select(t0, t1, map_set(obj, MAP_METALLIC_ROUGHNESS) == 1u);
         let mr = sample_map(obj, obj.maps.x, MAP_METALLIC_ROUGHNESS, t);
         r *= mr.g;
         s.metallic *= mr.b;
     }
-    if obj.maps.y != NONE && (attr.tangents.x & TANGENTS_PRESENT) != 0u {
+    let normal_set = map_set(obj, MAP_NORMAL);
+    let tn_uv = select(t0, t1, normal_set == 1u);
+    if obj.maps.y != NONE && has_corner_tangents(attr) {
         // The mesh's own tangents (the raster view's too), interpolated like the normals.
         let w = 1.0 - hit.u - hit.v;
         let tangents = corner_tangents(attr.tangents);
@@ -386,13 +429,14 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         if dot(tangent, tangent) > 1e-30 {
             let tn = normalize(tangent);
             let flip = select(1.0, -1.0, ((attr.tangents.x >> 30u) & 1u) != 0u);
-            ns = normal_mapped(obj, t, ns, ng, tn, cross(ns, tn) * flip);
+            ns = normal_mapped(obj, tn_uv, ns, ng, tn, cross(ns, tn) * flip);
         }
     } else if obj.maps.y != NONE {
         // Tangents per triangle, from its positions and texture coordinates (dP/du, dP/dv).
-        let t0 = texture_uv(obj, attr.uv01.xy);
-        let d1 = texture_uv(obj, attr.uv01.zw) - t0;
-        let d2 = texture_uv(obj, attr.uv2) - t0;
+        let c = corner_uvs(attr, normal_set);
+        let c0 = texture_uv(obj, c[0]);
+        let d1 = texture_uv(obj, c[1]) - c0;
+        let d2 = texture_uv(obj, c[2]) - c0;
         let det = d1.x * d2.y - d1.y * d2.x;
         if abs(det) > 1e-20 {
             let e1 = tri.v1 - tri.v0;
@@ -407,7 +451,7 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             if dot(tangent, tangent) > 1e-30 {
                 let tn = normalize(tangent);
                 let b = cross(ns, tn) * select(1.0, -1.0, dot(cross(ns, tn), tv) < 0.0);
-                ns = normal_mapped(obj, t, ns, ng, tn, b);
+                ns = normal_mapped(obj, tn_uv, ns, ng, tn, b);
             }
         }
     }
@@ -415,10 +459,12 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.ns = ns;
     s.occlusion = 1.0;
     if obj.maps.z != NONE {
+        let t = select(t0, t1, map_set(obj, MAP_OCCLUSION) == 1u);
         s.occlusion = sample_map(obj, obj.maps.z, MAP_OCCLUSION, t).r;
     }
     s.emissive = obj.emissive.rgb;
     if obj.maps.w != NONE {
+        let t = select(t0, t1, map_set(obj, MAP_EMISSIVE) == 1u);
         s.emissive *= sample_map(obj, obj.maps.w, MAP_EMISSIVE, t).rgb;
     }
     s.roughness = clamp(r, MIN_ROUGHNESS, 1.0);

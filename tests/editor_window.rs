@@ -918,7 +918,7 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
 fn the_raster_view_reads_a_map_through_the_second_uv_set() {
     // A quad whose base colour map reads its second UV set, the green half of its texture.
     let dir = temp_dir("uv-set-1");
-    let file = write_second_uv_set_quad(&dir);
+    let file = write_second_uv_set_quad(&dir, false);
     let mut s = xdrive::Session::start(
         "uv-set-1",
         &[

@@ -446,31 +446,36 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
 }
 
 /// A material that reads its maps through the second UV set is path traced through it, as the
-/// raster view draws it: the quad is its texture's green half, no pixel the red half of set 0.
+/// raster view draws it: the quad is its texture's green half, no pixel the red half of set 0;
+/// so too when another of its maps reads set 0 (the shading records then hold both sets).
 #[test]
 fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
     let dir = temp_dir("render-uv-set-1");
-    let quad = support::write_second_uv_set_quad(&dir);
-    let out = dir.join("quad.png");
-    let (ok, log) = render(&[
-        quad.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--width",
-        "96",
-        "--height",
-        "64",
-        "--spp",
-        "4",
-    ]);
-    assert!(ok, "{log}");
-    let img = load_rgb(&out);
-    let (red, green) = support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
-    img.save(dir.join("seen.png")).ok();
-    assert!(
-        green > 96 * 64 / 8 && red == 0,
-        "the quad is not the second set's green: {green} green pixels, {red} red"
-    );
+    for emission_on_first in [false, true] {
+        let quad = support::write_second_uv_set_quad(&dir, emission_on_first);
+        let out = dir.join(format!("quad-{emission_on_first}.png"));
+        let (ok, log) = render(&[
+            quad.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--spp",
+            "4",
+        ]);
+        assert!(ok, "{log}");
+        let img = load_rgb(&out);
+        let (red, green) =
+            support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
+        assert!(
+            green > 96 * 64 / 8 && red == 0,
+            "the quad is not the second set's green (emission on set 0: {emission_on_first}): \
+             {green} green pixels, {red} red; see {}",
+            out.display()
+        );
+    }
 }
 
 /// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes

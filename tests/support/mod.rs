@@ -155,8 +155,10 @@ pub fn write_two_sided_sky(path: &std::path::Path) {
 
 /// Writes `quad.gltf` (with its .bin and image) into `dir` and returns its path: a quad whose first
 /// UV set points at the red half of a two-texel texture and whose second points at the green half,
-/// its base colour map reading the second set. Drawn right, it is green.
-pub fn write_second_uv_set_quad(dir: &Path) -> PathBuf {
+/// its base colour map reading the second set. Drawn right, it is green. With `emission_on_first`,
+/// the material also has a faint emission map reading the first set (the red half): it reads both
+/// sets, and is still mostly green drawn right.
+pub fn write_second_uv_set_quad(dir: &Path, emission_on_first: bool) -> PathBuf {
     image::RgbImage::from_fn(2, 1, |x, _| {
         if x == 0 {
             image::Rgb([230, 20, 20])
@@ -184,11 +186,16 @@ pub fn write_second_uv_set_quad(dir: &Path) -> PathBuf {
         bin.extend_from_slice(&i.to_le_bytes());
     }
     std::fs::write(dir.join("quad.bin"), &bin).unwrap();
+    let emission = if emission_on_first {
+        r#","emissiveTexture":{"index":0},"emissiveFactor":[0.05,0.05,0.05]"#
+    } else {
+        ""
+    };
     let gltf = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
         "nodes":[{{"name":"quad","mesh":0}}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1,"TEXCOORD_1":2}},"indices":3,"material":0}}]}}],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}},"metallicFactor":0.0}}}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}},"metallicFactor":0.0}}{emission}}}],
         "textures":[{{"source":0,"sampler":0}}],"samplers":[{{"magFilter":9728,"minFilter":9728}}],
         "images":[{{"uri":"red-green.png"}}],
         "accessors":[

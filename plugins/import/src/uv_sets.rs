@@ -1,37 +1,52 @@
-//! Which UV set a mesh's first slot holds. A path tracer keeps one set per triangle corner (its
-//! records have room for no more), so a material that reads every map it traces through glTF's
+//! Which UV set a mesh's first slot holds, and whether it keeps a second. A path tracer's shading
+//! record holds one set at full precision with the mesh's corner tangents, or two sets more
+//! tightly without them, so a material that reads every map but its occlusion through glTF's
 //! `TEXCOORD_1` has its meshes' two sets exchanged on import, and its maps' `tex_coord`s with them:
 //! the raster view reads the same texels through the same coordinates as before, and a consumer
-//! that reads set 0 alone draws the material whole.
+//! that reads set 0 alone draws the material whole. A mesh no map reads the second set of drops it:
+//! neither view would read it, and every copy of it costs memory.
 
 use crate::{ImportedMaterial, ImportedScene, TextureRef};
 use std::collections::HashMap;
 use std::sync::Arc;
 
-/// The maps a path tracer reads for itself, with their roles' names. Occlusion is not among them:
-/// a tracer traces the occlusion.
-fn traced_maps(m: &ImportedMaterial) -> [(Option<TextureRef>, &'static str); 4] {
+/// The maps a material reads the mesh's most detailed set through. Occlusion is not among them:
+/// it is often baked through a set of its own.
+fn detail_maps(m: &ImportedMaterial) -> [Option<TextureRef>; 4] {
     [
-        (m.base_color_texture, "base colour texture"),
-        (m.metallic_roughness_texture, "metallic-roughness texture"),
-        (m.normal_texture, "normal map"),
-        (m.emissive_texture, "emission texture"),
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.normal_texture,
+        m.emissive_texture,
     ]
 }
 
-/// Whether every map of `m` a tracer reads goes through set 1 (and there is one).
+/// Whether every detail map of `m` goes through set 1 (and there is one).
 fn reads_second_set(m: &ImportedMaterial) -> bool {
-    let sets: Vec<u32> = traced_maps(m)
+    let sets: Vec<u32> = detail_maps(m)
         .iter()
-        .filter_map(|(r, _)| r.map(|r| r.tex_coord))
+        .filter_map(|r| r.map(|r| r.tex_coord))
         .collect();
     !sets.is_empty() && sets.iter().all(|&s| s == 1)
 }
 
-/// Exchanges sets 0 and 1 in the meshes of each material that reads its traced maps through set 1
-/// alone, and in those materials' maps; warns of each material whose traced maps read both sets
-/// (a set-0-only consumer draws it without its set-1 maps). Meshes that shared vertex data keep
-/// sharing it where both are exchanged or neither is.
+/// Whether any map of `m` reads set 1.
+fn reads_set_one(m: &ImportedMaterial) -> bool {
+    [
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.normal_texture,
+        m.occlusion_texture,
+        m.emissive_texture,
+    ]
+    .iter()
+    .flatten()
+    .any(|r| r.tex_coord == 1)
+}
+
+/// Exchanges sets 0 and 1 in the meshes of each material that reads its detail maps through set 1
+/// alone, and in those materials' maps; then drops the second set of vertex data no map reads it
+/// of. Meshes that shared vertex data keep sharing it where both are changed alike.
 pub(crate) fn first_set_for_tracing(scene: &mut ImportedScene) {
     let exchanged: Vec<bool> = scene.materials.iter().map(reads_second_set).collect();
     for (m, &swap) in scene.materials.iter_mut().zip(&exchanged) {
@@ -48,23 +63,14 @@ pub(crate) fn first_set_for_tracing(scene: &mut ImportedScene) {
             {
                 r.tex_coord = 1 - r.tex_coord;
             }
-            continue;
-        }
-        let second: Vec<&str> = traced_maps(m)
-            .iter()
-            .filter(|(r, _)| r.is_some_and(|r| r.tex_coord == 1))
-            .map(|(_, role)| *role)
-            .collect();
-        if !second.is_empty() {
-            scene.warnings.push(format!(
-                "material '{}' reads its {} through texture coordinate set 1 and other maps \
-                 through set 0: the raster view draws them all, the path-traced view draws the \
-                 material without its set-1 maps",
-                m.name,
-                second.join(" and ")
-            ));
         }
     }
+    exchange_sets(scene, &exchanged);
+    drop_unread_second_sets(scene);
+}
+
+/// Exchanges the two sets of the meshes whose material `exchanged` says.
+fn exchange_sets(scene: &mut ImportedScene, exchanged: &[bool]) {
     if !exchanged.contains(&true) {
         return;
     }
@@ -99,6 +105,39 @@ pub(crate) fn first_set_for_tracing(scene: &mut ImportedScene) {
     }
 }
 
+/// Drops the second UV set of each vertex data that no mesh placing it reads through a map.
+fn drop_unread_second_sets(scene: &mut ImportedScene) {
+    let mut read: HashMap<*const crate::MeshGeometry, bool> = HashMap::new();
+    for mesh in &scene.meshes {
+        let reads = mesh
+            .material
+            .and_then(|k| scene.materials.get(k))
+            .is_some_and(reads_set_one);
+        *read.entry(Arc::as_ptr(&mesh.geometry)).or_default() |= reads;
+    }
+    // Each vertex data taken out of its meshes first, so that it is changed in place, not copied.
+    let mut taken: HashMap<*const crate::MeshGeometry, (Arc<crate::MeshGeometry>, Vec<usize>)> =
+        HashMap::new();
+    for (i, mesh) in scene.meshes.iter_mut().enumerate() {
+        let key = Arc::as_ptr(&mesh.geometry);
+        if mesh.geometry.uvs1.is_none() || read.get(&key) == Some(&true) {
+            continue;
+        }
+        let geometry = std::mem::take(&mut mesh.geometry);
+        taken
+            .entry(key)
+            .or_insert_with(|| (geometry, Vec::new()))
+            .1
+            .push(i);
+    }
+    for (_, (mut geometry, meshes)) in taken {
+        Arc::make_mut(&mut geometry).uvs1 = None;
+        for i in meshes {
+            scene.meshes[i].geometry = geometry.clone();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,7 +154,8 @@ mod tests {
     }
 
     /// Three placements of one vertex data: the first with a material on set 0, the others with
-    /// one on set 1. The two on set 1 share one exchanged copy; the first keeps the file's.
+    /// one on set 1. The two on set 1 share one exchanged copy; the first keeps the file's first
+    /// set alone.
     #[test]
     fn placements_share_what_was_exchanged_alike() {
         let geometry = Arc::new(MeshGeometry {
@@ -154,7 +194,8 @@ mod tests {
         let [a, b, c] = &scene.meshes[..] else {
             panic!()
         };
-        assert!(Arc::ptr_eq(&a.geometry, &geometry));
+        // The first reads no map through set 1: its data keeps set 0 alone.
+        assert_eq!((&a.geometry.uvs, &a.geometry.uvs1), (&geometry.uvs, &None));
         assert_eq!(b.geometry.uvs, geometry.uvs1);
         assert_eq!(b.geometry.uvs1, geometry.uvs);
         assert!(Arc::ptr_eq(&b.geometry, &c.geometry));
@@ -164,5 +205,63 @@ mod tests {
             .map(|r| r.map(|r| r.tex_coord));
         assert_eq!(sets, [Some(0), Some(0), Some(1)]);
         assert_eq!(scene.materials[0].base_color_texture, map(0));
+    }
+
+    /// A second set that one placement's material reads stays for every placement of that data;
+    /// one no placement reads is dropped from each, the placements still sharing one copy.
+    #[test]
+    fn a_second_set_stays_where_a_map_reads_it() {
+        let data = || {
+            Arc::new(MeshGeometry {
+                positions: vec![[0.0; 3]; 3],
+                uvs: Some(vec![[0.0, 0.0]; 3]),
+                uvs1: Some(vec![[1.0, 1.0]; 3]),
+                indices: vec![0, 1, 2],
+                ..Default::default()
+            })
+        };
+        let (read, unread) = (data(), data());
+        let mesh = |geometry: &Arc<MeshGeometry>, material| ImportedMesh {
+            name: String::new(),
+            transform: Mat4::IDENTITY,
+            node: None,
+            geometry: geometry.clone(),
+            material: Some(material),
+            same_as: None,
+        };
+        let mut scene = ImportedScene {
+            materials: vec![
+                ImportedMaterial {
+                    base_color_texture: map(0),
+                    ..Default::default()
+                },
+                // Occlusion baked through set 1: a mixed material, traced through both sets.
+                ImportedMaterial {
+                    base_color_texture: map(0),
+                    occlusion_texture: map(1),
+                    ..Default::default()
+                },
+            ],
+            meshes: vec![
+                mesh(&read, 0),
+                mesh(&read, 1),
+                mesh(&unread, 0),
+                mesh(&unread, 0),
+            ],
+            ..Default::default()
+        };
+        drop((read, unread));
+        first_set_for_tracing(&mut scene);
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        let m = &scene.meshes;
+        assert!(m[0].geometry.uvs1.is_some() && Arc::ptr_eq(&m[0].geometry, &m[1].geometry));
+        assert!(m[2].geometry.uvs1.is_none() && Arc::ptr_eq(&m[2].geometry, &m[3].geometry));
+        assert_eq!(m[2].geometry.uvs, Some(vec![[0.0, 0.0]; 3]));
+        let sets = [
+            scene.materials[1].base_color_texture,
+            scene.materials[1].occlusion_texture,
+        ]
+        .map(|r| r.map(|r| r.tex_coord));
+        assert_eq!(sets, [Some(0), Some(1)], "not exchanged");
     }
 }

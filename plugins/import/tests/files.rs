@@ -646,10 +646,10 @@ fn a_material_on_the_second_uv_set_reads_it_as_the_first() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A material whose traced maps read both sets keeps the file's sets, and the warning names the
-/// maps the path tracer draws it without; an occlusion map on set 1 alone needs no exchange.
+/// A material whose maps read both sets keeps the file's sets, both traced (no warning); an
+/// occlusion map on set 1 alone needs no exchange; a second set no map reads is dropped.
 #[test]
-fn a_material_on_both_uv_sets_is_named() {
+fn a_material_on_both_uv_sets_keeps_both() {
     let (dir, path, mut json) = copy_box_textured("uv-sets-both");
     let set1: Vec<[f32; 2]> = (0..24).map(|i| [0.5, i as f32 / 24.0]).collect();
     let accessor = add_uv_accessor(&dir, &mut json, &set1);
@@ -661,15 +661,8 @@ fn a_material_on_both_uv_sets_is_named() {
     let m = &s.materials[0];
     assert_eq!(m.base_color_texture.map(|t| t.tex_coord), Some(0));
     assert_eq!(m.normal_texture.map(|t| t.tex_coord), Some(1));
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(
-        s.warnings[0].contains("'Texture'")
-            && s.warnings[0].contains("normal map")
-            && !s.warnings[0].contains("base colour"),
-        "{:?}",
-        s.warnings
-    );
-    // The occlusion map is traced, not read: on set 1 it asks for nothing.
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Occlusion baked through set 1 asks for no exchange.
     json["materials"][0]
         .as_object_mut()
         .unwrap()
@@ -683,6 +676,15 @@ fn a_material_on_both_uv_sets_is_named() {
         Some(1)
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // With no map on set 1, the mesh keeps set 0 alone.
+    json["materials"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("occlusionTexture");
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let s = load_scene(&path).unwrap();
+    assert!(s.meshes[0].geometry.uvs.is_some());
+    assert_eq!(s.meshes[0].geometry.uvs1, None);
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -4,8 +4,8 @@
 
 use crate::Outlined;
 use crate::records::{
-    SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes, outline_words,
-    packed_attribute_record, same_drawing, set_outline, with_identity,
+    LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
+    outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
@@ -64,6 +64,8 @@ pub(crate) struct SceneSync {
     outlines: Vec<u32>,
     /// The slots the views know re-laid groups by.
     identities: crate::identity::SlotIdentities,
+    /// By group slot: whether its shading records were written holding two UV sets.
+    two_uv_sets: Vec<bool>,
     pub pending: PendingUpload,
 }
 
@@ -104,8 +106,10 @@ fn material_of(
     };
     let c = m.base_color.to_linear();
     let mut layer = |h: &Option<Handle<Image>>, channel: &UvChannel| match (h, assets.images) {
-        // Only the first UV set reaches the tracer.
-        (Some(h), Some(images)) if *channel == UvChannel::Uv0 => layers.layer_for(h.id(), images),
+        (Some(h), Some(images)) => layers.layer_for(h.id(), images).map(|t| LayerTexture {
+            second_uv_set: *channel == UvChannel::Uv1,
+            ..t
+        }),
         _ => None,
     };
     let tint = m.specular_tint.to_linear();
@@ -292,51 +296,32 @@ fn scene_writes(
     p.need(BufferKind::Attributes, c.triangle_capacity as u64);
     p.need(BufferKind::Objects, bvh.group_slots() as u64);
 
-    // Shading records of new and re-laid groups (triangles that only moved keep theirs): which
-    // group and which of its triangles each id is, sorted by id, then written run by run.
-    let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
-    let relaid = changes.relaid_groups.iter().map(|r| r.0);
-    for g in changes.fresh_groups.iter().copied().chain(relaid) {
-        let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
-            continue;
-        };
-        records.extend(ids.iter().enumerate().map(|(k, &t)| (t, g, k as u32)));
-    }
-    records.sort_unstable_by_key(|r| r.0);
-    records.dedup_by_key(|r| r.0);
-    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
-    let mut next = records.iter();
-    push_runs(&mut p.writes, BufferKind::Attributes, &ids, |_, out| {
-        if let Some(&(_, g, k)) = next.next()
-            && let Some(shading) = tree.shading.get(&g)
-        {
-            let k = k as usize;
-            let mut record = packed_attribute_record(
-                shading.normals.get(k).copied(),
-                shading.uvs.get(k).copied(),
-                g.index(),
-            );
-            record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
-            out.extend_from_slice(bytemuck::bytes_of(&record));
-        }
-    });
-
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
     // A re-laid group's record is compared with the one of the group it replaced: the same one
     // in a new slot changes no pixel.
     sync.objects.resize(bvh.group_slots() as usize, None);
     let replaced: std::collections::HashMap<GroupId, GroupId> =
         changes.relaid_groups.iter().copied().collect();
+    sync.two_uv_sets.resize(bvh.group_slots() as usize, false);
+    let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
+    relay.extend(changes.relaid_groups.iter().map(|r| r.0));
+    // Whether each group's shading records hold its second UV set: where its material reads it.
+    let mut two_uv_sets: std::collections::HashMap<GroupId, bool> = Default::default();
     layers.begin_pass();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
         };
+        let material = material_of(e, handles, assets, layers);
+        let two = material.reads_second_uv_set()
+            && tree.shading.get(&g).is_some_and(|s| !s.uvs1.is_empty());
+        two_uv_sets.insert(g, two);
+        if two != sync.two_uv_sets[g.index() as usize] {
+            // A material that began or stopped reading the second set: the group's records again.
+            relay.push(g);
+        }
         let rec = with_identity(
-            object_bytes(
-                Mat3::from(transform.matrix3),
-                &material_of(e, handles, assets, layers),
-            ),
+            object_bytes(Mat3::from(transform.matrix3), &material),
             sync.identities.borrowed(g.index()),
         );
         let before = replaced
@@ -354,4 +339,46 @@ fn scene_writes(
         }
     }
     layers.end_pass();
+    for (&g, &two) in &two_uv_sets {
+        sync.two_uv_sets[g.index() as usize] = two;
+    }
+
+    // Shading records of new and re-laid groups (triangles that only moved keep theirs) and of
+    // groups whose material changed the UV sets it reads: which group and which of its triangles
+    // each id is, sorted by id, then written run by run.
+    let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
+    for g in relay {
+        let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
+            continue;
+        };
+        records.extend(ids.iter().enumerate().map(|(k, &t)| (t, g, k as u32)));
+    }
+    records.sort_unstable_by_key(|r| r.0);
+    records.dedup_by_key(|r| r.0);
+    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
+    let mut next = records.iter();
+    push_runs(
+        &mut sync.pending.writes,
+        BufferKind::Attributes,
+        &ids,
+        |_, out| {
+            if let Some(&(_, g, k)) = next.next()
+                && let Some(shading) = tree.shading.get(&g)
+            {
+                let k = k as usize;
+                let mut record = packed_attribute_record(
+                    shading.normals.get(k).copied(),
+                    shading.uvs.get(k).copied(),
+                    g.index(),
+                );
+                record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
+                if two_uv_sets.get(&g) == Some(&true)
+                    && let Some(&uvs1) = shading.uvs1.get(k)
+                {
+                    record = record.with_second_uv_set(uvs1);
+                }
+                out.extend_from_slice(bytemuck::bytes_of(&record));
+            }
+        },
+    );
 }

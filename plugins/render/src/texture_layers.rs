@@ -266,6 +266,7 @@ impl TextureLayers {
         Some(LayerTexture {
             layer: slot.layer,
             wrap,
+            second_uv_set: false,
         })
     }
 

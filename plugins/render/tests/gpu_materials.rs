@@ -156,6 +156,7 @@ fn masked_alpha_lets_rays_through_where_the_cpu_says() {
             base_color_texture: Some(LayerTexture {
                 layer: 1,
                 wrap: [TextureWrap::Clamp; 2],
+                second_uv_set: false,
             }),
             ..Default::default()
         },

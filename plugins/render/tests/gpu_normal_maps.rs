@@ -137,6 +137,7 @@ fn the_normals_view_bends_normals_along_the_mesh_s_tangents_or_its_uvs() {
         normal_texture: Some(LayerTexture {
             layer: 1,
             wrap: [TextureWrap::Clamp; 2],
+            second_uv_set: false,
         }),
         ..Default::default()
     };

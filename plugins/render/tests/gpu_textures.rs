@@ -107,46 +107,46 @@ fn block_colour(bx: u32, by: u32) -> [u8; 4] {
     ]
 }
 
-#[test]
-fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
-    let gpu = Gpu::new();
-    // The quad's texture in layer 1 (8×8, copied 1:1); layer 0 holds something else.
+/// The quad's second texture coordinates: another affine function of its plane position.
+fn quad_uv1(p: Vec2) -> Vec2 {
+    Vec2::new(0.5 + 0.35 * p.x - 0.3 * p.y, 0.45 + 0.25 * p.x + 0.4 * p.y)
+}
+
+const QUAD: [Vec2; 4] = [
+    Vec2::new(-1.0, -1.0),
+    Vec2::new(1.0, -1.0),
+    Vec2::new(1.0, 1.0),
+    Vec2::new(-1.0, 1.0),
+];
+const FACES: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
+
+/// The quad's two triangles with their first UV set, and their corners' second set.
+fn quad() -> (Vec<ShadedTriangle>, Vec<[Vec2; 3]>) {
+    let at = |k: usize| QUAD[k].extend(0.0);
+    let tris = FACES
+        .iter()
+        .map(|f| {
+            let t = Triangle::new(at(f[0]), at(f[1]), at(f[2]));
+            (t, None, f.map(|c| quad_uv(QUAD[c])))
+        })
+        .collect();
+    let uvs1 = FACES.iter().map(|f| f.map(|c| quad_uv1(QUAD[c]))).collect();
+    (tris, uvs1)
+}
+
+/// The blocks texture in layer 1 (8×8, copied 1:1); layer 0 holds something else.
+fn block_layers(gpu: &Gpu) -> support::Layers {
     let layers = gpu.layers(LAYER, 2);
     let image: Vec<u8> = (0..LAYER * LAYER)
         .flat_map(|i| block_colour((i % LAYER) / 2, (i / LAYER) / 2))
         .collect();
     gpu.copy_to_layer(&layers, 1, LAYER, LAYER, &image);
     gpu.copy_to_layer(&layers, 0, 1, 1, &[200, 0, 0, 255]);
+    layers
+}
 
-    let corners = [
-        Vec2::new(-1.0, -1.0),
-        Vec2::new(1.0, -1.0),
-        Vec2::new(1.0, 1.0),
-        Vec2::new(-1.0, 1.0),
-    ];
-    let at = |k: usize| corners[k].extend(0.0);
-    let faces = [[0, 1, 2], [0, 2, 3]];
-    let tris: Vec<ShadedTriangle> = faces
-        .iter()
-        .map(|f| {
-            let t = Triangle::new(at(f[0]), at(f[1]), at(f[2]));
-            (t, None, f.map(|c| quad_uv(corners[c])))
-        })
-        .collect();
-    let uv_transform = Affine2::from_mat2_translation(
-        treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
-        Vec2::new(-0.3, 0.1),
-    );
-    let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
-    let material = SurfaceMaterial {
-        base_color: BASE,
-        base_color_texture: Some(LayerTexture { layer: 1, wrap }),
-        uv_transform,
-        ..Default::default()
-    };
-    let mut scene = Scene::new();
-    scene.add(&tris, Affine3A::IDENTITY, false, &material);
-    let view = Trace {
+fn albedo_view() -> Trace {
+    Trace {
         size: SIZE,
         samples: 8,
         bounces: 1,
@@ -154,13 +154,33 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
         mode: DebugView::Albedo.shader_index(),
         world_from_clip: world_from_clip(),
         lights: Vec::new(),
-    };
-    let (image, _) = trace(&gpu, &scene, &layers, &view);
+    }
+}
 
-    // Expected albedo per pixel, where a pixel's jittered samples all fall inside one block's flat
-    // middle (bilinear taps there see only that block's colour).
+/// What the albedo view's pixels are checked against.
+struct Checked {
+    pixels: u32,
+    mirrored: u32,
+    clamped: u32,
+    worst: f32,
+}
+
+/// Compares the albedo view of the quad with the blocks texture read at `texture_uv` of each
+/// pixel's hit (its position on the quad) through the `wrap` modes, where a pixel's jittered
+/// samples all fall inside one block's flat middle (bilinear taps there see only that block's
+/// colour).
+fn check_albedo(
+    image: &[Vec3],
+    wrap: [TextureWrap; 2],
+    texture_uv: impl Fn(Vec2) -> Vec2,
+) -> Checked {
     let wfc = world_from_clip();
-    let (mut checked, mut mirrored, mut clamped, mut worst) = (0, 0, 0, 0.0f32);
+    let mut out = Checked {
+        pixels: 0,
+        mirrored: 0,
+        clamped: 0,
+        worst: 0.0,
+    };
     for y in 0..SIZE {
         for x in 0..SIZE {
             let (o, d) = view_ray(wfc, SIZE, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
@@ -168,7 +188,7 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
             if hit.x.abs() > 0.95 || hit.y.abs() > 0.95 {
                 continue;
             }
-            let t = uv_transform.transform_point2(quad_uv(hit.truncate()));
+            let t = texture_uv(hit.truncate());
             let st = Vec2::new(wrap[0].apply(t.x), wrap[1].apply(t.y));
             let p = st * LAYER as f32;
             let last = LAYER as f32 / 2.0 - 1.0;
@@ -202,18 +222,93 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
             let px = image[(y * SIZE + x) as usize];
             for k in 0..3 {
                 let want = BASE[k] * srgb_to_linear(c[k] as f32 / 255.0);
-                worst = worst.max((px[k] - want).abs());
+                out.worst = out.worst.max((px[k] - want).abs());
             }
-            checked += 1;
-            mirrored += (t.x > 1.0 || t.x < 0.0) as u32;
-            clamped += (t.y > 1.0 || t.y < 0.0) as u32;
+            out.pixels += 1;
+            out.mirrored += (t.x > 1.0 || t.x < 0.0) as u32;
+            out.clamped += (t.y > 1.0 || t.y < 0.0) as u32;
         }
     }
-    eprintln!("{checked} pixels checked ({mirrored} mirrored, {clamped} clamped), worst {worst}");
-    assert!(checked > 4000, "only {checked} pixels could be checked");
-    assert!(
-        mirrored > 500 && clamped > 500,
-        "{mirrored} mirrored, {clamped} clamped"
+    out
+}
+
+fn uv_transform() -> Affine2 {
+    Affine2::from_mat2_translation(
+        treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
+        Vec2::new(-0.3, 0.1),
+    )
+}
+
+#[test]
+fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
+    let gpu = Gpu::new();
+    let layers = block_layers(&gpu);
+    let (tris, _) = quad();
+    let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
+    let material = SurfaceMaterial {
+        base_color: BASE,
+        base_color_texture: Some(LayerTexture {
+            layer: 1,
+            wrap,
+            second_uv_set: false,
+        }),
+        uv_transform: uv_transform(),
+        ..Default::default()
+    };
+    let mut scene = Scene::new();
+    scene.add(&tris, Affine3A::IDENTITY, false, &material);
+    let (image, _) = trace(&gpu, &scene, &layers, &albedo_view());
+    let c = check_albedo(&image, wrap, |p| {
+        uv_transform().transform_point2(quad_uv(p))
+    });
+    eprintln!(
+        "{} pixels checked ({} mirrored, {} clamped), worst {}",
+        c.pixels, c.mirrored, c.clamped, c.worst
     );
-    assert!(worst < 0.01, "albedo differs by {worst}");
+    assert!(c.pixels > 4000, "only {} pixels could be checked", c.pixels);
+    assert!(
+        c.mirrored > 500 && c.clamped > 500,
+        "{} mirrored, {} clamped",
+        c.mirrored,
+        c.clamped
+    );
+    assert!(c.worst < 0.01, "albedo differs by {}", c.worst);
+}
+
+/// A material whose maps read both UV sets: each map reads its own, from a shading record holding
+/// both (the first set's corners as half-float offsets there), whichever set the base colour reads.
+#[test]
+fn each_map_reads_its_own_uv_set() {
+    let gpu = Gpu::new();
+    let layers = block_layers(&gpu);
+    let (tris, uvs1) = quad();
+    let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
+    for base_on_second in [true, false] {
+        let map = |layer: u32, second_uv_set: bool| {
+            Some(LayerTexture {
+                layer,
+                wrap,
+                second_uv_set,
+            })
+        };
+        // The occlusion map reads the other set: the record holds both either way.
+        let material = SurfaceMaterial {
+            base_color: BASE,
+            base_color_texture: map(1, base_on_second),
+            occlusion_texture: map(0, !base_on_second),
+            uv_transform: uv_transform(),
+            ..Default::default()
+        };
+        let mut scene = Scene::new();
+        scene.add_with_second_uvs(&tris, &uvs1, Affine3A::IDENTITY, false, &material);
+        let (image, _) = trace(&gpu, &scene, &layers, &albedo_view());
+        let set = if base_on_second { quad_uv1 } else { quad_uv };
+        let c = check_albedo(&image, wrap, |p| uv_transform().transform_point2(set(p)));
+        eprintln!(
+            "base colour on set {}: {} pixels checked, worst {}",
+            base_on_second as u32, c.pixels, c.worst
+        );
+        assert!(c.pixels > 3000, "only {} pixels could be checked", c.pixels);
+        assert!(c.worst < 0.01, "albedo differs by {}", c.worst);
+    }
 }

@@ -48,6 +48,7 @@ impl MeshChunks {
         TriangleShading {
             normals: gather(&self.shading.normals, ids, whole),
             uvs: gather(&self.shading.uvs, ids, whole),
+            uvs1: gather(&self.shading.uvs1, ids, whole),
             tangents: gather(&self.shading.tangents, ids, whole),
         }
     }

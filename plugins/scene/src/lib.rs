@@ -259,7 +259,7 @@ impl SceneTree {
             .filter(|s| seen.insert(Arc::as_ptr(s)))
             .map(|s| {
                 s.normals.capacity() * size_of::<[u32; 3]>()
-                    + s.uvs.capacity() * size_of::<[Vec2; 3]>()
+                    + (s.uvs.capacity() + s.uvs1.capacity()) * size_of::<[Vec2; 3]>()
                     + s.tangents.capacity() * size_of::<[u32; 2]>()
             })
             .sum();

@@ -50,6 +50,9 @@ pub struct TriangleShading {
     pub normals: Vec<[u32; 3]>,
     /// `UV_0` of each triangle's corners; empty when the mesh has none.
     pub uvs: Vec<[Vec2; 3]>,
+    /// `UV_1` of each triangle's corners (the second set, which some of a material's maps may
+    /// read); empty when the mesh has none.
+    pub uvs1: Vec<[Vec2; 3]>,
     /// Object-space tangents of each triangle's corners (xyz, and the bitangent's sign in w, as
     /// glTF and Bevy's `ATTRIBUTE_TANGENT` have them), packed
     /// ([`encode_tangents`](crate::packed::encode_tangents)), so a renderer bends normal maps along
@@ -100,6 +103,7 @@ struct Arrays {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
     uvs: Vec<[f32; 2]>,
+    uvs1: Vec<[f32; 2]>,
     tangents: Vec<[f32; 4]>,
     indices: Vec<u32>,
 }
@@ -121,6 +125,7 @@ impl Arrays {
             positions: room(sh.vertices, [0.0; 3], touch),
             normals: room(per_vertex(sh.normals), [0.0; 3], touch),
             uvs: room(per_vertex(sh.uvs), [0.0; 2], touch),
+            uvs1: room(per_vertex(sh.uvs1), [0.0; 2], touch),
             tangents: room(per_vertex(sh.tangents), [0.0; 4], touch),
             indices: room(if sh.indexed { 3 * sh.triangles } else { 0 }, 0, touch),
         }
@@ -146,8 +151,8 @@ fn positions_of(mesh: &Mesh) -> Result<&[[f32; 3]], MeshSkip> {
     }
 }
 
-/// What a copy is sized by: vertex count, triangle count, whether indexed, and whether normals, UVs
-/// and tangents are usable.
+/// What a copy is sized by: vertex count, triangle count, whether indexed, and whether normals, the
+/// two UV sets and tangents are usable.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Shape {
     vertices: usize,
@@ -155,6 +160,7 @@ struct Shape {
     indexed: bool,
     normals: bool,
     uvs: bool,
+    uvs1: bool,
     tangents: bool,
 }
 
@@ -174,6 +180,10 @@ fn shape(mesh: &Mesh) -> Result<Shape, MeshSkip> {
         mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0),
         Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == vertices
     );
+    let uvs1 = matches!(
+        mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_1),
+        Ok(Some(VertexAttributeValues::Float32x2(v))) if v.len() == vertices
+    );
     let tangents = matches!(
         mesh.try_attribute_option(Mesh::ATTRIBUTE_TANGENT),
         Ok(Some(VertexAttributeValues::Float32x4(v))) if v.len() == vertices
@@ -184,6 +194,7 @@ fn shape(mesh: &Mesh) -> Result<Shape, MeshSkip> {
         indexed: indices.is_some(),
         normals,
         uvs,
+        uvs1,
         tangents,
     })
 }
@@ -200,7 +211,7 @@ impl GeometryCopy {
         let sh = shape(mesh)?;
         let bytes = 4
             * (3 * sh.vertices * (1 + sh.normals as usize)
-                + 2 * sh.vertices * sh.uvs as usize
+                + 2 * sh.vertices * (sh.uvs as usize + sh.uvs1 as usize)
                 + 4 * sh.vertices * sh.tangents as usize
                 + 3 * sh.triangles * sh.indexed as usize);
         let arrays = if background && bytes >= BACKGROUND_BYTES {
@@ -222,14 +233,14 @@ impl GeometryCopy {
         })
     }
 
-    /// Array elements to copy: positions, usable normals, UVs and tangents, and indices.
+    /// Array elements to copy: positions, usable normals, UV sets and tangents, and indices.
     pub fn total(&self) -> usize {
         self.sections().iter().sum()
     }
 
-    /// Elements in each section, in copy order: positions, normals, UVs, tangents, indices (0 for
-    /// one that is not copied).
-    fn sections(&self) -> [usize; 5] {
+    /// Elements in each section, in copy order: positions, normals, UVs, tangents, second UVs,
+    /// indices (0 for one that is not copied).
+    fn sections(&self) -> [usize; 6] {
         let sh = self.shape;
         let v = sh.vertices;
         [
@@ -237,6 +248,7 @@ impl GeometryCopy {
             if sh.normals { v } else { 0 },
             if sh.uvs { v } else { 0 },
             if sh.tangents { v } else { 0 },
+            if sh.uvs1 { v } else { 0 },
             if sh.indexed { 3 * sh.triangles } else { 0 },
         ]
     }
@@ -288,7 +300,7 @@ impl GeometryCopy {
         Ok(self.next == self.total())
     }
 
-    /// Elements `from..to` of section `k` (positions, normals, UVs, tangents, indices).
+    /// Elements `from..to` of section `k` (positions, normals, UVs, tangents, second UVs, indices).
     fn copy_section(
         &mut self,
         mesh: &Mesh,
@@ -320,6 +332,11 @@ impl GeometryCopy {
             3 => {
                 if let VertexAttributeValues::Float32x4(t) = attribute(Mesh::ATTRIBUTE_TANGENT)? {
                     a.tangents.extend_from_slice(&t[from..to]);
+                }
+            }
+            4 => {
+                if let VertexAttributeValues::Float32x2(uv) = attribute(Mesh::ATTRIBUTE_UV_1)? {
+                    a.uvs1.extend_from_slice(&uv[from..to]);
                 }
             }
             _ => {
@@ -387,6 +404,7 @@ impl GeometryCopy {
             encode_normal(Vec3::from_array(n))
         });
         let uvs = per_corner(&corners, &a.uvs, v, Vec2::from_array);
+        let uvs1 = per_corner(&corners, &a.uvs1, v, Vec2::from_array);
         let tangents = per_corner(&corners, &a.tangents, v, Vec4::from_array)
             .into_iter()
             .map(encode_tangents)
@@ -396,6 +414,7 @@ impl GeometryCopy {
             shading: TriangleShading {
                 normals,
                 uvs,
+                uvs1,
                 tangents,
             },
         }
@@ -468,6 +487,10 @@ mod tests {
         };
         let tangents: Vec<[f32; 4]> = (0..vertices).map(|i| tangent_of(i).to_array()).collect();
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
+        // A second UV set that tells its vertices apart too.
+        let uv1_of = |i: usize| Vec2::new(i as f32 * 0.25, 1.0 - i as f32 * 0.125);
+        let uvs1: Vec<[f32; 2]> = (0..vertices).map(|i| uv1_of(i).to_array()).collect();
+        mesh.insert_attribute(Mesh::ATTRIBUTE_UV_1, uvs1);
         let whole = mesh_geometry(&mesh).unwrap();
         assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
         let mut copy = GeometryCopy::new(&mesh).unwrap();
@@ -486,14 +509,17 @@ mod tests {
         };
         let ix: Vec<usize> = mesh.indices().unwrap().iter().collect();
         assert_eq!(whole.shading.tangents.len(), whole.triangles.len());
-        for ((t, f), tangents) in whole
+        assert_eq!(whole.shading.uvs1.len(), whole.triangles.len());
+        for (((t, f), tangents), uvs1) in whole
             .triangles
             .iter()
             .zip(ix.chunks_exact(3))
             .zip(&whole.shading.tangents)
+            .zip(&whole.shading.uvs1)
         {
             for k in 0..3 {
                 assert_eq!(t.v[k], Vec3::from_array(p[f[k]]));
+                assert_eq!(uvs1[k], uv1_of(f[k]));
             }
             assert_eq!(
                 *tangents,

@@ -6,8 +6,8 @@ use std::f32::consts::PI;
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
-    TraceWork, ViewParams, attribute_record, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, DebugView, GpuAttribute, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight,
+    SurfaceMaterial, TraceWork, ViewParams, attribute_record, light_bytes, object_bytes,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -41,6 +41,20 @@ impl Scene {
         self.add_with_tangents(tris, None, transform, keep_whole, material)
     }
 
+    /// [`Scene::add`], with each triangle's corners' second UV set in its shading record.
+    pub fn add_with_second_uvs(
+        &mut self,
+        tris: &[ShadedTriangle],
+        uvs1: &[[Vec2; 3]],
+        transform: Affine3A,
+        keep_whole: bool,
+        material: &SurfaceMaterial,
+    ) -> GroupId {
+        self.add_records(tris, transform, keep_whole, material, |k, r| {
+            r.with_second_uv_set(uvs1[k])
+        })
+    }
+
     /// [`Scene::add`], with each triangle's corner tangents (xyz and the bitangent's sign) when
     /// `tangents` gives them.
     pub fn add_with_tangents(
@@ -51,14 +65,27 @@ impl Scene {
         keep_whole: bool,
         material: &SurfaceMaterial,
     ) -> GroupId {
+        self.add_records(tris, transform, keep_whole, material, |k, r| {
+            r.with_tangents(tangents.map(|t| t[k]))
+        })
+    }
+
+    /// Adds a mesh whose k-th shading record `finish(k, record)` completes.
+    fn add_records(
+        &mut self,
+        tris: &[ShadedTriangle],
+        transform: Affine3A,
+        keep_whole: bool,
+        material: &SurfaceMaterial,
+        finish: impl Fn(usize, GpuAttribute) -> GpuAttribute,
+    ) -> GroupId {
         let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
         let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
         let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
         self.attrs.resize(need.max(self.attrs.len()), 0);
         for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
             let (_, n, uv) = tris[k];
-            let record =
-                attribute_record(n, Some(uv), g.index()).with_tangents(tangents.map(|t| t[k]));
+            let record = finish(k, attribute_record(n, Some(uv), g.index()));
             put_record(&mut self.attrs, id, bytemuck::bytes_of(&record));
         }
         let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
