@@ -98,6 +98,8 @@ struct View {
     tile_stride: u32,
     // Records per part of a split buffer: 1 << part_shift (scene_parts.wgsl).
     part_shift: u32,
+    // The samples' seed: a pixel's n-th sample depends on the pixel, n and this alone.
+    sample_seed: u32,
     // The panorama sky: cos and sin of its turn about +Y, its radiance scale, and ENV_* flags as a
     // whole number (environment.rs).
     environment: vec4<f32>,
@@ -1104,10 +1106,31 @@ fn jittered() -> bool {
     return view.mode == MODE_PATH || view.mode == MODE_ALBEDO || view.mode == MODE_NORMALS;
 }
 
-// A pixel's n-th sample draws its random numbers from (pixel, n) alone, so the image after n samples
-// per pixel is the same however the frames split the work into tiles.
+// The n-th sample's position in pixel `pixel` (0..1 each way): the 2D Sobol sequence shifted by
+// an offset of the pixel's own (Cranley-Patterson rotation), so each power-of-two run of a pixel's
+// samples covers it evenly (its edges' coverage converges faster than by random positions) while
+// neighbours' patterns stay unrelated.
+fn pixel_position(pixel: u32, n: u32) -> vec2<f32> {
+    var second = 0u;
+    var v = 0x80000000u;
+    var i = n;
+    while i != 0u {
+        if (i & 1u) != 0u {
+            second ^= v;
+        }
+        i >>= 1u;
+        v ^= v >> 1u;
+    }
+    let sobol = vec2<f32>(f32(reverseBits(n) >> 8u), f32(second >> 8u)) * (1.0 / 16777216.0);
+    let h = pcg(pixel ^ pcg(view.sample_seed + 0x5bd1e995u));
+    let shift = vec2<f32>(f32(h >> 8u), f32(pcg(h) >> 8u)) * (1.0 / 16777216.0);
+    return fract(sobol + shift);
+}
+
+// A pixel's n-th sample draws its random numbers from (pixel, n) and the view's seed alone, so the
+// image after n samples per pixel is the same however the frames split the work into tiles.
 fn seed(pixel: u32, n: u32) -> u32 {
-    return pcg(pixel ^ pcg(n * 0x9e3779b9u + 0x632be5abu));
+    return pcg(pixel ^ pcg(n * 0x9e3779b9u + 0x632be5abu + view.sample_seed * 0x85ebca6bu));
 }
 
 // One workgroup per tile of the sequence; or, in a preview frame, one invocation per block of
@@ -1181,7 +1204,7 @@ fn path_trace(
         rng_state = seed(pixel, first + k);
         var sub = vec2<f32>(0.5);
         if jittered() {
-            sub = vec2<f32>(rand(), rand());
+            sub = pixel_position(pixel, first + k);
         }
         let value = trace_sample(vec2<f32>(p) + sub);
         sum += value;

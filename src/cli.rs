@@ -128,6 +128,10 @@ pub struct RenderArgs {
     /// Whether the image is denoised (as the viewport is by default).
     #[arg(long, value_enum, default_value_t = Switch::On)]
     pub denoise: Switch,
+    /// The samples' seed: equal seeds give equal images, another seed another draw of the same
+    /// picture's noise (the viewport's is 0).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
     /// Light the scene with this sky panorama (.hdr or .exr, equirectangular) in place of the
     /// project's sky.
     #[arg(long, value_name = "FILE.hdr|.exr")]

@@ -262,6 +262,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         denoise: args.denoise == crate::cli::Switch::On,
         // A still image: only its own samples.
         temporal: false,
+        seed: args.seed,
         ..default()
     };
     let progress = ProgressBar::new(u64::from(args.spp)).with_style(

@@ -41,6 +41,22 @@ fn the_default_scene_renders_to_a_png_without_a_display_and_again_the_same() {
         load_rgb(&b).into_raw(),
         "two renders of the same scene differ"
     );
+    // Another seed draws other samples of the same picture: other noise, the same light.
+    let c = dir.join("c.png");
+    let (ok, log) = render(&[&["--out", c.to_str().unwrap(), "--seed", "7"], &size[..]].concat());
+    assert!(ok, "{log}");
+    let other = load_rgb(&c);
+    assert_ne!(
+        other.as_raw(),
+        img.as_raw(),
+        "seed 7 drew the same samples as seed 0"
+    );
+    let (m0, m7) = (brightness(&img), brightness(&other));
+    assert!(
+        (m0 - m7).abs() < 0.03 * m0,
+        "mean {m0} at seed 0, {m7} at seed 7"
+    );
+    std::fs::remove_file(&c).ok();
 
     // An existing file is kept unless --overwrite says otherwise.
     let before = std::fs::read(&a).unwrap();

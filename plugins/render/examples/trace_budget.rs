@@ -79,6 +79,7 @@ fn main() {
             indirect_clamp: 4.0,
             work,
             part_shift: treelight_render::MAX_PART_SHIFT,
+            seed: 0,
             environment: bevy::math::Vec4::ZERO,
         };
         let run = |runs: &[u32]| {

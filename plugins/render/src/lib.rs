@@ -263,6 +263,10 @@ pub struct PathTraced {
     /// has samples enough of its own. For views that move (an editor's); a still render gains
     /// nothing.
     pub temporal: bool,
+    /// The samples' seed: a pixel's n-th sample is the same for the same seed (so equal seeds give
+    /// equal images), and unrelated under another (a reference image whose noise is independent
+    /// of the one it measures).
+    pub seed: u32,
 }
 
 /// How a path-traced view outlines [`Outlined`] meshes.
@@ -325,6 +329,7 @@ impl Default for PathTraced {
             outline: OutlineStyle::default(),
             denoise: true,
             temporal: true,
+            seed: 0,
         }
     }
 }

@@ -931,6 +931,7 @@ fn prepare_views(
                 indirect_clamp: clamp,
                 work,
                 part_shift: scene.layout.shift,
+                seed: settings.seed,
                 environment: environment_word,
             };
             queue.write_buffer(&state.buffers.view_uniform, 0, &params.to_bytes());

@@ -175,6 +175,10 @@ pub struct GpuView {
     pub tile_stride: u32,
     /// Records per part of a split buffer, as a power of two ([`crate::PartLayout`]).
     pub part_shift: u32,
+    /// The samples' seed ([`crate::PathTraced::seed`]).
+    pub sample_seed: u32,
+    /// Padding to the next 16-byte field.
+    pub pad: [u32; 3],
     /// The panorama sky ([`crate::PathTracedEnvironment`]): cos and sin of its turn, its radiance
     /// scale, its flags as a whole number (zero: the flat sky colour).
     pub environment: [f32; 4],
@@ -890,6 +894,9 @@ pub struct ViewParams {
     pub work: TraceWork,
     /// Records per part of the split buffers, as a power of two ([`crate::PartLayout`]).
     pub part_shift: u32,
+    /// The samples' seed: a pixel's `n`-th sample draws its random numbers from the pixel, `n` and
+    /// this alone ([`crate::PathTraced::seed`]).
+    pub seed: u32,
     /// The panorama sky's uniform word (zero for the flat `sky`; see
     /// [`crate::PathTracedEnvironment`]).
     pub environment: Vec4,
@@ -925,6 +932,8 @@ impl ViewParams {
             tile_total: order.total,
             tile_stride: order.stride,
             part_shift: self.part_shift,
+            sample_seed: self.seed,
+            pad: [0; 3],
             environment: self.environment.to_array(),
         }
     }
@@ -1131,6 +1140,7 @@ mod tests {
             indirect_clamp: 0.0,
             work: TraceWork::Tiles { start: 0, count: 1 },
             part_shift: crate::MAX_PART_SHIFT,
+            seed: 0,
             environment: Vec4::ZERO,
         };
         assert_eq!(v.to_bytes().len() as u64, VIEW_BYTES);

@@ -159,6 +159,7 @@ impl Tracer {
             indirect_clamp: 4.0,
             work,
             part_shift: treelight_render::MAX_PART_SHIFT,
+            seed: 0,
             environment: treelight_bvh::glam::Vec4::ZERO,
         }
     }

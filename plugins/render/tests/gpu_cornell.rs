@@ -273,6 +273,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
             indirect_clamp: 0.0,
             work: TraceWork::WHOLE_IMAGE,
             part_shift: split_shift.unwrap_or(treelight_render::MAX_PART_SHIFT),
+            seed: 0,
             environment: treelight_bvh::glam::Vec4::ZERO,
         };
         match &split {

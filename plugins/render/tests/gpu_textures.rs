@@ -312,3 +312,81 @@ fn each_map_reads_its_own_uv_set() {
         assert!(c.worst < 0.01, "albedo differs by {}", c.worst);
     }
 }
+
+/// A pixel's samples cover it evenly: along a slanted edge between a white triangle and the black
+/// background, the albedo view's 16 samples a pixel give each edge pixel its covered share (worked
+/// out on the CPU from 256 rays a pixel) far closer than 16 random positions would.
+#[test]
+fn a_pixel_s_samples_cover_it_evenly() {
+    let gpu = Gpu::new();
+    let layers = block_layers(&gpu);
+    let corners = [
+        Vec2::new(-3.0, -2.7),
+        Vec2::new(3.0, -0.4),
+        Vec2::new(-3.0, 3.0),
+    ];
+    let tri = Triangle::new(
+        corners[0].extend(0.0),
+        corners[1].extend(0.0),
+        corners[2].extend(0.0),
+    );
+    let material = SurfaceMaterial {
+        base_color: [1.0; 4],
+        ..Default::default()
+    };
+    let mut scene = Scene::new();
+    scene.add(
+        &[(tri, None, [Vec2::ZERO; 3])],
+        Affine3A::IDENTITY,
+        false,
+        &material,
+    );
+    let view = Trace {
+        samples: 16,
+        ..albedo_view()
+    };
+    let (image, _) = trace(&gpu, &scene, &layers, &view);
+    let inside = |p: Vec2| {
+        let side = |a: Vec2, b: Vec2| (b - a).perp_dot(p - a);
+        let s = [
+            side(corners[0], corners[1]),
+            side(corners[1], corners[2]),
+            side(corners[2], corners[0]),
+        ];
+        s.iter().all(|&v| v >= 0.0) || s.iter().all(|&v| v <= 0.0)
+    };
+    let wfc = world_from_clip();
+    // And what 16 independent uniform positions would give: a binomial share's variance.
+    let (mut edge, mut squares, mut binomial) = (0u32, 0.0f64, 0.0f64);
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let mut covered = 0;
+            for sy in 0..16 {
+                for sx in 0..16 {
+                    let at = Vec2::new(x as f32, y as f32)
+                        + Vec2::new(sx as f32 + 0.5, sy as f32 + 0.5) / 16.0;
+                    let (o, d) = view_ray(wfc, SIZE, at);
+                    covered += inside((o + d * (-o.z / d.z)).truncate()) as u32;
+                }
+            }
+            let share = covered as f32 / 256.0;
+            if !(0.05..=0.95).contains(&share) {
+                continue;
+            }
+            let got = image[(y * SIZE + x) as usize].x;
+            squares += f64::from(got - share).powi(2);
+            binomial += f64::from(share * (1.0 - share)) / 16.0;
+            edge += 1;
+        }
+    }
+    let rms = (squares / f64::from(edge)).sqrt();
+    let random = (binomial / f64::from(edge)).sqrt();
+    eprintln!(
+        "{edge} edge pixels, coverage off by {rms:.4} (root mean square); random positions: {random:.4}"
+    );
+    assert!(edge > 100, "only {edge} edge pixels");
+    assert!(
+        rms < 0.7 * random,
+        "coverage off by {rms} (root mean square), random positions {random}"
+    );
+}

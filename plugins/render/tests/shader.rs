@@ -228,6 +228,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 tile_total,
                 tile_stride,
                 part_shift,
+                sample_seed,
                 environment
             ]
         )

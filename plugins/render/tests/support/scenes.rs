@@ -254,6 +254,7 @@ impl<'a> Frames<'a> {
                 indirect_clamp: 0.0,
                 work,
                 part_shift: treelight_render::MAX_PART_SHIFT,
+                seed: 0,
                 environment: self.layers.environment_word,
             };
             self.gpu
