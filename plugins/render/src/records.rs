@@ -402,7 +402,7 @@ pub fn denoise_pass_bytes(width: u32, height: u32, pass: u32) -> Vec<u8> {
         first: u32::from(pass == 0),
         sigma_luminance: 8.0,
         sigma_normal: 128.0,
-        sigma_depth: 0.02,
+        sigma_depth: 0.01,
         pad: 0,
     })
     .to_vec()
