@@ -75,7 +75,7 @@ pub enum ImportedAlphaMode {
 
 /// Surface parameters: glTF's metallic-roughness model with its maps, alpha mode and the common
 /// material extensions (`KHR_materials_transmission`, `ior`, `clearcoat`, `specular`,
-/// `emissive_strength`). Every map is read with the mesh's first UV set.
+/// `emissive_strength`). Each map names the UV set it reads (`TextureRef::tex_coord`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImportedMaterial {
     /// Material name, or a generated one.
@@ -116,6 +116,19 @@ pub struct ImportedMaterial {
     pub specular: f32,
     /// Linear tint of the dielectric's specular reflection at normal incidence.
     pub specular_color: [f32; 3],
+}
+
+impl ImportedMaterial {
+    /// Its maps: base colour, metallic-roughness, normal, occlusion, emission.
+    pub fn maps(&self) -> [Option<TextureRef>; 5] {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            self.occlusion_texture,
+            self.emissive_texture,
+        ]
+    }
 }
 
 impl Default for ImportedMaterial {

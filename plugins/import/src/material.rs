@@ -286,14 +286,7 @@ impl MaterialReader<'_, '_> {
                 self.unread(&name, "clearcoat texture");
             }
         }
-        let maps = [
-            &out.base_color_texture,
-            &out.metallic_roughness_texture,
-            &out.normal_texture,
-            &out.occlusion_texture,
-            &out.emissive_texture,
-        ];
-        let mut transforms = maps.iter().filter_map(|m| m.map(|r| r.uv_transform));
+        let mut transforms = out.maps().into_iter().flatten().map(|r| r.uv_transform);
         if let Some(first) = transforms.next()
             && transforms.any(|t| t != first)
         {

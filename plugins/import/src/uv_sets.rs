@@ -32,16 +32,7 @@ fn reads_second_set(m: &ImportedMaterial) -> bool {
 
 /// Whether any map of `m` reads set 1.
 fn reads_set_one(m: &ImportedMaterial) -> bool {
-    [
-        m.base_color_texture,
-        m.metallic_roughness_texture,
-        m.normal_texture,
-        m.occlusion_texture,
-        m.emissive_texture,
-    ]
-    .iter()
-    .flatten()
-    .any(|r| r.tex_coord == 1)
+    m.maps().iter().flatten().any(|r| r.tex_coord == 1)
 }
 
 /// Exchanges sets 0 and 1 in the meshes of each material that reads its detail maps through set 1
@@ -144,6 +135,22 @@ mod tests {
     use crate::{ImportedMesh, MeshGeometry, UV_IDENTITY, WrapMode};
     use glam::Mat4;
 
+    /// `geometry` placed at the origin with material `material`.
+    fn placed(
+        geometry: &Arc<MeshGeometry>,
+        material: usize,
+        same_as: Option<usize>,
+    ) -> ImportedMesh {
+        ImportedMesh {
+            name: String::new(),
+            transform: Mat4::IDENTITY,
+            node: None,
+            geometry: geometry.clone(),
+            material: Some(material),
+            same_as,
+        }
+    }
+
     fn map(tex_coord: u32) -> Option<TextureRef> {
         Some(TextureRef {
             texture: 0,
@@ -165,14 +172,7 @@ mod tests {
             indices: vec![0, 1, 2],
             ..Default::default()
         });
-        let mesh = |material, same_as| ImportedMesh {
-            name: String::new(),
-            transform: Mat4::IDENTITY,
-            node: None,
-            geometry: geometry.clone(),
-            material: Some(material),
-            same_as,
-        };
+        let mesh = |material, same_as| placed(&geometry, material, same_as);
         let mut scene = ImportedScene {
             materials: vec![
                 ImportedMaterial {
@@ -221,14 +221,7 @@ mod tests {
             })
         };
         let (read, unread) = (data(), data());
-        let mesh = |geometry: &Arc<MeshGeometry>, material| ImportedMesh {
-            name: String::new(),
-            transform: Mat4::IDENTITY,
-            node: None,
-            geometry: geometry.clone(),
-            material: Some(material),
-            same_as: None,
-        };
+        let mesh = |geometry, material| placed(geometry, material, None);
         let mut scene = ImportedScene {
             materials: vec![
                 ImportedMaterial {

@@ -305,18 +305,16 @@ fn scene_writes(
     sync.two_uv_sets.resize(bvh.group_slots() as usize, false);
     let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
     relay.extend(changes.relaid_groups.iter().map(|r| r.0));
-    // Whether each group's shading records hold its second UV set: where its material reads it.
-    let mut two_uv_sets: std::collections::HashMap<GroupId, bool> = Default::default();
     layers.begin_pass();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
         };
         let material = material_of(e, handles, assets, layers);
+        // Its shading records hold its second UV set where its material reads it.
         let two = material.reads_second_uv_set()
             && tree.shading.get(&g).is_some_and(|s| !s.uvs1.is_empty());
-        two_uv_sets.insert(g, two);
-        if two != sync.two_uv_sets[g.index() as usize] {
+        if std::mem::replace(&mut sync.two_uv_sets[g.index() as usize], two) != two {
             // A material that began or stopped reading the second set: the group's records again.
             relay.push(g);
         }
@@ -339,9 +337,6 @@ fn scene_writes(
         }
     }
     layers.end_pass();
-    for (&g, &two) in &two_uv_sets {
-        sync.two_uv_sets[g.index() as usize] = two;
-    }
 
     // Shading records of new and re-laid groups (triangles that only moved keep theirs) and of
     // groups whose material changed the UV sets it reads: which group and which of its triangles
@@ -372,7 +367,7 @@ fn scene_writes(
                     g.index(),
                 );
                 record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
-                if two_uv_sets.get(&g) == Some(&true)
+                if sync.two_uv_sets[g.index() as usize]
                     && let Some(&uvs1) = shading.uvs1.get(k)
                 {
                     record = record.with_second_uv_set(uvs1);

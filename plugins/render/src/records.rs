@@ -640,8 +640,8 @@ pub struct SurfaceMaterial {
 }
 
 impl SurfaceMaterial {
-    /// Whether any of its maps reads the mesh's second UV set.
-    pub fn reads_second_uv_set(&self) -> bool {
+    /// Its maps, in [`MaterialMap`] order.
+    pub fn maps(&self) -> [Option<LayerTexture>; 5] {
         [
             self.base_color_texture,
             self.metallic_roughness_texture,
@@ -649,9 +649,11 @@ impl SurfaceMaterial {
             self.occlusion_texture,
             self.emissive_texture,
         ]
-        .iter()
-        .flatten()
-        .any(|t| t.second_uv_set)
+    }
+
+    /// Whether any of its maps reads the mesh's second UV set.
+    pub fn reads_second_uv_set(&self) -> bool {
+        self.maps().iter().flatten().any(|t| t.second_uv_set)
     }
 }
 
@@ -686,15 +688,8 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
     let normal = if inv.is_finite() { inv } else { Mat3::IDENTITY };
     let row = |c: Vec3| [c.x, c.y, c.z, 0.0];
     let uv = m.uv_transform;
-    let maps = [
-        m.base_color_texture,
-        m.metallic_roughness_texture,
-        m.normal_texture,
-        m.occlusion_texture,
-        m.emissive_texture,
-    ];
     let mut wrap = m.alpha.code() << 20;
-    for (i, t) in maps.iter().enumerate() {
+    for (i, t) in m.maps().iter().enumerate() {
         if let Some(t) = t {
             wrap |= (t.wrap[0].code() | (t.wrap[1].code() << 2)) << (4 * i);
             wrap |= u32::from(t.second_uv_set) << (SECOND_SET_BITS + i as u32);

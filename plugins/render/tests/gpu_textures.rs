@@ -232,6 +232,15 @@ fn check_albedo(
     out
 }
 
+/// A map in `layer`, wrapped by `wrap`, reading UV set 1 or 0.
+fn map(layer: u32, wrap: [TextureWrap; 2], second_uv_set: bool) -> Option<LayerTexture> {
+    Some(LayerTexture {
+        layer,
+        wrap,
+        second_uv_set,
+    })
+}
+
 fn uv_transform() -> Affine2 {
     Affine2::from_mat2_translation(
         treelight_bvh::glam::Mat2::from_cols(Vec2::new(1.5, 0.0), Vec2::new(0.2, 1.25)),
@@ -247,11 +256,7 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
     let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
     let material = SurfaceMaterial {
         base_color: BASE,
-        base_color_texture: Some(LayerTexture {
-            layer: 1,
-            wrap,
-            second_uv_set: false,
-        }),
+        base_color_texture: map(1, wrap, false),
         uv_transform: uv_transform(),
         ..Default::default()
     };
@@ -284,18 +289,11 @@ fn each_map_reads_its_own_uv_set() {
     let (tris, uvs1) = quad();
     let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
     for base_on_second in [true, false] {
-        let map = |layer: u32, second_uv_set: bool| {
-            Some(LayerTexture {
-                layer,
-                wrap,
-                second_uv_set,
-            })
-        };
         // The occlusion map reads the other set: the record holds both either way.
         let material = SurfaceMaterial {
             base_color: BASE,
-            base_color_texture: map(1, base_on_second),
-            occlusion_texture: map(0, !base_on_second),
+            base_color_texture: map(1, wrap, base_on_second),
+            occlusion_texture: map(0, wrap, !base_on_second),
             uv_transform: uv_transform(),
             ..Default::default()
         };
