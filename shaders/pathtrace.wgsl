@@ -43,8 +43,11 @@ struct Object {
     wrap: u32,
     // Layers of the metallic-roughness, normal, occlusion and emission maps (NONE: none).
     maps: vec4<u32>,
-    // Clear coat strength and perceptual roughness, the normal map's green sign, unused.
-    coat: vec4<f32>,
+    // Clear coat strength and perceptual roughness, the normal map's green sign.
+    coat: vec3<f32>,
+    // The set of per-map UV transforms in `map_transforms` its maps read through (NONE: every map
+    // through uv_matrix and uv_offset).
+    map_transforms: u32,
     // Tint of the dielectric's specular reflection.
     specular: vec3<f32>,
     // The slot a view's guides and outlines know the object by (NONE: its own): a group the scene
@@ -117,6 +120,9 @@ struct View {
 @group(0) @binding(7) var texture_sampler: sampler;
 // The GGX lobe's albedo (A, B) over view cosine and perceptual roughness, ENERGY_SIZE² entries two
 // to a vec4 (energy.rs): the lobe reflects f0 A + B of the light.
+// Sets of five UV transforms, one per map (MAP_*), each its linear part's columns (xy, zw) then its
+// translation (xy): for materials whose maps have their own (glTF's KHR_texture_transform).
+@group(0) @binding(33) var<storage, read> map_transforms: array<vec4<f32>>;
 @group(0) @binding(29) var<uniform> energy: array<vec4<f32>, 512>;
 // The panorama sky (equirectangular: rows from the zenith down, the middle column along -Z), its
 // sampler (wrapping around the horizon), and its distribution: per row of cells the conditional
@@ -290,9 +296,20 @@ fn mesh_uv(attr: Attr, uv_set: u32, u: f32, v: f32) -> vec2<f32> {
     return c[0] * (1.0 - u - v) + c[1] * u + c[2] * v;
 }
 
-// A mesh UV through the material's UV transform.
-fn texture_uv(o: Object, uv: vec2<f32>) -> vec2<f32> {
-    return mat2x2<f32>(o.uv_matrix.xy, o.uv_matrix.zw) * uv + o.uv_offset;
+// A mesh UV through map `map`'s UV transform: the material's one for all its maps, or the map's own
+// where they differ.
+fn map_uv(o: Object, map: u32, uv: vec2<f32>) -> vec2<f32> {
+    if o.map_transforms == NONE {
+        return mat2x2<f32>(o.uv_matrix.xy, o.uv_matrix.zw) * uv + o.uv_offset;
+    }
+    let at = (o.map_transforms * 5u + map) * 2u;
+    let m = map_transforms[at];
+    return mat2x2<f32>(m.xy, m.zw) * uv + map_transforms[at + 1u].xy;
+}
+
+// Where map `map` is read at a hit whose mesh UVs are uv0 (set 0) and uv1 (set 1).
+fn map_coordinate(o: Object, map: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec2<f32> {
+    return map_uv(o, map, select(uv0, uv1, map_set(o, map) == 1u));
 }
 
 // Map `map` of the material (its layer `layer`) at texture coordinate t: colour maps come out linear,
@@ -315,7 +332,7 @@ fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
         var a = o.base_color.a;
         if o.texture != NONE {
             let uv = mesh_uv(attr_at(triangle), map_set(o, MAP_BASE), u, v);
-            a *= sample_map(o, o.texture, MAP_BASE, texture_uv(o, uv)).a;
+            a *= sample_map(o, o.texture, MAP_BASE, map_uv(o, MAP_BASE, uv)).a;
         }
         if a < o.emissive.w {
             return false;
@@ -400,27 +417,27 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             ns = -ns;
         }
     }
-    // Texture coordinates through each UV set (the second only where a map reads it).
-    let t0 = texture_uv(obj, mesh_uv(attr, 0u, hit.u, hit.v));
+    // The mesh's UVs in each set (the second only where a map reads it).
+    let t0 = mesh_uv(attr, 0u, hit.u, hit.v);
     var t1 = t0;
     if ((obj.wrap >> 22u) & 0x1fu) != 0u {
-        t1 = texture_uv(obj, mesh_uv(attr, 1u, hit.u, hit.v));
+        t1 = mesh_uv(attr, 1u, hit.u, hit.v);
     }
     var base = obj.base_color;
     if obj.texture != NONE {
-        base *= sample_map(obj, obj.texture, MAP_BASE, select(t0, t1, map_set(obj, MAP_BASE) == 1u));
+        base *= sample_map(obj, obj.texture, MAP_BASE, map_coordinate(obj, MAP_BASE, t0, t1));
     }
     s.albedo = base.rgb;
     s.metallic = clamp(obj.params.x, 0.0, 1.0);
     var r = obj.params.y;
     if obj.maps.x != NONE {
-        let t = select(t0, t1, map_set(obj, MAP_METALLIC_ROUGHNESS) == 1u);
+        let t = map_coordinate(obj, MAP_METALLIC_ROUGHNESS, t0, t1);
         let mr = sample_map(obj, obj.maps.x, MAP_METALLIC_ROUGHNESS, t);
         r *= mr.g;
         s.metallic *= mr.b;
     }
     let normal_set = map_set(obj, MAP_NORMAL);
-    let tn_uv = select(t0, t1, normal_set == 1u);
+    let tn_uv = map_coordinate(obj, MAP_NORMAL, t0, t1);
     if obj.maps.y != NONE && has_corner_tangents(attr) {
         // The mesh's own tangents (the raster view's too), interpolated like the normals.
         let w = 1.0 - hit.u - hit.v;
@@ -436,9 +453,9 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     } else if obj.maps.y != NONE {
         // Tangents per triangle, from its positions and texture coordinates (dP/du, dP/dv).
         let c = corner_uvs(attr, normal_set);
-        let c0 = texture_uv(obj, c[0]);
-        let d1 = texture_uv(obj, c[1]) - c0;
-        let d2 = texture_uv(obj, c[2]) - c0;
+        let c0 = map_uv(obj, MAP_NORMAL, c[0]);
+        let d1 = map_uv(obj, MAP_NORMAL, c[1]) - c0;
+        let d2 = map_uv(obj, MAP_NORMAL, c[2]) - c0;
         let det = d1.x * d2.y - d1.y * d2.x;
         if abs(det) > 1e-20 {
             let e1 = tri.v1 - tri.v0;
@@ -461,12 +478,12 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     s.ns = ns;
     s.occlusion = 1.0;
     if obj.maps.z != NONE {
-        let t = select(t0, t1, map_set(obj, MAP_OCCLUSION) == 1u);
+        let t = map_coordinate(obj, MAP_OCCLUSION, t0, t1);
         s.occlusion = sample_map(obj, obj.maps.z, MAP_OCCLUSION, t).r;
     }
     s.emissive = obj.emissive.rgb;
     if obj.maps.w != NONE {
-        let t = select(t0, t1, map_set(obj, MAP_EMISSIVE) == 1u);
+        let t = map_coordinate(obj, MAP_EMISSIVE, t0, t1);
         s.emissive *= sample_map(obj, obj.maps.w, MAP_EMISSIVE, t).rgb;
     }
     s.roughness = clamp(r, MIN_ROUGHNESS, 1.0);

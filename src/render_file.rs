@@ -11,6 +11,7 @@ use crate::editor::viewport::camera::{
     OrbitCamera, apply_orbit, follow_document, look_through, no_camera_named,
 };
 use crate::editor::viewport::look::{apply_look, environment_to_tracer};
+use crate::editor::viewport::map_transforms::map_transforms_to_tracer;
 use bevy::app::ScheduleRunnerPlugin;
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
@@ -311,6 +312,7 @@ pub fn render_app(args: &RenderArgs) -> App {
             apply_look,
             sky_to_render_camera,
             environment_to_tracer,
+            map_transforms_to_tracer,
             follow_samples.after(apply_orbit),
         ),
     )

@@ -494,6 +494,36 @@ fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
     }
 }
 
+/// Maps with their own `KHR_texture_transform`s are path traced each through its own: the quad's
+/// emission map, moved by its transform onto the texture's green half, makes it green; read through
+/// the base colour's transform (the first map's, all the raster view has), it would be red.
+#[test]
+fn maps_with_their_own_texture_transforms_are_path_traced_through_each() {
+    let dir = temp_dir("render-map-transforms");
+    let quad = support::write_map_transforms_quad(&dir);
+    let out = dir.join("quad.png");
+    let (ok, log) = render(&[
+        quad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--spp",
+        "4",
+    ]);
+    assert!(ok, "{log}");
+    let img = load_rgb(&out);
+    let (red, green) = support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
+    assert!(
+        green > 96 * 64 / 8 && red == 0,
+        "the quad's emission is not its own transform's green: {green} green pixels, {red} red; \
+         see {}",
+        out.display()
+    );
+}
+
 /// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes
 /// while the samples accumulate (without restarting them), and the denoiser, guided by the object
 /// each pixel's first sample hit, sees each mesh as the same object before and after.

@@ -159,6 +159,31 @@ pub fn write_two_sided_sky(path: &std::path::Path) {
 /// the material also has a faint emission map reading the first set (the red half): it reads both
 /// sets, and is still mostly green drawn right.
 pub fn write_second_uv_set_quad(dir: &Path, emission_on_first: bool) -> PathBuf {
+    let emission = if emission_on_first {
+        r#","emissiveTexture":{"index":0},"emissiveFactor":[0.05,0.05,0.05]"#
+    } else {
+        ""
+    };
+    let material = format!(
+        r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}},"metallicFactor":0.0}}{emission}}}"#
+    );
+    write_red_green_quad(dir, &[[0.25, 0.5], [0.75, 0.5]], &material)
+}
+
+/// Writes `quad.gltf` (with its .bin and image) into `dir` and returns its path: a quad whose one
+/// UV set points at the red half of a two-texel texture, with a black base colour reading it as it
+/// is, and a bright emission map reading it through a `KHR_texture_transform` that moves it onto the
+/// green half. Each map read through its own transform, it is green; the emission read through the
+/// base colour's, red.
+pub fn write_map_transforms_quad(dir: &Path) -> PathBuf {
+    let material = r#"{"pbrMetallicRoughness":{"baseColorFactor":[0,0,0,1],"baseColorTexture":{"index":0},"metallicFactor":0.0},"emissiveTexture":{"index":0,"extensions":{"KHR_texture_transform":{"offset":[0.5,0.0]}}},"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":3000}}}"#;
+    write_red_green_quad(dir, &[[0.25, 0.5]], material)
+}
+
+/// Writes `quad.gltf`, `quad.bin` and `red-green.png` (a red texel, then a green one) into `dir`:
+/// a 2×2 quad on the ground whose corners all have the UV `sets[k]` in `TEXCOORD_k`, drawn with
+/// `material` (a glTF material's JSON; its textures' index 0 is the image, sampled nearest).
+fn write_red_green_quad(dir: &Path, sets: &[[f32; 2]], material: &str) -> PathBuf {
     image::RgbImage::from_fn(2, 1, |x, _| {
         if x == 0 {
             image::Rgb([230, 20, 20])
@@ -180,35 +205,52 @@ pub fn write_second_uv_set_quad(dir: &Path, emission_on_first: bool) -> PathBuf 
             -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0,
         ],
     );
-    floats(&mut bin, &[0.25, 0.5].repeat(4));
-    floats(&mut bin, &[0.75, 0.5].repeat(4));
+    for uv in sets {
+        floats(&mut bin, &uv.repeat(4));
+    }
+    let indices_at = bin.len();
     for i in [0u32, 1, 2, 0, 2, 3] {
         bin.extend_from_slice(&i.to_le_bytes());
     }
     std::fs::write(dir.join("quad.bin"), &bin).unwrap();
-    let emission = if emission_on_first {
-        r#","emissiveTexture":{"index":0},"emissiveFactor":[0.05,0.05,0.05]"#
-    } else {
-        ""
-    };
+    let n = sets.len();
+    let texcoords: String = (0..n)
+        .map(|k| format!(r#","TEXCOORD_{k}":{}"#, k + 1))
+        .collect();
+    let uv_accessors: String = (0..n)
+        .map(|k| {
+            format!(
+                r#"{{"bufferView":{},"componentType":5126,"count":4,"type":"VEC2"}},"#,
+                k + 1
+            )
+        })
+        .collect();
+    let uv_views: String = (0..n)
+        .map(|k| {
+            format!(
+                r#"{{"buffer":0,"byteOffset":{},"byteLength":32}},"#,
+                48 + 32 * k
+            )
+        })
+        .collect();
     let gltf = format!(
-        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+        r#"{{"asset":{{"version":"2.0"}},"extensionsUsed":["KHR_texture_transform","KHR_materials_emissive_strength"],"scene":0,"scenes":[{{"nodes":[0]}}],
         "nodes":[{{"name":"quad","mesh":0}}],
-        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1,"TEXCOORD_1":2}},"indices":3,"material":0}}]}}],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}},"metallicFactor":0.0}}{emission}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0{texcoords}}},"indices":{},"material":0}}]}}],
+        "materials":[{material}],
         "textures":[{{"source":0,"sampler":0}}],"samplers":[{{"magFilter":9728,"minFilter":9728}}],
         "images":[{{"uri":"red-green.png"}}],
         "accessors":[
           {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
-          {{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}},
-          {{"bufferView":2,"componentType":5126,"count":4,"type":"VEC2"}},
-          {{"bufferView":3,"componentType":5125,"count":6,"type":"SCALAR"}}],
+          {uv_accessors}
+          {{"bufferView":{},"componentType":5125,"count":6,"type":"SCALAR"}}],
         "bufferViews":[
           {{"buffer":0,"byteOffset":0,"byteLength":48}},
-          {{"buffer":0,"byteOffset":48,"byteLength":32}},
-          {{"buffer":0,"byteOffset":80,"byteLength":32}},
-          {{"buffer":0,"byteOffset":112,"byteLength":24}}],
+          {uv_views}
+          {{"buffer":0,"byteOffset":{indices_at},"byteLength":24}}],
         "buffers":[{{"uri":"quad.bin","byteLength":{}}}]}}"#,
+        n + 1,
+        n + 1,
         bin.len()
     );
     let file = dir.join("quad.gltf");

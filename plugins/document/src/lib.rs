@@ -18,6 +18,7 @@ pub mod folders;
 pub mod import;
 pub mod light;
 pub mod look;
+pub mod map_transforms;
 pub mod notice;
 pub mod object;
 pub mod outbox;
@@ -41,6 +42,7 @@ impl Plugin for DocumentPlugin {
             .add_message::<outbox::DocumentEvent>()
             .init_resource::<outbox::DocumentView>()
             .init_resource::<look::SceneLook>()
+            .init_resource::<map_transforms::MaterialMapTransforms>()
             .init_resource::<environment::SceneEnvironment>()
             .init_resource::<environment::LoadedEnvironment>()
             .init_resource::<notice::Notices>()
@@ -60,6 +62,7 @@ impl Plugin for DocumentPlugin {
                     requests::save_when_settled.after(apply_edit_requests),
                     environment::load_environment.after(apply_edit_requests),
                     notice::expire_notices,
+                    map_transforms::forget_removed,
                 ),
             );
     }

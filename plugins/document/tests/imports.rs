@@ -323,3 +323,88 @@ fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
     assert_eq!(material.occlusion_channel, UvChannel::Uv1);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A material whose maps have different `KHR_texture_transform`s keeps each map's for the path
+/// tracer (Bevy's material holds the first map's), and a copy made to edit one object's material
+/// alone keeps them too.
+#[test]
+fn maps_with_their_own_texture_transforms_keep_them() {
+    use bevy::math::{Affine2, Vec2};
+    use treelight_document::edit::command::EditCommand;
+    use treelight_document::edit::history::{EditRequest, apply_request};
+    use treelight_document::map_transforms::MaterialMapTransforms;
+    let from =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
+    let dir = std::env::temp_dir().join(format!("treelight-map-transforms-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in std::fs::read_dir(&from).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    let file = dir.join("BoxTextured.gltf");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let edited = text
+        .replacen("{", "{\"extensionsUsed\": [\"KHR_texture_transform\"],", 1)
+        .replace(
+            "\"name\": \"Texture\"",
+            "\"occlusionTexture\": {\"index\": 0, \"extensions\": {\"KHR_texture_transform\": \
+             {\"offset\": [0.5, 0.25], \"scale\": [2, 4]}}}, \"name\": \"Texture\"",
+        );
+    assert_ne!(edited, text);
+    std::fs::write(&file, edited).unwrap();
+    let scene = treelight_import::load_scene(&file).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("different KHR_texture_transforms")),
+        "{:?}",
+        scene.warnings
+    );
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    treelight_document::import::spawn::spawn_scene_in_world(
+        app.world_mut(),
+        &file,
+        &scene,
+        &mut Default::default(),
+        false,
+        &[],
+    )
+    .unwrap();
+    let world = app.world_mut();
+    let (id, material) = world
+        .query::<(
+            &treelight_document::object::SceneId,
+            &MeshMaterial3d<StandardMaterial>,
+        )>()
+        .iter(world)
+        .map(|(id, m)| (*id, m.0.id()))
+        .next()
+        .unwrap();
+    let occlusion =
+        Affine2::from_scale_angle_translation(Vec2::new(2.0, 4.0), 0.0, Vec2::new(0.5, 0.25));
+    let each = world.resource::<MaterialMapTransforms>().0[&material];
+    assert_eq!((each[0], each[3]), (Affine2::IDENTITY, occlusion));
+    apply_request(
+        app.world_mut(),
+        EditRequest::Apply {
+            command: EditCommand::MakeMaterialUnique { id },
+            continuing: false,
+        },
+    )
+    .unwrap();
+    app.update();
+    let world = app.world_mut();
+    let copy = world
+        .query::<(
+            &treelight_document::object::SceneId,
+            &MeshMaterial3d<StandardMaterial>,
+        )>()
+        .iter(world)
+        .find(|(i, _)| **i == id)
+        .map(|(_, m)| m.0.id())
+        .unwrap();
+    assert_ne!(copy, material);
+    assert_eq!(world.resource::<MaterialMapTransforms>().0[&copy], each);
+    std::fs::remove_dir_all(&dir).ok();
+}

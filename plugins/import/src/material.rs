@@ -291,8 +291,8 @@ impl MaterialReader<'_, '_> {
             && transforms.any(|t| t != first)
         {
             self.warnings.push(format!(
-                "material '{name}': its maps have different KHR_texture_transforms; all are drawn \
-                 with the first map's"
+                "material '{name}': its maps have different KHR_texture_transforms; the raster \
+                 view draws all with the first map's (the path-traced view each with its own)"
             ));
         }
         Ok(out)

@@ -13,8 +13,8 @@ use support::{Gpu, arg, scene_args};
 use treelight_bvh::glam::{Mat4, Vec3};
 use treelight_bvh::{Bvh, BvhConfig};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TileCursor, TileOrder,
-    TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, DebugView, MapTransformTable, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
+    TileCursor, TileOrder, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
 fn main() {
@@ -54,14 +54,25 @@ fn main() {
             perceptual_roughness: 0.8,
             ..Default::default()
         };
-        let objects = object_bytes(treelight_bvh::glam::Mat3::IDENTITY, &material);
+        let mut map_transforms = MapTransformTable::default();
+        let objects = object_bytes(
+            treelight_bvh::glam::Mat3::IDENTITY,
+            &material,
+            &mut map_transforms,
+        );
         let light = SceneLight::Point {
             position: b.center() + Vec3::Y * diag * 0.3,
             power: Vec3::splat(diag * diag * 40.0),
             radius: diag * 0.01,
             range: None,
         };
-        let buffers = gpu.scene_buffers(&bvh, &attrs, &objects, &light_bytes(&light));
+        let buffers = gpu.scene_buffers(
+            &bvh,
+            &attrs,
+            &objects,
+            &light_bytes(&light),
+            &map_transforms.bytes(),
+        );
         let eye = b.center() + Vec3::new(0.35, 0.25, 0.6) * diag * 0.9;
         let view = Mat4::look_at_rh(eye, b.center(), Vec3::Y);
         let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, diag * 1e-3);

@@ -2,13 +2,13 @@
 //! compared with what was sent before. Runs on the main thread during extraction, so it never waits:
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
-use crate::Outlined;
 use crate::records::{
     LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
     outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
 use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
+use crate::{MapUvTransforms, Outlined};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
 use bevy::light::{DirectionalLight, PointLight, SpotLight};
@@ -43,6 +43,8 @@ pub(crate) struct PendingUpload {
     /// World-space bounds of the outlined meshes this frame; `None` when some mesh's are unknown
     /// (then the whole view is searched for outlines).
     pub outline_bounds: Option<[Vec3; 2]>,
+    /// The whole table of per-map UV transform sets, when it gained one.
+    pub map_transforms: Option<Vec<u8>>,
 }
 
 impl PendingUpload {
@@ -60,6 +62,8 @@ pub(crate) struct SceneSync {
     /// Object records as last written, by group slot.
     objects: Vec<Option<Vec<u8>>>,
     lights: Option<Vec<u8>>,
+    /// The sets of per-map UV transforms the object records name.
+    map_transforms: crate::MapTransformTable,
     /// The outline words as last sent.
     outlines: Vec<u32>,
     /// The slots the views know re-laid groups by.
@@ -88,6 +92,7 @@ type MaterialQuery<'w, 's> = Query<'w, 's, &'static MeshMaterial3d<StandardMater
 struct MaterialAssets<'a> {
     materials: Option<&'a Assets<StandardMaterial>>,
     images: Option<&'a Assets<Image>>,
+    map_transforms: Option<&'a MapUvTransforms>,
 }
 
 fn material_of(
@@ -141,6 +146,10 @@ fn material_of(
         occlusion_texture: layer(&m.occlusion_texture, &m.occlusion_channel),
         emissive_texture: layer(&m.emissive_texture, &m.emissive_channel),
         uv_transform: m.uv_transform,
+        map_uv_transforms: handles
+            .get(e)
+            .ok()
+            .and_then(|h| assets.map_transforms?.0.get(&h.0.id()).copied()),
     }
 }
 
@@ -152,6 +161,7 @@ fn extract_scene(
     handles: Extract<MaterialQuery>,
     materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
     images: Extract<Option<Res<Assets<Image>>>>,
+    map_transforms: Extract<Option<Res<MapUvTransforms>>>,
     outlined: Extract<OutlinedQuery>,
     points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
     spots: Extract<Query<(&SpotLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
@@ -171,6 +181,7 @@ fn extract_scene(
     let assets = MaterialAssets {
         materials: materials.as_deref(),
         images: images.as_deref(),
+        map_transforms: map_transforms.as_deref(),
     };
     let taken = scene.try_take_changes(everything, |tree, changes| {
         scene_writes(sync, tree, changes, &handles, assets, &mut layers);
@@ -318,8 +329,13 @@ fn scene_writes(
             // A material that began or stopped reading the second set: the group's records again.
             relay.push(g);
         }
+        let sets = sync.map_transforms.len();
         let rec = with_identity(
-            object_bytes(Mat3::from(transform.matrix3), &material),
+            object_bytes(
+                Mat3::from(transform.matrix3),
+                &material,
+                &mut sync.map_transforms,
+            ),
             sync.identities.borrowed(g.index()),
         );
         let before = replaced
@@ -334,6 +350,9 @@ fn scene_writes(
                 bytes: rec.clone(),
             });
             *slot = Some(rec);
+        }
+        if sync.map_transforms.len() != sets {
+            p.map_transforms = Some(sync.map_transforms.bytes());
         }
     }
     layers.end_pass();

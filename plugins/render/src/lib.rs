@@ -18,6 +18,7 @@ mod environment;
 mod extract;
 mod gpu_memory;
 mod identity;
+mod map_transforms;
 mod node;
 mod parts;
 mod pipelines;
@@ -36,6 +37,10 @@ pub use energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_
 pub use environment::{
     ENVIRONMENT_BINDINGS, EnvironmentTexels, MAX_DISTRIBUTION_WIDTH, PathTracedEnvironment,
     PreparedEnvironment, environment_uniform, panorama_coordinates, panorama_direction,
+};
+pub use map_transforms::{
+    MAP_TRANSFORM_SET_BYTES, MAP_TRANSFORMS_BINDING, MAX_MAP_TRANSFORM_SETS, MapTransformTable,
+    MapUvTransforms,
 };
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
 pub use records::{
@@ -431,6 +436,7 @@ impl Plugin for PathTracerPlugin {
         app.register_type::<PathTraced>()
             .register_type::<Outlined>()
             .insert_resource(stats.clone())
+            .init_resource::<MapUvTransforms>()
             .add_plugins(ExtractComponentPlugin::<PathTraced>::default());
         let shaders = {
             let mut assets = app.world_mut().resource_mut::<Assets<Shader>>();

@@ -27,13 +27,14 @@ pub fn part_bindings(kind: BufferKind) -> &'static [u32] {
     }
 }
 
-/// Storage buffers the trace kernel binds: the scene's parts, then the view's accumulation, aux
-/// and guides.
+/// Storage buffers the trace kernel binds: the scene's parts and its per-map UV transforms, then
+/// the view's accumulation, aux and guides.
 pub fn trace_storage_buffers() -> u32 {
     BufferKind::ALL
         .iter()
         .map(|&k| part_count(k) as u32)
         .sum::<u32>()
+        + 1
         + 3
 }
 
@@ -162,12 +163,15 @@ mod tests {
         for k in BufferKind::ALL {
             assert_eq!(part_bindings(k).len(), part_count(k), "{k:?}");
         }
-        // The texture array, its sampler and the energy table fill the rest of group 0.
+        // The texture array, its sampler and the energy table fill the rest of group 0 up to 29, the
+        // panorama's three after it, then the per-map UV transforms.
         all.extend([6, 7, crate::ENERGY_BINDING]);
+        all.extend(crate::ENVIRONMENT_BINDINGS);
+        all.push(crate::MAP_TRANSFORMS_BINDING);
         all.sort_unstable();
-        assert_eq!(all, (0..30).collect::<Vec<u32>>());
-        // 27 parts, then the view's accumulation, aux and guides.
-        assert_eq!(trace_storage_buffers(), 30);
+        assert_eq!(all, (0..34).collect::<Vec<u32>>());
+        // 27 parts and the transforms, then the view's accumulation, aux and guides.
+        assert_eq!(trace_storage_buffers(), 31);
     }
 
     #[test]

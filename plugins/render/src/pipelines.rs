@@ -43,7 +43,8 @@ pub(crate) fn build(render_app: &mut SubApp) {
 #[derive(Resource)]
 pub(crate) struct PathTracerPipelines {
     /// Group 0 of the trace kernel: the record buffers (the split kinds' parts at
-    /// [`part_bindings`]), the texture array and its sampler, the energy table, the panorama sky.
+    /// [`part_bindings`]), the texture array and its sampler, the per-map UV transforms, the energy
+    /// table, the panorama sky.
     pub scene_layout: BindGroupLayoutDescriptor,
     /// Group 1 of the trace kernel: the view uniform, the accumulation, the depth and preview, and
     /// the denoiser's guides.
@@ -94,6 +95,10 @@ fn init_pipelines(
             .build(6, ShaderStages::COMPUTE),
     );
     scene_entries.push(sampler(SamplerBindingType::Filtering).build(7, ShaderStages::COMPUTE));
+    scene_entries.push(
+        storage_buffer_read_only_sized(false, None)
+            .build(crate::MAP_TRANSFORMS_BINDING, ShaderStages::COMPUTE),
+    );
     scene_entries.push(
         uniform_buffer_sized(false, None)
             .build(crate::energy::ENERGY_BINDING, ShaderStages::COMPUTE),

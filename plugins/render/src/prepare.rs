@@ -82,6 +82,9 @@ pub(crate) struct GpuScene {
     outline_version: u64,
     /// World-space bounds of the outlined meshes; `None` when unknown.
     outline_bounds: Option<[Vec3; 2]>,
+    /// The sets of per-map UV transforms the object records name (`map_transforms.rs`), written
+    /// whole when the table grows.
+    map_transforms: Buffer,
     /// Why the scene cannot be traced on this adapter (a buffer larger than it can bind), once
     /// that happened: nothing is bound or written from then on, and no view is traced.
     pub too_large: Option<String>,
@@ -109,6 +112,14 @@ fn size_text(bytes: u64) -> String {
     } else {
         format!("{} MiB", bytes.div_ceil(1 << 20))
     }
+}
+
+fn map_transform_buffer(device: &RenderDevice, bytes: &[u8]) -> Buffer {
+    device.create_buffer_with_data(&BufferInitDescriptor {
+        label: Some("treelight map transforms"),
+        contents: bytes,
+        usage: BufferUsages::STORAGE,
+    })
 }
 
 fn outline_buffer(device: &RenderDevice, words: u64) -> Buffer {
@@ -177,6 +188,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         outline_slots: 0,
         outline_version: 0,
         outline_bounds: None,
+        map_transforms: map_transform_buffer(&device, &crate::MapTransformTable::default().bytes()),
         too_large,
     });
 }
@@ -306,6 +318,11 @@ fn apply_scene_uploads(
         scene.outline_slots = *covered;
     }
     scene.outline_bounds = pending.outline_bounds;
+    if let Some(table) = &pending.map_transforms {
+        // Sets are only ever added, so the table is made again whole, and bound anew.
+        scene.map_transforms = map_transform_buffer(&device, table);
+        scene.bind_group = None;
+    }
     if pending.geometry_changed {
         scene.generation += 1;
     }
@@ -362,6 +379,10 @@ fn prepare_scene_bind_group(
     entries.push(BindGroupEntry {
         binding: 7,
         resource: BindingResource::Sampler(&layers.sampler),
+    });
+    entries.push(BindGroupEntry {
+        binding: crate::MAP_TRANSFORMS_BINDING,
+        resource: scene.map_transforms.as_entire_binding(),
     });
     entries.push(BindGroupEntry {
         binding: crate::energy::ENERGY_BINDING,

@@ -4,6 +4,8 @@
 
 use bevy::math::{Affine2, Mat3, Mat4, Vec2, Vec3, Vec4};
 use bytemuck::{Pod, Zeroable};
+
+use crate::map_transforms::MapTransformTable;
 pub use treelight_scene::packed::{decode_normal, decode_tangents, encode_normal, encode_tangents};
 
 /// Bytes of one per-triangle shading record.
@@ -64,8 +66,11 @@ pub struct GpuObject {
     pub wrap: u32,
     /// Layers of the metallic-roughness, normal, occlusion and emission maps (`u32::MAX`: none).
     pub maps: [u32; 4],
-    /// Clear coat strength and perceptual roughness, the normal map's green sign, unused.
-    pub coat: [f32; 4],
+    /// Clear coat strength and perceptual roughness, the normal map's green sign.
+    pub coat: [f32; 3],
+    /// The set of per-map UV transforms its maps read through ([`MapTransformTable`]); `u32::MAX`:
+    /// every map through `uv_matrix` and `uv_offset`.
+    pub map_transforms: u32,
     /// Tint of the dielectric's specular reflection (rgb).
     pub specular: [f32; 3],
     /// The slot the views' guides and outlines know the object by; `u32::MAX` for its own. A
@@ -637,6 +642,10 @@ pub struct SurfaceMaterial {
     pub emissive_texture: Option<LayerTexture>,
     /// Applied to the mesh's UVs before a texture is read (Bevy's `uv_transform`).
     pub uv_transform: Affine2,
+    /// Each map's own UV transform, in [`MaterialMap`] order, where the maps do not share one
+    /// (glTF's `KHR_texture_transform` is per texture; [`MapUvTransforms`](crate::MapUvTransforms));
+    /// `None`: every map reads through `uv_transform`.
+    pub map_uv_transforms: Option<[Affine2; 5]>,
 }
 
 impl SurfaceMaterial {
@@ -677,17 +686,40 @@ impl Default for SurfaceMaterial {
             occlusion_texture: None,
             emissive_texture: None,
             uv_transform: Affine2::IDENTITY,
+            map_uv_transforms: None,
         }
     }
 }
 
-/// One group's record: the normal matrix of its object-to-world transform, and its material.
-pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
+/// One group's record: the normal matrix of its object-to-world transform, and its material. A
+/// material whose maps have different UV transforms names their set in `transforms`, which the
+/// kernel must be given too.
+pub fn object_bytes(
+    object_to_world: Mat3,
+    m: &SurfaceMaterial,
+    transforms: &mut MapTransformTable,
+) -> Vec<u8> {
     let inv = object_to_world.inverse();
     // The inverse transpose's rows are the inverse's columns.
     let normal = if inv.is_finite() { inv } else { Mat3::IDENTITY };
     let row = |c: Vec3| [c.x, c.y, c.z, 0.0];
-    let uv = m.uv_transform;
+    // The maps' transforms: one for all (in the record) where the maps it has agree, else a set.
+    let (uv, set) = match m.map_uv_transforms {
+        Some(each) => {
+            let mut used = m
+                .maps()
+                .into_iter()
+                .zip(each)
+                .filter_map(|(map, t)| map.map(|_| t));
+            let first = used.next().unwrap_or(m.uv_transform);
+            if used.all(|t| t == first) {
+                (first, None)
+            } else {
+                (first, transforms.set_of(&each))
+            }
+        }
+        None => (m.uv_transform, None),
+    };
     let mut wrap = m.alpha.code() << 20;
     for (i, t) in m.maps().iter().enumerate() {
         if let Some(t) = t {
@@ -725,7 +757,8 @@ pub fn object_bytes(object_to_world: Mat3, m: &SurfaceMaterial) -> Vec<u8> {
             layer(m.occlusion_texture),
             layer(m.emissive_texture),
         ],
-        coat: [m.clearcoat, m.clearcoat_roughness, m.normal_y, 0.0],
+        coat: [m.clearcoat, m.clearcoat_roughness, m.normal_y],
+        map_transforms: set.unwrap_or(u32::MAX),
         specular: m.specular_tint,
         identity: u32::MAX,
     };
@@ -1018,10 +1051,59 @@ mod tests {
             ..Default::default()
         };
         assert!(m.reads_second_uv_set());
-        let o: GpuObject = bytemuck::pod_read_unaligned(&object_bytes(Mat3::IDENTITY, &m));
+        let o: GpuObject = bytemuck::pod_read_unaligned(&object_bytes(
+            Mat3::IDENTITY,
+            &m,
+            &mut MapTransformTable::default(),
+        ));
         assert_eq!(
             o.wrap >> SECOND_SET_BITS,
             1 << MaterialMap::Occlusion as u32
+        );
+    }
+
+    #[test]
+    fn maps_with_different_transforms_name_a_set_and_agreeing_ones_do_not() {
+        let map = Some(LayerTexture {
+            layer: 0,
+            wrap: [TextureWrap::Clamp; 2],
+            second_uv_set: false,
+        });
+        let shift = |x: f32| Affine2::from_translation(Vec2::new(x, 0.0));
+        let record = |m: &SurfaceMaterial, table: &mut MapTransformTable| -> GpuObject {
+            bytemuck::pod_read_unaligned(&object_bytes(Mat3::IDENTITY, m, table))
+        };
+        let mut table = MapTransformTable::default();
+        // Base colour and emission differ: a set, and the record's own transform is the first map's.
+        let each = [shift(1.0), shift(2.0), shift(3.0), shift(4.0), shift(5.0)];
+        let differing = SurfaceMaterial {
+            base_color_texture: map,
+            emissive_texture: map,
+            map_uv_transforms: Some(each),
+            ..Default::default()
+        };
+        let o = record(&differing, &mut table);
+        assert_eq!(o.map_transforms, 0);
+        assert_eq!(o.uv_offset, [1.0, 0.0]);
+        assert_eq!(table.len(), 1);
+        // Only the maps a material has count: base colour and occlusion at 7 agree.
+        let mut agreeing = each;
+        agreeing[0] = shift(7.0);
+        agreeing[3] = shift(7.0);
+        let m = SurfaceMaterial {
+            base_color_texture: map,
+            occlusion_texture: map,
+            map_uv_transforms: Some(agreeing),
+            ..Default::default()
+        };
+        let o = record(&m, &mut table);
+        assert_eq!((o.map_transforms, o.uv_offset), (u32::MAX, [7.0, 0.0]));
+        assert_eq!(table.len(), 1);
+        // The same differing set again: the same index.
+        assert_eq!(record(&differing, &mut table).map_transforms, 0);
+        assert_eq!(
+            record(&SurfaceMaterial::default(), &mut table).map_transforms,
+            u32::MAX
         );
     }
 
@@ -1095,7 +1177,11 @@ mod tests {
 
     #[test]
     fn an_object_known_by_another_slot_draws_the_same() {
-        let plain = object_bytes(Mat3::IDENTITY, &SurfaceMaterial::default());
+        let plain = object_bytes(
+            Mat3::IDENTITY,
+            &SurfaceMaterial::default(),
+            &mut MapTransformTable::default(),
+        );
         let known = with_identity(plain.clone(), Some(7));
         assert_ne!(known, plain);
         assert!(same_drawing(&known, &plain));
@@ -1106,14 +1192,22 @@ mod tests {
             base_color: [1.0, 0.0, 0.0, 1.0],
             ..Default::default()
         };
-        assert!(!same_drawing(&object_bytes(Mat3::IDENTITY, &red), &plain));
+        assert!(!same_drawing(
+            &object_bytes(Mat3::IDENTITY, &red, &mut MapTransformTable::default()),
+            &plain
+        ));
     }
 
     #[test]
     fn records_have_the_shader_sizes() {
         assert_eq!(attribute_bytes(None, None, 3).len() as u64, ATTRIBUTE_BYTES);
         assert_eq!(
-            object_bytes(Mat3::IDENTITY, &SurfaceMaterial::default()).len() as u64,
+            object_bytes(
+                Mat3::IDENTITY,
+                &SurfaceMaterial::default(),
+                &mut MapTransformTable::default()
+            )
+            .len() as u64,
             OBJECT_BYTES
         );
         let l = SceneLight::Directional {
@@ -1144,7 +1238,11 @@ mod tests {
     #[test]
     fn normal_matrix_keeps_normals_perpendicular_under_non_uniform_scale() {
         let m = Mat3::from_diagonal(Vec3::new(4.0, 1.0, 1.0)) * Mat3::from_rotation_z(0.3);
-        let bytes = object_bytes(m, &SurfaceMaterial::default());
+        let bytes = object_bytes(
+            m,
+            &SurfaceMaterial::default(),
+            &mut MapTransformTable::default(),
+        );
         let f = |k: usize| f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().unwrap());
         let rows = [0, 4, 8].map(|o| Vec3::new(f(o), f(o + 1), f(o + 2)));
         let apply = |v: Vec3| Vec3::new(rows[0].dot(v), rows[1].dot(v), rows[2].dot(v));

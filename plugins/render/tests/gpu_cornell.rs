@@ -17,8 +17,8 @@ use support::{Gpu, Rng, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, SceneLight,
-    SurfaceMaterial, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, MapTransformTable, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL,
+    SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -237,16 +237,23 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     let bvh = &scene.bvh;
     let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
     let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
+    let mut map_transforms = MapTransformTable::default();
     for (&g, m) in &scene.materials {
         for &id in bvh.group_triangles(g).unwrap() {
             put_record(&mut attrs, id, &attribute_bytes(None, None, g.index()));
         }
-        let rec = object_bytes(Mat3::from(bvh.group_transform(g).unwrap().matrix3), m);
+        let rec = object_bytes(
+            Mat3::from(bvh.group_transform(g).unwrap().matrix3),
+            m,
+            &mut map_transforms,
+        );
         put_record(&mut objects, g.index(), &rec);
     }
     let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
-    let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights);
-    let split = split_shift.map(|s| gpu.split_scene_buffers(bvh, &attrs, &objects, &lights, s));
+    let table = map_transforms.bytes();
+    let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights, &table);
+    let split =
+        split_shift.map(|s| gpu.split_scene_buffers(bvh, &attrs, &objects, &lights, &table, s));
     let target = gpu.trace_target(SIZE, SIZE);
     let pipeline = gpu.pipeline(
         if split.is_some() {

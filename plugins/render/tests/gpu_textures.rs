@@ -9,7 +9,7 @@ use support::scenes::{Scene, ShadedTriangle, Trace, camera, trace, view_ray};
 use support::{Gpu, Rng, linear_to_srgb, srgb_to_linear};
 use treelight_bvh::Triangle;
 use treelight_bvh::glam::{Affine2, Affine3A, Mat4, Vec2, Vec3};
-use treelight_render::{DebugView, LayerTexture, SurfaceMaterial, TextureWrap};
+use treelight_render::{DebugView, LayerTexture, MaterialMap, SurfaceMaterial, TextureWrap};
 
 fn random_image(rng: &mut Rng, w: u32, h: u32) -> Vec<u8> {
     (0..w * h * 4).map(|_| rng.byte()).collect()
@@ -309,6 +309,53 @@ fn each_map_reads_its_own_uv_set() {
         assert!(c.pixels > 3000, "only {} pixels could be checked", c.pixels);
         assert!(c.worst < 0.01, "albedo differs by {}", c.worst);
     }
+}
+
+/// A material whose maps have their own UV transforms (glTF's `KHR_texture_transform` per texture):
+/// the emission map, not the material's first map, is read through its own. The quad's base colour
+/// is black and nothing lights it, so each pixel is its emission.
+#[test]
+fn each_map_reads_through_its_own_uv_transform() {
+    let gpu = Gpu::new();
+    let layers = block_layers(&gpu);
+    let (tris, _) = quad();
+    let wrap = [TextureWrap::Mirror, TextureWrap::Clamp];
+    let base_transform =
+        Affine2::from_scale_angle_translation(Vec2::new(0.3, 0.7), 0.4, Vec2::new(0.2, -0.1));
+    let mut each = [Affine2::IDENTITY; 5];
+    each[MaterialMap::BaseColor as usize] = base_transform;
+    each[MaterialMap::Emissive as usize] = uv_transform();
+    let material = SurfaceMaterial {
+        base_color: [0.0, 0.0, 0.0, 1.0],
+        base_color_texture: map(0, wrap, false),
+        emissive: [BASE[0], BASE[1], BASE[2]],
+        emissive_texture: map(1, wrap, false),
+        map_uv_transforms: Some(each),
+        ..Default::default()
+    };
+    let mut scene = Scene::new();
+    scene.add(&tris, Affine3A::IDENTITY, false, &material);
+    assert_eq!(scene.map_transforms.len(), 1);
+    let view = Trace {
+        mode: DebugView::PathTraced.shader_index(),
+        ..albedo_view()
+    };
+    let (image, _) = trace(&gpu, &scene, &layers, &view);
+    let c = check_albedo(&image, wrap, |p| {
+        uv_transform().transform_point2(quad_uv(p))
+    });
+    eprintln!(
+        "emission through its own transform: {} pixels checked ({} mirrored, {} clamped), worst {}",
+        c.pixels, c.mirrored, c.clamped, c.worst
+    );
+    assert!(c.pixels > 4000, "only {} pixels could be checked", c.pixels);
+    assert!(
+        c.mirrored > 500 && c.clamped > 500,
+        "{} mirrored, {} clamped",
+        c.mirrored,
+        c.clamped
+    );
+    assert!(c.worst < 0.01, "emission differs by {}", c.worst);
 }
 
 /// A pixel's samples cover it evenly: along a slanted edge between a white triangle and the black

@@ -182,6 +182,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 wrap,
                 maps,
                 coat,
+                map_transforms,
                 specular,
                 identity
             ]

@@ -10,6 +10,7 @@ pub mod camera;
 pub mod drop;
 pub mod gizmo;
 pub mod look;
+pub mod map_transforms;
 pub mod object_item;
 pub mod panel;
 pub mod place;
@@ -46,6 +47,7 @@ impl Plugin for ViewportPlugin {
                 render_mode::report_texture_downsizing,
                 look::apply_look,
                 look::environment_to_tracer,
+                map_transforms::map_transforms_to_tracer,
                 sky_box::make_sky_box,
                 sky_box::sky_box_to_camera.after(sky_box::make_sky_box),
                 tab::fit_camera_viewport,

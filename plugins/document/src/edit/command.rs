@@ -5,6 +5,7 @@
 use super::snapshot::ObjectSnapshot;
 use crate::environment::SceneEnvironment;
 use crate::look::SceneLook;
+use crate::map_transforms::MaterialMapTransforms;
 use crate::object::SceneObject;
 use crate::object::{EditedObjects, SceneId, SceneIndex};
 use crate::primitive::{Primitive, PrimitiveShape};
@@ -735,6 +736,9 @@ impl EditCommand {
                     .ok_or(EditError::NoMaterial(*id))?
                     .clone();
                 let unique = materials.add(copy);
+                if let Some(mut t) = world.get_resource_mut::<MaterialMapTransforms>() {
+                    t.copy(handle.id(), unique.id());
+                }
                 let e = entity(world, *id)?;
                 world.entity_mut(e).insert(MeshMaterial3d(unique));
                 Undo::MaterialHandle(*id, handle)

@@ -161,6 +161,8 @@ pub struct SceneAssets<'w> {
     pub images: ResMut<'w, Assets<Image>>,
     /// The meshes and images of earlier imports, by content.
     pub shared: ResMut<'w, SharedAssets>,
+    /// Each map's own UV transform, for materials whose maps differ.
+    pub map_transforms: ResMut<'w, crate::map_transforms::MaterialMapTransforms>,
 }
 
 /// Where an imported object came from: the file and the node's key in it (names from the top,
@@ -443,7 +445,11 @@ fn material_handles(
                 });
                 put_map(&mut mat, slot, image.clone(), r.tex_coord);
             }
-            assets.materials.add(mat)
+            let handle = assets.materials.add(mat);
+            if let Some(each) = crate::map_transforms::of_material(m) {
+                assets.map_transforms.0.insert(handle.id(), each);
+            }
+            handle
         })
         .collect()
 }

@@ -4,6 +4,7 @@
 use crate::edit::command::MaterialValue;
 use crate::edit::history::EditHistory;
 use crate::import::spawn::{MeshSource, SourceCatalog};
+use crate::map_transforms::MaterialMapTransforms;
 use crate::object::{EditedObjects, SceneId, SceneIndex, SceneObject};
 use crate::outbox::{CameraValue, DocumentEvent, DocumentView};
 use crate::primitive::Primitive;
@@ -99,6 +100,9 @@ fn apply_node_material(world: &mut World, e: Entity, value: &MaterialValue) {
         let mut copy = materials.get(&handle).cloned().unwrap_or_default();
         value.write(&mut copy);
         let unique = materials.add(copy);
+        if let Some(mut t) = world.get_resource_mut::<MaterialMapTransforms>() {
+            t.copy(handle.id(), unique.id());
+        }
         world.entity_mut(e).insert(MeshMaterial3d(unique));
     } else if let Some(mut m) = materials.get_mut(&handle) {
         value.write(&mut m);

@@ -486,15 +486,17 @@ impl Gpu {
 }
 
 impl Gpu {
-    /// The six scene buffers `path_trace` binds first, in its binding order: the tree's records,
-    /// then the given shading, object and light records.
+    /// The scene buffers `path_trace` binds: the tree's records, then the given shading, object
+    /// and light records at bindings 0 to 5, and the object records' table of per-map UV
+    /// transforms (`MapTransformTable::bytes`) at `MAP_TRANSFORMS_BINDING`.
     pub fn scene_buffers(
         &self,
         bvh: &Bvh,
         attributes: &[u8],
         objects: &[u8],
         lights: &[u8],
-    ) -> [wgpu::Buffer; 6] {
+        map_transforms: &[u8],
+    ) -> [wgpu::Buffer; 7] {
         let [n, t, i] = tree_bytes(bvh);
         [
             self.storage("nodes", &n),
@@ -503,6 +505,7 @@ impl Gpu {
             self.storage("attributes", attributes),
             self.storage("objects", objects),
             self.storage("lights", lights),
+            self.storage("map transforms", map_transforms),
         ]
     }
 
@@ -574,7 +577,7 @@ impl Gpu {
     pub fn path_trace(
         &self,
         pipeline: &wgpu::ComputePipeline,
-        scene: &[wgpu::Buffer; 6],
+        scene: &[wgpu::Buffer; 7],
         view: &ViewParams,
         target: &TraceTarget,
         layers: &Layers,
@@ -582,7 +585,7 @@ impl Gpu {
         // The plugin's two bind groups: the scene (records and textures), then the view.
         let uniform = self.uniform(&view.to_bytes());
         let mut scene_group: Vec<wgpu::BindingResource> =
-            scene.iter().map(|b| b.as_entire_binding()).collect();
+            scene[..6].iter().map(|b| b.as_entire_binding()).collect();
         scene_group.extend([
             wgpu::BindingResource::TextureView(&layers.view),
             wgpu::BindingResource::Sampler(&layers.sampler),
@@ -591,10 +594,16 @@ impl Gpu {
             .into_iter()
             .enumerate()
             .map(|(i, r)| (i as u32, r))
-            .chain([(
-                treelight_render::ENERGY_BINDING,
-                layers.energy.as_entire_binding(),
-            )])
+            .chain([
+                (
+                    treelight_render::ENERGY_BINDING,
+                    layers.energy.as_entire_binding(),
+                ),
+                (
+                    treelight_render::MAP_TRANSFORMS_BINDING,
+                    scene[6].as_entire_binding(),
+                ),
+            ])
             .chain(layers.environment_entries())
             .collect();
         let view_group = vec![
@@ -616,6 +625,7 @@ impl Gpu {
         attributes: &[u8],
         objects: &[u8],
         lights: &[u8],
+        map_transforms: &[u8],
         shift: u32,
     ) -> Vec<(u32, wgpu::Buffer)> {
         let [n, t, i] = tree_bytes(bvh);
@@ -646,6 +656,10 @@ impl Gpu {
                 out.push((part_bindings(kind)[k], self.storage(kind.label(), c)));
             }
         }
+        out.push((
+            treelight_render::MAP_TRANSFORMS_BINDING,
+            self.storage("map transforms", map_transforms),
+        ));
         out
     }
 

@@ -6,8 +6,9 @@ use std::f32::consts::PI;
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, GpuAttribute, OBJECT_BYTES, PATHTRACE_WGSL, SceneLight,
-    SurfaceMaterial, TraceWork, ViewParams, attribute_record, light_bytes, object_bytes,
+    ATTRIBUTE_BYTES, DebugView, GpuAttribute, MapTransformTable, OBJECT_BYTES, PATHTRACE_WGSL,
+    SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_record, light_bytes,
+    object_bytes,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -18,6 +19,8 @@ pub struct Scene {
     pub bvh: Bvh,
     pub attrs: Vec<u8>,
     pub objects: Vec<u8>,
+    /// The sets of per-map UV transforms the object records name.
+    pub map_transforms: MapTransformTable,
 }
 
 impl Scene {
@@ -26,6 +29,7 @@ impl Scene {
             bvh: Bvh::default(),
             attrs: Vec::new(),
             objects: Vec::new(),
+            map_transforms: MapTransformTable::default(),
         }
     }
 
@@ -93,7 +97,11 @@ impl Scene {
         put_record(
             &mut self.objects,
             g.index(),
-            &object_bytes(Mat3::from(transform.matrix3), material),
+            &object_bytes(
+                Mat3::from(transform.matrix3),
+                material,
+                &mut self.map_transforms,
+            ),
         );
         g
     }
@@ -218,7 +226,7 @@ pub struct Frames<'a> {
     gpu: &'a Gpu,
     scene: &'a Scene,
     layers: &'a Layers,
-    buffers: [wgpu::Buffer; 6],
+    buffers: [wgpu::Buffer; 7],
     pipeline: wgpu::ComputePipeline,
 }
 
@@ -229,7 +237,13 @@ impl<'a> Frames<'a> {
             gpu,
             scene,
             layers,
-            buffers: gpu.scene_buffers(&scene.bvh, &scene.attrs, &scene.objects, &lights),
+            buffers: gpu.scene_buffers(
+                &scene.bvh,
+                &scene.attrs,
+                &scene.objects,
+                &lights,
+                &scene.map_transforms.bytes(),
+            ),
             pipeline: gpu.pipeline(PATHTRACE_WGSL, "path_trace"),
         }
     }
