@@ -175,6 +175,10 @@ pub struct MemoryReport {
     /// Meshes the scene's worker has rebuilt in idle time so far (a better tree for a still mesh).
     #[serde(default)]
     pub meshes_rebuilt: u64,
+    /// Mesh assets kept out of the render world (nothing rasterises them while the view is path
+    /// traced).
+    #[serde(default)]
+    pub meshes_held_back: u64,
 }
 
 /// Bytes of a mesh's vertex attributes and indices still in the main world.
@@ -207,6 +211,7 @@ fn memory_report(
         gpu_reserved: tracer.figures().gpu_reserved_bytes.unwrap_or(0),
         triangles: u64::from(stats.triangles),
         meshes_rebuilt: stats.meshes_refined,
+        meshes_held_back: tracer.figures().meshes_held_back as u64,
     }
 }
 

@@ -914,6 +914,69 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
     );
 }
 
+/// While the viewport is path traced, meshes stay out of the render world (nothing rasterises
+/// them); turned to the raster view from the toolbar, the view draws them: the quad (its base
+/// colour the texture's green half) appears.
+#[test]
+fn meshes_held_back_while_path_traced_are_drawn_when_the_view_turns_raster() {
+    let dir = temp_dir("held-meshes");
+    let file = write_second_uv_set_quad(&dir, false);
+    let mut s = xdrive::Session::start(
+        "held-meshes",
+        &[file.to_str().unwrap(), "--width", "900", "--height", "600"],
+    );
+    let st = s.wait_until(
+        "the quad traced",
+        std::time::Duration::from_secs(60),
+        |st| st.memory.triangles == 2 && st.samples > 0,
+    );
+    assert_ne!(st.view, "Raster");
+    // The quad's mesh and the palette's are held back.
+    let held = st.memory.meshes_held_back;
+    assert!(held >= 2, "{:?}", st.memory);
+    let widget = |st: &treelight::report::EditorState, name: &str| {
+        let r = st
+            .widgets
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+            .1;
+        (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0)
+    };
+    let choose = |s: &mut xdrive::Session, st: &treelight::report::EditorState, mode: &str| {
+        let (x, y) = widget(st, "Render mode");
+        s.click(x, y);
+        let st = s.frames(5);
+        let (x, y) = widget(&st, &format!("Render mode {mode}"));
+        s.click(x, y);
+        s.wait_until(mode, std::time::Duration::from_secs(30), |st| {
+            st.view == mode
+        })
+    };
+    // Raster, path traced (the render world's copies dropped, the meshes held back again), then
+    // raster again: each time the raster view draws the quad.
+    let mut st = st;
+    for (round, mode) in ["Raster", "Path traced", "Raster"].into_iter().enumerate() {
+        choose(&mut s, &st, mode);
+        st = s.frames(10);
+        if mode != "Raster" {
+            assert_eq!(st.memory.meshes_held_back, held, "{:?}", st.memory);
+            continue;
+        }
+        assert_eq!(st.memory.meshes_held_back, 0, "{:?}", st.memory);
+        let shot = s.screenshot();
+        let path = dir.join(format!("view-{round}.png"));
+        shot.save(&path).ok();
+        let [x, y, w, h] = st.viewport.map(|v| v as u32);
+        let (red, green) = red_and_green_pixels(&shot, [x, y, x + w, y + h], 60);
+        assert!(
+            green > 2000 && red < 20,
+            "the raster view does not draw the quad: {green} green pixels, {red} red; see {}",
+            path.display()
+        );
+    }
+}
+
 #[test]
 fn the_raster_view_reads_a_map_through_the_second_uv_set() {
     // A quad whose base colour map reads its second UV set, the green half of its texture.

@@ -23,6 +23,7 @@ mod node;
 mod parts;
 mod pipelines;
 mod prepare;
+mod raster_meshes;
 mod raster_skip;
 mod records;
 mod texture_layers;
@@ -43,6 +44,7 @@ pub use map_transforms::{
     MapUvTransforms,
 };
 pub use parts::{MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers};
+pub use raster_meshes::HoldBackRasterMeshes;
 pub use records::{
     ATTRIBUTE_BYTES, DENOISE_PASSES, GpuAoParams, GpuAttribute, GpuDenoise, GpuLight, GpuObject,
     GpuPrimaryCamera, GpuResolve, GpuTemporal, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap,
@@ -366,6 +368,9 @@ pub struct PathTracerFigures {
     /// the app and the uploads' staging (read about once a second); `None` where the backend keeps
     /// no such report.
     pub gpu_reserved_bytes: Option<u64>,
+    /// Mesh assets kept out of the render world while every active 3D camera is path traced
+    /// ([`HoldBackRasterMeshes`]).
+    pub meshes_held_back: usize,
 }
 
 /// One path-traced camera's latest frame under its budget.
@@ -461,6 +466,7 @@ impl Plugin for PathTracerPlugin {
         // The strong handles live in the main world so the shaders stay loaded.
         app.insert_resource(shaders.clone());
         raster_skip::build(app);
+        raster_meshes::build(app);
         environment::build(app);
         let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) else {
             return;

@@ -1121,11 +1121,15 @@ fn request_timings(mut states: ResMut<ViewStates>) {
     }
 }
 
-/// Drops the state of views that were not drawn this frame (cameras despawned or switched off).
+/// Drops the state of views that were not drawn this frame (cameras despawned or switched off),
+/// and every view's frame: what the node does is prepared anew each frame, so a camera that stops
+/// being path traced (its state forgotten only after its node ran once more) or a view prepare
+/// skips replays no old dispatch, nor copies timestamps into a buffer being mapped.
 fn forget_views(mut states: ResMut<ViewStates>) {
-    states
-        .0
-        .retain(|_, s| std::mem::replace(&mut s.seen, false));
+    states.0.retain(|_, s| {
+        s.frame = None;
+        std::mem::replace(&mut s.seen, false)
+    });
 }
 
 #[cfg(test)]

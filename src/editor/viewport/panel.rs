@@ -273,17 +273,20 @@ fn toolbar(
     actions: &mut ViewportActions,
     widgets: &mut WidgetRects,
 ) {
-    egui::ComboBox::from_id_salt("render-mode")
+    let combo = egui::ComboBox::from_id_salt("render-mode")
         .selected_text(ViewportRender::label(render.traced))
         .show_ui(ui, |ui| {
             for mode in ViewportRender::modes() {
-                ui.selectable_value(&mut render.traced, mode, ViewportRender::label(mode));
+                let label = ViewportRender::label(mode);
+                let option = ui.selectable_value(&mut render.traced, mode, label);
+                widgets.push(format!("Render mode {label}"), option.rect);
             }
         })
         .response
         .on_hover_text(
             "How the viewport is drawn: Bevy's rasteriser, the path tracer, or one of its debug views",
         );
+    widgets.push("Render mode", combo.rect);
     if render.traced.is_some() {
         quality_menu(ui, render, widgets);
     }
