@@ -14,14 +14,14 @@
 @group(0) @binding(12) var<storage, read> nodes5: array<Node>;
 @group(0) @binding(13) var<storage, read> nodes6: array<Node>;
 @group(0) @binding(14) var<storage, read> nodes7: array<Node>;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
-@group(0) @binding(15) var<storage, read> tris1: array<Tri>;
-@group(0) @binding(16) var<storage, read> tris2: array<Tri>;
-@group(0) @binding(17) var<storage, read> tris3: array<Tri>;
-@group(0) @binding(18) var<storage, read> tris4: array<Tri>;
-@group(0) @binding(19) var<storage, read> tris5: array<Tri>;
-@group(0) @binding(20) var<storage, read> tris6: array<Tri>;
-@group(0) @binding(21) var<storage, read> tris7: array<Tri>;
+@group(0) @binding(1) var<storage, read> tris: array<TriRecord>;
+@group(0) @binding(15) var<storage, read> tris1: array<TriRecord>;
+@group(0) @binding(16) var<storage, read> tris2: array<TriRecord>;
+@group(0) @binding(17) var<storage, read> tris3: array<TriRecord>;
+@group(0) @binding(18) var<storage, read> tris4: array<TriRecord>;
+@group(0) @binding(19) var<storage, read> tris5: array<TriRecord>;
+@group(0) @binding(20) var<storage, read> tris6: array<TriRecord>;
+@group(0) @binding(21) var<storage, read> tris7: array<TriRecord>;
 
 fn part_mask() -> u32 {
     return (1u << part_shift()) - 1u;
@@ -49,10 +49,10 @@ fn node_at(i: u32) -> Node {
 fn tri_at(i: u32) -> Tri {
     let part = i >> part_shift();
     if part == 0u {
-        return tris[i];
+        return unpack_tri(tris[i]);
     }
     let o = i & part_mask();
-    var t: Tri;
+    var t: TriRecord;
     switch part {
         case 1u: { t = tris1[o]; }
         case 2u: { t = tris2[o]; }
@@ -62,5 +62,5 @@ fn tri_at(i: u32) -> Tri {
         case 6u: { t = tris6[o]; }
         default: { t = tris7[o]; }
     }
-    return t;
+    return unpack_tri(t);
 }

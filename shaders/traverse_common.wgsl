@@ -8,13 +8,27 @@
 // triangle id), 2 instance (a group kept whole under a transform, traversed in its object space).
 // Instances do not nest, so one saved world-space ray suffices.
 
+// A triangle as stored: its corners as arrays of three floats, which (unlike vec3) need no padding
+// to 16 bytes: 36 bytes a record.
+struct TriRecord {
+    v0: array<f32, 3>,
+    v1: array<f32, 3>,
+    v2: array<f32, 3>,
+}
+
+// A triangle's corners, as the tests read them.
 struct Tri {
     v0: vec3<f32>,
-    pad0: u32,
     v1: vec3<f32>,
-    pad1: u32,
     v2: vec3<f32>,
-    pad2: u32,
+}
+
+fn unpack_tri(r: TriRecord) -> Tri {
+    return Tri(
+        vec3<f32>(r.v0[0], r.v0[1], r.v0[2]),
+        vec3<f32>(r.v1[0], r.v1[1], r.v1[2]),
+        vec3<f32>(r.v2[0], r.v2[1], r.v2[2]),
+    );
 }
 
 struct Instance {

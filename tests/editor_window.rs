@@ -554,8 +554,9 @@ fn save_runs_without_a_display() {
 
 #[test]
 fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
-    // FlightHelmet's 94,722 triangles need 4.3 MiB of triangle records and as much for their
-    // shading, and the tree's nodes 5.8 MiB: with at most 4 MiB per binding, each lies in two.
+    // FlightHelmet's 94,722 triangles need 4.3 MiB of shading records (their triangle records
+    // 3.3 MiB), and the tree's nodes 5.8 MiB: with at most 4 MiB per binding, the shading and the
+    // nodes lie in two each.
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     // Each run in a session of its own (its own settings: the first run's recovery copy would be
@@ -588,7 +589,7 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     let m = &s.memory;
     assert_eq!(m.triangles, 94_722, "{m:?}");
     assert!(m.tree >= m.triangles * (36 + 24 + 36), "{m:?}");
-    assert!(m.scene_buffers >= m.triangles * (48 + 48 + 64), "{m:?}");
+    assert!(m.scene_buffers >= m.triangles * (36 + 48 + 64), "{m:?}");
     assert!(m.mesh_assets >= m.triangles * 3 * 2, "{m:?}");
     assert!(m.resident > m.scene_buffers + m.tree, "{m:?}");
     let (_, b) = run(None);

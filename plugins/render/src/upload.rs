@@ -105,7 +105,7 @@ pub fn node_bytes(n: &GpuCompressedNode) -> Vec<u8> {
     bytemuck::bytes_of(n).to_vec()
 }
 
-/// The 48 bytes of a triangle record.
+/// The 36 bytes of a triangle record.
 pub fn triangle_bytes(t: &GpuTriangle) -> Vec<u8> {
     bytemuck::bytes_of(t).to_vec()
 }

@@ -100,8 +100,8 @@ fn traversal_records_have_the_engine_s_layout() {
             )
         );
         assert_eq!(
-            wgsl_layout(&m, "Tri"),
-            rust_layout!(GpuTriangle, [v0, pad0, v1, pad1, v2, pad2])
+            wgsl_layout(&m, "TriRecord"),
+            rust_layout!(GpuTriangle, [v0, v1, v2])
         );
         assert_eq!(
             wgsl_layout(&m, "Instance"),

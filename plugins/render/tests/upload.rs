@@ -31,7 +31,7 @@ impl FakeGpu {
     fn apply(&mut self, plan: &UploadPlan) {
         for &(kind, cap) in &plan.grow {
             let k = kind as usize;
-            let size = [64, 48, 112][k];
+            let size = [64, 36, 112][k];
             self.caps[k] = cap;
             self.buffers[k].resize((cap * size) as usize, 0);
         }
@@ -55,9 +55,9 @@ impl FakeGpu {
         }
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
-                let at = t as usize * 48;
+                let at = t as usize * 36;
                 assert_eq!(
-                    &self.buffers[1][at..at + 48],
+                    &self.buffers[1][at..at + 36],
                     triangle_bytes(&bvh.gpu_triangle(t)).as_slice()
                 );
             }

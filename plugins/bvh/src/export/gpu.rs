@@ -31,22 +31,16 @@ pub struct GpuNode {
     pub pad1: u32,
 }
 
-/// One triangle for the GPU: three padded vertices, 48 bytes.
+/// One triangle for the GPU: three vertices, 36 bytes, no padding.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {
-    /// Vertex 0, then its padding.
+    /// Vertex 0.
     pub v0: [f32; 3],
-    /// Padding.
-    pub pad0: u32,
     /// Vertex 1.
     pub v1: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
     /// Vertex 2.
     pub v2: [f32; 3],
-    /// Padding.
-    pub pad2: u32,
 }
 
 /// One instance for the GPU: both affine maps as row-major 3×4 matrices, and the object-space root.
@@ -138,7 +132,6 @@ impl Bvh {
                 v0: t.v[0].to_array(),
                 v1: t.v[1].to_array(),
                 v2: t.v[2].to_array(),
-                ..Default::default()
             },
             None => GpuTriangle::default(),
         }
