@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 use treelight::report::{EditorState, MemoryReport};
+use treelight_render::BufferKind;
 
 /// What one run of the editor showed.
 struct Run {
@@ -163,10 +164,18 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
             all = Some(t);
         }
         // Settled, the path tracer's buffers holding every triangle's records (node, triangle and
-        // shading: 160 bytes; its uploads follow the tree, at times many seconds behind), and no
-        // longer growing over 3 s and 10 frames.
+        // shading; its uploads follow the tree, at times many seconds behind), and no longer
+        // growing over 3 s and 10 frames.
         let buffers = s.memory.scene_buffers;
-        let complete = complete && buffers >= s.memory.triangles * 160;
+        let per_triangle: u64 = [
+            BufferKind::Nodes,
+            BufferKind::Triangles,
+            BufferKind::Attributes,
+        ]
+        .map(BufferKind::record_bytes)
+        .iter()
+        .sum();
+        let complete = complete && buffers >= s.memory.triangles * per_triangle;
         match settled_since {
             Some((since, b, frame)) if complete && s.settled && b == buffers => {
                 if since.elapsed() >= Duration::from_secs(3)
