@@ -134,6 +134,25 @@ fn trim_after_large_changes(
     }
 }
 
+/// The most malloc arenas glibc keeps: by default up to eight per core, one per thread that found
+/// the others busy. Memory freed in one arena serves only the threads that allocate there, so with
+/// the scene worker's pool, the refinement thread and Bevy's task pools each keeping arenas of their
+/// own, a large import's rebuilds left hundreds of MiB resident in arenas no thread reused.
+pub const MALLOC_ARENAS: i32 = 2;
+
+/// Limits glibc's malloc arenas to [`MALLOC_ARENAS`] (Linux with glibc; elsewhere nothing). Call
+/// first thing in `main`, before any thread starts; `MALLOC_ARENA_MAX` in the environment, when
+/// set, still decides.
+pub fn limit_malloc_arenas() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    if std::env::var_os("MALLOC_ARENA_MAX").is_none() {
+        // SAFETY: mallopt only sets the allocator's parameters; called before other threads exist.
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, MALLOC_ARENAS);
+        }
+    }
+}
+
 /// Returns the allocator's free pages to the system.
 fn release_free_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
