@@ -7,7 +7,7 @@ mod support;
 mod xdrive;
 
 use treelight::report::EditorState;
-use xdrive::{Session, handle, keysym, object};
+use xdrive::{Session, handle, keysym, object, widget, widget_at};
 
 fn pos(p: [f32; 2]) -> (f32, f32) {
     (p[0], p[1])
@@ -321,19 +321,6 @@ fn a_shape_dragged_from_the_palette_lands_on_the_surface_under_the_pointer() {
     let st = s.frames(3);
     assert_eq!(cubes(&st), 1, "escape removed the ghost");
     assert_eq!(st.history.0, head + 1, "escape left no step");
-}
-
-/// The centre of the named widget the report lists, if it is laid out.
-fn widget_at(st: &EditorState, name: &str) -> Option<(f32, f32)> {
-    st.widgets
-        .iter()
-        .find(|(n, _)| n == name)
-        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
-}
-
-/// The centre of the named widget the report lists.
-fn widget(st: &EditorState, name: &str) -> (f32, f32) {
-    widget_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
 }
 
 /// Clicks the named widget the report lists.

@@ -935,20 +935,11 @@ fn meshes_held_back_while_path_traced_are_drawn_when_the_view_turns_raster() {
     // The quad's mesh and the palette's are held back.
     let held = st.memory.meshes_held_back;
     assert!(held >= 2, "{:?}", st.memory);
-    let widget = |st: &treelight::report::EditorState, name: &str| {
-        let r = st
-            .widgets
-            .iter()
-            .find(|(n, _)| n == name)
-            .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
-            .1;
-        (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0)
-    };
     let choose = |s: &mut xdrive::Session, st: &treelight::report::EditorState, mode: &str| {
-        let (x, y) = widget(st, "Render mode");
+        let (x, y) = xdrive::widget(st, "Render mode");
         s.click(x, y);
         let st = s.frames(5);
-        let (x, y) = widget(&st, &format!("Render mode {mode}"));
+        let (x, y) = xdrive::widget(&st, &format!("Render mode {mode}"));
         s.click(x, y);
         s.wait_until(mode, std::time::Duration::from_secs(30), |st| {
             st.view == mode

@@ -461,6 +461,25 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
     );
 }
 
+/// Renders `scene` at 96×64 and 4 samples a pixel into `out`: its red and its green pixels
+/// (`support::red_and_green_pixels`, 40 levels clear of the other channels).
+fn red_and_green_render(scene: &std::path::Path, out: &std::path::Path) -> (u32, u32) {
+    let (ok, log) = render(&[
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--spp",
+        "4",
+    ]);
+    assert!(ok, "{log}");
+    let img = load_rgb(out);
+    support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40)
+}
+
 /// A material that reads its maps through the second UV set is path traced through it, as the
 /// raster view draws it: the quad is its texture's green half, no pixel the red half of set 0;
 /// so too when another of its maps reads set 0 (the shading records then hold both sets).
@@ -470,21 +489,7 @@ fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
     for emission_on_first in [false, true] {
         let quad = support::write_second_uv_set_quad(&dir, emission_on_first);
         let out = dir.join(format!("quad-{emission_on_first}.png"));
-        let (ok, log) = render(&[
-            quad.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--width",
-            "96",
-            "--height",
-            "64",
-            "--spp",
-            "4",
-        ]);
-        assert!(ok, "{log}");
-        let img = load_rgb(&out);
-        let (red, green) =
-            support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
+        let (red, green) = red_and_green_render(&quad, &out);
         assert!(
             green > 96 * 64 / 8 && red == 0,
             "the quad is not the second set's green (emission on set 0: {emission_on_first}): \
@@ -502,20 +507,7 @@ fn maps_with_their_own_texture_transforms_are_path_traced_through_each() {
     let dir = temp_dir("render-map-transforms");
     let quad = support::write_map_transforms_quad(&dir);
     let out = dir.join("quad.png");
-    let (ok, log) = render(&[
-        quad.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--width",
-        "96",
-        "--height",
-        "64",
-        "--spp",
-        "4",
-    ]);
-    assert!(ok, "{log}");
-    let img = load_rgb(&out);
-    let (red, green) = support::red_and_green_pixels(&img, [0, 0, img.width(), img.height()], 40);
+    let (red, green) = red_and_green_render(&quad, &out);
     assert!(
         green > 96 * 64 / 8 && red == 0,
         "the quad's emission is not its own transform's green: {green} green pixels, {red} red; \

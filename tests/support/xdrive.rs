@@ -478,6 +478,19 @@ fn keycodes(conn: &RustConnection) -> Vec<(u32, u8)> {
     out
 }
 
+/// The centre of the named widget the report lists, if it is laid out.
+pub fn widget_at(st: &EditorState, name: &str) -> Option<(f32, f32)> {
+    st.widgets
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+}
+
+/// The centre of the named widget the report lists.
+pub fn widget(st: &EditorState, name: &str) -> (f32, f32) {
+    widget_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+}
+
 /// The object named `name` in a report.
 pub fn object<'a>(state: &'a EditorState, name: &str) -> &'a ObjectReport {
     state

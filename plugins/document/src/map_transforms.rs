@@ -28,15 +28,15 @@ impl MaterialMapTransforms {
 /// An imported material's maps' transforms, where the maps it has do not all share one.
 pub fn of_material(m: &ImportedMaterial) -> Option<[Affine2; 5]> {
     let maps = m.maps();
-    let each = maps.map(|r| {
-        r.map_or(Affine2::IDENTITY, |r| {
-            let [x, y, t] = r.uv_transform;
-            Affine2::from_cols(x.into(), y.into(), t.into())
-        })
-    });
+    let each = maps.map(|r| r.map_or(Affine2::IDENTITY, |r| affine(r.uv_transform)));
     let mut used = maps.iter().zip(each).filter(|(r, _)| r.is_some());
     let first = used.next()?.1;
     used.any(|(_, t)| t != first).then_some(each)
+}
+
+/// An imported UV transform (the columns of `TextureRef::uv_transform`) as Bevy's.
+pub fn affine([x, y, t]: [[f32; 2]; 3]) -> Affine2 {
+    Affine2::from_cols(x.into(), y.into(), t.into())
 }
 
 /// Forgets the transforms of materials that are gone.

@@ -273,35 +273,13 @@ fn normal_mapped_meshes_get_tangents_and_others_do_not() {
 #[test]
 fn a_map_on_the_second_uv_set_reads_it_in_the_raster_view() {
     use bevy::mesh::{UvChannel, VertexAttributeValues};
-    let from =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
-    let dir = std::env::temp_dir().join(format!("treelight-uv1-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    for f in std::fs::read_dir(&from).unwrap() {
-        let f = f.unwrap().path();
-        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
-    }
-    let file = dir.join("BoxTextured.gltf");
-    let text = std::fs::read_to_string(&file).unwrap();
-    let edited = text
-        .replace("\"TEXCOORD_0\": 3", "\"TEXCOORD_0\": 3, \"TEXCOORD_1\": 3")
-        .replace(
-            "\"name\": \"Texture\"",
-            "\"occlusionTexture\": {\"index\": 0, \"texCoord\": 1}, \"name\": \"Texture\"",
-        );
-    assert_ne!(edited, text);
-    std::fs::write(&file, edited).unwrap();
-    let scene = treelight_import::load_scene(&file).unwrap();
-    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
-    treelight_document::import::spawn::spawn_scene_in_world(
-        app.world_mut(),
-        &file,
-        &scene,
-        &mut Default::default(),
-        false,
-        &[],
-    )
-    .unwrap();
+    let (dir, scene, mut app) = spawned_box_textured("uv1", |text| {
+        text.replace("\"TEXCOORD_0\": 3", "\"TEXCOORD_0\": 3, \"TEXCOORD_1\": 3")
+            .replace(
+                "\"name\": \"Texture\"",
+                "\"occlusionTexture\": {\"index\": 0, \"texCoord\": 1}, \"name\": \"Texture\"",
+            )
+    });
     let world = app.world_mut();
     let (mesh, material) = world
         .query::<(&Mesh3d, &MeshMaterial3d<StandardMaterial>)>()
@@ -333,26 +311,14 @@ fn maps_with_their_own_texture_transforms_keep_them() {
     use treelight_document::edit::command::EditCommand;
     use treelight_document::edit::history::{EditRequest, apply_request};
     use treelight_document::map_transforms::MaterialMapTransforms;
-    let from =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
-    let dir = std::env::temp_dir().join(format!("treelight-map-transforms-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    for f in std::fs::read_dir(&from).unwrap() {
-        let f = f.unwrap().path();
-        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
-    }
-    let file = dir.join("BoxTextured.gltf");
-    let text = std::fs::read_to_string(&file).unwrap();
-    let edited = text
-        .replacen("{", "{\"extensionsUsed\": [\"KHR_texture_transform\"],", 1)
-        .replace(
-            "\"name\": \"Texture\"",
-            "\"occlusionTexture\": {\"index\": 0, \"extensions\": {\"KHR_texture_transform\": \
-             {\"offset\": [0.5, 0.25], \"scale\": [2, 4]}}}, \"name\": \"Texture\"",
-        );
-    assert_ne!(edited, text);
-    std::fs::write(&file, edited).unwrap();
-    let scene = treelight_import::load_scene(&file).unwrap();
+    let (dir, scene, mut app) = spawned_box_textured("map-transforms", |text| {
+        text.replacen("{", "{\"extensionsUsed\": [\"KHR_texture_transform\"],", 1)
+            .replace(
+                "\"name\": \"Texture\"",
+                "\"occlusionTexture\": {\"index\": 0, \"extensions\": {\"KHR_texture_transform\": \
+                 {\"offset\": [0.5, 0.25], \"scale\": [2, 4]}}}, \"name\": \"Texture\"",
+            )
+    });
     assert!(
         scene
             .warnings
@@ -361,16 +327,6 @@ fn maps_with_their_own_texture_transforms_keep_them() {
         "{:?}",
         scene.warnings
     );
-    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
-    treelight_document::import::spawn::spawn_scene_in_world(
-        app.world_mut(),
-        &file,
-        &scene,
-        &mut Default::default(),
-        false,
-        &[],
-    )
-    .unwrap();
     let world = app.world_mut();
     let (id, material) = world
         .query::<(
@@ -407,4 +363,38 @@ fn maps_with_their_own_texture_transforms_keep_them() {
     assert_ne!(copy, material);
     assert_eq!(world.resource::<MaterialMapTransforms>().0[&copy], each);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A copy of BoxTextured in a fresh folder (named after `name`), its glTF's text changed by `edit`
+/// (which must change it), read and spawned in a headless app: the folder, the scene as read and
+/// the app.
+fn spawned_box_textured(
+    name: &str,
+    edit: impl Fn(&str) -> String,
+) -> (std::path::PathBuf, treelight_import::ImportedScene, App) {
+    let from =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
+    let dir = std::env::temp_dir().join(format!("treelight-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in std::fs::read_dir(&from).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    let file = dir.join("BoxTextured.gltf");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let edited = edit(&text);
+    assert_ne!(edited, text);
+    std::fs::write(&file, edited).unwrap();
+    let scene = treelight_import::load_scene(&file).unwrap();
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    treelight_document::import::spawn::spawn_scene_in_world(
+        app.world_mut(),
+        &file,
+        &scene,
+        &mut Default::default(),
+        false,
+        &[],
+    )
+    .unwrap();
+    (dir, scene, app)
 }

@@ -101,11 +101,10 @@ fn material_of(
     assets: MaterialAssets,
     layers: &mut TextureLayers,
 ) -> SurfaceMaterial {
-    let materials = assets.materials;
-    let Some(m) = handles
+    let Some((id, m)) = handles
         .get(e)
         .ok()
-        .and_then(|h| materials.and_then(|a| a.get(&h.0)))
+        .and_then(|h| Some((h.0.id(), assets.materials?.get(&h.0)?)))
     else {
         return SurfaceMaterial::default();
     };
@@ -146,10 +145,7 @@ fn material_of(
         occlusion_texture: layer(&m.occlusion_texture, &m.occlusion_channel),
         emissive_texture: layer(&m.emissive_texture, &m.emissive_channel),
         uv_transform: m.uv_transform,
-        map_uv_transforms: handles
-            .get(e)
-            .ok()
-            .and_then(|h| assets.map_transforms?.0.get(&h.0.id()).copied()),
+        map_uv_transforms: assets.map_transforms.and_then(|t| t.0.get(&id).copied()),
     }
 }
 
@@ -317,6 +313,7 @@ fn scene_writes(
     let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
     relay.extend(changes.relaid_groups.iter().map(|r| r.0));
     layers.begin_pass();
+    let sets = sync.map_transforms.len();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
@@ -329,7 +326,6 @@ fn scene_writes(
             // A material that began or stopped reading the second set: the group's records again.
             relay.push(g);
         }
-        let sets = sync.map_transforms.len();
         let rec = with_identity(
             object_bytes(
                 Mat3::from(transform.matrix3),
@@ -351,11 +347,11 @@ fn scene_writes(
             });
             *slot = Some(rec);
         }
-        if sync.map_transforms.len() != sets {
-            p.map_transforms = Some(sync.map_transforms.bytes());
-        }
     }
     layers.end_pass();
+    if sync.map_transforms.len() != sets {
+        p.map_transforms = Some(sync.map_transforms.bytes());
+    }
 
     // Shading records of new and re-laid groups (triangles that only moved keep theirs) and of
     // groups whose material changed the UV sets it reads: which group and which of its triangles

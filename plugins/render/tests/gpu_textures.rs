@@ -165,6 +165,29 @@ struct Checked {
     worst: f32,
 }
 
+impl Checked {
+    /// Asserts that over 4,000 pixels were checked, over 500 of them mirrored and 500 clamped, and
+    /// that `what` (the traced colour) is within 0.01 of the texture everywhere.
+    fn assert_wrapped_and_close(&self, what: &str) {
+        eprintln!(
+            "{what}: {} pixels checked ({} mirrored, {} clamped), worst {}",
+            self.pixels, self.mirrored, self.clamped, self.worst
+        );
+        assert!(
+            self.pixels > 4000,
+            "only {} pixels could be checked",
+            self.pixels
+        );
+        assert!(
+            self.mirrored > 500 && self.clamped > 500,
+            "{} mirrored, {} clamped",
+            self.mirrored,
+            self.clamped
+        );
+        assert!(self.worst < 0.01, "{what} differs by {}", self.worst);
+    }
+}
+
 /// Compares the albedo view of the quad with the blocks texture read at `texture_uv` of each
 /// pixel's hit (its position on the quad) through the `wrap` modes, where a pixel's jittered
 /// samples all fall inside one block's flat middle (bilinear taps there see only that block's
@@ -266,18 +289,7 @@ fn albedo_view_reads_the_material_texture_with_its_wrap_modes() {
     let c = check_albedo(&image, wrap, |p| {
         uv_transform().transform_point2(quad_uv(p))
     });
-    eprintln!(
-        "{} pixels checked ({} mirrored, {} clamped), worst {}",
-        c.pixels, c.mirrored, c.clamped, c.worst
-    );
-    assert!(c.pixels > 4000, "only {} pixels could be checked", c.pixels);
-    assert!(
-        c.mirrored > 500 && c.clamped > 500,
-        "{} mirrored, {} clamped",
-        c.mirrored,
-        c.clamped
-    );
-    assert!(c.worst < 0.01, "albedo differs by {}", c.worst);
+    c.assert_wrapped_and_close("albedo");
 }
 
 /// A material whose maps read both UV sets: each map reads its own, from a shading record holding
@@ -344,18 +356,7 @@ fn each_map_reads_through_its_own_uv_transform() {
     let c = check_albedo(&image, wrap, |p| {
         uv_transform().transform_point2(quad_uv(p))
     });
-    eprintln!(
-        "emission through its own transform: {} pixels checked ({} mirrored, {} clamped), worst {}",
-        c.pixels, c.mirrored, c.clamped, c.worst
-    );
-    assert!(c.pixels > 4000, "only {} pixels could be checked", c.pixels);
-    assert!(
-        c.mirrored > 500 && c.clamped > 500,
-        "{} mirrored, {} clamped",
-        c.mirrored,
-        c.clamped
-    );
-    assert!(c.worst < 0.01, "emission differs by {}", c.worst);
+    c.assert_wrapped_and_close("emission through its own transform");
 }
 
 /// A pixel's samples cover it evenly: along a slanted edge between a white triangle and the black

@@ -268,13 +268,11 @@ fn reflectance(ior: f32, specular: f32) -> f32 {
 pub fn material(m: &ImportedMaterial) -> StandardMaterial {
     let [r, g, b, a] = m.base_color;
     let [sr, sg, sb] = m.specular_color;
-    let uv_transform =
-        material_maps(m)
-            .first()
-            .map_or(bevy::math::Affine2::IDENTITY, |(_, r, _)| {
-                let [x, y, t] = r.uv_transform;
-                bevy::math::Affine2::from_cols(x.into(), y.into(), t.into())
-            });
+    let uv_transform = material_maps(m)
+        .first()
+        .map_or(bevy::math::Affine2::IDENTITY, |(_, r, _)| {
+            crate::map_transforms::affine(r.uv_transform)
+        });
     StandardMaterial {
         base_color: Color::LinearRgba(LinearRgba::new(r, g, b, a)),
         metallic: m.metallic,
