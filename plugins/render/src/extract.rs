@@ -371,6 +371,8 @@ fn scene_writes(
         &mut sync.pending.writes,
         BufferKind::Attributes,
         &ids,
+        // The records between two groups' are not at hand here: exact runs only.
+        0,
         |_, out| {
             if let Some(&(_, g, k)) = next.next()
                 && let Some(shading) = tree.shading.get(&g)

@@ -1,6 +1,7 @@
 //! From a [`ChangeSet`] to the buffer writes a renderer issues: only changed records, buffers grown by
 //! doubling (the old contents copied on the GPU), and a byte count for the figure the UI shows.
 
+use std::ops::Range;
 use treelight_bvh::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle};
 
 /// Bytes of one node record (the compressed 4-wide record of `Bvh::gpu_wide_node`, one per inner
@@ -91,6 +92,17 @@ pub struct UploadPlan {
     pub root: u32,
 }
 
+/// The longest stretch of unchanged records, in bytes, that a plan rewrites (with their current
+/// contents) to join the changed records on either side into one write. Each write is a staging
+/// buffer and a copy command: an update pass that touched every other node record would otherwise
+/// be millions of writes, seconds of frame time and millions of small allocations in the driver.
+pub const JOIN_GAP_BYTES: u64 = 4096;
+
+/// The unchanged records of `kind` a plan rewrites to join two writes (see [`JOIN_GAP_BYTES`]).
+pub fn join_gap(kind: BufferKind) -> u32 {
+    (JOIN_GAP_BYTES / kind.record_bytes()) as u32
+}
+
 /// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).
 pub fn grown_capacity(current: u64, needed: u64) -> u64 {
     let mut cap = current.max(1024);
@@ -117,8 +129,10 @@ pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
 
 impl UploadPlan {
     /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
-    /// Consecutive changed records become one write each. A node record holds its children's binary
-    /// records, so the changed nodes' parents are rewritten with them (`Bvh::gpu_wide_ranges`).
+    /// Consecutive changed records become one write each, and so do changed records no more than
+    /// [`join_gap`] records apart (the records between rewritten as they are). A node record holds
+    /// its children's binary records, so the changed nodes' parents are rewritten with them
+    /// (`Bvh::gpu_wide_ranges`).
     pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
         let mut plan = UploadPlan {
             root: bvh.gpu_root(),
@@ -134,7 +148,7 @@ impl UploadPlan {
                 plan.grow.push((kind, grown_capacity(cap, need)));
             }
         }
-        for r in bvh.gpu_wide_ranges(changes) {
+        for r in joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)) {
             let mut bytes = Vec::with_capacity(r.len() * NODE_BYTES as usize);
             for i in r.clone() {
                 bytes.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_wide_node(i)));
@@ -153,9 +167,16 @@ impl UploadPlan {
             .collect();
         tris.sort_unstable();
         tris.dedup();
-        push_runs(&mut plan.writes, BufferKind::Triangles, &tris, |t, out| {
-            out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_triangle(t)));
-        });
+        let gap = join_gap(BufferKind::Triangles);
+        push_runs(
+            &mut plan.writes,
+            BufferKind::Triangles,
+            &tris,
+            gap,
+            |t, out| {
+                out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_triangle(t)));
+            },
+        );
         let mut instances = changes.instances.clone();
         instances.sort_unstable();
         instances.dedup();
@@ -163,6 +184,7 @@ impl UploadPlan {
             &mut plan.writes,
             BufferKind::Instances,
             &instances,
+            join_gap(BufferKind::Instances),
             |i, out| {
                 out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_instance(i)));
             },
@@ -180,12 +202,27 @@ impl UploadPlan {
     }
 }
 
-/// One write per run of consecutive ids (`ids` sorted, each once), each record's bytes appended by
-/// `put`: no buffer per record, so a large change set costs one allocation per run.
+/// Sorted disjoint `ranges`, those at most `gap` apart joined into one.
+fn joined(ranges: Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
+    let mut out: Vec<Range<u32>> = Vec::with_capacity(ranges.len());
+    for r in ranges {
+        match out.last_mut() {
+            Some(last) if r.start - last.end <= gap => last.end = r.end,
+            _ => out.push(r),
+        }
+    }
+    out
+}
+
+/// One write per run of ids (`ids` sorted, each once) where each id follows the last by at most
+/// `gap + 1`, each record's bytes appended by `put`, called for every id of the run in order, those
+/// between the given ones too: no buffer per record, so a large change set costs one allocation
+/// per run. With `gap` 0, `put` sees exactly `ids`.
 pub(crate) fn push_runs(
     out: &mut Vec<BufferWrite>,
     buffer: BufferKind,
     ids: &[u32],
+    gap: u32,
     mut put: impl FnMut(u32, &mut Vec<u8>),
 ) {
     let record = buffer.record_bytes() as usize;
@@ -193,11 +230,12 @@ pub(crate) fn push_runs(
     while k < ids.len() {
         let start = ids[k];
         let mut end = k + 1;
-        while end < ids.len() && ids[end] == start + (end - k) as u32 {
+        while end < ids.len() && ids[end] - ids[end - 1] <= gap + 1 {
             end += 1;
         }
-        let mut bytes = Vec::with_capacity((end - k) * record);
-        for &id in &ids[k..end] {
+        let last = ids[end - 1];
+        let mut bytes = Vec::with_capacity((last - start + 1) as usize * record);
+        for id in start..=last {
             put(id, &mut bytes);
         }
         out.push(BufferWrite {

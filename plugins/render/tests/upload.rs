@@ -167,3 +167,45 @@ fn buffers_grow_by_doubling_up_to_what_the_adapter_binds_and_no_further() {
     // More records than one binding holds, for a kind never split: no buffer at all.
     assert_eq!(within(4000).grown(kind, 1024, 5000), None);
 }
+
+#[test]
+fn an_update_pass_over_the_whole_tree_is_a_few_writes_joined_over_unchanged_records() {
+    // Triangles in shuffled order: incremental insertion leaves the tree many moves to make.
+    let mut tris = grid(20_000, 0.0);
+    let mut state = 1u64;
+    for i in (1..tris.len()).rev() {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        tris.swap(i, (state >> 33) as usize % (i + 1));
+    }
+    let mut bvh = Bvh::default();
+    bvh.insert_triangles(&tris).unwrap();
+    let mut gpu = FakeGpu::default();
+    let c = bvh.take_changes();
+    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    gpu.check(&bvh);
+
+    let updates = treelight_bvh::Preset::Best.policy().idle;
+    assert!(
+        updates.run_to_end(&mut bvh) > 0,
+        "the updates moved nothing"
+    );
+    let c = bvh.take_changes();
+    let changed = bvh.gpu_wide_ranges(&c);
+    let plan = UploadPlan::new(&bvh, &c, gpu.caps);
+    let node_writes = plan
+        .writes
+        .iter()
+        .filter(|w| w.buffer == BufferKind::Nodes)
+        .count();
+    assert!(
+        changed.len() > 200 && node_writes * 20 < changed.len(),
+        "{} changed runs of node records became {node_writes} writes",
+        changed.len()
+    );
+    // The records between the changed ones are written as they are: the buffers still equal a
+    // full export.
+    gpu.apply(&plan);
+    gpu.check(&bvh);
+}
