@@ -136,7 +136,10 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     let (mut parse_frame, mut frames_to_first, mut frames_to_picture) = (None, None, None);
     let mut last: Option<EditorState> = None;
     while start.elapsed() < Duration::from_secs(900) {
-        std::thread::sleep(Duration::from_millis(if all.is_none() { 50 } else { 250 }));
+        // Finely until the first triangles and picture; then coarser, as each look parses a
+        // report of hundreds of kilobytes on a machine whose two cores the editor needs.
+        let fine = first.is_none() || pictured.is_none();
+        std::thread::sleep(Duration::from_millis(if fine { 50 } else { 250 }));
         let Some(s) = std::fs::read_to_string(&state)
             .ok()
             .and_then(|t| ron::from_str::<EditorState>(&t).ok())

@@ -247,6 +247,31 @@ pub fn preview_scale(width: u32, height: u32, budget: u64) -> u32 {
 
 #[cfg(test)]
 mod tests {
+    use crate::PathTraced;
+
+    #[test]
+    fn while_the_tree_fills_the_trace_takes_a_smaller_share_of_the_frame() {
+        let settings = PathTraced::default();
+        let (calm, filling) = (settings.frame_budget(false), settings.frame_budget(true));
+        assert_eq!(calm.share, settings.frame_budget_share);
+        assert_eq!(filling.share, settings.frame_budget_share_while_filling);
+        assert_eq!(calm.millis, filling.millis);
+        // A slow frame (the rest 1 s, a sample 1 µs): the trace's samples follow the share.
+        let mut clock = TraceClock::default();
+        clock.observe_trace(1000, 1e6);
+        for k in 0..8 {
+            clock.observe_frame(1000 + k * 10, 1e9);
+        }
+        let (a, b) = (clock.sample_budget(&calm), clock.sample_budget(&filling));
+        assert!(b * 5 < a, "{a} samples as usual, {b} while filling");
+        // A share already below the cap stays.
+        let low = PathTraced {
+            frame_budget_share: 0.05,
+            ..settings
+        };
+        assert_eq!(low.frame_budget(true).share, 0.05);
+    }
+
     use super::*;
 
     #[test]

@@ -45,6 +45,8 @@ pub(crate) struct PendingUpload {
     pub outline_bounds: Option<[Vec3; 2]>,
     /// The whole table of per-map UV transform sets, when it gained one.
     pub map_transforms: Option<Vec<u8>>,
+    /// Whether new geometry is on its way into the scene's tree (`SceneBvh::is_filling`).
+    pub filling: bool,
 }
 
 impl PendingUpload {
@@ -174,6 +176,7 @@ fn extract_scene(
         return;
     };
     let everything = !sync.synced;
+    sync.pending.filling = scene.is_filling();
     let assets = MaterialAssets {
         materials: materials.as_deref(),
         images: images.as_deref(),

@@ -260,6 +260,11 @@ pub struct PathTraced {
     /// `frame_budget_ms`: on a slow adapter the preview keeps up while the frame rate stays within
     /// `1 / (1 + share)` of what the rest of the frame allows.
     pub frame_budget_share: f32,
+    /// The most `frame_budget_share` may be while new geometry is on its way into the scene's
+    /// tree (an import streaming in): each frame's new triangles restart the view's samples, so a
+    /// trace beyond the preview is thrown away next frame, and the cores it would take fill the
+    /// tree instead.
+    pub frame_budget_share_while_filling: f32,
     /// How [`Outlined`] meshes are outlined in this view.
     pub outline: OutlineStyle,
     /// Whether the path-traced image is denoised: an edge-aware filter guided by the primary
@@ -321,6 +326,22 @@ impl Outlined {
     }
 }
 
+impl PathTraced {
+    /// How long a frame of this view may trace, `filling` while new geometry is on its way into
+    /// the scene's tree (the share held to `frame_budget_share_while_filling`).
+    pub fn frame_budget(&self, filling: bool) -> FrameBudget {
+        FrameBudget {
+            millis: self.frame_budget_ms,
+            share: if filling {
+                self.frame_budget_share
+                    .min(self.frame_budget_share_while_filling)
+            } else {
+                self.frame_budget_share
+            },
+        }
+    }
+}
+
 impl Default for PathTraced {
     fn default() -> Self {
         Self {
@@ -333,6 +354,7 @@ impl Default for PathTraced {
             view: DebugView::PathTraced,
             frame_budget_ms: 4.0,
             frame_budget_share: 1.0,
+            frame_budget_share_while_filling: 0.1,
             outline: OutlineStyle::default(),
             denoise: true,
             temporal: true,

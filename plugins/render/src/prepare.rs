@@ -3,7 +3,7 @@
 //! array grew), and each path-traced view's buffers, uniforms and bind groups, with the share of its
 //! work that fits this frame's budget: what the node is to dispatch and draw.
 
-use crate::budget::{FrameBudget, TILE, TileCursor, TileOrder, TraceClock, preview_scale};
+use crate::budget::{TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::environment::{ExtractedEnvironment, GpuEnvironment};
 use crate::extract::SceneSync;
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
@@ -88,6 +88,8 @@ pub(crate) struct GpuScene {
     /// Why the scene cannot be traced on this adapter (a buffer larger than it can bind), once
     /// that happened: nothing is bound or written from then on, and no view is traced.
     pub too_large: Option<String>,
+    /// Whether new geometry was on its way into the scene's tree as of this frame's extract.
+    pub filling: bool,
 }
 
 impl GpuScene {
@@ -190,6 +192,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         outline_bounds: None,
         map_transforms: map_transform_buffer(&device, &crate::MapTransformTable::default().bytes()),
         too_large,
+        filling: false,
     });
 }
 
@@ -215,6 +218,7 @@ fn apply_scene_uploads(
     stats: Res<PathTracerStats>,
 ) {
     let pending = std::mem::take(&mut sync.pending);
+    scene.filling = pending.filling;
     let scene = &mut *scene;
     if scene.too_large.is_some() {
         return;
@@ -725,16 +729,18 @@ impl ViewState {
 
     /// Decides this frame's work: a preview after a restart the budget cannot cover with a whole
     /// sweep, else the next run of tiles the budget allows; `None` once the view has its samples.
-    fn next_work(&mut self, settings: &PathTraced, restart: bool) -> Option<(TraceWork, u64)> {
+    fn next_work(
+        &mut self,
+        settings: &PathTraced,
+        restart: bool,
+        filling: bool,
+    ) -> Option<(TraceWork, u64)> {
         let spf = settings.samples_per_frame.clamp(1, 64);
         let sweeps = self.cursor.sweeps(&self.order);
         if settings.max_samples > 0 && sweeps * spf as u64 >= settings.max_samples as u64 {
             return None;
         }
-        let allowed = self.clock.sample_budget(&FrameBudget {
-            millis: settings.frame_budget_ms,
-            share: settings.frame_budget_share,
-        });
+        let allowed = self.clock.sample_budget(&settings.frame_budget(filling));
         let size = self.buffers.size;
         let pixels = size.x as u64 * size.y as u64;
         if restart && allowed < pixels * spf as u64 {
@@ -846,6 +852,7 @@ fn prepare_views(
                 max_samples: 0,
                 frame_budget_ms: 0.0,
                 frame_budget_share: 0.0,
+                frame_budget_share_while_filling: 0.0,
                 // The outline is drawn by the resolve, over the samples, and the denoiser
                 // filters them.
                 outline: OutlineStyle::default(),
@@ -915,7 +922,7 @@ fn prepare_views(
             state.preview_scale = 0;
             state.denoised_sweeps = None;
         }
-        let work = state.next_work(settings, restart);
+        let work = state.next_work(settings, restart, scene.filling);
         let traced = work.map_or(0, |(_, n)| n);
         state.last_frame = Some((now, traced));
         let mut timing = None;

@@ -108,6 +108,7 @@ impl Plugin for SceneBvhPlugin {
             stats: Mutex::new(SceneStats::default()),
             version: AtomicU64::new(0),
             pending: AtomicUsize::new(0),
+            incoming: AtomicUsize::new(0),
             failure: Mutex::new(None),
             refine_failure: Arc::new(Mutex::new(None)),
         });
@@ -564,6 +565,17 @@ impl SceneBvh {
             .send(Command::Crash);
     }
 
+    /// Whether new geometry is on its way into the tree: meshes being copied out of the world, or
+    /// sent to the worker (new or edited meshes, further entities sharing one) and not yet in.
+    /// Moves and removals do not count. While an import streams in this holds for seconds, and
+    /// each frame's new triangles change what a renderer shows anyway.
+    pub fn is_filling(&self) -> bool {
+        self.worker_failure().is_none()
+            && (!self.copying.is_empty()
+                || !self.followers.is_empty()
+                || self.shared.incoming.load(Ordering::Acquire) > 0)
+    }
+
     /// Whether every change sent so far has been applied (never, once the worker has stopped).
     pub fn is_idle(&self) -> bool {
         self.copying.is_empty()
@@ -695,7 +707,11 @@ impl SceneBvh {
     }
 
     fn send(&self, c: Command) {
+        let incoming = c.brings_geometry();
         self.shared.pending.fetch_add(1, Ordering::AcqRel);
+        if incoming {
+            self.shared.incoming.fetch_add(1, Ordering::AcqRel);
+        }
         if self
             .sender
             .lock()
@@ -704,6 +720,9 @@ impl SceneBvh {
             .is_err()
         {
             self.shared.pending.fetch_sub(1, Ordering::AcqRel);
+            if incoming {
+                self.shared.incoming.fetch_sub(1, Ordering::AcqRel);
+            }
             error!("the scene BVH worker has stopped");
         }
     }

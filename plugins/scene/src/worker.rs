@@ -91,6 +91,15 @@ impl Command {
         }
     }
 
+    /// Whether the command brings geometry to the tree: a new or edited mesh, or an entity sharing
+    /// one the tree holds.
+    pub(crate) fn brings_geometry(&self) -> bool {
+        matches!(
+            self,
+            Command::Copied { .. } | Command::Upsert(_) | Command::Instance { .. }
+        )
+    }
+
     /// The new triangles the command brings to the tree (0 for all but new or edited meshes).
     fn new_triangles(&self) -> usize {
         match self {
@@ -118,6 +127,8 @@ pub(crate) struct Shared {
     pub stats: Mutex<SceneStats>,
     pub version: AtomicU64,
     pub pending: AtomicUsize,
+    /// Of the pending commands, those bringing geometry ([`Command::brings_geometry`]).
+    pub incoming: AtomicUsize,
     /// Why the worker stopped, once it has (it panicked).
     pub failure: Mutex<Option<String>>,
     /// Why background refinement stopped, once it has; the tree keeps its binned builds.
@@ -250,6 +261,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             panic!("the scene worker was asked to crash");
         }
         let received = batch.len();
+        let incoming = batch.iter().filter(|c| c.brings_geometry()).count();
         // Copied meshes become triangles here, in parallel, rather than on the main thread.
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
         for c in &batch {
@@ -364,6 +376,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let latency = latest_sent.map(|sent| sent.elapsed());
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
+        shared.incoming.fetch_sub(incoming, Ordering::AcqRel);
         publish_stats(&shared, &mut clock, InFlight::Done(received), |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =

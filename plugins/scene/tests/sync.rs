@@ -346,6 +346,7 @@ fn big_meshes_are_copied_over_several_frames() {
     app.update();
     let scene = app.world().resource::<SceneBvh>();
     assert!(!scene.is_idle() && scene.stats().pending >= 1);
+    assert!(scene.is_filling(), "a mesh being copied is on its way");
     assert_eq!(tree_triangles(&app), 0, "still copying after two frames");
     // Moved and despawned while their triangles are still being copied.
     app.world_mut()
@@ -354,7 +355,23 @@ fn big_meshes_are_copied_over_several_frames() {
         .translation = Vec3::new(5.0, 0.0, 0.0);
     app.world_mut().despawn(dropped);
     settle(&mut app);
+    assert!(!app.world().resource::<SceneBvh>().is_filling());
     assert_eq!(tree_triangles(&app), triangles, "only the kept sphere");
+    // A move brings no geometry: not filling, while it is still on its way or after.
+    app.world_mut()
+        .get_mut::<Transform>(kept)
+        .unwrap()
+        .translation = Vec3::new(6.0, 0.0, 0.0);
+    for _ in 0..3 {
+        app.update();
+        assert!(!app.world().resource::<SceneBvh>().is_filling());
+    }
+    settle(&mut app);
+    app.world_mut()
+        .get_mut::<Transform>(kept)
+        .unwrap()
+        .translation = Vec3::new(5.0, 0.0, 0.0);
+    settle(&mut app);
     let down = |x: f32, z: f32| Ray3d::new(Vec3::new(x, 10.0, z), Dir3::NEG_Y);
     let hit = cast(&app, down(5.0, 0.0)).expect("the sphere where it was moved to");
     assert_eq!(hit.entity, kept);
