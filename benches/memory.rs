@@ -54,6 +54,9 @@ struct Run {
     idle: f64,
     /// Bytes the resident set grew by per frame over the 8 s once idle.
     growth_per_frame: Option<f64>,
+    /// The view's trace in its last frame once idle: pixel samples, and nanoseconds a sample as
+    /// its budget estimates it (a slow frame rate with many samples is the budget's doing).
+    trace: Option<(u64, Option<f64>)>,
 }
 
 /// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
@@ -297,6 +300,7 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
             );
         }
     }
+    let trace = last.as_ref().and_then(|s| s.trace);
     let memory = last.map(|s| s.memory).unwrap_or_else(|| {
         panic!(
             "{}: the tree never held {triangles} triangles",
@@ -317,6 +321,20 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         quiet,
         idle,
         growth_per_frame,
+        trace,
+    }
+}
+
+/// The trace's last frame, for the lines under the table.
+fn trace_line(trace: Option<(u64, Option<f64>)>) -> String {
+    match trace {
+        Some((samples, Some(ns))) => format!(
+            "{samples} pixel samples a frame at {:.1} µs each ({:.0} ms)",
+            ns / 1e3,
+            samples as f64 * ns / 1e6
+        ),
+        Some((samples, None)) => format!("{samples} pixel samples a frame, cost not yet known"),
+        None => "not traced".into(),
     }
 }
 
@@ -356,6 +374,7 @@ fn main() {
         "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut traces = vec![format!("default scene: {}", trace_line(base.trace))];
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let r = run(Some(&file), triangles as u64, parts as u64, &dir);
@@ -385,8 +404,13 @@ fn main() {
             r.fps,
             kib(r.growth_per_frame),
         );
+        traces.push(format!("{parts} × {rows}: {}", trace_line(r.trace)));
         std::fs::remove_file(&file).ok();
         std::fs::remove_file(dir.join("assembly.bin")).ok();
+    }
+    println!("\nThe view's trace in its last frame once idle:");
+    for t in traces {
+        println!("- {t}");
     }
     // The generated files are gone; the editors' logs and mappings stay for a look.
     println!("\nThe editors' logs and mappings: {}", dir.display());

@@ -135,6 +135,10 @@ pub struct EditorState {
     /// flat sky colour: a driver that changes the sky waits for this to follow.
     #[serde(default)]
     pub traced_panorama: bool,
+    /// The viewport's path tracer in its latest frame: pixel samples traced, and what one costs
+    /// (nanoseconds) as its frame budget estimates it, from GPU timestamps or frame intervals.
+    #[serde(default)]
+    pub trace: Option<(u64, Option<f64>)>,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -355,11 +359,16 @@ pub fn write_state_report(
 ) {
     report.frame += 1;
     let camera = cameras.single().ok();
-    // The samples and the sky they show, from one copy of the figures.
-    let view_samples = camera_ids.single().map_or((0, false), |c| {
+    // The samples, the sky they show and the latest frame's trace, from one copy of the figures.
+    let view_samples = camera_ids.single().map_or((0, false, None), |c| {
         let figures = tracer.figures();
         let samples = figures.samples.get(&c).copied().unwrap_or(0);
-        (samples, figures.traces.get(&c).is_some_and(|t| t.panorama))
+        let trace = figures.traces.get(&c).copied();
+        (
+            samples,
+            trace.is_some_and(|t| t.panorama),
+            trace.map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
+        )
     });
     let parent_of = |e: Entity| {
         objects
@@ -454,6 +463,7 @@ pub fn write_state_report(
         notices: notices.0.iter().map(|n| n.text.clone()).collect(),
         samples: view_samples.0,
         traced_panorama: view_samples.1,
+        trace: view_samples.2,
         memory: memory_report(&meshes, &scene, &tracer),
         fps: diagnostics
             .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)
