@@ -247,6 +247,7 @@ pub fn preview_scale(width: u32, height: u32, budget: u64) -> u32 {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
     use crate::PathTraced;
 
     #[test]
@@ -271,8 +272,6 @@ mod tests {
         };
         assert_eq!(low.frame_budget(true).share, 0.05);
     }
-
-    use super::*;
 
     #[test]
     fn a_sweep_covers_every_tile_once_and_runs_spread_out() {

@@ -148,17 +148,12 @@ impl UploadPlan {
                 plan.grow.push((kind, grown_capacity(cap, need)));
             }
         }
-        for r in joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)) {
-            let mut bytes = Vec::with_capacity(r.len() * NODE_BYTES as usize);
-            for i in r.clone() {
-                bytes.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_wide_node(i)));
-            }
-            plan.writes.push(BufferWrite {
-                buffer: BufferKind::Nodes,
-                offset: r.start as u64 * NODE_BYTES,
-                bytes,
-            });
-        }
+        push_ranges(
+            &mut plan.writes,
+            BufferKind::Nodes,
+            joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)),
+            |i, out| out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_wide_node(i))),
+        );
         let mut tris: Vec<u32> = changes
             .written_triangles
             .iter()
@@ -202,47 +197,52 @@ impl UploadPlan {
     }
 }
 
-/// Sorted disjoint `ranges`, those at most `gap` apart joined into one.
-fn joined(ranges: Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
-    let mut out: Vec<Range<u32>> = Vec::with_capacity(ranges.len());
-    for r in ranges {
-        match out.last_mut() {
-            Some(last) if r.start - last.end <= gap => last.end = r.end,
-            _ => out.push(r),
+/// Sorted disjoint `ranges`, those at most `gap` apart joined into one, as they are read.
+fn joined(
+    ranges: impl IntoIterator<Item = Range<u32>>,
+    gap: u32,
+) -> impl Iterator<Item = Range<u32>> {
+    let mut ranges = ranges.into_iter().peekable();
+    std::iter::from_fn(move || {
+        let mut r = ranges.next()?;
+        while let Some(next) = ranges.next_if(|n| n.start - r.end <= gap) {
+            r.end = next.end;
         }
-    }
-    out
+        Some(r)
+    })
 }
 
-/// One write per run of ids (`ids` sorted, each once) where each id follows the last by at most
-/// `gap + 1`, each record's bytes appended by `put`, called for every id of the run in order, those
-/// between the given ones too: no buffer per record, so a large change set costs one allocation
-/// per run. With `gap` 0, `put` sees exactly `ids`.
+/// One write per range of records, each record's bytes appended by `put`, called for every id of
+/// the range in order: no buffer per record, so a large change set costs one allocation per range.
+fn push_ranges(
+    out: &mut Vec<BufferWrite>,
+    buffer: BufferKind,
+    ranges: impl IntoIterator<Item = Range<u32>>,
+    mut put: impl FnMut(u32, &mut Vec<u8>),
+) {
+    let record = buffer.record_bytes();
+    for r in ranges {
+        let mut bytes = Vec::with_capacity(r.len() * record as usize);
+        for id in r.clone() {
+            put(id, &mut bytes);
+        }
+        out.push(BufferWrite {
+            buffer,
+            offset: r.start as u64 * record,
+            bytes,
+        });
+    }
+}
+
+/// One write per run of `ids` (sorted, each once) no more than `gap` records apart
+/// ([`push_ranges`]), so `put` sees the ids between them too; with `gap` 0, exactly `ids`.
 pub(crate) fn push_runs(
     out: &mut Vec<BufferWrite>,
     buffer: BufferKind,
     ids: &[u32],
     gap: u32,
-    mut put: impl FnMut(u32, &mut Vec<u8>),
+    put: impl FnMut(u32, &mut Vec<u8>),
 ) {
-    let record = buffer.record_bytes() as usize;
-    let mut k = 0;
-    while k < ids.len() {
-        let start = ids[k];
-        let mut end = k + 1;
-        while end < ids.len() && ids[end] - ids[end - 1] <= gap + 1 {
-            end += 1;
-        }
-        let last = ids[end - 1];
-        let mut bytes = Vec::with_capacity((last - start + 1) as usize * record);
-        for id in start..=last {
-            put(id, &mut bytes);
-        }
-        out.push(BufferWrite {
-            buffer,
-            offset: start as u64 * buffer.record_bytes(),
-            bytes,
-        });
-        k = end;
-    }
+    let runs = joined(ids.iter().map(|&i| i..i + 1), gap);
+    push_ranges(out, buffer, runs, put);
 }
