@@ -16,6 +16,7 @@ pub mod edit;
 pub mod environment;
 pub mod folders;
 pub mod import;
+pub mod job;
 pub mod light;
 pub mod look;
 pub mod map_transforms;

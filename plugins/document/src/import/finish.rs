@@ -13,8 +13,8 @@ use crate::outbox::DocumentEvent;
 use crate::placement::{Surface, place_on, surface_under};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
-use bevy::tasks::{block_on, poll_once};
 use std::path::PathBuf;
+use treelight_import::ImportError;
 
 /// Where a dropped scene's root goes: its bounds' bottom centre on `surface` by the placement rule
 /// (the file's own coordinates otherwise kept: the root only moves).
@@ -75,13 +75,20 @@ pub fn finish_imports(
 ) {
     let mut i = 0;
     while i < pending.0.len() {
-        let Some(result) = block_on(poll_once(&mut pending.0[i].task)) else {
+        let Some(result) = pending.0[i].job.poll() else {
             i += 1;
             continue;
         };
         let PendingImport {
             path, dropped_at, ..
         } = pending.0.remove(i);
+        // A crash in the importer ends this import with an error, not the editor.
+        let result = result.unwrap_or_else(|problem| {
+            Err(ImportError {
+                file: path.clone(),
+                problem,
+            })
+        });
         let parsed = match result {
             Err(e) => {
                 start.notices.error(e.to_string());

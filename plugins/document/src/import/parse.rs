@@ -1,10 +1,10 @@
-//! Files parsed on a background task by `treelight_import`, with their Bevy meshes and images
+//! Files parsed on a thread of their own by `treelight_import`, with their Bevy meshes and images
 //! made there too, each import its own job carrying where it was dropped.
 
+use crate::job::Job;
 use crate::object::SceneId;
 use bevy::math::Ray3d;
 use bevy::prelude::*;
-use bevy::tasks::{AsyncComputeTaskPool, Task};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -150,7 +150,7 @@ pub struct PendingImport {
     /// The ray through where it was dropped, from the view it was dropped on: `None` for a file
     /// opened otherwise (framed, kept in its own coordinates).
     pub dropped_at: Option<Ray3d>,
-    pub(crate) task: Task<Result<ParsedScene, ImportError>>,
+    pub(crate) job: Job<Result<ParsedScene, ImportError>>,
 }
 
 /// Files being parsed.
@@ -166,23 +166,13 @@ impl PendingImports {
     /// Starts parsing `path`, dropped at `dropped_at` (see [`PendingImport::dropped_at`]).
     pub fn start_at(&mut self, path: PathBuf, dropped_at: Option<Ray3d>) {
         let p = path.clone();
-        let task = AsyncComputeTaskPool::get().spawn(async move {
-            // A bug in the importer ends this import with an error, not the editor.
-            crate::contain::contain(
-                || format!("importing {}", p.display()),
-                || treelight_import::load_scene(&p).map(ParsedScene::from),
-            )
-            .unwrap_or_else(|e| {
-                Err(ImportError {
-                    file: p.clone(),
-                    problem: e,
-                })
-            })
+        let job = Job::spawn(format!("importing {}", p.display()), move || {
+            treelight_import::load_scene(&p).map(ParsedScene::from)
         });
         self.0.push(PendingImport {
             path,
             dropped_at,
-            task,
+            job,
         });
     }
 }

@@ -3,13 +3,12 @@
 //! replaced in one frame. Until then the open scene is untouched, and a cancel leaves it so.
 
 use crate::edit::history::EditHistory;
+use crate::job::Job;
 use crate::notice::Notices;
 use crate::outbox::DocumentEvent;
 use crate::project::format::{OpenReport, ProjectError, ProjectFile, ProjectState, read_project};
 use crate::project::restore::{OpenProgress, ParsedSources, open_project_parsed, parse_sources};
 use bevy::prelude::*;
-use bevy::tasks::futures_lite::future::{block_on, poll_once};
-use bevy::tasks::{AsyncComputeTaskPool, Task};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -36,7 +35,7 @@ pub struct OpeningProject {
     pub kind: OpenKind,
     /// How far its sources are read.
     pub progress: Arc<OpenProgress>,
-    task: Task<Parsed>,
+    job: Job<Parsed>,
 }
 
 /// The project being opened, if any (a second open replaces the first).
@@ -49,22 +48,16 @@ impl OpeningProjects {
         self.cancel();
         let progress = Arc::new(OpenProgress::default());
         let (p, shared) = (path.clone(), progress.clone());
-        let task = AsyncComputeTaskPool::get().spawn(async move {
-            crate::contain::contain(
-                || format!("opening {}", p.display()),
-                || {
-                    let project = read_project(&p)?;
-                    let sources = parse_sources(&project, &p, Some(&shared))?;
-                    Ok((project, sources))
-                },
-            )
-            .unwrap_or_else(|e| Err(ProjectError::Io(p.clone(), e)))
+        let job = Job::spawn(format!("opening {}", p.display()), move || {
+            let project = read_project(&p)?;
+            let sources = parse_sources(&project, &p, Some(&shared))?;
+            Ok((project, sources))
         });
         self.0 = Some(OpeningProject {
             path,
             kind,
             progress,
-            task,
+            job,
         });
     }
 
@@ -98,8 +91,12 @@ pub fn finish_opening(world: &mut World) {
         let Some(o) = opening.0.as_mut() else {
             return;
         };
-        match block_on(poll_once(&mut o.task)) {
-            Some(parsed) => opening.0.take().map(|o| (o.path, o.kind, parsed)),
+        match o.job.poll() {
+            Some(parsed) => opening.0.take().map(|o| {
+                // A crash while reading ends this open with an error, not the editor.
+                let parsed = parsed.unwrap_or_else(|e| Err(ProjectError::Io(o.path.clone(), e)));
+                (o.path, o.kind, parsed)
+            }),
             None => None,
         }
     };
