@@ -153,6 +153,16 @@ pub(crate) struct WorkerConfig {
 /// one was in, so the first are published within a fraction of a second and the rest follow.
 const BATCH_TRIANGLES: usize = 1 << 19;
 
+/// The budget of a batch into a tree that is empty: the first triangles of a fill are on screen
+/// after a build of a few meshes, not of a full batch's, which on a busy machine takes a second.
+const FIRST_BATCH_TRIANGLES: usize = 1 << 16;
+
+/// New triangles the next batch may take when the tree holds `in_tree`: as many again, between
+/// [`FIRST_BATCH_TRIANGLES`] and [`BATCH_TRIANGLES`], so batches double while a fill starts.
+fn batch_budget(in_tree: usize) -> usize {
+    in_tree.clamp(FIRST_BATCH_TRIANGLES, BATCH_TRIANGLES)
+}
+
 /// `first` and the commands after it in `queue`, in order, while their new triangles stay within
 /// `budget`; the rest stay queued for the next batch.
 fn take_batch(first: Command, queue: &mut VecDeque<Command>, budget: usize) -> Vec<Command> {
@@ -256,7 +266,12 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             continue;
         };
         queued.extend(rx.try_iter());
-        let batch = take_batch(first, &mut queued, BATCH_TRIANGLES);
+        // Only this thread writes the tree: the read waits for no one.
+        let in_tree = shared
+            .tree
+            .read()
+            .map_or(0, |t| t.bvh.triangle_count() as usize);
+        let batch = take_batch(first, &mut queued, batch_budget(in_tree));
         if batch.iter().any(|c| matches!(c, Command::Crash)) {
             panic!("the scene worker was asked to crash");
         }
@@ -645,6 +660,22 @@ mod tests {
         let batch = take_batch(first, &mut queue, 100);
         assert_eq!(entities(&batch), [4, 5, 6]);
         assert!(queue.is_empty());
+    }
+
+    #[test]
+    fn batches_start_small_and_double_with_the_tree() {
+        assert_eq!(batch_budget(0), FIRST_BATCH_TRIANGLES);
+        assert_eq!(batch_budget(100_000), 100_000);
+        assert_eq!(batch_budget(10_000_000), BATCH_TRIANGLES);
+        // A fill of 30k-triangle meshes: the first batch is two meshes, then the batches grow.
+        let mut queue: VecDeque<Command> = (1..40).map(|i| mesh(i, 30_000)).collect();
+        let (mut in_tree, mut sizes) = (0, Vec::new());
+        while let Some(first) = queue.pop_front() {
+            let batch = take_batch(first, &mut queue, batch_budget(in_tree));
+            sizes.push(batch.len());
+            in_tree += batch.len() * 30_000;
+        }
+        assert_eq!(sizes[..5], [2, 2, 4, 8, 16]);
     }
 
     #[test]
