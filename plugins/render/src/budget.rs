@@ -120,6 +120,10 @@ pub struct TraceClock {
     last_samples: u64,
     /// Recent (samples traced, frame interval) pairs, for the fit.
     frames: VecDeque<(f64, f64)>,
+    /// The size of the scene these figures are of ([`TraceClock::scene_size`]).
+    scene_size: u64,
+    /// Raised each time the figures are forgotten: timings of frames from before are not used.
+    epoch: u64,
 }
 
 const SMOOTHING: f64 = 0.3;
@@ -139,6 +143,27 @@ pub enum CostSource {
 }
 
 impl TraceClock {
+    /// Tells the clock the size of the scene the next frame traces (its triangle records'
+    /// capacity, which grows by doubling). At a new size the clock forgets what a sample cost: a
+    /// scene that grew from empty to millions of triangles costs hundreds of times more a sample,
+    /// and one frame traced at the old cost would stall the editor for a second. Until a timing
+    /// of the new scene arrives, a frame traces a first guess's samples.
+    pub fn scene_size(&mut self, size: u64) {
+        if size != self.scene_size {
+            *self = Self {
+                scene_size: size,
+                epoch: self.epoch + 1,
+                ..Self::default()
+            };
+        }
+    }
+
+    /// Which of the scene sizes seen this clock's figures are of: a GPU timing of a frame traced
+    /// before it changed is not fed to [`TraceClock::observe_trace`].
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
     /// A GPU timing: `samples` pixel samples took `ns` nanoseconds.
     pub fn observe_trace(&mut self, samples: u64, ns: f64) {
         if samples == 0 || !ns.is_finite() || ns <= 0.0 {
@@ -271,6 +296,35 @@ mod tests {
             ..settings
         };
         assert_eq!(low.frame_budget(true).share, 0.05);
+    }
+
+    #[test]
+    fn a_scene_of_a_new_size_is_traced_at_a_first_guess_until_it_is_timed() {
+        let budget = PathTraced::default().frame_budget(false);
+        let mut clock = TraceClock::default();
+        clock.scene_size(1024);
+        // An empty scene: the sky alone, 10 ns a sample, frames of 50 ms.
+        for k in 0..8 {
+            clock.observe_trace(100_000, 1e6);
+            clock.observe_frame(100_000 + k * 1000, 5e7);
+        }
+        let cheap = clock.sample_budget(&budget);
+        assert!(cheap > 1_000_000, "{cheap}");
+        let epoch = clock.epoch();
+        clock.scene_size(1024);
+        assert_eq!(
+            clock.sample_budget(&budget),
+            cheap,
+            "the same size keeps its figures"
+        );
+        // Millions of triangles arrive: the next frame traces a first guess, not a stall's worth.
+        clock.scene_size(1 << 24);
+        assert_ne!(clock.epoch(), epoch);
+        assert_eq!(clock.sample_budget(&budget), FIRST_GUESS_SAMPLES);
+        // Timed at 4 µs a sample, it traces what the budget allows at that cost.
+        clock.observe_trace(4096, 4096.0 * 4000.0);
+        let timed = clock.sample_budget(&budget);
+        assert!(timed < cheap / 100, "{timed} against {cheap}");
     }
 
     #[test]

@@ -922,6 +922,9 @@ fn prepare_views(
             state.preview_scale = 0;
             state.denoised_sweeps = None;
         }
+        state
+            .clock
+            .scene_size(scene.capacities[BufferKind::Triangles.index()]);
         let work = state.next_work(settings, restart, scene.filling);
         let traced = work.map_or(0, |(_, n)| n);
         state.last_frame = Some((now, traced));
@@ -963,7 +966,8 @@ fn prepare_views(
                 environment: environment_word,
             };
             queue.write_buffer(&state.buffers.view_uniform, 0, &params.to_bytes());
-            timing = state.timer.as_mut().and_then(|t| t.assign(samples));
+            let epoch = state.clock.epoch();
+            timing = state.timer.as_mut().and_then(|t| t.assign(samples, epoch));
             let (x, y) = params.workgroups();
             UVec2::new(x, y)
         });
@@ -972,9 +976,12 @@ fn prepare_views(
         // The denoiser, in the path-traced view only, runs when a sweep over the image completes
         // (every pixel has new samples) and the sweeps have doubled since it last ran, and once at
         // a view's sample limit: its result improves most early, and on a software adapter one
-        // run costs about a frame.
+        // run costs about a frame. Not over an empty scene (the sky has no noise to filter), nor
+        // while the tree fills (the next frame's triangles restart the picture it would filter).
         let denoising = settings.denoise
             && settings.view == DebugView::PathTraced
+            && scene.root != treelight_bvh::NONE
+            && !scene.filling
             && pipeline_cache
                 .get_compute_pipeline(pipelines.denoise)
                 .is_some();

@@ -18,13 +18,16 @@ const FAILED: u8 = 2;
 
 enum SlotState {
     Free,
-    /// Handed to this frame's pass, which traces `samples` pixel samples.
+    /// Handed to this frame's pass, which traces `samples` pixel samples of the scene the clock's
+    /// `epoch` is of.
     Assigned {
         samples: u64,
+        epoch: u64,
     },
     /// Its copy was submitted and its mapping requested.
     Mapping {
         samples: u64,
+        epoch: u64,
     },
 }
 
@@ -86,7 +89,7 @@ impl TraceTimer {
     /// Feeds the clock every timing that has arrived, freeing its slot.
     pub fn harvest(&mut self, clock: &mut TraceClock) {
         for slot in &mut self.slots {
-            let SlotState::Mapping { samples } = slot.state else {
+            let SlotState::Mapping { samples, epoch } = slot.state else {
                 continue;
             };
             match slot.mapped.swap(PENDING, Ordering::Acquire) {
@@ -104,18 +107,22 @@ impl TraceTimer {
             };
             slot.readback.unmap();
             slot.state = SlotState::Free;
-            clock.observe_trace(samples, ticks as f64 * self.period_ns);
+            // A timing of the scene before it changed size says nothing of this one's cost.
+            if epoch == clock.epoch() {
+                clock.observe_trace(samples, ticks as f64 * self.period_ns);
+            }
         }
     }
 
-    /// A free slot for this frame's pass of `samples` pixel samples, if any.
-    pub fn assign(&mut self, samples: u64) -> Option<usize> {
+    /// A free slot for this frame's pass of `samples` pixel samples, traced with the clock at
+    /// `epoch` ([`TraceClock::epoch`]), if any.
+    pub fn assign(&mut self, samples: u64, epoch: u64) -> Option<usize> {
         let (i, slot) = self
             .slots
             .iter_mut()
             .enumerate()
             .find(|(_, s)| matches!(s.state, SlotState::Free))?;
-        slot.state = SlotState::Assigned { samples };
+        slot.state = SlotState::Assigned { samples, epoch };
         slot.recorded.store(false, Ordering::Relaxed);
         Some(i)
     }
@@ -141,7 +148,7 @@ impl TraceTimer {
     /// After the frame's submission: asks to map what this frame recorded; frees what it did not.
     pub fn request_readback(&mut self) {
         for slot in &mut self.slots {
-            let SlotState::Assigned { samples } = slot.state else {
+            let SlotState::Assigned { samples, epoch } = slot.state else {
                 continue;
             };
             if !slot.recorded.load(Ordering::Relaxed) {
@@ -155,7 +162,7 @@ impl TraceTimer {
                     let state = if result.is_ok() { MAPPED } else { FAILED };
                     mapped.store(state, Ordering::Release);
                 });
-            slot.state = SlotState::Mapping { samples };
+            slot.state = SlotState::Mapping { samples, epoch };
         }
     }
 }
