@@ -36,7 +36,7 @@ impl SceneLoading<'_> {
 }
 
 /// Nice steps below the frame at which background work runs.
-const BACKGROUND_NICE: i32 = 10;
+pub(crate) const BACKGROUND_NICE: i32 = 10;
 
 /// Bevy's task pools as the editor wants them: the async compute pool (parsing imports, making
 /// thumbnails) runs below the frame's priority, as the scene worker does, so that on a machine with

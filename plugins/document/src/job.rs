@@ -1,7 +1,8 @@
 //! Long document work (a file's parse, a project's sources) on a thread of its own, polled once a
-//! frame. Not on Bevy's async-compute pool: on a two-core machine that pool has one thread, and
-//! the renderer compiles its pipelines there, so a parse queued first would hold the first picture
-//! of what it parses back until the compiles that follow it finish.
+//! frame, below the frame's priority as the async-compute pool is (`app::task_pools`). Not on that
+//! pool: on a two-core machine it has one thread, and the renderer compiles its pipelines there, so
+//! a parse queued first would hold the first picture of what it parses back until the compiles
+//! that follow it finish.
 
 use crate::contain::{contain, crashed};
 use std::thread::JoinHandle;
@@ -19,7 +20,10 @@ impl<T: Send + 'static> Job<T> {
         let label = what.clone();
         let spawned = std::thread::Builder::new()
             .name("treelight job".into())
-            .spawn(move || contain(|| label, work))
+            .spawn(move || {
+                treelight_scene::priority::lower_current_thread(crate::app::BACKGROUND_NICE);
+                contain(|| label, work)
+            })
             .map_err(|e| format!("{what}: could not start a thread for it ({e})"));
         Self {
             what,
