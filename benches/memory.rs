@@ -7,8 +7,8 @@
 //! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
 //! buffers, so it is not in the sum), the resident set once idle and the peak resident set, less
 //! the default scene's; when the file was parsed (from the start of the process), how long after
-//! that the tree held its first triangles and the viewport showed a whole path-traced picture with
-//! them, when the tree held all of them (from the start); when the view kept its samples (the
+//! that the tree held its first triangles, the viewport traced a frame of them (a coarse preview
+//! while the tree fills) and showed a whole path-traced picture with them (every pixel sampled), when the tree held all of them (from the start); when the view kept its samples (the
 //! worker's background bakes over), when its idle-time rebuilds were over (every mesh rebuilt, the
 //! scene settled: idle); and the frame rate then (the median of 8 s of reports, 20 s after the
 //! resident set has held within 1% for 8 s) next to the default scene's, with how much the
@@ -41,12 +41,16 @@ struct Run {
     /// Seconds from the start until the tree held triangles, and all of them.
     first: Option<f64>,
     all: Option<f64>,
-    /// Seconds from the start until the file was parsed (its "opened" notice), and until the
-    /// viewport showed a whole path-traced picture of some of its triangles.
+    /// Seconds from the start until the file was parsed (its "opened" notice), until the viewport
+    /// traced a frame of some of its triangles, and until it showed a whole path-traced picture of
+    /// them.
     parsed: Option<f64>,
+    traced: Option<f64>,
     pictured: Option<f64>,
-    /// Frames from the parse's until the tree held triangles, and until the whole picture.
+    /// Frames from the parse's until the tree held triangles, until the first traced frame of
+    /// them, and until the whole picture.
     frames_to_first: Option<u64>,
+    frames_to_traced: Option<u64>,
     frames_to_picture: Option<u64>,
     /// Seconds from the start until the view kept 4 samples (the background bakes done).
     quiet: Option<f64>,
@@ -135,13 +139,14 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     let mut child = cmd.spawn().expect("xvfb-run");
     // (since when, the buffers' size then, the frame then)
     let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64, u64)>);
-    let (mut parsed, mut pictured) = (None, None);
+    let (mut parsed, mut traced, mut pictured) = (None, None, None);
     let (mut parse_frame, mut frames_to_first, mut frames_to_picture) = (None, None, None);
+    let mut frames_to_traced = None;
     let mut last: Option<EditorState> = None;
     while start.elapsed() < Duration::from_secs(900) {
-        // Finely until the first triangles and picture; then coarser, as each look parses a
+        // Finely until the first triangles and traced frame; then coarser, as each look parses a
         // report of hundreds of kilobytes on a machine whose two cores the editor needs.
-        let fine = first.is_none() || pictured.is_none();
+        let fine = first.is_none() || traced.is_none();
         std::thread::sleep(Duration::from_millis(if fine { 50 } else { 250 }));
         let Some(s) = std::fs::read_to_string(&state)
             .ok()
@@ -158,6 +163,10 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         if s.memory.triangles > 0 && first.is_none() {
             first = Some(t);
             frames_to_first = since_parse;
+        }
+        if traced.is_none() && s.memory.triangles > 0 && s.traced_geometry {
+            traced = Some(t);
+            frames_to_traced = since_parse;
         }
         // The traced view's samples restart with each change: a whole picture showing some of
         // the file's triangles.
@@ -315,8 +324,10 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         first,
         all,
         parsed,
+        traced,
         pictured,
         frames_to_first,
+        frames_to_traced,
         frames_to_picture,
         quiet,
         idle,
@@ -371,7 +382,7 @@ fn main() {
         kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut traces = vec![format!("default scene: {}", trace_line(base.trace))];
@@ -383,7 +394,7 @@ fn main() {
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
         let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
@@ -396,6 +407,8 @@ fn main() {
             r.parsed.unwrap_or(f64::NAN),
             r.first.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
             r.frames_to_first.map_or("?".into(), |f| f.to_string()),
+            r.traced.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
+            r.frames_to_traced.map_or("?".into(), |f| f.to_string()),
             r.pictured.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
             r.frames_to_picture.map_or("?".into(), |f| f.to_string()),
             r.all.unwrap_or(f64::NAN),

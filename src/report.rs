@@ -139,6 +139,11 @@ pub struct EditorState {
     /// (nanoseconds) as its frame budget estimates it, from GPU timestamps or frame intervals.
     #[serde(default)]
     pub trace: Option<(u64, Option<f64>)>,
+    /// Whether that frame traced triangles (the path tracer's copy of the tree was not empty): the
+    /// first such frame after an import into an empty scene is its first traced picture on screen,
+    /// a coarse preview while the tree fills.
+    #[serde(default)]
+    pub traced_geometry: bool,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -360,7 +365,7 @@ pub fn write_state_report(
     report.frame += 1;
     let camera = cameras.single().ok();
     // The samples, the sky they show and the latest frame's trace, from one copy of the figures.
-    let view_samples = camera_ids.single().map_or((0, false, None), |c| {
+    let view_samples = camera_ids.single().map_or((0, false, None, false), |c| {
         let figures = tracer.figures();
         let samples = figures.samples.get(&c).copied().unwrap_or(0);
         let trace = figures.traces.get(&c).copied();
@@ -368,6 +373,7 @@ pub fn write_state_report(
             samples,
             trace.is_some_and(|t| t.panorama),
             trace.map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
+            trace.is_some_and(|t| t.geometry),
         )
     });
     let parent_of = |e: Entity| {
@@ -464,6 +470,7 @@ pub fn write_state_report(
         samples: view_samples.0,
         traced_panorama: view_samples.1,
         trace: view_samples.2,
+        traced_geometry: view_samples.3,
         memory: memory_report(&meshes, &scene, &tracer),
         fps: diagnostics
             .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)

@@ -929,7 +929,8 @@ fn meshes_held_back_while_path_traced_are_drawn_when_the_view_turns_raster() {
     let st = s.wait_until(
         "the quad traced",
         std::time::Duration::from_secs(60),
-        |st| st.memory.triangles == 2 && st.samples > 0,
+        // The report says when a traced frame held triangles (the bench's first traced frame).
+        |st| st.memory.triangles == 2 && st.samples > 0 && st.traced_geometry,
     );
     assert_ne!(st.view, "Raster");
     // The quad's mesh and the palette's are held back.

@@ -404,6 +404,8 @@ pub struct TraceFigures {
     pub cost: Option<(f64, CostSource)>,
     /// Whether the frame traced the coarse preview (the view had just changed).
     pub previewing: bool,
+    /// Whether the frame traced triangles: it traced samples and the scene's tree was not empty.
+    pub geometry: bool,
     /// Whether the camera's samples were traced under a sky panorama (not the flat sky colour):
     /// read with [`PathTracerFigures::samples`], it tells which sky those samples show.
     pub panorama: bool,

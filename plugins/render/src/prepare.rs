@@ -1084,6 +1084,7 @@ fn prepare_views(
             traced_per_frame: traced,
             cost: state.clock.cost(),
             previewing: work.is_some_and(|(w, _)| matches!(w, TraceWork::Preview { .. })),
+            geometry: traced > 0 && scene.root != treelight_bvh::NONE,
             panorama: environment_word.w as u32 & 1 != 0,
         };
         stats.update(|f| {
