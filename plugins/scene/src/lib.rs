@@ -34,7 +34,7 @@ use bevy::math::Ray3d;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 use std::collections::{HashMap, HashSet};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
@@ -109,6 +109,7 @@ impl Plugin for SceneBvhPlugin {
             version: AtomicU64::new(0),
             pending: AtomicUsize::new(0),
             incoming: AtomicUsize::new(0),
+            filling: AtomicBool::new(false),
             failure: Mutex::new(None),
             refine_failure: Arc::new(Mutex::new(None)),
         });
@@ -1032,6 +1033,9 @@ fn upsert(
 
 /// Copies the worker's figures into the resource.
 fn publish(mut scene: ResMut<SceneBvh>) {
+    // The worker holds its idle work while meshes are still being copied to it.
+    let copying = !scene.copying.is_empty() || !scene.followers.is_empty();
+    scene.shared.filling.store(copying, Ordering::Release);
     let version = scene.shared.version.load(Ordering::Acquire);
     let mut stats = *scene.shared.stats.lock().unwrap_or_else(|p| p.into_inner());
     stats.pending =

@@ -10,7 +10,7 @@ use bevy::mesh::Mesh;
 use bevy::prelude::Entity;
 use rayon::prelude::*;
 use std::collections::{HashMap, VecDeque};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
@@ -129,6 +129,11 @@ pub(crate) struct Shared {
     pub pending: AtomicUsize,
     /// Of the pending commands, those bringing geometry ([`Command::brings_geometry`]).
     pub incoming: AtomicUsize,
+    /// Set by the app each frame: meshes are being copied out of the world for the worker (an
+    /// import streams in). Idle work waits meanwhile: bakes, rebuilds and update steps would take
+    /// the cores the new meshes' builds need, and each rebuild swapped in re-lays a group a
+    /// renderer must upload again, slowing the frames that copy the rest.
+    pub filling: AtomicBool,
     /// Why the worker stopped, once it has (it panicked).
     pub failure: Mutex<Option<String>>,
     /// Why background refinement stopped, once it has; the tree keeps its binned builds.
@@ -238,10 +243,11 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
     // Commands received but left for a later batch, oldest first.
     let mut queued: VecDeque<Command> = VecDeque::new();
     loop {
+        let filling = shared.filling.load(Ordering::Acquire);
         // With update steps to do, only look for commands; otherwise sleep until one comes.
         let first = if let Some(c) = queued.pop_front() {
             Some(c)
-        } else if idle.is_pending() {
+        } else if idle.is_pending() && !filling {
             match rx.try_recv() {
                 Ok(c) => Some(c),
                 Err(TryRecvError::Empty) => None,
@@ -255,6 +261,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             }
         };
         let Some(first) = first else {
+            if filling {
+                continue;
+            }
             idle_work(
                 &shared,
                 &mut last_move,

@@ -892,6 +892,51 @@ fn a_still_mesh_is_rebuilt_by_full_sweep_in_idle_time_and_traces_the_same() {
     check(&mut app, &rays(100, 0x5eed));
 }
 
+/// While meshes are still being copied to the worker (an import streaming in), its idle work
+/// waits: a still mesh is neither baked nor rebuilt until the copies are done, so the builds of
+/// the new meshes keep the cores.
+#[test]
+fn idle_rebuilds_wait_while_meshes_are_being_copied() {
+    // No main-thread budget: a big mesh takes a frame per chunk to copy, and none without frames.
+    let mut app = headless_app(SceneBvhConfig {
+        bake_after: Duration::from_millis(300),
+        main_thread_budget: Duration::ZERO,
+        main_thread_share: 0.0,
+        ..default()
+    });
+    let (sphere, big) = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        (
+            meshes.add(Sphere::new(4.0).mesh().uv(72, 32)),
+            meshes.add(Sphere::new(1.0).mesh().uv(200, 100)),
+        )
+    };
+    app.world_mut()
+        .spawn((Mesh3d(sphere), Transform::from_xyz(1.0, 2.0, 0.0)));
+    settle(&mut app);
+    let refined = |app: &App| app.world().resource::<SceneBvh>().stats().meshes_refined;
+    assert_eq!(refined(&app), 0, "too soon for a rebuild");
+    // A big mesh starts copying; no frames run for a while, so its copy stays under way.
+    app.world_mut()
+        .spawn((Mesh3d(big), Transform::from_xyz(0.0, 0.0, 9.0)));
+    app.update();
+    app.update();
+    assert!(app.world().resource::<SceneBvh>().is_filling());
+    // Long enough for the sphere to be baked (0.3 s still), rebuilt (0.3 s after the last edit)
+    // and swapped in several times over, were the worker idle.
+    std::thread::sleep(Duration::from_millis(2000));
+    app.update();
+    assert_eq!(refined(&app), 0, "rebuilt while a mesh was being copied");
+    // Once the copy is done, the idle work runs.
+    settle(&mut app);
+    let start = Instant::now();
+    while refined(&app) == 0 {
+        app.update();
+        assert!(start.elapsed() < Duration::from_secs(30), "never rebuilt");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 #[test]
 fn a_crashed_worker_is_reported_and_the_app_goes_on() {
     let mut app = app(Duration::from_millis(50));
