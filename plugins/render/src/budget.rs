@@ -120,6 +120,8 @@ pub struct TraceClock {
     last_samples: u64,
     /// Recent (samples traced, frame interval) pairs, for the fit.
     frames: VecDeque<(f64, f64)>,
+    /// Frames observed: the dither's parity (the window above stops growing).
+    observed: u64,
     /// The size of the scene these figures are of ([`TraceClock::scene_size`]).
     scene_size: u64,
     /// Raised each time the figures are forgotten: timings of frames from before are not used.
@@ -179,6 +181,7 @@ impl TraceClock {
         }
         self.frame_ns = Some(blend(self.frame_ns, ns));
         self.last_samples = samples;
+        self.observed += 1;
         self.frames.push_back((samples as f64, ns));
         if self.frames.len() > FIT_FRAMES {
             self.frames.pop_front();
@@ -245,6 +248,17 @@ impl TraceClock {
         ((ns / cost) as u64).max(TILE as u64 * TILE as u64)
     }
 
+    /// Tiles of `per_tile` samples the next frame traces when it may trace `allowed` samples: at
+    /// least one, at most a sweep of the `total`, [`dithered`](TraceClock::dither) within those
+    /// bounds. A budget past a whole sweep still alternates a sweep with 85% of one: frames that
+    /// all traced the same samples would leave the frame-interval fit nothing to fit, and a cost
+    /// that timestamps read low (a software adapter) would never be corrected.
+    pub fn tiles(&self, allowed: u64, per_tile: u64, total: u32) -> u32 {
+        let per_tile = per_tile.max(1);
+        let count = (allowed / per_tile).clamp(1, total as u64);
+        (self.dither(count * per_tile) / per_tile).clamp(1, total as u64) as u32
+    }
+
     /// `samples` nudged up or down by 15 %, alternately, so the frame-interval fit can tell the
     /// trace's cost from the rest of the frame (the tiles take this; the preview's scale does not,
     /// so it holds still while the camera moves).
@@ -252,7 +266,7 @@ impl TraceClock {
         if samples == u64::MAX {
             return samples;
         }
-        let f = if self.frames.len().is_multiple_of(2) {
+        let f = if self.observed.is_multiple_of(2) {
             0.85
         } else {
             1.15
@@ -325,6 +339,34 @@ mod tests {
         clock.observe_trace(4096, 4096.0 * 4000.0);
         let timed = clock.sample_budget(&budget);
         assert!(timed < cheap / 100, "{timed} against {cheap}");
+    }
+
+    #[test]
+    fn a_cost_timestamps_read_low_is_corrected_even_when_the_budget_passes_a_sweep() {
+        // A software adapter: a sample really costs 10 µs, its timestamps say 1 µs; the rest of
+        // the frame takes 1.5 s, so the budget (the share is 1) always covers a whole sweep.
+        let budget = PathTraced::default().frame_budget(false);
+        let (per_tile, total) = (64, 2160);
+        let mut clock = TraceClock::default();
+        clock.scene_size(1 << 20);
+        // While the tree filled, every frame restarted: a preview of a fixed 3,780 blocks, in
+        // frames made slow by the uploads (3 s). That leaves the fit nothing to go on.
+        for _ in 0..30 {
+            clock.observe_trace(3780, 3780.0 * 1e3);
+            clock.observe_frame(3780, 3e9);
+        }
+        let mut interval = 0.0;
+        for _ in 0..60 {
+            let tiles = clock.tiles(clock.sample_budget(&budget), per_tile, total);
+            assert!((1..=total).contains(&tiles));
+            let samples = tiles as u64 * per_tile;
+            clock.observe_trace(samples, samples as f64 * 1e3);
+            interval = 1.5e9 + samples as f64 * 1e4;
+            clock.observe_frame(samples, interval);
+        }
+        let cost = clock.ns_per_sample().unwrap();
+        assert!(cost > 8e3, "{cost} ns a sample, the timestamps' 1 µs kept");
+        assert!(interval < 3.0e9, "{interval}");
     }
 
     #[test]

@@ -755,8 +755,7 @@ impl ViewState {
             return Some((work, blocks));
         }
         let per_tile = (TILE * TILE * spf) as u64;
-        let allowed = self.clock.dither(allowed);
-        let count = (allowed / per_tile).clamp(1, self.order.total as u64) as u32;
+        let count = self.clock.tiles(allowed, per_tile, self.order.total);
         let start = self.cursor.take(&self.order, count);
         Some((TraceWork::Tiles { start, count }, count as u64 * per_tile))
     }
