@@ -169,8 +169,9 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
             frames_to_traced = since_parse;
         }
         // The traced view's samples restart with each change: a whole picture showing some of
-        // the file's triangles.
-        if pictured.is_none() && s.memory.triangles > 0 && s.samples >= 1 {
+        // the file's triangles (after a frame traced them: a sweep of the sky alone, before the
+        // path tracer has the first triangles, does not count).
+        if pictured.is_none() && traced.is_some() && s.samples >= 1 {
             pictured = Some(t);
             frames_to_picture = since_parse;
         }
