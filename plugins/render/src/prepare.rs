@@ -97,20 +97,6 @@ impl GpuScene {
     pub fn split(&self) -> bool {
         self.buffers.iter().any(|parts| parts.len() > 1)
     }
-
-    /// Whether a split kind holds more than a quarter of a part's records: a scene that large is
-    /// likely to grow past one part (an import streaming in), so the split kernel is compiled
-    /// ahead and the trace does not pause for it when it does.
-    pub fn nearing_split(&self) -> bool {
-        let quarter = (1u64 << self.layout.shift) / 4;
-        [
-            BufferKind::Nodes,
-            BufferKind::Triangles,
-            BufferKind::Attributes,
-        ]
-        .iter()
-        .any(|k| self.capacities[k.index()] > quarter)
-    }
 }
 
 /// The most bytes one storage buffer the kernels bind may hold on this device.
@@ -810,10 +796,6 @@ fn prepare_views(
         return;
     }
     let max_bytes = max_binding_bytes(&device);
-    if scene.nearing_split() {
-        // Queued once; compiled in the background while the unsplit kernel traces.
-        pipelines.trace_pipeline(&pipeline_cache, true);
-    }
     let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
     let trace_ready = pipeline_cache
         .get_compute_pipeline(trace_pipeline)
