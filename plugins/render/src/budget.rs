@@ -253,7 +253,11 @@ impl TraceClock {
     /// bounds. A budget past a whole sweep still alternates a sweep with 85% of one: frames that
     /// all traced the same samples would leave the frame-interval fit nothing to fit, and a cost
     /// that timestamps read low (a software adapter) would never be corrected.
+    /// An unbounded budget (`u64::MAX`) traces whole sweeps, undithered.
     pub fn tiles(&self, allowed: u64, per_tile: u64, total: u32) -> u32 {
+        if allowed == u64::MAX {
+            return total.max(1);
+        }
         let per_tile = per_tile.max(1);
         let count = (allowed / per_tile).clamp(1, total as u64);
         (self.dither(count * per_tile) / per_tile).clamp(1, total as u64) as u32
@@ -366,6 +370,11 @@ mod tests {
         }
         let cost = clock.ns_per_sample().unwrap();
         assert!(cost > 8e3, "{cost} ns a sample, the timestamps' 1 µs kept");
+        // An unbounded budget (`--frame-budget 0`) traces whole sweeps every frame.
+        for _ in 0..2 {
+            assert_eq!(clock.tiles(u64::MAX, per_tile, total), total);
+            clock.observe_frame(1, 1e6);
+        }
         assert!(interval < 3.0e9, "{interval}");
     }
 
