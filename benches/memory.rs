@@ -8,7 +8,8 @@
 //! buffers, so it is not in the sum), the resident set once idle and the peak resident set, less
 //! the default scene's; when the file was parsed (from the start of the process), how long after
 //! that the tree held its first triangles, the viewport traced a frame of them (a coarse preview
-//! while the tree fills) and showed a whole path-traced picture with them (every pixel sampled), when the tree held all of them (from the start); when the view kept its samples (the
+//! while the tree fills) and showed a whole path-traced picture with them (every pixel sampled),
+//! when the tree held all of them (from the start); when the view kept its samples (the
 //! worker's background bakes over), when its idle-time rebuilds were over (every mesh rebuilt, the
 //! scene settled: idle); and the frame rate then (the median of 8 s of reports, 20 s after the
 //! resident set has held within 1% for 8 s) next to the default scene's, with how much the

@@ -97,6 +97,11 @@ impl GpuScene {
     pub fn split(&self) -> bool {
         self.buffers.iter().any(|parts| parts.len() > 1)
     }
+
+    /// Whether the uploaded tree holds anything (its root is a node).
+    pub fn has_geometry(&self) -> bool {
+        self.root != treelight_bvh::NONE
+    }
 }
 
 /// The most bytes one storage buffer the kernels bind may hold on this device.
@@ -979,7 +984,7 @@ fn prepare_views(
         // while the tree fills (the next frame's triangles restart the picture it would filter).
         let denoising = settings.denoise
             && settings.view == DebugView::PathTraced
-            && scene.root != treelight_bvh::NONE
+            && scene.has_geometry()
             && !scene.filling
             && pipeline_cache
                 .get_compute_pipeline(pipelines.denoise)
@@ -1083,7 +1088,7 @@ fn prepare_views(
             traced_per_frame: traced,
             cost: state.clock.cost(),
             previewing: work.is_some_and(|(w, _)| matches!(w, TraceWork::Preview { .. })),
-            geometry: traced > 0 && scene.root != treelight_bvh::NONE,
+            geometry: traced > 0 && scene.has_geometry(),
             panorama: environment_word.w as u32 & 1 != 0,
         };
         stats.update(|f| {

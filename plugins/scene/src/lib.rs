@@ -572,15 +572,18 @@ impl SceneBvh {
     /// each frame's new triangles change what a renderer shows anyway.
     pub fn is_filling(&self) -> bool {
         self.worker_failure().is_none()
-            && (!self.copying.is_empty()
-                || !self.followers.is_empty()
-                || self.shared.incoming.load(Ordering::Acquire) > 0)
+            && (self.is_copying() || self.shared.incoming.load(Ordering::Acquire) > 0)
+    }
+
+    /// Whether meshes are still being copied out of the world, or entities sharing one wait for
+    /// it: geometry the worker has not been sent yet.
+    fn is_copying(&self) -> bool {
+        !self.copying.is_empty() || !self.followers.is_empty()
     }
 
     /// Whether every change sent so far has been applied (never, once the worker has stopped).
     pub fn is_idle(&self) -> bool {
-        self.copying.is_empty()
-            && self.followers.is_empty()
+        !self.is_copying()
             && self.shared.pending.load(Ordering::Acquire) == 0
             && self.worker_failure().is_none()
     }
@@ -1034,8 +1037,10 @@ fn upsert(
 /// Copies the worker's figures into the resource.
 fn publish(mut scene: ResMut<SceneBvh>) {
     // The worker holds its idle work while meshes are still being copied to it.
-    let copying = !scene.copying.is_empty() || !scene.followers.is_empty();
-    scene.shared.filling.store(copying, Ordering::Release);
+    scene
+        .shared
+        .filling
+        .store(scene.is_copying(), Ordering::Release);
     let version = scene.shared.version.load(Ordering::Acquire);
     let mut stats = *scene.shared.stats.lock().unwrap_or_else(|p| p.into_inner());
     stats.pending =
