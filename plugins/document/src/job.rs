@@ -5,7 +5,12 @@
 //! that follow it finish.
 
 use crate::contain::{contain, crashed};
+use std::sync::Mutex;
 use std::thread::JoinHandle;
+
+/// Held by the job that is working: jobs take turns, as they did on the pool's one thread, so
+/// twenty files dropped at once are not twenty parses in memory at once.
+static TURN: Mutex<()> = Mutex::new(());
 
 /// One piece of work running on its own thread; a panic in it ends it as an error naming what it
 /// was doing ([`contain`]).
@@ -22,6 +27,7 @@ impl<T: Send + 'static> Job<T> {
             .name("treelight job".into())
             .spawn(move || {
                 treelight_scene::priority::lower_current_thread(crate::app::BACKGROUND_NICE);
+                let _turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
                 contain(|| label, work)
             })
             .map_err(|e| format!("{what}: could not start a thread for it ({e})"));
@@ -80,6 +86,23 @@ mod tests {
         tx.send(()).unwrap();
         assert_eq!(wait(&mut job), Ok(4));
         assert!(job.poll().is_none(), "the result is given once");
+
+        // Jobs take turns: the second starts once the first has ended.
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let started = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let mut first = Job::spawn("first".into(), move || rx.recv().is_ok());
+        let flag = started.clone();
+        let mut second = Job::spawn("second".into(), move || {
+            flag.store(true, std::sync::atomic::Ordering::SeqCst)
+        });
+        std::thread::sleep(Duration::from_millis(200));
+        assert!(
+            !started.load(std::sync::atomic::Ordering::SeqCst),
+            "ran beside the first"
+        );
+        tx.send(()).unwrap();
+        assert_eq!(wait(&mut first), Ok(true));
+        assert_eq!(wait(&mut second), Ok(()));
 
         let mut job = Job::spawn("importing x.glb".into(), || -> u32 { panic!("bad file") });
         let e = wait(&mut job).unwrap_err();
