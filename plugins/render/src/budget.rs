@@ -94,7 +94,15 @@ pub struct FrameBudget {
     pub millis: f32,
     /// Share of the rest of the frame's time the trace may also take.
     pub share: f32,
+    /// The most pixel samples a frame may trace whatever the time allows (`u64::MAX`: no such
+    /// bound).
+    pub max_samples: u64,
 }
+
+/// The most pixel samples a frame traces while new geometry streams into the tree (a preview):
+/// the frame times vary too much with the uploads for their fit to show the trace's cost, and a
+/// software adapter's timestamps read it a hundred times low.
+pub const FILLING_MAX_SAMPLES: u64 = FIRST_GUESS_SAMPLES;
 
 impl FrameBudget {
     /// Whether the budget limits the trace at all.
@@ -122,6 +130,8 @@ pub struct TraceClock {
     frames: VecDeque<(f64, f64)>,
     /// Frames observed: the dither's parity (the window above stops growing).
     observed: u64,
+    /// The most pixel samples an observed frame traced since the figures were last forgotten.
+    peak_samples: u64,
     /// The size of the scene these figures are of ([`TraceClock::scene_size`]).
     scene_size: u64,
     /// Raised each time the figures are forgotten: timings of frames from before are not used.
@@ -181,6 +191,7 @@ impl TraceClock {
         }
         self.frame_ns = Some(blend(self.frame_ns, ns));
         self.last_samples = samples;
+        self.peak_samples = self.peak_samples.max(samples);
         self.observed += 1;
         self.frames.push_back((samples as f64, ns));
         if self.frames.len() > FIT_FRAMES {
@@ -227,13 +238,23 @@ impl TraceClock {
         self.ns_per_sample().map(|c| c * self.last_samples as f64)
     }
 
-    /// Pixel samples the next frame may trace under `budget` (`u64::MAX` when it is unbounded).
+    /// Pixel samples the next frame may trace under `budget` (`u64::MAX` when it is unbounded):
+    /// what fits at the estimated cost, and no more than twice what a frame traced since the
+    /// figures were last forgotten. The cost of a sample is only ever seen at the samples traced:
+    /// a software adapter's timestamps can read a hundred times low, and the frame intervals
+    /// show it only once a frame traces enough for the trace to tell in them. Doubling, each frame
+    /// shows the fit how the interval grows with the samples before one costs seconds.
     pub fn sample_budget(&self, budget: &FrameBudget) -> u64 {
         if !budget.is_bounded() {
             return u64::MAX;
         }
+        let ramp = self
+            .peak_samples
+            .saturating_mul(2)
+            .max(FIRST_GUESS_SAMPLES)
+            .min(budget.max_samples.max(TILE as u64 * TILE as u64));
         let Some(cost) = self.ns_per_sample() else {
-            return FIRST_GUESS_SAMPLES;
+            return FIRST_GUESS_SAMPLES.min(ramp);
         };
         let fixed = budget.millis as f64 * 1e6;
         let rest = self
@@ -245,7 +266,7 @@ impl TraceClock {
             0.0
         };
         let ns = fixed.max(share * rest);
-        ((ns / cost) as u64).max(TILE as u64 * TILE as u64)
+        ((ns / cost) as u64).clamp(TILE as u64 * TILE as u64, ramp)
     }
 
     /// Tiles of `per_tile` samples the next frame traces when it may trace `allowed` samples: at
@@ -304,10 +325,18 @@ mod tests {
         let mut clock = TraceClock::default();
         clock.observe_trace(1000, 1e6);
         for k in 0..8 {
-            clock.observe_frame(1000 + k * 10, 1e9);
+            clock.observe_frame(600_000 + k * 10, 1.6e9);
         }
         let (a, b) = (clock.sample_budget(&calm), clock.sample_budget(&filling));
         assert!(b * 5 < a, "{a} samples as usual, {b} while filling");
+        // Whatever the estimate says, a filling frame traces a preview at most.
+        let mut cheap = TraceClock::default();
+        for _ in 0..8 {
+            cheap.observe_trace(1_000_000, 1e6);
+            cheap.observe_frame(1_000_000, 1.6e9);
+        }
+        assert!(cheap.sample_budget(&calm) > 1_000_000);
+        assert_eq!(cheap.sample_budget(&filling), FILLING_MAX_SAMPLES);
         // A share already below the cap stays.
         let low = PathTraced {
             frame_budget_share: 0.05,
@@ -322,9 +351,10 @@ mod tests {
         let mut clock = TraceClock::default();
         clock.scene_size(1024);
         // An empty scene: the sky alone, 10 ns a sample, frames of 50 ms.
-        for k in 0..8 {
-            clock.observe_trace(100_000, 1e6);
-            clock.observe_frame(100_000 + k * 1000, 5e7);
+        for k in 0..16 {
+            let samples = clock.sample_budget(&budget) + k * 1000;
+            clock.observe_trace(samples, samples as f64 * 10.0);
+            clock.observe_frame(samples, 5e7);
         }
         let cheap = clock.sample_budget(&budget);
         assert!(cheap > 1_000_000, "{cheap}");
@@ -379,6 +409,44 @@ mod tests {
     }
 
     #[test]
+    fn after_a_new_size_the_samples_grow_no_faster_than_the_frames_show_their_cost() {
+        // A grown scene on a software adapter: its timestamps say 20 ns a sample, a sample
+        // really costs 10 µs; the rest of the frame takes 300 ms, and the trace may have a tenth.
+        let budget = FrameBudget {
+            millis: 4.0,
+            share: 0.1,
+            max_samples: u64::MAX,
+        };
+        let (per_tile, total) = (64, 2160);
+        let mut clock = TraceClock::default();
+        clock.scene_size(1 << 22);
+        let (mut slowest, mut settled) = (0.0f64, 0.0);
+        for frame in 0..40 {
+            let allowed = clock.sample_budget(&budget);
+            assert!(
+                allowed <= (2 * clock.peak_samples).max(FIRST_GUESS_SAMPLES),
+                "frame {frame}: {allowed} samples after at most {}",
+                clock.peak_samples
+            );
+            let samples = clock.tiles(allowed, per_tile, total) as u64 * per_tile;
+            let trace = samples as f64 * 1e4;
+            slowest = f64::max(slowest, trace);
+            if frame >= 30 {
+                settled += trace / 10.0;
+            }
+            clock.observe_trace(samples, samples as f64 * 20.0);
+            clock.observe_frame(samples, 3e8 + trace);
+        }
+        // Taken at the timestamps' word, the first timed frame would trace a whole sweep: 1.4 s.
+        assert!(slowest < 0.5e9, "a frame traced for {:.2} s", slowest / 1e9);
+        assert!(
+            settled < 0.06e9,
+            "settled at {:.0} ms a frame",
+            settled / 1e6
+        );
+    }
+
+    #[test]
     fn a_sweep_covers_every_tile_once_and_runs_spread_out() {
         for (w, h) in [
             (1, 1),
@@ -429,6 +497,7 @@ mod tests {
         let budget = FrameBudget {
             millis: 4.0,
             share: 0.25,
+            max_samples: u64::MAX,
         };
         let mut clock = TraceClock::default();
         assert_eq!(clock.sample_budget(&budget), FIRST_GUESS_SAMPLES);
@@ -453,7 +522,8 @@ mod tests {
         assert_eq!(
             clock.sample_budget(&FrameBudget {
                 millis: 0.0,
-                share: 0.25
+                share: 0.25,
+                max_samples: u64::MAX,
             }),
             u64::MAX
         );
@@ -464,6 +534,7 @@ mod tests {
         let budget = FrameBudget {
             millis: 4.0,
             share: 0.0,
+            max_samples: u64::MAX,
         };
         let mut clock = TraceClock::default();
         for _ in 0..200 {
@@ -481,6 +552,7 @@ mod tests {
         let budget = FrameBudget {
             millis: 4.0,
             share: 0.0,
+            max_samples: u64::MAX,
         };
         let mut clock = TraceClock::default();
         for _ in 0..200 {

@@ -7,7 +7,7 @@ use crate::records::{
     outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
-use crate::upload::{BufferKind, BufferWrite, UploadPlan, push_runs};
+use crate::upload::{BufferKind, UploadPlan, Writes, joined};
 use crate::{MapUvTransforms, Outlined};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
@@ -29,7 +29,8 @@ pub(crate) fn build(render_app: &mut SubApp) {
 /// What the render world must write before tracing this frame.
 #[derive(Default)]
 pub(crate) struct PendingUpload {
-    pub writes: Vec<BufferWrite>,
+    /// Kept from frame to frame: the render world clears it once written.
+    pub writes: Writes,
     /// Records each buffer must hold, in [`BufferKind::ALL`] order.
     pub needed: [u64; 6],
     pub root: Option<u32>,
@@ -250,11 +251,7 @@ fn extract_scene(
         p.light_count = Some(lights.len() as u32);
         p.geometry_changed = true;
         if !bytes.is_empty() {
-            p.writes.push(BufferWrite {
-                buffer: BufferKind::Lights,
-                offset: 0,
-                bytes: bytes.clone(),
-            });
+            p.writes.push(BufferKind::Lights, 0, &bytes);
         }
         sync.lights = Some(bytes);
     }
@@ -286,8 +283,8 @@ fn scene_writes(
     let p = &mut sync.pending;
     let c = &changes.bvh;
     // Capacities are settled by the render world when it applies the writes.
-    let plan = UploadPlan::new(bvh, c, [u64::MAX; 3]);
-    p.writes.extend(plan.writes);
+    let plan = UploadPlan::new_in(bvh, c, [u64::MAX; 3], std::mem::take(&mut p.writes));
+    p.writes = plan.writes;
     p.root = Some(plan.root);
     let restart = c.geometry_changed() || !changes.fresh_groups.is_empty();
     p.geometry_changed |= restart;
@@ -343,11 +340,11 @@ fn scene_writes(
         let slot = &mut sync.objects[g.index() as usize];
         if slot.as_ref() != Some(&rec) {
             p.geometry_changed |= !before.is_some_and(|b| same_drawing(&b, &rec));
-            p.writes.push(BufferWrite {
-                buffer: BufferKind::Objects,
-                offset: g.index() as u64 * crate::OBJECT_BYTES,
-                bytes: rec.clone(),
-            });
+            p.writes.push(
+                BufferKind::Objects,
+                g.index() as u64 * crate::OBJECT_BYTES,
+                &rec,
+            );
             *slot = Some(rec);
         }
     }
@@ -368,32 +365,27 @@ fn scene_writes(
     }
     records.sort_unstable_by_key(|r| r.0);
     records.dedup_by_key(|r| r.0);
-    let ids: Vec<u32> = records.iter().map(|r| r.0).collect();
-    let mut next = records.iter();
-    push_runs(
-        &mut sync.pending.writes,
-        BufferKind::Attributes,
-        &ids,
-        // The records between two groups' are not at hand here: exact runs only.
-        0,
-        |_, out| {
-            if let Some(&(_, g, k)) = next.next()
-                && let Some(shading) = tree.shading.get(&g)
+    let runs = joined(records.iter().map(|r| r.0..r.0 + 1), 0);
+    let two_uv_sets = &sync.two_uv_sets;
+    sync.pending
+        .writes
+        .push_records(BufferKind::Attributes, runs, |j, _| {
+            let (_, g, k) = records[j];
+            let k = k as usize;
+            let Some(shading) = tree.shading.get(&g) else {
+                return packed_attribute_record(None, None, g.index());
+            };
+            let mut record = packed_attribute_record(
+                shading.normals.get(k).copied(),
+                shading.uvs.get(k).copied(),
+                g.index(),
+            );
+            record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
+            if two_uv_sets[g.index() as usize]
+                && let Some(&uvs1) = shading.uvs1.get(k)
             {
-                let k = k as usize;
-                let mut record = packed_attribute_record(
-                    shading.normals.get(k).copied(),
-                    shading.uvs.get(k).copied(),
-                    g.index(),
-                );
-                record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
-                if sync.two_uv_sets[g.index() as usize]
-                    && let Some(&uvs1) = shading.uvs1.get(k)
-                {
-                    record = record.with_second_uv_set(uvs1);
-                }
-                out.extend_from_slice(bytemuck::bytes_of(&record));
+                record = record.with_second_uv_set(uvs1);
             }
-        },
-    );
+            record
+        });
 }

@@ -26,6 +26,7 @@ mod prepare;
 mod raster_meshes;
 mod raster_skip;
 mod records;
+mod staging;
 mod texture_layers;
 mod timing;
 mod upload;
@@ -60,7 +61,8 @@ pub use texture_layers::{
     layer_side_for, layers_at,
 };
 pub use upload::{
-    BufferKind, BufferWrite, UploadPlan, grown_capacity, instance_bytes, node_bytes, triangle_bytes,
+    BufferKind, BufferWrite, UploadPlan, Writes, grown_capacity, instance_bytes, node_bytes,
+    triangle_bytes,
 };
 
 use bevy::camera::{Camera, Hdr};
@@ -337,6 +339,11 @@ impl PathTraced {
                     .min(self.frame_budget_share_while_filling)
             } else {
                 self.frame_budget_share
+            },
+            max_samples: if filling {
+                crate::budget::FILLING_MAX_SAMPLES
+            } else {
+                u64::MAX
             },
         }
     }

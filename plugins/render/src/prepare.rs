@@ -9,6 +9,7 @@ use crate::extract::SceneSync;
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
 use crate::records::{ResolveParams, TemporalRestart, TraceWork, VIEW_BYTES, ViewParams};
+use crate::staging::UploadBelt;
 use crate::texture_layers::TextureLayers;
 use crate::timing::TraceTimer;
 use crate::upload::BufferKind;
@@ -90,6 +91,8 @@ pub(crate) struct GpuScene {
     pub too_large: Option<String>,
     /// Whether new geometry was on its way into the scene's tree as of this frame's extract.
     pub filling: bool,
+    /// Where the frame's record writes are staged.
+    staging: UploadBelt,
 }
 
 impl GpuScene {
@@ -198,6 +201,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         map_transforms: map_transform_buffer(&device, &crate::MapTransformTable::default().bytes()),
         too_large,
         filling: false,
+        staging: UploadBelt::new(&device),
     });
 }
 
@@ -222,7 +226,7 @@ fn apply_scene_uploads(
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
 ) {
-    let pending = std::mem::take(&mut sync.pending);
+    let mut pending = std::mem::take(&mut sync.pending);
     scene.filling = pending.filling;
     let scene = &mut *scene;
     if scene.too_large.is_some() {
@@ -275,18 +279,16 @@ fn apply_scene_uploads(
         let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
         stats.update(|f| f.scene_buffer_bytes = total);
     }
-    if !grown.is_empty() {
-        // Keep what is already on the GPU: records outside this frame's writes stay valid.
-        let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
-            label: Some("treelight buffer growth"),
-        });
-        for (old, bytes, i, k) in &grown {
-            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
-        }
-        queue.submit([encoder.finish()]);
+    // Growth copies first, then the writes, all in one submission.
+    let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
+        label: Some("treelight scene upload"),
+    });
+    // Keep what is already on the GPU: records outside this frame's writes stay valid.
+    for (old, bytes, i, k) in &grown {
+        encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
     }
     let mut bytes = 0u64;
-    for w in &pending.writes {
+    for w in pending.writes.iter() {
         let i = w.buffer.index();
         let end = w.offset + w.bytes.len() as u64;
         if end > scene.capacities[i] * w.buffer.record_bytes() {
@@ -299,10 +301,25 @@ fn apply_scene_uploads(
             continue;
         }
         for (part, at, range) in layout.pieces(w.buffer, w.offset, w.bytes.len() as u64) {
-            queue.write_buffer(&scene.buffers[i][part], at, &w.bytes[range]);
+            let piece = &w.bytes[range];
+            if !scene
+                .staging
+                .write(&mut encoder, &scene.buffers[i][part], at, piece)
+            {
+                error!(
+                    "treelight: dropped a {:?} write of {} bytes at {at}: not whole words",
+                    w.buffer,
+                    piece.len()
+                );
+            }
         }
         bytes += w.bytes.len() as u64;
     }
+    scene.staging.finish();
+    if !grown.is_empty() || bytes > 0 {
+        queue.submit([encoder.finish()]);
+    }
+    scene.staging.recall(pending.filling);
     let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
     if let Some(root) = pending.root
         && root != scene.root
@@ -347,7 +364,16 @@ fn apply_scene_uploads(
         }
         f.scene_ready |= ready;
     });
+    // The writes' memory serves the next frame's; once nothing streams in, a large one goes.
+    let mut writes = std::mem::take(&mut pending.writes);
+    writes.clear();
+    if pending.filling || writes.capacity_bytes() <= KEPT_WRITE_BYTES {
+        sync.pending.writes = writes;
+    }
 }
+
+/// The most bytes of write buffer kept from frame to frame while nothing streams in.
+const KEPT_WRITE_BYTES: u64 = 4 << 20;
 
 /// Makes the scene bind group again when a buffer grew or the texture array was replaced.
 fn prepare_scene_bind_group(

@@ -70,15 +70,107 @@ impl BufferKind {
     }
 }
 
-/// One `write_buffer` call.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BufferWrite {
+/// One write: record bytes for `buffer` at byte `offset`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BufferWrite<'a> {
     /// Target buffer.
     pub buffer: BufferKind,
     /// Byte offset.
     pub offset: u64,
     /// Little-endian record bytes.
-    pub bytes: Vec<u8>,
+    pub bytes: &'a [u8],
+}
+
+/// Record writes whose bytes share one growing buffer. A renderer keeps it from frame to frame
+/// ([`Writes::clear`]): a fill's uploads are tens of megabytes a frame, and a fresh buffer each
+/// frame would have the kernel zero that many new pages again every time.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Writes {
+    bytes: Vec<u8>,
+    /// Target, offset and where the bytes are in `bytes`, in the order they were pushed.
+    list: Vec<(BufferKind, u64, Range<usize>)>,
+}
+
+impl Writes {
+    /// Adds a write of `bytes` to `buffer` at byte `offset`.
+    pub fn push(&mut self, buffer: BufferKind, offset: u64, bytes: &[u8]) {
+        let start = self.bytes.len();
+        self.bytes.extend_from_slice(bytes);
+        self.list.push((buffer, offset, start..self.bytes.len()));
+    }
+
+    /// Adds a write to `buffer` at byte `offset` whose bytes `put` appends.
+    pub fn push_with(&mut self, buffer: BufferKind, offset: u64, put: impl FnOnce(&mut Vec<u8>)) {
+        let start = self.bytes.len();
+        put(&mut self.bytes);
+        self.list.push((buffer, offset, start..self.bytes.len()));
+    }
+
+    /// Adds one write per range of record ids; the record with id `i`, the `j`th of all the
+    /// ranges' ids, is `record(j, i)`. Made on rayon's threads: a fill's frame makes millions of
+    /// records, and the frame (and the worker, waiting for the tree) waits for them.
+    pub fn push_records<T: bytemuck::Pod>(
+        &mut self,
+        buffer: BufferKind,
+        ranges: impl IntoIterator<Item = Range<u32>>,
+        record: impl Fn(usize, u32) -> T + Sync,
+    ) {
+        use rayon::prelude::*;
+        let size = size_of::<T>();
+        let start = self.bytes.len();
+        let mut ids: Vec<u32> = Vec::new();
+        for r in ranges {
+            let at = start + ids.len() * size;
+            self.list.push((
+                buffer,
+                r.start as u64 * size as u64,
+                at..at + r.len() * size,
+            ));
+            ids.extend(r);
+        }
+        self.bytes.resize(start + ids.len() * size, 0);
+        self.bytes[start..]
+            .par_chunks_mut(size)
+            .zip(ids.par_iter())
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(j, (out, &i))| out.copy_from_slice(bytemuck::bytes_of(&record(j, i))));
+    }
+
+    /// The writes, in the order they were added.
+    pub fn iter(&self) -> impl Iterator<Item = BufferWrite<'_>> {
+        self.list.iter().map(|(buffer, offset, range)| BufferWrite {
+            buffer: *buffer,
+            offset: *offset,
+            bytes: &self.bytes[range.clone()],
+        })
+    }
+
+    /// How many writes there are.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Bytes written, all writes together.
+    pub fn byte_len(&self) -> u64 {
+        self.bytes.len() as u64
+    }
+
+    /// Bytes held for writes to come: what [`Writes::clear`] keeps.
+    pub fn capacity_bytes(&self) -> u64 {
+        self.bytes.capacity() as u64
+    }
+
+    /// Forgets the writes and keeps the memory for the next ones.
+    pub fn clear(&mut self) {
+        self.bytes.clear();
+        self.list.clear();
+    }
 }
 
 /// What to do to bring the GPU copy up to date with one change set.
@@ -87,7 +179,7 @@ pub struct UploadPlan {
     /// Buffers that must grow first, with their new capacity in records (old contents are kept).
     pub grow: Vec<(BufferKind, u64)>,
     /// Writes, after growth.
-    pub writes: Vec<BufferWrite>,
+    pub writes: Writes,
     /// The root reference.
     pub root: u32,
 }
@@ -134,9 +226,16 @@ impl UploadPlan {
     /// its children's binary records, so the changed nodes' parents are rewritten with them
     /// (`Bvh::gpu_wide_ranges`).
     pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
+        Self::new_in(bvh, changes, capacities, Writes::default())
+    }
+
+    /// [`UploadPlan::new`], its writes added after those already in `writes` (a renderer's
+    /// buffer, kept from frame to frame).
+    pub fn new_in(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3], writes: Writes) -> Self {
         let mut plan = UploadPlan {
             root: bvh.gpu_root(),
-            ..Default::default()
+            writes,
+            grow: Vec::new(),
         };
         let needed = [
             (BufferKind::Nodes, changes.inner_capacity as u64),
@@ -148,11 +247,10 @@ impl UploadPlan {
                 plan.grow.push((kind, grown_capacity(cap, need)));
             }
         }
-        push_ranges(
-            &mut plan.writes,
+        plan.writes.push_records(
             BufferKind::Nodes,
             joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)),
-            |i, out| out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_wide_node(i))),
+            |_, i| bvh.gpu_wide_node(i),
         );
         let mut tris: Vec<u32> = changes
             .written_triangles
@@ -189,16 +287,12 @@ impl UploadPlan {
 
     /// Bytes this plan uploads (growth copies stay on the GPU and are not counted).
     pub fn upload_bytes(&self) -> u64 {
-        self.writes
-            .iter()
-            .map(|w| w.bytes.len() as u64)
-            .sum::<u64>()
-            + 4
+        self.writes.byte_len() + 4
     }
 }
 
 /// Sorted disjoint `ranges`, those at most `gap` apart joined into one, as they are read.
-fn joined(
+pub(crate) fn joined(
     ranges: impl IntoIterator<Item = Range<u32>>,
     gap: u32,
 ) -> impl Iterator<Item = Range<u32>> {
@@ -213,31 +307,28 @@ fn joined(
 }
 
 /// One write per range of records, each record's bytes appended by `put`, called for every id of
-/// the range in order: no buffer per record, so a large change set costs one allocation per range.
+/// the range in order.
 fn push_ranges(
-    out: &mut Vec<BufferWrite>,
+    out: &mut Writes,
     buffer: BufferKind,
     ranges: impl IntoIterator<Item = Range<u32>>,
     mut put: impl FnMut(u32, &mut Vec<u8>),
 ) {
     let record = buffer.record_bytes();
     for r in ranges {
-        let mut bytes = Vec::with_capacity(r.len() * record as usize);
-        for id in r.clone() {
-            put(id, &mut bytes);
-        }
-        out.push(BufferWrite {
-            buffer,
-            offset: r.start as u64 * record,
-            bytes,
+        out.push_with(buffer, r.start as u64 * record, |bytes| {
+            bytes.reserve(r.len() * record as usize);
+            for id in r.clone() {
+                put(id, bytes);
+            }
         });
     }
 }
 
 /// One write per run of `ids` (sorted, each once) no more than `gap` records apart
 /// ([`push_ranges`]), so `put` sees the ids between them too; with `gap` 0, exactly `ids`.
-pub(crate) fn push_runs(
-    out: &mut Vec<BufferWrite>,
+fn push_runs(
+    out: &mut Writes,
     buffer: BufferKind,
     ids: &[u32],
     gap: u32,
@@ -245,4 +336,37 @@ pub(crate) fn push_runs(
 ) {
     let runs = joined(ids.iter().map(|&i| i..i + 1), gap);
     push_ranges(out, buffer, runs, put);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_made_in_parallel_land_in_order_after_earlier_writes() {
+        let mut writes = Writes::default();
+        writes.push(BufferKind::Lights, 8, &[1, 2, 3, 4]);
+        // Enough records for several parallel pieces: record (j, i) holds both numbers.
+        let ranges = [5..8, 20..3000, 4000..9000];
+        writes.push_records(BufferKind::Objects, ranges.clone(), |j, i| [j as u32, i]);
+        let all: Vec<BufferWrite> = writes.iter().collect();
+        assert_eq!(all.len(), 4);
+        assert_eq!(
+            (all[0].buffer, all[0].offset, all[0].bytes),
+            (BufferKind::Lights, 8, &[1u8, 2, 3, 4][..])
+        );
+        let mut j = 0u32;
+        for (w, r) in all[1..].iter().zip(ranges) {
+            assert_eq!(w.buffer, BufferKind::Objects);
+            assert_eq!(w.offset, r.start as u64 * 8);
+            let words: &[u32] = bytemuck::cast_slice(w.bytes);
+            for (pair, i) in words.chunks(2).zip(r) {
+                assert_eq!(pair, [j, i]);
+                j += 1;
+            }
+        }
+        assert_eq!(writes.byte_len(), 4 + 8 * j as u64);
+        writes.clear();
+        assert!(writes.is_empty() && writes.capacity_bytes() >= 8 * j as u64);
+    }
 }

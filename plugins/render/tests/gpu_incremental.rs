@@ -91,9 +91,9 @@ impl Mirror {
             self.capacities[i] = records;
         }
         let mut bytes = 0;
-        for w in &plan.writes {
+        for w in plan.writes.iter() {
             gpu.queue
-                .write_buffer(&self.buffers[index(w.buffer)], w.offset, &w.bytes);
+                .write_buffer(&self.buffers[index(w.buffer)], w.offset, w.bytes);
             bytes += w.bytes.len() as u64;
         }
         gpu.wait();

@@ -35,11 +35,11 @@ impl FakeGpu {
             self.caps[k] = cap;
             self.buffers[k].resize((cap * size) as usize, 0);
         }
-        for w in &plan.writes {
+        for w in plan.writes.iter() {
             let buf = &mut self.buffers[w.buffer as usize];
             let end = w.offset as usize + w.bytes.len();
             assert!(end <= buf.len(), "write past the buffer: grow first");
-            buf[w.offset as usize..end].copy_from_slice(&w.bytes);
+            buf[w.offset as usize..end].copy_from_slice(w.bytes);
         }
         self.uploaded += plan.upload_bytes();
     }

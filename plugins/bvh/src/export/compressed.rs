@@ -134,12 +134,16 @@ fn quantize_axis<const N: usize>(boxes: [[f32; 2]; N]) -> (f32, u32, [[u32; 2]; 
         e += 1;
     }
     let s = step(e);
+    // `s` is a power of two, so multiplying by its inverse divides exactly; the casts floor the
+    // non-negative quotients (and saturate an empty slot's infinities), without a libm call.
+    let inv = if e < 254 { step(254 - e) } else { 1.0 / s };
     let q = boxes.map(|[lo, hi]| {
-        let mut a = (((lo - origin) / s).floor().max(0.0) as u32).min(255);
+        let mut a = (((lo - origin) * inv).clamp(0.0, 256.0) as u32).min(255);
         while a > 0 && origin + a as f32 * s > lo {
             a -= 1;
         }
-        let mut b = (((hi - origin) / s).ceil().max(0.0) as u32).min(255);
+        let t = ((hi - origin) * inv).clamp(0.0, 256.0);
+        let mut b = ((t as u32) + u32::from((t as u32 as f32) < t)).min(255);
         while b < 255 && origin + b as f32 * s < hi {
             b += 1;
         }
