@@ -56,6 +56,7 @@ pub use records::{
     guide_bytes, light_bytes, object_bytes, outline_words, packed_attribute_record, set_outline,
     temporal_bytes,
 };
+pub use staging::{CHUNK_BYTES, UploadBelt};
 pub use texture_layers::{
     MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,
     layer_side_for, layers_at,

@@ -201,7 +201,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         map_transforms: map_transform_buffer(&device, &crate::MapTransformTable::default().bytes()),
         too_large,
         filling: false,
-        staging: UploadBelt::new(&device),
+        staging: UploadBelt::new(device.wgpu_device()),
     });
 }
 

@@ -4,37 +4,43 @@
 //! page by page before the copy lands in it. Once the stream has ended, the belt's buffers are let
 //! go, so an idle editor does not hold the largest frame's staging.
 
-use bevy::render::render_resource::Buffer;
-use bevy::render::renderer::RenderDevice;
 use wgpu::util::StagingBelt;
 
 /// Bytes of one staging buffer. Larger writes are copied in pieces of this size, so every buffer
 /// is the same size and any of them serves any later piece.
-const CHUNK_BYTES: u64 = 8 << 20;
+pub const CHUNK_BYTES: u64 = 8 << 20;
 
 /// A frame that uploads less than this, while nothing streams in, lets the belt's buffers go
 /// (when they are more than one chunk's worth).
 const QUIET_FRAME_BYTES: u64 = 1 << 20;
 
 /// The belt and what it has been asked to carry.
-pub(crate) struct UploadBelt {
+pub struct UploadBelt {
     device: wgpu::Device,
     belt: StagingBelt,
     /// The most bytes one frame wrote through this belt: what its buffers may add up to.
     largest_frame: u64,
     /// Bytes written through it this frame.
     this_frame: u64,
+    /// Times its buffers were let go.
+    releases: u64,
 }
 
 impl UploadBelt {
-    pub fn new(device: &RenderDevice) -> Self {
-        let device = device.wgpu_device().clone();
+    /// An empty belt on `device`.
+    pub fn new(device: &wgpu::Device) -> Self {
         UploadBelt {
             belt: StagingBelt::new(device.clone(), CHUNK_BYTES),
-            device,
+            device: device.clone(),
             largest_frame: 0,
             this_frame: 0,
+            releases: 0,
         }
+    }
+
+    /// How many times the belt let its buffers go.
+    pub fn releases(&self) -> u64 {
+        self.releases
     }
 
     /// Records into `encoder` the copy of `bytes` to `target` at byte `offset`. Both must be
@@ -42,7 +48,7 @@ impl UploadBelt {
     pub fn write(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
-        target: &Buffer,
+        target: &wgpu::Buffer,
         offset: u64,
         bytes: &[u8],
     ) -> bool {
@@ -81,6 +87,7 @@ impl UploadBelt {
             // Buffers still being copied from stay alive in wgpu until the copy is done.
             self.belt = StagingBelt::new(self.device.clone(), CHUNK_BYTES);
             self.largest_frame = 0;
+            self.releases += 1;
         }
     }
 }

@@ -172,3 +172,57 @@ fn incremental_upload_traces_like_a_full_one() {
     let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
     assert_eq!(differ, 0, "{differ} pixels differ after the swap");
 }
+
+/// Writes staged through the upload belt land whole: larger than its buffers (copied in pieces),
+/// over frames that reuse its buffers, and after it lets them go once the stream has ended.
+#[test]
+fn staged_writes_land_whole_across_pieces_reuse_and_release() {
+    use treelight_render::{CHUNK_BYTES, UploadBelt};
+    let gpu = Gpu::new();
+    let size = 5 * CHUNK_BYTES;
+    let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("target"),
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let mut expected = vec![0u8; size as usize];
+    let mut belt = UploadBelt::new(&gpu.device);
+    let pattern = |seed: u32, len: u64| -> Vec<u8> {
+        (0..len as u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) ^ seed).to_le_bytes()[1])
+            .collect()
+    };
+    // (offset, length, whether new geometry still streams in)
+    let frames: [&[(u64, u64)]; 6] = [
+        &[(4, 2 * CHUNK_BYTES + 400), (3 * CHUNK_BYTES, 4096)],
+        &[(CHUNK_BYTES + 8, CHUNK_BYTES + 12)],
+        &[(100, 4096)],
+        &[(CHUNK_BYTES / 2, 2048)],
+        &[(4 * CHUNK_BYTES, 1024), (64, 64)],
+        &[(2 * CHUNK_BYTES - 4, 3 * CHUNK_BYTES)],
+    ];
+    let streaming = [true, true, true, false, false, true];
+    for (k, (writes, &stream)) in frames.iter().zip(&streaming).enumerate() {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        for &(offset, len) in writes.iter() {
+            let bytes = pattern(k as u32 * 7919 + offset as u32, len);
+            assert!(belt.write(&mut encoder, &target, offset, &bytes));
+            expected[offset as usize..(offset + len) as usize].copy_from_slice(&bytes);
+        }
+        // Not whole words: left out, and said so.
+        assert!(!belt.write(&mut encoder, &target, 2, &[1, 2, 3, 4]));
+        assert!(!belt.write(&mut encoder, &target, 8, &[1, 2, 3]));
+        belt.finish();
+        gpu.queue.submit([encoder.finish()]);
+        belt.recall(stream);
+        gpu.wait();
+        // The fourth frame is the first quiet one, after frames of several buffers, once
+        // nothing streams in.
+        assert_eq!(belt.releases(), u64::from(k >= 3), "frame {k}");
+    }
+    assert!(
+        gpu.read(&target) == expected,
+        "the target differs from the writes"
+    );
+}
