@@ -7,7 +7,7 @@ use crate::records::{
     outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
 };
 use crate::texture_layers::TextureLayers;
-use crate::upload::{BufferKind, UploadPlan, Writes, joined};
+use crate::upload::{BufferKind, UploadPlan, Writes, runs};
 use crate::{MapUvTransforms, Outlined};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
@@ -365,7 +365,7 @@ fn scene_writes(
     }
     records.sort_unstable_by_key(|r| r.0);
     records.dedup_by_key(|r| r.0);
-    let runs = joined(records.iter().map(|r| r.0..r.0 + 1), 0);
+    let runs = runs(records.iter().map(|r| r.0), 0);
     let two_uv_sets = &sync.two_uv_sets;
     sync.pending
         .writes

@@ -99,15 +99,8 @@ impl Writes {
         self.list.push((buffer, offset, start..self.bytes.len()));
     }
 
-    /// Adds a write to `buffer` at byte `offset` whose bytes `put` appends.
-    pub fn push_with(&mut self, buffer: BufferKind, offset: u64, put: impl FnOnce(&mut Vec<u8>)) {
-        let start = self.bytes.len();
-        put(&mut self.bytes);
-        self.list.push((buffer, offset, start..self.bytes.len()));
-    }
-
-    /// Adds one write per range of record ids; the record with id `i`, the `j`th of all the
-    /// ranges' ids, is `record(j, i)`. Made on rayon's threads: a fill's frame makes millions of
+    /// Adds one write per range of record ids, records of `T`'s size; the record with id `i`, the
+    /// `j`th of all the ranges' ids, is `record(j, i)`. Made on rayon's threads: a fill's frame makes millions of
     /// records, and the frame (and the worker, waiting for the tree) waits for them.
     pub fn push_records<T: bytemuck::Pod>(
         &mut self,
@@ -117,6 +110,8 @@ impl Writes {
     ) {
         use rayon::prelude::*;
         let size = size_of::<T>();
+        // Offsets are counted in `T`s: they must be the buffer's records.
+        assert_eq!(size as u64, buffer.record_bytes(), "{buffer:?} records");
         let start = self.bytes.len();
         let mut ids: Vec<u32> = Vec::new();
         for r in ranges {
@@ -260,27 +255,18 @@ impl UploadPlan {
             .collect();
         tris.sort_unstable();
         tris.dedup();
-        let gap = join_gap(BufferKind::Triangles);
-        push_runs(
-            &mut plan.writes,
+        plan.writes.push_records(
             BufferKind::Triangles,
-            &tris,
-            gap,
-            |t, out| {
-                out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_triangle(t)));
-            },
+            runs(tris, join_gap(BufferKind::Triangles)),
+            |_, t| bvh.gpu_triangle(t),
         );
         let mut instances = changes.instances.clone();
         instances.sort_unstable();
         instances.dedup();
-        push_runs(
-            &mut plan.writes,
+        plan.writes.push_records(
             BufferKind::Instances,
-            &instances,
-            join_gap(BufferKind::Instances),
-            |i, out| {
-                out.extend_from_slice(bytemuck::bytes_of(&bvh.gpu_instance(i)));
-            },
+            runs(instances, join_gap(BufferKind::Instances)),
+            |_, i| bvh.gpu_instance(i),
         );
         plan
     }
@@ -292,7 +278,7 @@ impl UploadPlan {
 }
 
 /// Sorted disjoint `ranges`, those at most `gap` apart joined into one, as they are read.
-pub(crate) fn joined(
+fn joined(
     ranges: impl IntoIterator<Item = Range<u32>>,
     gap: u32,
 ) -> impl Iterator<Item = Range<u32>> {
@@ -306,36 +292,13 @@ pub(crate) fn joined(
     })
 }
 
-/// One write per range of records, each record's bytes appended by `put`, called for every id of
-/// the range in order.
-fn push_ranges(
-    out: &mut Writes,
-    buffer: BufferKind,
-    ranges: impl IntoIterator<Item = Range<u32>>,
-    mut put: impl FnMut(u32, &mut Vec<u8>),
-) {
-    let record = buffer.record_bytes();
-    for r in ranges {
-        out.push_with(buffer, r.start as u64 * record, |bytes| {
-            bytes.reserve(r.len() * record as usize);
-            for id in r.clone() {
-                put(id, bytes);
-            }
-        });
-    }
-}
-
-/// One write per run of `ids` (sorted, each once) no more than `gap` records apart
-/// ([`push_ranges`]), so `put` sees the ids between them too; with `gap` 0, exactly `ids`.
-fn push_runs(
-    out: &mut Writes,
-    buffer: BufferKind,
-    ids: &[u32],
+/// The runs of `ids` (sorted, each once) no more than `gap` records apart, as ranges of records:
+/// one write each, the records between rewritten as they are; with `gap` 0, exactly `ids`.
+pub(crate) fn runs(
+    ids: impl IntoIterator<Item = u32>,
     gap: u32,
-    put: impl FnMut(u32, &mut Vec<u8>),
-) {
-    let runs = joined(ids.iter().map(|&i| i..i + 1), gap);
-    push_ranges(out, buffer, runs, put);
+) -> impl Iterator<Item = Range<u32>> {
+    joined(ids.into_iter().map(|i| i..i + 1), gap)
 }
 
 #[cfg(test)]
@@ -346,9 +309,14 @@ mod tests {
     fn records_made_in_parallel_land_in_order_after_earlier_writes() {
         let mut writes = Writes::default();
         writes.push(BufferKind::Lights, 8, &[1, 2, 3, 4]);
-        // Enough records for several parallel pieces: record (j, i) holds both numbers.
+        // Enough records for several parallel pieces: triangle record (j, i) starts with both
+        // numbers.
         let ranges = [5..8, 20..3000, 4000..9000];
-        writes.push_records(BufferKind::Objects, ranges.clone(), |j, i| [j as u32, i]);
+        writes.push_records(BufferKind::Triangles, ranges.clone(), |j, i| {
+            let mut record = [0u32; 9];
+            record[..2].copy_from_slice(&[j as u32, i]);
+            record
+        });
         let all: Vec<BufferWrite> = writes.iter().collect();
         assert_eq!(all.len(), 4);
         assert_eq!(
@@ -357,16 +325,16 @@ mod tests {
         );
         let mut j = 0u32;
         for (w, r) in all[1..].iter().zip(ranges) {
-            assert_eq!(w.buffer, BufferKind::Objects);
-            assert_eq!(w.offset, r.start as u64 * 8);
+            assert_eq!(w.buffer, BufferKind::Triangles);
+            assert_eq!(w.offset, r.start as u64 * TRIANGLE_BYTES);
             let words: &[u32] = bytemuck::cast_slice(w.bytes);
-            for (pair, i) in words.chunks(2).zip(r) {
-                assert_eq!(pair, [j, i]);
+            for (record, i) in words.chunks(9).zip(r) {
+                assert_eq!(record[..2], [j, i]);
                 j += 1;
             }
         }
-        assert_eq!(writes.byte_len(), 4 + 8 * j as u64);
+        assert_eq!(writes.byte_len(), 4 + TRIANGLE_BYTES * j as u64);
         writes.clear();
-        assert!(writes.is_empty() && writes.capacity_bytes() >= 8 * j as u64);
+        assert!(writes.is_empty() && writes.capacity_bytes() >= TRIANGLE_BYTES * j as u64);
     }
 }
