@@ -132,6 +132,15 @@ impl Session {
                 continue;
             };
             let root = conn.setup().roots[screen].root;
+            // No autorepeat: a key is held for a frame, and a frame late under load (over the
+            // server's 660-ms delay) would otherwise type the letter a dozen times.
+            conn.change_keyboard_control(
+                &xproto::ChangeKeyboardControlAux::new()
+                    .auto_repeat_mode(xproto::AutoRepeatMode::OFF),
+            )
+            .expect("the X server takes keyboard settings")
+            .check()
+            .expect("autorepeat turned off");
             let state_path = dir.join("state.ron");
             let log_path = dir.join("editor.log");
             let log = std::fs::File::create(&log_path).unwrap();
