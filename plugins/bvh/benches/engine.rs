@@ -1,7 +1,7 @@
 //! Criterion benches of the engine's hot operations on a real scene (sibenik.obj, 73,564 triangles):
 //! insertion (whole-scene IncrU build, the target build of IncrU at k_u = 0.1 and the short
 //! post-pass with pairs and with clusters of four, and one triangle into the finished tree), the branch-and-bound
-//! search alone, removal of a 10k-triangle group, and closest-hit and any-hit traversal.
+//! search alone, removal of a 10k-triangle group, the GPU records of the whole tree, and closest-hit and any-hit traversal.
 //!
 //! Run: `cargo bench -p treelight_bvh --bench engine` (reads `../shared/scenes/obj/sibenik.obj`).
 
@@ -111,6 +111,29 @@ fn engine(c: &mut Criterion) {
             BatchSize::LargeInput,
         )
     });
+
+    // What a first upload makes of the whole tree: every inner node's compressed 4-wide record and
+    // every triangle's record.
+    let mut g = c.benchmark_group("export");
+    g.throughput(criterion::Throughput::Elements(tree.inner_capacity() as u64));
+    g.bench_function("wide_node_records_sibenik", |b| {
+        b.iter(|| {
+            (0..tree.inner_capacity())
+                .map(|i| black_box(tree.gpu_wide_node(i)).refs[0])
+                .fold(0u32, u32::wrapping_add)
+        })
+    });
+    g.throughput(criterion::Throughput::Elements(
+        tree.triangle_capacity() as u64
+    ));
+    g.bench_function("triangle_records_sibenik", |b| {
+        b.iter(|| {
+            (0..tree.triangle_capacity())
+                .map(|t| black_box(tree.gpu_triangle(t)).v0[0])
+                .sum::<f32>()
+        })
+    });
+    g.finish();
 
     let rays = rays(&tree, 4096);
     let mut g = c.benchmark_group("traversal");

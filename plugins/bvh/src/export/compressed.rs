@@ -124,32 +124,63 @@ fn quantize_axis<const N: usize>(boxes: [[f32; 2]; N]) -> (f32, u32, [[u32; 2]; 
         return (0.0, 1, [[0, 0]; N]);
     }
     let top = top.max(origin);
-    // The smallest step for which 255 of them reach `top` in f32 arithmetic: start just below the
-    // exponent of extent / 255 and walk up. `q * step` is exact, so the kernel's sum rounds as this
-    // one does, monotonically: a bound checked here holds there.
-    let mut e = (((top - origin) / 255.0).to_bits() >> 23 & 0xff)
-        .saturating_sub(1)
-        .max(1);
-    while e < 254 && origin + step(e) * 255.0 < top {
+    // The smallest step for which 255 of them reach `top` in f32 arithmetic: the exponent of
+    // d / 255, d = top - origin as rounded, is enough only where that is a power of two; the next
+    // one always is (d < 255 * its step, so origin plus that is above `top` and rounds to no
+    // less). `q * step` is exact, so the kernel's sum rounds as this one does, monotonically: a
+    // bound checked here holds there.
+    let mut e = (((top - origin) / 255.0).to_bits() >> 23 & 0xff).clamp(1, 254);
+    if e < 254 && origin + step(e) * 255.0 < top {
         e += 1;
     }
     let s = step(e);
     // `s` is a power of two, so multiplying by its inverse divides exactly; the casts floor the
     // non-negative quotients (and saturate an empty slot's infinities), without a libm call.
     let inv = if e < 254 { step(254 - e) } else { 1.0 / s };
-    let q = boxes.map(|[lo, hi]| {
-        let mut a = (((lo - origin) * inv).clamp(0.0, 256.0) as u32).min(255);
-        while a > 0 && origin + a as f32 * s > lo {
-            a -= 1;
-        }
+    let mut q = [[0u32; 2]; N];
+    for ([lo, hi], out) in boxes.into_iter().zip(&mut q) {
+        let a = (((lo - origin) * inv).clamp(0.0, 256.0) as u32).min(255);
         let t = ((hi - origin) * inv).clamp(0.0, 256.0);
-        let mut b = ((t as u32) + u32::from((t as u32 as f32) < t)).min(255);
-        while b < 255 && origin + b as f32 * s < hi {
-            b += 1;
-        }
-        [a, b]
-    });
+        let b = ((t as u32) + u32::from((t as u32 as f32) < t)).min(255);
+        // The quotients are nearly always right; the walks correct a rounded one.
+        out[0] = if a > 0 && origin + a as f32 * s > lo {
+            walk_down(a, origin, s, lo)
+        } else {
+            a
+        };
+        out[1] = if b < 255 && origin + b as f32 * s < hi {
+            walk_up(b, origin, s, hi)
+        } else {
+            b
+        };
+    }
     (origin, e, q)
+}
+
+/// The largest `q <= a` with `origin + q * s <= lo` (0 at the least). Out of line, as is
+/// [`walk_up`]: inlined, the compiler unrolls each into a vector search that costs more than the
+/// rest of the record, where the first guess nearly always stands.
+#[cold]
+#[inline(never)]
+fn walk_down(mut a: u32, origin: f32, s: f32, lo: f32) -> u32 {
+    #[cfg(test)]
+    tests::WALKS.with(|w| w[0].set(w[0].get() + 1));
+    while a > 0 && origin + a as f32 * s > lo {
+        a -= 1;
+    }
+    a
+}
+
+/// The smallest `q >= b` with `origin + q * s >= hi` (255 at the most).
+#[cold]
+#[inline(never)]
+fn walk_up(mut b: u32, origin: f32, s: f32, hi: f32) -> u32 {
+    #[cfg(test)]
+    tests::WALKS.with(|w| w[1].set(w[1].get() + 1));
+    while b < 255 && origin + b as f32 * s < hi {
+        b += 1;
+    }
+    b
 }
 
 impl GpuCompressedNode {
@@ -248,5 +279,76 @@ impl GpuCompressedBinaryNode {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Calls of the walks on this thread: down, up.
+        pub(super) static WALKS: [Cell<u32>; 2] = const { [Cell::new(0), Cell::new(0)] };
+    }
+
+    /// Records of coordinates at every scale, half of them just under or over 255 steps of a
+    /// power of two: each walk is needed somewhere, 255 steps always reach the top, and every
+    /// decoded box holds its child as tightly as the step allows.
+    #[test]
+    fn rounded_guesses_are_walked_to_boxes_that_hold() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for _ in 0..200_000 {
+            let mut value = || {
+                let r = next();
+                let mantissa = 1.0 + (r >> 40) as f32 / (1u64 << 24) as f32;
+                let v = mantissa * 2f32.powi((r % 60) as i32 - 30);
+                if r & 1 << 20 == 0 { v } else { -v }
+            };
+            let mut boxes: [[f32; 2]; 4] = std::array::from_fn(|_| {
+                let (a, b) = (value(), value());
+                [a.min(b), a.max(b)]
+            });
+            let r = next();
+            if r & 1 == 0 {
+                let step = 2f32.powi((r >> 8) as i32 % 50 - 25);
+                let nudge = ((r >> 16) % 3) as f32 - 1.0;
+                let span = 255.0 * step * (1.0 + nudge * 2f32.powi(-(((r >> 24) % 8) as i32 + 17)));
+                boxes[1] = [boxes[0][0] + span * 0.5, boxes[0][0] + span];
+            }
+            let (origin, e, q) = quantize_axis(boxes);
+            let s = step(e);
+            let top = boxes.iter().map(|b| b[1]).fold(f32::NEG_INFINITY, f32::max);
+            assert!(
+                origin + s * 255.0 >= top,
+                "{boxes:?}: step {s} short of {top}"
+            );
+            for ([lo, hi], [a, b]) in boxes.into_iter().zip(q) {
+                let (dlo, dhi) = (origin + a as f32 * s, origin + b as f32 * s);
+                assert!(
+                    dlo <= lo && dhi >= hi,
+                    "{boxes:?}: [{dlo}, {dhi}] misses [{lo}, {hi}]"
+                );
+                assert!(
+                    a == 255 || origin + (a + 1) as f32 * s > lo,
+                    "{boxes:?}: {a} not the last below {lo}"
+                );
+                assert!(
+                    b == 0 || origin + (b - 1) as f32 * s < hi,
+                    "{boxes:?}: {b} not the first above {hi}"
+                );
+            }
+        }
+        let walks = WALKS.with(|w| w.each_ref().map(Cell::get));
+        assert!(walks.iter().all(|&n| n > 0), "walks taken: {walks:?}");
+        // A record as wide as floats go keeps a finite step.
+        let (_, e, _) = quantize_axis([[-3e38, 0.0], [0.0, 3e38]]);
+        assert!(e <= 254 && step(e).is_finite());
     }
 }
