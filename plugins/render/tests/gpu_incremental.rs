@@ -193,7 +193,7 @@ fn staged_writes_land_whole_across_pieces_reuse_and_release() {
             .map(|i| (i.wrapping_mul(2_654_435_761) ^ seed).to_le_bytes()[1])
             .collect()
     };
-    // (offset, length, whether new geometry still streams in)
+    // Each frame's writes as (offset, length); below, whether new geometry still streams in.
     let frames: [&[(u64, u64)]; 6] = [
         &[(4, 2 * CHUNK_BYTES + 400), (3 * CHUNK_BYTES, 4096)],
         &[(CHUNK_BYTES + 8, CHUNK_BYTES + 12)],
