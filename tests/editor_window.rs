@@ -560,8 +560,9 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     // Each run in a session of its own (its own settings: the first run's recovery copy would be
-    // offered to the second), its picture taken once every pixel has 16 samples: under load the
-    // split kernel's pipeline may take many frames to compile.
+    // offered to the second), its picture taken once every pixel has 16 samples: with a cold
+    // shader cache llvmpipe compiles the split kernel for minutes (on its warm-up device, while
+    // the view waits).
     let run = |limit: Option<&str>| {
         let mut args = vec![helmet.to_str().unwrap(), "--view", "albedo"];
         if let Some(kib) = limit {
@@ -571,7 +572,7 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
         let mut session = xdrive::Session::start(&name, &args);
         let s = session.wait_until(
             "16 samples a pixel",
-            std::time::Duration::from_secs(240),
+            std::time::Duration::from_secs(600),
             |st| st.samples >= 16,
         );
         assert_ne!(s.view, "Raster", "{:?}", s.notices);
@@ -613,6 +614,43 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
         differ * 50 < all,
         "{differ} of {all} viewport pixels differ between the split and the whole records"
     );
+}
+
+#[test]
+fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_go_on() {
+    use treelight::report::EditorState;
+    // With an empty shader cache llvmpipe compiles the split kernel for minutes. Compiled at its
+    // first dispatch on the views' queue, every frame after waited that long; compiled on the
+    // warm-up's device of its own, the editor runs its frames meanwhile and says what the view
+    // waits for. (The run ends long before the compile does.)
+    let dir = temp_dir("split-kernel-warmup");
+    let cache = dir.join("shader cache");
+    std::fs::create_dir_all(&cache).unwrap();
+    let state = dir.join("state.ron");
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let out = run_headless_with_env(
+        std::path::Path::new(env!("CARGO_BIN_EXE_treelight")),
+        &[
+            helmet.to_str().unwrap(),
+            "--gpu-binding-limit",
+            "4096",
+            "--frames",
+            "150",
+            "--state",
+            state.to_str().unwrap(),
+        ],
+        &dir.join("config"),
+        &[("MESA_SHADER_CACHE_DIR", &cache)],
+    );
+    let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+    assert!(s.frame >= 150, "{out}");
+    assert_eq!(s.memory.triangles, 94_722, "{out}");
+    assert!(s.preparing_split_kernel, "{out}");
+    // The view traced none of the split scene: its kernel is not ready.
+    assert_eq!(s.samples, 0, "{out}");
+    assert_ne!(s.view, "Raster", "{:?}", s.notices);
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

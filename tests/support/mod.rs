@@ -54,10 +54,21 @@ pub fn run_editor_with_config(args: &[&str], config: &Path) -> String {
 
 /// [`run_headless`] with the editor's settings in `config`.
 pub fn run_headless_with_config(exe: &Path, args: &[&str], config: &Path) -> String {
+    run_headless_with_env(exe, args, config, &[])
+}
+
+/// [`run_headless_with_config`] with `env` set too.
+pub fn run_headless_with_env(
+    exe: &Path,
+    args: &[&str],
+    config: &Path,
+    env: &[(&str, &Path)],
+) -> String {
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1000x24"])
         .arg(exe)
         .args(args)
+        .envs(env.iter().copied())
         .env("WGPU_BACKEND", "vulkan")
         // The user's own settings stay untouched by tests.
         .env("TREELIGHT_CONFIG_DIR", config)

@@ -543,21 +543,25 @@ fn make_textures(
     )
 }
 
-fn init_gpu_environment(
-    mut commands: Commands,
-    device: Res<RenderDevice>,
-    queue: Res<RenderQueue>,
-) {
-    let (image, distribution) = make_textures(&device, &queue, None);
-    // Around the horizon the panorama wraps; at the poles it holds its edge.
-    let sampler = device.create_sampler(&SamplerDescriptor {
+/// The panorama's sampler: around the horizon the panorama wraps; at the poles it holds its edge.
+pub(crate) fn sampler_descriptor() -> SamplerDescriptor<'static> {
+    SamplerDescriptor {
         label: Some("treelight environment"),
         address_mode_u: AddressMode::Repeat,
         address_mode_v: AddressMode::ClampToEdge,
         mag_filter: FilterMode::Linear,
         min_filter: FilterMode::Linear,
         ..default()
-    });
+    }
+}
+
+fn init_gpu_environment(
+    mut commands: Commands,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+) {
+    let (image, distribution) = make_textures(&device, &queue, None);
+    let sampler = device.create_sampler(&sampler_descriptor());
     commands.insert_resource(GpuEnvironment {
         generation: 0,
         version: 0,

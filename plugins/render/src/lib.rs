@@ -18,6 +18,7 @@ mod environment;
 mod extract;
 mod gpu_memory;
 mod identity;
+mod kernel_warmup;
 mod map_transforms;
 mod node;
 mod parts;
@@ -389,6 +390,10 @@ pub struct PathTracerFigures {
     /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
     /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
     pub trace_off: Option<String>,
+    /// Whether the scene's views wait for the kernel over records split across bindings to be
+    /// compiled away from their queue: on a software adapter, the first time a scene outgrows one
+    /// binding (minutes with a cold shader cache, moments once the driver's cache holds it).
+    pub preparing_split_kernel: bool,
     /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
     pub scene_buffer_bytes: u64,
     /// The side, in texels, every texture is traced at: [`TEXTURE_LAYER_SIZE`] until more
@@ -449,6 +454,14 @@ impl PathTracerStats {
             .clone()
     }
 
+    /// Whether the views wait for the split kernel ([`PathTracerFigures::preparing_split_kernel`]).
+    pub fn preparing_split_kernel(&self) -> bool {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .preparing_split_kernel
+    }
+
     /// The side every texture is traced at ([`PathTracerFigures::texture_side`]).
     pub fn texture_side(&self) -> u32 {
         self.0
@@ -482,10 +495,7 @@ impl Plugin for PathTracerPlugin {
                     PATHTRACE_WGSL,
                     "treelight/pathtrace.wgsl",
                 )),
-                trace_split: assets.add(Shader::from_wgsl(
-                    PATHTRACE_SPLIT_WGSL,
-                    "treelight/pathtrace_split.wgsl",
-                )),
+                trace_split: assets.add(pipelines::split_trace_shader()),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
                 denoise: assets.add(Shader::from_wgsl(DENOISE_WGSL, "treelight/denoise.wgsl")),
                 temporal: assets.add(Shader::from_wgsl(TEMPORAL_WGSL, "treelight/temporal.wgsl")),
@@ -507,6 +517,7 @@ impl Plugin for PathTracerPlugin {
         // Bevy's render phases, one module each: extract, then prepare (the texture layers, the
         // scene's buffers, the views), then the node that binds and dispatches.
         pipelines::build(render_app);
+        kernel_warmup::build(render_app);
         extract::build(render_app);
         texture_layers::build(render_app);
         prepare::build(render_app);

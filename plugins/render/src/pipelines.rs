@@ -82,52 +82,8 @@ fn init_pipelines(
         // The kernel cannot be made here (the scene says why): without pipelines nothing is traced.
         return;
     }
-    // Each kind's parts (`parts::part_bindings`), then the texture array and its sampler.
-    let mut scene_entries: Vec<BindGroupLayoutEntry> = BufferKind::ALL
-        .iter()
-        .flat_map(|&k| part_bindings(k).iter())
-        .map(|&binding| {
-            storage_buffer_read_only_sized(false, None).build(binding, ShaderStages::COMPUTE)
-        })
-        .collect();
-    scene_entries.push(
-        texture_2d_array(TextureSampleType::Float { filterable: true })
-            .build(6, ShaderStages::COMPUTE),
-    );
-    scene_entries.push(sampler(SamplerBindingType::Filtering).build(7, ShaderStages::COMPUTE));
-    scene_entries.push(
-        storage_buffer_read_only_sized(false, None)
-            .build(crate::MAP_TRANSFORMS_BINDING, ShaderStages::COMPUTE),
-    );
-    scene_entries.push(
-        uniform_buffer_sized(false, None)
-            .build(crate::energy::ENERGY_BINDING, ShaderStages::COMPUTE),
-    );
-    let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
-    scene_entries.push(
-        texture_2d(TextureSampleType::Float { filterable: true })
-            .build(env_image, ShaderStages::COMPUTE),
-    );
-    scene_entries
-        .push(sampler(SamplerBindingType::Filtering).build(env_sampler, ShaderStages::COMPUTE));
-    scene_entries.push(
-        texture_2d(TextureSampleType::Float { filterable: false })
-            .build(env_cdf, ShaderStages::COMPUTE),
-    );
-    scene_entries.sort_by_key(|e| e.binding);
-    let scene_layout = BindGroupLayoutDescriptor::new("treelight scene", &scene_entries);
-    let view_layout = BindGroupLayoutDescriptor::new(
-        "treelight view",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                uniform_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-            ),
-        ),
-    );
+    let scene_layout = scene_layout();
+    let view_layout = view_layout();
     let resolve_layout = BindGroupLayoutDescriptor::new(
         "treelight resolve",
         &BindGroupLayoutEntries::sequential(
@@ -207,8 +163,70 @@ fn init_pipelines(
     });
 }
 
+/// Group 0 of the trace kernel ([`PathTracerPipelines::scene_layout`]).
+pub(crate) fn scene_layout() -> BindGroupLayoutDescriptor {
+    // Each kind's parts (`parts::part_bindings`), then the texture array and its sampler.
+    let mut scene_entries: Vec<BindGroupLayoutEntry> = BufferKind::ALL
+        .iter()
+        .flat_map(|&k| part_bindings(k).iter())
+        .map(|&binding| {
+            storage_buffer_read_only_sized(false, None).build(binding, ShaderStages::COMPUTE)
+        })
+        .collect();
+    scene_entries.push(
+        texture_2d_array(TextureSampleType::Float { filterable: true })
+            .build(6, ShaderStages::COMPUTE),
+    );
+    scene_entries.push(sampler(SamplerBindingType::Filtering).build(7, ShaderStages::COMPUTE));
+    scene_entries.push(
+        storage_buffer_read_only_sized(false, None)
+            .build(crate::MAP_TRANSFORMS_BINDING, ShaderStages::COMPUTE),
+    );
+    scene_entries.push(
+        uniform_buffer_sized(false, None)
+            .build(crate::energy::ENERGY_BINDING, ShaderStages::COMPUTE),
+    );
+    let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+    scene_entries.push(
+        texture_2d(TextureSampleType::Float { filterable: true })
+            .build(env_image, ShaderStages::COMPUTE),
+    );
+    scene_entries
+        .push(sampler(SamplerBindingType::Filtering).build(env_sampler, ShaderStages::COMPUTE));
+    scene_entries.push(
+        texture_2d(TextureSampleType::Float { filterable: false })
+            .build(env_cdf, ShaderStages::COMPUTE),
+    );
+    scene_entries.sort_by_key(|e| e.binding);
+    BindGroupLayoutDescriptor::new("treelight scene", &scene_entries)
+}
+
+/// Group 1 of the trace kernel ([`PathTracerPipelines::view_layout`]).
+pub(crate) fn view_layout() -> BindGroupLayoutDescriptor {
+    BindGroupLayoutDescriptor::new(
+        "treelight view",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    )
+}
+
+/// The split trace kernel's shader asset.
+pub(crate) fn split_trace_shader() -> Shader {
+    Shader::from_wgsl(
+        crate::PATHTRACE_SPLIT_WGSL,
+        "treelight/pathtrace_split.wgsl",
+    )
+}
+
 /// A compute pipeline of `shader`'s `entry` over `layout`.
-fn compute_pipeline(
+pub(crate) fn compute_pipeline(
     label: &'static str,
     layout: Vec<BindGroupLayoutDescriptor>,
     shader: Handle<Shader>,
@@ -231,14 +249,17 @@ impl PathTracerPipelines {
             return self.trace;
         }
         let mut id = self.trace_split.lock().unwrap_or_else(|p| p.into_inner());
-        *id.get_or_insert_with(|| {
-            cache.queue_compute_pipeline(compute_pipeline(
-                "treelight path trace, split records",
-                vec![self.scene_layout.clone(), self.view_layout.clone()],
-                self.trace_split_shader.clone(),
-                "path_trace",
-            ))
-        })
+        *id.get_or_insert_with(|| cache.queue_compute_pipeline(self.split_trace_descriptor()))
+    }
+
+    /// The split trace kernel's pipeline (`kernel_warmup.rs` makes it on a second device too).
+    pub fn split_trace_descriptor(&self) -> ComputePipelineDescriptor {
+        compute_pipeline(
+            "treelight path trace, split records",
+            vec![self.scene_layout.clone(), self.view_layout.clone()],
+            self.trace_split_shader.clone(),
+            "path_trace",
+        )
     }
 
     /// The resolve pipeline for a target of `format` with `samples` samples, writing the view's

@@ -6,6 +6,7 @@
 use crate::budget::{TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::environment::{ExtractedEnvironment, GpuEnvironment};
 use crate::extract::SceneSync;
+use crate::kernel_warmup::SplitKernelWarmup;
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
 use crate::records::{ResolveParams, TemporalRestart, TraceWork, VIEW_BYTES, ViewParams};
@@ -36,7 +37,11 @@ pub(crate) fn build(render_app: &mut SubApp) {
             Render,
             (
                 apply_scene_uploads.in_set(RenderSystems::PrepareResources),
-                (prepare_scene_bind_group, prepare_views)
+                (
+                    prepare_scene_bind_group,
+                    crate::kernel_warmup::start_when_split,
+                    prepare_views,
+                )
                     .chain()
                     .in_set(RenderSystems::PrepareBindGroups),
                 (request_timings, forget_views)
@@ -818,6 +823,7 @@ fn prepare_views(
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
     environment: Res<ExtractedEnvironment>,
+    warmup: Option<Res<SplitKernelWarmup>>,
 ) {
     let (Some(pipelines), Some(layers)) = (pipelines, layers) else {
         return;
@@ -828,10 +834,14 @@ fn prepare_views(
     }
     let max_bytes = max_binding_bytes(&device);
     let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
+    // A split scene waits for its kernel's warm-up (`kernel_warmup.rs`) on a software adapter.
+    let warming = scene.split() && warmup.is_some_and(|w| !w.ready());
+    stats.update(|f| f.preparing_split_kernel = warming);
     let trace_ready = pipeline_cache
         .get_compute_pipeline(trace_pipeline)
         .is_some()
-        && scene.bind_group.is_some();
+        && scene.bind_group.is_some()
+        && !warming;
     let now = Instant::now();
     for (entity, camera, extracted, target, depth, settings, main_entity) in &views {
         let viewport = extracted.viewport;

@@ -130,6 +130,18 @@ fn array_texture(device: &RenderDevice, side: u32, layers: u32) -> (Texture, Tex
     (texture, view)
 }
 
+/// The layers' sampler: bilinear, clamped.
+pub(crate) fn sampler_descriptor() -> SamplerDescriptor<'static> {
+    SamplerDescriptor {
+        label: Some("treelight base colour"),
+        address_mode_u: AddressMode::ClampToEdge,
+        address_mode_v: AddressMode::ClampToEdge,
+        mag_filter: FilterMode::Linear,
+        min_filter: FilterMode::Linear,
+        ..default()
+    }
+}
+
 fn init_texture_layers(
     mut commands: Commands,
     device: Res<RenderDevice>,
@@ -138,14 +150,7 @@ fn init_texture_layers(
 ) {
     let (texture, view) = array_texture(&device, TEXTURE_LAYER_SIZE, 1);
     let device_layers = device.limits().max_texture_array_layers;
-    let sampler = device.create_sampler(&SamplerDescriptor {
-        label: Some("treelight base colour"),
-        address_mode_u: AddressMode::ClampToEdge,
-        address_mode_v: AddressMode::ClampToEdge,
-        mag_filter: FilterMode::Linear,
-        min_filter: FilterMode::Linear,
-        ..default()
-    });
+    let sampler = device.create_sampler(&sampler_descriptor());
     let copy_layout = BindGroupLayoutDescriptor::new(
         "treelight texture layer copy",
         &BindGroupLayoutEntries::sequential(

@@ -89,6 +89,9 @@ pub struct Writes {
     bytes: Vec<u8>,
     /// Target, offset and where the bytes are in `bytes`, in the order they were pushed.
     list: Vec<(BufferKind, u64, Range<usize>)>,
+    /// [`Writes::push_records`]' record ids, kept for the same reason as `bytes` (a fill's frame
+    /// has millions); empty between calls.
+    ids: Vec<u32>,
 }
 
 impl Writes {
@@ -113,7 +116,8 @@ impl Writes {
         // Offsets are counted in `T`s: they must be the buffer's records.
         assert_eq!(size as u64, buffer.record_bytes(), "{buffer:?} records");
         let start = self.bytes.len();
-        let mut ids: Vec<u32> = Vec::new();
+        let ids = &mut self.ids;
+        ids.clear();
         for r in ranges {
             let at = start + ids.len() * size;
             self.list.push((
@@ -130,6 +134,7 @@ impl Writes {
             .enumerate()
             .with_min_len(1024)
             .for_each(|(j, (out, &i))| out.copy_from_slice(bytemuck::bytes_of(&record(j, i))));
+        ids.clear();
     }
 
     /// The writes, in the order they were added.
@@ -158,7 +163,7 @@ impl Writes {
 
     /// Bytes held for writes to come: what [`Writes::clear`] keeps.
     pub fn capacity_bytes(&self) -> u64 {
-        self.bytes.capacity() as u64
+        (self.bytes.capacity() + self.ids.capacity() * size_of::<u32>()) as u64
     }
 
     /// Forgets the writes and keeps the memory for the next ones.

@@ -60,6 +60,8 @@ pub struct ViewportScene {
     pub targets: Vec<DragTarget>,
     /// The active object's world transform.
     pub active_world: Option<Affine3A>,
+    /// A line shown across the middle of the viewport, while the view waits for something.
+    pub waiting: Option<&'static str>,
 }
 
 /// What the viewport remembers between frames.
@@ -669,6 +671,15 @@ impl ViewportPanel<'_> {
         frame: Option<GizmoFrame>,
         pointer: Option<egui::Pos2>,
     ) {
+        if let Some(line) = self.scene.waiting {
+            painter.text(
+                painter.clip_rect().center(),
+                egui::Align2::CENTER_CENTER,
+                line,
+                egui::FontId::proportional(15.0),
+                egui::Color32::from_gray(200),
+            );
+        }
         // Selection outlines, complete every frame whatever the path tracer has converged to.
         for (corners, active) in &self.scene.outlines {
             let colour = if *active {

@@ -40,6 +40,7 @@ pub struct SceneView<'w, 's> {
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
     look: Res<'w, SceneLook>,
     environment: Res<'w, treelight_document::environment::SceneEnvironment>,
+    tracer: Option<Res<'w, treelight_render::PathTracerStats>>,
 }
 
 /// What the viewport changes.
@@ -71,7 +72,17 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
     } = state;
     // The path tracer outlines the selected meshes' silhouettes itself
     // (selection::outline_selected_meshes); the rasteriser gets their boxes.
-    let scene = viewport_scene(&view, render.traced.is_none());
+    let mut scene = viewport_scene(&view, render.traced.is_none());
+    if render.traced.is_some()
+        && view
+            .tracer
+            .as_ref()
+            .is_some_and(|t| t.preparing_split_kernel())
+    {
+        scene.waiting = Some(
+            "Preparing the path tracer for a large scene: the first time on this machine, minutes",
+        );
+    }
     let mut orbit_copy = orbit.single().ok().copied();
     let mut render_copy = *render;
     let mut gizmo_copy = *gizmo;
