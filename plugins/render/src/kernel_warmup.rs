@@ -26,16 +26,21 @@ const RUNNING: u8 = 1;
 const DONE: u8 = 2;
 
 /// Where the split kernel's warm-up stands (render world).
-#[derive(Resource, Clone)]
+#[derive(Resource)]
 pub(crate) struct SplitKernelWarmup {
+    /// Whether this adapter needs it (a software adapter).
+    needed: bool,
     state: Arc<AtomicU8>,
+    /// The texture shapes the latest warm-up compiled for: the driver compiles the kernel again
+    /// for others (a panorama or a texture array of another size), so the views wait again.
+    warmed: Option<Vec<(u32, TextureShape)>>,
 }
 
 impl SplitKernelWarmup {
-    /// Whether a view may dispatch the split kernel: the warm-up is over (or not needed on this
-    /// adapter, or it failed and the views' device compiles the kernel itself).
+    /// Whether a view may dispatch the split kernel: the latest warm-up is over (or none is needed
+    /// on this adapter; a failed one leaves the views' device to compile the kernel itself).
     pub fn ready(&self) -> bool {
-        self.state.load(Ordering::Acquire) == DONE
+        !self.needed || self.state.load(Ordering::Acquire) == DONE
     }
 }
 
@@ -47,23 +52,41 @@ fn init_warmup(mut commands: Commands, info: Res<RenderAdapterInfo>) {
     // Other adapters compile a kernel when its pipeline is made, which Bevy does off the frame.
     let needed = info.device_type == wgpu::DeviceType::Cpu;
     commands.insert_resource(SplitKernelWarmup {
-        state: Arc::new(AtomicU8::new(if needed { IDLE } else { DONE })),
+        needed,
+        state: Arc::new(AtomicU8::new(IDLE)),
+        warmed: None,
     });
 }
 
+/// A texture as a view of it is bound: what the driver's kernel variant depends on.
+type TextureShape = (TextureDescriptor<'static>, TextureViewDescriptor<'static>);
+
 /// The textures and samplers of the scene group as the views bind them, by binding.
 struct Shapes {
-    textures: Vec<(
-        u32,
-        (TextureDescriptor<'static>, TextureViewDescriptor<'static>),
-    )>,
+    textures: Vec<(u32, TextureShape)>,
     samplers: Vec<(u32, SamplerDescriptor<'static>)>,
+}
+
+/// The scene group's textures as the views bind them now, by binding.
+fn texture_shapes(
+    layers: &TextureLayers,
+    environment: &GpuEnvironment,
+) -> Vec<(u32, TextureShape)> {
+    let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+    vec![
+        (
+            6,
+            texture_shape(&layers.view, Some(wgpu::TextureViewDimension::D2Array)),
+        ),
+        (env_image, texture_shape(&environment.image, None)),
+        (env_cdf, texture_shape(&environment.distribution, None)),
+    ]
 }
 
 fn texture_shape(
     view: &TextureView,
     dimension: Option<wgpu::TextureViewDimension>,
-) -> (TextureDescriptor<'static>, TextureViewDescriptor<'static>) {
+) -> TextureShape {
     let t = view.texture();
     (
         TextureDescriptor {
@@ -84,33 +107,20 @@ fn texture_shape(
 }
 
 impl SplitKernelWarmup {
-    /// Starts the warm-up on its thread unless it ran or runs.
-    pub fn start(
-        &self,
+    /// Starts a warm-up on its thread for the texture shapes `textures`.
+    fn start(
+        &mut self,
         adapter: &RenderAdapter,
         device: &RenderDevice,
         pipelines: &PathTracerPipelines,
         shaders: &PathTracerShaders,
-        layers: &TextureLayers,
-        environment: &GpuEnvironment,
+        textures: Vec<(u32, TextureShape)>,
     ) {
-        if self
-            .state
-            .compare_exchange(IDLE, RUNNING, Ordering::AcqRel, Ordering::Acquire)
-            .is_err()
-        {
-            return;
-        }
-        let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+        self.warmed = Some(textures.clone());
+        self.state.store(RUNNING, Ordering::Release);
+        let [_, env_sampler, _] = crate::ENVIRONMENT_BINDINGS;
         let shapes = Shapes {
-            textures: vec![
-                (
-                    6,
-                    texture_shape(&layers.view, Some(wgpu::TextureViewDimension::D2Array)),
-                ),
-                (env_image, texture_shape(&environment.image, None)),
-                (env_cdf, texture_shape(&environment.distribution, None)),
-            ],
+            textures,
             samplers: vec![
                 (7, crate::texture_layers::sampler_descriptor()),
                 (env_sampler, crate::environment::sampler_descriptor()),
@@ -278,10 +288,11 @@ fn warm(
     }
 }
 
-/// Starts the warm-up once the scene is first split across bindings.
+/// Starts a warm-up once the scene is split across bindings, and again when the textures the
+/// kernel binds change shape after one.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn start_when_split(
-    warmup: Option<Res<SplitKernelWarmup>>,
+    warmup: Option<ResMut<SplitKernelWarmup>>,
     scene: Res<crate::prepare::GpuScene>,
     adapter: Res<RenderAdapter>,
     device: Res<RenderDevice>,
@@ -290,20 +301,17 @@ pub(crate) fn start_when_split(
     layers: Option<Res<TextureLayers>>,
     environment: Option<Res<GpuEnvironment>>,
 ) {
-    let (Some(warmup), Some(pipelines), Some(layers), Some(environment)) =
+    let (Some(mut warmup), Some(pipelines), Some(layers), Some(environment)) =
         (warmup, pipelines, layers, environment)
     else {
         return;
     };
-    if scene.split() && !warmup.ready() {
-        warmup.start(
-            &adapter,
-            &device,
-            &pipelines,
-            &shaders,
-            &layers,
-            &environment,
-        );
+    if !warmup.needed || !scene.split() || warmup.state.load(Ordering::Acquire) == RUNNING {
+        return;
+    }
+    let textures = texture_shapes(&layers, &environment);
+    if warmup.warmed.as_ref() != Some(&textures) {
+        warmup.start(&adapter, &device, &pipelines, &shaders, textures);
     }
 }
 
