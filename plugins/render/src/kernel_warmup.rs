@@ -83,6 +83,15 @@ fn texture_shapes(
     ]
 }
 
+/// The scene group's samplers, by binding.
+fn scene_samplers() -> Vec<(u32, SamplerDescriptor<'static>)> {
+    let [_, env_sampler, _] = crate::ENVIRONMENT_BINDINGS;
+    vec![
+        (7, crate::texture_layers::sampler_descriptor()),
+        (env_sampler, crate::environment::sampler_descriptor()),
+    ]
+}
+
 fn texture_shape(
     view: &TextureView,
     dimension: Option<wgpu::TextureViewDimension>,
@@ -118,13 +127,9 @@ impl SplitKernelWarmup {
     ) {
         self.warmed = Some(textures.clone());
         self.state.store(RUNNING, Ordering::Release);
-        let [_, env_sampler, _] = crate::ENVIRONMENT_BINDINGS;
         let shapes = Shapes {
             textures,
-            samplers: vec![
-                (7, crate::texture_layers::sampler_descriptor()),
-                (env_sampler, crate::environment::sampler_descriptor()),
-            ],
+            samplers: scene_samplers(),
         };
         let adapter = adapter.clone();
         let (features, limits) = (device.features(), device.limits());
@@ -367,7 +372,7 @@ mod tests {
             shader.clone(),
             "path_trace",
         );
-        let [env_image, env_sampler, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+        let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
         let shapes = Shapes {
             textures: vec![
                 (
@@ -387,10 +392,7 @@ mod tests {
                     texture([2, 1, 1], wgpu::TextureFormat::R32Float, None),
                 ),
             ],
-            samplers: vec![
-                (7, crate::texture_layers::sampler_descriptor()),
-                (env_sampler, crate::environment::sampler_descriptor()),
-            ],
+            samplers: scene_samplers(),
         };
         let whole = Shader::from_wgsl(crate::PATHTRACE_WGSL, "treelight/pathtrace.wgsl");
         warm(
