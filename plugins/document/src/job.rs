@@ -5,12 +5,65 @@
 //! that follow it finish.
 
 use crate::contain::{contain, crashed};
-use std::sync::Mutex;
+use std::collections::BTreeSet;
+use std::sync::{Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 
-/// Held by the job that is working: jobs take turns, as they did on the pool's one thread, so
-/// twenty files dropped at once are not twenty parses in memory at once.
-static TURN: Mutex<()> = Mutex::new(());
+/// Jobs take turns in the order they were started, as they did on the pool's one thread, so
+/// twenty files dropped at once are not twenty parses in memory at once, and they come in the
+/// order they were dropped. A ticket lock: a mutex alone would let any waiter in next.
+static TURNS: Mutex<Turns> = Mutex::new(Turns {
+    issued: 0,
+    serving: 0,
+    ended: BTreeSet::new(),
+});
+/// Woken when a turn ends.
+static TURN_ENDED: Condvar = Condvar::new();
+
+/// The ticket lock's state.
+struct Turns {
+    /// Tickets handed out so far.
+    issued: u64,
+    /// The ticket whose job may work now.
+    serving: u64,
+    /// Tickets above `serving` whose jobs ended (or never ran) before their turn came.
+    ended: BTreeSet<u64>,
+}
+
+fn turns() -> MutexGuard<'static, Turns> {
+    TURNS.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// One job's place in the queue; dropping it ends the turn, whether the job ran or its thread
+/// never started, so the queue never waits on a ticket nobody holds.
+struct Ticket(u64);
+
+impl Ticket {
+    fn take() -> Self {
+        let mut t = turns();
+        t.issued += 1;
+        Self(t.issued - 1)
+    }
+
+    fn wait_for_turn(&self) {
+        let mut t = turns();
+        while t.serving != self.0 {
+            t = TURN_ENDED.wait(t).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+}
+
+impl Drop for Ticket {
+    fn drop(&mut self) {
+        let mut guard = turns();
+        let t = &mut *guard;
+        t.ended.insert(self.0);
+        while t.ended.remove(&t.serving) {
+            t.serving += 1;
+        }
+        TURN_ENDED.notify_all();
+    }
+}
 
 /// One piece of work running on its own thread; a panic in it ends it as an error naming what it
 /// was doing ([`contain`]).
@@ -23,12 +76,15 @@ impl<T: Send + 'static> Job<T> {
     /// Starts `work` on a new thread; `what` names it in errors ("importing model.glb").
     pub fn spawn(what: String, work: impl FnOnce() -> T + Send + 'static) -> Self {
         let label = what.clone();
+        let ticket = Ticket::take();
         let spawned = std::thread::Builder::new()
             .name("treelight job".into())
             .spawn(move || {
                 treelight_scene::priority::lower_current_thread(crate::app::BACKGROUND_NICE);
-                let _turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
-                contain(|| label, work)
+                ticket.wait_for_turn();
+                let result = contain(|| label, work);
+                drop(ticket);
+                result
             })
             .map_err(|e| format!("{what}: could not start a thread for it ({e})"));
         Self {
@@ -87,7 +143,8 @@ mod tests {
         assert_eq!(wait(&mut job), Ok(4));
         assert!(job.poll().is_none(), "the result is given once");
 
-        // Jobs take turns: the second starts once the first has ended.
+        // Jobs take turns in the order they were started: the second starts once the first has
+        // ended, whichever thread the system runs first.
         let (tx, rx) = std::sync::mpsc::channel::<()>();
         let started = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let mut first = Job::spawn("first".into(), move || rx.recv().is_ok());
@@ -103,6 +160,15 @@ mod tests {
         tx.send(()).unwrap();
         assert_eq!(wait(&mut first), Ok(true));
         assert_eq!(wait(&mut second), Ok(()));
+
+        // A place in the queue given up without working (a thread that never started) does not
+        // hold the jobs behind it.
+        let abandoned = Ticket::take();
+        let mut behind = Job::spawn("behind".into(), || 1);
+        std::thread::sleep(Duration::from_millis(100));
+        assert!(behind.poll().is_none(), "went before its turn");
+        drop(abandoned);
+        assert_eq!(wait(&mut behind), Ok(1));
 
         let mut job = Job::spawn("importing x.glb".into(), || -> u32 { panic!("bad file") });
         let e = wait(&mut job).unwrap_err();
