@@ -144,10 +144,10 @@ pub struct EditorState {
     /// a coarse preview while the tree fills.
     #[serde(default)]
     pub traced_geometry: bool,
-    /// Whether the view waits for the kernel over records split across bindings, compiled away
-    /// from its queue ([`treelight_render::PathTracerFigures::preparing_split_kernel`]).
+    /// The trace kernel the view waits for while it is compiled away from its queue, "whole"
+    /// or "split" ([`treelight_render::PathTracerFigures::preparing_kernel`]).
     #[serde(default)]
-    pub preparing_split_kernel: bool,
+    pub preparing_kernel: Option<String>,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -475,7 +475,9 @@ pub fn write_state_report(
         traced_panorama: view_samples.1,
         trace: view_samples.2,
         traced_geometry: view_samples.3,
-        preparing_split_kernel: tracer.preparing_split_kernel(),
+        preparing_kernel: tracer
+            .preparing_kernel()
+            .map(|k| if k.split { "split" } else { "whole" }.to_owned()),
         memory: memory_report(&meshes, &scene, &tracer),
         fps: diagnostics
             .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)

@@ -1051,10 +1051,12 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
         std::time::Duration::from_secs(60),
         |st| st.dialog.is_none() && st.environment.1 && st.settled,
     );
-    // Its upload restarts the accumulation a frame or two later.
+    // Its upload restarts the accumulation a frame or two later. (A software adapter with a cold
+    // shader cache compiles the trace kernel anew for the panorama's textures, most of a minute,
+    // after the start's compile.)
     let st = s.wait_until(
         "the picture converges again, under the panorama",
-        std::time::Duration::from_secs(60),
+        std::time::Duration::from_secs(150),
         |st| st.traced_panorama && st.samples >= 4,
     );
     let image = st.environment.0.image.clone().expect("a panorama");

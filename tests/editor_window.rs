@@ -646,8 +646,32 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
     let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
     assert!(s.frame >= 150, "{out}");
     assert_eq!(s.memory.triangles, 94_722, "{out}");
-    assert!(s.preparing_split_kernel, "{out}");
+    assert_eq!(s.preparing_kernel.as_deref(), Some("split"), "{out}");
     // The view traced none of the split scene: its kernel is not ready.
+    assert_eq!(s.samples, 0, "{out}");
+    assert_ne!(s.view, "Raster", "{:?}", s.notices);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_queue() {
+    use treelight::report::EditorState;
+    // With an empty shader cache llvmpipe compiles the whole-scene trace kernel for most of a
+    // minute. Compiled at its first dispatch on the views' queue, the window stood still that
+    // long; compiled on the warm-up's device of its own, the frames go on and the view waits. (The run ends well before the compile does.)
+    let dir = temp_dir("whole-kernel-warmup");
+    let cache = dir.join("shader cache");
+    std::fs::create_dir_all(&cache).unwrap();
+    let state = dir.join("state.ron");
+    let out = run_headless_with_env(
+        std::path::Path::new(env!("CARGO_BIN_EXE_treelight")),
+        &["--frames", "30", "--state", state.to_str().unwrap()],
+        &dir.join("config"),
+        &[("MESA_SHADER_CACHE_DIR", &cache)],
+    );
+    let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+    assert!(s.frame >= 30, "{out}");
+    assert_eq!(s.preparing_kernel.as_deref(), Some("whole"), "{out}");
     assert_eq!(s.samples, 0, "{out}");
     assert_ne!(s.view, "Raster", "{:?}", s.notices);
     std::fs::remove_dir_all(&dir).ok();

@@ -1,12 +1,15 @@
-//! The split trace kernel's first compile, away from the views' queue. A software adapter
-//! (lavapipe) compiles a compute kernel when a dispatch first uses it, on its queue's one thread,
-//! and every later submission waits behind it: with a cold shader cache the split kernel takes
-//! minutes to compile, and an editor's frames would stop for as long. On such an adapter the
-//! kernel's first dispatch is made instead on a second device of the same adapter, on a thread of
-//! its own (at the frame's priority: the views wait for it), with textures and samplers shaped
-//! like the views' (the driver compiles a variant per texture and sampler state). The driver's
-//! shader cache then holds the compiled kernel, and the views' device loads it from there. Views
-//! of a split scene wait for it; their frames, and the scene's uploads, go on.
+//! The trace kernels' compiles, away from the views' queue. A software adapter (lavapipe)
+//! compiles a compute kernel when a dispatch first uses it, on its queue's one thread, and every
+//! later submission waits behind it: with a cold shader cache the whole-scene kernel takes most of
+//! a minute to compile, the split one minutes, and an editor's frames would stop for as long. On
+//! such an adapter each kernel's first dispatch is made instead on a second device of the same
+//! adapter, on a thread of its own (at the frame's priority: the views wait for it), with textures
+//! and samplers like the views'. The driver compiles a variant per texture state (its format and
+//! kind, whether each side is a power of two, its mip levels), so stand-ins of one or three texels
+//! a side serve for textures of any size, and a warm-up runs again when that state changes (a
+//! panorama of another shape). The driver's shader cache then holds the compiled kernel, and the
+//! views' device loads it from there. Views wait for their kernel; their frames, and the scene's
+//! uploads, go on.
 
 use crate::environment::GpuEnvironment;
 use crate::pipelines::{PathTracerPipelines, PathTracerShaders};
@@ -14,33 +17,73 @@ use crate::texture_layers::TextureLayers;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     BindGroupEntry, BindingResource, BufferDescriptor, BufferUsages, ComputePassDescriptor,
-    PipelineCache, SamplerDescriptor, TextureDescriptor, TextureView, TextureViewDescriptor,
+    ComputePipelineDescriptor, PipelineCache, SamplerDescriptor, TextureDescriptor, TextureView,
+    TextureViewDescriptor,
 };
 use bevy::render::renderer::{RenderAdapter, RenderAdapterInfo, RenderDevice};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 use wgpu::{BindingType, BufferBindingType};
 
-const IDLE: u8 = 0;
-const RUNNING: u8 = 1;
-const DONE: u8 = 2;
-
-/// Where the split kernel's warm-up stands (render world).
-#[derive(Resource)]
-pub(crate) struct SplitKernelWarmup {
-    /// Whether this adapter needs it (a software adapter).
-    needed: bool,
-    state: Arc<AtomicU8>,
-    /// The texture shapes the latest warm-up compiled for: the driver compiles the kernel again
-    /// for others (a panorama or a texture array of another size), so the views wait again.
-    warmed: Option<Vec<(u32, TextureShape)>>,
+/// The trace kernels, by the records they read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum TraceKernel {
+    /// Each kind of record in one binding.
+    Whole,
+    /// Records split across bindings (a scene larger than one binding holds).
+    Split,
 }
 
-impl SplitKernelWarmup {
-    /// Whether a view may dispatch the split kernel: the latest warm-up is over (or none is needed
-    /// on this adapter; a failed one leaves the views' device to compile the kernel itself).
-    pub fn ready(&self) -> bool {
-        !self.needed || self.state.load(Ordering::Acquire) == DONE
+impl TraceKernel {
+    /// The kernel a scene split across bindings (`split`) or not is traced with.
+    pub fn of(split: bool) -> Self {
+        if split { Self::Split } else { Self::Whole }
+    }
+}
+
+/// Where the trace kernels' warm-ups stand (render world).
+#[derive(Resource)]
+pub(crate) struct KernelWarmup {
+    /// Whether this adapter needs them (a software adapter).
+    needed: bool,
+    /// The warm-up running: its kernel, and whether it has ended.
+    running: Option<(TraceKernel, Arc<AtomicBool>)>,
+    /// The texture state each kernel's latest warm-up compiled for (whole, split).
+    warmed: [Option<Vec<TextureVariant>>; 2],
+    /// The texture state the views bind now.
+    current: Option<Vec<TextureVariant>>,
+    /// Since when the views have waited, and for which kernel.
+    waiting_since: Option<(TraceKernel, Instant)>,
+}
+
+impl KernelWarmup {
+    /// Whether a view may dispatch `kernel`: a warm-up of it for the textures bound now is over
+    /// (or none is needed on this adapter; a failed one leaves the views' device to compile the
+    /// kernel itself).
+    pub fn ready(&self, kernel: TraceKernel) -> bool {
+        if !self.needed {
+            return true;
+        }
+        let running = self
+            .running
+            .as_ref()
+            .is_some_and(|(k, done)| *k == kernel && !done.load(Ordering::Acquire));
+        !running && self.current.is_some() && self.warmed[kernel as usize] == self.current
+    }
+
+    /// Notes whether the views wait for `kernel` this frame; the seconds they have waited so far
+    /// when they do.
+    pub fn wait(&mut self, kernel: TraceKernel) -> Option<f32> {
+        if self.ready(kernel) {
+            self.waiting_since = None;
+            return None;
+        }
+        let since = match self.waiting_since {
+            Some((k, since)) if k == kernel => since,
+            _ => self.waiting_since.insert((kernel, Instant::now())).1,
+        };
+        Some(since.elapsed().as_secs_f32())
     }
 }
 
@@ -51,35 +94,97 @@ pub(crate) fn build(render_app: &mut SubApp) {
 fn init_warmup(mut commands: Commands, info: Res<RenderAdapterInfo>) {
     // Other adapters compile a kernel when its pipeline is made, which Bevy does off the frame.
     let needed = info.device_type == wgpu::DeviceType::Cpu;
-    commands.insert_resource(SplitKernelWarmup {
+    commands.insert_resource(KernelWarmup {
         needed,
-        state: Arc::new(AtomicU8::new(IDLE)),
-        warmed: None,
+        running: None,
+        warmed: [None, None],
+        current: None,
+        waiting_since: None,
     });
 }
 
-/// A texture as a view of it is bound: what the driver's kernel variant depends on.
-type TextureShape = (TextureDescriptor<'static>, TextureViewDescriptor<'static>);
+/// What of a bound texture a software adapter compiles into a kernel that samples it (llvmpipe's
+/// static texture state): its format and kind, whether each side is a power of two, its mip
+/// levels. Array layers are not part of it.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct TextureVariant {
+    binding: u32,
+    format: wgpu::TextureFormat,
+    dimension: wgpu::TextureDimension,
+    view: Option<wgpu::TextureViewDimension>,
+    /// Width, height, depth (a 3D texture's; 1 otherwise).
+    power_of_two: [bool; 3],
+    mip_levels: u32,
+}
 
-/// The textures and samplers of the scene group as the views bind them, by binding.
+impl TextureVariant {
+    /// The state of a texture described by `texture`, bound at `binding` through a view of
+    /// `view` dimension.
+    fn of(
+        binding: u32,
+        texture: &TextureDescriptor<'_>,
+        view: Option<wgpu::TextureViewDimension>,
+    ) -> Self {
+        let size = texture.size;
+        let depth = match texture.dimension {
+            wgpu::TextureDimension::D3 => size.depth_or_array_layers,
+            _ => 1,
+        };
+        Self {
+            binding,
+            format: texture.format,
+            dimension: texture.dimension,
+            view,
+            power_of_two: [size.width, size.height, depth].map(u32::is_power_of_two),
+            mip_levels: texture.mip_level_count,
+        }
+    }
+
+    /// The smallest texture of this state: sides of 2^(levels-1) texels where a power of two,
+    /// one more (at least 3) where not, one layer.
+    fn stand_in(&self) -> (TextureDescriptor<'static>, TextureViewDescriptor<'static>) {
+        let base = 1u32 << self.mip_levels.clamp(1, 16).saturating_sub(1);
+        let side = |pot: bool| if pot { base } else { (base + 1).max(3) };
+        let depth = match self.dimension {
+            wgpu::TextureDimension::D3 => side(self.power_of_two[2]),
+            _ => 1,
+        };
+        (
+            TextureDescriptor {
+                label: Some("treelight kernel warm-up"),
+                size: wgpu::Extent3d {
+                    width: side(self.power_of_two[0]),
+                    height: side(self.power_of_two[1]),
+                    depth_or_array_layers: depth,
+                },
+                mip_level_count: self.mip_levels,
+                sample_count: 1,
+                dimension: self.dimension,
+                format: self.format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            TextureViewDescriptor {
+                dimension: self.view,
+                ..default()
+            },
+        )
+    }
+}
+
+/// The textures and samplers of the scene group as a warm-up binds them, by binding.
 struct Shapes {
-    textures: Vec<(u32, TextureShape)>,
+    textures: Vec<TextureVariant>,
     samplers: Vec<(u32, SamplerDescriptor<'static>)>,
 }
 
-/// The scene group's textures as the views bind them now, by binding.
-fn texture_shapes(
-    layers: &TextureLayers,
-    environment: &GpuEnvironment,
-) -> Vec<(u32, TextureShape)> {
+/// The scene group's textures as the views bind them now.
+fn texture_variants(layers: &TextureLayers, environment: &GpuEnvironment) -> Vec<TextureVariant> {
     let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
     vec![
-        (
-            6,
-            texture_shape(&layers.view, Some(wgpu::TextureViewDimension::D2Array)),
-        ),
-        (env_image, texture_shape(&environment.image, None)),
-        (env_cdf, texture_shape(&environment.distribution, None)),
+        variant(6, &layers.view, Some(wgpu::TextureViewDimension::D2Array)),
+        variant(env_image, &environment.image, None),
+        variant(env_cdf, &environment.distribution, None),
     ]
 }
 
@@ -92,14 +197,16 @@ fn scene_samplers() -> Vec<(u32, SamplerDescriptor<'static>)> {
     ]
 }
 
-fn texture_shape(
+fn variant(
+    binding: u32,
     view: &TextureView,
     dimension: Option<wgpu::TextureViewDimension>,
-) -> TextureShape {
+) -> TextureVariant {
     let t = view.texture();
-    (
-        TextureDescriptor {
-            label: Some("treelight kernel warm-up"),
+    TextureVariant::of(
+        binding,
+        &TextureDescriptor {
+            label: None,
             size: t.size(),
             mip_level_count: t.mip_level_count(),
             sample_count: t.sample_count(),
@@ -108,68 +215,62 @@ fn texture_shape(
             usage: t.usage(),
             view_formats: &[],
         },
-        TextureViewDescriptor {
-            dimension,
-            ..default()
-        },
+        dimension,
     )
 }
 
-impl SplitKernelWarmup {
-    /// Starts a warm-up on its thread for the texture shapes `textures`.
+impl KernelWarmup {
+    /// Starts a warm-up of `kernel` on its thread for the texture state `textures`.
     fn start(
         &mut self,
+        kernel: TraceKernel,
         adapter: &RenderAdapter,
         device: &RenderDevice,
-        pipelines: &PathTracerPipelines,
-        shaders: &PathTracerShaders,
-        textures: Vec<(u32, TextureShape)>,
+        descriptor: ComputePipelineDescriptor,
+        shader: (AssetId<Shader>, Shader),
+        textures: Vec<TextureVariant>,
     ) {
-        self.warmed = Some(textures.clone());
-        self.state.store(RUNNING, Ordering::Release);
+        self.warmed[kernel as usize] = Some(textures.clone());
+        let done = Arc::new(AtomicBool::new(false));
+        self.running = Some((kernel, done.clone()));
         let shapes = Shapes {
             textures,
             samplers: scene_samplers(),
         };
         let adapter = adapter.clone();
         let (features, limits) = (device.features(), device.limits());
-        let descriptor = pipelines.split_trace_descriptor();
-        let shader = (
-            shaders.trace_split.id(),
-            crate::pipelines::split_trace_shader(),
-        );
-        let state = self.state.clone();
+        let ended = done.clone();
         let spawned = std::thread::Builder::new()
             .name("treelight kernel warm-up".into())
             .spawn(move || {
-                let started = std::time::Instant::now();
+                let started = Instant::now();
                 let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     warm(adapter, features, limits, descriptor, shader, shapes)
                 }))
                 .unwrap_or_else(|_| Err("it panicked".into()));
                 match result {
                     Ok(()) => info!(
-                        "the split trace kernel was compiled in {:.1} s",
+                        "the {kernel:?} trace kernel was compiled in {:.1} s",
                         started.elapsed().as_secs_f64()
                     ),
                     // The views' device compiles it at its first dispatch instead.
-                    Err(why) => warn!("the split trace kernel's warm-up failed: {why}"),
+                    Err(why) => warn!("the {kernel:?} trace kernel's warm-up failed: {why}"),
                 }
-                state.store(DONE, Ordering::Release);
+                ended.store(true, Ordering::Release);
             });
         if spawned.is_err() {
-            self.state.store(DONE, Ordering::Release);
+            done.store(true, Ordering::Release);
         }
     }
 }
 
-/// Makes the split kernel on a second device and dispatches it once (a view of no tiles, so it
+/// Makes a trace kernel on a second device and dispatches it once (a view of no tiles, so it
 /// returns at once), waiting until the driver has compiled it.
 fn warm(
     adapter: RenderAdapter,
     features: wgpu::Features,
     limits: wgpu::Limits,
-    descriptor: bevy::render::render_resource::ComputePipelineDescriptor,
+    descriptor: ComputePipelineDescriptor,
     (shader_id, shader): (AssetId<Shader>, Shader),
     shapes: Shapes,
 ) -> Result<(), String> {
@@ -209,8 +310,12 @@ fn warm(
     let views: Vec<(u32, TextureView)> = shapes
         .textures
         .iter()
-        .map(|(binding, (texture, view))| {
-            (*binding, device.create_texture(texture).create_view(view))
+        .map(|variant| {
+            let (texture, view) = variant.stand_in();
+            (
+                variant.binding,
+                device.create_texture(&texture).create_view(&view),
+            )
         })
         .collect();
     let samplers: Vec<_> = shapes
@@ -293,11 +398,12 @@ fn warm(
     }
 }
 
-/// Starts a warm-up once the scene is split across bindings, and again when the textures the
-/// kernel binds change shape after one.
+/// Starts a warm-up of the kernel the scene is traced with when none has compiled it for the
+/// textures bound now (at the start, once the scene is split across bindings, when a texture's
+/// state changes), one at a time.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn start_when_split(
-    warmup: Option<ResMut<SplitKernelWarmup>>,
+pub(crate) fn start_warmups(
+    warmup: Option<ResMut<KernelWarmup>>,
     scene: Res<crate::prepare::GpuScene>,
     adapter: Res<RenderAdapter>,
     device: Res<RenderDevice>,
@@ -311,13 +417,39 @@ pub(crate) fn start_when_split(
     else {
         return;
     };
-    if !warmup.needed || !scene.split() || warmup.state.load(Ordering::Acquire) == RUNNING {
+    if !warmup.needed {
         return;
     }
-    let textures = texture_shapes(&layers, &environment);
-    if warmup.warmed.as_ref() != Some(&textures) {
-        warmup.start(&adapter, &device, &pipelines, &shaders, textures);
+    let textures = texture_variants(&layers, &environment);
+    if warmup.current.as_ref() != Some(&textures) {
+        warmup.current = Some(textures.clone());
     }
+    if warmup
+        .running
+        .as_ref()
+        .is_some_and(|(_, done)| !done.load(Ordering::Acquire))
+    {
+        return;
+    }
+    warmup.running = None;
+    let kernel = TraceKernel::of(scene.split());
+    if warmup.warmed[kernel as usize].as_ref() == Some(&textures) {
+        return;
+    }
+    let (descriptor, shader) = match kernel {
+        TraceKernel::Whole => (
+            pipelines.whole_trace_descriptor(),
+            (shaders.trace.id(), crate::pipelines::whole_trace_shader()),
+        ),
+        TraceKernel::Split => (
+            pipelines.split_trace_descriptor(),
+            (
+                shaders.trace_split.id(),
+                crate::pipelines::split_trace_shader(),
+            ),
+        ),
+    };
+    warmup.start(kernel, &adapter, &device, descriptor, shader, textures);
 }
 
 #[cfg(test)]
@@ -327,35 +459,138 @@ mod tests {
 
     fn texture(
         size: [u32; 3],
+        mip_level_count: u32,
+        dimension: wgpu::TextureDimension,
         format: wgpu::TextureFormat,
-        dimension: Option<wgpu::TextureViewDimension>,
-    ) -> (TextureDescriptor<'static>, TextureViewDescriptor<'static>) {
-        (
-            TextureDescriptor {
-                label: None,
-                size: wgpu::Extent3d {
-                    width: size[0],
-                    height: size[1],
-                    depth_or_array_layers: size[2],
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
+    ) -> TextureDescriptor<'static> {
+        TextureDescriptor {
+            label: None,
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: size[2],
             },
-            TextureViewDescriptor {
-                dimension,
-                ..default()
-            },
-        )
+            mip_level_count,
+            sample_count: 1,
+            dimension,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        }
+    }
+
+    /// A texture's state keeps what the driver compiles in (sides a power of two or not, mip
+    /// levels, format) and drops its size and layers, and its stand-in is a texture of the same
+    /// state.
+    #[test]
+    fn textures_of_one_state_share_a_stand_in_of_that_state() {
+        use wgpu::TextureDimension::{D2, D3};
+        use wgpu::TextureFormat::{R32Float, Rgba8Unorm, Rgba16Float};
+        let array = Some(wgpu::TextureViewDimension::D2Array);
+        let cases = [
+            (texture([1024, 1024, 37], 1, D2, Rgba8Unorm), array),
+            (texture([128, 128, 2], 1, D2, Rgba8Unorm), array),
+            (texture([1, 1, 1], 1, D2, Rgba16Float), None),
+            (texture([4000, 2000, 1], 1, D2, Rgba16Float), None),
+            (texture([3, 5, 1], 1, D2, R32Float), None),
+            (texture([2048, 1000, 1], 11, D2, Rgba16Float), None),
+            (texture([1000, 2048, 1], 11, D2, Rgba16Float), None),
+            (texture([9, 8, 6], 4, D3, Rgba8Unorm), None),
+            (texture([2, 2, 1], 2, D2, Rgba8Unorm), None),
+        ];
+        for (t, view) in &cases {
+            let state = TextureVariant::of(6, t, *view);
+            let (stand_in, stand_in_view) = state.stand_in();
+            assert_eq!(
+                TextureVariant::of(6, &stand_in, stand_in_view.dimension),
+                state
+            );
+            let s = stand_in.size;
+            let largest = s.width.max(s.height).max(match stand_in.dimension {
+                D3 => s.depth_or_array_layers,
+                _ => 1,
+            });
+            assert!(
+                largest >= 1 << (t.mip_level_count - 1) && largest <= 3 << t.mip_level_count,
+                "{t:?}: a stand-in of {s:?} cannot hold its levels, or is larger than it needs"
+            );
+        }
+        let of = |i: usize| TextureVariant::of(6, &cases[i].0, cases[i].1);
+        assert_eq!(
+            of(0),
+            of(1),
+            "layers and power-of-two sides are not part of it"
+        );
+        assert_ne!(of(2), of(3), "a side no power of two is");
+        assert_ne!(of(5), of(6), "which side is");
+    }
+
+    /// A view waits for its kernel while a warm-up of it runs or none has compiled it for the
+    /// textures bound now, and not for the other kernel's warm-up; the wait is timed from its
+    /// start, and starts over for the other kernel.
+    #[test]
+    fn views_wait_for_their_own_kernel_warmed_for_the_textures_bound_now() {
+        use wgpu::TextureFormat::Rgba16Float;
+        let sky = |side| {
+            vec![TextureVariant::of(
+                30,
+                &texture([side, side, 1], 1, wgpu::TextureDimension::D2, Rgba16Float),
+                None,
+            )]
+        };
+        let mut w = KernelWarmup {
+            needed: true,
+            running: None,
+            warmed: [None, None],
+            current: None,
+            waiting_since: None,
+        };
+        assert!(!w.ready(TraceKernel::Whole), "nothing bound yet");
+        w.current = Some(sky(4));
+        let done = Arc::new(AtomicBool::new(false));
+        w.warmed[0] = Some(sky(4));
+        w.running = Some((TraceKernel::Whole, done.clone()));
+        assert!(!w.ready(TraceKernel::Whole), "its warm-up runs");
+        let first = w.wait(TraceKernel::Whole).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert!(w.wait(TraceKernel::Whole).unwrap() >= first + 0.015);
+        assert!(!w.ready(TraceKernel::Split), "never warmed");
+        assert!(
+            w.wait(TraceKernel::Split).unwrap() < 0.015,
+            "another kernel's wait starts anew"
+        );
+        done.store(true, Ordering::Release);
+        assert!(w.ready(TraceKernel::Whole));
+        assert_eq!(w.wait(TraceKernel::Whole), None);
+        w.current = Some(sky(16));
+        assert!(
+            w.ready(TraceKernel::Whole),
+            "another size of the same state"
+        );
+        w.current = Some(sky(15));
+        assert!(
+            !w.ready(TraceKernel::Whole),
+            "a side no longer a power of two"
+        );
+        w.warmed[1] = Some(sky(15));
+        w.running = Some((TraceKernel::Split, Arc::new(AtomicBool::new(false))));
+        assert!(!w.ready(TraceKernel::Split) && !w.ready(TraceKernel::Whole));
+        w.warmed[0] = Some(sky(15));
+        assert!(
+            w.ready(TraceKernel::Whole),
+            "the split kernel's warm-up holds only its views"
+        );
+        w.needed = false;
+        assert!(
+            w.ready(TraceKernel::Split),
+            "a hardware adapter waits for none"
+        );
     }
 
     /// The warm-up's dispatch is one the device accepts and runs: every binding of both groups
-    /// gets a resource of its kind, writable storage apart from read-only. (The whole-scene kernel
-    /// over the same groups stands in for the split one, which a cold shader cache takes minutes
-    /// to compile on a software adapter.)
+    /// gets a resource of its kind, writable storage apart from read-only, each texture a
+    /// stand-in of its state. (The whole-scene kernel stands in for the split one, which a cold
+    /// shader cache takes minutes to compile on a software adapter.)
     #[test]
     fn a_kernel_is_dispatched_on_a_device_of_its_own() {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
@@ -363,44 +598,53 @@ mod tests {
             .expect("an adapter (Mesa's software Vulkan: mesa-vulkan-drivers)");
         let limits = adapter.limits();
         let shader = Handle::<Shader>::default();
-        let descriptor = crate::pipelines::compute_pipeline(
-            "treelight path trace",
-            vec![
-                crate::pipelines::scene_layout(),
-                crate::pipelines::view_layout(),
-            ],
+        let descriptor = crate::pipelines::whole_trace_descriptor(
+            &crate::pipelines::scene_layout(),
+            &crate::pipelines::view_layout(),
             shader.clone(),
-            "path_trace",
         );
         let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
         let shapes = Shapes {
             textures: vec![
-                (
+                TextureVariant::of(
                     6,
-                    texture(
-                        [4, 4, 1],
+                    &texture(
+                        [1024, 1024, 5],
+                        1,
+                        wgpu::TextureDimension::D2,
                         wgpu::TextureFormat::Rgba8Unorm,
-                        Some(wgpu::TextureViewDimension::D2Array),
                     ),
+                    Some(wgpu::TextureViewDimension::D2Array),
                 ),
-                (
+                TextureVariant::of(
                     env_image,
-                    texture([1, 1, 1], wgpu::TextureFormat::Rgba16Float, None),
+                    &texture(
+                        [1, 1, 1],
+                        1,
+                        wgpu::TextureDimension::D2,
+                        wgpu::TextureFormat::Rgba16Float,
+                    ),
+                    None,
                 ),
-                (
+                TextureVariant::of(
                     env_cdf,
-                    texture([2, 1, 1], wgpu::TextureFormat::R32Float, None),
+                    &texture(
+                        [2, 1, 1],
+                        1,
+                        wgpu::TextureDimension::D2,
+                        wgpu::TextureFormat::R32Float,
+                    ),
+                    None,
                 ),
             ],
             samplers: scene_samplers(),
         };
-        let whole = Shader::from_wgsl(crate::PATHTRACE_WGSL, "treelight/pathtrace.wgsl");
         warm(
             RenderAdapter(Arc::new(WgpuWrapper::new(adapter))),
             wgpu::Features::empty(),
             limits,
             descriptor,
-            (shader.id(), whole),
+            (shader.id(), crate::pipelines::whole_trace_shader()),
             shapes,
         )
         .expect("the warm-up's dispatch");

@@ -390,10 +390,12 @@ pub struct PathTracerFigures {
     /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
     /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
     pub trace_off: Option<String>,
-    /// Whether the scene's views wait for the kernel over records split across bindings to be
-    /// compiled away from their queue: on a software adapter, the first time a scene outgrows one
-    /// binding (minutes with a cold shader cache, moments once the driver's cache holds it).
-    pub preparing_split_kernel: bool,
+    /// The trace kernel the scene's views wait for while it is compiled away from their queue,
+    /// on a software adapter: at the start, when a scene first outgrows one binding, when a
+    /// texture of another kind is bound (with a cold shader cache most of a minute for the
+    /// whole-scene kernel and minutes for the split one; about a second once the driver's cache
+    /// holds it).
+    pub preparing_kernel: Option<PreparingKernel>,
     /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
     pub scene_buffer_bytes: u64,
     /// The side, in texels, every texture is traced at: [`TEXTURE_LAYER_SIZE`] until more
@@ -406,6 +408,24 @@ pub struct PathTracerFigures {
     /// Mesh assets kept out of the render world while every active 3D camera is path traced
     /// ([`HoldBackRasterMeshes`]).
     pub meshes_held_back: usize,
+}
+
+/// A trace kernel the views wait for ([`PathTracerFigures::preparing_kernel`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparingKernel {
+    /// Whether it is the kernel over records split across bindings (a large scene), not the
+    /// whole-scene one.
+    pub split: bool,
+    /// Seconds the views have waited for it so far.
+    pub waited_s: f32,
+}
+
+impl PreparingKernel {
+    /// Whether the wait has lasted long enough to tell the user of it: with a warm shader cache
+    /// it is over in about a second, unnoticed.
+    pub fn noticeable(&self) -> bool {
+        self.waited_s >= 1.5
+    }
 }
 
 /// One path-traced camera's latest frame under its budget.
@@ -454,12 +474,12 @@ impl PathTracerStats {
             .clone()
     }
 
-    /// Whether the views wait for the split kernel ([`PathTracerFigures::preparing_split_kernel`]).
-    pub fn preparing_split_kernel(&self) -> bool {
+    /// The trace kernel the views wait for ([`PathTracerFigures::preparing_kernel`]).
+    pub fn preparing_kernel(&self) -> Option<PreparingKernel> {
         self.0
             .lock()
             .unwrap_or_else(|p| p.into_inner())
-            .preparing_split_kernel
+            .preparing_kernel
     }
 
     /// The side every texture is traced at ([`PathTracerFigures::texture_side`]).
@@ -491,10 +511,7 @@ impl Plugin for PathTracerPlugin {
         let shaders = {
             let mut assets = app.world_mut().resource_mut::<Assets<Shader>>();
             pipelines::PathTracerShaders {
-                trace: assets.add(Shader::from_wgsl(
-                    PATHTRACE_WGSL,
-                    "treelight/pathtrace.wgsl",
-                )),
+                trace: assets.add(pipelines::whole_trace_shader()),
                 trace_split: assets.add(pipelines::split_trace_shader()),
                 resolve: assets.add(Shader::from_wgsl(RESOLVE_WGSL, "treelight/resolve.wgsl")),
                 denoise: assets.add(Shader::from_wgsl(DENOISE_WGSL, "treelight/denoise.wgsl")),

@@ -66,6 +66,7 @@ pub(crate) struct PathTracerPipelines {
     trace: CachedComputePipelineId,
     /// The trace kernel over split records, queued when a scene first needs it.
     trace_split: Mutex<Option<CachedComputePipelineId>>,
+    trace_shader: Handle<Shader>,
     trace_split_shader: Handle<Shader>,
     resolve_shader: Handle<Shader>,
     /// Resolve pipelines by target format, sample count and whether they write depth.
@@ -141,11 +142,10 @@ fn init_pipelines(
         shaders.denoise.clone(),
         "denoise",
     ));
-    let trace = pipeline_cache.queue_compute_pipeline(compute_pipeline(
-        "treelight path trace",
-        vec![scene_layout.clone(), view_layout.clone()],
+    let trace = pipeline_cache.queue_compute_pipeline(whole_trace_descriptor(
+        &scene_layout,
+        &view_layout,
         shaders.trace.clone(),
-        "path_trace",
     ));
     commands.insert_resource(PathTracerPipelines {
         scene_layout,
@@ -157,6 +157,7 @@ fn init_pipelines(
         temporal,
         trace,
         trace_split: Mutex::new(None),
+        trace_shader: shaders.trace.clone(),
         trace_split_shader: shaders.trace_split.clone(),
         resolve_shader: shaders.resolve.clone(),
         resolve: Mutex::new(HashMap::new()),
@@ -217,6 +218,25 @@ pub(crate) fn view_layout() -> BindGroupLayoutDescriptor {
     )
 }
 
+/// The whole-scene trace kernel's shader asset.
+pub(crate) fn whole_trace_shader() -> Shader {
+    Shader::from_wgsl(crate::PATHTRACE_WGSL, "treelight/pathtrace.wgsl")
+}
+
+/// The whole-scene trace kernel's pipeline over `scene` and `view`.
+pub(crate) fn whole_trace_descriptor(
+    scene: &BindGroupLayoutDescriptor,
+    view: &BindGroupLayoutDescriptor,
+    shader: Handle<Shader>,
+) -> ComputePipelineDescriptor {
+    compute_pipeline(
+        "treelight path trace",
+        vec![scene.clone(), view.clone()],
+        shader,
+        "path_trace",
+    )
+}
+
 /// The split trace kernel's shader asset.
 pub(crate) fn split_trace_shader() -> Shader {
     Shader::from_wgsl(
@@ -250,6 +270,16 @@ impl PathTracerPipelines {
         }
         let mut id = self.trace_split.lock().unwrap_or_else(|p| p.into_inner());
         *id.get_or_insert_with(|| cache.queue_compute_pipeline(self.split_trace_descriptor()))
+    }
+
+    /// The whole-scene trace kernel's pipeline (`kernel_warmup.rs` makes it on a second device
+    /// too).
+    pub fn whole_trace_descriptor(&self) -> ComputePipelineDescriptor {
+        whole_trace_descriptor(
+            &self.scene_layout,
+            &self.view_layout,
+            self.trace_shader.clone(),
+        )
     }
 
     /// The split trace kernel's pipeline (`kernel_warmup.rs` makes it on a second device too).

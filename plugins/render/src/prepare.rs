@@ -6,7 +6,7 @@
 use crate::budget::{TILE, TileCursor, TileOrder, TraceClock, preview_scale};
 use crate::environment::{ExtractedEnvironment, GpuEnvironment};
 use crate::extract::SceneSync;
-use crate::kernel_warmup::SplitKernelWarmup;
+use crate::kernel_warmup::{KernelWarmup, TraceKernel};
 use crate::parts::{PartLayout, part_bindings, part_count, trace_storage_buffers};
 use crate::pipelines::PathTracerPipelines;
 use crate::records::{ResolveParams, TemporalRestart, TraceWork, VIEW_BYTES, ViewParams};
@@ -39,7 +39,7 @@ pub(crate) fn build(render_app: &mut SubApp) {
                 apply_scene_uploads.in_set(RenderSystems::PrepareResources),
                 (
                     prepare_scene_bind_group,
-                    crate::kernel_warmup::start_when_split,
+                    crate::kernel_warmup::start_warmups,
                     prepare_views,
                 )
                     .chain()
@@ -823,7 +823,7 @@ fn prepare_views(
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
     environment: Res<ExtractedEnvironment>,
-    warmup: Option<Res<SplitKernelWarmup>>,
+    warmup: Option<ResMut<KernelWarmup>>,
 ) {
     let (Some(pipelines), Some(layers)) = (pipelines, layers) else {
         return;
@@ -834,14 +834,20 @@ fn prepare_views(
     }
     let max_bytes = max_binding_bytes(&device);
     let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
-    // A split scene waits for its kernel's warm-up (`kernel_warmup.rs`) on a software adapter.
-    let warming = scene.split() && warmup.is_some_and(|w| !w.ready());
-    stats.update(|f| f.preparing_split_kernel = warming);
+    // On a software adapter the views wait for their kernel's warm-up (`kernel_warmup.rs`).
+    let kernel = TraceKernel::of(scene.split());
+    let waited = warmup.and_then(|mut w| w.wait(kernel));
+    stats.update(|f| {
+        f.preparing_kernel = waited.map(|waited_s| crate::PreparingKernel {
+            split: kernel == TraceKernel::Split,
+            waited_s,
+        })
+    });
     let trace_ready = pipeline_cache
         .get_compute_pipeline(trace_pipeline)
         .is_some()
         && scene.bind_group.is_some()
-        && !warming;
+        && waited.is_none();
     let now = Instant::now();
     for (entity, camera, extracted, target, depth, settings, main_entity) in &views {
         let viewport = extracted.viewport;

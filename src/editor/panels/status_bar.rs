@@ -115,14 +115,22 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
             trace.traced_per_frame, figures.last_upload_bytes, figures.total_upload_bytes
         ));
     }
-    if f.tracer.preparing_split_kernel() {
+    if let Some(kernel) = f.tracer.preparing_kernel().filter(|k| k.noticeable()) {
         ui.separator();
         ui.spinner();
-        ui.label("Preparing the path tracer for a large scene").on_hover_text(
-            "The scene outgrew one GPU binding, and this software adapter compiles the kernel that \
-             reads split records once per machine (minutes the first time, moments after). The \
-             view is traced once it is ready; editing goes on meanwhile.",
-        );
+        if kernel.split {
+            ui.label("Preparing the path tracer for a large scene").on_hover_text(
+                "The scene outgrew one GPU binding, and this software adapter compiles the kernel \
+                 that reads split records once per machine (minutes the first time, moments \
+                 after). The view is traced once it is ready; editing goes on meanwhile.",
+            );
+        } else {
+            ui.label("Preparing the path tracer").on_hover_text(
+                "This software adapter compiles the path tracer's kernel once per machine, and \
+                 again for a texture of another kind (up to a minute the first time, moments \
+                 after). The view is traced once it is ready; editing goes on meanwhile.",
+            );
+        }
     }
     if f.render.traced.is_none()
         && let Some(why) = f.tracer.trace_off()

@@ -74,14 +74,17 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
     // (selection::outline_selected_meshes); the rasteriser gets their boxes.
     let mut scene = viewport_scene(&view, render.traced.is_none());
     if render.traced.is_some()
-        && view
+        && let Some(kernel) = view
             .tracer
             .as_ref()
-            .is_some_and(|t| t.preparing_split_kernel())
+            .and_then(|t| t.preparing_kernel())
+            .filter(|k| k.noticeable())
     {
-        scene.waiting = Some(
-            "Preparing the path tracer for a large scene: the first time on this machine, minutes",
-        );
+        scene.waiting = Some(if kernel.split {
+            "Preparing the path tracer for a large scene: the first time on this machine, minutes"
+        } else {
+            "Preparing the path tracer: the first time on this machine, up to a minute"
+        });
     }
     let mut orbit_copy = orbit.single().ok().copied();
     let mut render_copy = *render;
