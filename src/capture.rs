@@ -17,12 +17,18 @@ pub struct CaptureRequest {
     pub requested: bool,
 }
 
-/// Counts frames; at the chosen one, asks for a screenshot (or exits).
+/// Counts frames; at the chosen one, asks for a screenshot (or exits). Frames while the path
+/// tracer waits for its kernel do not count: the view has nothing to show yet, and how long the
+/// compile takes differs between machines.
 pub fn count_frames_and_capture(
     mut commands: Commands,
     mut request: ResMut<CaptureRequest>,
     mut exit: MessageWriter<AppExit>,
+    tracer: Option<Res<treelight_render::PathTracerStats>>,
 ) {
+    if tracer.is_some_and(|t| t.preparing_kernel().is_some()) {
+        return;
+    }
     request.rendered += 1;
     if request.requested || request.rendered < request.frames {
         return;

@@ -17,7 +17,9 @@ pub struct Cli {
     /// Save a screenshot of the whole window to this PNG file after `--frames` frames, then exit.
     #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
-    /// Frames to render before taking the screenshot (or before exiting, without --screenshot).
+    /// Frames to render before taking the screenshot (or before exiting, without --screenshot);
+    /// frames while the path tracer waits for its kernel to compile (a software adapter's first
+    /// start) do not count.
     #[arg(long, value_name = "N")]
     pub frames: Option<u32>,
     /// Window width in logical pixels.

@@ -131,6 +131,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         },
         scale_chosen: cli.trace_scale.is_some(),
     });
+    insert_kernel_record(&mut app);
     match &cli.scene {
         Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),
         None => {
@@ -197,4 +198,12 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     }
     run_schedules_on_one_thread(&mut app);
     app
+}
+
+/// Keeps the record of the path tracer's kernel warm-ups (a software adapter's) in the cache
+/// folder, so starts after the first skip them.
+pub fn insert_kernel_record(app: &mut App) {
+    if let Some(dir) = treelight_document::folders::cache_dir() {
+        app.insert_resource(treelight_render::KernelCompileRecord(dir.join("kernels")));
+    }
 }

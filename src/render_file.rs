@@ -244,6 +244,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         DocumentPlugin,
     ));
     run_schedules_on_one_thread(&mut app);
+    crate::insert_kernel_record(&mut app);
     app.add_plugins(PipelineWatchPlugin);
     // An EXR holds the exposed radiance itself: a float target, and no tone curve or dither.
     let linear = is_exr(&args.out);

@@ -1194,3 +1194,31 @@ fn a_selected_mesh_stays_outlined_after_the_worker_rebuilds_it() {
     }
     panic!("the worker rebuilt the bunny before the view had samples, 3 times");
 }
+
+#[test]
+fn a_second_start_skips_the_kernel_warmup_the_first_recorded() {
+    // On a software adapter the first start compiles the trace kernel on a device of its own
+    // and records that in the editor's cache; a later start with the same cache (and driver,
+    // shader cache, binary) goes straight to tracing, the driver's cache holding the kernel.
+    let cache = support::temp_dir("kernel-record");
+    let env = [("TREELIGHT_CACHE_DIR", cache.to_str().unwrap())];
+    let traced = |s: &mut Session| {
+        s.wait_until(
+            "the view traced",
+            std::time::Duration::from_secs(150),
+            |st| st.samples >= 1,
+        );
+        s.log()
+    };
+    let first = traced(&mut Session::start_with("kernel-record-1", &[], &env));
+    assert!(first.contains("trace kernel was compiled in"), "{first}");
+    let records = std::fs::read_dir(cache.join("kernels")).unwrap().count();
+    assert_eq!(records, 1, "one kernel, one texture state");
+    let second = traced(&mut Session::start_with("kernel-record-2", &[], &env));
+    assert!(!second.contains("trace kernel was compiled in"), "{second}");
+    assert!(
+        second.contains("trace kernel was compiled at an earlier start"),
+        "{second}"
+    );
+    std::fs::remove_dir_all(&cache).ok();
+}

@@ -569,7 +569,10 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
             args.extend(["--gpu-binding-limit", kib]);
         }
         let name = format!("binding-split-{}", limit.unwrap_or("none"));
-        let mut session = xdrive::Session::start(&name, &args);
+        let mut session =
+            xdrive::Session::start_until(&name, &args, &[], "the scene settles", |st| {
+                st.settled && st.frame > 5
+            });
         let s = session.wait_until(
             "16 samples a pixel",
             std::time::Duration::from_secs(600),
@@ -618,62 +621,52 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
 
 #[test]
 fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_go_on() {
-    use treelight::report::EditorState;
     // With an empty shader cache llvmpipe compiles the split kernel for minutes. Compiled at its
     // first dispatch on the views' queue, every frame after waited that long; compiled on the
     // warm-up's device of its own, the editor runs its frames meanwhile and says what the view
-    // waits for. (The run ends long before the compile does.)
+    // waits for. (The wait ends long before the compile does.)
     let dir = temp_dir("split-kernel-warmup");
     let cache = dir.join("shader cache");
     std::fs::create_dir_all(&cache).unwrap();
-    let state = dir.join("state.ron");
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
-    let out = run_headless_with_env(
-        std::path::Path::new(env!("CARGO_BIN_EXE_treelight")),
-        &[
-            helmet.to_str().unwrap(),
-            "--gpu-binding-limit",
-            "4096",
-            "--frames",
-            "150",
-            "--state",
-            state.to_str().unwrap(),
-        ],
-        &dir.join("config"),
-        &[("MESA_SHADER_CACHE_DIR", &cache)],
+    let s = xdrive::Session::start_until(
+        "split-kernel-warmup",
+        &[helmet.to_str().unwrap(), "--gpu-binding-limit", "4096"],
+        &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
+        "150 frames with the helmet in the tree",
+        |s| s.frame >= 150 && s.memory.triangles == 94_722,
     );
-    let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
-    assert!(s.frame >= 150, "{out}");
-    assert_eq!(s.memory.triangles, 94_722, "{out}");
-    assert_eq!(s.preparing_kernel.as_deref(), Some("split"), "{out}");
+    let st = s.try_state().unwrap();
+    assert_eq!(st.preparing_kernel.as_deref(), Some("split"), "{}", s.log());
     // The view traced none of the split scene: its kernel is not ready.
-    assert_eq!(s.samples, 0, "{out}");
-    assert_ne!(s.view, "Raster", "{:?}", s.notices);
+    assert_eq!(st.samples, 0, "{}", s.log());
+    assert_ne!(st.view, "Raster", "{:?}", st.notices);
+    drop(s);
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_queue() {
-    use treelight::report::EditorState;
     // With an empty shader cache llvmpipe compiles the whole-scene trace kernel for most of a
     // minute. Compiled at its first dispatch on the views' queue, the window stood still that
-    // long; compiled on the warm-up's device of its own, the frames go on and the view waits. (The run ends well before the compile does.)
+    // long; compiled on the warm-up's device of its own, the frames go on and the view waits.
+    // (The wait ends well before the compile does.)
     let dir = temp_dir("whole-kernel-warmup");
     let cache = dir.join("shader cache");
     std::fs::create_dir_all(&cache).unwrap();
-    let state = dir.join("state.ron");
-    let out = run_headless_with_env(
-        std::path::Path::new(env!("CARGO_BIN_EXE_treelight")),
-        &["--frames", "30", "--state", state.to_str().unwrap()],
-        &dir.join("config"),
-        &[("MESA_SHADER_CACHE_DIR", &cache)],
+    let s = xdrive::Session::start_until(
+        "whole-kernel-warmup",
+        &[],
+        &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
+        "30 frames",
+        |s| s.frame >= 30,
     );
-    let s: EditorState = ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
-    assert!(s.frame >= 30, "{out}");
-    assert_eq!(s.preparing_kernel.as_deref(), Some("whole"), "{out}");
-    assert_eq!(s.samples, 0, "{out}");
-    assert_ne!(s.view, "Raster", "{:?}", s.notices);
+    let st = s.try_state().unwrap();
+    assert_eq!(st.preparing_kernel.as_deref(), Some("whole"), "{}", s.log());
+    assert_eq!(st.samples, 0, "{}", s.log());
+    assert_ne!(st.view, "Raster", "{:?}", st.notices);
+    drop(s);
     std::fs::remove_dir_all(&dir).ok();
 }
 

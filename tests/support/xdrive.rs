@@ -92,6 +92,25 @@ impl Session {
 
     /// [`Session::start`] with extra environment variables for the editor.
     pub fn start_with(name: &str, args: &[&str], env: &[(&str, &str)]) -> Session {
+        // A software adapter with a cold shader cache compiles the path tracer's kernel for up to
+        // a minute while the frames go on: the view is traced once it is ready.
+        Self::start_until(
+            name,
+            args,
+            env,
+            "the editor's scene settles and its view is ready to trace",
+            |s| s.settled && s.frame > 5 && s.preparing_kernel.is_none(),
+        )
+    }
+
+    /// [`Session::start_with`], started once `ready` accepts the editor's report.
+    pub fn start_until(
+        name: &str,
+        args: &[&str],
+        env: &[(&str, &str)],
+        what: &str,
+        ready: impl Fn(&EditorState) -> bool,
+    ) -> Session {
         // One editor at a time in a test process: two software-rendered editors on two cores
         // make each one's frames late enough that input lands frames after it was sent.
         static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
@@ -177,11 +196,7 @@ impl Session {
                 sent: std::cell::Cell::new(0),
                 _turn: turn,
             };
-            session.wait_until(
-                "the editor's scene settles",
-                Duration::from_secs(240),
-                |s| s.settled && s.frame > 5,
-            );
+            session.wait_until(what, Duration::from_secs(240), &ready);
             session.find_window();
             // Let the layout and the first path-traced frames settle.
             session.frames(4);

@@ -9,7 +9,10 @@
 //! a side serve for textures of any size, and a warm-up runs again when that state changes (a
 //! panorama of another shape). The driver's shader cache then holds the compiled kernel, and the
 //! views' device loads it from there. Views wait for their kernel; their frames, and the scene's
-//! uploads, go on.
+//! uploads, go on. An app may name a folder where warm-ups are recorded
+//! ([`KernelCompileRecord`]): a later start on the same machine, driver, shader cache and binary
+//! skips those, since with the driver's cache warm a warm-up only repeats the views' own work of
+//! making the kernel, on the same few cores.
 
 use crate::environment::GpuEnvironment;
 use crate::pipelines::{PathTracerPipelines, PathTracerShaders};
@@ -21,6 +24,7 @@ use bevy::render::render_resource::{
     TextureViewDescriptor,
 };
 use bevy::render::renderer::{RenderAdapter, RenderAdapterInfo, RenderDevice};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -40,6 +44,54 @@ impl TraceKernel {
     pub fn of(split: bool) -> Self {
         if split { Self::Split } else { Self::Whole }
     }
+
+    /// Its WGSL.
+    fn source(self) -> &'static str {
+        match self {
+            Self::Whole => crate::PATHTRACE_WGSL,
+            Self::Split => crate::PATHTRACE_SPLIT_WGSL,
+        }
+    }
+}
+
+/// A folder where the path tracer records the kernels its warm-ups compiled into a software
+/// adapter's shader cache (a file per kernel and texture state), so that later starts skip them.
+/// Insert it into the main world before the app first updates (the editor gives a folder of its
+/// cache); without it every start warms its kernels up. A record outlives the driver's cache only
+/// if that is cleared by hand: the view then compiles its kernel once on its queue.
+#[derive(Resource, Clone, Debug)]
+pub struct KernelCompileRecord(pub PathBuf);
+
+impl KernelCompileRecord {
+    /// The file that records `kernel` compiled for `textures` on the driver `driver`, with this
+    /// executable and this process's shader-cache settings.
+    fn entry(&self, kernel: TraceKernel, textures: &[TextureVariant], driver: &str) -> PathBuf {
+        let mut h = blake3::Hasher::new();
+        h.update(kernel.source().as_bytes());
+        h.update(format!("{textures:?}\0{driver}\0").as_bytes());
+        // Where Mesa keeps its cache, and whether it keeps one.
+        for key in [
+            "MESA_SHADER_CACHE_DIR",
+            "MESA_SHADER_CACHE_DISABLE",
+            "MESA_DISK_CACHE_SINGLE_FILE",
+            "XDG_CACHE_HOME",
+            "HOME",
+        ] {
+            let value = std::env::var_os(key).unwrap_or_default();
+            h.update(key.as_bytes());
+            h.update(value.as_encoded_bytes());
+            h.update(b"\0");
+        }
+        // Another build may make another module of the same source (another naga).
+        let exe = std::env::current_exe()
+            .and_then(std::fs::metadata)
+            .map(|m| format!("{:?} {}", m.modified().ok(), m.len()))
+            .unwrap_or_default();
+        h.update(exe.as_bytes());
+        let name = h.finalize().to_hex();
+        self.0
+            .join(format!("{kernel:?}-{}", &name[..32]).to_lowercase())
+    }
 }
 
 /// Where the trace kernels' warm-ups stand (render world).
@@ -55,6 +107,10 @@ pub(crate) struct KernelWarmup {
     current: Option<Vec<TextureVariant>>,
     /// Since when the views have waited, and for which kernel.
     waiting_since: Option<(TraceKernel, Instant)>,
+    /// Where warm-ups are recorded, if the app keeps a record.
+    record: Option<KernelCompileRecord>,
+    /// The adapter's name and driver, part of a record's key.
+    driver: String,
 }
 
 impl KernelWarmup {
@@ -91,7 +147,11 @@ pub(crate) fn build(render_app: &mut SubApp) {
     render_app.add_systems(bevy::render::RenderStartup, init_warmup);
 }
 
-fn init_warmup(mut commands: Commands, info: Res<RenderAdapterInfo>) {
+fn init_warmup(
+    mut commands: Commands,
+    info: Res<RenderAdapterInfo>,
+    record: Option<Res<KernelCompileRecord>>,
+) {
     // Other adapters compile a kernel when its pipeline is made, which Bevy does off the frame.
     let needed = info.device_type == wgpu::DeviceType::Cpu;
     commands.insert_resource(KernelWarmup {
@@ -100,6 +160,8 @@ fn init_warmup(mut commands: Commands, info: Res<RenderAdapterInfo>) {
         warmed: [None, None],
         current: None,
         waiting_since: None,
+        record: record.map(|r| r.clone()),
+        driver: format!("{} {} {}", info.name, info.driver, info.driver_info),
     });
 }
 
@@ -230,6 +292,18 @@ impl KernelWarmup {
         shader: (AssetId<Shader>, Shader),
         textures: Vec<TextureVariant>,
     ) {
+        let record = self
+            .record
+            .as_ref()
+            .map(|r| r.entry(kernel, &textures, &self.driver));
+        if let Some(entry) = record.as_ref().filter(|e| e.is_file()) {
+            info!(
+                "the {kernel:?} trace kernel was compiled at an earlier start ({})",
+                entry.display()
+            );
+            self.warmed[kernel as usize] = Some(textures);
+            return;
+        }
         self.warmed[kernel as usize] = Some(textures.clone());
         let done = Arc::new(AtomicBool::new(false));
         self.running = Some((kernel, done.clone()));
@@ -249,10 +323,15 @@ impl KernelWarmup {
                 }))
                 .unwrap_or_else(|_| Err("it panicked".into()));
                 match result {
-                    Ok(()) => info!(
-                        "the {kernel:?} trace kernel was compiled in {:.1} s",
-                        started.elapsed().as_secs_f64()
-                    ),
+                    Ok(()) => {
+                        info!(
+                            "the {kernel:?} trace kernel was compiled in {:.1} s",
+                            started.elapsed().as_secs_f64()
+                        );
+                        if let Some(entry) = record {
+                            remember(&entry, kernel, started.elapsed().as_secs_f64());
+                        }
+                    }
                     // The views' device compiles it at its first dispatch instead.
                     Err(why) => warn!("the {kernel:?} trace kernel's warm-up failed: {why}"),
                 }
@@ -261,6 +340,28 @@ impl KernelWarmup {
         if spawned.is_err() {
             done.store(true, Ordering::Release);
         }
+    }
+}
+
+/// Writes the record of a warm-up (what was compiled, for how long, when: for whoever opens it).
+fn remember(entry: &std::path::Path, kernel: TraceKernel, seconds: f64) {
+    let written = entry
+        .parent()
+        .map_or(Ok(()), std::fs::create_dir_all)
+        .and_then(|()| {
+            std::fs::write(
+                entry,
+                format!(
+                    "the {kernel:?} trace kernel, compiled in {seconds:.1} s at {:?}\n",
+                    std::time::SystemTime::now()
+                ),
+            )
+        });
+    if let Err(e) = written {
+        warn!(
+            "cannot record the kernel's warm-up in {}: {e}",
+            entry.display()
+        );
     }
 }
 
@@ -544,6 +645,8 @@ mod tests {
             warmed: [None, None],
             current: None,
             waiting_since: None,
+            record: None,
+            driver: String::new(),
         };
         assert!(!w.ready(TraceKernel::Whole), "nothing bound yet");
         w.current = Some(sky(4));
@@ -585,6 +688,40 @@ mod tests {
             w.ready(TraceKernel::Split),
             "a hardware adapter waits for none"
         );
+    }
+
+    /// A record names a kernel, the textures' state and the driver: each of them apart, another
+    /// file; all of them alike, the same.
+    #[test]
+    fn a_record_entry_is_one_per_kernel_texture_state_and_driver() {
+        use wgpu::TextureFormat::Rgba16Float;
+        let dir =
+            std::env::temp_dir().join(format!("treelight-kernel-record-{}", std::process::id()));
+        let record = KernelCompileRecord(dir.clone());
+        let sky = |side| {
+            vec![TextureVariant::of(
+                30,
+                &texture([side, side, 1], 1, wgpu::TextureDimension::D2, Rgba16Float),
+                None,
+            )]
+        };
+        let entry = record.entry(TraceKernel::Whole, &sky(4), "llvmpipe Mesa 1");
+        assert_eq!(entry.parent(), Some(dir.as_path()));
+        assert_eq!(
+            entry,
+            record.entry(TraceKernel::Whole, &sky(64), "llvmpipe Mesa 1")
+        );
+        for other in [
+            record.entry(TraceKernel::Split, &sky(4), "llvmpipe Mesa 1"),
+            record.entry(TraceKernel::Whole, &sky(5), "llvmpipe Mesa 1"),
+            record.entry(TraceKernel::Whole, &sky(4), "llvmpipe Mesa 2"),
+        ] {
+            assert_ne!(entry, other);
+        }
+        assert!(!entry.is_file());
+        remember(&entry, TraceKernel::Whole, 1.5);
+        assert!(entry.is_file(), "written, its folder made");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// The warm-up's dispatch is one the device accepts and runs: every binding of both groups

@@ -41,6 +41,7 @@ pub use environment::{
     ENVIRONMENT_BINDINGS, EnvironmentTexels, MAX_DISTRIBUTION_WIDTH, PathTracedEnvironment,
     PreparedEnvironment, environment_uniform, panorama_coordinates, panorama_direction,
 };
+pub use kernel_warmup::KernelCompileRecord;
 pub use map_transforms::{
     MAP_TRANSFORM_SET_BYTES, MAP_TRANSFORMS_BINDING, MAX_MAP_TRANSFORM_SETS, MapTransformTable,
     MapUvTransforms,
@@ -540,5 +541,15 @@ impl Plugin for PathTracerPlugin {
         prepare::build(render_app);
         gpu_memory::build(render_app);
         node::build(render_app);
+    }
+
+    fn finish(&self, app: &mut App) {
+        // The app's record of kernel warm-ups, read by the render world at its startup.
+        let record = app.world().get_resource::<KernelCompileRecord>().cloned();
+        if let (Some(record), Some(render_app)) =
+            (record, app.get_sub_app_mut(bevy::render::RenderApp))
+        {
+            render_app.insert_resource(record);
+        }
     }
 }

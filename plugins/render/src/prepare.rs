@@ -836,7 +836,10 @@ fn prepare_views(
     let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
     // On a software adapter the views wait for their kernel's warm-up (`kernel_warmup.rs`).
     let kernel = TraceKernel::of(scene.split());
-    let waited = warmup.and_then(|mut w| w.wait(kernel));
+    // Without a path-traced view nothing waits.
+    let waited = warmup
+        .filter(|_| !views.is_empty())
+        .and_then(|mut w| w.wait(kernel));
     stats.update(|f| {
         f.preparing_kernel = waited.map(|waited_s| crate::PreparingKernel {
             split: kernel == TraceKernel::Split,
