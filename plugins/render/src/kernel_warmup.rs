@@ -518,7 +518,7 @@ pub(crate) fn start_warmups(
     else {
         return;
     };
-    if !warmup.needed {
+    if !warmup.needed || scene.too_large.is_some() {
         return;
     }
     let textures = texture_variants(&layers, &environment);

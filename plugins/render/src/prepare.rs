@@ -830,6 +830,8 @@ fn prepare_views(
     };
     let environment_word = environment.uniform();
     if scene.too_large.is_some() {
+        // Nothing is traced, so nothing waits for a kernel.
+        stats.update(|f| f.preparing_kernel = None);
         return;
     }
     let max_bytes = max_binding_bytes(&device);
