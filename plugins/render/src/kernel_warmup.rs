@@ -65,7 +65,7 @@ pub struct KernelCompileRecord(pub PathBuf);
 impl KernelCompileRecord {
     /// The file that records `kernel` compiled for `textures` on the driver `driver`, with this
     /// executable and this process's shader-cache settings.
-    fn entry(&self, kernel: TraceKernel, textures: &[TextureVariant], driver: &str) -> PathBuf {
+    fn entry(&self, kernel: TraceKernel, textures: &TextureState, driver: &str) -> PathBuf {
         let mut h = blake3::Hasher::new();
         h.update(kernel.source().as_bytes());
         h.update(format!("{textures:?}\0{driver}\0").as_bytes());
@@ -94,6 +94,10 @@ impl KernelCompileRecord {
     }
 }
 
+/// The state of the scene group's three textures (the texture layers, the panorama, its
+/// distribution), as the driver compiles a kernel for it.
+type TextureState = [TextureVariant; 3];
+
 /// Where the trace kernels' warm-ups stand (render world).
 #[derive(Resource)]
 pub(crate) struct KernelWarmup {
@@ -102,9 +106,9 @@ pub(crate) struct KernelWarmup {
     /// The warm-up running: its kernel, and whether it has ended.
     running: Option<(TraceKernel, Arc<AtomicBool>)>,
     /// The texture state each kernel's latest warm-up compiled for (whole, split).
-    warmed: [Option<Vec<TextureVariant>>; 2],
+    warmed: [Option<TextureState>; 2],
     /// The texture state the views bind now.
-    current: Option<Vec<TextureVariant>>,
+    current: Option<TextureState>,
     /// Since when the views have waited, and for which kernel.
     waiting_since: Option<(TraceKernel, Instant)>,
     /// Where warm-ups are recorded, if the app keeps a record.
@@ -168,7 +172,7 @@ fn init_warmup(
 /// What of a bound texture a software adapter compiles into a kernel that samples it (llvmpipe's
 /// static texture state): its format and kind, whether each side is a power of two, its mip
 /// levels. Array layers are not part of it.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TextureVariant {
     binding: u32,
     format: wgpu::TextureFormat,
@@ -236,14 +240,14 @@ impl TextureVariant {
 
 /// The textures and samplers of the scene group as a warm-up binds them, by binding.
 struct Shapes {
-    textures: Vec<TextureVariant>,
+    textures: TextureState,
     samplers: Vec<(u32, SamplerDescriptor<'static>)>,
 }
 
 /// The scene group's textures as the views bind them now.
-fn texture_variants(layers: &TextureLayers, environment: &GpuEnvironment) -> Vec<TextureVariant> {
+fn texture_state(layers: &TextureLayers, environment: &GpuEnvironment) -> TextureState {
     let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
-    vec![
+    [
         variant(6, &layers.view, Some(wgpu::TextureViewDimension::D2Array)),
         variant(env_image, &environment.image, None),
         variant(env_cdf, &environment.distribution, None),
@@ -282,15 +286,16 @@ fn variant(
 }
 
 impl KernelWarmup {
-    /// Starts a warm-up of `kernel` on its thread for the texture state `textures`.
+    /// Starts a warm-up of `kernel` on its thread for the texture state `textures`, unless the
+    /// record says an earlier start compiled it.
     fn start(
         &mut self,
         kernel: TraceKernel,
         adapter: &RenderAdapter,
         device: &RenderDevice,
-        descriptor: ComputePipelineDescriptor,
-        shader: (AssetId<Shader>, Shader),
-        textures: Vec<TextureVariant>,
+        pipelines: &PathTracerPipelines,
+        shaders: &PathTracerShaders,
+        textures: TextureState,
     ) {
         let record = self
             .record
@@ -304,7 +309,20 @@ impl KernelWarmup {
             self.warmed[kernel as usize] = Some(textures);
             return;
         }
-        self.warmed[kernel as usize] = Some(textures.clone());
+        self.warmed[kernel as usize] = Some(textures);
+        let (descriptor, shader) = match kernel {
+            TraceKernel::Whole => (
+                pipelines.whole_trace_descriptor(),
+                (shaders.trace.id(), crate::pipelines::whole_trace_shader()),
+            ),
+            TraceKernel::Split => (
+                pipelines.split_trace_descriptor(),
+                (
+                    shaders.trace_split.id(),
+                    crate::pipelines::split_trace_shader(),
+                ),
+            ),
+        };
         let done = Arc::new(AtomicBool::new(false));
         self.running = Some((kernel, done.clone()));
         let shapes = Shapes {
@@ -521,10 +539,8 @@ pub(crate) fn start_warmups(
     if !warmup.needed || scene.too_large.is_some() {
         return;
     }
-    let textures = texture_variants(&layers, &environment);
-    if warmup.current.as_ref() != Some(&textures) {
-        warmup.current = Some(textures.clone());
-    }
+    let textures = texture_state(&layers, &environment);
+    warmup.current = Some(textures);
     if warmup
         .running
         .as_ref()
@@ -534,23 +550,10 @@ pub(crate) fn start_warmups(
     }
     warmup.running = None;
     let kernel = TraceKernel::of(scene.split());
-    if warmup.warmed[kernel as usize].as_ref() == Some(&textures) {
+    if warmup.warmed[kernel as usize] == Some(textures) {
         return;
     }
-    let (descriptor, shader) = match kernel {
-        TraceKernel::Whole => (
-            pipelines.whole_trace_descriptor(),
-            (shaders.trace.id(), crate::pipelines::whole_trace_shader()),
-        ),
-        TraceKernel::Split => (
-            pipelines.split_trace_descriptor(),
-            (
-                shaders.trace_split.id(),
-                crate::pipelines::split_trace_shader(),
-            ),
-        ),
-    };
-    warmup.start(kernel, &adapter, &device, descriptor, shader, textures);
+    warmup.start(kernel, &adapter, &device, &pipelines, &shaders, textures);
 }
 
 #[cfg(test)]
@@ -578,6 +581,30 @@ mod tests {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         }
+    }
+
+    /// The scene group's textures: five layers of 1024², a sky panorama of `sky` texels a side
+    /// and its distribution.
+    fn scene_textures(sky: u32) -> TextureState {
+        use wgpu::TextureDimension::D2;
+        let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
+        [
+            TextureVariant::of(
+                6,
+                &texture([1024, 1024, 5], 1, D2, wgpu::TextureFormat::Rgba8Unorm),
+                Some(wgpu::TextureViewDimension::D2Array),
+            ),
+            TextureVariant::of(
+                env_image,
+                &texture([sky, sky, 1], 1, D2, wgpu::TextureFormat::Rgba16Float),
+                None,
+            ),
+            TextureVariant::of(
+                env_cdf,
+                &texture([2, 1, 1], 1, D2, wgpu::TextureFormat::R32Float),
+                None,
+            ),
+        ]
     }
 
     /// A texture's state keeps what the driver compiles in (sides a power of two or not, mip
@@ -631,14 +658,6 @@ mod tests {
     /// start, and starts over for the other kernel.
     #[test]
     fn views_wait_for_their_own_kernel_warmed_for_the_textures_bound_now() {
-        use wgpu::TextureFormat::Rgba16Float;
-        let sky = |side| {
-            vec![TextureVariant::of(
-                30,
-                &texture([side, side, 1], 1, wgpu::TextureDimension::D2, Rgba16Float),
-                None,
-            )]
-        };
         let mut w = KernelWarmup {
             needed: true,
             running: None,
@@ -649,9 +668,9 @@ mod tests {
             driver: String::new(),
         };
         assert!(!w.ready(TraceKernel::Whole), "nothing bound yet");
-        w.current = Some(sky(4));
+        w.current = Some(scene_textures(4));
         let done = Arc::new(AtomicBool::new(false));
-        w.warmed[0] = Some(sky(4));
+        w.warmed[0] = Some(scene_textures(4));
         w.running = Some((TraceKernel::Whole, done.clone()));
         assert!(!w.ready(TraceKernel::Whole), "its warm-up runs");
         let first = w.wait(TraceKernel::Whole).unwrap();
@@ -665,20 +684,20 @@ mod tests {
         done.store(true, Ordering::Release);
         assert!(w.ready(TraceKernel::Whole));
         assert_eq!(w.wait(TraceKernel::Whole), None);
-        w.current = Some(sky(16));
+        w.current = Some(scene_textures(16));
         assert!(
             w.ready(TraceKernel::Whole),
             "another size of the same state"
         );
-        w.current = Some(sky(15));
+        w.current = Some(scene_textures(15));
         assert!(
             !w.ready(TraceKernel::Whole),
             "a side no longer a power of two"
         );
-        w.warmed[1] = Some(sky(15));
+        w.warmed[1] = Some(scene_textures(15));
         w.running = Some((TraceKernel::Split, Arc::new(AtomicBool::new(false))));
         assert!(!w.ready(TraceKernel::Split) && !w.ready(TraceKernel::Whole));
-        w.warmed[0] = Some(sky(15));
+        w.warmed[0] = Some(scene_textures(15));
         assert!(
             w.ready(TraceKernel::Whole),
             "the split kernel's warm-up holds only its views"
@@ -694,27 +713,19 @@ mod tests {
     /// file; all of them alike, the same.
     #[test]
     fn a_record_entry_is_one_per_kernel_texture_state_and_driver() {
-        use wgpu::TextureFormat::Rgba16Float;
         let dir =
             std::env::temp_dir().join(format!("treelight-kernel-record-{}", std::process::id()));
         let record = KernelCompileRecord(dir.clone());
-        let sky = |side| {
-            vec![TextureVariant::of(
-                30,
-                &texture([side, side, 1], 1, wgpu::TextureDimension::D2, Rgba16Float),
-                None,
-            )]
-        };
-        let entry = record.entry(TraceKernel::Whole, &sky(4), "llvmpipe Mesa 1");
+        let entry = record.entry(TraceKernel::Whole, &scene_textures(4), "llvmpipe Mesa 1");
         assert_eq!(entry.parent(), Some(dir.as_path()));
         assert_eq!(
             entry,
-            record.entry(TraceKernel::Whole, &sky(64), "llvmpipe Mesa 1")
+            record.entry(TraceKernel::Whole, &scene_textures(64), "llvmpipe Mesa 1")
         );
         for other in [
-            record.entry(TraceKernel::Split, &sky(4), "llvmpipe Mesa 1"),
-            record.entry(TraceKernel::Whole, &sky(5), "llvmpipe Mesa 1"),
-            record.entry(TraceKernel::Whole, &sky(4), "llvmpipe Mesa 2"),
+            record.entry(TraceKernel::Split, &scene_textures(4), "llvmpipe Mesa 1"),
+            record.entry(TraceKernel::Whole, &scene_textures(5), "llvmpipe Mesa 1"),
+            record.entry(TraceKernel::Whole, &scene_textures(4), "llvmpipe Mesa 2"),
         ] {
             assert_ne!(entry, other);
         }
@@ -740,40 +751,8 @@ mod tests {
             &crate::pipelines::view_layout(),
             shader.clone(),
         );
-        let [env_image, _, env_cdf] = crate::ENVIRONMENT_BINDINGS;
         let shapes = Shapes {
-            textures: vec![
-                TextureVariant::of(
-                    6,
-                    &texture(
-                        [1024, 1024, 5],
-                        1,
-                        wgpu::TextureDimension::D2,
-                        wgpu::TextureFormat::Rgba8Unorm,
-                    ),
-                    Some(wgpu::TextureViewDimension::D2Array),
-                ),
-                TextureVariant::of(
-                    env_image,
-                    &texture(
-                        [1, 1, 1],
-                        1,
-                        wgpu::TextureDimension::D2,
-                        wgpu::TextureFormat::Rgba16Float,
-                    ),
-                    None,
-                ),
-                TextureVariant::of(
-                    env_cdf,
-                    &texture(
-                        [2, 1, 1],
-                        1,
-                        wgpu::TextureDimension::D2,
-                        wgpu::TextureFormat::R32Float,
-                    ),
-                    None,
-                ),
-            ],
+            textures: scene_textures(1),
             samplers: scene_samplers(),
         };
         warm(
