@@ -619,27 +619,28 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     );
 }
 
-#[test]
-fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_go_on() {
-    // With an empty shader cache llvmpipe compiles the split kernel for minutes. Compiled at its
-    // first dispatch on the views' queue, every frame after waited that long; compiled on the
-    // warm-up's device of its own, the editor runs its frames meanwhile and says what the view
-    // waits for. (The wait ends long before the compile does.)
-    let dir = temp_dir("split-kernel-warmup");
+/// Runs the editor with `args` on an empty shader cache until `until` accepts its report (frames
+/// going on), and checks the path-traced view then still waits for `kernel`, with no sample
+/// traced: the run ends long before the compile does.
+fn waits_with_a_cold_shader_cache(
+    name: &str,
+    args: &[&str],
+    what: &str,
+    until: impl Fn(&treelight::report::EditorState) -> bool,
+    kernel: &str,
+) {
+    let dir = temp_dir(name);
     let cache = dir.join("shader cache");
     std::fs::create_dir_all(&cache).unwrap();
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     let s = xdrive::Session::start_until(
-        "split-kernel-warmup",
-        &[helmet.to_str().unwrap(), "--gpu-binding-limit", "4096"],
+        name,
+        args,
         &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
-        "150 frames with the helmet in the tree",
-        |s| s.frame >= 150 && s.memory.triangles == 94_722,
+        what,
+        until,
     );
     let st = s.try_state().unwrap();
-    assert_eq!(st.preparing_kernel.as_deref(), Some("split"), "{}", s.log());
-    // The view traced none of the split scene: its kernel is not ready.
+    assert_eq!(st.preparing_kernel.as_deref(), Some(kernel), "{}", s.log());
     assert_eq!(st.samples, 0, "{}", s.log());
     assert_ne!(st.view, "Raster", "{:?}", st.notices);
     drop(s);
@@ -647,27 +648,34 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
 }
 
 #[test]
+fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_go_on() {
+    // With an empty shader cache llvmpipe compiles the split kernel for minutes. Compiled at its
+    // first dispatch on the views' queue, every frame after waited that long; compiled on the
+    // warm-up's device of its own, the editor runs its frames meanwhile and says what the view
+    // waits for.
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    waits_with_a_cold_shader_cache(
+        "split-kernel-warmup",
+        &[helmet.to_str().unwrap(), "--gpu-binding-limit", "4096"],
+        "150 frames with the helmet in the tree",
+        |s| s.frame >= 150 && s.memory.triangles == 94_722,
+        "split",
+    );
+}
+
+#[test]
 fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_queue() {
     // With an empty shader cache llvmpipe compiles the whole-scene trace kernel for most of a
     // minute. Compiled at its first dispatch on the views' queue, the window stood still that
     // long; compiled on the warm-up's device of its own, the frames go on and the view waits.
-    // (The wait ends well before the compile does.)
-    let dir = temp_dir("whole-kernel-warmup");
-    let cache = dir.join("shader cache");
-    std::fs::create_dir_all(&cache).unwrap();
-    let s = xdrive::Session::start_until(
+    waits_with_a_cold_shader_cache(
         "whole-kernel-warmup",
         &[],
-        &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
         "30 frames",
         |s| s.frame >= 30,
+        "whole",
     );
-    let st = s.try_state().unwrap();
-    assert_eq!(st.preparing_kernel.as_deref(), Some("whole"), "{}", s.log());
-    assert_eq!(st.samples, 0, "{}", s.log());
-    assert_ne!(st.view, "Raster", "{:?}", st.notices);
-    drop(s);
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
