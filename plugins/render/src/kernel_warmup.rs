@@ -517,11 +517,13 @@ fn warm(
     }
 }
 
-/// Starts a warm-up of the kernel the scene is traced with when none has compiled it for the
-/// textures bound now (at the start, once the scene is split across bindings, when a texture's
-/// state changes), one at a time.
+/// Starts a warm-up of the kernel the scene is traced with when a path-traced view will want it
+/// and none has compiled it for the textures bound now (at the start, once the scene is split
+/// across bindings, when a texture's state changes, when a view turns path traced), one at a
+/// time. Without a path-traced view nothing is warmed: the raster view's start keeps its cores.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn start_warmups(
+    traced_views: Query<(), With<crate::PathTraced>>,
     warmup: Option<ResMut<KernelWarmup>>,
     scene: Res<crate::prepare::GpuScene>,
     adapter: Res<RenderAdapter>,
@@ -536,7 +538,7 @@ pub(crate) fn start_warmups(
     else {
         return;
     };
-    if !warmup.needed || scene.too_large.is_some() {
+    if !warmup.needed || scene.too_large.is_some() || traced_views.is_empty() {
         return;
     }
     let textures = texture_state(&layers, &environment);
