@@ -75,8 +75,11 @@ struct Light {
 }
 
 struct View {
+    // Clip space to world space relative to `origin`, the camera's position: rays are made where
+    // numbers are small, so a scene far from the world's origin keeps its rays' directions.
     world_from_clip: mat4x4<f32>,
-    // The depth the resolve writes comes from this projection of the primary hit.
+    // The depth the resolve writes comes from this projection of the primary hit (relative to
+    // `origin` too).
     clip_from_world: mat4x4<f32>,
     // Sky radiance (rgb) and the camera's exposure (w).
     sky: vec4<f32>,
@@ -106,6 +109,8 @@ struct View {
     // The panorama sky: cos and sin of its turn about +Y, its radiance scale, and ENV_* flags as a
     // whole number (environment.rs).
     environment: vec4<f32>,
+    // The world point the clip matrices are relative to (xyz).
+    origin: vec4<f32>,
 }
 
 // Group 0, the scene: the records and the texture array, shared by every view and bound again only
@@ -1070,13 +1075,14 @@ fn camera_ray(uv: vec2<f32>) -> array<vec3<f32>, 2> {
     let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
     let near = view.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
     let mid = view.world_from_clip * vec4<f32>(ndc, 0.5, 1.0);
+    // Both relative to the camera: their difference keeps its digits however far out it stands.
     let o = near.xyz / near.w;
-    return array<vec3<f32>, 2>(o, normalize(mid.xyz / mid.w - o));
+    return array<vec3<f32>, 2>(view.origin.xyz + o, normalize(mid.xyz / mid.w - o));
 }
 
 // Reversed-z depth of a world-space point, as Bevy's depth buffer holds it.
 fn clip_depth(p: vec3<f32>) -> f32 {
-    let c = view.clip_from_world * vec4<f32>(p, 1.0);
+    let c = view.clip_from_world * vec4<f32>(p - view.origin.xyz, 1.0);
     return clamp(c.z / c.w, 0.0, 1.0);
 }
 

@@ -49,7 +49,11 @@ pub fn count_frames_and_capture(
 /// An observer for a [`Screenshot`] entity: saves the image to `path` as PNG (RGB, written
 /// atomically) and exits, with an error status if it cannot be saved.
 pub fn save_and_exit(path: PathBuf) -> impl FnMut(On<ScreenshotCaptured>, MessageWriter<AppExit>) {
-    move |captured, mut exit| match crate::render_file::save_png(&captured.image, &path) {
+    move |captured, mut exit| match crate::render_file::save_png(
+        &captured.image,
+        &path,
+        crate::render_file::ImageWrite::Replace,
+    ) {
         Ok(()) => {
             info!("screenshot saved to {}", path.display());
             exit.write(AppExit::Success);

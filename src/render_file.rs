@@ -54,11 +54,21 @@ pub fn check_output(args: &RenderArgs) -> Result<(), String> {
             return Err(format!("{}: not a regular file", sky.display()));
         }
     }
-    if out.exists() && !args.overwrite {
-        return Err(format!(
-            "{}: the file exists (--overwrite replaces it)",
-            out.display()
-        ));
+    // A link, dangling or not, counts as a file there: without --overwrite nothing is written
+    // through it (checked again when the image is written).
+    match std::fs::symlink_metadata(out) {
+        Ok(m) if !args.overwrite => {
+            let what = if m.file_type().is_symlink() {
+                "a link is there"
+            } else {
+                "the file exists"
+            };
+            return Err(format!(
+                "{}: {what} (--overwrite replaces it)",
+                out.display()
+            ));
+        }
+        _ => {}
     }
     Ok(())
 }
@@ -115,6 +125,8 @@ impl CaptureGate {
 #[derive(Resource)]
 struct RenderJob {
     out: PathBuf,
+    /// How the image is written: a new file, or (`--overwrite`) over whatever is there.
+    write: ImageWrite,
     spp: u32,
     target: Handle<Image>,
     progress: ProgressBar,
@@ -277,6 +289,11 @@ pub fn render_app(args: &RenderArgs) -> App {
     progress.set_message("loading");
     app.insert_resource(RenderJob {
         out: args.out.clone(),
+        write: if args.overwrite {
+            ImageWrite::Replace
+        } else {
+            ImageWrite::New
+        },
         spp: args.spp,
         target: target.clone(),
         progress,
@@ -398,7 +415,15 @@ fn follow_samples(
         if !sky_ready {
             job.uploaded.1 = 0;
         }
-        if !(settled && sky_ready && figures.scene_ready && job.uploaded.1 >= STILL_FRAMES) {
+        // The same rule as the editor's state report: the tree holds the whole scene and the
+        // GPU copy is the tree's latest.
+        let current = figures.uploaded_version >= loading.scene_version();
+        if !(settled
+            && current
+            && sky_ready
+            && figures.scene_ready
+            && job.uploaded.1 >= STILL_FRAMES)
+        {
             return;
         }
         if let Some(wanted) = job.sky.take() {
@@ -470,9 +495,9 @@ fn save_image(
     mut exit: MessageWriter<AppExit>,
 ) {
     let saved = if is_exr(&job.out) {
-        save_exr(&captured.image, &job.out)
+        save_exr(&captured.image, &job.out, job.write)
     } else {
-        save_png(&captured.image, &job.out)
+        save_png(&captured.image, &job.out, job.write)
     };
     match saved {
         Ok(()) => {
@@ -515,8 +540,35 @@ fn keep_linear(
     }
 }
 
+/// How an image is written to its file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageWrite {
+    /// A new file: refused when anything is there, a link included, even one made meanwhile.
+    New,
+    /// Replacing a file the user named and agreed to replace (a link's destination is written,
+    /// as named).
+    Replace,
+    /// Replacing a file under a name the editor chose itself: never through a link.
+    ReplaceOwnName,
+}
+
+fn write_image(path: &Path, bytes: &[u8], how: ImageWrite) -> Result<(), String> {
+    use treelight_document::{atomic_file, own_file};
+    let written = match how {
+        ImageWrite::New => own_file::write_new(path, bytes),
+        ImageWrite::Replace => atomic_file::write_atomically(path, bytes),
+        ImageWrite::ReplaceOwnName => own_file::write_own(path, bytes),
+    };
+    written.map_err(|e| match (how, e.kind()) {
+        (ImageWrite::New, std::io::ErrorKind::AlreadyExists) => {
+            format!("{e} (written meanwhile; nothing was replaced)")
+        }
+        _ => e.to_string(),
+    })
+}
+
 /// Writes a captured float image to `path` as an RGB OpenEXR of linear floats, atomically.
-pub fn save_exr(image: &Image, path: &Path) -> Result<(), String> {
+pub fn save_exr(image: &Image, path: &Path, how: ImageWrite) -> Result<(), String> {
     let (w, h) = (image.width(), image.height());
     let mut rgb = image::Rgb32FImage::new(w, h);
     for (x, y, p) in rgb.enumerate_pixels_mut() {
@@ -533,12 +585,12 @@ pub fn save_exr(image: &Image, path: &Path) -> Result<(), String> {
             image::ImageFormat::OpenExr,
         )
         .map_err(|e| e.to_string())?;
-    treelight_document::atomic_file::write_atomically(path, &bytes).map_err(|e| e.to_string())
+    write_image(path, &bytes, how)
 }
 
-/// Writes a captured image to `path` as an RGB PNG, atomically (a temporary file renamed over the
-/// target).
-pub fn save_png(image: &Image, path: &Path) -> Result<(), String> {
+/// Writes a captured image to `path` as an RGB PNG, atomically (a temporary file renamed or
+/// linked into place).
+pub fn save_png(image: &Image, path: &Path, how: ImageWrite) -> Result<(), String> {
     let rgb = image
         .clone()
         .try_into_dynamic()
@@ -550,5 +602,5 @@ pub fn save_png(image: &Image, path: &Path) -> Result<(), String> {
         image::ImageFormat::Png,
     )
     .map_err(|e| e.to_string())?;
-    treelight_document::atomic_file::write_atomically(path, &bytes).map_err(|e| e.to_string())
+    write_image(path, &bytes, how)
 }

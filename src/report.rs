@@ -148,6 +148,9 @@ pub struct EditorState {
     /// or "split" ([`treelight_render::PathTracerFigures::preparing_kernel`]).
     #[serde(default)]
     pub preparing_kernel: Option<String>,
+    /// The recovery copies offered, newest first, while the offer is shown.
+    #[serde(default)]
+    pub recovery_offer: Vec<PathBuf>,
 }
 
 /// Mouse button, wheel and key messages read so far.
@@ -357,7 +360,10 @@ pub fn write_state_report(
     widgets: Res<crate::editor::widget_rects::WidgetRects>,
     project: Res<treelight_document::project::format::ProjectState>,
     window: Query<&Window, With<bevy::window::PrimaryWindow>>,
-    files: Res<crate::editor::files::file_menu::FileUi>,
+    (files, autosave): (
+        Res<crate::editor::files::file_menu::FileUi>,
+        Option<Res<treelight_document::project::autosave::Autosave>>,
+    ),
     (clock, render, notices, (look, (environment, loaded, traced, prepared), lens)): (
         Option<Res<MainThreadClock>>,
         Res<crate::editor::viewport::render_mode::ViewportRender>,
@@ -438,7 +444,12 @@ pub fn write_state_report(
         .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
     let state = EditorState {
         frame: report.frame,
-        settled: loading.settled(),
+        // Settled once the tree holds the whole scene and the path tracer's copy is current
+        // (nothing to copy while the view is rasterised or the scene is too large to trace).
+        settled: loading.settled()
+            && (render.traced.is_none()
+                || tracer.figures().trace_off.is_some()
+                || tracer.figures().uploaded_version >= scene.version()),
         objects: list,
         selection: selection
             .entities()
@@ -457,6 +468,10 @@ pub fn write_state_report(
             (Some(d), _, _) => Some(format!("builtin {:?}", d.purpose)),
             (_, Some(d), _) => Some(format!("native {:?}", d.purpose)),
             (_, _, Some(p)) => Some(format!("replace {}", p.display())),
+            _ if files.overwrite_changed.is_some() => files
+                .overwrite_changed
+                .as_ref()
+                .map(|p| format!("changed on disk {}", p.display())),
             _ => questions
                 .waiting
                 .first()
@@ -488,6 +503,9 @@ pub fn write_state_report(
         camera_look: lens.single().ok().map(|(e, t)| (e.ev100, format!("{t:?}"))),
         camera_pose: camera
             .map(|(_, g)| (g.translation().to_array(), g.forward().as_vec3().to_array())),
+        recovery_offer: autosave
+            .map(|a| a.offer.iter().map(|c| c.path.clone()).collect())
+            .unwrap_or_default(),
         environment: (
             environment.clone(),
             loaded.image.is_some() && traced.image.is_some() && prepared.ready_for(&traced),

@@ -42,7 +42,7 @@ pub(crate) fn test_random(mut seed: u64) -> impl FnMut() -> f32 {
 }
 
 pub use config::{BvhConfig, Inefficiency};
-pub use edit::group::{GroupId, PreparedGroup};
+pub use edit::group::{GroupId, PreparedGroup, is_traceable_transform};
 pub use edit::pieces::{MeshPieces, PieceRule, Refinement};
 pub use error::BvhError;
 pub use export::change::ChangeSet;

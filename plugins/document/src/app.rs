@@ -13,12 +13,14 @@ use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use treelight_scene::{SceneBvhConfig, SceneBvhPlugin};
 
-/// Whether the scene has settled: no import or sky panorama being read or spawned, no project
-/// opening, and the scene BVH idle (what the state report and a windowless render wait for).
+/// Whether the scene has settled: no import or sky panorama being read or spawned, every
+/// import's meshes in the tree, no project opening, and the scene BVH idle (what the state report
+/// and a windowless render wait for; they add that a renderer's copy is current).
 #[derive(bevy::ecs::system::SystemParam)]
 pub struct SceneLoading<'w> {
     pending: Res<'w, crate::import::parse::PendingImports>,
     parsed: Res<'w, crate::import::parse::ParsedImports>,
+    tracing: Res<'w, crate::import::jobs::TracingImports>,
     opening: Res<'w, crate::project::open::OpeningProjects>,
     scene: Res<'w, treelight_scene::SceneBvh>,
     environment: Res<'w, crate::environment::LoadedEnvironment>,
@@ -29,9 +31,16 @@ impl SceneLoading<'_> {
     pub fn settled(&self) -> bool {
         self.pending.0.is_empty()
             && self.parsed.0.is_empty()
+            && self.tracing.jobs.is_empty()
+            && self.tracing.awaiting.is_empty()
             && !self.opening.busy()
             && self.scene.is_idle()
             && !self.environment.loading()
+    }
+
+    /// The scene tree's version now: a renderer's copy is current when it holds this one.
+    pub fn scene_version(&self) -> u64 {
+        self.scene.version()
     }
 }
 

@@ -35,6 +35,15 @@ pub fn write_target(path: &Path) -> PathBuf {
 
 /// Writes `bytes` to `path` atomically (see the module's description).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomically_flushing(path, bytes, sync_folder)
+}
+
+/// [`write_atomically`], flushing the folder with `flush`.
+fn write_atomically_flushing(
+    path: &Path,
+    bytes: &[u8],
+    flush: impl FnOnce(&Path) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     let target = write_target(path);
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
@@ -66,7 +75,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         let _ = std::fs::remove_file(&tmp);
         return Err(e);
     }
-    sync_folder(&dir)
+    // The file is replaced; a folder that refuses to be flushed (some network and FUSE file
+    // systems do) does not make the save a failure.
+    if let Err(e) = flush(&dir) {
+        bevy::log::warn!("{}: the folder could not be flushed: {e}", dir.display());
+    }
+    Ok(())
 }
 
 /// Flushes a folder's entries (a rename into it) to the disk.
@@ -147,6 +161,16 @@ mod tests {
             .filter(|e| e.file_name().to_string_lossy().ends_with(".saving"))
             .collect();
         assert!(leftovers.is_empty(), "{leftovers:?}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_folder_that_refuses_to_be_flushed_does_not_fail_a_write_that_replaced_the_file() {
+        let dir = folder("nofsync");
+        let path = dir.join("a.treelight");
+        let refuse = |_: &Path| Err(std::io::Error::from_raw_os_error(22));
+        write_atomically_flushing(&path, b"saved", refuse).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"saved");
         std::fs::remove_dir_all(&dir).ok();
     }
 

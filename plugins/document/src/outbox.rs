@@ -31,6 +31,56 @@ impl Default for CameraValue {
     }
 }
 
+impl CameraValue {
+    /// The nearest and farthest a view may be from its focus: what zoom allows, and what a
+    /// saved project's view is clamped to when it opens.
+    pub const RADIUS_RANGE: (f32, f32) = (0.05, 1.0e5);
+
+    /// The elevation of a three-quarter view: looking down at about 30°.
+    pub const THREE_QUARTER_PITCH: f32 = -0.52;
+
+    /// This view within what a project saves and opens again: finite, the focus within the
+    /// editor's range of values, the radius within [`Self::RADIUS_RANGE`], the pitch short of
+    /// straight up or down.
+    pub fn clamped(self) -> Self {
+        let limit = crate::edit::command::MAX_VALUE;
+        let finite = |v: f32, fallback: f32| if v.is_finite() { v } else { fallback };
+        let (near, far) = Self::RADIUS_RANGE;
+        Self {
+            focus: self.focus.map(|v| finite(v, 0.0).clamp(-limit, limit)),
+            radius: finite(self.radius, far).clamp(near, far),
+            yaw: finite(self.yaw, 0.0).clamp(-limit, limit),
+            pitch: finite(self.pitch, 0.0).clamp(-1.55, 1.55),
+        }
+    }
+
+    /// The view a newly opened file is shown with: from above at an angle (30° down, 45°
+    /// round), far enough to see the box `min`..`max`, within what a project saves and opens
+    /// again (the radius within [`Self::RADIUS_RANGE`], the focus within the editor's range of
+    /// values, whatever the box).
+    pub fn framing(min: Vec3, max: Vec3) -> Self {
+        let limit = crate::edit::command::MAX_VALUE;
+        let centre = ((min.as_dvec3() + max.as_dvec3()) * 0.5).as_vec3();
+        let focus = if centre.is_finite() {
+            centre.clamp(Vec3::splat(-limit), Vec3::splat(limit))
+        } else {
+            Vec3::ZERO
+        };
+        let size = (max.as_dvec3() - min.as_dvec3()).length() as f32 * 1.4;
+        let (near, far) = Self::RADIUS_RANGE;
+        Self {
+            focus: focus.to_array(),
+            radius: if size.is_finite() {
+                size.clamp(near, far)
+            } else {
+                far
+            },
+            yaw: std::f32::consts::FRAC_PI_4,
+            pitch: Self::THREE_QUARTER_PITCH,
+        }
+    }
+}
+
 /// Something that happened to the document that a shell may want to follow.
 #[derive(Message, Clone, Debug, PartialEq)]
 pub enum DocumentEvent {

@@ -29,8 +29,12 @@ pub fn surface_under_excluding(
     fallback_distance: f32,
     exclude: &[Entity],
 ) -> Surface {
-    let tree = scene.read_blocking();
-    if let Some(hit) = cast_on_filtered(&tree, ray, |e| !exclude.contains(&e)) {
+    // A stopped worker's tree is not read: the object goes on the fallback plane.
+    let tree = scene.read_waiting();
+    if let Some(hit) = tree
+        .as_deref()
+        .and_then(|t| cast_on_filtered(t, ray, |e| !exclude.contains(&e)))
+    {
         return Surface {
             point: hit.point,
             normal: hit.normal,

@@ -237,6 +237,35 @@ fn check_rays(app: &mut App) {
             _ => {}
         }
     }
+    exact_against_the_trees_own_triangles(&tree.bvh);
+}
+
+/// The tree's traversal against brute force over its own triangles, each met in the space the
+/// traversal meets it in: the same distance to the last bit, and the same triangle unless another
+/// lies at exactly that distance. No tolerance, near edges or anywhere (the world-space check
+/// above compares two spaces, which round apart on a grazing ray).
+fn exact_against_the_trees_own_triangles(bvh: &treelight_bvh::Bvh) {
+    for i in 0..200 {
+        let a = i as f32 * 0.131;
+        let origin = Vec3::new(a.cos() * 2.0, 0.1 + 0.004 * i as f32, a.sin() * 2.0);
+        let target = Vec3::new((a * 3.0).sin() * 0.2, 0.3, (a * 5.0).cos() * 0.2);
+        let ray = treelight_bvh::Ray::new(origin, target - origin);
+        let (got, want) = (bvh.closest_hit(&ray), bvh.brute_force_closest_hit(&ray));
+        match (got, want) {
+            (None, None) => {}
+            (Some(g), Some(w)) => {
+                assert_eq!(g.t, w.t, "ray {i}: tree {g:?}, brute force {w:?}");
+                if (g.triangle, g.instance) != (w.triangle, w.instance) {
+                    assert_eq!(
+                        bvh.hit_at(&ray, g.triangle, g.instance),
+                        Some(w.t),
+                        "ray {i}"
+                    );
+                }
+            }
+            _ => panic!("ray {i}: tree {got:?}, brute force {want:?}"),
+        }
+    }
 }
 
 #[derive(Clone, Debug)]

@@ -729,7 +729,7 @@ proptest::proptest! {
 fn a_failed_autosave_is_shown_and_retried_and_a_save_leaves_no_copy() {
     use treelight_document::project::autosave::Autosave;
     use treelight_document::project::autosave::autosave;
-    use treelight_document::project::autosave::recovery_beside;
+    use treelight_document::project::recovery::recovery_beside;
     let dir = temp("autosave");
     let mut app = edited_scene();
     // The project's folder is a file for now, so the recovery copy cannot be written beside it.

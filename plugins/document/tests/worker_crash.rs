@@ -47,3 +47,62 @@ fn a_crashed_worker_stops_the_script_and_the_save_with_an_error() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_worker_that_crashed_mid_write_publishes_no_tree_and_the_scene_still_saves_and_reopens() {
+    let dir = std::env::temp_dir().join(format!("treelight-worker-mid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    treelight_document::default_scene::open_default_scene(app.world_mut());
+    let start = std::time::Instant::now();
+    while !app.world().resource::<SceneBvh>().is_idle()
+        || app.world().resource::<SceneBvh>().stats().triangles == 0
+    {
+        assert!(start.elapsed().as_secs() < 30, "never settled");
+        app.update();
+    }
+    assert!(app.world().resource::<SceneBvh>().try_read().is_some());
+    app.world().resource::<SceneBvh>().crash_worker_for_tests();
+    let start = std::time::Instant::now();
+    while app
+        .world()
+        .resource::<SceneBvh>()
+        .worker_failure()
+        .is_none()
+    {
+        assert!(start.elapsed().as_secs() < 30, "the crash was never seen");
+        app.update();
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let scene = app.world().resource::<SceneBvh>();
+    assert!(
+        scene.try_read().is_none(),
+        "a half-written tree is still read"
+    );
+    assert!(scene.read_waiting().is_none());
+    assert!(scene.try_take_changes(false, |_, _| ()).is_none());
+    let ray = Ray3d::new(Vec3::new(0.0, 2.5, 9.0), Dir3::NEG_Z);
+    assert!(
+        scene.cast_ray(ray).is_none(),
+        "picking reads the stopped worker's tree"
+    );
+    // The document does not need the tree: the scene saves and opens again as it was.
+    let objects = |world: &mut World| {
+        let mut ids: Vec<u64> = world
+            .query::<&treelight_document::object::SceneId>()
+            .iter(world)
+            .map(|i| i.0)
+            .collect();
+        ids.sort_unstable();
+        ids
+    };
+    let before = objects(app.world_mut());
+    let path = dir.join("saved.treelight");
+    treelight_document::project::capture::save_project(app.world_mut(), &path).unwrap();
+    let mut fresh =
+        treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
+    treelight_document::project::restore::open_project(fresh.world_mut(), &path).unwrap();
+    fresh.update();
+    assert_eq!(objects(fresh.world_mut()), before);
+    std::fs::remove_dir_all(&dir).ok();
+}

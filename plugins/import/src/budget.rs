@@ -88,6 +88,12 @@ impl<'a> Budget<'a> {
         }
     }
 
+    /// Gives back `bytes` charged for memory freed since (a decoder's full-size image once the
+    /// kept one is made), so the budget bounds what is held at once, not what passed through.
+    pub fn release(&mut self, bytes: u64) {
+        self.used = self.used.saturating_sub(bytes);
+    }
+
     /// Whether a charge was refused: the file as a whole does not fit, so a reader that would
     /// skip one bad part (a mesh, a texture) stops instead.
     pub fn refused(&self) -> bool {

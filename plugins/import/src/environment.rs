@@ -61,8 +61,15 @@ pub fn coordinates_of(d: [f32; 3]) -> (f32, f32) {
 /// Reads an environment panorama. Errors name the file and the problem; a `.hdr` or `.exr` with
 /// bad pixels loads with a warning, anything else is refused.
 pub fn read_environment(path: &Path) -> Result<EnvironmentImage, ImportError> {
-    let options = ImportOptions::default();
-    let mut budget = Budget::new(path, &options);
+    read_environment_with(path, &ImportOptions::default())
+}
+
+/// [`read_environment`] within the memory budget of `options`.
+pub fn read_environment_with(
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<EnvironmentImage, ImportError> {
+    let mut budget = Budget::new(path, options);
     let format = match path
         .extension()
         .and_then(|e| e.to_str())
@@ -79,6 +86,9 @@ pub fn read_environment(path: &Path) -> Result<EnvironmentImage, ImportError> {
         }
     };
     let (handle, len) = open_regular(path, path, "file")?;
+    if format == image::ImageFormat::Hdr {
+        return read_radiance(path, handle, len, &mut budget);
+    }
     if len > MAX_ENVIRONMENT_FILE {
         return Err(ImportError::new(
             path,
@@ -91,6 +101,58 @@ pub fn read_environment(path: &Path) -> Result<EnvironmentImage, ImportError> {
     }
     let bytes = read_at_most(handle, len, len, path, "the file", &mut budget)?;
     decode_environment(path, &bytes, format, &mut budget)
+}
+
+/// A Radiance panorama, read a scanline at a time and shrunk to the width the sky keeps as it is
+/// read ([`crate::radiance`]): only the kept image is charged and held, whatever size the file
+/// declares.
+fn read_radiance(
+    path: &Path,
+    handle: std::fs::File,
+    len: u64,
+    budget: &mut Budget,
+) -> Result<EnvironmentImage, ImportError> {
+    use std::io::Read;
+    let mut r = std::io::BufReader::new(handle.take(len));
+    let (width, height) = crate::radiance::read_header(&mut r, path)?;
+    if width > MAX_ENVIRONMENT_SIDE || height > MAX_ENVIRONMENT_SIDE {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "its header declares {width}×{height} pixels, over the limit of \
+                 {MAX_ENVIRONMENT_SIDE} a side"
+            ),
+        ));
+    }
+    // The kept texels' sums (f64) and counts, the kept image, one scanline.
+    let mut kept = (width, height);
+    while kept.0 > MAX_ENVIRONMENT_WIDTH {
+        kept = ((kept.0 / 2).max(1), (kept.1 / 2).max(1));
+    }
+    let texels = u64::from(kept.0) * u64::from(kept.1);
+    budget.charge(texels * (24 + 4 + 12) + u64::from(width) * 4, || {
+        format!("its {width}×{height} pixels, kept as {}×{}", kept.0, kept.1)
+    })?;
+    let image = crate::radiance::read_shrunk(&mut r, path, (width, height), MAX_ENVIRONMENT_WIDTH)?;
+    let mut warnings = Vec::new();
+    if width != 2 * height {
+        warnings.push(format!(
+            "it is {width}×{height}, not the 2:1 of an equirectangular panorama; it is stretched \
+             over the sphere"
+        ));
+    }
+    if (image.width, image.height) != image.declared {
+        warnings.push(format!(
+            "it is {width}×{height}; the sky keeps {}×{}",
+            image.width, image.height
+        ));
+    }
+    Ok(EnvironmentImage {
+        width: image.width,
+        height: image.height,
+        rgb: image.rgb,
+        warnings,
+    })
 }
 
 fn decode_environment(

@@ -23,6 +23,13 @@ const MESHOPT: &str = "EXT_meshopt_compression";
 const PARSED_OBJECT_BYTES: u64 = 768;
 const PARSED_ARRAY_BYTES: u64 = 64;
 
+/// What one more element of a parsed array or object takes: a JSON value (32 bytes), and the
+/// growth of its vector (doubling: as much again).
+const PARSED_ELEMENT_BYTES: u64 = 64;
+
+/// What one member of a parsed object takes beyond its value: its key's string and map entry.
+const PARSED_MEMBER_BYTES: u64 = 64;
+
 /// Parses a .gltf or .glb from its bytes, accepting the extensions in [`OWN_EXTENSIONS`] as
 /// required ones. A GLB's binary chunk becomes the blob in place (the file's bytes are held once).
 pub(crate) fn parse(
@@ -156,13 +163,20 @@ fn parse_json(
     json: &[u8],
     budget: &mut Budget,
 ) -> Result<gltf::json::Root, ImportError> {
-    let objects = json.iter().filter(|&&b| b == b'{').count() as u64;
-    let arrays = json.iter().filter(|&&b| b == b'[').count() as u64;
+    // Every value becomes one: objects and arrays their containers, each comma one more
+    // element (an array of a million numbers in an extension nobody reads is parsed whole, into
+    // values of 32 bytes), each colon a member with its key; strings copy their text.
+    let count = |c: u8| json.iter().filter(|&&b| b == c).count() as u64;
+    let (objects, arrays) = (count(b'{'), count(b'['));
+    let (elements, members) = (count(b','), count(b':'));
     budget.charge(
         objects
             .saturating_mul(PARSED_OBJECT_BYTES)
-            .saturating_add(arrays.saturating_mul(PARSED_ARRAY_BYTES)),
-        || format!("parsing its JSON ({objects} objects)"),
+            .saturating_add(arrays.saturating_mul(PARSED_ARRAY_BYTES))
+            .saturating_add(elements.saturating_mul(PARSED_ELEMENT_BYTES))
+            .saturating_add(members.saturating_mul(PARSED_MEMBER_BYTES))
+            .saturating_add(json.len() as u64),
+        || format!("parsing its JSON ({objects} objects, {elements} elements)"),
     )?;
     gltf::json::deserialize::from_slice(json)
         .map_err(|e| ImportError::new(path, format!("not a readable glTF file: {e}")))

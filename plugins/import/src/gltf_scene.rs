@@ -23,6 +23,15 @@ pub const MAX_NODES: usize = 1 << 24;
 /// Deepest node hierarchy accepted.
 const MAX_DEPTH: usize = 256;
 
+/// The part of a node's name that goes into its key: the first 255 bytes (whole characters).
+fn key_step(name: &str) -> &str {
+    let mut end = name.len().min(255);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name[..end]
+}
+
 /// Loads the default scene of a glTF file (or all root nodes of the first scene), with node
 /// transforms applied down the hierarchy, within the default memory budget.
 pub fn load_gltf(path: &Path) -> Result<ImportedScene, ImportError> {
@@ -112,9 +121,12 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
                 format!("{} has a non-finite transform", label()),
             ));
         }
-        let mut step = node
-            .name()
-            .map_or_else(|| format!("#{}", node.index()), |n| n.replace('/', "_"));
+        // A name in a key is cut to its first 255 bytes: each key repeats its parents' steps, so
+        // one long name over many children would be copied into every child's key.
+        let mut step = node.name().map_or_else(
+            || format!("#{}", node.index()),
+            |n| key_step(n).replace('/', "_"),
+        );
         if taken.contains(&(parent_index, step.clone())) {
             let next = next_suffix.entry((parent_index, step.clone())).or_insert(1);
             let base = std::mem::take(&mut step);
@@ -126,6 +138,15 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
                 }
             }
         }
+        let parent_key = parent_index.map_or(0, |p| scene.nodes[p].key.len() + 1);
+        let name_len = node.name().map_or(16, str::len);
+        // Charged before anything is made: the key, the name, and the step kept to tell
+        // siblings apart (twice, in the two maps).
+        budget.charge(
+            (std::mem::size_of::<ImportedNode>() + parent_key + 3 * step.len() + name_len + 96)
+                as u64,
+            label,
+        )?;
         taken.insert((parent_index, step.clone()));
         let key = match parent_index {
             Some(p) => format!("{}/{step}", scene.nodes[p].key),
@@ -134,10 +155,6 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         let name = node
             .name()
             .map_or_else(|| format!("node {}", node.index()), str::to_owned);
-        budget.charge(
-            (std::mem::size_of::<ImportedNode>() + key.len() + name.len()) as u64,
-            label,
-        )?;
         let index = scene.nodes.len();
         let light = node
             .light()

@@ -14,6 +14,7 @@ mod gltf_scene;
 mod material;
 mod obj_scene;
 mod ply_scene;
+mod radiance;
 mod sandbox;
 mod texture;
 mod uv_sets;
@@ -27,7 +28,7 @@ pub use budget::{BUDGET_VARIABLE, ImportOptions, available_memory, default_memor
 
 pub use environment::{
     EnvironmentImage, MAX_ENVIRONMENT_FILE, MAX_ENVIRONMENT_SIDE, MAX_ENVIRONMENT_WIDTH,
-    coordinates_of, direction_of, read_environment,
+    coordinates_of, direction_of, read_environment, read_environment_with,
 };
 pub use gltf_scene::load_gltf;
 pub use obj_scene::load_obj;

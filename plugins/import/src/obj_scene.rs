@@ -15,6 +15,38 @@ use std::sync::Arc;
 /// vertex of 32 bytes and 4 of index, and growing arrays double.
 const BYTES_PER_TEXT_BYTE: u64 = 16;
 
+/// Most bytes tobj keeps for one face, line or point element beside its text: the element (three
+/// corners of three indices), its vector's growth, and the triangles it makes.
+const BYTES_PER_ELEMENT: u64 = 160;
+
+/// The face, line and point elements of the OBJ text in `file` (its first `len` bytes), read
+/// through once; the file is left at its start.
+fn count_elements(mut file: &std::fs::File, len: u64) -> std::io::Result<u64> {
+    use std::io::{BufRead, Seek};
+    let mut reader = std::io::BufReader::with_capacity(1 << 16, file.take(len));
+    // Whether nothing but white space has come since the line began.
+    let (mut count, mut at_line_start) = (0u64, true);
+    loop {
+        let buf = reader.fill_buf()?;
+        if buf.is_empty() {
+            break;
+        }
+        for &b in buf {
+            if b == b'\n' {
+                at_line_start = true;
+            } else if at_line_start && !b.is_ascii_whitespace() {
+                count += u64::from(matches!(b, b'f' | b'l' | b'p'));
+                at_line_start = false;
+            }
+        }
+        let n = buf.len();
+        reader.consume(n);
+    }
+    drop(reader);
+    file.rewind()?;
+    Ok(count)
+}
+
 /// Loads an OBJ file within the default memory budget. Materials from .mtl files are not read
 /// (only the geometry is).
 pub fn load_obj(path: &Path) -> Result<ImportedScene, ImportError> {
@@ -28,9 +60,15 @@ pub(crate) fn read_obj(path: &Path, budget: &mut Budget) -> Result<ImportedScene
         ..Default::default()
     };
     let (file, len) = open_regular(path, path, "file")?;
-    budget.charge(len.saturating_mul(BYTES_PER_TEXT_BYTE), || {
-        "reading its OBJ text".to_owned()
-    })?;
+    // Each face (or line, or point) tobj keeps as an element of its own, however short its text
+    // (`f 1` is 4 bytes): counted in a first pass, charged before any is parsed.
+    let elements = count_elements(&file, len)
+        .map_err(|e| ImportError::new(path, format!("cannot read it: {e}")))?;
+    budget.charge(
+        len.saturating_mul(BYTES_PER_TEXT_BYTE)
+            .saturating_add(elements.saturating_mul(BYTES_PER_ELEMENT)),
+        || format!("reading its OBJ text ({elements} faces, lines and points)"),
+    )?;
     // Read no more than the length checked above, should the file grow meanwhile.
     let mut reader = std::io::BufReader::new(file.take(len));
     // Material libraries are ignored so that no other file is opened.

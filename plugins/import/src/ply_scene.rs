@@ -105,6 +105,39 @@ impl PropertyAccess for PlyFace {
 /// becomes a list of its own (about 48 bytes), and growing arrays double.
 const BYTES_PER_FILE_BYTE: u64 = 16;
 
+/// The fewest bytes one `element` takes in a file of `encoding`: a binary scalar its width, a
+/// binary list its count's; in ASCII a character per property and the line's end.
+fn least_bytes(element: &ply_rs_bw::ply::ElementDef, encoding: &ply_rs_bw::ply::Encoding) -> u64 {
+    use ply_rs_bw::ply::{Encoding, PropertyType, ScalarType};
+    let width = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    match encoding {
+        Encoding::Ascii => element.properties.len() as u64 * 2,
+        _ => element
+            .properties
+            .values()
+            .map(|p| match &p.data_type {
+                PropertyType::Scalar(t) | PropertyType::List(t, _) => width(t),
+            })
+            .sum(),
+    }
+}
+
+/// What one element read past (an edge, a material) takes in memory: a map of its properties by
+/// name, each name a string of its own.
+fn other_element_bytes(element: &ply_rs_bw::ply::ElementDef) -> usize {
+    let entry = std::mem::size_of::<String>() + std::mem::size_of::<Property>() + 16;
+    64 + element
+        .properties
+        .keys()
+        .map(|k| entry + k.len())
+        .sum::<usize>()
+}
+
 /// Loads a PLY file as one mesh named after the file, within the default memory budget.
 pub fn load_ply(path: &Path) -> Result<ImportedScene, ImportError> {
     read_ply(path, &mut Budget::new(path, &ImportOptions::default()))
@@ -126,8 +159,11 @@ pub(crate) fn read_ply(path: &Path, budget: &mut Budget) -> Result<ImportedScene
     let mut vertices: Vec<PlyVertex> = Vec::new();
     let mut faces: Vec<PlyFace> = Vec::new();
     for (name, element) in &header.elements {
-        // Every element takes at least a byte: a larger count is a lie, refused before any reading.
-        if element.count > MAX_ELEMENTS || element.count as u64 > file_len {
+        // What each element takes in the file at least: a larger count is a lie, refused
+        // before any reading. One without properties takes no bytes in a binary file, so only
+        // the memory charged below bounds it.
+        let least = least_bytes(element, &header.encoding);
+        if element.count > MAX_ELEMENTS || (element.count as u64).saturating_mul(least) > file_len {
             return Err(ImportError::new(
                 path,
                 format!(
@@ -136,6 +172,16 @@ pub(crate) fn read_ply(path: &Path, budget: &mut Budget) -> Result<ImportedScene
                 ),
             ));
         }
+        // What reading them allocates, charged before it is: one value per element whatever
+        // the file spends on it (lists' entries are within the text's charge above).
+        let each = match name.as_str() {
+            "vertex" => std::mem::size_of::<PlyVertex>(),
+            "face" => std::mem::size_of::<PlyFace>(),
+            _ => other_element_bytes(element),
+        };
+        budget.charge_elements(element.count, each, || {
+            format!("its {} '{name}' elements", element.count)
+        })?;
         let read_error = |e: ply_rs_bw::parser::ParseError| {
             ImportError::new(path, format!("cannot read its {name} elements: {e}"))
         };

@@ -13,6 +13,10 @@ use std::path::Path;
 /// Largest accepted image side, in pixels: a hostile header cannot ask for gigabytes.
 pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 
+/// The largest side an image is kept at once decoded: the raster view draws it at most so (the
+/// path tracer keeps 1024 texels a side), so a larger one is scaled down as it is read.
+pub const MAX_KEPT_TEXTURE_SIDE: u32 = 4096;
+
 /// How texture coordinates outside 0..1 fold back into the image.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum WrapMode {
@@ -78,10 +82,37 @@ pub fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [[f32; 
     ]
 }
 
-/// Images decoded so far, by glTF image index (`None`: it failed and was reported).
+/// Where an image's bytes come from: one image may be named by many glTF images (a file of
+/// 100,000 images of one PNG is one decode).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum ImageSource {
+    /// A buffer view, by index.
+    View(usize),
+    /// A file beside the opened one, by its URI.
+    File(String),
+    /// A data URI, by its length and hash (the text itself may be large).
+    Data(usize, u64),
+}
+
+impl ImageSource {
+    fn of(image: &gltf::Image) -> Self {
+        match image.source() {
+            gltf::image::Source::View { view, .. } => Self::View(view.index()),
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+                use std::hash::{Hash, Hasher};
+                let mut h = std::collections::hash_map::DefaultHasher::new();
+                uri.hash(&mut h);
+                Self::Data(uri.len(), h.finish())
+            }
+            gltf::image::Source::Uri { uri, .. } => Self::File(uri.to_owned()),
+        }
+    }
+}
+
+/// Images decoded so far, by where their bytes come from (`None`: it failed and was reported).
 #[derive(Default)]
 pub(crate) struct ImageCache {
-    decoded: HashMap<usize, Option<usize>>,
+    decoded: HashMap<ImageSource, Option<usize>>,
 }
 
 impl ImageCache {
@@ -127,7 +158,8 @@ impl ImageCache {
             ));
             return Ok(None);
         }
-        let slot = match self.decoded.get(&image.index()) {
+        let source = ImageSource::of(&image);
+        let slot = match self.decoded.get(&source) {
             Some(&slot) => slot,
             None => {
                 let slot = match decode(path, buffers, &image, &name, budget) {
@@ -144,7 +176,7 @@ impl ImageCache {
                         None
                     }
                 };
-                self.decoded.insert(image.index(), slot);
+                self.decoded.insert(source, slot);
                 slot
             }
         };
@@ -246,6 +278,7 @@ pub(crate) fn decode_bytes(
     let (width, height) = probe
         .into_dimensions()
         .map_err(|e| ImportError::new(path, format!("cannot read its header: {e}")))?;
+    let declared = (width, height);
     // The decoder's image (up to 16-bit RGBA) and the RGBA8 copy made of any other layout.
     let limits = decode_limits(
         path,
@@ -260,11 +293,21 @@ pub(crate) fn decode_bytes(
     let decoded = reader
         .decode()
         .map_err(|e| ImportError::new(path, format!("cannot decode: {e}")))?;
-    let rgba = decoded.into_rgba8();
-    let (width, height) = rgba.dimensions();
+    let mut rgba = decoded.into_rgba8();
+    let (mut width, mut height) = rgba.dimensions();
     if width == 0 || height == 0 {
         return Err(ImportError::new(path, "the image is empty"));
     }
+    if width.max(height) > MAX_KEPT_TEXTURE_SIDE {
+        let scale = MAX_KEPT_TEXTURE_SIDE as f64 / f64::from(width.max(height));
+        let w = ((f64::from(width) * scale).round() as u32).max(1);
+        let h = ((f64::from(height) * scale).round() as u32).max(1);
+        rgba = image::imageops::resize(&rgba, w, h, image::imageops::FilterType::Triangle);
+        (width, height) = (w, h);
+    }
+    // The decoder's full-size images are gone: only the kept one stays charged.
+    let charged = u64::from(declared.0) * u64::from(declared.1) * 12;
+    budget.release(charged.saturating_sub(u64::from(width) * u64::from(height) * 4));
     Ok(ImportedTexture {
         name: name.to_owned(),
         width,

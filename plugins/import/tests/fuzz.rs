@@ -9,60 +9,15 @@
 //! `tests/fuzz-regressions.txt` (commit it; the case is made again from the shared scenes, which
 //! are never copied here) and replayed by every later run.
 
+#[path = "support/counting.rs"]
+mod counting;
 mod support;
 
 use serde_json::{Value, json};
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 use treelight_import::{ImportOptions, load_scene_with};
-
-/// Counts live bytes and their peak, so each import's peak above its start can be read.
-struct Counting;
-
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: every call is passed straight to the system allocator; the counters only observe.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let p = unsafe { System.alloc(layout) };
-        if !p.is_null() {
-            let live = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
-            PEAK.fetch_max(live, Ordering::Relaxed);
-        }
-        p
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        let p = unsafe { System.alloc_zeroed(layout) };
-        if !p.is_null() {
-            let live = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
-            PEAK.fetch_max(live, Ordering::Relaxed);
-        }
-        p
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) };
-        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let p = unsafe { System.realloc(ptr, layout, new_size) };
-        if !p.is_null() {
-            if new_size >= layout.size() {
-                let grow = new_size - layout.size();
-                let live = LIVE.fetch_add(grow, Ordering::Relaxed) + grow;
-                PEAK.fetch_max(live, Ordering::Relaxed);
-            } else {
-                LIVE.fetch_sub(layout.size() - new_size, Ordering::Relaxed);
-            }
-        }
-        p
-    }
-}
 
 /// The last panic's message and place, kept by the test's hook.
 static LAST_PANIC: std::sync::Mutex<String> = std::sync::Mutex::new(String::new());
@@ -70,7 +25,7 @@ static LAST_PANIC: std::sync::Mutex<String> = std::sync::Mutex::new(String::new(
 static IN_IMPORT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
+static ALLOCATOR: counting::Counting = counting::Counting;
 
 /// Mutations per `cargo test` run.
 const DEFAULT_CASES: usize = 3000;
@@ -567,14 +522,12 @@ fn run(path: &Path) -> Option<String> {
     let options = ImportOptions {
         memory_budget: BUDGET,
     };
-    let base = LIVE.load(Ordering::Relaxed);
-    PEAK.store(base, Ordering::Relaxed);
     let start = Instant::now();
     IN_IMPORT.store(true, Ordering::Relaxed);
-    let result = std::panic::catch_unwind(|| load_scene_with(path, &options));
+    let (result, peak) =
+        counting::peak_during(|| std::panic::catch_unwind(|| load_scene_with(path, &options)));
     IN_IMPORT.store(false, Ordering::Relaxed);
     let took = start.elapsed();
-    let peak = (PEAK.load(Ordering::Relaxed) - base) as u64;
     match result {
         Err(_) => Some(format!("panicked: {}", LAST_PANIC.lock().unwrap())),
         Ok(_) if peak > BUDGET + SLACK => Some(format!(
@@ -613,13 +566,12 @@ fn big_glb(extra: usize) -> Vec<u8> {
 
 /// The peak bytes allocated while importing `path` (the memory budget generous).
 fn peak_of(path: &Path) -> u64 {
-    let base = LIVE.load(Ordering::Relaxed);
-    PEAK.store(base, Ordering::Relaxed);
     let options = ImportOptions {
         memory_budget: 1 << 30,
     };
-    assert!(load_scene_with(path, &options).is_ok());
-    (PEAK.load(Ordering::Relaxed) - base) as u64
+    let (result, peak) = counting::peak_during(|| load_scene_with(path, &options));
+    assert!(result.is_ok());
+    peak
 }
 
 #[test]

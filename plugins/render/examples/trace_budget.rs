@@ -78,6 +78,7 @@ fn main() {
         let proj = Mat4::perspective_infinite_reverse_rh(50f32.to_radians(), 1.0, diag * 1e-3);
         let params = |work| ViewParams {
             world_from_clip: (proj * view).inverse(),
+            origin: Vec3::ZERO,
             sky: Vec3::new(0.4, 0.5, 0.7),
             exposure: 1.0,
             width: resolution,

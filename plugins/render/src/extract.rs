@@ -48,6 +48,8 @@ pub(crate) struct PendingUpload {
     pub map_transforms: Option<Vec<u8>>,
     /// Whether new geometry is on its way into the scene's tree (`SceneBvh::is_filling`).
     pub filling: bool,
+    /// The tree's version the writes bring the GPU copy up to, when changes were taken.
+    pub version: Option<u64>,
 }
 
 impl PendingUpload {
@@ -185,9 +187,11 @@ fn extract_scene(
     };
     let taken = scene.try_take_changes(everything, |tree, changes| {
         scene_writes(sync, tree, changes, &handles, assets, &mut layers);
+        changes.version
     });
-    if taken.is_some() {
+    if let Some(version) = taken {
         sync.synced = true;
+        sync.pending.version = Some(version);
     }
     // The outlined meshes' group slots (when the worker holds the tree, the next frame looks).
     if let Some(tree) = scene.try_read() {

@@ -301,7 +301,11 @@ impl KernelWarmup {
             .record
             .as_ref()
             .map(|r| r.entry(kernel, &textures, &self.driver));
-        if let Some(entry) = record.as_ref().filter(|e| e.is_file()) {
+        // Only a regular file is a record (a link or a pipe there is none of this editor's).
+        if let Some(entry) = record
+            .as_ref()
+            .filter(|e| std::fs::symlink_metadata(e).is_ok_and(|m| m.is_file()))
+        {
             info!(
                 "the {kernel:?} trace kernel was compiled at an earlier start ({})",
                 entry.display()
@@ -361,19 +365,31 @@ impl KernelWarmup {
     }
 }
 
-/// Writes the record of a warm-up (what was compiled, for how long, when: for whoever opens it).
+/// Writes the record of a warm-up (what was compiled, for how long, when: for whoever opens it),
+/// never through a link nor into a pipe or device planted under its name.
 fn remember(entry: &std::path::Path, kernel: TraceKernel, seconds: f64) {
+    use std::io::Write;
+    let text = format!(
+        "the {kernel:?} trace kernel, compiled in {seconds:.1} s at {:?}\n",
+        std::time::SystemTime::now()
+    );
     let written = entry
         .parent()
         .map_or(Ok(()), std::fs::create_dir_all)
         .and_then(|()| {
-            std::fs::write(
-                entry,
-                format!(
-                    "the {kernel:?} trace kernel, compiled in {seconds:.1} s at {:?}\n",
-                    std::time::SystemTime::now()
-                ),
-            )
+            let mut options = std::fs::OpenOptions::new();
+            options.write(true).create(true).truncate(false);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK | libc::O_NOCTTY);
+            }
+            let mut file = options.open(entry)?;
+            if !file.metadata()?.is_file() {
+                return Err(std::io::Error::other("it is not a regular file"));
+            }
+            file.set_len(0)?;
+            file.write_all(text.as_bytes())
         });
     if let Err(e) = written {
         warn!(

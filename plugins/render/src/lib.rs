@@ -388,6 +388,9 @@ pub struct PathTracerFigures {
     pub traces: HashMap<Entity, TraceFigures>,
     /// Whether the GPU copy has caught up with the scene at least once.
     pub scene_ready: bool,
+    /// The scene tree's version ([`treelight_scene::SceneBvh::version`]) the GPU copy holds: the
+    /// copy is current when it equals the tree's.
+    pub uploaded_version: u64,
     /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
     /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
     pub trace_off: Option<String>,

@@ -361,6 +361,7 @@ fn apply_scene_uploads(
         scene.tree_generation += 1;
     }
     let ready = pending.root.is_some();
+    let version = pending.version.take();
     stats.update(|f| {
         if bytes > 0 {
             f.last_upload_bytes = bytes;
@@ -368,6 +369,9 @@ fn apply_scene_uploads(
             f.uploads += 1;
         }
         f.scene_ready |= ready;
+        if let Some(v) = version {
+            f.uploaded_version = f.uploaded_version.max(v);
+        }
     });
     // The writes' memory serves the next frame's; once nothing streams in, a large one goes.
     let mut writes = std::mem::take(&mut pending.writes);
@@ -375,6 +379,24 @@ fn apply_scene_uploads(
     if pending.filling || writes.capacity_bytes() <= KEPT_WRITE_BYTES {
         sync.pending.writes = writes;
     }
+}
+
+/// The view's clip-to-world matrix relative to the camera's position, and that position: made
+/// from the projection and the camera's rotation alone, so rays keep their directions however
+/// far from the world's origin the camera stands (the whole matrix's inverse, at 1e7 units out,
+/// rounds a ray's near and far points to the same few units). A view with its own clip-from-world
+/// matrix keeps it whole.
+fn camera_relative(extracted: &bevy::render::view::ExtractedView) -> (Mat4, Vec3) {
+    if let Some(clip_from_world) = extracted.clip_from_world {
+        return (clip_from_world.inverse(), Vec3::ZERO);
+    }
+    let mut world_from_view = extracted.world_from_view.affine();
+    let origin = Vec3::from(world_from_view.translation);
+    world_from_view.translation = bevy::math::Vec3A::ZERO;
+    (
+        Mat4::from(world_from_view) * extracted.clip_from_view.inverse(),
+        origin,
+    )
 }
 
 /// The most bytes of write buffer kept from frame to frame while nothing streams in.
@@ -889,6 +911,7 @@ fn prepare_views(
             extracted.clip_from_view * extracted.world_from_view.affine().inverse()
         });
         let world_from_clip = clip_from_world.inverse();
+        let camera_relative = camera_relative(extracted);
         let key = AccumulationKey {
             world_from_clip,
             scene_generation: scene.generation,
@@ -1000,7 +1023,8 @@ fn prepare_views(
                 (settings.max_bounces.min(1), 1.0)
             };
             let params = ViewParams {
-                world_from_clip,
+                world_from_clip: camera_relative.0,
+                origin: camera_relative.1,
                 sky: Vec3::new(sky.red, sky.green, sky.blue),
                 exposure: camera.exposure,
                 width: size.x,

@@ -142,9 +142,10 @@ pub struct GpuLight {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuView {
-    /// Clip space to world space, column-major.
+    /// Clip space to world space relative to `origin`, column-major.
     pub world_from_clip: [[f32; 4]; 4],
-    /// World space to clip space, column-major (the depth the resolve writes).
+    /// World space relative to `origin` to clip space, column-major (the depth the resolve
+    /// writes).
     pub clip_from_world: [[f32; 4]; 4],
     /// Sky radiance (rgb) and the camera's exposure (w).
     pub sky: [f32; 4],
@@ -187,6 +188,8 @@ pub struct GpuView {
     /// The panorama sky ([`crate::PathTracedEnvironment`]): cos and sin of its turn, its radiance
     /// scale, its flags as a whole number (zero: the flat sky colour).
     pub environment: [f32; 4],
+    /// The point the clip matrices are relative to (the camera's position; w unused).
+    pub origin: [f32; 4],
 }
 
 /// `Resolve` of `resolve.wgsl`: where the view sits in its target, and where to find its pixels.
@@ -895,8 +898,14 @@ impl TraceWork {
 /// The path tracer's per-view uniform.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewParams {
-    /// Clip space to world space (the inverse of the view-projection).
+    /// Clip space to world space relative to `origin` (the inverse of the view-projection, the
+    /// camera's translation taken out): camera rays are made from it near the camera, where
+    /// numbers are small, so a scene far from the world's origin (a site in millimetres, 1e7
+    /// units across) keeps its rays' directions.
     pub world_from_clip: Mat4,
+    /// The world point `world_from_clip` is relative to: the camera's position (zero for a
+    /// matrix that is the whole view-projection's inverse).
+    pub origin: Vec3,
     /// Sky radiance, linear RGB, before exposure.
     pub sky: Vec3,
     /// The camera's exposure multiplier.
@@ -963,6 +972,7 @@ impl ViewParams {
             sample_seed: self.seed,
             pad: [0; 3],
             environment: self.environment.to_array(),
+            origin: self.origin.extend(0.0).to_array(),
         }
     }
 
@@ -1217,6 +1227,7 @@ mod tests {
         assert_eq!(light_bytes(&l).len() as u64, LIGHT_BYTES);
         let v = ViewParams {
             world_from_clip: Mat4::IDENTITY,
+            origin: Vec3::ZERO,
             sky: Vec3::ZERO,
             exposure: 1.0,
             width: 1,

@@ -152,6 +152,7 @@ impl Tracer {
     fn params(&self, mode: DebugView, samples: u32, work: TraceWork) -> ViewParams {
         ViewParams {
             world_from_clip: world_from_clip(),
+            origin: Vec3::ZERO,
             sky: Vec3::new(0.3, 0.4, 0.6),
             exposure: 1.0,
             width: WIDTH,

@@ -268,6 +268,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     for _ in 0..SAMPLES / PER_DISPATCH {
         let params = ViewParams {
             world_from_clip: world_from_clip(),
+            origin: Vec3::ZERO,
             sky: SKY,
             exposure: 1.0,
             width: SIZE,

@@ -230,7 +230,8 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 tile_stride,
                 part_shift,
                 sample_seed,
-                environment
+                environment,
+                origin
             ]
         )
     );

@@ -160,6 +160,7 @@ impl Plugin for SceneBvhPlugin {
             stats: SceneStats::default(),
             waiting: HashMap::new(),
             traced: HashSet::new(),
+            degenerate: HashSet::new(),
             copying: HashMap::new(),
             sent_mesh: HashMap::new(),
             mesh_senders: HashMap::new(),
@@ -176,7 +177,10 @@ impl Plugin for SceneBvhPlugin {
             (track_world, publish)
                 .chain()
                 .in_set(SceneBvhSystems)
-                .after(TransformSystems::Propagate),
+                .after(TransformSystems::Propagate)
+                // A mesh spawned this frame is seen with this frame's visibility (before it, as
+                // hidden, so not sent for a frame: the scene looked idle with it unsent).
+                .after(bevy::camera::visibility::VisibilitySystems::VisibilityPropagate),
         );
     }
 }
@@ -454,6 +458,9 @@ pub struct SceneChanges {
     /// new slots), by slot, each with the group it replaced: their shading must be uploaded again,
     /// but no hit changed.
     pub relaid_groups: Vec<(GroupId, GroupId)>,
+    /// The tree's version these changes bring a copy up to ([`SceneBvh::version`]; at most one
+    /// behind, never ahead, when the worker has just written).
+    pub version: u64,
 }
 
 /// A ray hit on the scene.
@@ -482,6 +489,10 @@ pub struct SceneBvh {
     waiting: HashMap<AssetId<Mesh>, Vec<Entity>>,
     /// Entities sent to the worker (so moves and removals of others are not sent).
     traced: HashSet<Entity>,
+    /// Mesh entities placed by a transform no group can take (scaled to zero, as exporters hide
+    /// nodes): not traced, and never the one whose copy of a mesh others share, until they move
+    /// to a transform that can be traced.
+    degenerate: HashSet<Entity>,
     /// Meshes being copied out of the world, a budget's worth per frame.
     copying: HashMap<Entity, MeshCopy>,
     /// The mesh whose triangles the worker has (or will have) for each entity, and how many
@@ -559,11 +570,8 @@ impl SceneBvh {
     /// and reports one.
     #[doc(hidden)]
     pub fn crash_worker_for_tests(&self) {
-        let _ = self
-            .sender
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .send(Command::Crash);
+        // A pending command like any other: the scene is not idle while it is on its way.
+        self.send(Command::Crash);
     }
 
     /// Whether new geometry is on its way into the tree: meshes being copied out of the world, or
@@ -589,18 +597,28 @@ impl SceneBvh {
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never
-    /// waits: try again next frame).
+    /// waits: try again next frame), or has stopped: a worker that panicked may have left the
+    /// tree half written, so it is published no more (picking and renderers see nothing new).
     pub fn try_read(&self) -> Option<RwLockReadGuard<'_, SceneTree>> {
-        match self.shared.tree.try_read() {
-            Ok(g) => Some(g),
-            Err(std::sync::TryLockError::Poisoned(p)) => Some(p.into_inner()),
-            Err(std::sync::TryLockError::WouldBlock) => None,
+        if self.worker_failure().is_some() {
+            return None;
         }
+        self.shared.tree.try_read().ok()
     }
 
-    /// Read access, waiting for the worker if it is writing (for tests and tools, not for frames).
+    /// Read access, waiting for the worker if it is writing (for tests and tools, not for frames),
+    /// even to a tree a stopped worker left.
     pub fn read_blocking(&self) -> RwLockReadGuard<'_, SceneTree> {
         self.shared.tree.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Read access, waiting for the worker if it is writing (a click's pick must see the tree);
+    /// `None` once the worker has stopped ([`SceneBvh::try_read`]).
+    pub fn read_waiting(&self) -> Option<RwLockReadGuard<'_, SceneTree>> {
+        if self.worker_failure().is_some() {
+            return None;
+        }
+        self.shared.tree.read().ok()
     }
 
     /// The nearest hit of `ray` on the latest tree, or `None` if nothing is hit (or the worker holds
@@ -629,11 +647,11 @@ impl SceneBvh {
         everything: bool,
         f: impl FnOnce(&SceneTree, &SceneChanges) -> R,
     ) -> Option<R> {
-        let mut tree = match self.shared.tree.try_write() {
-            Ok(g) => g,
-            Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner(),
-            Err(std::sync::TryLockError::WouldBlock) => return None,
-        };
+        // A worker that panicked may have left the tree half written: nothing more is taken.
+        if self.worker_failure().is_some() {
+            return None;
+        }
+        let mut tree = self.shared.tree.try_write().ok()?;
         if everything {
             tree.bvh.mark_all_changed();
             let all: Vec<GroupId> = tree.group_entity.keys().copied().collect();
@@ -647,6 +665,9 @@ impl SceneBvh {
             bvh: tree.bvh.take_changes(),
             fresh_groups: fresh,
             relaid_groups: relaid,
+            // The worker raises the version once it has let the tree go: read under the lock,
+            // this is never ahead of what the tree holds.
+            version: self.shared.version.load(Ordering::Acquire),
         };
         Some(f(&tree, &changes))
     }
@@ -816,6 +837,7 @@ fn track_world(
         for list in scene.waiting.values_mut() {
             list.retain(|&w| w != e);
         }
+        scene.degenerate.remove(&e);
         scene.drop_copy(e);
         scene.untrace(e);
         sent_now.insert(e);
@@ -854,6 +876,15 @@ fn track_world(
         }
     }
     for (e, gt) in &moved {
+        // Into or out of a transform no group can take: traced again from scratch (or not).
+        if scene.degenerate.contains(&e) == treelight_bvh::is_traceable_transform(&gt.affine()) {
+            if !sent_now.contains(&e)
+                && let Ok(item) = all.get(e)
+            {
+                upsert(scene, &meshes, &mut sent_now, item);
+            }
+            continue;
+        }
         if let Some(job) = scene.copying.get_mut(&e) {
             // Not with the worker yet: it will get the latest transform with the triangles.
             job.transform = gt.affine();
@@ -990,6 +1021,13 @@ fn upsert(
         scene.untrace(e);
         return;
     }
+    // Never traced, and so never the holder of a mesh another entity would share.
+    if !treelight_bvh::is_traceable_transform(&gt.affine()) {
+        scene.untrace(e);
+        scene.degenerate.insert(e);
+        return;
+    }
+    scene.degenerate.remove(&e);
     let label = name.map_or_else(|| format!("{e}"), |n| n.as_str().to_owned());
     let Some(mesh) = meshes.get(&m.0) else {
         scene.waiting.entry(m.0.id()).or_default().push(e);

@@ -282,6 +282,8 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             .map_or(0, |t| t.bvh.triangle_count() as usize);
         let batch = take_batch(first, &mut queued, batch_budget(in_tree));
         if batch.iter().any(|c| matches!(c, Command::Crash)) {
+            // As a bug mid-edit would: while holding the tree, which is left poisoned.
+            let _tree = shared.tree.write();
             panic!("the scene worker was asked to crash");
         }
         let received = batch.len();

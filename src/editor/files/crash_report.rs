@@ -8,7 +8,7 @@ use treelight_document::project::autosave::cache_dir;
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 use std::path::{Path, PathBuf};
-use treelight_document::project::autosave::left_by_gone_editors;
+use treelight_document::project::editor_lock::left_by_gone_editors;
 
 fn report_path(dir: &Path, pid: u32) -> PathBuf {
     dir.join(format!("crash-{pid}.txt"))
@@ -48,7 +48,11 @@ pub fn install_hook_in(dir: PathBuf) {
                 std::backtrace::Backtrace::force_capture()
             );
             let _ = std::fs::create_dir_all(&dir);
-            let _ = std::fs::write(report_path(&dir, std::process::id()), text);
+            // Never through a link planted under the report's name.
+            let _ = treelight_document::own_file::write_own(
+                &report_path(&dir, std::process::id()),
+                text.as_bytes(),
+            );
         }
         default(info);
     }));
@@ -59,7 +63,11 @@ pub fn reports_to_show(dir: &Path) -> Vec<PathBuf> {
     let mut found: Vec<(std::time::SystemTime, PathBuf)> =
         left_by_gone_editors(dir, "crash-", ".txt")
             .into_iter()
-            .filter_map(|(_, p)| Some((std::fs::metadata(&p).ok()?.modified().ok()?, p)))
+            // A link or a pipe named as a report is no editor's report: not read.
+            .filter_map(|(_, p)| {
+                let meta = std::fs::symlink_metadata(&p).ok().filter(|m| m.is_file())?;
+                Some((meta.modified().ok()?, p))
+            })
             .collect();
     found.sort_by_key(|f| std::cmp::Reverse(f.0));
     found.into_iter().map(|(_, p)| p).collect()
@@ -79,14 +87,8 @@ fn find_reports(mut reports: ResMut<CrashReports>) {
     reports.shown = reports_to_show(&dir)
         .into_iter()
         .filter_map(|p| {
-            use std::io::Read;
-            let mut text = String::new();
-            // A report is small; a huge file there is not read whole.
-            std::fs::File::open(&p)
-                .ok()?
-                .take(256 << 10)
-                .read_to_string(&mut text)
-                .ok()?;
+            // A report is small; a pipe, a device or a huge file there is not read.
+            let text = treelight_document::own_file::read_own_text(&p, 256 << 10).ok()?;
             Some((p, text))
         })
         .collect();

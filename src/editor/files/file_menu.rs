@@ -48,6 +48,9 @@ pub struct FileUi {
     /// A file that Save As chose and that already exists, while the user is asked whether to
     /// replace it.
     pub replace: Option<PathBuf>,
+    /// The project's file, changed on disk since this editor read or wrote it (another editor
+    /// saved it), while the user is asked whether to save over it.
+    pub overwrite_changed: Option<PathBuf>,
     /// Whether the Relink window is open.
     pub relink: bool,
     /// The missing source the file dialog is choosing a file for.
@@ -187,10 +190,7 @@ impl FileUi {
                 None => requests.0.push(ProjectRequest::Quit),
             },
             FileAction::Import => self.dialog(DialogPurpose::Import, state),
-            FileAction::Save => match &state.path {
-                Some(p) => requests.0.push(ProjectRequest::Save(p.clone())),
-                None => self.dialog(DialogPurpose::SaveAs, state),
-            },
+            FileAction::Save => self.save(state, requests),
             FileAction::SaveAs => self.dialog(DialogPurpose::SaveAs, state),
             FileAction::Relink => self.relink = true,
             FileAction::RenderImage => self.render_image = true,
@@ -198,6 +198,16 @@ impl FileUi {
                 let dir = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
                 self.open_dialog(DialogPurpose::AssetFolder, dir, String::new());
             }
+        }
+    }
+
+    /// Saves to the project's file (asking first if something else wrote it since this editor
+    /// read it), or asks where for a scene never saved.
+    fn save(&mut self, state: &ProjectState, requests: &mut ProjectRequests) {
+        match &state.path {
+            Some(p) if state.changed_on_disk() => self.overwrite_changed = Some(p.clone()),
+            Some(p) => requests.0.push(ProjectRequest::Save(p.clone())),
+            None => self.dialog(DialogPurpose::SaveAs, state),
         }
     }
 
@@ -260,13 +270,12 @@ impl FileUi {
                 Some(0) => {
                     self.confirm = None;
                     self.then = Some(after);
-                    match &state.path {
-                        Some(p) => requests.0.push(ProjectRequest::Save(p.clone())),
-                        None => self.dialog(DialogPurpose::SaveAs, state),
-                    }
+                    self.save(state, requests);
                 }
                 Some(1) => {
                     self.confirm = None;
+                    // The changes are dropped: so are their recovery copies.
+                    requests.0.push(ProjectRequest::DiscardChanges);
                     self.proceed(after, state, requests);
                 }
                 Some(_) => self.confirm = None,
@@ -297,6 +306,32 @@ impl FileUi {
                 Some(false) => {
                     // A cancelled save also drops what was to follow it.
                     self.replace = None;
+                    self.then = None;
+                }
+                None => {}
+            }
+        }
+        if let Some(path) = self.overwrite_changed.clone() {
+            let name = path
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            let (answer, asked) = super::ask_yes_or_cancel(
+                ctx,
+                "Save over a newer file?",
+                &format!(
+                    "{name} changed on disk since it was opened here (another editor may have \
+                     saved it).\nSaving replaces those changes with this scene."
+                ),
+                "Save over it",
+            );
+            buttons.extend(asked);
+            match answer {
+                Some(true) => {
+                    self.overwrite_changed = None;
+                    requests.0.push(ProjectRequest::Save(path));
+                }
+                Some(false) => {
+                    self.overwrite_changed = None;
                     self.then = None;
                 }
                 None => {}

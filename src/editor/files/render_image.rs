@@ -7,7 +7,7 @@ use crate::editor::files::ask_yes_or_cancel;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::widget_rects::WidgetRects;
-use crate::render_file::{CaptureGate, PipelinesReady, check_image_path, save_png};
+use crate::render_file::{CaptureGate, ImageWrite, PipelinesReady, check_image_path, save_png};
 use bevy::camera::{Exposure, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -32,6 +32,8 @@ pub struct RenderImageUi {
     pub spp: u32,
     /// Where the image goes (a .png).
     pub path: String,
+    /// The name the editor proposed (the project's, beside it), never written through a link.
+    proposed: String,
     /// The file exists: the user is asked whether to replace it.
     asking: Option<PathBuf>,
     /// The render in progress.
@@ -50,6 +52,7 @@ impl Default for RenderImageUi {
             height: 400,
             spp: 64,
             path: String::new(),
+            proposed: String::new(),
             asking: None,
             job: None,
             result: None,
@@ -63,6 +66,7 @@ pub struct RenderJob {
     camera: Entity,
     target: Handle<Image>,
     path: PathBuf,
+    how: ImageWrite,
     spp: u32,
     /// When the image may be captured.
     gate: CaptureGate,
@@ -98,7 +102,13 @@ impl RenderImageUi {
                 ),
             };
             self.path = dir.join(format!("{stem}.png")).display().to_string();
+            self.proposed = self.path.clone();
         }
+    }
+
+    /// Whether the file is still the one the editor proposed (not one the user named).
+    fn own_name(&self) -> bool {
+        self.path.trim() == self.proposed.trim()
     }
 
     /// The file to write, or why the field does not name one.
@@ -151,7 +161,19 @@ pub fn render_image_window(
         match answer {
             Some(true) => {
                 s.asking = None;
-                start(s, path, &mut commands, &mut images, &viewport, &render);
+                let how = if s.own_name() {
+                    ImageWrite::ReplaceOwnName
+                } else {
+                    ImageWrite::Replace
+                };
+                start(
+                    s,
+                    (path, how),
+                    &mut commands,
+                    &mut images,
+                    &viewport,
+                    &render,
+                );
             }
             Some(false) => s.asking = None,
             None => {}
@@ -237,10 +259,20 @@ pub fn render_image_window(
     }
     if go {
         s.error = None;
-        match s.target() {
-            Ok(path) if path.exists() => s.asking = Some(path),
-            Ok(path) => start(s, path, &mut commands, &mut images, &viewport, &render),
-            Err(e) => s.error = Some(e),
+        match (s.target(), s.own_name()) {
+            (Ok(path), true) if is_link(&path) => {
+                s.error = Some(format!(
+                    "{} is a link; the editor does not write through a link under a name it \
+                     chose. Name the file.",
+                    path.display()
+                ));
+            }
+            (Ok(path), _) if std::fs::symlink_metadata(&path).is_ok() => s.asking = Some(path),
+            (Ok(path), _) => {
+                let job = (path, ImageWrite::New);
+                start(s, job, &mut commands, &mut images, &viewport, &render);
+            }
+            (Err(e), _) => s.error = Some(e),
         }
     }
     if !open {
@@ -249,11 +281,15 @@ pub fn render_image_window(
     Ok(())
 }
 
-/// Starts a render into `path` from the viewport camera's view, with its look and the viewport's
+fn is_link(path: &std::path::Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())
+}
+
+/// Starts a render into `path` (written as `how` says) from the viewport camera's view, with its look and the viewport's
 /// path-tracer settings (full resolution, no selection outline).
 fn start(
     s: &mut RenderImageUi,
-    path: PathBuf,
+    (path, how): (PathBuf, ImageWrite),
     commands: &mut Commands,
     images: &mut Assets<Image>,
     viewport: &Query<(&GlobalTransform, &Projection, &Exposure, &Tonemapping), With<OrbitCamera>>,
@@ -303,6 +339,7 @@ fn start(
         camera,
         target,
         path,
+        how,
         spp: s.spp,
         gate: CaptureGate::default(),
         captured: false,
@@ -346,7 +383,7 @@ fn save_render(
     commands.entity(job.camera).despawn();
     let image = captured.image.clone();
     let size = image.size();
-    match save_png(&image, &job.path) {
+    match save_png(&image, &job.path, job.how) {
         Ok(()) => {
             notices.info(format!(
                 "Rendered {} at {} samples per pixel",

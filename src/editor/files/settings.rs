@@ -7,6 +7,7 @@ use crate::editor::assets::library::AssetLibrary;
 use crate::editor::files::file_menu::RecentProjects;
 use crate::editor::panels::layout::EditorDock;
 use crate::editor::panels::layout::EditorTab;
+use crate::editor::panels::layout::rebuild_layout;
 use crate::editor::viewport::gizmo::GizmoSettings;
 use bevy::prelude::*;
 use egui_dock::DockState;
@@ -43,31 +44,30 @@ pub fn settings_path() -> Option<PathBuf> {
     treelight_document::folders::config_dir().map(|d| d.join("settings.ron"))
 }
 
+/// The most a settings file may take: a layout, a few steps and lists of paths.
+const MAX_SETTINGS_BYTES: u64 = 1 << 20;
+
+/// The most folders the Assets panel keeps from the file.
+const MAX_ASSET_FOLDERS: usize = 64;
+
 /// Reads the settings at `path`: `Ok(None)` when there is no file, an error naming the problem
-/// when it cannot be used.
+/// when it cannot be used (read through the editor's bounded opener, so a pipe, a device or a
+/// huge file is refused at once). The layout is made again through egui_dock's own operations
+/// ([`rebuild_layout`]), so no file can break the dock.
 pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
-    let text = match std::fs::read_to_string(path) {
+    let text = match treelight_document::own_file::read_text_bounded(path, MAX_SETTINGS_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(e.to_string()),
     };
-    if text.len() > 1 << 20 {
-        return Err("the file is larger than a settings file can be".into());
-    }
-    let settings: EditorSettings = ron::from_str(&text).map_err(|e| e.to_string())?;
+    let mut settings: EditorSettings = ron::from_str(&text).map_err(|e| e.to_string())?;
     if settings.version != VERSION {
         return Err(format!(
             "version {} is not one this editor reads ({VERSION})",
             settings.version
         ));
     }
-    // No panel twice (a panel the file does not know, from an older editor, is added on load).
-    let tabs: Vec<EditorTab> = settings.layout.iter_all_tabs().map(|(_, t)| *t).collect();
-    for tab in EditorTab::ALL {
-        if tabs.iter().filter(|t| **t == tab).count() > 1 {
-            return Err(format!("the layout holds the {tab:?} panel more than once"));
-        }
-    }
+    settings.layout = rebuild_layout(&settings.layout)?;
     let steps = [
         settings.grid_step,
         settings.angle_step_deg,
@@ -79,6 +79,8 @@ pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
     {
         return Err("a snapping step is not a positive number".into());
     }
+    settings.recent.truncate(RecentProjects::MAX);
+    settings.asset_folders.truncate(MAX_ASSET_FOLDERS);
     Ok(Some(settings))
 }
 
@@ -89,7 +91,19 @@ pub fn write_settings(path: &Path, settings: &EditorSettings) -> std::io::Result
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    treelight_document::atomic_file::write_atomically(path, text.as_bytes())
+    // The editor's own file: never written through a link planted in its place.
+    treelight_document::own_file::write_own(path, text.as_bytes())
+}
+
+/// Writes the settings a new editor starts with (the default layout and steps) to `path`.
+pub fn write_default_settings(path: &Path) -> std::io::Result<()> {
+    let settings = current(
+        &EditorDock::default(),
+        &GizmoSettings::default(),
+        &RecentProjects::default(),
+        None,
+    );
+    write_settings(path, &settings)
 }
 
 /// The settings as last read or written, to save only changes.
@@ -132,11 +146,6 @@ pub fn load_settings(
     match read_settings(&path) {
         Ok(Some(s)) => {
             dock.0 = s.layout;
-            for tab in EditorTab::ALL {
-                if dock.0.find_tab(&tab).is_none() {
-                    dock.0.push_to_first_leaf(tab);
-                }
-            }
             gizmo.grid_step = s.grid_step;
             gizmo.angle_step_deg = s.angle_step_deg;
             gizmo.scale_step = s.scale_step;
@@ -150,10 +159,17 @@ pub fn load_settings(
             }
         }
         Ok(None) => {}
-        Err(e) => notices.warn(format!(
-            "{}: {e}; the default layout is used",
-            path.display()
-        )),
+        Err(e) => {
+            // Set aside, so the next start does not meet it again and the user can look at it.
+            let aside = match treelight_document::own_file::set_aside(&path) {
+                Ok(to) => format!("; it was moved to {}", to.display()),
+                Err(why) => format!("; it could not be moved aside ({why})"),
+            };
+            notices.warn(format!(
+                "{}: {e}; the default settings are used{aside}",
+                path.display()
+            ));
+        }
     }
     saved.text =
         ron::to_string(&current(&dock, &gizmo, &recent, library.as_deref())).unwrap_or_default();

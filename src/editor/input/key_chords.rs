@@ -99,6 +99,12 @@ impl KeyChords {
         self.current = self.queue.pop_front();
     }
 
+    /// Drops every chord waiting: they were typed into a text field, not at the editor.
+    pub fn drop_waiting(&mut self) {
+        self.queue.clear();
+        self.current = None;
+    }
+
     /// Whether this frame's chord is `key` with exactly `mods` (Alt aside).
     pub fn pressed(&self, key: KeyCode, mods: Modifiers) -> bool {
         self.current
@@ -106,20 +112,29 @@ impl KeyChords {
     }
 }
 
-/// Reads the frame's keyboard events into [`KeyChords`].
+/// Reads the frame's keyboard events into [`KeyChords`]. While a text field has the keyboard,
+/// what is typed is the field's: the chords waiting and those of this frame are dropped, never
+/// handed out later as shortcuts (on a slow frame, a Delete typed into the rename box would
+/// delete the selected object once the field let go).
 pub fn read_chords(
     mut chords: ResMut<KeyChords>,
     mut keys: MessageReader<KeyboardInput>,
     mut lost: MessageReader<KeyboardFocusLost>,
+    mut contexts: EguiContexts,
 ) {
     if lost.read().count() > 0 {
         // Keys released while another window had the keyboard never report their release.
         chords.held = [false; 6];
     }
+    let free = keyboard_is_free(&mut contexts);
     for e in keys.read() {
         chords.take(e.key_code, e.state, e.repeat);
     }
-    chords.next_frame();
+    if free {
+        chords.next_frame();
+    } else {
+        chords.drop_waiting();
+    }
 }
 
 /// Keeps [`KeyChords`] up to date, early in each frame.
@@ -201,5 +216,32 @@ mod tests {
         c.take(KeyCode::KeyZ, ButtonState::Pressed, true);
         c.next_frame();
         assert_eq!(c.current, None);
+    }
+
+    #[test]
+    fn keys_typed_while_a_text_field_has_the_keyboard_are_never_handed_out() {
+        let mut c = KeyChords::default();
+        // A slow frame: Delete then Return typed into the rename box, both in one frame.
+        for k in [KeyCode::Delete, KeyCode::Enter] {
+            c.take(k, ButtonState::Pressed, false);
+            c.take(k, ButtonState::Released, false);
+        }
+        // The field had the keyboard: what waited is dropped, with the frame's own.
+        c.drop_waiting();
+        assert_eq!(c.current, None);
+        // The next frames, with the keyboard free again, hand out nothing typed before.
+        c.next_frame();
+        assert_eq!(c.current, None);
+        // Held modifiers are still followed.
+        c.take(KeyCode::ControlLeft, ButtonState::Pressed, false);
+        c.take(KeyCode::KeyZ, ButtonState::Pressed, false);
+        c.next_frame();
+        assert_eq!(
+            c.current,
+            Some(Chord {
+                key: KeyCode::KeyZ,
+                mods: Modifiers::CTRL
+            })
+        );
     }
 }

@@ -70,7 +70,10 @@ fn select(actions: &ViewportActions, p: &mut Picking) {
     if let Some((at, modifiers, same_spot)) = actions.click
         && let Ok(ray) = camera.viewport_to_world(cam_gt, at)
     {
-        let hit = cast_on(&p.scene.read_blocking(), ray)
+        let hit = p
+            .scene
+            .read_waiting()
+            .and_then(|tree| cast_on(&tree, ray))
             .map(|h| h.entity)
             .filter(|e| objects.contains(*e));
         click(&mut p.selection, hit, modifiers, same_spot, |e| {
@@ -238,8 +241,12 @@ fn box_select(
     // A ray every 4 pixels, at most 96 a side.
     let nx = ((rect.width() / 4.0).ceil() as usize).clamp(2, 96);
     let ny = ((rect.height() / 4.0).ceil() as usize).clamp(2, 96);
-    let tree = scene.read_blocking();
+    // A stopped worker's tree is not read: only the boxes below pick.
+    let tree = scene.read_waiting();
     for j in 0..ny {
+        if tree.is_none() {
+            break;
+        }
         for i in 0..nx {
             let p = rect.min
                 + Vec2::new(
@@ -247,7 +254,7 @@ fn box_select(
                     rect.height() * (j as f32 + 0.5) / ny as f32,
                 );
             if let Ok(ray) = camera.viewport_to_world(cam_gt, p)
-                && let Some(hit) = cast_on(&tree, ray)
+                && let Some(hit) = tree.as_deref().and_then(|t| cast_on(t, ray))
                 && objects.contains(hit.entity)
                 && !found.contains(&hit.entity)
             {

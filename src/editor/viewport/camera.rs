@@ -68,7 +68,8 @@ impl OrbitCamera {
 
     /// Zooms by `steps` wheel notches (positive: closer).
     pub fn zoom(&mut self, steps: f32) {
-        self.radius = (self.radius * (-steps * 0.1).exp()).clamp(0.05, 1.0e5);
+        let (near, far) = CameraValue::RADIUS_RANGE;
+        self.radius = (self.radius * (-steps * 0.1).exp()).clamp(near, far);
     }
 
     /// Orientation looking at the focus.
@@ -80,7 +81,7 @@ impl OrbitCamera {
     pub const MAX_PITCH: f32 = 1.55;
 
     /// The elevation of a three-quarter view: looking down at about 30°.
-    pub const THREE_QUARTER_PITCH: f32 = -0.52;
+    pub const THREE_QUARTER_PITCH: f32 = CameraValue::THREE_QUARTER_PITCH;
 
     /// Looks at a box from the current direction, far enough to see all of it; a view from
     /// about ground level is lifted to a three-quarter view first, so a flat scene is not a line.
@@ -88,17 +89,16 @@ impl OrbitCamera {
         if self.pitch > -0.15 {
             self.pitch = Self::THREE_QUARTER_PITCH;
         }
-        self.focus = (min + max) * 0.5;
-        self.radius = ((max - min).length() * 1.4).max(0.05);
+        let framed = CameraValue::framing(min, max);
+        self.focus = Vec3::from_array(framed.focus);
+        self.radius = framed.radius;
     }
 
     /// Looks at a box from above at an angle (a three-quarter view: 30° down, 45° round), far
-    /// enough to see all of it, as a newly opened file is shown.
+    /// enough to see all of it, as a newly opened file is shown ([`CameraValue::framing`]:
+    /// within what a saved project opens with).
     pub fn frame_from_above(&mut self, min: Vec3, max: Vec3) {
-        self.yaw = std::f32::consts::FRAC_PI_4;
-        self.pitch = Self::THREE_QUARTER_PITCH;
-        self.focus = (min + max) * 0.5;
-        self.radius = ((max - min).length() * 1.4).max(0.05);
+        *self = Self::from(CameraValue::framing(min, max));
     }
 
     /// The camera transform these parameters describe.

@@ -110,11 +110,17 @@ impl PreparedGroup {
 }
 
 fn check_transform(t: &Affine3A) -> Result<(), BvhError> {
-    let det = t.matrix3.determinant();
-    if !t.is_finite() || det == 0.0 || !det.is_finite() {
+    if !is_traceable_transform(t) {
         return Err(BvhError::BadTransform);
     }
     Ok(())
+}
+
+/// Whether a group may be placed by `t`: finite and invertible (a node scaled to zero, as
+/// exporters hide one, is not).
+pub fn is_traceable_transform(t: &Affine3A) -> bool {
+    let det = t.matrix3.determinant();
+    t.is_finite() && det != 0.0 && det.is_finite()
 }
 
 impl Bvh {

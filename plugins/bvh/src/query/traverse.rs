@@ -235,24 +235,98 @@ impl Bvh {
         }
     }
 
-    /// The nearest hit by testing every live triangle in world space, once for each group that
-    /// places it: the independent reference the tests hold the traversal to.
+    /// The nearest hit by testing every live triangle, once for each group that places it: the
+    /// independent reference the tests hold the traversal to, exactly. Each triangle is tested
+    /// in the space the traversal meets it in (a kept-whole group's in object space, against
+    /// the ray carried there by its instance, as the traversal carries it), so a hit must agree
+    /// to the last bit; no box is consulted. Of hits at the same distance the first found is
+    /// kept (see [`Bvh::hit_at`] to tell a tie).
     pub fn brute_force_closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        let rd = RayData::new(ray);
         let mut best: Option<Hit> = None;
-        for (tri, triangle, instance) in self.placed_triangles() {
+        let rd = RayData::new(ray);
+        for id in self.world_triangles() {
             let t_max = best.map_or(ray.t_max, |h| h.t);
-            if let Some((t, u, v)) = rd.hit_triangle(&tri, ray.t_min, t_max) {
+            if let Some((t, u, v)) = rd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max)
+                && best.is_none_or(|b| t < b.t)
+            {
                 best = Some(Hit {
-                    triangle,
+                    triangle: id,
                     t,
                     u,
                     v,
-                    instance,
+                    instance: NONE,
                 });
             }
         }
+        for i in 0..self.instances.len() as u32 {
+            let Some((local, tris)) = self.instance_ray(i, ray) else {
+                continue;
+            };
+            let lrd = RayData::new(&local);
+            for &id in tris {
+                let t_max = best.map_or(ray.t_max, |h| h.t);
+                if let Some((t, u, v)) =
+                    lrd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max)
+                    && best.is_none_or(|b| t < b.t)
+                {
+                    best = Some(Hit {
+                        triangle: id,
+                        t,
+                        u,
+                        v,
+                        instance: i,
+                    });
+                }
+            }
+        }
         best
+    }
+
+    /// The distance at which `ray` meets triangle `triangle` placed by `instance` ([`NONE`]: in
+    /// world space), tested as the traversal tests it; `None` if it misses or is not placed so.
+    /// Two hits at one distance are a tie: either is the nearest.
+    pub fn hit_at(&self, ray: &Ray, triangle: u32, instance: u32) -> Option<f32> {
+        let tri = self.tri.items.get(triangle as usize)?;
+        let local = if instance == NONE {
+            self.world_triangles()
+                .any(|id| id == triangle)
+                .then_some(*ray)?
+        } else {
+            let (local, tris) = self.instance_ray(instance, ray)?;
+            tris.contains(&triangle).then_some(local)?
+        };
+        RayData::new(&local)
+            .hit_triangle(tri, ray.t_min, ray.t_max)
+            .map(|(t, _, _)| t)
+    }
+
+    /// Live triangles stored in world space (not those a kept-whole group's instances place).
+    fn world_triangles(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.tri.items.len() as u32).filter(|&id| {
+            let Some(&g) = self.tri.group.get(id as usize) else {
+                return false;
+            };
+            // Triangles kept whole are placed by the instances (a retired owner's by its users').
+            let whole = g != NONE
+                && (self.groups[g as usize].instance != NONE || self.groups[g as usize].retired);
+            !whole && self.triangle(id).is_some()
+        })
+    }
+
+    /// Live instance `i`: `ray` carried into its object space as the traversal carries it, and
+    /// the triangles it places.
+    fn instance_ray(&self, i: u32, ray: &Ray) -> Option<(Ray, &[u32])> {
+        let inst = self.instance(i)?;
+        let g = &self.groups[inst.group as usize];
+        let owner = if g.source != NONE {
+            g.source
+        } else {
+            inst.group
+        };
+        let local = ray
+            .transformed(&self.instances[i as usize].inverse)
+            .with_range(ray.t_min, ray.t_max);
+        Some((local, &self.groups[owner as usize].triangles))
     }
 
     /// Ids of live triangles whose world boxes overlap `query`, by testing every one (a shared

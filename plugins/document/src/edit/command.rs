@@ -405,6 +405,12 @@ pub enum EditError {
     /// A panorama that is not a `.hdr` or `.exr` file, or a rotation or intensity out of range.
     #[error("the sky panorama is not a .hdr or .exr file, or its rotation is beyond a full turn, or its intensity is negative or above {max:e} nits", max = crate::environment::MAX_ENVIRONMENT_INTENSITY)]
     BadEnvironment,
+    /// A hierarchy that would nest deeper than the editor holds.
+    #[error(
+        "{0} would lie {1} levels deep, more than the {max} the editor holds",
+        max = crate::hierarchy::MAX_HIERARCHY_DEPTH
+    )]
+    TooDeep(SceneId, usize),
 }
 
 /// What undoes an applied command.
@@ -561,6 +567,7 @@ impl EditCommand {
                     Some(p) => Some(index.entity(*p).ok_or(EditError::Missing(*p))?),
                     None => None,
                 };
+                let base = new_parent.map_or(0, |p| crate::hierarchy::depth_of(world, p));
                 for id in ids {
                     let e = entity(world, *id)?;
                     // The new parent may not be the object or anything under it.
@@ -571,6 +578,7 @@ impl EditCommand {
                         }
                         up = world.get::<ChildOf>(p).map(|c| c.parent());
                     }
+                    check_depth(world, *id, e, base)?;
                 }
             }
             EditCommand::Rename { id, .. } | EditCommand::SetVisible { id, .. } => {
@@ -609,8 +617,12 @@ impl EditCommand {
                 if ids.is_empty() {
                     return Err(EditError::Empty);
                 }
+                // The group goes under the first object's parent; all of them go under it.
+                let first = entity(world, ids[0])?;
+                let base = crate::hierarchy::depth_of(world, first);
                 for id in ids {
-                    entity(world, *id)?;
+                    let e = entity(world, *id)?;
+                    check_depth(world, *id, e, base)?;
                 }
                 check_free(world, *group)?;
             }
@@ -767,7 +779,7 @@ impl EditCommand {
                     if let Some(s) = ObjectSnapshot::capture(world, e) {
                         snapshots.push(s);
                     }
-                    world.entity_mut(e).despawn();
+                    crate::hierarchy::despawn_subtree(world, e);
                 }
                 Undo::Respawn(snapshots)
             }
@@ -967,6 +979,16 @@ fn add_primitive(
 }
 
 /// Refuses an id for a new object that another object already has, or that is out of range.
+/// Refuses to put `e` (object `id`) and its subtree under something at level `base`, if its
+/// deepest object would then pass [`crate::hierarchy::MAX_HIERARCHY_DEPTH`].
+fn check_depth(world: &World, id: SceneId, e: Entity, base: usize) -> Result<(), EditError> {
+    let deepest = base + crate::hierarchy::height_of(world, e);
+    if deepest > crate::hierarchy::MAX_HIERARCHY_DEPTH {
+        return Err(EditError::TooDeep(id, deepest));
+    }
+    Ok(())
+}
+
 fn check_free(world: &World, id: Option<SceneId>) -> Result<(), EditError> {
     match id {
         Some(id) if !id.is_valid() => Err(EditError::IdOutOfRange(id)),
@@ -1123,7 +1145,7 @@ impl Undo {
             Undo::Despawn(ids) => {
                 for id in ids {
                     if let Some(e) = find(world, id) {
-                        world.entity_mut(e).despawn();
+                        crate::hierarchy::despawn_subtree(world, e);
                     }
                 }
             }

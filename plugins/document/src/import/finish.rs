@@ -26,6 +26,7 @@ pub fn drop_transform(bounds: (Vec3, Vec3), surface: Surface) -> Transform {
 /// notices and the messages for the shell.
 #[derive(SystemParam)]
 pub struct ImportStart<'w> {
+    view: ResMut<'w, crate::outbox::DocumentView>,
     parsed_imports: ResMut<'w, ParsedImports>,
     index: ResMut<'w, SceneIndex>,
     requests: ResMut<'w, EditRequests>,
@@ -42,6 +43,9 @@ impl ImportStart<'_> {
             && let Some((min, max)) = parsed.bounds
         {
             self.events.write(DocumentEvent::Frame { min, max });
+            // The view the file is framed with is the one a save records, with or without an
+            // editor's camera to follow it.
+            self.view.0 = Some(crate::outbox::CameraValue::framing(min, max));
         }
         let scene = &parsed.scene;
         self.notices.info(format!(

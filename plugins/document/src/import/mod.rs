@@ -46,6 +46,10 @@ impl Plugin for ImportPlugin {
 /// Opens the file named at start: a project is opened in place of the scene, any other scene file
 /// imported into it.
 pub fn open_at_start(world: &mut World, path: &Path) {
+    // The recovery copies to offer are those of the scene named, known now, not once it opened.
+    if let Some(mut auto) = world.get_resource_mut::<crate::project::autosave::Autosave>() {
+        auto.look_for_start(Some(path));
+    }
     if crate::is_project_file(path) {
         world
             .resource_mut::<crate::project::requests::ProjectRequests>()

@@ -80,6 +80,31 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
     };
     let mut objects = Vec::new();
     let mut unsaved = Vec::new();
+    // Meshes made by code, with no file or shape to rebuild them from, cannot be saved: their
+    // children are saved under the nearest ancestor that is (so the project opens again).
+    let dropped: std::collections::HashSet<Entity> = rows
+        .iter()
+        .filter(|r| {
+            r.6.is_none()
+                && r.7.is_none()
+                && r.8.is_none()
+                && r.10
+                && LightValue::of(&world.entity(r.0)).is_none()
+        })
+        .map(|r| r.0)
+        .collect();
+    // The parent an object is saved under, and its transform there (through the dropped
+    // meshes between, so it stays where it is in the world).
+    let saved_place = |parent: Option<&ChildOf>, t: Transform| -> (Option<SceneId>, Transform) {
+        let mut at = parent.map(ChildOf::parent);
+        let mut t = t;
+        while let Some(p) = at.filter(|p| dropped.contains(p)) {
+            let between = world.get::<Transform>(p).copied().unwrap_or_default();
+            t = between.mul_transform(t);
+            at = world.get::<ChildOf>(p).map(ChildOf::parent);
+        }
+        (at.and_then(|p| world.get::<SceneId>(p).copied()), t)
+    };
     for (e, id, name, t, vis, parent, key, mesh_source, shape, mat, has_mesh) in &rows {
         let name = name.map_or(String::new(), |n| n.as_str().to_owned());
         let light = LightValue::of(&world.entity(*e));
@@ -103,11 +128,12 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         } else {
             ObjectKind::Empty
         };
+        let (parent, transform) = saved_place(*parent, **t);
         objects.push(ProjectObject {
             id: **id,
             name,
-            parent: parent.and_then(|p| world.get::<SceneId>(p.parent()).copied()),
-            transform: (**t).into(),
+            parent,
+            transform: transform.into(),
             visible: *vis != Some(&Visibility::Hidden),
             material: mat.and_then(|m| materials.get(&m.0)).map(MaterialValue::of),
             // A light made in the editor has its values in its kind.
@@ -177,7 +203,11 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             ..ids.clone()
         });
     }
-    let camera = world.get_resource::<DocumentView>().and_then(|v| v.0);
+    // Whatever the view became (a pan far out), it is saved as a reopen accepts it.
+    let camera = world
+        .get_resource::<DocumentView>()
+        .and_then(|v| v.0)
+        .map(crate::outbox::CameraValue::clamped);
     let project = ProjectFile {
         version: PROJECT_VERSION,
         sources: sources.iter().map(|s| store_source(path, &s.1)).collect(),
@@ -240,7 +270,9 @@ fn id_runs(ids: impl Iterator<Item = Option<SceneId>>) -> Vec<IdRun> {
 pub fn save_project(world: &mut World, path: &Path) -> Result<Vec<String>, ProjectError> {
     let (project, unsaved) = capture_project(world, path);
     write_project(path, &project)?;
-    world.resource_mut::<ProjectState>().path = Some(path.to_owned());
+    let mut state = world.resource_mut::<ProjectState>();
+    state.path = Some(path.to_owned());
+    state.on_disk = crate::project::format::FileStamp::of(path);
     world.resource_mut::<EditHistory>().mark_saved();
     Ok(unsaved)
 }

@@ -76,39 +76,135 @@ pub fn describe(path: &Path) -> Result<String, String> {
     Ok(out)
 }
 
-/// The triangles the project's objects show, its sources read as an open reads them (a missing or
-/// unreadable source's objects count none).
-fn project_triangles(p: &ProjectFile, path: &Path) -> Result<usize, String> {
+/// The triangles of the objects an open of the project holds, its sources read as an open reads
+/// them (a missing or unreadable source's objects count none): every node of each read source
+/// (its unchanged nodes are runs of ids, not listed) and every listed object, less what the
+/// deleted nodes take with them in the hierarchy the open makes.
+fn project_triangles(p: &ProjectFile, path: &Path) -> Result<u64, String> {
     let sources =
         crate::project::restore::parse_sources(p, path, None).map_err(|e| e.to_string())?;
-    // Per source, the triangles of the mesh each object key shows.
-    let by_key: Vec<HashMap<String, usize>> = sources
-        .scenes()
-        .iter()
-        .map(|scene| match scene {
-            Some(scene) => crate::import::spawn::mesh_object_keys(scene)
-                .into_iter()
-                .zip(&scene.meshes)
-                .map(|(k, m)| (k, m.triangle_count()))
-                .collect(),
-            None => HashMap::new(),
-        })
-        .collect();
-    let mut shapes: HashMap<crate::primitive::Primitive, usize> = HashMap::new();
-    let mut total = 0;
-    for o in &p.objects {
-        total += match &o.kind {
-            ObjectKind::Node(n) | ObjectKind::MeshOf(n) => by_key
-                .get(n.source)
-                .and_then(|m| m.get(&n.key))
-                .copied()
-                .unwrap_or(0),
-            ObjectKind::Shape(s) => *shapes.entry(*s).or_insert_with(|| {
-                let mesh = s.mesh();
-                mesh.indices().map_or(mesh.count_vertices(), |i| i.len()) / 3
-            }),
-            ObjectKind::Light(_) | ObjectKind::Empty => 0,
+    let parsed = sources.scenes();
+    let plan =
+        crate::project::plan::plan(p, parsed).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut objects = ObjectForest::default();
+    // Each read source's objects, in key order, and their keys' indices.
+    let mut keys: Vec<Option<(usize, HashMap<&str, usize>)>> = Vec::with_capacity(parsed.len());
+    for (scene, source) in parsed.iter().zip(&plan.sources) {
+        let (Some(scene), Some(source)) = (scene, source) else {
+            keys.push(None);
+            continue;
         };
+        let base = objects.triangles.len();
+        let index: HashMap<&str, usize> = source
+            .tree
+            .keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (k.as_ref(), i))
+            .collect();
+        let mut triangles = vec![0u64; source.tree.keys.len()];
+        for (key, mesh) in crate::import::spawn::mesh_object_keys(scene)
+            .iter()
+            .zip(&scene.meshes)
+        {
+            if let Some(&i) = index.get(key.as_str()) {
+                triangles[i] += mesh.triangle_count() as u64;
+            }
+        }
+        for (i, parent) in source.tree.parents.iter().enumerate() {
+            objects.add(triangles[i], parent.map(|q| base + q as usize));
+            if source.ids[i] != crate::object::SceneId::NEW {
+                objects.by_id.insert(source.ids[i], base + i);
+            }
+        }
+        keys.push(Some((base, index)));
     }
-    Ok(total)
+    let slot = |source: usize, key: &str| -> Option<usize> {
+        let (base, index) = keys.get(source)?.as_ref()?;
+        index.get(key).map(|i| base + i)
+    };
+    let mut shapes: HashMap<crate::primitive::Primitive, u64> = HashMap::new();
+    let mut listed = Vec::with_capacity(p.objects.len());
+    for o in &p.objects {
+        let at = match &o.kind {
+            ObjectKind::Node(n) => slot(n.source, &n.key),
+            ObjectKind::MeshOf(n) => slot(n.source, &n.key).map(|origin| {
+                let t = objects.triangles[origin];
+                objects.add(t, None)
+            }),
+            ObjectKind::Shape(s) => {
+                let t = *shapes.entry(*s).or_insert_with(|| {
+                    let mesh = s.mesh();
+                    (mesh.indices().map_or(mesh.count_vertices(), |i| i.len()) / 3) as u64
+                });
+                Some(objects.add(t, None))
+            }
+            ObjectKind::Light(_) | ObjectKind::Empty => Some(objects.add(0, None)),
+        };
+        if let Some(at) = at {
+            objects.by_id.insert(o.id, at);
+            listed.push((at, o.parent));
+        }
+    }
+    // Listed parents, as the open links them, then the deleted nodes with all beneath them.
+    for (at, parent) in listed {
+        objects.parents[at] = parent
+            .and_then(|id| objects.by_id.get(&id).copied())
+            .filter(|&q| q != at);
+    }
+    for d in &p.deleted {
+        if let Some(at) = slot(d.source, &d.key) {
+            objects.deleted[at] = true;
+        }
+    }
+    Ok(objects.triangles_left())
+}
+
+/// Objects as an open makes them: triangles, parents and deletions by slot.
+#[derive(Default)]
+struct ObjectForest {
+    triangles: Vec<u64>,
+    parents: Vec<Option<usize>>,
+    deleted: Vec<bool>,
+    by_id: HashMap<crate::object::SceneId, usize>,
+}
+
+impl ObjectForest {
+    fn add(&mut self, triangles: u64, parent: Option<usize>) -> usize {
+        self.triangles.push(triangles);
+        self.parents.push(parent);
+        self.deleted.push(false);
+        self.triangles.len() - 1
+    }
+
+    /// The triangles of the objects neither deleted nor beneath a deleted one (a walk up each
+    /// chain once, without recursion: hierarchies may be deep).
+    fn triangles_left(&self) -> u64 {
+        // 0 unknown, 1 kept, 2 gone, 3 on the walk now (a ring: the plan refuses those).
+        let mut state = vec![0u8; self.triangles.len()];
+        let mut walk = Vec::new();
+        for start in 0..state.len() {
+            let mut at = Some(start);
+            while let Some(a) = at {
+                if state[a] != 0 {
+                    break;
+                }
+                if self.deleted[a] {
+                    state[a] = 2;
+                    break;
+                }
+                state[a] = 3;
+                walk.push(a);
+                at = self.parents[a];
+            }
+            let end = at.map_or(1, |a| if state[a] == 3 { 2 } else { state[a] });
+            for a in walk.drain(..) {
+                state[a] = end;
+            }
+        }
+        (0..state.len())
+            .filter(|&a| state[a] == 1)
+            .map(|a| self.triangles[a])
+            .sum()
+    }
 }

@@ -6,7 +6,9 @@ use crate::edit::history::EditHistory;
 use crate::job::Job;
 use crate::notice::Notices;
 use crate::outbox::DocumentEvent;
-use crate::project::format::{OpenReport, ProjectError, ProjectFile, ProjectState, read_project};
+use crate::project::format::{
+    FileStamp, OpenReport, ProjectError, ProjectFile, ProjectState, read_project,
+};
 use crate::project::restore::{OpenProgress, ParsedSources, open_project_parsed, parse_sources};
 use bevy::prelude::*;
 use std::path::PathBuf;
@@ -25,7 +27,7 @@ pub enum OpenKind {
     },
 }
 
-type Parsed = Result<(ProjectFile, ParsedSources), ProjectError>;
+type Parsed = Result<(ProjectFile, ParsedSources, Option<FileStamp>), ProjectError>;
 
 /// One project being read.
 pub struct OpeningProject {
@@ -49,9 +51,11 @@ impl OpeningProjects {
         let progress = Arc::new(OpenProgress::default());
         let (p, shared) = (path.clone(), progress.clone());
         let job = Job::spawn(format!("opening {}", p.display()), move || {
+            // Taken before the read: a save by someone else after it changes the stamp.
+            let stamp = FileStamp::of(&p);
             let project = read_project(&p)?;
             let sources = parse_sources(&project, &p, Some(&shared))?;
-            Ok((project, sources))
+            Ok((project, sources, stamp))
         });
         self.0 = Some(OpeningProject {
             path,
@@ -103,16 +107,22 @@ pub fn finish_opening(world: &mut World) {
     let Some((path, kind, parsed)) = done else {
         return;
     };
-    let result =
-        parsed.and_then(|(project, sources)| open_project_parsed(world, project, &path, sources));
+    let mut stamp = None;
+    let result = parsed.and_then(|(project, sources, s)| {
+        stamp = s;
+        open_project_parsed(world, project, &path, sources)
+    });
     match (result, kind) {
         (Ok(report), OpenKind::Project) => {
+            world.resource_mut::<ProjectState>().on_disk = stamp;
             world.write_message(DocumentEvent::Opened(path.clone()));
             tell(world, &path, &report, "opened");
         }
         (Ok(report), OpenKind::Recovery { owner }) => {
-            // The recovered scene is unsaved work on the project it came from.
-            world.resource_mut::<ProjectState>().path = owner;
+            // The recovered scene is unsaved work on the project it came from, as that is now.
+            let mut state = world.resource_mut::<ProjectState>();
+            state.on_disk = owner.as_deref().and_then(FileStamp::of);
+            state.path = owner;
             world.resource_mut::<EditHistory>().mark_unsaved();
             if let Some(mut auto) = world.get_resource_mut::<crate::project::autosave::Autosave>() {
                 auto.adopt(path.clone());

@@ -27,8 +27,11 @@ pub enum ProjectRequest {
     Import(PathBuf),
     /// Close the editor.
     Quit,
-    /// Open a recovery copy: the scene it holds, unsaved, belonging to the project it was made for.
+    /// Open a recovery copy: the scene it holds, unsaved, belonging to the project it was made for
+    /// (the one it lies beside; none for an unsaved scene's copy).
     OpenRecovery(PathBuf),
+    /// The user chose to drop the unsaved changes (before New or Open): their recovery copies go.
+    DiscardChanges,
     /// Point a missing source at another file.
     Relink {
         /// The source as the project names it (resolved).
@@ -56,12 +59,22 @@ pub fn apply_project_requests(world: &mut World) {
             ProjectRequest::Save(path) => save(world, path),
             ProjectRequest::Import(path) => world.resource_mut::<PendingImports>().start(path),
             ProjectRequest::OpenRecovery(path) => {
-                let owner = world.resource::<ProjectState>().path.clone();
+                // Whose work it is follows from where the copy lies, never from the scene open
+                // now: an unsaved scene's copy saved with Ctrl+S must not land on a project.
+                let owner = crate::project::recovery::owner_of_copy(&path);
+                if let Some(mut auto) = world.get_resource_mut::<Autosave>() {
+                    auto.answered(&path);
+                }
                 world
                     .resource_mut::<OpeningProjects>()
                     .start(path, OpenKind::Recovery { owner });
             }
             ProjectRequest::Report(e) => world.resource_mut::<Notices>().error(e),
+            ProjectRequest::DiscardChanges => {
+                if let Some(mut auto) = world.get_resource_mut::<Autosave>() {
+                    auto.remove_copy();
+                }
+            }
             ProjectRequest::Quit => {
                 // Quitting with unsaved changes means the user chose to discard them: their
                 // recovery copy goes too, or the next start would offer them back.

@@ -49,7 +49,10 @@ pub fn relink_source(
     from: &Path,
     to: &Path,
 ) -> Result<OpenReport, ProjectError> {
-    let owner = world.resource::<ProjectState>().path.clone();
+    let (owner, on_disk) = {
+        let state = world.resource::<ProjectState>();
+        (state.path.clone(), state.on_disk)
+    };
     // Relative sources resolve against the project's folder, or the working folder for a scene
     // never saved.
     let base = owner.clone().unwrap_or_else(|| {
@@ -67,7 +70,9 @@ pub fn relink_source(
         .validate()
         .map_err(|e| ProjectError::Format(base.clone(), e))?;
     let report = open_project_value(world, project, &base)?;
-    world.resource_mut::<ProjectState>().path = owner;
+    let mut state = world.resource_mut::<ProjectState>();
+    state.path = owner;
+    state.on_disk = on_disk;
     world.resource_mut::<EditHistory>().mark_unsaved();
     Ok(report)
 }
@@ -113,8 +118,11 @@ fn apply_node_material(world: &mut World, e: Entity, value: &MaterialValue) {
 /// first: on an error the scene is untouched. Missing or unreadable sources do not fail the open;
 /// the report lists them and their objects stay in the project.
 pub fn open_project(world: &mut World, path: &Path) -> Result<OpenReport, ProjectError> {
+    let stamp = crate::project::format::FileStamp::of(path);
     let project = read_project(path)?;
-    open_project_value(world, project, path)
+    let report = open_project_value(world, project, path)?;
+    world.resource_mut::<ProjectState>().on_disk = stamp;
+    Ok(report)
 }
 
 /// How far the parsing of a project's sources has got, shared with the thread doing it, and a way
@@ -237,11 +245,11 @@ pub fn open_project_value(
 pub fn empty_scene(world: &mut World) {
     let mut q = world.query_filtered::<Entity, (With<SceneObject>, Without<ChildOf>)>();
     for e in q.iter(world).collect::<Vec<_>>() {
-        world.entity_mut(e).despawn();
+        crate::hierarchy::despawn_subtree(world, e);
     }
     let mut q = world.query_filtered::<Entity, With<SceneObject>>();
     for e in q.iter(world).collect::<Vec<_>>() {
-        world.entity_mut(e).despawn();
+        crate::hierarchy::despawn_subtree(world, e);
     }
     *world.resource_mut::<EditHistory>() = EditHistory::default();
     world.insert_resource(crate::look::SceneLook::default());
@@ -354,11 +362,7 @@ fn link_parents(
 
 /// The project's view, kept for the next save and announced for an editor's camera.
 fn restore_view(world: &mut World, c: CameraValue) {
-    let c = CameraValue {
-        radius: c.radius.clamp(0.05, 1.0e5),
-        pitch: c.pitch.clamp(-1.55, 1.55),
-        ..c
-    };
+    let c = c.clamped();
     world.insert_resource(DocumentView(Some(c)));
     world.write_message(DocumentEvent::View(c));
 }
@@ -498,7 +502,7 @@ pub fn open_project_parsed(
         } else if let Some(e) = node(d.source, &d.key)
             && world.get_entity(e).is_ok()
         {
-            world.entity_mut(e).despawn();
+            crate::hierarchy::despawn_subtree(world, e);
         }
     }
     state.missing_sources = resolved.clone();

@@ -19,26 +19,32 @@ pub enum ScriptError {
     #[error("{0}: {1}")]
     Read(PathBuf, std::io::Error),
     /// The file is too large to be a script.
-    #[error("{0}: {1} bytes is too large for a list of commands (at most {MAX_SCRIPT_BYTES})")]
+    #[error(
+        "{0}: {1} bytes is too large for a list of commands (at most {MAX_SCRIPT_BYTES}, and its \
+         parse within the memory budget)"
+    )]
     TooLarge(PathBuf, u64),
     /// The file is not a RON list of commands.
     #[error("{0}: not a list of edit commands: {1}")]
     Parse(PathBuf, Box<ron::error::SpannedError>),
 }
 
-/// Reads a RON list of [`EditCommand`]s.
+/// Memory parsing a script may take for each byte of its text, at most (a list of ids: 8 bytes
+/// for each two of text, doubled while the list grows).
+const PARSE_BYTES_PER_BYTE: u64 = 12;
+
+/// Reads a RON list of [`EditCommand`]s: a regular file (a pipe or device is refused at once), no
+/// larger than a script can be nor than its parse fits in the import's memory budget.
 pub fn read_commands(path: &Path) -> Result<Vec<EditCommand>, ScriptError> {
-    let meta = std::fs::metadata(path).map_err(|e| ScriptError::Read(path.into(), e))?;
-    if !meta.is_file() {
-        return Err(ScriptError::Read(
-            path.into(),
-            std::io::Error::other("not a regular file"),
-        ));
+    let (_, len) =
+        crate::own_file::open_regular(path).map_err(|e| ScriptError::Read(path.into(), e))?;
+    if len > MAX_SCRIPT_BYTES
+        || len.saturating_mul(PARSE_BYTES_PER_BYTE) > treelight_import::default_memory_budget()
+    {
+        return Err(ScriptError::TooLarge(path.into(), len));
     }
-    if meta.len() > MAX_SCRIPT_BYTES {
-        return Err(ScriptError::TooLarge(path.into(), meta.len()));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| ScriptError::Read(path.into(), e))?;
+    let text = crate::own_file::read_text_bounded(path, len.max(1))
+        .map_err(|e| ScriptError::Read(path.into(), e))?;
     ron::from_str(&text).map_err(|e| ScriptError::Parse(path.into(), Box::new(e)))
 }
 

@@ -256,6 +256,7 @@ impl<'a> Frames<'a> {
         for _ in 0..t.samples.div_ceil(per) {
             let params = ViewParams {
                 world_from_clip: t.world_from_clip,
+                origin: Vec3::ZERO,
                 sky: t.sky,
                 exposure: 1.0,
                 width: t.size,
