@@ -399,3 +399,46 @@ fn settled_is_never_reported_before_the_tree_holds_the_whole_file() {
     drop(s);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A project of a chain of `n` groups over a cube.
+fn chain_project(dir: &Path, n: u64) -> PathBuf {
+    let mut text = String::from("(version: 4, objects: [\n");
+    for id in 1..=n {
+        let parent = if id == 1 {
+            "None".to_owned()
+        } else {
+            format!("Some(({}))", id - 1)
+        };
+        text.push_str(&format!(
+            "(id: ({id}), name: \"g{id}\", parent: {parent}, transform: (translation: (0.0, 0.01, \
+             0.0)), kind: Empty),\n"
+        ));
+    }
+    text.push_str(&format!(
+        "(id: ({}), name: \"cube\", parent: Some(({n})), transform: (translation: (0.0, 0.0, \
+         0.0)), kind: Shape(Cube)),\n])\n",
+        n + 1
+    ));
+    let path = dir.join(format!("chain-{n}.treelight"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_chain_as_deep_as_the_limit_opens_and_a_deeper_one_is_refused_naming_the_object() {
+    let dir = fresh("trust-chain");
+    let out = dir.join("out.treelight");
+    let deep = chain_project(&dir, 1000);
+    let (ok, log) = run_without_display(&[deep.to_str().unwrap(), "--save", out.to_str().unwrap()]);
+    assert!(ok, "{log}");
+    let too_deep = chain_project(&dir, 200_000);
+    let start = Instant::now();
+    let (ok, log) =
+        run_without_display(&[too_deep.to_str().unwrap(), "--save", out.to_str().unwrap()]);
+    assert!(
+        !ok && log.contains("levels deep") && log.contains("chain-200000"),
+        "{log}"
+    );
+    assert!(start.elapsed() < Duration::from_secs(60));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -32,9 +32,10 @@ impl Default for CameraValue {
 }
 
 impl CameraValue {
-    /// The nearest and farthest a view may be from its focus: what zoom allows, and what a
-    /// saved project's view is clamped to when it opens.
-    pub const RADIUS_RANGE: (f32, f32) = (0.05, 1.0e5);
+    /// The nearest and farthest a view may be from its focus: what zoom and framing allow, and
+    /// what a saved project's view is clamped to when it opens (as far as a project holds a
+    /// number: a site of 1e9 units is framed whole).
+    pub const RADIUS_RANGE: (f32, f32) = (0.05, crate::edit::command::MAX_VALUE);
 
     /// The elevation of a three-quarter view: looking down at about 30°.
     pub const THREE_QUARTER_PITCH: f32 = -0.52;

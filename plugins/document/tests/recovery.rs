@@ -200,3 +200,95 @@ fn autosave_never_writes_over_a_copy_offered_another_editors_or_through_a_link()
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_dir_all(&cache).ok();
 }
+
+#[test]
+fn a_second_editor_on_a_project_is_told_and_sees_a_save_made_elsewhere() {
+    let (dir, cache) = (
+        fresh_dir("recovery", "two"),
+        fresh_dir("recovery", "two-cache"),
+    );
+    let house = saved_project(&dir, "house.treelight", Duration::from_secs(600));
+    // Another editor running, with the house open: its lock held, naming it.
+    let lock = cache.join("editor-4000900.lock");
+    let mut other = std::fs::File::create(&lock).unwrap();
+    other.lock().unwrap();
+    std::io::Write::write_all(
+        &mut other,
+        std::fs::canonicalize(&house)
+            .unwrap()
+            .display()
+            .to_string()
+            .as_bytes(),
+    )
+    .unwrap();
+    let mut app = app_with_autosave(&cache);
+    treelight_document::import::open_at_start(app.world_mut(), &house);
+    run_until(&mut app, "the notice", |a| {
+        a.world()
+            .resource::<Notices>()
+            .0
+            .iter()
+            .any(|n| n.text.contains("open in another editor"))
+    });
+    run_until(&mut app, "the open", |a| {
+        a.world().resource::<ProjectState>().path.is_some()
+    });
+    assert!(!app.world().resource::<ProjectState>().changed_on_disk());
+    // The other editor saves: this one's next save would replace that, so it is told.
+    std::thread::sleep(Duration::from_millis(20));
+    let mut elsewhere = editor_world();
+    treelight_document::default_scene::open_default_scene(elsewhere.world_mut());
+    elsewhere.update();
+    save_project(elsewhere.world_mut(), &house).unwrap();
+    assert!(app.world().resource::<ProjectState>().changed_on_disk());
+    // Once this editor saves (the user said so), its stamp is the file's again.
+    save_project(app.world_mut(), &house).unwrap();
+    assert!(!app.world().resource::<ProjectState>().changed_on_disk());
+    drop(other);
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&cache).ok();
+}
+
+#[test]
+fn a_copy_that_cannot_be_opened_is_moved_aside_not_offered_again() {
+    let (dir, cache) = (
+        fresh_dir("recovery", "broken"),
+        fresh_dir("recovery", "broken-cache"),
+    );
+    let copy = unsaved_recovery_in(&cache, 4_000_631);
+    std::fs::write(
+        &copy,
+        format!("{HEADER}4000631\n(version: 1, objects: [oops"),
+    )
+    .unwrap();
+    let mut app = app_with_autosave(&cache);
+    app.world_mut()
+        .resource_mut::<Autosave>()
+        .look_for_start(None);
+    app.update();
+    assert_eq!(offered(&app), vec![copy.clone()]);
+    app.world_mut()
+        .resource_mut::<ProjectRequests>()
+        .0
+        .push(ProjectRequest::OpenRecovery(copy.clone()));
+    run_until(&mut app, "the failure", |a| {
+        a.world().resource::<Notices>().has_errors()
+    });
+    assert!(!copy.exists());
+    let aside = copy.with_file_name("unsaved-4000631.recovery.treelight.bad");
+    assert!(aside.exists());
+    let notices = &app.world().resource::<Notices>().0;
+    assert!(
+        notices.iter().any(|n| n.text.contains(".bad")),
+        "{notices:?}"
+    );
+    // The next start offers nothing.
+    let mut next = app_with_autosave(&cache);
+    next.world_mut()
+        .resource_mut::<Autosave>()
+        .look_for_start(None);
+    next.update();
+    assert!(offered(&next).is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&cache).ok();
+}

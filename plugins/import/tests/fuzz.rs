@@ -200,7 +200,140 @@ fn seeds() -> Vec<Seed> {
             bytes: sibenik,
             beside: vec![],
         },
+        Seed {
+            name: "bunny-ascii.ply".into(),
+            bytes: bunny_ply(false),
+            beside: vec![],
+        },
+        Seed {
+            name: "bunny-binary.ply".into(),
+            bytes: bunny_ply(true),
+            beside: vec![],
+        },
     ]
+}
+
+/// Part of the bunny as a PLY file with normals and a colour per vertex and an edge element,
+/// ASCII or binary (little endian).
+fn bunny_ply(binary: bool) -> Vec<u8> {
+    let text = std::fs::read_to_string(shared("obj/stanford-bunny.obj")).unwrap();
+    let vertices: Vec<[f32; 3]> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .take(300)
+        .map(|l| {
+            let mut n = l.split_whitespace().map(|w| w.parse::<f32>().unwrap());
+            [n.next().unwrap(), n.next().unwrap(), n.next().unwrap()]
+        })
+        .collect();
+    let faces: Vec<[u32; 3]> = (0..200u32)
+        .map(|k| [k % 300, (k * 7 + 1) % 300, (k * 13 + 2) % 300])
+        .collect();
+    let format = if binary {
+        "binary_little_endian"
+    } else {
+        "ascii"
+    };
+    let mut out = format!(
+        "ply\nformat {format} 1.0\ncomment fuzz seed\nelement vertex {}\nproperty float x\n\
+         property float y\nproperty float z\nproperty float nx\nproperty float ny\n\
+         property float nz\nproperty uchar red\nelement face {}\n\
+         property list uchar int vertex_indices\nelement edge 2\nproperty int vertex1\n\
+         property int vertex2\nend_header\n",
+        vertices.len(),
+        faces.len()
+    )
+    .into_bytes();
+    for v in &vertices {
+        if binary {
+            for c in v.iter().chain(&[0.0, 1.0, 0.0]) {
+                out.extend(c.to_le_bytes());
+            }
+            out.push(200);
+        } else {
+            out.extend(format!("{} {} {} 0 1 0 200\n", v[0], v[1], v[2]).bytes());
+        }
+    }
+    for f in &faces {
+        if binary {
+            out.push(3);
+            for i in f {
+                out.extend((*i as i32).to_le_bytes());
+            }
+        } else {
+            out.extend(format!("3 {} {} {}\n", f[0], f[1], f[2]).bytes());
+        }
+    }
+    for e in [[0i32, 1], [1, 2]] {
+        if binary {
+            out.extend(e[0].to_le_bytes());
+            out.extend(e[1].to_le_bytes());
+        } else {
+            out.extend(format!("{} {}\n", e[0], e[1]).bytes());
+        }
+    }
+    out
+}
+
+/// PLY damage: the header's counts set to extremes, its types changed, elements without
+/// properties added, or the bytes damaged.
+fn mutate_ply(bytes: &mut Vec<u8>, rng: &mut Rng) {
+    let Some(end) = bytes.windows(11).position(|w| w == b"end_header\n") else {
+        damage(bytes, rng);
+        return;
+    };
+    let header = String::from_utf8_lossy(&bytes[..end]).into_owned();
+    let mut lines: Vec<String> = header.lines().map(str::to_owned).collect();
+    let k = rng.below(lines.len());
+    match rng.below(5) {
+        0 => {
+            let counts = [
+                "0",
+                "1",
+                "4294967295",
+                "268435456",
+                "50000000",
+                "-1",
+                "99999999999",
+            ];
+            let n = counts[rng.below(counts.len())];
+            if lines[k].starts_with("element ") {
+                let name = lines[k].split_whitespace().nth(1).unwrap_or("x").to_owned();
+                lines[k] = format!("element {name} {n}");
+            }
+        }
+        1 => {
+            let types = [
+                "char",
+                "uchar",
+                "short",
+                "uint",
+                "double",
+                "list uint uint",
+                "list uchar float",
+            ];
+            if lines[k].starts_with("property ") {
+                let name = lines[k].rsplit(' ').next().unwrap_or("x").to_owned();
+                lines[k] = format!("property {} {name}", types[rng.below(types.len())]);
+            }
+        }
+        2 => lines.insert(
+            k.max(2),
+            format!("element empty{} {}", k, 1 + rng.below(40_000_000)),
+        ),
+        3 => lines.insert(k.max(2), "property float x".into()),
+        _ => {
+            let mut rest = bytes[end + 11..].to_vec();
+            damage(&mut rest, rng);
+            bytes.truncate(end + 11);
+            bytes.extend(rest);
+            return;
+        }
+    }
+    let mut out = lines.join("\n").into_bytes();
+    out.push(b'\n');
+    out.extend_from_slice(&bytes[end..]);
+    *bytes = out;
 }
 
 /// A GLB's JSON and BIN chunks (`None` when the bytes are not a well-formed GLB).
@@ -478,6 +611,8 @@ fn mutate(seed: &Seed, rng: &mut Rng) -> Seed {
     for _ in 0..rounds {
         if case.name.ends_with(".obj") {
             mutate_obj(&mut case.bytes, rng);
+        } else if case.name.ends_with(".ply") {
+            mutate_ply(&mut case.bytes, rng);
         } else if case.name.ends_with(".glb") {
             match (split_glb(&case.bytes), rng.below(4)) {
                 (Some((mut json, bin)), 0 | 1) => {

@@ -373,6 +373,24 @@ fn remember(entry: &std::path::Path, kernel: TraceKernel, seconds: f64) {
         "the {kernel:?} trace kernel, compiled in {seconds:.1} s at {:?}\n",
         std::time::SystemTime::now()
     );
+    // Something else under the record's name (a link, a pipe): moved aside, never written
+    // through or waited on.
+    if std::fs::symlink_metadata(entry).is_ok_and(|m| !m.is_file()) {
+        let mut aside = entry.as_os_str().to_owned();
+        aside.push(".bad");
+        if let Err(e) = std::fs::rename(entry, &aside) {
+            warn!(
+                "{}: not a record, and cannot be moved aside: {e}",
+                entry.display()
+            );
+            return;
+        }
+        warn!(
+            "{} was not a kernel record; it was moved to {}",
+            entry.display(),
+            std::path::Path::new(&aside).display()
+        );
+    }
     let written = entry
         .parent()
         .map_or(Ok(()), std::fs::create_dir_all)
@@ -750,6 +768,17 @@ mod tests {
         assert!(!entry.is_file());
         remember(&entry, TraceKernel::Whole, 1.5);
         assert!(entry.is_file(), "written, its folder made");
+        // A link planted under a record's name is moved aside, its target untouched.
+        #[cfg(unix)]
+        {
+            let victim = dir.join("victim");
+            std::fs::write(&victim, "kept").unwrap();
+            let other = record.entry(TraceKernel::Split, &scene_textures(4), "llvmpipe Mesa 1");
+            std::os::unix::fs::symlink(&victim, &other).unwrap();
+            remember(&other, TraceKernel::Split, 1.5);
+            assert_eq!(std::fs::read_to_string(&victim).unwrap(), "kept");
+            assert!(std::fs::symlink_metadata(&other).unwrap().is_file());
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -973,3 +973,46 @@ fn a_crashed_worker_is_reported_and_the_app_goes_on() {
     assert!(cast(&app, down).is_some());
     assert!(!app.world().resource::<SceneBvh>().is_idle());
 }
+
+/// A mesh placed at two entities, the first scaled to zero (how exporters hide a node): the
+/// visible one is traced whichever comes first, and either is traced again once it can be.
+#[test]
+fn a_zero_scaled_entity_never_takes_its_mesh_from_the_others() {
+    let mut app = app(Duration::from_secs(3600));
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::default().mesh().build());
+    let hidden = app
+        .world_mut()
+        .spawn((Mesh3d(mesh.clone()), Transform::from_scale(Vec3::ZERO)))
+        .id();
+    let shown = app
+        .world_mut()
+        .spawn((Mesh3d(mesh), Transform::from_xyz(3.0, 0.0, 0.0)))
+        .id();
+    settle(&mut app);
+    let traced = |app: &App, e: Entity| {
+        app.world()
+            .resource::<SceneBvh>()
+            .read_blocking()
+            .is_traced(e)
+    };
+    assert!(traced(&app, shown), "the visible entity lost its mesh");
+    assert!(!traced(&app, hidden));
+    assert_eq!(tree_triangles(&app), 12);
+    // Scaled up, the hidden one is traced too; the other scaled to zero leaves the tree.
+    app.world_mut()
+        .entity_mut(hidden)
+        .insert(Transform::from_xyz(-3.0, 0.0, 0.0));
+    settle(&mut app);
+    assert!(traced(&app, hidden) && traced(&app, shown));
+    app.world_mut()
+        .entity_mut(shown)
+        .insert(Transform::from_scale(Vec3::new(1.0, 0.0, 1.0)));
+    settle(&mut app);
+    assert!(traced(&app, hidden) && !traced(&app, shown));
+    let ray = Ray3d::new(Vec3::new(-3.0, 0.0, 5.0), Dir3::NEG_Z);
+    let hit = app.world().resource::<SceneBvh>().cast_ray(ray);
+    assert_eq!(hit.map(|h| h.entity), Some(hidden));
+}

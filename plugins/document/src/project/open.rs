@@ -129,6 +129,15 @@ pub fn finish_opening(world: &mut World) {
             }
             tell(world, &path, &report, "recovered");
         }
+        (Err(e), OpenKind::Recovery { .. }) => {
+            // A copy that cannot be opened would be offered at every start: it is moved aside
+            // (the editor's own file, by its name), and the user told where.
+            let aside = match crate::own_file::set_aside(&path) {
+                Ok(to) => format!("; it was moved to {}", to.display()),
+                Err(why) => format!("; it could not be moved aside ({why})"),
+            };
+            world.resource_mut::<Notices>().error(format!("{e}{aside}"));
+        }
         (Err(e), _) => world.resource_mut::<Notices>().error(e.to_string()),
     }
 }
