@@ -280,10 +280,19 @@ fn relist(folder: &mut LibraryFolder) {
     }
 }
 
-/// Opens `path`, builds a tree over its triangles and ray-casts a shaded picture of it from above
-/// one corner (a key light and a sky term; the background transparent).
+/// The most memory reading a file for its thumbnail may take: the files of an Assets folder are
+/// read at every start, so one that claims gigabytes is refused for its preview at this much,
+/// not at half the free memory (dragged in, it is read again under the import's own budget).
+const THUMBNAIL_BUDGET: u64 = 1 << 30;
+
+/// Opens `path` (within [`THUMBNAIL_BUDGET`]), builds a tree over its triangles and ray-casts a
+/// shaded picture of it from above one corner (a key light and a sky term; the background
+/// transparent).
 pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {
-    let scene = treelight_import::load_scene(path).map_err(|e| e.to_string())?;
+    let options = treelight_import::ImportOptions {
+        memory_budget: treelight_import::default_memory_budget().min(THUMBNAIL_BUDGET),
+    };
+    let scene = treelight_import::load_scene_with(path, &options).map_err(|e| e.to_string())?;
     let triangles: Vec<Triangle> = scene
         .world_triangles()
         .into_iter()
