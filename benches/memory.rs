@@ -113,102 +113,11 @@ fn stop(child: &mut Child) {
 /// meshes have been rebuilt (every mesh of an assembly is large enough to be) and the resident
 /// set holds still.
 fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
-    use std::os::unix::process::CommandExt;
-    let state = dir.join("state.ron");
-    std::fs::remove_file(&state).ok();
-    let config = dir.join("config");
-    let mut cmd = Command::new("xvfb-run");
-    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"]);
-    // TREELIGHT_MEMORY_HEAPTRACK=1 runs the assembly's editor under heaptrack, its profile in the
-    // run's folder (far slower: for finding owners, not for the figures).
-    if file.is_some() && std::env::var_os("TREELIGHT_MEMORY_HEAPTRACK").is_some() {
-        cmd.args(["heaptrack", "-o"]).arg(dir.join("heaptrack"));
-    }
-    cmd.arg(env!("CARGO_BIN_EXE_treelight"))
-        .args(file.map(|f| f.as_os_str()))
-        .arg("--state")
-        .arg(&state)
-        .env("TREELIGHT_CONFIG_DIR", &config)
-        .env("TREELIGHT_CACHE_DIR", config.join("cache"))
-        .stdout(std::process::Stdio::null())
-        .stderr(
-            std::fs::File::create(dir.join("editor.log"))
-                .map_or(std::process::Stdio::null(), Into::into),
-        )
-        .process_group(0);
+    let (state, mut cmd) = editor_command(file, dir);
     let start = Instant::now();
     let mut child = cmd.spawn().expect("xvfb-run");
-    // (since when, the buffers' size then, the frame then)
-    let (mut first, mut all, mut settled_since) = (None, None, None::<(Instant, u64, u64)>);
-    let (mut parsed, mut traced, mut pictured) = (None, None, None);
-    let (mut parse_frame, mut frames_to_first, mut frames_to_picture) = (None, None, None);
-    let mut frames_to_traced = None;
-    let mut last: Option<EditorState> = None;
-    while start.elapsed() < Duration::from_secs(900) {
-        // Finely until the first triangles and traced frame; then coarser, as each look parses a
-        // report of hundreds of kilobytes on a machine whose two cores the editor needs.
-        let fine = first.is_none() || traced.is_none();
-        std::thread::sleep(Duration::from_millis(if fine { 50 } else { 250 }));
-        let Some(s) = std::fs::read_to_string(&state)
-            .ok()
-            .and_then(|t| ron::from_str::<EditorState>(&t).ok())
-        else {
-            continue;
-        };
-        let t = start.elapsed().as_secs_f64();
-        if parsed.is_none() && s.notices.iter().any(|n| n.starts_with("opened ")) {
-            parsed = Some(t);
-            parse_frame = Some(s.frame);
-        }
-        let since_parse = parse_frame.map(|f| s.frame.saturating_sub(f));
-        if s.memory.triangles > 0 && first.is_none() {
-            first = Some(t);
-            frames_to_first = since_parse;
-        }
-        if traced.is_none() && s.memory.triangles > 0 && s.traced_geometry {
-            traced = Some(t);
-            frames_to_traced = since_parse;
-        }
-        // The traced view's samples restart with each change: a whole picture showing some of
-        // the file's triangles (after a frame traced them: a sweep of the sky alone, before the
-        // path tracer has the first triangles, does not count).
-        if pictured.is_none() && traced.is_some() && s.samples >= 1 {
-            pictured = Some(t);
-            frames_to_picture = since_parse;
-        }
-        let complete = s.memory.triangles >= triangles;
-        if complete && all.is_none() {
-            all = Some(t);
-        }
-        // Settled, the path tracer's buffers holding every triangle's records (node, triangle and
-        // shading; its uploads follow the tree, at times many seconds behind), and no longer
-        // growing over 3 s and 10 frames.
-        let buffers = s.memory.scene_buffers;
-        let per_triangle: u64 = [
-            BufferKind::Nodes,
-            BufferKind::Triangles,
-            BufferKind::Attributes,
-        ]
-        .map(BufferKind::record_bytes)
-        .iter()
-        .sum();
-        let complete = complete && buffers >= s.memory.triangles * per_triangle;
-        match settled_since {
-            Some((since, b, frame)) if complete && s.settled && b == buffers => {
-                if since.elapsed() >= Duration::from_secs(3)
-                    && s.frame >= frame + 10
-                    && s.memory.tree > 0
-                {
-                    last = Some(s);
-                    break;
-                }
-            }
-            _ if complete && s.settled => {
-                settled_since = Some((Instant::now(), buffers, s.frame));
-            }
-            _ => settled_since = None,
-        }
-    }
+    let fill = follow_fill(&state, start, triangles);
+    let mut last = fill.last.clone();
     // Once every triangle is in, the worker still bakes and rebuilds the meshes in the background
     // (each one restarting the traced view's samples) for up to minutes: the frame rate is taken
     // once the view keeps its samples, the median of its reports over 8 s.
@@ -323,19 +232,138 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         fps,
         rss,
         hwm,
-        first,
-        all,
-        parsed,
-        traced,
-        pictured,
-        frames_to_first,
-        frames_to_traced,
-        frames_to_picture,
+        first: fill.first,
+        all: fill.all,
+        parsed: fill.parsed,
+        traced: fill.traced,
+        pictured: fill.pictured,
+        frames_to_first: fill.frames_to_first,
+        frames_to_traced: fill.frames_to_traced,
+        frames_to_picture: fill.frames_to_picture,
         quiet,
         idle,
         growth_per_frame,
         trace,
     }
+}
+
+/// The editor under Xvfb on `file` (or its default scene), writing its report to the returned
+/// path, with its own config folder in `dir`.
+fn editor_command(file: Option<&Path>, dir: &Path) -> (std::path::PathBuf, Command) {
+    use std::os::unix::process::CommandExt;
+    let state = dir.join("state.ron");
+    std::fs::remove_file(&state).ok();
+    let config = dir.join("config");
+    let mut cmd = Command::new("xvfb-run");
+    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"]);
+    // TREELIGHT_MEMORY_HEAPTRACK=1 runs the assembly's editor under heaptrack, its profile in the
+    // run's folder (far slower: for finding owners, not for the figures).
+    if file.is_some() && std::env::var_os("TREELIGHT_MEMORY_HEAPTRACK").is_some() {
+        cmd.args(["heaptrack", "-o"]).arg(dir.join("heaptrack"));
+    }
+    cmd.arg(env!("CARGO_BIN_EXE_treelight"))
+        .args(file.map(|f| f.as_os_str()))
+        .arg("--state")
+        .arg(&state)
+        .env("TREELIGHT_CONFIG_DIR", &config)
+        .env("TREELIGHT_CACHE_DIR", config.join("cache"))
+        .stdout(std::process::Stdio::null())
+        .stderr(
+            std::fs::File::create(dir.join("editor.log"))
+                .map_or(std::process::Stdio::null(), Into::into),
+        )
+        .process_group(0);
+    (state, cmd)
+}
+
+/// The fill's moments, from the reports of a run until every triangle is in and settled.
+#[derive(Default)]
+struct Fill {
+    first: Option<f64>,
+    all: Option<f64>,
+    parsed: Option<f64>,
+    traced: Option<f64>,
+    pictured: Option<f64>,
+    frames_to_first: Option<u64>,
+    frames_to_traced: Option<u64>,
+    frames_to_picture: Option<u64>,
+    /// The report once settled with every triangle in; `None` if that never came (15 minutes).
+    last: Option<EditorState>,
+}
+
+/// Follows the reports at `state` until `triangles` are in the tree, the path tracer's buffers
+/// hold them, and the scene has settled.
+fn follow_fill(state: &Path, start: Instant, triangles: u64) -> Fill {
+    let mut f = Fill::default();
+    // (since when, the buffers' size then, the frame then)
+    let mut settled_since = None::<(Instant, u64, u64)>;
+    let mut parse_frame = None;
+    while start.elapsed() < Duration::from_secs(900) {
+        // Finely until the first triangles and traced frame; then coarser, as each look parses a
+        // report of hundreds of kilobytes on a machine whose two cores the editor needs.
+        let fine = f.first.is_none() || f.traced.is_none();
+        std::thread::sleep(Duration::from_millis(if fine { 50 } else { 250 }));
+        let Some(s) = std::fs::read_to_string(state)
+            .ok()
+            .and_then(|t| ron::from_str::<EditorState>(&t).ok())
+        else {
+            continue;
+        };
+        let t = start.elapsed().as_secs_f64();
+        if f.parsed.is_none() && s.notices.iter().any(|n| n.starts_with("opened ")) {
+            f.parsed = Some(t);
+            parse_frame = Some(s.frame);
+        }
+        let since_parse = parse_frame.map(|p| s.frame.saturating_sub(p));
+        if s.memory.triangles > 0 && f.first.is_none() {
+            f.first = Some(t);
+            f.frames_to_first = since_parse;
+        }
+        if f.traced.is_none() && s.memory.triangles > 0 && s.traced_geometry {
+            f.traced = Some(t);
+            f.frames_to_traced = since_parse;
+        }
+        // The traced view's samples restart with each change: a whole picture showing some of
+        // the file's triangles (after a frame traced them: a sweep of the sky alone, before the
+        // path tracer has the first triangles, does not count).
+        if f.pictured.is_none() && f.traced.is_some() && s.samples >= 1 {
+            f.pictured = Some(t);
+            f.frames_to_picture = since_parse;
+        }
+        let complete = s.memory.triangles >= triangles;
+        if complete && f.all.is_none() {
+            f.all = Some(t);
+        }
+        // Settled, the path tracer's buffers holding every triangle's records (node, triangle and
+        // shading; its uploads follow the tree, at times many seconds behind), and no longer
+        // growing over 3 s and 10 frames.
+        let buffers = s.memory.scene_buffers;
+        let per_triangle: u64 = [
+            BufferKind::Nodes,
+            BufferKind::Triangles,
+            BufferKind::Attributes,
+        ]
+        .map(BufferKind::record_bytes)
+        .iter()
+        .sum();
+        let complete = complete && buffers >= s.memory.triangles * per_triangle;
+        match settled_since {
+            Some((since, b, frame)) if complete && s.settled && b == buffers => {
+                if since.elapsed() >= Duration::from_secs(3)
+                    && s.frame >= frame + 10
+                    && s.memory.tree > 0
+                {
+                    f.last = Some(s);
+                    break;
+                }
+            }
+            _ if complete && s.settled => {
+                settled_since = Some((Instant::now(), buffers, s.frame));
+            }
+            _ => settled_since = None,
+        }
+    }
+    f
 }
 
 /// The trace's last frame, for the lines under the table.

@@ -13,7 +13,7 @@ use treelight::editor::panels::outliner::OutlinerState;
 use treelight::editor::panels::outliner::rows;
 use treelight::editor::viewport::selection::Selection;
 use treelight_document::edit::command::EditCommand;
-use treelight_document::object::SceneId;
+use treelight_document::values::object::SceneId;
 
 fn items(world: &mut World, n: usize) -> Vec<OutlinerItem> {
     let mut out = Vec::with_capacity(n);

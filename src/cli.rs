@@ -157,7 +157,7 @@ fn sky_rotation(text: &str) -> Result<f32, String> {
 
 /// A panorama's intensity from the command line: nits from 0 to the scene's maximum.
 fn sky_intensity(text: &str) -> Result<f32, String> {
-    let max = treelight_document::environment::MAX_ENVIRONMENT_INTENSITY;
+    let max = treelight_document::scene::environment::MAX_ENVIRONMENT_INTENSITY;
     match text.parse::<f32>() {
         Ok(v) if (0.0..=max).contains(&v) => Ok(v),
         _ => Err(format!("{text} is not an intensity from 0 to {max} nits")),

@@ -133,7 +133,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     });
     insert_kernel_record(&mut app);
     match &cli.scene {
-        Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),
+        Some(path) => treelight_document::app::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(
                 Startup,
@@ -203,7 +203,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
 /// Keeps the record of the path tracer's kernel warm-ups (a software adapter's) in the cache
 /// folder, so starts after the first skip them.
 pub fn insert_kernel_record(app: &mut App) {
-    if let Some(dir) = treelight_document::folders::cache_dir() {
+    if let Some(dir) = treelight_document::files::folders::cache_dir() {
         app.insert_resource(treelight_render::KernelCompileRecord(dir.join("kernels")));
     }
 }

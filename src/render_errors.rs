@@ -6,7 +6,7 @@
 use crate::editor::viewport::render_mode::ViewportRender;
 use bevy::prelude::*;
 use bevy::render::error_handler::{RenderError, RenderErrorHandler, RenderErrorPolicy};
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 
 /// Errors rendered past before rendering stops.
 const IGNORED: u32 = 30;

@@ -28,11 +28,11 @@ use treelight_document::DocumentPlugin;
 use treelight_document::app::{
     SceneLoading, fail_on_errors, run_schedules_on_one_thread, task_pools,
 };
-use treelight_document::camera::SceneCamera;
 use treelight_document::default_scene::open_default_scene;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequests, apply_edit_requests};
-use treelight_document::environment::SceneEnvironment;
+use treelight_document::scene::environment::SceneEnvironment;
+use treelight_document::values::camera::SceneCamera;
 use treelight_render::{PathTraced, PathTracedEnvironment, PathTracerStats, PreparedEnvironment};
 
 /// Whether `out` is a file `treelight render` can write: a `.png` or `.exr` in an existing folder,
@@ -41,7 +41,7 @@ pub fn check_output(args: &RenderArgs) -> Result<(), String> {
     let out = &args.out;
     check_image_path(out, &["png", "exr"])?;
     if let Some(sky) = &args.sky {
-        if !treelight_document::environment::is_environment_file(sky) {
+        if !treelight_document::scene::environment::is_environment_file(sky) {
             return Err(format!(
                 "{}: a sky panorama must be a .hdr or .exr file",
                 sky.display()
@@ -317,7 +317,7 @@ pub fn render_app(args: &RenderArgs) -> App {
         orbit,
     ));
     match &args.scene {
-        Some(path) => treelight_document::import::open_at_start(app.world_mut(), path),
+        Some(path) => treelight_document::app::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(Startup, open_default_scene);
         }
@@ -343,7 +343,7 @@ pub fn render_app(args: &RenderArgs) -> App {
 
 /// The document's sky on the render camera's path tracer.
 fn sky_to_render_camera(
-    look: Res<treelight_document::look::SceneLook>,
+    look: Res<treelight_document::values::look::SceneLook>,
     mut cameras: Query<&mut PathTraced, With<RenderCamera>>,
 ) {
     if look.is_changed() {
@@ -553,7 +553,7 @@ pub enum ImageWrite {
 }
 
 fn write_image(path: &Path, bytes: &[u8], how: ImageWrite) -> Result<(), String> {
-    use treelight_document::{atomic_file, own_file};
+    use treelight_document::files::{atomic_file, own_file};
     let written = match how {
         ImageWrite::New => own_file::write_new(path, bytes),
         ImageWrite::Replace => atomic_file::write_atomically(path, bytes),

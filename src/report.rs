@@ -15,8 +15,8 @@ use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use treelight_document::edit::history::EditHistory;
-use treelight_document::object::SceneId;
-use treelight_document::object::SceneObject;
+use treelight_document::values::object::SceneId;
+use treelight_document::values::object::SceneObject;
 use treelight_scene::SceneBvh;
 
 /// One scene object in the report.
@@ -40,7 +40,7 @@ pub struct ObjectReport {
     pub screen: Option<[f32; 2]>,
     /// Its light's values, for a light.
     #[serde(default)]
-    pub light: Option<treelight_document::light::LightValue>,
+    pub light: Option<treelight_document::values::light::LightValue>,
 }
 
 /// One gizmo handle on screen.
@@ -120,7 +120,7 @@ pub struct EditorState {
     pub inputs: u64,
     /// The document's exposure and tone curve.
     #[serde(default)]
-    pub look: treelight_document::look::SceneLook,
+    pub look: treelight_document::values::look::SceneLook,
     /// What the viewport camera has of it: its EV100 and Bevy's tonemapper, by name.
     #[serde(default)]
     pub camera_look: Option<(f32, String)>,
@@ -130,7 +130,10 @@ pub struct EditorState {
     /// The document's sky panorama, and whether it is ready in the path tracer (read, and converted
     /// for the views).
     #[serde(default)]
-    pub environment: (treelight_document::environment::SceneEnvironment, bool),
+    pub environment: (
+        treelight_document::scene::environment::SceneEnvironment,
+        bool,
+    ),
     /// Whether the viewport's path-traced samples (`samples`) show a sky panorama rather than the
     /// flat sky colour: a driver that changes the sky waits for this to follow.
     #[serde(default)]
@@ -310,30 +313,52 @@ pub struct ReportItem {
     /// Its parent.
     pub parent: Option<&'static ChildOf>,
     /// Its light components.
-    pub light: treelight_document::light::LightParts,
+    pub light: treelight_document::values::light::LightParts,
 }
 
-/// What the report reads of the path tracer and the meshes.
-type RenderedParams<'w, 's> = (
-    Res<'w, treelight_render::PathTracerStats>,
-    Query<'w, 's, Entity, With<OrbitCamera>>,
-    Res<'w, Assets<Mesh>>,
-    Res<'w, treelight_document::import::ask::ImportQuestions>,
-    Res<'w, bevy::diagnostic::DiagnosticsStore>,
-    Res<'w, InputCount>,
-);
+/// What the report reads of the scene's objects and the view that shows them.
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct SceneParams<'w, 's> {
+    objects: Query<'w, 's, ReportItem, With<SceneObject>>,
+    boxes: Query<'w, 's, (&'static Aabb, &'static GlobalTransform)>,
+    children: Query<'w, 's, &'static Children>,
+    cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
+    camera_ids: Query<'w, 's, Entity, With<OrbitCamera>>,
+    loading: treelight_document::app::SceneLoading<'w>,
+    scene: Res<'w, SceneBvh>,
+    meshes: Res<'w, Assets<Mesh>>,
+}
 
-/// What the report reads of the scene's look: the document's, and the viewport camera's exposure and
-/// tonemapper.
-type LookParams<'w, 's> = (
-    Res<'w, treelight_document::look::SceneLook>,
-    (
-        Res<'w, treelight_document::environment::SceneEnvironment>,
-        Res<'w, treelight_document::environment::LoadedEnvironment>,
-        Res<'w, treelight_render::PathTracedEnvironment>,
-        Res<'w, treelight_render::PreparedEnvironment>,
-    ),
-    Query<
+/// What the report reads of the editor's own state: selection, history, gizmo, files, dialogs.
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct EditorParams<'w, 's> {
+    selection: Res<'w, Selection>,
+    history: Res<'w, EditHistory>,
+    gizmo: Res<'w, GizmoSettings>,
+    widgets: Res<'w, crate::editor::widget_rects::WidgetRects>,
+    project: Res<'w, treelight_document::project::format::ProjectState>,
+    window: Query<'w, 's, &'static Window, With<bevy::window::PrimaryWindow>>,
+    files: Res<'w, crate::editor::files::file_menu::FileUi>,
+    autosave: Option<Res<'w, treelight_document::project::autosave::Autosave>>,
+    questions: Res<'w, treelight_document::import::ask::ImportQuestions>,
+    notices: Res<'w, treelight_document::scene::notice::Notices>,
+    clock: Option<Res<'w, MainThreadClock>>,
+    diagnostics: Res<'w, bevy::diagnostic::DiagnosticsStore>,
+    inputs: Res<'w, InputCount>,
+}
+
+/// What the report reads of the view's rendering: the path tracer, the render mode, the look and
+/// the sky.
+#[derive(bevy::ecs::system::SystemParam)]
+pub struct RenderParams<'w, 's> {
+    tracer: Res<'w, treelight_render::PathTracerStats>,
+    render: Res<'w, crate::editor::viewport::render_mode::ViewportRender>,
+    look: Res<'w, treelight_document::values::look::SceneLook>,
+    environment: Res<'w, treelight_document::scene::environment::SceneEnvironment>,
+    loaded: Res<'w, treelight_document::scene::environment::LoadedEnvironment>,
+    traced: Res<'w, treelight_render::PathTracedEnvironment>,
+    prepared: Res<'w, treelight_render::PreparedEnvironment>,
+    lens: Query<
         'w,
         's,
         (
@@ -342,175 +367,36 @@ type LookParams<'w, 's> = (
         ),
         With<OrbitCamera>,
     >,
-);
+}
+
+/// The view's samples, whether they show the panorama, the latest frame's trace (pixels traced,
+/// nanoseconds a sample) and whether it traced geometry, from one copy of the figures.
+type ViewSamples = (u32, bool, Option<(u64, Option<f64>)>, bool);
 
 /// Writes the report for this frame.
-#[allow(clippy::too_many_arguments)]
 pub fn write_state_report(
     mut report: ResMut<StateReport>,
-    objects: Query<ReportItem, With<SceneObject>>,
-    boxes: Query<(&Aabb, &GlobalTransform)>,
-    children: Query<&Children>,
-    cameras: Query<(&Camera, &GlobalTransform), With<OrbitCamera>>,
-    selection: Res<Selection>,
-    history: Res<EditHistory>,
-    gizmo: Res<GizmoSettings>,
-    loading: treelight_document::app::SceneLoading,
-    scene: Res<SceneBvh>,
-    widgets: Res<crate::editor::widget_rects::WidgetRects>,
-    project: Res<treelight_document::project::format::ProjectState>,
-    window: Query<&Window, With<bevy::window::PrimaryWindow>>,
-    (files, autosave): (
-        Res<crate::editor::files::file_menu::FileUi>,
-        Option<Res<treelight_document::project::autosave::Autosave>>,
-    ),
-    (clock, render, notices, (look, (environment, loaded, traced, prepared), lens)): (
-        Option<Res<MainThreadClock>>,
-        Res<crate::editor::viewport::render_mode::ViewportRender>,
-        Res<treelight_document::notice::Notices>,
-        LookParams,
-    ),
-    (tracer, camera_ids, meshes, questions, diagnostics, inputs): RenderedParams,
+    scene: SceneParams,
+    editor: EditorParams,
+    rendered: RenderParams,
 ) {
     report.frame += 1;
-    let camera = cameras.single().ok();
-    // The samples, the sky they show and the latest frame's trace, from one copy of the figures.
-    let view_samples = camera_ids.single().map_or((0, false, None, false), |c| {
-        let figures = tracer.figures();
-        let samples = figures.samples.get(&c).copied().unwrap_or(0);
-        let trace = figures.traces.get(&c).copied();
-        (
-            samples,
-            trace.is_some_and(|t| t.panorama),
-            trace.map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
-            trace.is_some_and(|t| t.geometry),
-        )
-    });
-    let parent_of = |e: Entity| {
-        objects
-            .get(e)
-            .ok()
-            .and_then(|o| o.parent)
-            .map(|c| c.parent())
-            .filter(|p| objects.contains(*p))
-    };
-    let mut list: Vec<ObjectReport> = objects
-        .iter()
-        .map(|o| {
-            let (e, gt) = (o.entity, o.global);
-            let centre =
-                world_bounds(e, &boxes, &children).map_or(gt.translation(), |(a, b)| (a + b) * 0.5);
-            ObjectReport {
-                id: *o.id,
-                name: o.name.map_or(String::new(), |n| n.as_str().to_owned()),
-                parent: parent_of(e)
-                    .and_then(|p| objects.get(p).ok())
-                    .map(|p| *p.id),
-                mesh: o.mesh,
-                visible: o.visibility != Some(&Visibility::Hidden),
-                local: (*o.transform).into(),
-                world_translation: gt.translation().to_array(),
-                screen: camera
-                    .and_then(|(c, cg)| c.world_to_viewport(cg, centre).ok())
-                    .map(|p| p.to_array()),
-                light: treelight_document::light::LightValue::of_parts(o.light),
-            }
-        })
-        .collect();
-    list.sort_by_key(|o| o.id);
-    let mut handles = Vec::new();
-    if let Some((camera, cam_gt)) = camera {
-        let (targets, active) = crate::editor::viewport::panel::drag_targets(
-            &selection,
-            |e| objects.get(e).ok().map(|o| (*o.id, o.global.affine())),
-            parent_of,
-        );
-        let view = (camera, cam_gt);
-        if let Some(frame) =
-            crate::editor::viewport::panel::gizmo_frame(&targets, active, &gizmo, &view)
-        {
-            handles = frame
-                .handles(gizmo.mode, &view)
-                .into_iter()
-                .map(|(h, points)| HandleReport {
-                    handle: handle_name(h),
-                    points: points.iter().map(|p| p.to_array()).collect(),
-                })
-                .collect();
-        }
-    }
-    let viewport = camera
-        .and_then(|(c, _)| c.logical_viewport_rect())
-        .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]);
-    let state = EditorState {
-        frame: report.frame,
-        // Settled once the tree holds the whole scene and the path tracer's copy is current
-        // (nothing to copy while the view is rasterised or the scene is too large to trace).
-        settled: loading.settled()
-            && (render.traced.is_none()
-                || tracer.figures().trace_off.is_some()
-                || tracer.figures().uploaded_version >= scene.version()),
-        objects: list,
-        selection: selection
-            .entities()
-            .iter()
-            .filter_map(|e| objects.get(*e).ok().map(|o| *o.id))
-            .collect(),
-        history: (history.head(), history.labels().len()),
-        gizmo: handles,
-        gizmo_mode: gizmo.mode.label().to_owned(),
-        viewport,
-        widgets: widgets.0.clone(),
-        project: project.path.clone(),
-        dirty: history.is_dirty(),
-        title: window.single().map_or(String::new(), |w| w.title.clone()),
-        dialog: match (&files.dialog, &files.native, &files.replace) {
-            (Some(d), _, _) => Some(format!("builtin {:?}", d.purpose)),
-            (_, Some(d), _) => Some(format!("native {:?}", d.purpose)),
-            (_, _, Some(p)) => Some(format!("replace {}", p.display())),
-            _ if files.overwrite_changed.is_some() => files
-                .overwrite_changed
-                .as_ref()
-                .map(|p| format!("changed on disk {}", p.display())),
-            _ => questions
-                .waiting
-                .first()
-                .map(|h| format!("large import {}", h.path.display())),
-        },
-        main_ms: clock.as_ref().map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
-        ui_ms: clock.as_ref().map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
-        quality: (
-            render.settings.denoise,
-            render.settings.resolution_scale,
-            render.settings.max_samples,
-        ),
-        view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
-        notices: notices.0.iter().map(|n| n.text.clone()).collect(),
-        samples: view_samples.0,
-        traced_panorama: view_samples.1,
-        trace: view_samples.2,
-        traced_geometry: view_samples.3,
-        preparing_kernel: tracer
-            .preparing_kernel()
-            .map(|k| if k.split { "split" } else { "whole" }.to_owned()),
-        memory: memory_report(&meshes, &scene, &tracer),
-        fps: diagnostics
-            .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)
-            .and_then(|d| d.smoothed())
-            .unwrap_or(0.0),
-        inputs: inputs.0,
-        look: *look,
-        camera_look: lens.single().ok().map(|(e, t)| (e.ev100, format!("{t:?}"))),
-        camera_pose: camera
-            .map(|(_, g)| (g.translation().to_array(), g.forward().as_vec3().to_array())),
-        recovery_offer: autosave
-            .map(|a| a.offer.iter().map(|c| c.path.clone()).collect())
-            .unwrap_or_default(),
-        environment: (
-            environment.clone(),
-            loaded.image.is_some() && traced.image.is_some() && prepared.ready_for(&traced),
-        ),
-    };
+    let camera = scene.cameras.single().ok();
+    let view_samples: ViewSamples =
+        scene
+            .camera_ids
+            .single()
+            .map_or((0, false, None, false), |c| {
+                let figures = rendered.tracer.figures();
+                let trace = figures.traces.get(&c).copied();
+                (
+                    figures.samples.get(&c).copied().unwrap_or(0),
+                    trace.is_some_and(|t| t.panorama),
+                    trace.map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
+                    trace.is_some_and(|t| t.geometry),
+                )
+            });
+    let state = editor_state(&report, &scene, &editor, &rendered, camera, view_samples);
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,
         Err(e) => {
@@ -525,5 +411,189 @@ pub fn write_state_report(
             "{}: cannot write the state report: {e}",
             report.path.display()
         );
+    }
+}
+
+/// The parent of object `e` that is a scene object too.
+fn scene_parent(scene: &SceneParams, e: Entity) -> Option<Entity> {
+    scene
+        .objects
+        .get(e)
+        .ok()
+        .and_then(|o| o.parent)
+        .map(|c| c.parent())
+        .filter(|p| scene.objects.contains(*p))
+}
+
+/// Every scene object, by id.
+fn object_reports(
+    scene: &SceneParams,
+    camera: Option<(&Camera, &GlobalTransform)>,
+) -> Vec<ObjectReport> {
+    let mut list: Vec<ObjectReport> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            let (e, gt) = (o.entity, o.global);
+            let centre = world_bounds(e, &scene.boxes, &scene.children)
+                .map_or(gt.translation(), |(a, b)| (a + b) * 0.5);
+            ObjectReport {
+                id: *o.id,
+                name: o.name.map_or(String::new(), |n| n.as_str().to_owned()),
+                parent: scene_parent(scene, e)
+                    .and_then(|p| scene.objects.get(p).ok())
+                    .map(|p| *p.id),
+                mesh: o.mesh,
+                visible: o.visibility != Some(&Visibility::Hidden),
+                local: (*o.transform).into(),
+                world_translation: gt.translation().to_array(),
+                screen: camera
+                    .and_then(|(c, cg)| c.world_to_viewport(cg, centre).ok())
+                    .map(|p| p.to_array()),
+                light: treelight_document::values::light::LightValue::of_parts(o.light),
+            }
+        })
+        .collect();
+    list.sort_by_key(|o| o.id);
+    list
+}
+
+/// The gizmo's handles on screen, where the selection shows one.
+fn gizmo_handles(
+    scene: &SceneParams,
+    editor: &EditorParams,
+    camera: Option<(&Camera, &GlobalTransform)>,
+) -> Vec<HandleReport> {
+    let Some(view) = camera else {
+        return Vec::new();
+    };
+    let (targets, active) = crate::editor::viewport::panel::drag_targets(
+        &editor.selection,
+        |e| {
+            scene
+                .objects
+                .get(e)
+                .ok()
+                .map(|o| (*o.id, o.global.affine()))
+        },
+        |e| scene_parent(scene, e),
+    );
+    let gizmo = &*editor.gizmo;
+    crate::editor::viewport::panel::gizmo_frame(&targets, active, gizmo, &view).map_or_else(
+        Vec::new,
+        |frame| {
+            frame
+                .handles(gizmo.mode, &view)
+                .into_iter()
+                .map(|(h, points)| HandleReport {
+                    handle: handle_name(h),
+                    points: points.iter().map(|p| p.to_array()).collect(),
+                })
+                .collect()
+        },
+    )
+}
+
+/// The dialog or question waiting for the user, if any.
+fn waiting_dialog(editor: &EditorParams) -> Option<String> {
+    let files = &editor.files;
+    match (&files.dialog, &files.native, &files.replace) {
+        (Some(d), _, _) => Some(format!("builtin {:?}", d.purpose)),
+        (_, Some(d), _) => Some(format!("native {:?}", d.purpose)),
+        (_, _, Some(p)) => Some(format!("replace {}", p.display())),
+        _ if files.overwrite_changed.is_some() => files
+            .overwrite_changed
+            .as_ref()
+            .map(|p| format!("changed on disk {}", p.display())),
+        _ => editor
+            .questions
+            .waiting
+            .first()
+            .map(|h| format!("large import {}", h.path.display())),
+    }
+}
+
+/// The whole report of this frame.
+fn editor_state(
+    report: &StateReport,
+    scene: &SceneParams,
+    editor: &EditorParams,
+    rendered: &RenderParams,
+    camera: Option<(&Camera, &GlobalTransform)>,
+    view_samples: ViewSamples,
+) -> EditorState {
+    let (render, tracer) = (&rendered.render, &rendered.tracer);
+    let clock = editor.clock.as_ref();
+    EditorState {
+        frame: report.frame,
+        // Settled once the tree holds the whole scene and the path tracer's copy is current
+        // (nothing to copy while the view is rasterised or the scene is too large to trace).
+        settled: scene.loading.settled()
+            && (render.traced.is_none()
+                || tracer.figures().trace_off.is_some()
+                || tracer.figures().uploaded_version >= scene.scene.version()),
+        objects: object_reports(scene, camera),
+        selection: editor
+            .selection
+            .entities()
+            .iter()
+            .filter_map(|e| scene.objects.get(*e).ok().map(|o| *o.id))
+            .collect(),
+        history: (editor.history.head(), editor.history.labels().len()),
+        gizmo: gizmo_handles(scene, editor, camera),
+        gizmo_mode: editor.gizmo.mode.label().to_owned(),
+        viewport: camera
+            .and_then(|(c, _)| c.logical_viewport_rect())
+            .map_or([0.0; 4], |r| [r.min.x, r.min.y, r.width(), r.height()]),
+        widgets: editor.widgets.0.clone(),
+        project: editor.project.path.clone(),
+        dirty: editor.history.is_dirty(),
+        title: editor
+            .window
+            .single()
+            .map_or(String::new(), |w| w.title.clone()),
+        dialog: waiting_dialog(editor),
+        main_ms: clock.map_or(0.0, |c| c.main.as_secs_f32() * 1e3),
+        ui_ms: clock.map_or(0.0, |c| c.ui.as_secs_f32() * 1e3),
+        quality: (
+            render.settings.denoise,
+            render.settings.resolution_scale,
+            render.settings.max_samples,
+        ),
+        view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
+        notices: editor.notices.0.iter().map(|n| n.text.clone()).collect(),
+        samples: view_samples.0,
+        traced_panorama: view_samples.1,
+        trace: view_samples.2,
+        traced_geometry: view_samples.3,
+        preparing_kernel: tracer
+            .preparing_kernel()
+            .map(|k| if k.split { "split" } else { "whole" }.to_owned()),
+        memory: memory_report(&scene.meshes, &scene.scene, tracer),
+        fps: editor
+            .diagnostics
+            .get(&bevy::diagnostic::FrameTimeDiagnosticsPlugin::FPS)
+            .and_then(|d| d.smoothed())
+            .unwrap_or(0.0),
+        inputs: editor.inputs.0,
+        look: *rendered.look,
+        camera_look: rendered
+            .lens
+            .single()
+            .ok()
+            .map(|(e, t)| (e.ev100, format!("{t:?}"))),
+        camera_pose: camera
+            .map(|(_, g)| (g.translation().to_array(), g.forward().as_vec3().to_array())),
+        recovery_offer: editor
+            .autosave
+            .as_ref()
+            .map(|a| a.offer.iter().map(|c| c.path.clone()).collect())
+            .unwrap_or_default(),
+        environment: (
+            rendered.environment.clone(),
+            rendered.loaded.image.is_some()
+                && rendered.traced.image.is_some()
+                && rendered.prepared.ready_for(&rendered.traced),
+        ),
     }
 }

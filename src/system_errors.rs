@@ -5,7 +5,7 @@
 use bevy::ecs::error::{BevyError, ErrorContext};
 use bevy::prelude::*;
 use std::sync::Mutex;
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 
 /// Errors reported since the UI last looked, and how many were left out.
 static REPORTED: Mutex<(Vec<String>, usize)> = Mutex::new((Vec::new(), 0));

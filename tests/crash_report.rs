@@ -10,7 +10,7 @@ const CHILD: &str = "TREELIGHT_TEST_CRASH_DIR";
 fn a_crash_leaves_its_report_and_a_contained_panic_does_not() {
     if let Ok(dir) = std::env::var(CHILD) {
         treelight::editor::files::crash_report::install_hook_in(PathBuf::from(&dir));
-        let contained = treelight_document::contain::contain(
+        let contained = treelight_document::files::contain::contain(
             || "a thumbnail".into(),
             || -> u32 { panic!("contained, not a crash") },
         );

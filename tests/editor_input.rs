@@ -6,14 +6,14 @@ mod support;
 #[path = "support/xdrive.rs"]
 mod xdrive;
 
-use treelight::report::EditorState;
+use treelight::report::{EditorState, ObjectReport};
 use xdrive::{Session, handle, keysym, object, widget, widget_at};
 
 fn pos(p: [f32; 2]) -> (f32, f32) {
     (p[0], p[1])
 }
 
-fn ids_named(state: &EditorState, name: &str) -> Vec<treelight_document::object::SceneId> {
+fn ids_named(state: &EditorState, name: &str) -> Vec<treelight_document::values::object::SceneId> {
     state
         .objects
         .iter()
@@ -45,8 +45,19 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     let tall = object(&start, "Tall box").clone();
     let short = object(&start, "Short box").clone();
     let sphere = object(&start, "Sphere").clone();
-    let before_outline = outline_pixels(&s.screenshot(), start.viewport);
+    selects_by_clicks_and_boxes(&mut s, &start, [&tall, &short, &sphere]);
+    deletes_copies_and_pastes(&mut s, &tall);
+    moves_with_the_gizmo_and_renames(&mut s, &tall);
+}
 
+/// A click selects what is under the pointer (outlined in the traced view), Ctrl+click adds,
+/// Escape clears, a box selects what it encloses, and a light's icon selects the light.
+fn selects_by_clicks_and_boxes(
+    s: &mut Session,
+    start: &EditorState,
+    [tall, short, sphere]: [&ObjectReport; 3],
+) {
+    let before_outline = outline_pixels(&s.screenshot(), start.viewport);
     // A click selects what is under the pointer, and the path-traced view shows it outlined.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
     let st = s.frames(2);
@@ -83,7 +94,7 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     );
 
     // A light has no geometry: its icon in the viewport is what a click selects.
-    let lamp = object(&start, "Lamp light").clone();
+    let lamp = object(start, "Lamp light").clone();
     let at = lamp.screen.expect("the lamp's light is in view");
     s.click(at[0], at[1]);
     assert_eq!(
@@ -91,7 +102,11 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
         vec![lamp.id],
         "click on the light's icon"
     );
+}
 
+/// Del deletes the selection, Ctrl+Z brings the same object back, Ctrl+D copies it, and Ctrl+C,
+/// Ctrl+V paste a copy, selected.
+fn deletes_copies_and_pastes(s: &mut Session, tall: &ObjectReport) {
     // Del deletes the selection; Ctrl+Z brings the same object back; Ctrl+D copies it.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
     let (head, _) = s.frames(1).history;
@@ -128,7 +143,11 @@ fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     assert_eq!(st.selection, vec![pasted], "the pasted copy is selected");
     s.key(&[keysym::CONTROL], keysym::letter('z'));
     assert_eq!(ids_named(&s.frames(2), "Tall box"), vec![tall.id]);
+}
 
+/// The gizmo moves the box along one axis as one step; Escape or a right click cancel a drag;
+/// F2 renames in the outliner, and keys in its text field edit only the text.
+fn moves_with_the_gizmo_and_renames(s: &mut Session, tall: &ObjectReport) {
     // The gizmo: a drag along the x arrow moves the tall box along x only, as one step.
     s.click(tall.screen.unwrap()[0], tall.screen.unwrap()[1]);
     let st = s.frames(2);
@@ -247,7 +266,10 @@ fn the_gizmo_moves_a_child_of_a_rotated_stretched_parent_exactly_along_the_world
         |s| s.history.0 == 4,
     );
     let child = object(&st, "Child").clone();
-    assert_eq!(child.parent, Some(treelight_document::object::SceneId(100)));
+    assert_eq!(
+        child.parent,
+        Some(treelight_document::values::object::SceneId(100))
+    );
     s.click(child.screen.unwrap()[0], child.screen.unwrap()[1]);
     let st = s.frames(2);
     assert_eq!(st.selection, vec![child.id], "click on the child");
@@ -329,7 +351,7 @@ fn click_widget(s: &mut Session, st: &EditorState, name: &str) {
     s.click(x, y);
 }
 
-fn row_centre(st: &EditorState, id: treelight_document::object::SceneId) -> (f32, f32) {
+fn row_centre(st: &EditorState, id: treelight_document::values::object::SceneId) -> (f32, f32) {
     widget(st, &format!("row {}", id.0))
 }
 
@@ -874,7 +896,10 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     let st = s.frames(2);
     click_widget(&mut s, &st, "Tone curve None (clip)");
     let st = s.frames(2);
-    assert_eq!(st.look.tone, treelight_document::look::ToneCurve::None);
+    assert_eq!(
+        st.look.tone,
+        treelight_document::values::look::ToneCurve::None
+    );
     assert_eq!(st.camera_look.as_ref().unwrap().1, "None");
     assert_eq!(st.history.0, head + 2);
 
@@ -883,7 +908,10 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     s.key(&[keysym::CONTROL], keysym::letter('z'));
     let st = s.frames(2);
     assert_eq!(st.history.0, head);
-    assert_eq!(st.look, treelight_document::look::SceneLook::default());
+    assert_eq!(
+        st.look,
+        treelight_document::values::look::SceneLook::default()
+    );
     assert_eq!(st.camera_look.as_ref().unwrap().0, default_ev100);
     let st = s.wait_until(
         "the picture converges again",
@@ -907,7 +935,10 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     );
     let lamp = object(&st, "Lamp light").clone();
     let point = lamp.light.expect("the lamp is a light");
-    assert_eq!(point.kind, treelight_document::light::LightKind::Point);
+    assert_eq!(
+        point.kind,
+        treelight_document::values::light::LightKind::Point
+    );
     let (head, _) = st.history;
     let before = viewport_brightness(&s.screenshot(), st.viewport);
 
@@ -920,7 +951,7 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     click_widget(&mut s, &st, "Light kind Spot light");
     let st = s.frames(2);
     let now = object(&st, "Lamp light").light.unwrap();
-    assert_eq!(now.kind, treelight_document::light::LightKind::Spot);
+    assert_eq!(now.kind, treelight_document::values::light::LightKind::Spot);
     assert_eq!((now.intensity, now.color), (point.intensity, point.color));
     assert_eq!(st.history.0, head + 1, "one step");
     let st = s.wait_until(

@@ -136,7 +136,7 @@ fn a_broken_file_is_reported_not_fatal() {
 
 #[test]
 fn bvh_picking_example_runs_and_hits() {
-    let text = run_example("bvh_picking", &["--frames", "40"]);
+    let text = run_example("treelight_scene", "bvh_picking", &["--frames", "40"]);
     assert!(text.contains("scripted ray hits object"), "{text}");
     // It runs its 40 frames, then waits for the scripted hit for at most 20 times as many.
     let frames: u32 = text
@@ -153,6 +153,7 @@ fn path_traced_example_draws_the_traced_scene() {
     let dir = temp_dir("path_traced_app");
     let traced = dir.join("traced.png");
     let text = run_example(
+        "treelight_render",
         "path_traced_app",
         &[
             "--still",
@@ -176,6 +177,7 @@ fn path_traced_example_draws_the_traced_scene() {
     // The triangle-id view: each of the sphere's many triangles gets its own colour.
     let ids = dir.join("ids.png");
     run_example(
+        "treelight_render",
         "path_traced_app",
         &[
             "--still",
@@ -305,7 +307,7 @@ fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
     std::fs::write(&settings, "(version: 1, layout: [[[").unwrap();
     let out = run_editor_with_config(&args, &config);
     assert!(
-        out.contains("settings.ron") && out.contains("default layout"),
+        out.contains("settings.ron") && out.contains("default settings are used"),
         "{out}"
     );
     let default_x = viewport_x();
@@ -468,10 +470,11 @@ fn info_describes_scene_files_and_projects_without_a_display() {
     // A file that is not there: the error names it and the exit status says so.
     let (ok, text) = run(&["/nonexistent/scene.glb"]);
     assert!(!ok && text.contains("/nonexistent/scene.glb"), "{text}");
-    // A project: its sources and objects, and the triangles they show (a helmet part and a copy
-    // of it, a cube; a missing source's object shows none).
+    // A project: its sources and objects, and the triangles an open of it shows (the whole helmet,
+    // as a read source spawns all its nodes, a copy of one part, a cube; a missing source's object
+    // shows none).
     let scene = treelight_import::load_scene(&helmet).unwrap();
-    let keys = treelight_document::import::spawn::mesh_object_keys(&scene);
+    let keys = treelight_document::scene::spawn::mesh_object_keys(&scene);
     let part = scene.meshes[0].triangle_count();
     let dir = temp_dir("info");
     let project = dir.join("p.treelight");
@@ -502,7 +505,7 @@ fn info_describes_scene_files_and_projects_without_a_display() {
         "{text}"
     );
     assert!(
-        text.contains(&format!("triangles: {}", 12 + 2 * part)),
+        text.contains(&format!("triangles: {}", 12 + 94722 + part)),
         "{part} a part: {text}"
     );
     std::fs::remove_dir_all(&dir).ok();

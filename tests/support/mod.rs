@@ -117,7 +117,7 @@ pub fn distinct_colours(img: &image::RgbImage, x0: u32, y0: u32, x1: u32, y1: u3
 
 /// Runs an example under Xvfb and returns its combined output. `cargo test` builds the package's examples;
 /// this builds one itself when run otherwise.
-pub fn run_example(name: &str, args: &[&str]) -> String {
+pub fn run_example(package: &str, name: &str, args: &[&str]) -> String {
     let exe = Path::new(env!("CARGO_BIN_EXE_treelight"))
         .parent()
         .unwrap()
@@ -125,7 +125,7 @@ pub fn run_example(name: &str, args: &[&str]) -> String {
         .join(name);
     if !exe.exists() {
         let status = Command::new(env!("CARGO"))
-            .args(["build", "--example", name])
+            .args(["build", "-p", package, "--example", name])
             .status()
             .expect("cargo runs");
         assert!(status.success());

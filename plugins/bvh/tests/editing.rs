@@ -244,159 +244,11 @@ fn run(ops: &[Op], config: BvhConfig) {
                 bvh.insert_triangles_parallel_search(&soup(n, seed))
                     .unwrap();
             }
-            Op::InsertGroup {
-                n,
-                seed,
-                whole,
-                angle,
-                offset,
-            } => {
-                let g = bvh
-                    .insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole)
-                    .unwrap();
-                assert_eq!(bvh.is_group_whole(g).unwrap(), whole && n > 0);
-                groups.push((g, n));
+            op => {
+                group_op(&mut bvh, op.clone(), &mut groups);
+                triangle_op(&mut bvh, op.clone(), &mut groups);
+                optimize_op(&mut bvh, op, &mut cursor);
             }
-            Op::RemoveGroup { pick } if !groups.is_empty() => {
-                let (g, _) = groups.swap_remove(pick % groups.len());
-                bvh.remove_group(g).unwrap();
-                assert!(
-                    bvh.remove_group(g).is_err(),
-                    "a stale handle must be rejected"
-                );
-            }
-            Op::Instance {
-                pick,
-                angle,
-                offset,
-            } if !groups.is_empty() => {
-                let (of, n) = groups[pick % groups.len()];
-                let before = bvh.triangle_count();
-                let g = bvh.insert_instance(of, xf(angle, offset, 1.0)).unwrap();
-                assert_eq!(
-                    bvh.triangle_count(),
-                    before,
-                    "a shared mesh adds no triangles"
-                );
-                assert_eq!(
-                    bvh.shared_triangles(g).unwrap(),
-                    bvh.shared_triangles(of).unwrap()
-                );
-                if n > 0 {
-                    assert!(bvh.is_group_shared(g).unwrap() && bvh.is_group_shared(of).unwrap());
-                    assert!(bvh.is_group_whole(of).unwrap());
-                }
-                groups.push((g, n));
-            }
-            Op::MoveGroup {
-                pick,
-                angle,
-                offset,
-                scale,
-            } if !groups.is_empty() => {
-                let (g, _) = groups[pick % groups.len()];
-                bvh.set_group_transform(g, xf(angle, offset, scale))
-                    .unwrap();
-            }
-            Op::Rebuild { pick } if !groups.is_empty() => {
-                let k = pick % groups.len();
-                let g = groups[k].0;
-                if bvh.is_group_whole(g) == Ok(false) {
-                    let world = bvh.group_world(g).unwrap();
-                    let built =
-                        treelight_bvh::Refinement::build(world, bvh.group_transform(g).unwrap())
-                            .unwrap();
-                    groups[k].0 = bvh.swap_group(g, built).unwrap();
-                }
-            }
-            Op::BakeGroup { pick } if !groups.is_empty() => {
-                let (g, _) = groups[pick % groups.len()];
-                bvh.bake_group(g).unwrap();
-                // Shared triangles stay in object space, under each group's instance.
-                assert_eq!(
-                    bvh.is_group_whole(g).unwrap(),
-                    bvh.is_group_shared(g).unwrap()
-                );
-            }
-            Op::EditGroupVertices { pick, seed } if !groups.is_empty() => {
-                let (g, _) = groups[pick % groups.len()];
-                let n = bvh.group_triangles(g).unwrap().len();
-                bvh.update_group_vertices(g, &soup(n, seed)).unwrap();
-            }
-            Op::RemoveTriangles { seed, count } => {
-                let live: Vec<u32> = (0..bvh.triangle_capacity())
-                    .filter(|&t| {
-                        bvh.is_live_triangle(t)
-                            && bvh
-                                .triangle_group(t)
-                                .is_none_or(|g| bvh.is_group_shared(g) == Ok(false))
-                    })
-                    .collect();
-                if !live.is_empty() {
-                    let mut r = Rng(seed | 1);
-                    let ids: Vec<u32> = (0..count)
-                        .map(|_| live[(r.next_u64() % live.len() as u64) as usize])
-                        .collect();
-                    bvh.remove_triangles(&ids).unwrap();
-                    for (g, n) in groups.iter_mut() {
-                        *n = bvh.group_triangles(*g).unwrap().len();
-                    }
-                }
-            }
-            Op::MoveTriangles { seed, count } => {
-                // Loose triangles and those of baked groups (world space).
-                let movable: Vec<u32> = (0..bvh.triangle_capacity())
-                    .filter(|&t| {
-                        bvh.is_live_triangle(t)
-                            && bvh
-                                .triangle_group(t)
-                                .is_none_or(|g| bvh.is_group_whole(g) == Ok(false))
-                    })
-                    .collect();
-                if !movable.is_empty() {
-                    let mut r = Rng(seed | 1);
-                    let new = soup(count, seed);
-                    let updates: Vec<_> = new
-                        .into_iter()
-                        .map(|t| (movable[(r.next_u64() % movable.len() as u64) as usize], t))
-                        .collect();
-                    // Duplicated ids: the last write wins, like any sequence of writes.
-                    bvh.set_triangles(&updates).unwrap();
-                }
-            }
-            Op::OptimizeStep { scan, fraction } => {
-                let before = bvh.sah_cost();
-                bvh.optimize_step(&mut cursor, scan, fraction);
-                let after = bvh.sah_cost();
-                assert!(
-                    after <= before * (1.0 + 1e-4),
-                    "a step kept a worsening move: {before} -> {after}"
-                );
-            }
-            Op::Optimize { short } => {
-                let before = bvh.sah_cost();
-                let pass = if short {
-                    treelight_bvh::PostPass::short()
-                } else {
-                    treelight_bvh::PostPass {
-                        max_rounds: 2,
-                        fraction: 0.3,
-                        min_relative_gain: 0.0,
-                        treelet: 5,
-                        restarts: 1,
-                        ..treelight_bvh::PostPass::default()
-                    }
-                };
-                let report = bvh.optimize(pass);
-                let after = bvh.sah_cost();
-                // Every move and restart it keeps lowers the cost; the rest are taken back.
-                assert!(
-                    after <= before * (1.0 + 1e-4),
-                    "the post-pass raised the cost: {before} -> {after}"
-                );
-                assert!((report.cost_after - after).abs() <= 1e-4 * after.max(1.0));
-            }
-            _ => {}
         }
         bvh.validate()
             .unwrap_or_else(|e| panic!("after step {step} {op:?}: {e}"));
@@ -439,6 +291,180 @@ fn run(ops: &[Op], config: BvhConfig) {
         .map(|(g, _)| bvh.group_triangles(*g).unwrap().len())
         .sum();
     assert!(total <= bvh.triangle_count() as usize);
+}
+
+/// Applies `op` if it edits groups (insert, remove, share, move, rebuild, bake, new vertices).
+fn group_op(bvh: &mut Bvh, op: Op, groups: &mut Vec<(GroupId, usize)>) {
+    match op {
+        Op::InsertGroup {
+            n,
+            seed,
+            whole,
+            angle,
+            offset,
+        } => {
+            let g = bvh
+                .insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole)
+                .unwrap();
+            assert_eq!(bvh.is_group_whole(g).unwrap(), whole && n > 0);
+            groups.push((g, n));
+        }
+        Op::RemoveGroup { pick } if !groups.is_empty() => {
+            let (g, _) = groups.swap_remove(pick % groups.len());
+            bvh.remove_group(g).unwrap();
+            assert!(
+                bvh.remove_group(g).is_err(),
+                "a stale handle must be rejected"
+            );
+        }
+        Op::Instance {
+            pick,
+            angle,
+            offset,
+        } if !groups.is_empty() => {
+            let (of, n) = groups[pick % groups.len()];
+            let before = bvh.triangle_count();
+            let g = bvh.insert_instance(of, xf(angle, offset, 1.0)).unwrap();
+            assert_eq!(
+                bvh.triangle_count(),
+                before,
+                "a shared mesh adds no triangles"
+            );
+            assert_eq!(
+                bvh.shared_triangles(g).unwrap(),
+                bvh.shared_triangles(of).unwrap()
+            );
+            if n > 0 {
+                assert!(bvh.is_group_shared(g).unwrap() && bvh.is_group_shared(of).unwrap());
+                assert!(bvh.is_group_whole(of).unwrap());
+            }
+            groups.push((g, n));
+        }
+        Op::MoveGroup {
+            pick,
+            angle,
+            offset,
+            scale,
+        } if !groups.is_empty() => {
+            let (g, _) = groups[pick % groups.len()];
+            bvh.set_group_transform(g, xf(angle, offset, scale))
+                .unwrap();
+        }
+        Op::Rebuild { pick } if !groups.is_empty() => {
+            let k = pick % groups.len();
+            let g = groups[k].0;
+            if bvh.is_group_whole(g) == Ok(false) {
+                let world = bvh.group_world(g).unwrap();
+                let built =
+                    treelight_bvh::Refinement::build(world, bvh.group_transform(g).unwrap())
+                        .unwrap();
+                groups[k].0 = bvh.swap_group(g, built).unwrap();
+            }
+        }
+        Op::BakeGroup { pick } if !groups.is_empty() => {
+            let (g, _) = groups[pick % groups.len()];
+            bvh.bake_group(g).unwrap();
+            // Shared triangles stay in object space, under each group's instance.
+            assert_eq!(
+                bvh.is_group_whole(g).unwrap(),
+                bvh.is_group_shared(g).unwrap()
+            );
+        }
+        Op::EditGroupVertices { pick, seed } if !groups.is_empty() => {
+            let (g, _) = groups[pick % groups.len()];
+            let n = bvh.group_triangles(g).unwrap().len();
+            bvh.update_group_vertices(g, &soup(n, seed)).unwrap();
+        }
+        _ => {}
+    }
+}
+
+/// Applies `op` if it edits loose triangles (remove, move).
+fn triangle_op(bvh: &mut Bvh, op: Op, groups: &mut [(GroupId, usize)]) {
+    match op {
+        Op::RemoveTriangles { seed, count } => {
+            let live: Vec<u32> = (0..bvh.triangle_capacity())
+                .filter(|&t| {
+                    bvh.is_live_triangle(t)
+                        && bvh
+                            .triangle_group(t)
+                            .is_none_or(|g| bvh.is_group_shared(g) == Ok(false))
+                })
+                .collect();
+            if !live.is_empty() {
+                let mut r = Rng(seed | 1);
+                let ids: Vec<u32> = (0..count)
+                    .map(|_| live[(r.next_u64() % live.len() as u64) as usize])
+                    .collect();
+                bvh.remove_triangles(&ids).unwrap();
+                for (g, n) in groups.iter_mut() {
+                    *n = bvh.group_triangles(*g).unwrap().len();
+                }
+            }
+        }
+        Op::MoveTriangles { seed, count } => {
+            // Loose triangles and those of baked groups (world space).
+            let movable: Vec<u32> = (0..bvh.triangle_capacity())
+                .filter(|&t| {
+                    bvh.is_live_triangle(t)
+                        && bvh
+                            .triangle_group(t)
+                            .is_none_or(|g| bvh.is_group_whole(g) == Ok(false))
+                })
+                .collect();
+            if !movable.is_empty() {
+                let mut r = Rng(seed | 1);
+                let new = soup(count, seed);
+                let updates: Vec<_> = new
+                    .into_iter()
+                    .map(|t| (movable[(r.next_u64() % movable.len() as u64) as usize], t))
+                    .collect();
+                // Duplicated ids: the last write wins, like any sequence of writes.
+                bvh.set_triangles(&updates).unwrap();
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Applies `op` if it optimises the tree (an idle step, the post-pass), checking that the cost
+/// never rises.
+fn optimize_op(bvh: &mut Bvh, op: Op, cursor: &mut treelight_bvh::OptimizeCursor) {
+    match op {
+        Op::OptimizeStep { scan, fraction } => {
+            let before = bvh.sah_cost();
+            bvh.optimize_step(cursor, scan, fraction);
+            let after = bvh.sah_cost();
+            assert!(
+                after <= before * (1.0 + 1e-4),
+                "a step kept a worsening move: {before} -> {after}"
+            );
+        }
+        Op::Optimize { short } => {
+            let before = bvh.sah_cost();
+            let pass = if short {
+                treelight_bvh::PostPass::short()
+            } else {
+                treelight_bvh::PostPass {
+                    max_rounds: 2,
+                    fraction: 0.3,
+                    min_relative_gain: 0.0,
+                    treelet: 5,
+                    restarts: 1,
+                    ..treelight_bvh::PostPass::default()
+                }
+            };
+            let report = bvh.optimize(pass);
+            let after = bvh.sah_cost();
+            // Every move and restart it keeps lowers the cost; the rest are taken back.
+            assert!(
+                after <= before * (1.0 + 1e-4),
+                "the post-pass raised the cost: {before} -> {after}"
+            );
+            assert!((report.cost_after - after).abs() <= 1e-4 * after.max(1.0));
+        }
+        _ => {}
+    }
 }
 
 proptest! {

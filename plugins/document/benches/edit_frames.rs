@@ -17,9 +17,9 @@ use std::time::{Duration, Instant};
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::EditRequests;
-use treelight_document::object::SceneId;
-use treelight_document::object::SceneIndex;
-use treelight_document::object::SceneObject;
+use treelight_document::values::object::SceneId;
+use treelight_document::values::object::SceneIndex;
+use treelight_document::values::object::SceneObject;
 use treelight_scene::{SceneBvh, SceneBvhConfig, SceneBvhSystems};
 
 mod support {

@@ -18,7 +18,7 @@ use bevy::prelude::*;
 use std::time::{Duration, Instant};
 use treelight_document::edit::history::{EditRequest, EditRequests};
 use treelight_document::import::parse::PendingImports;
-use treelight_document::object::SceneObject;
+use treelight_document::values::object::SceneObject;
 use treelight_scene::{SceneBvh, SceneBvhConfig};
 
 #[path = "../tests/support/assembly.rs"]
@@ -142,7 +142,7 @@ fn main() {
     let name = format!("part {p}");
     let (part, id) = {
         let world = app.world_mut();
-        let mut q = world.query::<(Entity, &Name, &treelight_document::object::SceneId)>();
+        let mut q = world.query::<(Entity, &Name, &treelight_document::values::object::SceneId)>();
         let (e, _, id) = q.iter(world).find(|(_, n, _)| n.as_str() == name).unwrap();
         (e, *id)
     };

@@ -14,9 +14,9 @@ use bevy::prelude::*;
 use std::time::Instant;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, apply_request};
-use treelight_document::object::{SceneId, SceneIndex};
 use treelight_document::project::capture::save_project;
 use treelight_document::project::restore::open_project;
+use treelight_document::values::object::{SceneId, SceneIndex};
 use treelight_scene::SceneBvhConfig;
 
 #[path = "../tests/support/assembly.rs"]
@@ -51,7 +51,7 @@ fn main() {
     let t = Instant::now();
     let scene = treelight_import::load_scene(&file).unwrap();
     let parse = t.elapsed();
-    treelight_document::import::spawn::spawn_scene_in_world(
+    treelight_document::scene::spawn::spawn_scene_in_world(
         app.world_mut(),
         &file,
         &scene,

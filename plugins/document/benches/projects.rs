@@ -22,10 +22,10 @@ use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::EditRequests;
 use treelight_document::import::jobs::TracingImports;
 use treelight_document::import::parse::PendingImports;
-use treelight_document::object::SceneId;
 use treelight_document::project::capture::capture_project;
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::write_project;
+use treelight_document::values::object::SceneId;
 use treelight_scene::SceneBvhConfig;
 
 #[path = "../tests/support/assembly.rs"]

@@ -2,10 +2,9 @@
 //! --save OUT.treelight` runs on it where there is no display, and tests and benchmarks build on
 //! it. Also the task pools and the schedule executor the editor shares with it.
 
-use crate::DocumentPlugin;
-use crate::notice::Notices;
 use crate::project::requests::SaveWhenSettled;
 use crate::project::script::ScriptedEdits;
+use crate::scene::notice::Notices;
 use bevy::asset::AssetPlugin;
 use bevy::camera::visibility::VisibilityPlugin;
 use bevy::mesh::MeshPlugin;
@@ -23,7 +22,7 @@ pub struct SceneLoading<'w> {
     tracing: Res<'w, crate::import::jobs::TracingImports>,
     opening: Res<'w, crate::project::open::OpeningProjects>,
     scene: Res<'w, treelight_scene::SceneBvh>,
-    environment: Res<'w, crate::environment::LoadedEnvironment>,
+    environment: Res<'w, crate::scene::environment::LoadedEnvironment>,
 }
 
 impl SceneLoading<'_> {
@@ -44,8 +43,7 @@ impl SceneLoading<'_> {
     }
 }
 
-/// Nice steps below the frame at which background work runs.
-pub(crate) const BACKGROUND_NICE: i32 = 10;
+use crate::files::job::BACKGROUND_NICE;
 
 /// Bevy's task pools as the editor wants them: the async compute pool (parsing imports, making
 /// thumbnails) runs below the frame's priority, as the scene worker does, so that on a machine with
@@ -99,7 +97,7 @@ pub fn save_app(scene: Option<&Path>, save: Option<PathBuf>, script: Option<Scri
     let mut app = headless_app(SceneBvhConfig::default());
     app.add_plugins(bevy::log::LogPlugin::default());
     match scene {
-        Some(path) => crate::import::open_at_start(app.world_mut(), path),
+        Some(path) => crate::app::open_at_start(app.world_mut(), path),
         None => {
             app.add_systems(Startup, crate::default_scene::open_default_scene);
         }
@@ -119,5 +117,66 @@ pub fn save_app(scene: Option<&Path>, save: Option<PathBuf>, script: Option<Scri
 pub fn fail_on_errors(notices: Res<Notices>, mut exit: MessageWriter<AppExit>) {
     if notices.has_errors() {
         exit.write(AppExit::error());
+    }
+}
+
+/// Opens the file named at start: a project is opened in place of the scene, any other scene file
+/// imported into it.
+pub fn open_at_start(world: &mut World, path: &Path) {
+    // The recovery copies to offer are those of the scene named, known now, not once it opened.
+    if let Some(mut auto) = world.get_resource_mut::<crate::project::autosave::Autosave>() {
+        auto.look_for_start(Some(path));
+    }
+    if crate::files::file_kind::is_project_file(path) {
+        world
+            .resource_mut::<crate::project::requests::ProjectRequests>()
+            .0
+            .push(crate::project::requests::ProjectRequest::Open(
+                path.to_owned(),
+            ));
+    } else {
+        world
+            .resource_mut::<crate::import::parse::PendingImports>()
+            .start(path.to_owned());
+    }
+}
+
+/// The document: ids, the history and its requests, imports, project requests and background
+/// opening, notices and the messages for the shell. `Update` applies project requests, finishes
+/// opening projects, runs a waiting script and applies edit requests, in that order; then
+/// `--save`'s save, once the scene has settled.
+pub struct DocumentPlugin;
+
+impl Plugin for DocumentPlugin {
+    fn build(&self, app: &mut App) {
+        use crate::edit::history::apply_edit_requests;
+        use crate::project::{open, requests, script};
+        app.add_plugins((crate::edit::EditPlugin, crate::import::ImportPlugin))
+            .add_message::<crate::scene::outbox::DocumentEvent>()
+            .init_resource::<crate::scene::outbox::DocumentView>()
+            .init_resource::<crate::values::look::SceneLook>()
+            .init_resource::<crate::values::map_transforms::MaterialMapTransforms>()
+            .init_resource::<crate::scene::environment::SceneEnvironment>()
+            .init_resource::<crate::scene::environment::LoadedEnvironment>()
+            .init_resource::<crate::scene::notice::Notices>()
+            .init_resource::<crate::project::format::ProjectState>()
+            .init_resource::<requests::ProjectRequests>()
+            .init_resource::<open::OpeningProjects>()
+            .add_systems(
+                Update,
+                (
+                    (
+                        requests::apply_project_requests,
+                        open::finish_opening,
+                        script::run_scripted_edits.run_if(resource_exists::<script::ScriptedEdits>),
+                        apply_edit_requests,
+                    )
+                        .chain(),
+                    requests::save_when_settled.after(apply_edit_requests),
+                    crate::scene::environment::load_environment.after(apply_edit_requests),
+                    crate::scene::notice::expire_notices,
+                    crate::values::map_transforms::forget_removed,
+                ),
+            );
     }
 }

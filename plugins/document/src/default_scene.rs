@@ -1,9 +1,9 @@
 //! The built-in default scene: a Cornell-box-like room with a few primitives and lights, built in code
 //! so it works from any working directory.
 
-use crate::object::SceneObject;
-use crate::primitive::Primitive;
-use crate::primitive::PrimitiveShape;
+use crate::values::object::SceneObject;
+use crate::values::primitive::Primitive;
+use crate::values::primitive::PrimitiveShape;
 use bevy::prelude::*;
 
 /// The default scene as a project, embedded so the editor opens it from any working directory.

@@ -6,10 +6,10 @@ use bevy::prelude::*;
 use std::path::Path;
 use treelight_document::default_scene::DEFAULT_PROJECT;
 use treelight_document::default_scene::spawn_default_scene;
-use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::project::capture::capture_project;
 use treelight_document::project::format::read_project_str;
 use treelight_document::project::format::write_project;
+use treelight_document::scene::outbox::{CameraValue, DocumentView};
 
 #[test]
 fn the_embedded_default_scene_is_what_the_code_makes() {

@@ -19,13 +19,13 @@ use treelight_document::edit::command::TransformValue;
 use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
-use treelight_document::import::convert::to_bevy_mesh;
-use treelight_document::light::LightValue;
-use treelight_document::object::SceneId;
-use treelight_document::object::SceneIndex;
-use treelight_document::object::SceneObject;
-use treelight_document::outbox::DocumentEvent;
-use treelight_document::primitive::Primitive;
+use treelight_document::scene::convert::to_bevy_mesh;
+use treelight_document::scene::outbox::DocumentEvent;
+use treelight_document::values::light::LightValue;
+use treelight_document::values::object::SceneId;
+use treelight_document::values::object::SceneIndex;
+use treelight_document::values::object::SceneObject;
+use treelight_document::values::primitive::Primitive;
 use treelight_scene::{SceneBvh, cast_on, mesh_triangles};
 
 #[path = "support/assembly.rs"]
@@ -392,48 +392,8 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
                 transforms: vec![moved(a)?, moved(b)?],
             })
         }
-        Op::Drag(i, d, commit) => {
-            let id = pick(i)?;
-            let e = world.resource::<SceneIndex>().entity(id)?;
-            let t = *world.get::<Transform>(e)?;
-            // Three previews, then the commit or the cancel.
-            for k in 1..=3 {
-                let mut moved = t;
-                moved.translation += Vec3::from_array(d) * k as f32 / 3.0;
-                apply_request(
-                    world,
-                    EditRequest::Preview(EditCommand::SetTransform {
-                        id,
-                        transform: moved.into(),
-                    }),
-                )
-                .expect("a preview applies");
-            }
-            if commit {
-                let mut moved = t;
-                moved.translation += Vec3::from_array(d);
-                apply(EditCommand::SetTransform {
-                    id,
-                    transform: moved.into(),
-                })
-            } else {
-                Some(EditRequest::CancelPreview)
-            }
-        }
-        Op::Material(i, r) => {
-            let id = pick(i)?;
-            let e = world.resource::<SceneIndex>().entity(id)?;
-            let handle = world.get::<MeshMaterial3d<StandardMaterial>>(e)?.0.clone();
-            let mut value =
-                MaterialValue::of(world.resource::<Assets<StandardMaterial>>().get(&handle)?);
-            value.perceptual_roughness = r;
-            value.base_color[0] = 1.0 - r;
-            value.emissive = [r, 0.0, 0.0];
-            apply(EditCommand::SetMaterial {
-                id,
-                material: value,
-            })
-        }
+        Op::Drag(i, d, commit) => drag(world, pick(i)?, d, commit),
+        Op::Material(i, r) => apply(material_edit(world, pick(i)?, r)?),
         Op::MakeUnique(i) => {
             let id = pick(i)?;
             let e = world.resource::<SceneIndex>().entity(id)?;
@@ -473,6 +433,50 @@ fn request(world: &mut World, op: &Op, step: usize) -> Option<EditRequest> {
         Op::Undo => Some(EditRequest::Undo),
         Op::Redo => Some(EditRequest::Redo),
     }
+}
+
+/// A drag of `id` by `d`: three previews applied now, then the commit (or the cancel) returned.
+fn drag(world: &mut World, id: SceneId, d: [f32; 3], commit: bool) -> Option<EditRequest> {
+    let e = world.resource::<SceneIndex>().entity(id)?;
+    let t = *world.get::<Transform>(e)?;
+    for k in 1..=3 {
+        let mut moved = t;
+        moved.translation += Vec3::from_array(d) * k as f32 / 3.0;
+        apply_request(
+            world,
+            EditRequest::Preview(EditCommand::SetTransform {
+                id,
+                transform: moved.into(),
+            }),
+        )
+        .expect("a preview applies");
+    }
+    if !commit {
+        return Some(EditRequest::CancelPreview);
+    }
+    let mut moved = t;
+    moved.translation += Vec3::from_array(d);
+    Some(EditRequest::Apply {
+        command: EditCommand::SetTransform {
+            id,
+            transform: moved.into(),
+        },
+        continuing: false,
+    })
+}
+
+/// `id`'s material with roughness `r` and colour and emission following it.
+fn material_edit(world: &World, id: SceneId, r: f32) -> Option<EditCommand> {
+    let e = world.resource::<SceneIndex>().entity(id)?;
+    let handle = world.get::<MeshMaterial3d<StandardMaterial>>(e)?.0.clone();
+    let mut value = MaterialValue::of(world.resource::<Assets<StandardMaterial>>().get(&handle)?);
+    value.perceptual_roughness = r;
+    value.base_color[0] = 1.0 - r;
+    value.emissive = [r, 0.0, 0.0];
+    Some(EditCommand::SetMaterial {
+        id,
+        material: value,
+    })
 }
 
 fn head(app: &App) -> usize {
@@ -678,7 +682,7 @@ fn a_drag_is_one_step() {
 
 #[test]
 fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
-    use treelight_document::import::spawn::SourceKey;
+    use treelight_document::scene::spawn::SourceKey;
     let mut app = editing_app();
     // A light already there: the import adds none of its own.
     app.world_mut()
@@ -989,7 +993,7 @@ fn a_big_assembly_streams_in_front_to_back() {
 
 #[test]
 fn placement_lands_on_a_surface_else_the_ground_else_a_plane_facing_the_camera() {
-    use treelight_document::placement::surface_under;
+    use treelight_document::scene::placement::surface_under;
     let mut app = editing_app();
     let cube = app
         .world_mut()

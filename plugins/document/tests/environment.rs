@@ -10,11 +10,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, apply_request};
-use treelight_document::environment::{LoadedEnvironment, SceneEnvironment};
-use treelight_document::notice::Notices;
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::read_project;
 use treelight_document::project::restore::open_project;
+use treelight_document::scene::environment::{LoadedEnvironment, SceneEnvironment};
+use treelight_document::scene::notice::Notices;
 use world::{editor_world, fresh_dir};
 
 fn temp(name: &str) -> PathBuf {

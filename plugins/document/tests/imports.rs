@@ -6,7 +6,7 @@ use bevy::prelude::*;
 use std::path::Path;
 use treelight_document::import::jobs::TracingImports;
 use treelight_document::import::parse::PendingImports;
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 
 #[test]
 fn imports_opened_in_one_frame_are_all_made_and_traced() {
@@ -41,7 +41,7 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
     }
     let roots: Vec<String> = app
         .world_mut()
-        .query::<(&Name, &treelight_document::object::SceneId)>()
+        .query::<(&Name, &treelight_document::values::object::SceneId)>()
         .iter(app.world())
         .filter(|(n, _)| n.as_str() == "BoxTextured.gltf")
         .map(|(_, id)| id.to_string())
@@ -52,7 +52,7 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
     // own: the tree holds the box once and the path tracer's array one layer.
     let world = app.world_mut();
     let mut q = world.query::<(
-        &treelight_document::import::spawn::MeshSource,
+        &treelight_document::scene::spawn::MeshSource,
         &Mesh3d,
         &MeshMaterial3d<StandardMaterial>,
     )>();
@@ -310,7 +310,7 @@ fn maps_with_their_own_texture_transforms_keep_them() {
     use bevy::math::{Affine2, Vec2};
     use treelight_document::edit::command::EditCommand;
     use treelight_document::edit::history::{EditRequest, apply_request};
-    use treelight_document::map_transforms::MaterialMapTransforms;
+    use treelight_document::values::map_transforms::MaterialMapTransforms;
     let (dir, scene, mut app) = spawned_box_textured("map-transforms", |text| {
         text.replacen("{", "{\"extensionsUsed\": [\"KHR_texture_transform\"],", 1)
             .replace(
@@ -330,7 +330,7 @@ fn maps_with_their_own_texture_transforms_keep_them() {
     let world = app.world_mut();
     let (id, material) = world
         .query::<(
-            &treelight_document::object::SceneId,
+            &treelight_document::values::object::SceneId,
             &MeshMaterial3d<StandardMaterial>,
         )>()
         .iter(world)
@@ -353,7 +353,7 @@ fn maps_with_their_own_texture_transforms_keep_them() {
     let world = app.world_mut();
     let copy = world
         .query::<(
-            &treelight_document::object::SceneId,
+            &treelight_document::values::object::SceneId,
             &MeshMaterial3d<StandardMaterial>,
         )>()
         .iter(world)
@@ -387,7 +387,7 @@ fn spawned_box_textured(
     std::fs::write(&file, edited).unwrap();
     let scene = treelight_import::load_scene(&file).unwrap();
     let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
-    treelight_document::import::spawn::spawn_scene_in_world(
+    treelight_document::scene::spawn::spawn_scene_in_world(
         app.world_mut(),
         &file,
         &scene,

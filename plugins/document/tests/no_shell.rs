@@ -60,7 +60,7 @@ fn the_headless_app_runs_without_a_window_or_renderer() {
     assert!(app.get_sub_app(bevy::render::RenderApp).is_none());
     let world = app.world_mut();
     let objects = world
-        .query_filtered::<(), With<treelight_document::object::SceneObject>>()
+        .query_filtered::<(), With<treelight_document::values::object::SceneObject>>()
         .iter(world)
         .count();
     assert!(objects > 0, "the default scene opened");

@@ -19,16 +19,16 @@ use treelight_document::edit::command::{MaterialAlpha, MaterialValue};
 use treelight_document::edit::history::EditHistory;
 use treelight_document::edit::history::EditRequest;
 use treelight_document::edit::history::apply_request;
-use treelight_document::light::LightValue;
-use treelight_document::look::{SceneLook, ToneCurve};
-use treelight_document::object::SceneId;
-use treelight_document::primitive::Primitive;
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::PROJECT_VERSION;
 use treelight_document::project::format::ProjectError;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::format::read_project;
 use treelight_document::project::restore::open_project;
+use treelight_document::values::light::LightValue;
+use treelight_document::values::look::{SceneLook, ToneCurve};
+use treelight_document::values::object::SceneId;
+use treelight_document::values::primitive::Primitive;
 use world::{editor_world, fresh_dir};
 
 fn helmet() -> PathBuf {
@@ -484,7 +484,7 @@ fn objects_must_form_a_forest_and_ids_stay_in_range() {
     for _ in 0..3 {
         let fresh = app
             .world_mut()
-            .resource_mut::<treelight_document::object::SceneIndex>()
+            .resource_mut::<treelight_document::values::object::SceneIndex>()
             .allocate();
         assert!(fresh.is_valid(), "{fresh}");
         assert!(
@@ -506,7 +506,7 @@ fn objects_must_form_a_forest_and_ids_stay_in_range() {
     for _ in 0..kept.objects.len() + 3 {
         let fresh = app
             .world_mut()
-            .resource_mut::<treelight_document::object::SceneIndex>()
+            .resource_mut::<treelight_document::values::object::SceneIndex>()
             .allocate();
         assert!(fresh.is_valid(), "{fresh}");
         assert!(
@@ -753,7 +753,7 @@ fn a_failed_autosave_is_shown_and_retried_and_a_save_leaves_no_copy() {
     run_until(world, "the failure", &|w| {
         w.resource::<Autosave>().failing.is_some()
     });
-    let notices = world.resource::<treelight_document::notice::Notices>();
+    let notices = world.resource::<treelight_document::scene::notice::Notices>();
     assert!(
         notices
             .0
@@ -893,7 +893,7 @@ fn a_version_1_project_opens_and_saves_again_compact() {
         &Transform,
         Option<&ChildOf>,
         Option<&Visibility>,
-        &treelight_document::import::spawn::SourceKey,
+        &treelight_document::scene::spawn::SourceKey,
     )>();
     let rows: Vec<_> = q
         .iter(app.world())
@@ -910,7 +910,7 @@ fn a_version_1_project_opens_and_saves_again_compact() {
         .collect();
     let index = app
         .world()
-        .resource::<treelight_document::object::SceneIndex>();
+        .resource::<treelight_document::values::object::SceneIndex>();
     let id_of = |e: Entity| {
         rows.iter()
             .find(|r| index.entity(r.0) == Some(e))
@@ -1021,7 +1021,7 @@ fn a_re_exported_source_keeps_what_it_can_and_reports_the_rest_by_name() {
     assert_eq!(now["part 1"], ids["part 1"]);
     let e = fresh
         .world()
-        .resource::<treelight_document::object::SceneIndex>()
+        .resource::<treelight_document::values::object::SceneIndex>()
         .entity(now["part 1"])
         .unwrap();
     assert_eq!(
@@ -1151,7 +1151,7 @@ fn a_file_s_lights_come_in_as_editor_lights_and_their_edits_are_saved() {
     let ids = ids_by_name(&mut app);
     let spot_entity = app
         .world()
-        .resource::<treelight_document::object::SceneIndex>()
+        .resource::<treelight_document::values::object::SceneIndex>()
         .entity(ids["Spot"])
         .unwrap();
     let forward = app
@@ -1228,7 +1228,7 @@ type ImportAssets = (Vec<AssetId<Mesh>>, Vec<AssetId<StandardMaterial>>);
 
 /// The mesh and material asset ids of the objects of each import of a file, by import number.
 fn assets_by_import(world: &mut World) -> BTreeMap<u32, ImportAssets> {
-    use treelight_document::import::spawn::MeshSource;
+    use treelight_document::scene::spawn::MeshSource;
     let mut out: BTreeMap<u32, (Vec<_>, Vec<_>)> = BTreeMap::new();
     let mut q = world.query::<(&MeshSource, &Mesh3d, &MeshMaterial3d<StandardMaterial>)>();
     for (source, mesh, material) in q.iter(world) {
@@ -1316,21 +1316,9 @@ fn a_file_imported_twice_shares_its_meshes_and_saves_as_two_compact_sources() {
 
     // Edits to each import stay with that import: a part of the second moved and one renamed, a
     // part of the first deleted. A third import, deleted, is not written.
-    let parts = |app: &mut App, import: u32| -> Vec<SceneId> {
-        use treelight_document::import::spawn::SourceKey;
-        let world = app.world_mut();
-        let mut q = world.query::<(&SceneId, &SourceKey)>();
-        let mut v: Vec<(u32, SceneId)> = q
-            .iter(world)
-            .filter(|(_, k)| k.import == import && k.index > 0)
-            .map(|(i, k)| (k.index, *i))
-            .collect();
-        v.sort();
-        v.into_iter().map(|(_, i)| i).collect()
-    };
     let numbers = imports_numbers(&mut app);
-    let first = parts(&mut app, numbers[0]);
-    let second = parts(&mut app, numbers[1]);
+    let first = parts_of_import(&mut app, numbers[0]);
+    let second = parts_of_import(&mut app, numbers[1]);
     apply(
         &mut app,
         EditCommand::SetTransform {
@@ -1395,6 +1383,20 @@ fn a_file_imported_twice_shares_its_meshes_and_saves_as_two_compact_sources() {
     back.update();
     assert_eq!(state(back.world_mut()), edited);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The ids of import `import`'s objects below its root, in key order.
+fn parts_of_import(app: &mut App, import: u32) -> Vec<SceneId> {
+    use treelight_document::scene::spawn::SourceKey;
+    let world = app.world_mut();
+    let mut q = world.query::<(&SceneId, &SourceKey)>();
+    let mut v: Vec<(u32, SceneId)> = q
+        .iter(world)
+        .filter(|(_, k)| k.import == import && k.index > 0)
+        .map(|(i, k)| (k.index, *i))
+        .collect();
+    v.sort();
+    v.into_iter().map(|(_, i)| i).collect()
 }
 
 /// The import numbers of the imports in the scene, in order.

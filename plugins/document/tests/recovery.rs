@@ -10,7 +10,6 @@ use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 use treelight_document::edit::history::EditHistory;
-use treelight_document::notice::Notices;
 use treelight_document::project::autosave::{Autosave, autosave, find_recovery};
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::ProjectState;
@@ -18,6 +17,7 @@ use treelight_document::project::recovery::{
     HEADER, recovery_beside, recovery_beside_for, unsaved_recovery_in,
 };
 use treelight_document::project::requests::{ProjectRequest, ProjectRequests};
+use treelight_document::scene::notice::Notices;
 use world::{editor_world, fresh_dir};
 
 /// An editor world with autosave keeping its locks and unsaved copies in `cache`, copies every
@@ -87,7 +87,7 @@ fn a_projects_copy_is_offered_from_the_first_frame_and_no_other_scenes_copy() {
         Duration::ZERO,
     );
     let mut app = app_with_autosave(&cache);
-    treelight_document::import::open_at_start(app.world_mut(), &house);
+    treelight_document::app::open_at_start(app.world_mut(), &house);
     app.update();
     // Decided at once from the name, however long the open takes.
     assert_eq!(offered(&app), vec![recovery_beside(&house)]);
@@ -112,7 +112,7 @@ fn an_unsaved_scenes_copy_accepted_over_a_project_is_saved_nowhere_but_where_ask
     let unsaved = unsaved_recovery_in(&cache, 4_000_611);
     copy_of(&house, &unsaved, 4_000_611, Duration::from_secs(60));
     let mut app = app_with_autosave(&cache);
-    treelight_document::import::open_at_start(app.world_mut(), &house);
+    treelight_document::app::open_at_start(app.world_mut(), &house);
     run_until(&mut app, "the open", |a| {
         a.world().resource::<ProjectState>().path.is_some()
     });
@@ -160,7 +160,7 @@ fn autosave_never_writes_over_a_copy_offered_another_editors_or_through_a_link()
     copy_of(&house, &usual, 4_000_621, Duration::from_secs(60));
     let offered_text = std::fs::read(&usual).unwrap();
     let mut app = app_with_autosave(&cache);
-    treelight_document::import::open_at_start(app.world_mut(), &house);
+    treelight_document::app::open_at_start(app.world_mut(), &house);
     run_until(&mut app, "the open", |a| {
         a.world().resource::<ProjectState>().path.is_some()
     });
@@ -185,7 +185,7 @@ fn autosave_never_writes_over_a_copy_offered_another_editors_or_through_a_link()
     #[cfg(unix)]
     std::os::unix::fs::symlink(&victim, &usual).unwrap();
     let mut app = app_with_autosave(&cache);
-    treelight_document::import::open_at_start(app.world_mut(), &house);
+    treelight_document::app::open_at_start(app.world_mut(), &house);
     run_until(&mut app, "the open", |a| {
         a.world().resource::<ProjectState>().path.is_some()
     });
@@ -222,7 +222,7 @@ fn a_second_editor_on_a_project_is_told_and_sees_a_save_made_elsewhere() {
     )
     .unwrap();
     let mut app = app_with_autosave(&cache);
-    treelight_document::import::open_at_start(app.world_mut(), &house);
+    treelight_document::app::open_at_start(app.world_mut(), &house);
     run_until(&mut app, "the notice", |a| {
         a.world()
             .resource::<Notices>()

@@ -12,12 +12,12 @@ use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use treelight_document::edit::command::{EditCommand, EditError};
 use treelight_document::edit::history::{EditRequest, apply_request};
-use treelight_document::hierarchy::MAX_HIERARCHY_DEPTH;
-use treelight_document::object::{SceneId, SceneIndex, SceneObject};
-use treelight_document::outbox::{CameraValue, DocumentView};
 use treelight_document::project::capture::save_project;
 use treelight_document::project::format::read_project;
 use treelight_document::project::restore::open_project;
+use treelight_document::scene::hierarchy::MAX_HIERARCHY_DEPTH;
+use treelight_document::scene::outbox::{CameraValue, DocumentView};
+use treelight_document::values::object::{SceneId, SceneIndex, SceneObject};
 use world::{editor_world, fresh_dir, settle_tree};
 
 fn helmet() -> PathBuf {
@@ -164,7 +164,7 @@ fn framing_any_extent_gives_a_view_a_reopen_accepts() {
         let mut app = editor_world();
         app.world_mut().resource_mut::<DocumentView>().0 = None;
         // Through the document's own opening, which frames it.
-        treelight_document::import::open_at_start(app.world_mut(), &obj);
+        treelight_document::app::open_at_start(app.world_mut(), &obj);
         let start = std::time::Instant::now();
         while app.world().resource::<DocumentView>().0.is_none() {
             assert!(start.elapsed().as_secs() < 30, "never framed");
@@ -260,7 +260,7 @@ fn hierarchies_deeper_than_the_editor_holds_are_refused_naming_the_object() {
     apply(
         &mut app,
         EditCommand::AddPrimitive {
-            shape: treelight_document::primitive::Primitive::Cube,
+            shape: treelight_document::values::primitive::Primitive::Cube,
             transform: Transform::default().into(),
             id: None,
         },

@@ -5,8 +5,8 @@
 use bevy::prelude::*;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::command::TransformValue;
-use treelight_document::primitive::Primitive;
 use treelight_document::project::script::ScriptedEdits;
+use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
 
 #[test]
@@ -89,7 +89,7 @@ fn a_worker_that_crashed_mid_write_publishes_no_tree_and_the_scene_still_saves_a
     // The document does not need the tree: the scene saves and opens again as it was.
     let objects = |world: &mut World| {
         let mut ids: Vec<u64> = world
-            .query::<&treelight_document::object::SceneId>()
+            .query::<&treelight_document::values::object::SceneId>()
             .iter(world)
             .map(|i| i.0)
             .collect();

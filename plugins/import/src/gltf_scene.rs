@@ -59,26 +59,24 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         materials.push(reader.read(&m)?);
     }
     scene.materials = materials;
-    let default_material = scene.materials.len();
-    let mut used_default = false;
-    // What a primitive's geometry is read from -> the first entry of `scene.meshes` read from it:
-    // a mesh placed by several nodes, or primitives over the same accessors, are read once and
-    // share the geometry (so a small file cannot make the importer decode one accessor many times).
-    let mut read: HashMap<GeometrySource, usize> = HashMap::new();
-    let mut first_error: Option<ImportError> = None;
+    let mut meshes = MeshReading {
+        path,
+        document: &document,
+        buffers: &buffers,
+        read: HashMap::new(),
+        first_error: None,
+        default_material: scene.materials.len(),
+        used_default: false,
+    };
     let root_scene = document
         .default_scene()
         .or_else(|| document.scenes().next());
     let Some(root_scene) = root_scene else {
         return Err(ImportError::new(path, "the file has no scene"));
     };
-    // Each node is visited once: a node reached again (listed under two parents, twice as a
-    // root, or on a cycle) would make the walk grow without end, so it is refused.
+    // Each node is visited once ([`check_node`]); keys stay unique among siblings.
     let mut seen = vec![false; document.nodes().len()];
-    // Keys stay unique where siblings share a name: the second "bolt" under a parent is
-    // "bolt[1]", the third "bolt[2]" (skipping a sibling already named so).
-    let mut taken: HashSet<(Option<usize>, String)> = HashSet::new();
-    let mut next_suffix: HashMap<(Option<usize>, String), u32> = HashMap::new();
+    let mut names = SiblingNames::default();
     // (node, parent's world transform, depth, parent's index in scene.nodes). Popped depth first,
     // so a node is always listed after its parent.
     let mut stack: Vec<(gltf::Node, Mat4, usize, Option<usize>)> = root_scene
@@ -86,58 +84,10 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         .map(|n| (n, Mat4::IDENTITY, 0, None))
         .collect();
     while let Some((node, parent, depth, parent_index)) = stack.pop() {
-        // Named only in messages: made when one is written, not for each of a million nodes.
-        let label = || node_label(&node);
-        if std::mem::replace(&mut seen[node.index()], true) {
-            return Err(ImportError::new(
-                path,
-                format!(
-                    "{} is reached twice (it has two parents, is a root twice, or lies on a \
-                     cycle); a glTF node hierarchy must be a forest",
-                    label()
-                ),
-            ));
-        }
-        if depth > MAX_DEPTH {
-            return Err(ImportError::new(
-                path,
-                format!(
-                    "the node hierarchy is deeper than {MAX_DEPTH} levels at {}",
-                    label()
-                ),
-            ));
-        }
-        if scene.nodes.len() >= MAX_NODES {
-            return Err(ImportError::new(
-                path,
-                format!("the file places more than {MAX_NODES} nodes"),
-            ));
-        }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
-        if !world.is_finite() {
-            return Err(ImportError::new(
-                path,
-                format!("{} has a non-finite transform", label()),
-            ));
-        }
-        // A name in a key is cut to its first 255 bytes: each key repeats its parents' steps, so
-        // one long name over many children would be copied into every child's key.
-        let mut step = node.name().map_or_else(
-            || format!("#{}", node.index()),
-            |n| key_step(n).replace('/', "_"),
-        );
-        if taken.contains(&(parent_index, step.clone())) {
-            let next = next_suffix.entry((parent_index, step.clone())).or_insert(1);
-            let base = std::mem::take(&mut step);
-            loop {
-                step = format!("{base}[{next}]");
-                *next += 1;
-                if !taken.contains(&(parent_index, step.clone())) {
-                    break;
-                }
-            }
-        }
+        check_node(path, &node, &mut seen, depth, scene.nodes.len(), &world)?;
+        let step = unique_step(&node, parent_index, &mut names);
         let parent_key = parent_index.map_or(0, |p| scene.nodes[p].key.len() + 1);
         let name_len = node.name().map_or(16, str::len);
         // Charged before anything is made: the key, the name, and the step kept to tell
@@ -145,9 +95,9 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
         budget.charge(
             (std::mem::size_of::<ImportedNode>() + parent_key + 3 * step.len() + name_len + 96)
                 as u64,
-            label,
+            || node_label(&node),
         )?;
-        taken.insert((parent_index, step.clone()));
+        names.taken.insert((parent_index, step.clone()));
         let key = match parent_index {
             Some(p) => format!("{}/{step}", scene.nodes[p].key),
             None => step,
@@ -170,80 +120,199 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
             light,
             camera,
         });
-        if let Some(mesh) = node.mesh() {
-            let base = node
-                .name()
-                .or(mesh.name())
-                .map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
-            for prim in mesh.primitives() {
-                let name = if mesh.primitives().len() > 1 {
-                    format!("{base} #{}", prim.index())
-                } else {
-                    base.clone()
-                };
-                if prim.mode() != Mode::Triangles {
-                    scene.warnings.push(format!(
-                        "'{name}': {:?} primitives are not triangles, skipped",
-                        prim.mode()
-                    ));
-                    continue;
-                }
-                budget.charge(
-                    (std::mem::size_of::<ImportedMesh>() + name.len()) as u64,
-                    || format!("mesh '{name}'"),
-                )?;
-                let key = GeometrySource::of(&mesh, &prim);
-                let first = read.get(&key).copied();
-                let geometry = match first {
-                    Some(i) => Some(scene.meshes[i].geometry.clone()),
-                    None => match read_primitive(path, &document, &prim, &name, &buffers, budget) {
-                        Ok(g) => g.map(Arc::new),
-                        Err(e) if budget.refused() => return Err(e),
-                        Err(e) => {
-                            // One bad mesh does not sink the file: the rest import, this one is
-                            // named (and the whole file fails only when no mesh is left).
-                            scene.warnings.push(format!("skipped: {}", e.problem));
-                            first_error.get_or_insert(e);
-                            continue;
-                        }
-                    },
-                };
-                let Some(geometry) = geometry else {
-                    scene
-                        .warnings
-                        .push(format!("'{name}' has no positions, skipped"));
-                    continue;
-                };
-                if first.is_none() {
-                    read.insert(key, scene.meshes.len());
-                }
-                scene.meshes.push(ImportedMesh {
-                    name,
-                    transform: world,
-                    node: Some(index),
-                    geometry,
-                    material: Some(prim.material().index().unwrap_or_else(|| {
-                        used_default = true;
-                        default_material
-                    })),
-                    same_as: first,
-                });
-            }
-        }
+        meshes.read_node(&node, index, world, &mut scene, budget)?;
         for child in node.children() {
             stack.push((child, world, depth + 1, Some(index)));
         }
     }
-    if let Some(e) = first_error
+    if let Some(e) = meshes.first_error
         && scene.meshes.is_empty()
     {
         return Err(e);
     }
-    if used_default {
+    if meshes.used_default {
         scene.materials.push(ImportedMaterial::default());
     }
     crate::uv_sets::first_set_for_tracing(&mut scene);
     Ok(scene)
+}
+
+/// Refuses a node reached twice (a node listed under two parents, twice as a root, or on a cycle
+/// would make the walk grow without end), too deep, past the most nodes, or with a non-finite
+/// world transform.
+fn check_node(
+    path: &Path,
+    node: &gltf::Node,
+    seen: &mut [bool],
+    depth: usize,
+    nodes: usize,
+    world: &Mat4,
+) -> Result<(), ImportError> {
+    // Named only in messages: made when one is written, not for each of a million nodes.
+    let label = || node_label(node);
+    if std::mem::replace(&mut seen[node.index()], true) {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "{} is reached twice (it has two parents, is a root twice, or lies on a \
+                 cycle); a glTF node hierarchy must be a forest",
+                label()
+            ),
+        ));
+    }
+    if depth > MAX_DEPTH {
+        return Err(ImportError::new(
+            path,
+            format!(
+                "the node hierarchy is deeper than {MAX_DEPTH} levels at {}",
+                label()
+            ),
+        ));
+    }
+    if nodes >= MAX_NODES {
+        return Err(ImportError::new(
+            path,
+            format!("the file places more than {MAX_NODES} nodes"),
+        ));
+    }
+    if !world.is_finite() {
+        return Err(ImportError::new(
+            path,
+            format!("{} has a non-finite transform", label()),
+        ));
+    }
+    Ok(())
+}
+
+/// A node's step in its key: its name cut to its first 255 bytes (each key repeats its parents'
+/// steps, so one long name over many children would be copied into every child's key), made
+/// unique among its siblings: the second "bolt" under a parent is "bolt[1]", the third
+/// "bolt[2]" (skipping a sibling already named so).
+fn unique_step(node: &gltf::Node, parent_index: Option<usize>, names: &mut SiblingNames) -> String {
+    let mut step = node.name().map_or_else(
+        || format!("#{}", node.index()),
+        |n| key_step(n).replace('/', "_"),
+    );
+    if names.taken.contains(&(parent_index, step.clone())) {
+        let next = names
+            .next_suffix
+            .entry((parent_index, step.clone()))
+            .or_insert(1);
+        let base = std::mem::take(&mut step);
+        loop {
+            step = format!("{base}[{next}]");
+            *next += 1;
+            if !names.taken.contains(&(parent_index, step.clone())) {
+                break;
+            }
+        }
+    }
+    step
+}
+
+/// The steps taken under each parent, and the next suffix to try for each repeated name.
+#[derive(Default)]
+struct SiblingNames {
+    taken: HashSet<(Option<usize>, String)>,
+    next_suffix: HashMap<(Option<usize>, String), u32>,
+}
+
+/// What reading the meshes of every node shares.
+struct MeshReading<'a> {
+    path: &'a Path,
+    document: &'a gltf::Document,
+    buffers: &'a [Vec<u8>],
+    /// What a primitive's geometry is read from -> the first entry of `scene.meshes` read from
+    /// it: a mesh placed by several nodes, or primitives over the same accessors, are read once
+    /// and share the geometry (so a small file cannot make the importer decode one accessor many
+    /// times).
+    read: HashMap<GeometrySource, usize>,
+    first_error: Option<ImportError>,
+    default_material: usize,
+    used_default: bool,
+}
+
+impl MeshReading<'_> {
+    /// The triangle primitives of `node`'s mesh as meshes of `scene`, placed by `world`. One bad
+    /// mesh does not sink the file: the rest import, this one is named (and the whole file fails
+    /// only when no mesh is left).
+    fn read_node(
+        &mut self,
+        node: &gltf::Node,
+        index: usize,
+        world: Mat4,
+        scene: &mut ImportedScene,
+        budget: &mut Budget,
+    ) -> Result<(), ImportError> {
+        let Some(mesh) = node.mesh() else {
+            return Ok(());
+        };
+        let base = node
+            .name()
+            .or(mesh.name())
+            .map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
+        for prim in mesh.primitives() {
+            let name = if mesh.primitives().len() > 1 {
+                format!("{base} #{}", prim.index())
+            } else {
+                base.clone()
+            };
+            if prim.mode() != Mode::Triangles {
+                scene.warnings.push(format!(
+                    "'{name}': {:?} primitives are not triangles, skipped",
+                    prim.mode()
+                ));
+                continue;
+            }
+            budget.charge(
+                (std::mem::size_of::<ImportedMesh>() + name.len()) as u64,
+                || format!("mesh '{name}'"),
+            )?;
+            let key = GeometrySource::of(&mesh, &prim);
+            let first = self.read.get(&key).copied();
+            let geometry = match first {
+                Some(i) => Some(scene.meshes[i].geometry.clone()),
+                None => match read_primitive(
+                    self.path,
+                    self.document,
+                    &prim,
+                    &name,
+                    self.buffers,
+                    budget,
+                ) {
+                    Ok(g) => g.map(Arc::new),
+                    Err(e) if budget.refused() => return Err(e),
+                    Err(e) => {
+                        scene.warnings.push(format!("skipped: {}", e.problem));
+                        self.first_error.get_or_insert(e);
+                        continue;
+                    }
+                },
+            };
+            let Some(geometry) = geometry else {
+                scene
+                    .warnings
+                    .push(format!("'{name}' has no positions, skipped"));
+                continue;
+            };
+            if first.is_none() {
+                self.read.insert(key, scene.meshes.len());
+            }
+            let material = prim.material().index().unwrap_or_else(|| {
+                self.used_default = true;
+                self.default_material
+            });
+            scene.meshes.push(ImportedMesh {
+                name,
+                transform: world,
+                node: Some(index),
+                geometry,
+                material: Some(material),
+                same_as: first,
+            });
+        }
+        Ok(())
+    }
 }
 
 /// Where a primitive's geometry comes from: its Draco stream (named by mesh and primitive), or its

@@ -227,9 +227,26 @@ impl MaterialReader<'_, '_> {
                 ),
             },
         };
+        self.extensions(m, &name, &mut out);
+        let mut transforms = out.maps().into_iter().flatten().map(|r| r.uv_transform);
+        if let Some(first) = transforms.next()
+            && transforms.any(|t| t != first)
+        {
+            self.warnings.push(format!(
+                "material '{name}': its maps have different KHR_texture_transforms; the raster \
+                 view draws all with the first map's (the path-traced view each with its own)"
+            ));
+        }
+        Ok(out)
+    }
+
+    /// The extensions' values: transmission, index of refraction, specular and clear coat (their
+    /// textures are not read, and said so).
+    fn extensions(&mut self, m: &gltf::Material, name: &str, out: &mut ImportedMaterial) {
+        let d = ImportedMaterial::default();
         if let Some(t) = m.transmission() {
             out.transmission = self.factor(
-                &name,
+                name,
                 "transmission factor",
                 t.transmission_factor(),
                 0.0,
@@ -237,30 +254,29 @@ impl MaterialReader<'_, '_> {
                 0.0,
             );
             if t.transmission_texture().is_some() {
-                self.unread(&name, "transmission texture");
+                self.unread(name, "transmission texture");
             }
         }
         if let Some(ior) = m.ior() {
             // glTF allows 0 as a special case (a perfectly reflective dielectric): read as the
             // nearest ordinary value.
-            out.ior = self.factor(&name, "index of refraction", ior, 1.0, 5.0, d.ior);
+            out.ior = self.factor(name, "index of refraction", ior, 1.0, 5.0, d.ior);
         }
         if let Some(s) = m.specular() {
-            out.specular =
-                self.factor(&name, "specular factor", s.specular_factor(), 0.0, 1.0, 1.0);
+            out.specular = self.factor(name, "specular factor", s.specular_factor(), 0.0, 1.0, 1.0);
             for (i, v) in s.specular_color_factor().into_iter().enumerate() {
                 // The colour factor may exceed 1 (KHR_materials_specular); the product is capped
                 // when it meets the Fresnel term.
-                out.specular_color[i] = self.factor(&name, "specular colour", v, 0.0, 100.0, 1.0);
+                out.specular_color[i] = self.factor(name, "specular colour", v, 0.0, 100.0, 1.0);
             }
             if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
-                self.unread(&name, "specular texture");
+                self.unread(name, "specular texture");
             }
         }
         if let Some(c) = m.extension_value("KHR_materials_clearcoat") {
             let number = |key: &str| c.get(key).and_then(Value::as_f64).map(|v| v as f32);
             out.clearcoat = self.factor(
-                &name,
+                name,
                 "clearcoat factor",
                 number("clearcoatFactor").unwrap_or(0.0),
                 0.0,
@@ -268,7 +284,7 @@ impl MaterialReader<'_, '_> {
                 0.0,
             );
             out.clearcoat_roughness = self.factor(
-                &name,
+                name,
                 "clearcoat roughness",
                 number("clearcoatRoughnessFactor").unwrap_or(0.0),
                 0.0,
@@ -283,18 +299,8 @@ impl MaterialReader<'_, '_> {
             .iter()
             .any(|k| c.get(*k).is_some())
             {
-                self.unread(&name, "clearcoat texture");
+                self.unread(name, "clearcoat texture");
             }
         }
-        let mut transforms = out.maps().into_iter().flatten().map(|r| r.uv_transform);
-        if let Some(first) = transforms.next()
-            && transforms.any(|t| t != first)
-        {
-            self.warnings.push(format!(
-                "material '{name}': its maps have different KHR_texture_transforms; the raster \
-                 view draws all with the first map's (the path-traced view each with its own)"
-            ));
-        }
-        Ok(out)
     }
 }

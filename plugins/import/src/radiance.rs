@@ -77,7 +77,7 @@ pub(crate) fn read_header(r: &mut impl BufRead, path: &Path) -> Result<(u32, u32
 }
 
 /// For each of `n` source positions, the kept position once `n` is halved `times` times as
-/// [`crate::environment`]'s halving does it (an odd last one folds into its neighbour).
+/// the environment reader's halving does it (an odd last one folds into its neighbour).
 fn fold_map(n: u32, times: u32) -> (Vec<u32>, u32) {
     let mut map: Vec<u32> = (0..n).collect();
     let mut size = n;

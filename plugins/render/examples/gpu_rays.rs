@@ -142,56 +142,71 @@ fn main() {
                 }
             }
         }
-        let pixels = (resolution * resolution) as f64;
-        for run in &runs {
-            let [primary, shadow, diffuse, occlusion] = run.times.each_ref().map(|v| median(v));
-            // Each secondary kernel traces its primary rays again: subtract them to rate its own.
-            let secondary = run.hits as f64 * ao_rays as f64;
-            let rate = |t: f64| secondary / (t - primary).max(1e-9) / 1e6;
-            println!(
-                "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
-                scene.name,
-                scene.triangles.len(),
-                run.tree,
-                run.cost,
-                run.layout,
-                pixels / primary / 1e6,
-                rate(shadow),
-                rate(diffuse),
-                rate(occlusion),
-                ao_rays
-            );
-        }
+        print_rates(&scene, &runs, resolution, ao_rays);
     }
-    if let Some(mut bvh) = largest {
-        // A 10k-triangle mesh joins the scene: what the incremental upload writes.
-        bvh.take_changes();
-        let full: u64 = tree_bytes(&bvh).iter().map(|b| b.len() as u64).sum();
-        let b = bvh.bounds();
-        let mesh: Vec<Triangle> = treelight_bench::scenes::hairball(10_000, 7)
-            .into_iter()
-            .map(|t| {
-                let s = (b.max - b.min).length() * 0.05;
-                let [a, bb, c] = t.v.map(|v| b.center() + v * s);
-                Triangle::new(a, bb, c)
-            })
-            .collect();
-        bvh.insert_group(&mesh, Affine3A::IDENTITY, false)
-            .expect("the mesh is valid");
-        let changes = bvh.take_changes();
-        let plan = UploadPlan::new(&bvh, &changes, [u64::MAX; 3]);
+    if let Some(bvh) = largest {
+        print_incremental_upload(bvh);
+    }
+}
+
+/// What the incremental upload writes when a 10k-triangle mesh joins the scene of `bvh`.
+fn print_incremental_upload(mut bvh: Bvh) {
+    // A 10k-triangle mesh joins the scene: what the incremental upload writes.
+    bvh.take_changes();
+    let full: u64 = tree_bytes(&bvh).iter().map(|b| b.len() as u64).sum();
+    let b = bvh.bounds();
+    let mesh: Vec<Triangle> = treelight_bench::scenes::hairball(10_000, 7)
+        .into_iter()
+        .map(|t| {
+            let s = (b.max - b.min).length() * 0.05;
+            let [a, bb, c] = t.v.map(|v| b.center() + v * s);
+            Triangle::new(a, bb, c)
+        })
+        .collect();
+    bvh.insert_group(&mesh, Affine3A::IDENTITY, false)
+        .expect("the mesh is valid");
+    let changes = bvh.take_changes();
+    let plan = UploadPlan::new(&bvh, &changes, [u64::MAX; 3]);
+    println!(
+        "\nAdding a 10000-triangle mesh to a {}-triangle scene uploads {} bytes \
+         ({:.2}% of the scene's {} bytes): {} node records, {} triangles.",
+        bvh.triangle_count() - 10_000,
+        plan.upload_bytes(),
+        plan.upload_bytes() as f64 / full as f64 * 100.0,
+        full,
+        bvh.gpu_wide_ranges(&changes)
+            .iter()
+            .map(|r| r.len())
+            .sum::<usize>(),
+        changes.written_triangles.len()
+    );
+}
+
+/// The table's rows of one scene: each run's rays per second by kernel.
+fn print_rates(
+    scene: &treelight_bench::scenes::Scene,
+    runs: &[LayoutRun],
+    resolution: u32,
+    ao_rays: u32,
+) {
+    let pixels = (resolution * resolution) as f64;
+    for run in runs {
+        let [primary, shadow, diffuse, occlusion] = run.times.each_ref().map(|v| median(v));
+        // Each secondary kernel traces its primary rays again: subtract them to rate its own.
+        let secondary = run.hits as f64 * ao_rays as f64;
+        let rate = |t: f64| secondary / (t - primary).max(1e-9) / 1e6;
         println!(
-            "\nAdding a 10000-triangle mesh to a {}-triangle scene uploads {} bytes \
-             ({:.2}% of the scene's {} bytes): {} node records, {} triangles.",
-            bvh.triangle_count() - 10_000,
-            plan.upload_bytes(),
-            plan.upload_bytes() as f64 / full as f64 * 100.0,
-            full,
-            bvh.gpu_wide_ranges(&changes)
-                .iter()
-                .map(|r| r.len())
-                .sum::<usize>(),
-            changes.written_triangles.len()
+            "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
+            scene.name,
+            scene.triangles.len(),
+            run.tree,
+            run.cost,
+            run.layout,
+            pixels / primary / 1e6,
+            rate(shadow),
+            rate(diffuse),
+            rate(occlusion),
+            ao_rays
         );
     }
 }

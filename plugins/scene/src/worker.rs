@@ -311,90 +311,18 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             }
         }
         // The expensive part, in parallel and without the lock: world transforms and bBVH builds.
-        let prepared: Vec<Option<PreparedGroup>> = commands
-            .par_iter()
-            .map(|c| match c {
-                Command::Upsert(NewMesh {
-                    name,
-                    triangles,
-                    transform,
-                    entity,
-                    ..
-                }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
-                    Ok(p) => Some(p),
-                    Err(e) => {
-                        warn!("entity {entity} ('{name}') is not traced: {e}");
-                        None
-                    }
-                },
-                _ => None,
-            })
-            .collect();
+        let prepared = prepare_groups(&commands);
         {
             let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
             let tree = &mut *guard;
+            let mut edit = Edit {
+                last_move: &mut last_move,
+                refiner: &mut refiner,
+                inserted_tris: &mut inserted_tris,
+                latest_sent: &mut latest_sent,
+            };
             for (c, p) in commands.into_iter().zip(prepared) {
-                match c {
-                    // Made into an upsert on arrival; a crash never gets this far.
-                    Command::Copied { .. } | Command::Crash => {}
-                    Command::Remove { entity } => {
-                        tree.remove_entity(entity);
-                        last_move.remove(&entity);
-                    }
-                    Command::Upsert(NewMesh {
-                        entity,
-                        mesh,
-                        sent,
-                        shading,
-                        ..
-                    }) => {
-                        // A mesh that failed to build keeps its previous version, if any.
-                        if let Some(p) = p {
-                            inserted_tris += p.len();
-                            tree.remove_entity(entity);
-                            match tree.bvh.insert_prepared(p) {
-                                Ok(g) => {
-                                    tree.bind(entity, g, shading, mesh);
-                                    tree.supersede(entity, mesh);
-                                    refiner.offer(g);
-                                }
-                                Err(e) => warn!("entity {entity} is not traced: {e}"),
-                            }
-                            last_move.remove(&entity);
-                        }
-                        latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
-                    }
-                    Command::Instance {
-                        entity,
-                        mesh,
-                        name,
-                        transform,
-                        sent,
-                    } => {
-                        last_move.remove(&entity);
-                        match tree.share(entity, mesh, transform) {
-                            Ok(()) => {}
-                            Err(treelight_bvh::BvhError::UnknownGroup) => warn!(
-                                "entity {entity} ('{name}') is not traced: no traced entity holds its mesh"
-                            ),
-                            Err(e) => warn!("entity {entity} ('{name}') is not traced: {e}"),
-                        }
-                        latest_sent = Some(latest_sent.map_or(sent, |l: Instant| l.max(sent)));
-                    }
-                    Command::Move { entity, transform } => {
-                        if let Some(groups) = tree.entity_groups.get(&entity) {
-                            // The chunks of one mesh move as one edit.
-                            tree.bvh.batch(|bvh| {
-                                for &g in groups {
-                                    if let Err(e) = bvh.set_group_transform(g, transform) {
-                                        warn!("entity {entity} cannot move in the tree: {e}");
-                                    }
-                                }
-                            });
-                            last_move.insert(entity, Instant::now());
-                        }
-                    }
-                }
+                edit.apply(tree, c, p);
             }
             idle.after_edit(&config.idle_updates, &tree.bvh);
         }
@@ -412,6 +340,110 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 s.last_latency = latency;
             }
         });
+    }
+}
+
+/// Each upsert's group built, in parallel and without the lock (world transforms and bBVH
+/// builds); `None` for other commands and for a mesh that cannot be traced (said why).
+fn prepare_groups(commands: &[Command]) -> Vec<Option<PreparedGroup>> {
+    commands
+        .par_iter()
+        .map(|c| match c {
+            Command::Upsert(NewMesh {
+                name,
+                triangles,
+                transform,
+                entity,
+                ..
+            }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    warn!("entity {entity} ('{name}') is not traced: {e}");
+                    None
+                }
+            },
+            _ => None,
+        })
+        .collect()
+}
+
+/// What applying a batch's commands to the tree updates beside it.
+struct Edit<'a> {
+    last_move: &'a mut HashMap<Entity, Instant>,
+    refiner: &'a mut Refiner,
+    inserted_tris: &'a mut usize,
+    /// When the latest command of the batch that brought geometry was sent.
+    latest_sent: &'a mut Option<Instant>,
+}
+
+impl Edit<'_> {
+    fn sent(&mut self, sent: Instant) {
+        *self.latest_sent = Some(self.latest_sent.map_or(sent, |l: Instant| l.max(sent)));
+    }
+
+    /// Applies one command to `tree`, under the write lock; `prepared` is an upsert's group.
+    fn apply(&mut self, tree: &mut SceneTree, c: Command, prepared: Option<PreparedGroup>) {
+        match c {
+            // Made into an upsert on arrival; a crash never gets this far.
+            Command::Copied { .. } | Command::Crash => {}
+            Command::Remove { entity } => {
+                tree.remove_entity(entity);
+                self.last_move.remove(&entity);
+            }
+            Command::Upsert(NewMesh {
+                entity,
+                mesh,
+                sent,
+                shading,
+                ..
+            }) => {
+                // A mesh that failed to build keeps its previous version, if any.
+                if let Some(p) = prepared {
+                    *self.inserted_tris += p.len();
+                    tree.remove_entity(entity);
+                    match tree.bvh.insert_prepared(p) {
+                        Ok(g) => {
+                            tree.bind(entity, g, shading, mesh);
+                            tree.supersede(entity, mesh);
+                            self.refiner.offer(g);
+                        }
+                        Err(e) => warn!("entity {entity} is not traced: {e}"),
+                    }
+                    self.last_move.remove(&entity);
+                }
+                self.sent(sent);
+            }
+            Command::Instance {
+                entity,
+                mesh,
+                name,
+                transform,
+                sent,
+            } => {
+                self.last_move.remove(&entity);
+                match tree.share(entity, mesh, transform) {
+                    Ok(()) => {}
+                    Err(treelight_bvh::BvhError::UnknownGroup) => warn!(
+                        "entity {entity} ('{name}') is not traced: no traced entity holds its mesh"
+                    ),
+                    Err(e) => warn!("entity {entity} ('{name}') is not traced: {e}"),
+                }
+                self.sent(sent);
+            }
+            Command::Move { entity, transform } => {
+                if let Some(groups) = tree.entity_groups.get(&entity) {
+                    // The chunks of one mesh move as one edit.
+                    tree.bvh.batch(|bvh| {
+                        for &g in groups {
+                            if let Err(e) = bvh.set_group_transform(g, transform) {
+                                warn!("entity {entity} cannot move in the tree: {e}");
+                            }
+                        }
+                    });
+                    self.last_move.insert(entity, Instant::now());
+                }
+            }
+        }
     }
 }
 

@@ -15,7 +15,7 @@ use std::time::SystemTime;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
 use treelight_document::import::parse::{ContentHashes, ParsedScene};
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 
 /// Side of a thumbnail, pixels.
 pub const THUMBNAIL: u32 = 72;
@@ -217,7 +217,7 @@ impl AssetLibrary {
                     let p = file.clone();
                     // A file that crashes the reader is marked failed, not fatal.
                     let task = AsyncComputeTaskPool::get().spawn(async move {
-                        treelight_document::contain::contain(
+                        treelight_document::files::contain::contain(
                             || format!("reading {}", p.display()),
                             || render_thumbnail(&p),
                         )
@@ -285,7 +285,7 @@ fn relist(folder: &mut LibraryFolder) {
 /// not at half the free memory (dragged in, it is read again under the import's own budget).
 const THUMBNAIL_BUDGET: u64 = 1 << 30;
 
-/// Opens `path` (within [`THUMBNAIL_BUDGET`]), builds a tree over its triangles and ray-casts a
+/// Opens `path` (within `THUMBNAIL_BUDGET`), builds a tree over its triangles and ray-casts a
 /// shaded picture of it from above one corner (a key light and a sky term; the background
 /// transparent).
 pub fn render_thumbnail(path: &Path) -> Result<ThumbnailImage, String> {

@@ -17,9 +17,9 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use treelight_document::edit::history::{EditHistory, EditRequests};
 use treelight_document::import::parse::PendingImports;
-use treelight_document::primitive::Primitive;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::requests::ProjectRequests;
+use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
 
 /// What a palette drag of a shape carries.

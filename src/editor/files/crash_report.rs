@@ -1,6 +1,6 @@
 //! When the editor itself dies of a panic, its message and backtrace are kept in the cache folder
 //! (`crash-PID.txt`) and shown at the next start, beside the recovery offer. Panics that a job
-//! contains ([`treelight_document::contain`], the scene's background threads) are not crashes and leave no
+//! contains ([`treelight_document::files::contain`], the scene's background threads) are not crashes and leave no
 //! report.
 
 use treelight_document::project::autosave::cache_dir;
@@ -16,7 +16,7 @@ fn report_path(dir: &Path, pid: u32) -> PathBuf {
 
 /// Whether a panic on the current thread is one a job contains (so not a crash of the editor).
 fn contained_here() -> bool {
-    if treelight_document::contain::is_containing() {
+    if treelight_document::files::contain::is_containing() {
         return true;
     }
     // The scene's worker, refinement and pool threads, and the autosave writer, catch their own
@@ -49,7 +49,7 @@ pub fn install_hook_in(dir: PathBuf) {
             );
             let _ = std::fs::create_dir_all(&dir);
             // Never through a link planted under the report's name.
-            let _ = treelight_document::own_file::write_own(
+            let _ = treelight_document::files::own_file::write_own(
                 &report_path(&dir, std::process::id()),
                 text.as_bytes(),
             );
@@ -88,7 +88,7 @@ fn find_reports(mut reports: ResMut<CrashReports>) {
         .into_iter()
         .filter_map(|p| {
             // A report is small; a pipe, a device or a huge file there is not read.
-            let text = treelight_document::own_file::read_own_text(&p, 256 << 10).ok()?;
+            let text = treelight_document::files::own_file::read_own_text(&p, 256 << 10).ok()?;
             Some((p, text))
         })
         .collect();

@@ -15,11 +15,11 @@ use bevy::window::{PrimaryWindow, WindowCloseRequested};
 use bevy_egui::{EguiContexts, egui};
 use std::path::PathBuf;
 use treelight_document::edit::history::EditHistory;
-use treelight_document::outbox::DocumentEvent;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::requests::{
     ProjectRequest, ProjectRequests, apply_project_requests,
 };
+use treelight_document::scene::outbox::DocumentEvent;
 
 /// What waits on the user's answer about unsaved changes.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -232,15 +232,13 @@ impl FileUi {
         }
     }
 
-    /// Draws the dialog and the questions, if open, and turns answers into requests. Returns the
-    /// questions' buttons by name, with where they were laid out (for the state report).
-    pub fn show(
+    /// The question before dropping unsaved changes: save them, discard them or cancel.
+    fn ask_unsaved(
         &mut self,
         ctx: &egui::Context,
         state: &ProjectState,
         requests: &mut ProjectRequests,
-    ) -> Vec<(String, egui::Rect)> {
-        let mut buttons = Vec::new();
+    ) {
         if let Some(after) = self.confirm.clone() {
             let name = state
                 .path
@@ -282,6 +280,53 @@ impl FileUi {
                 None => {}
             }
         }
+    }
+
+    /// The window that lists the open project's missing sources, each with a way to choose where
+    /// it is now.
+    fn relink_window(&mut self, ctx: &egui::Context, state: &ProjectState) {
+        if self.relink {
+            let missing = treelight_document::project::restore::missing_sources(state);
+            let mut open = true;
+            egui::Window::new("Relink missing sources")
+                .open(&mut open)
+                .collapsible(false)
+                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+                .show(ctx, |ui| {
+                    if missing.is_empty() {
+                        ui.label("Every source of the project is there.");
+                    }
+                    for p in &missing {
+                        ui.horizontal(|ui| {
+                            ui.monospace(p.display().to_string());
+                            if ui.button("Choose…").clicked() {
+                                self.relink_from = Some(p.clone());
+                                let dir = p
+                                    .parent()
+                                    .filter(|d| d.is_dir())
+                                    .map(|d| d.to_owned())
+                                    .unwrap_or_else(|| Self::start_dir(state));
+                                self.open_dialog(DialogPurpose::Relink, dir, String::new());
+                            }
+                        });
+                    }
+                });
+            if !open {
+                self.relink = false;
+            }
+        }
+    }
+
+    /// Draws the dialog and the questions, if open, and turns answers into requests. Returns the
+    /// questions' buttons by name, with where they were laid out (for the state report).
+    pub fn show(
+        &mut self,
+        ctx: &egui::Context,
+        state: &ProjectState,
+        requests: &mut ProjectRequests,
+    ) -> Vec<(String, egui::Rect)> {
+        let mut buttons = Vec::new();
+        self.ask_unsaved(ctx, state, requests);
         if let Some(path) = self.replace.clone() {
             let name = path
                 .file_name()
@@ -337,36 +382,7 @@ impl FileUi {
                 None => {}
             }
         }
-        if self.relink {
-            let missing = treelight_document::project::restore::missing_sources(state);
-            let mut open = true;
-            egui::Window::new("Relink missing sources")
-                .open(&mut open)
-                .collapsible(false)
-                .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
-                .show(ctx, |ui| {
-                    if missing.is_empty() {
-                        ui.label("Every source of the project is there.");
-                    }
-                    for p in &missing {
-                        ui.horizontal(|ui| {
-                            ui.monospace(p.display().to_string());
-                            if ui.button("Choose…").clicked() {
-                                self.relink_from = Some(p.clone());
-                                let dir = p
-                                    .parent()
-                                    .filter(|d| d.is_dir())
-                                    .map(|d| d.to_owned())
-                                    .unwrap_or_else(|| Self::start_dir(state));
-                                self.open_dialog(DialogPurpose::Relink, dir, String::new());
-                            }
-                        });
-                    }
-                });
-            if !open {
-                self.relink = false;
-            }
-        }
+        self.relink_window(ctx, state);
         if let Some(dialog) = self.dialog.as_mut()
             && let Some(choice) = dialog.show(ctx)
         {

@@ -91,7 +91,10 @@ impl NativeDialog {
                 .catch_unwind()
                 .await
                 .map_err(|p| {
-                    treelight_document::contain::crashed("the desktop file dialog".into(), &*p)
+                    treelight_document::files::contain::crashed(
+                        "the desktop file dialog".into(),
+                        &*p,
+                    )
                 })
         });
         Self { purpose, task }

@@ -15,8 +15,8 @@ use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy_egui::{EguiContexts, EguiTextureHandle, egui};
 use std::path::PathBuf;
-use treelight_document::notice::Notices;
 use treelight_document::project::format::ProjectState;
+use treelight_document::scene::notice::Notices;
 use treelight_render::{DebugView, OutlineStyle, PathTraced, PathTracerStats};
 
 /// The render window and the render in progress.
@@ -192,39 +192,7 @@ pub fn render_image_window(
         .show(&ctx, |ui| {
             let busy = s.job.is_some();
             ui.add_enabled_ui(!busy, |ui| {
-                egui::Grid::new("render-settings")
-                    .num_columns(2)
-                    .show(ui, |ui| {
-                        ui.label("Size");
-                        ui.horizontal(|ui| {
-                            let w = ui.add(
-                                egui::DragValue::new(&mut s.width)
-                                    .range(1..=16384)
-                                    .suffix(" px"),
-                            );
-                            widgets.push("Render width", w.rect);
-                            ui.label("×");
-                            ui.add(
-                                egui::DragValue::new(&mut s.height)
-                                    .range(1..=16384)
-                                    .suffix(" px"),
-                            );
-                        });
-                        ui.end_row();
-                        ui.label("Samples");
-                        let spp = ui
-                            .add(egui::DragValue::new(&mut s.spp).range(1..=65536))
-                            .on_hover_text(
-                                "Samples per pixel: more take longer and show less noise",
-                            );
-                        widgets.push("Render samples", spp.rect);
-                        ui.end_row();
-                        ui.label("File");
-                        let file =
-                            ui.add(egui::TextEdit::singleline(&mut s.path).desired_width(320.0));
-                        widgets.push("Render file", file.rect);
-                        ui.end_row();
-                    });
+                settings_grid(ui, s, &mut widgets);
             });
             ui.horizontal(|ui| {
                 if let Some(job) = &s.job {
@@ -279,6 +247,40 @@ pub fn render_image_window(
         s.open = false;
     }
     Ok(())
+}
+
+/// The render's size, samples and file.
+fn settings_grid(ui: &mut egui::Ui, s: &mut RenderImageUi, widgets: &mut WidgetRects) {
+    egui::Grid::new("render-settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("Size");
+            ui.horizontal(|ui| {
+                let w = ui.add(
+                    egui::DragValue::new(&mut s.width)
+                        .range(1..=16384)
+                        .suffix(" px"),
+                );
+                widgets.push("Render width", w.rect);
+                ui.label("×");
+                ui.add(
+                    egui::DragValue::new(&mut s.height)
+                        .range(1..=16384)
+                        .suffix(" px"),
+                );
+            });
+            ui.end_row();
+            ui.label("Samples");
+            let spp = ui
+                .add(egui::DragValue::new(&mut s.spp).range(1..=65536))
+                .on_hover_text("Samples per pixel: more take longer and show less noise");
+            widgets.push("Render samples", spp.rect);
+            ui.end_row();
+            ui.label("File");
+            let file = ui.add(egui::TextEdit::singleline(&mut s.path).desired_width(320.0));
+            widgets.push("Render file", file.rect);
+            ui.end_row();
+        });
 }
 
 fn is_link(path: &std::path::Path) -> bool {

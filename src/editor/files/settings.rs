@@ -1,5 +1,5 @@
 //! The editor's settings between runs: the panel layout and the gizmo's snapping steps, in
-//! `settings.ron` in the user's config directory ([`treelight_document::folders::config_dir`]). A missing file gives the defaults; a
+//! `settings.ron` in the user's config directory ([`treelight_document::files::folders::config_dir`]). A missing file gives the defaults; a
 //! broken one gives them too, with a notice naming the file and the problem. Saved when changed,
 //! through a temporary file and a rename.
 
@@ -13,7 +13,7 @@ use bevy::prelude::*;
 use egui_dock::DockState;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 
 /// The version this editor writes and reads.
 const VERSION: u32 = 1;
@@ -41,7 +41,7 @@ pub struct EditorSettings {
 
 /// Where the settings file is, if a config directory can be found.
 pub fn settings_path() -> Option<PathBuf> {
-    treelight_document::folders::config_dir().map(|d| d.join("settings.ron"))
+    treelight_document::files::folders::config_dir().map(|d| d.join("settings.ron"))
 }
 
 /// The most a settings file may take: a layout, a few steps and lists of paths.
@@ -55,11 +55,12 @@ const MAX_ASSET_FOLDERS: usize = 64;
 /// huge file is refused at once). The layout is made again through egui_dock's own operations
 /// ([`rebuild_layout`]), so no file can break the dock.
 pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
-    let text = match treelight_document::own_file::read_text_bounded(path, MAX_SETTINGS_BYTES) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(e.to_string()),
-    };
+    let text =
+        match treelight_document::files::own_file::read_text_bounded(path, MAX_SETTINGS_BYTES) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e.to_string()),
+        };
     let mut settings: EditorSettings = ron::from_str(&text).map_err(|e| e.to_string())?;
     if settings.version != VERSION {
         return Err(format!(
@@ -84,7 +85,7 @@ pub fn read_settings(path: &Path) -> Result<Option<EditorSettings>, String> {
     Ok(Some(settings))
 }
 
-/// Writes `settings` to `path` atomically ([`treelight_document::atomic_file`]).
+/// Writes `settings` to `path` atomically ([`treelight_document::files::atomic_file`]).
 pub fn write_settings(path: &Path, settings: &EditorSettings) -> std::io::Result<()> {
     let text = ron::ser::to_string_pretty(settings, ron::ser::PrettyConfig::default())
         .map_err(std::io::Error::other)?;
@@ -92,7 +93,7 @@ pub fn write_settings(path: &Path, settings: &EditorSettings) -> std::io::Result
         std::fs::create_dir_all(dir)?;
     }
     // The editor's own file: never written through a link planted in its place.
-    treelight_document::own_file::write_own(path, text.as_bytes())
+    treelight_document::files::own_file::write_own(path, text.as_bytes())
 }
 
 /// Writes the settings a new editor starts with (the default layout and steps) to `path`.
@@ -161,7 +162,7 @@ pub fn load_settings(
         Ok(None) => {}
         Err(e) => {
             // Set aside, so the next start does not meet it again and the user can look at it.
-            let aside = match treelight_document::own_file::set_aside(&path) {
+            let aside = match treelight_document::files::own_file::set_aside(&path) {
                 Ok(to) => format!("; it was moved to {}", to.display()),
                 Err(why) => format!("; it could not be moved aside ({why})"),
             };

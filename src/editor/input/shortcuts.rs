@@ -10,7 +10,7 @@ use bevy::prelude::*;
 use bevy_egui::EguiContexts;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, EditRequests};
-use treelight_document::object::SceneId;
+use treelight_document::values::object::SceneId;
 
 /// What the frame's chord asks for, given the selection; `None` for nothing.
 pub fn shortcut(chords: &KeyChords, selected: &[SceneId]) -> Option<EditRequest> {
@@ -58,7 +58,10 @@ pub struct EditClipboard(pub Vec<SceneId>);
 
 impl EditClipboard {
     /// What pasting asks for: copies of the copied objects that still exist (in place, selected).
-    pub fn paste(&self, index: &treelight_document::object::SceneIndex) -> Option<EditRequest> {
+    pub fn paste(
+        &self,
+        index: &treelight_document::values::object::SceneIndex,
+    ) -> Option<EditRequest> {
         let ids: Vec<SceneId> = self
             .0
             .iter()
@@ -81,7 +84,7 @@ pub fn edit_shortcuts(
     mut contexts: EguiContexts,
     selection: Res<Selection>,
     ids: Query<&SceneId>,
-    index: Res<treelight_document::object::SceneIndex>,
+    index: Res<treelight_document::values::object::SceneIndex>,
     mut clipboard: ResMut<EditClipboard>,
     mut requests: ResMut<EditRequests>,
 ) {

@@ -14,11 +14,11 @@ use bevy_egui::egui;
 use bevy_egui::{EguiTextureHandle, EguiUserTextures};
 use treelight_document::edit::command::{MaterialAlpha, MaterialValue};
 use treelight_document::edit::history::EditRequests;
-use treelight_document::light::{
+use treelight_document::values::light::{
     LightKind, LightParts, LightValue, candela_to_lumens, lumens_to_candela,
 };
-use treelight_document::object::SceneId;
-use treelight_document::object::SceneObject;
+use treelight_document::values::object::SceneId;
+use treelight_document::values::object::SceneObject;
 
 /// The active object's material as the inspector shows it.
 #[derive(Clone, PartialEq)]
@@ -149,36 +149,20 @@ pub fn inspector_ui(
             }
         }
     });
+    material_ui(ui, material, widgets);
+}
+
+/// The material's values: base colour (with its texture), metallic, roughness, alpha, the
+/// extensions' fractions, emission and sides.
+fn material_ui(ui: &mut egui::Ui, material: &mut MaterialView, widgets: &mut WidgetRects) {
+    let texture = material.texture;
     let v = &mut material.value;
     egui::Grid::new("material")
         .num_columns(2)
         .spacing([8.0, 6.0])
         .show(ui, |ui| {
             ui.label("Base colour");
-            ui.horizontal(|ui| {
-                let [r, g, b, a] = v
-                    .base_color
-                    .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
-                let mut srgba = egui::Color32::from_rgba_unmultiplied(r, g, b, a);
-                if egui::color_picker::color_edit_button_srgba(
-                    ui,
-                    &mut srgba,
-                    egui::color_picker::Alpha::OnlyBlend,
-                )
-                .changed()
-                {
-                    v.base_color = srgba.to_srgba_unmultiplied().map(|c| c as f32 / 255.0);
-                }
-                if let Some((texture, size)) = material.texture {
-                    let h = 48.0;
-                    let w = h * size.x as f32 / size.y.max(1) as f32;
-                    ui.add(egui::Image::new((texture, egui::vec2(w.min(160.0), h))))
-                        .on_hover_text(format!(
-                            "Base-colour texture, {} × {} pixels; the colour multiplies it",
-                            size.x, size.y
-                        ));
-                }
-            });
+            base_colour_ui(ui, v, texture);
             ui.end_row();
             ui.label("Metallic");
             ui.add(egui::Slider::new(&mut v.metallic, 0.0..=1.0));
@@ -187,30 +171,7 @@ pub fn inspector_ui(
             ui.add(egui::Slider::new(&mut v.perceptual_roughness, 0.0..=1.0));
             ui.end_row();
             ui.label("Alpha");
-            ui.horizontal(|ui| {
-                let mut alpha = v.alpha.unwrap_or(MaterialAlpha::Opaque);
-                let combo = egui::ComboBox::from_id_salt("material-alpha")
-                    .selected_text(alpha.label())
-                    .show_ui(ui, |ui| {
-                        for mode in MaterialAlpha::ALL {
-                            let same =
-                                std::mem::discriminant(&alpha) == std::mem::discriminant(&mode);
-                            let item = ui.selectable_label(same, mode.label());
-                            if item.clicked() && !same {
-                                alpha = mode;
-                            }
-                            widgets.push(format!("Material alpha {}", mode.label()), item.rect);
-                        }
-                    });
-                widgets.push("Material alpha", combo.response.rect);
-                if let MaterialAlpha::Mask(cutoff) = &mut alpha {
-                    ui.add(egui::Slider::new(cutoff, 0.0..=1.0).text("cutoff"))
-                        .on_hover_text("Parts whose alpha is below the cutoff are cut away");
-                }
-                if v.alpha.is_some() || alpha != MaterialAlpha::Opaque {
-                    v.alpha = Some(alpha);
-                }
-            });
+            alpha_ui(ui, v, widgets);
             ui.end_row();
             let mut fraction =
                 |ui: &mut egui::Ui, label: &str, value: &mut Option<f32>, hint: &str| {
@@ -243,34 +204,95 @@ pub fn inspector_ui(
                 &mut v.clearcoat_roughness,
                 "How blurred the clear coat's reflection is",
             );
-            // Emission as a colour and a strength (the material stores their product).
-            let strength = v.emissive.iter().copied().fold(0.0f32, f32::max);
-            let mut colour = if strength > 0.0 {
-                v.emissive.map(|c| c / strength)
-            } else {
-                [1.0; 3]
-            };
-            let mut new_strength = strength;
             ui.label("Emission");
-            ui.horizontal(|ui| {
-                ui.color_edit_button_rgb(&mut colour);
-                ui.add(
-                    egui::DragValue::new(&mut new_strength)
-                        .speed(0.1)
-                        .range(0.0..=1.0e5)
-                        .prefix("strength "),
-                );
-            });
+            emission_ui(ui, v);
             ui.end_row();
-            if new_strength != strength
-                || (strength > 0.0 && colour != v.emissive.map(|c| c / strength))
-            {
-                v.emissive = colour.map(|c| c * new_strength);
-            }
             ui.label("Double-sided");
             ui.checkbox(&mut v.double_sided, "");
             ui.end_row();
         });
+}
+
+/// The base colour's picker, and its texture beside it.
+fn base_colour_ui(
+    ui: &mut egui::Ui,
+    v: &mut MaterialValue,
+    texture: Option<(egui::TextureId, UVec2)>,
+) {
+    ui.horizontal(|ui| {
+        let [r, g, b, a] = v
+            .base_color
+            .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+        let mut srgba = egui::Color32::from_rgba_unmultiplied(r, g, b, a);
+        if egui::color_picker::color_edit_button_srgba(
+            ui,
+            &mut srgba,
+            egui::color_picker::Alpha::OnlyBlend,
+        )
+        .changed()
+        {
+            v.base_color = srgba.to_srgba_unmultiplied().map(|c| c as f32 / 255.0);
+        }
+        if let Some((texture, size)) = texture {
+            let h = 48.0;
+            let w = h * size.x as f32 / size.y.max(1) as f32;
+            ui.add(egui::Image::new((texture, egui::vec2(w.min(160.0), h))))
+                .on_hover_text(format!(
+                    "Base-colour texture, {} × {} pixels; the colour multiplies it",
+                    size.x, size.y
+                ));
+        }
+    });
+}
+
+/// The alpha mode's menu (its items named in `widgets`), and a mask's cutoff.
+fn alpha_ui(ui: &mut egui::Ui, v: &mut MaterialValue, widgets: &mut WidgetRects) {
+    ui.horizontal(|ui| {
+        let mut alpha = v.alpha.unwrap_or(MaterialAlpha::Opaque);
+        let combo = egui::ComboBox::from_id_salt("material-alpha")
+            .selected_text(alpha.label())
+            .show_ui(ui, |ui| {
+                for mode in MaterialAlpha::ALL {
+                    let same = std::mem::discriminant(&alpha) == std::mem::discriminant(&mode);
+                    let item = ui.selectable_label(same, mode.label());
+                    if item.clicked() && !same {
+                        alpha = mode;
+                    }
+                    widgets.push(format!("Material alpha {}", mode.label()), item.rect);
+                }
+            });
+        widgets.push("Material alpha", combo.response.rect);
+        if let MaterialAlpha::Mask(cutoff) = &mut alpha {
+            ui.add(egui::Slider::new(cutoff, 0.0..=1.0).text("cutoff"))
+                .on_hover_text("Parts whose alpha is below the cutoff are cut away");
+        }
+        if v.alpha.is_some() || alpha != MaterialAlpha::Opaque {
+            v.alpha = Some(alpha);
+        }
+    });
+}
+
+/// Emission as a colour and a strength (the material stores their product).
+fn emission_ui(ui: &mut egui::Ui, v: &mut MaterialValue) {
+    let strength = v.emissive.iter().copied().fold(0.0f32, f32::max);
+    let mut colour = if strength > 0.0 {
+        v.emissive.map(|c| c / strength)
+    } else {
+        [1.0; 3]
+    };
+    let mut new_strength = strength;
+    ui.horizontal(|ui| {
+        ui.color_edit_button_rgb(&mut colour);
+        ui.add(
+            egui::DragValue::new(&mut new_strength)
+                .speed(0.1)
+                .range(0.0..=1.0e5)
+                .prefix("strength "),
+        );
+    });
+    if new_strength != strength || (strength > 0.0 && colour != v.emissive.map(|c| c / strength)) {
+        v.emissive = colour.map(|c| c * new_strength);
+    }
 }
 
 /// A light's kind, colour, intensity (in glTF's units: candela for point and spot lights, lux for
@@ -334,7 +356,7 @@ fn light_ui(ui: &mut egui::Ui, light: &mut LightValue, widgets: &mut WidgetRects
                 ui.label("Range");
                 let mut range = light
                     .range
-                    .unwrap_or(treelight_document::light::DEFAULT_RANGE);
+                    .unwrap_or(treelight_document::values::light::DEFAULT_RANGE);
                 if ui
                     .add(
                         egui::DragValue::new(&mut range)
@@ -458,7 +480,8 @@ pub struct InspectorAccess<'w, 's> {
     widgets: ResMut<'w, WidgetRects>,
     requests: ResMut<'w, EditRequests>,
     textures: ResMut<'w, EguiUserTextures>,
-    cameras: Query<'w, 's, &'static treelight_document::camera::SceneCamera, With<SceneObject>>,
+    cameras:
+        Query<'w, 's, &'static treelight_document::values::camera::SceneCamera, With<SceneObject>>,
     look: ResMut<'w, crate::editor::viewport::camera::LookThrough>,
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,

@@ -21,10 +21,10 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, EditRequests};
-use treelight_document::object::{SceneId, SceneIndex};
-use treelight_document::primitive::Primitive;
 use treelight_document::project::format::ProjectState;
 use treelight_document::project::requests::ProjectRequests;
+use treelight_document::values::object::{SceneId, SceneIndex};
+use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
 
 /// The mouse controls and modified drags the Help menu lists after the keys (which come from
@@ -365,8 +365,8 @@ pub struct MenuView<'w, 's> {
 
 /// Filter for the scene's cameras.
 type SceneCameras = (
-    With<treelight_document::camera::SceneCamera>,
-    With<treelight_document::object::SceneObject>,
+    With<treelight_document::values::camera::SceneCamera>,
+    With<treelight_document::values::object::SceneObject>,
 );
 
 /// Draws the menu bar into `ui`; what was chosen leaves as a [`MenuAction`].

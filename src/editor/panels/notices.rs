@@ -3,7 +3,7 @@
 use crate::editor::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
-use treelight_document::notice::{Level, Notices};
+use treelight_document::scene::notice::{Level, Notices};
 
 /// Shows the notices (each a named widget, "Notice 1" at the top, for the report).
 pub fn show_notices(

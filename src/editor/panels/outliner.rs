@@ -14,7 +14,7 @@ use bevy_egui::egui;
 use std::collections::{HashMap, HashSet};
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequests;
-use treelight_document::object::SceneId;
+use treelight_document::values::object::SceneId;
 
 /// One object as the outliner lists it.
 pub struct OutlinerItem {
@@ -96,7 +96,7 @@ impl OutlinerCache {
 /// What the outliner lists changed: a scene object came or went, or its name, parent, visibility
 /// or kind changed.
 type OutlinerChanges = Or<(
-    Added<treelight_document::object::SceneObject>,
+    Added<treelight_document::values::object::SceneObject>,
     Changed<Name>,
     Changed<ChildOf>,
     Changed<Visibility>,
@@ -110,11 +110,11 @@ pub fn invalidate_outliner(
     changed: Query<
         (),
         (
-            With<treelight_document::object::SceneObject>,
+            With<treelight_document::values::object::SceneObject>,
             OutlinerChanges,
         ),
     >,
-    mut removed: RemovedComponents<treelight_document::object::SceneObject>,
+    mut removed: RemovedComponents<treelight_document::values::object::SceneObject>,
     mut unparented: RemovedComponents<ChildOf>,
 ) {
     let gone = removed.read().count() + unparented.read().count() > 0;
@@ -500,11 +500,14 @@ mod tests {
             app.world_mut()
         }
         let parent = world(&mut app)
-            .spawn((treelight_document::object::SceneObject, Name::new("Parent")))
+            .spawn((
+                treelight_document::values::object::SceneObject,
+                Name::new("Parent"),
+            ))
             .id();
         let child = world(&mut app)
             .spawn((
-                treelight_document::object::SceneObject,
+                treelight_document::values::object::SceneObject,
                 Name::new("Child"),
                 ChildOf(parent),
             ))

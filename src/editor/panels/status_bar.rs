@@ -13,8 +13,8 @@ use bevy_egui::egui;
 use std::path::Path;
 use treelight_document::import::jobs::{CancelImports, TracingImports};
 use treelight_document::import::parse::PendingImports;
-use treelight_document::object::SceneObject;
 use treelight_document::project::open::OpeningProjects;
+use treelight_document::values::object::SceneObject;
 use treelight_render::PathTracerStats;
 use treelight_scene::SceneBvh;
 

@@ -4,7 +4,7 @@
 
 use bevy::prelude::*;
 use treelight_document::import::jobs::TracingImports;
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 use treelight_scene::SceneBvh;
 
 /// What has gone wrong with the scene's background threads, for the status bar.

@@ -7,7 +7,6 @@ use crate::editor::assets::palette::PaletteItem;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::gizmo::ActiveDrag;
 use crate::editor::viewport::object_item::{Objects, parent_of};
-use crate::editor::viewport::panel::ViewportActions;
 use crate::editor::viewport::place::view_ray;
 use crate::editor::viewport::selection::{ClickModifiers, Selection, click};
 use bevy::camera::primitives::Aabb;
@@ -18,9 +17,36 @@ use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditHistory, EditRequest, EditRequests};
 use treelight_document::import::finish::drop_transform;
 use treelight_document::import::parse::{ParsedImports, PendingImports};
-use treelight_document::object::SceneIndex;
-use treelight_document::placement::{box_corners, place_transform, surface_under_excluding};
+use treelight_document::scene::placement::{box_corners, place_transform, surface_under_excluding};
+use treelight_document::values::object::SceneIndex;
 use treelight_scene::{SceneBvh, cast_on};
+
+/// What the user did in the viewport this frame, acted on after the UI (the systems below).
+#[derive(Resource, Default)]
+pub struct ViewportActions {
+    /// A click on the image (not an icon): where, with its modifiers and whether it repeats the
+    /// last click on the same spot.
+    pub click: Option<(Vec2, ClickModifiers, bool)>,
+    /// A click on an icon: its entity and the modifiers.
+    pub icon_click: Option<(Entity, ClickModifiers)>,
+    /// A finished selection box (window coordinates) and its modifiers.
+    pub box_select: Option<(Rect, ClickModifiers)>,
+    /// Edit requests: a drag's previews, its commit or its cancel.
+    pub requests: Vec<EditRequest>,
+    /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
+    /// surface, and whether it was dropped this frame.
+    pub palette: Option<(
+        crate::editor::assets::palette::PaletteItem,
+        Vec2,
+        bool,
+        bool,
+    )>,
+    /// A scene file from the Assets panel over the viewport: the file, the pointer, whether Shift
+    /// aligns it to the surface, and whether it was dropped this frame.
+    pub palette_file: Option<(std::path::PathBuf, Vec2, bool, bool)>,
+    /// The sky menu's Choose… was clicked: the file dialog opens for a panorama.
+    pub choose_panorama: bool,
+}
 
 /// What picking reads.
 #[derive(SystemParam)]
@@ -147,7 +173,7 @@ fn place_file(
     p: &Picking,
     s: &mut Placing,
     (file, ray, dropped): (PathBuf, Option<bevy::math::Ray3d>, bool),
-    ghost: Option<treelight_document::object::SceneId>,
+    ghost: Option<treelight_document::values::object::SceneId>,
     ghost_parts: &[Entity],
     drop_ray: impl Fn() -> Option<bevy::math::Ray3d>,
 ) {
@@ -192,7 +218,7 @@ fn place_shape(
     p: &Picking,
     s: &mut Placing,
     (item, ray, aligned, dropped): (PaletteItem, bevy::math::Ray3d, bool, bool),
-    ghost: Option<treelight_document::object::SceneId>,
+    ghost: Option<treelight_document::values::object::SceneId>,
     ghost_parts: &[Entity],
 ) {
     let surface = surface_under_excluding(&p.scene, ray, 5.0, ghost_parts);

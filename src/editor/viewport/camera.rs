@@ -8,8 +8,8 @@ use bevy::prelude::*;
 use bevy::render::render_resource::BlendState;
 use bevy_egui::{EguiGlobalSettings, PrimaryEguiContext};
 use treelight_document::edit::history::apply_edit_requests;
-use treelight_document::object::SceneObject;
-use treelight_document::outbox::{CameraValue, DocumentEvent, DocumentView};
+use treelight_document::scene::outbox::{CameraValue, DocumentEvent, DocumentView};
+use treelight_document::values::object::SceneObject;
 
 /// Orbit parameters; the camera's transform is derived from them every frame.
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
@@ -123,7 +123,7 @@ pub fn world_bounds(
     while let Some(e) = stack.pop() {
         if let Ok((aabb, gt)) = boxes.get(e) {
             let (c, h) = (Vec3::from(aabb.center), Vec3::from(aabb.half_extents));
-            for corner in treelight_document::placement::box_corners(c - h, c + h) {
+            for corner in treelight_document::scene::placement::box_corners(c - h, c + h) {
                 let p = gt.transform_point(corner);
                 out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
             }
@@ -279,7 +279,7 @@ pub fn look_through(
     orbit: &mut OrbitCamera,
     projection: &mut Projection,
     at: &GlobalTransform,
-    camera: &treelight_document::camera::SceneCamera,
+    camera: &treelight_document::values::camera::SceneCamera,
 ) {
     let position = at.translation();
     let forward = at.forward().as_vec3();
@@ -307,12 +307,12 @@ fn apply_look_through(
         Entity,
         &Name,
         &GlobalTransform,
-        &treelight_document::camera::SceneCamera,
+        &treelight_document::values::camera::SceneCamera,
     )>,
     mut orbit: Query<(&mut OrbitCamera, &mut Projection)>,
     loading: treelight_document::app::SceneLoading,
     mut missing: ResMut<NamedCameraMissing>,
-    mut notices: ResMut<treelight_document::notice::Notices>,
+    mut notices: ResMut<treelight_document::scene::notice::Notices>,
 ) {
     let found = match &*request {
         LookThrough::None => return,
@@ -443,7 +443,7 @@ pub fn record_view(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use treelight_document::placement::box_corners;
+    use treelight_document::scene::placement::box_corners;
 
     #[test]
     fn camera_looks_at_focus_from_radius() {

@@ -277,7 +277,7 @@ pub fn inside_polygon(poly: &[Vec2], p: Vec2) -> bool {
 #[derive(Clone, Copy, Debug)]
 pub struct DragTarget {
     /// The object.
-    pub id: treelight_document::object::SceneId,
+    pub id: treelight_document::values::object::SceneId,
     /// Its world transform at the start.
     pub start_world: Affine3A,
     /// Its parent's world transform (identity at the top).
@@ -491,7 +491,7 @@ impl GizmoDrag {
     pub fn transforms(
         &self,
         delta: Affine3A,
-    ) -> Vec<(treelight_document::object::SceneId, Transform)> {
+    ) -> Vec<(treelight_document::values::object::SceneId, Transform)> {
         self.targets
             .iter()
             .map(|t| (t.id, t.local_after(delta)))
@@ -791,7 +791,7 @@ mod tests {
             Transform::from_xyz(0.3, -0.2, 0.5).with_rotation(Quat::from_rotation_z(0.4));
         let start_world = parent * child_local.compute_affine();
         let target = DragTarget {
-            id: treelight_document::object::SceneId(1),
+            id: treelight_document::values::object::SceneId(1),
             start_world,
             parent_world: parent,
         };

@@ -12,10 +12,10 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
-use treelight_document::environment::{
+use treelight_document::scene::environment::{
     LoadedEnvironment, MAX_ENVIRONMENT_INTENSITY, SceneEnvironment,
 };
-use treelight_document::look::{MAX_EXPOSURE_STOPS, SceneLook, ToneCurve};
+use treelight_document::values::look::{MAX_EXPOSURE_STOPS, SceneLook, ToneCurve};
 use treelight_render::PathTracedEnvironment;
 
 /// Bevy's tonemapper for a curve.
@@ -80,7 +80,7 @@ pub fn environment_to_tracer(
 /// Opens the file dialog when the sky menu's Choose… was clicked, and turns the file chosen into
 /// the scene's panorama (keeping its rotation, intensity and visibility).
 pub fn choose_panorama(
-    actions: Res<crate::editor::viewport::panel::ViewportActions>,
+    actions: Res<crate::editor::viewport::actions::ViewportActions>,
     mut files: ResMut<crate::editor::files::file_menu::FileUi>,
     state: Res<treelight_document::project::format::ProjectState>,
     environment: Res<SceneEnvironment>,
@@ -182,7 +182,7 @@ pub fn look_controls(
                 let s = ui.add(
                     egui::DragValue::new(&mut new_strength)
                         .speed((strength * 0.01).max(0.1))
-                        .range(0.0..=treelight_document::look::MAX_SKY)
+                        .range(0.0..=treelight_document::values::look::MAX_SKY)
                         .max_decimals(1)
                         .suffix(" nits"),
                 );

@@ -2,7 +2,7 @@
 //! `KHR_texture_transform`) handed to the path tracer, which reads each map through its own.
 
 use bevy::prelude::*;
-use treelight_document::map_transforms::MaterialMapTransforms;
+use treelight_document::values::map_transforms::MaterialMapTransforms;
 use treelight_render::MapUvTransforms;
 
 /// Copies the document's transforms into the path tracer's when they changed (every traced view of

@@ -2,7 +2,7 @@
 //! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
 //! ([`selection`]), the render mode ([`render_mode`]) and the look ([`look`]: exposure and tone
 //! curve; [`sky_box`]: the sky panorama behind the raster view), where added things go ([`place`]) and files
-//! dropped on the window ([`drop`], [`x11_pointer`]); what the viewport and the panels read of each
+//! dropped on the window ([`drop`](mod@drop), [`x11_pointer`]); what the viewport and the panels read of each
 //! object ([`object_item`]).
 
 pub mod actions;
@@ -34,7 +34,7 @@ impl Plugin for ViewportPlugin {
         ))
         .init_resource::<tab::ViewportRect>()
         .init_resource::<panel::ViewportInteraction>()
-        .init_resource::<panel::ViewportActions>()
+        .init_resource::<actions::ViewportActions>()
         .init_resource::<sky_box::SkyBoxCube>()
         .add_systems(Startup, render_mode::adapt_to_adapter)
         .add_systems(

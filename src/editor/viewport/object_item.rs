@@ -1,8 +1,8 @@
 //! What the panels and the viewport read of each scene object, with named fields.
 
 use bevy::prelude::*;
-use treelight_document::light::LightKind;
-use treelight_document::object::{SceneId, SceneObject};
+use treelight_document::values::light::LightKind;
+use treelight_document::values::object::{SceneId, SceneObject};
 
 /// What the outliner, inspector and viewport read of each scene object.
 #[derive(bevy::ecs::query::QueryData)]
@@ -26,7 +26,7 @@ pub struct ObjectItem {
     /// Whether it is a directional light.
     pub directional_light: Has<DirectionalLight>,
     /// Whether it is a camera (a scene file's).
-    pub camera: Has<treelight_document::camera::SceneCamera>,
+    pub camera: Has<treelight_document::values::camera::SceneCamera>,
     /// Whether it is shown.
     pub visibility: Option<&'static Visibility>,
     /// Its parent.

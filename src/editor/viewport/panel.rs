@@ -3,6 +3,7 @@
 //! Drawn over the image, in raster and path-traced views alike: the selection's boxes, icons for
 //! lights and empty groups, the gizmo, and the selection box being dragged.
 
+use crate::editor::viewport::actions::ViewportActions;
 use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::gizmo::DragTarget;
 use crate::editor::viewport::gizmo::GizmoDrag;
@@ -20,10 +21,10 @@ use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::EditRequest;
-use treelight_document::environment::SceneEnvironment;
-use treelight_document::light::LightKind;
-use treelight_document::look::SceneLook;
-use treelight_document::object::SceneId;
+use treelight_document::scene::environment::SceneEnvironment;
+use treelight_document::values::light::LightKind;
+use treelight_document::values::look::SceneLook;
+use treelight_document::values::object::SceneId;
 
 /// An icon drawn at a scene object without geometry.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,33 +74,6 @@ pub struct ViewportInteraction {
     last_click: Option<egui::Pos2>,
 }
 
-/// What the user did in the viewport this frame, acted on after the UI ([`super::actions`]).
-#[derive(Resource, Default)]
-pub struct ViewportActions {
-    /// A click on the image (not an icon): where, with its modifiers and whether it repeats the
-    /// last click on the same spot.
-    pub click: Option<(Vec2, ClickModifiers, bool)>,
-    /// A click on an icon: its entity and the modifiers.
-    pub icon_click: Option<(Entity, ClickModifiers)>,
-    /// A finished selection box (window coordinates) and its modifiers.
-    pub box_select: Option<(Rect, ClickModifiers)>,
-    /// Edit requests: a drag's previews, its commit or its cancel.
-    pub requests: Vec<EditRequest>,
-    /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
-    /// surface, and whether it was dropped this frame.
-    pub palette: Option<(
-        crate::editor::assets::palette::PaletteItem,
-        Vec2,
-        bool,
-        bool,
-    )>,
-    /// A scene file from the Assets panel over the viewport: the file, the pointer, whether Shift
-    /// aligns it to the surface, and whether it was dropped this frame.
-    pub palette_file: Option<(std::path::PathBuf, Vec2, bool, bool)>,
-    /// The sky menu's Choose… was clicked: the file dialog opens for a panorama.
-    pub choose_panorama: bool,
-}
-
 /// Pixels within which a second click counts as the same spot.
 const SAME_SPOT: f32 = 4.0;
 /// Pixels within which a click hits an icon.
@@ -124,7 +98,7 @@ fn vec(p: egui::Pos2) -> Vec2 {
     Vec2::new(p.x, p.y)
 }
 
-/// The edges of a box given by its corners in [`treelight_document::placement::box_corners`] order.
+/// The edges of a box given by its corners in [`treelight_document::scene::placement::box_corners`] order.
 const BOX_EDGES: [(usize, usize); 12] = [
     (0, 1),
     (2, 3),

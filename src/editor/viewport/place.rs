@@ -4,8 +4,8 @@
 use bevy::math::Ray3d;
 use bevy::prelude::*;
 use treelight_document::edit::command::{EditCommand, LightKind};
-use treelight_document::placement::{place_transform, surface_under};
-use treelight_document::primitive::Primitive;
+use treelight_document::scene::placement::{place_transform, surface_under};
+use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
 
 /// The ray from the viewport's camera through `at` (logical window pixels), or through the

@@ -4,7 +4,7 @@
 use crate::editor::viewport::camera::OrbitCamera;
 use bevy::prelude::*;
 use bevy::render::renderer::RenderAdapterInfo;
-use treelight_document::notice::Notices;
+use treelight_document::scene::notice::Notices;
 use treelight_render::{DebugView, PathTraced, PathTracerStats};
 
 /// How the viewport is drawn.

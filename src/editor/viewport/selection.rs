@@ -5,8 +5,8 @@ use bevy::prelude::*;
 use treelight_render::Outlined;
 
 use treelight_document::edit::history::apply_edit_requests;
-use treelight_document::object::{SceneId, SceneIndex, SceneObject};
-use treelight_document::outbox::DocumentEvent;
+use treelight_document::scene::outbox::DocumentEvent;
+use treelight_document::values::object::{SceneId, SceneIndex, SceneObject};
 
 /// The selected scene entities, in the order they were selected; the last is the active one (the
 /// inspector's, and the gizmo's frame in local mode).

@@ -14,7 +14,7 @@ use bevy::render::render_resource::{
     Extent3d, TextureDimension, TextureFormat, TextureViewDescriptor, TextureViewDimension,
 };
 use std::sync::{Arc, OnceLock};
-use treelight_document::environment::{LoadedEnvironment, SceneEnvironment};
+use treelight_document::scene::environment::{LoadedEnvironment, SceneEnvironment};
 
 /// Largest cube face side: a 2048-wide panorama's texels per quarter turn (the raster view is a
 /// preview; the path tracer samples the panorama at its full size).

@@ -3,11 +3,12 @@
 //! [`super::actions`]; writes back the camera's orbit, the render mode, the gizmo's settings and
 //! where the panel is, which the 3D camera's viewport follows ([`fit_camera_viewport`]).
 
+use crate::editor::viewport::actions::ViewportActions;
 use crate::editor::viewport::camera::{OrbitCamera, world_bounds};
 use crate::editor::viewport::gizmo::{ActiveDrag, GizmoSettings};
 use crate::editor::viewport::object_item::{Objects, parent_of};
 use crate::editor::viewport::panel::{
-    IconKind, ViewportActions, ViewportInteraction, ViewportPanel, ViewportScene, drag_targets,
+    IconKind, ViewportInteraction, ViewportPanel, ViewportScene, drag_targets,
 };
 use crate::editor::viewport::render_mode::ViewportRender;
 use crate::editor::viewport::selection::Selection;
@@ -18,8 +19,8 @@ use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::egui;
-use treelight_document::look::SceneLook;
-use treelight_document::placement::box_corners;
+use treelight_document::scene::placement::box_corners;
+use treelight_document::values::look::SceneLook;
 
 /// Where the viewport panel is, in physical pixels, for the 3D camera.
 #[derive(Resource, Debug, Default, Clone, Copy, PartialEq)]
@@ -39,7 +40,7 @@ pub struct SceneView<'w, 's> {
     children: Query<'w, 's, &'static Children>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
     look: Res<'w, SceneLook>,
-    environment: Res<'w, treelight_document::environment::SceneEnvironment>,
+    environment: Res<'w, treelight_document::scene::environment::SceneEnvironment>,
     tracer: Option<Res<'w, treelight_render::PathTracerStats>>,
 }
 

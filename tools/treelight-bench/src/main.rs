@@ -177,50 +177,7 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    for m in &args.method {
-        if !METHODS.contains(&m.as_str()) {
-            return Err(format!(
-                "unknown method '{m}' (expected one of {})",
-                METHODS.join(", ")
-            ));
-        }
-    }
-    for o in &args.order {
-        if !ORDERS.contains(&o.as_str()) {
-            return Err(format!(
-                "unknown order '{o}' (expected one of {})",
-                ORDERS.join(", ")
-            ));
-        }
-    }
-    let (w, h) = args
-        .resolution
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .ok_or("--resolution must look like 512x384")?;
-    // Presets are rows like the methods, named by the preset; the default methods apply only when
-    // neither is given.
-    let methods: Vec<String> = if args.method.is_empty() && args.preset.is_empty() {
-        DEFAULT_METHODS.iter().map(|m| (*m).to_owned()).collect()
-    } else {
-        args.method
-            .iter()
-            .cloned()
-            .chain(args.preset.iter().map(|p| p.name().to_owned()))
-            .collect()
-    };
-    if args.export_bvh.is_some()
-        && (args.scene.len() != 1 || methods.len() != 1 || args.order.len() != 1)
-    {
-        return Err(
-            "--export-bvh needs exactly one scene, one method or preset and one order".into(),
-        );
-    }
-    if args.export_bvh.is_some() && args.update_fraction_sweep.is_some() {
-        return Err(
-            "--export-bvh writes one tree; it cannot follow a --update-fraction-sweep".into(),
-        );
-    }
+    let ((w, h), methods) = checked_args(args)?;
     // Without a sweep one variant, the given settings; with one, a k_u per draw for the
     // incremental methods (the others do not read k_u and are built once).
     let draws: Vec<Option<f32>> = match &args.update_fraction_sweep {
@@ -311,80 +268,22 @@ fn run(args: &Args) -> Result<(), String> {
                     .collect::<Result<Vec<_>, String>>()?;
                 plotted.extend(plots::construction(dir, &scene.name, order, &runs)?);
             }
-            // Every row's builds are interleaved, round by round, so that a slow spell of this
-            // machine slows every method alike and the ratios between rows stay fair.
-            let cells: Vec<(&String, usize, Tuning)> = methods
-                .iter()
-                .flat_map(|m| (0..args.threads.len()).map(move |t| (m, t)))
-                .flat_map(|(m, t)| {
-                    draws_of(m).iter().map(move |d| {
-                        let tuning = Tuning {
-                            update_fraction: d.or(args.tuning.update_fraction),
-                            ..args.tuning
-                        };
-                        (m, t, tuning)
-                    })
-                })
-                .collect();
-            let mut build_s = vec![f64::INFINITY; cells.len()];
-            let rounds = args.repeat.max(1);
-            for round in 0..rounds {
-                for (cell, (method, t, tuning)) in cells.iter().enumerate() {
-                    let (method, t) = (*method, *t);
-                    let settings = tuning.label(method);
-                    bar.set_message(format!(
-                        "{} {order} {method}{}{settings} ×{} (build {}/{rounds})",
-                        scene.name,
-                        if settings.is_empty() { "" } else { " " },
-                        args.threads[t],
-                        round + 1,
-                    ));
-                    let start = Instant::now();
-                    let bvh = pools[t].install(|| build(&tris, method, tuning))?;
-                    build_s[cell] = build_s[cell].min(start.elapsed().as_secs_f64());
-                    if round + 1 < rounds {
-                        continue;
-                    }
-                    // The last round traces each tree as soon as it is built, so a sweep holds one
-                    // tree at a time, not one per draw.
-                    let (threads, pool, build_s) = (args.threads[t], &pools[t], build_s[cell]);
-                    bar.set_message(format!("{} {order} {method} ×{threads}: rays", scene.name));
-                    let (primary, ao) = pool.install(|| trace(&bvh, &camera, &bounds, w, h, args));
-                    let incremental = is_incremental(method);
-                    rows.push(Row {
-                        scene: scene.name.clone(),
-                        triangles: tris.len(),
-                        order: order.clone(),
-                        method: method.clone(),
-                        settings,
-                        threads,
-                        build_s,
-                        sah_cost: bvh.sah_cost_with(1.0, 1.0),
-                        mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
-                        primary_mrays_s: primary,
-                        ao_mrays_s: ao,
-                        update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
-                        sweep_group: (args.update_fraction_sweep.is_some()
-                            && is_paper_incremental(method))
-                        .then(|| {
-                            Tuning {
-                                update_fraction: None,
-                                ..*tuning
-                            }
-                            .label(method)
-                        }),
-                    });
-                    if let Some(path) = &args.export_bvh {
-                        let mut f = std::io::BufWriter::new(
-                            std::fs::File::create(path)
-                                .map_err(|e| format!("{}: {e}", path.display()))?,
-                        );
-                        bvh.write_tlbvh_mapped(&mut f, Some(&input_index))
-                            .map_err(|e| format!("{}: {e}", path.display()))?;
-                    }
-                    bar.inc(1);
-                }
-            }
+            let table = Table {
+                args,
+                pools: &pools,
+                bar: &bar,
+                camera: &camera,
+                bounds: &bounds,
+                resolution: (w, h),
+            };
+            table.rows(
+                &scene.name,
+                order,
+                (&tris, &input_index),
+                &methods,
+                &draws,
+                &mut rows,
+            )?;
         }
     }
     bar.finish_and_clear();
@@ -410,6 +309,165 @@ fn run(args: &Args) -> Result<(), String> {
         write_csv(path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
     }
     Ok(())
+}
+
+/// The arguments checked: the resolution, and the rows to build (the methods, then the presets,
+/// named by the preset; the default methods apply only when neither is given).
+fn checked_args(args: &Args) -> Result<((u32, u32), Vec<String>), String> {
+    for m in &args.method {
+        if !METHODS.contains(&m.as_str()) {
+            return Err(format!(
+                "unknown method '{m}' (expected one of {})",
+                METHODS.join(", ")
+            ));
+        }
+    }
+    for o in &args.order {
+        if !ORDERS.contains(&o.as_str()) {
+            return Err(format!(
+                "unknown order '{o}' (expected one of {})",
+                ORDERS.join(", ")
+            ));
+        }
+    }
+    let resolution = args
+        .resolution
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .ok_or("--resolution must look like 512x384")?;
+    let methods: Vec<String> = if args.method.is_empty() && args.preset.is_empty() {
+        DEFAULT_METHODS.iter().map(|m| (*m).to_owned()).collect()
+    } else {
+        args.method
+            .iter()
+            .cloned()
+            .chain(args.preset.iter().map(|p| p.name().to_owned()))
+            .collect()
+    };
+    if args.export_bvh.is_some()
+        && (args.scene.len() != 1 || methods.len() != 1 || args.order.len() != 1)
+    {
+        return Err(
+            "--export-bvh needs exactly one scene, one method or preset and one order".into(),
+        );
+    }
+    if args.export_bvh.is_some() && args.update_fraction_sweep.is_some() {
+        return Err(
+            "--export-bvh writes one tree; it cannot follow a --update-fraction-sweep".into(),
+        );
+    }
+    Ok((resolution, methods))
+}
+
+/// What building a scene's rows in one order shares.
+struct Table<'a> {
+    args: &'a Args,
+    pools: &'a [rayon::ThreadPool],
+    bar: &'a ProgressBar,
+    camera: &'a Camera,
+    bounds: &'a Aabb,
+    resolution: (u32, u32),
+}
+
+impl Table<'_> {
+    /// Builds every method (and each draw of a sweep) on each thread count, `repeat` rounds,
+    /// keeping each cell's fastest build, and traces the last round's trees into `rows`. Every
+    /// row's builds are interleaved, round by round, so that a slow spell of this machine slows
+    /// every method alike and the ratios between rows stay fair.
+    fn rows(
+        &self,
+        scene: &str,
+        order: &str,
+        (tris, input_index): (&[Triangle], &[u32]),
+        methods: &[String],
+        draws: &[Option<f32>],
+        rows: &mut Vec<Row>,
+    ) -> Result<(), String> {
+        let (w, h) = self.resolution;
+        let draws_of = |m: &str| {
+            if is_paper_incremental(m) {
+                draws
+            } else {
+                &draws[..1]
+            }
+        };
+        let cells: Vec<(&String, usize, Tuning)> = methods
+            .iter()
+            .flat_map(|m| (0..self.args.threads.len()).map(move |t| (m, t)))
+            .flat_map(|(m, t)| {
+                draws_of(m).iter().map(move |d| {
+                    let tuning = Tuning {
+                        update_fraction: d.or(self.args.tuning.update_fraction),
+                        ..self.args.tuning
+                    };
+                    (m, t, tuning)
+                })
+            })
+            .collect();
+        let mut build_s = vec![f64::INFINITY; cells.len()];
+        let rounds = self.args.repeat.max(1);
+        for round in 0..rounds {
+            for (cell, (method, t, tuning)) in cells.iter().enumerate() {
+                let (method, t) = (*method, *t);
+                let settings = tuning.label(method);
+                self.bar.set_message(format!(
+                    "{} {order} {method}{}{settings} ×{} (build {}/{rounds})",
+                    scene,
+                    if settings.is_empty() { "" } else { " " },
+                    self.args.threads[t],
+                    round + 1,
+                ));
+                let start = Instant::now();
+                let bvh = self.pools[t].install(|| build(tris, method, tuning))?;
+                build_s[cell] = build_s[cell].min(start.elapsed().as_secs_f64());
+                if round + 1 < rounds {
+                    continue;
+                }
+                // The last round traces each tree as soon as it is built, so a sweep holds one
+                // tree at a time, not one per draw.
+                let (threads, pool, build_s) =
+                    (self.args.threads[t], &self.pools[t], build_s[cell]);
+                self.bar
+                    .set_message(format!("{} {order} {method} ×{threads}: rays", scene));
+                let (primary, ao) =
+                    pool.install(|| trace(&bvh, self.camera, self.bounds, w, h, self.args));
+                let incremental = is_incremental(method);
+                rows.push(Row {
+                    scene: scene.to_owned(),
+                    triangles: tris.len(),
+                    order: order.to_owned(),
+                    method: method.clone(),
+                    settings,
+                    threads,
+                    build_s,
+                    sah_cost: bvh.sah_cost_with(1.0, 1.0),
+                    mtris_s: incremental.then(|| tris.len() as f64 / build_s / 1e6),
+                    primary_mrays_s: primary,
+                    ao_mrays_s: ao,
+                    update_ops_pct: bvh.update_ops() as f64 / tris.len() as f64 * 100.0,
+                    sweep_group: (self.args.update_fraction_sweep.is_some()
+                        && is_paper_incremental(method))
+                    .then(|| {
+                        Tuning {
+                            update_fraction: None,
+                            ..*tuning
+                        }
+                        .label(method)
+                    }),
+                });
+                if let Some(path) = &self.args.export_bvh {
+                    let mut f = std::io::BufWriter::new(
+                        std::fs::File::create(path)
+                            .map_err(|e| format!("{}: {e}", path.display()))?,
+                    );
+                    bvh.write_tlbvh_mapped(&mut f, Some(input_index))
+                        .map_err(|e| format!("{}: {e}", path.display()))?;
+                }
+                self.bar.inc(1);
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The rows built when neither `--method` nor `--preset` is given.

@@ -5,7 +5,7 @@ use bevy::prelude::*;
 use std::time::{Duration, Instant};
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, EditRequests};
-use treelight_document::object::SceneId;
+use treelight_document::values::object::SceneId;
 
 /// Frames of a drag come at 60 per second, as a display would pace them.
 pub const FRAME: Duration = Duration::from_micros(16_667);

@@ -3,236 +3,20 @@
 //! it.
 
 use super::snapshot::ObjectSnapshot;
-use crate::environment::SceneEnvironment;
-use crate::look::SceneLook;
-use crate::map_transforms::MaterialMapTransforms;
-use crate::object::SceneObject;
-use crate::object::{EditedObjects, SceneId, SceneIndex};
-use crate::primitive::{Primitive, PrimitiveShape};
+use crate::scene::environment::SceneEnvironment;
+use crate::values::look::SceneLook;
+use crate::values::map_transforms::MaterialMapTransforms;
+use crate::values::object::SceneObject;
+use crate::values::object::{EditedObjects, SceneId, SceneIndex};
+use crate::values::primitive::{Primitive, PrimitiveShape};
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// A transform as commands store it (plain arrays, so scripts can write it).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TransformValue {
-    /// Position.
-    pub translation: [f32; 3],
-    /// Rotation quaternion, x, y, z, w.
-    #[serde(default = "identity_rotation")]
-    pub rotation: [f32; 4],
-    /// Scale per axis.
-    #[serde(default = "unit_scale")]
-    pub scale: [f32; 3],
-}
-
-/// Largest magnitude of a number in a transform, material, light or camera, for commands and
-/// projects alike: past it, products overflow to infinity in the engine's arithmetic.
-pub const MAX_VALUE: f32 = 1.0e9;
-
-/// Whether `v` is a number the scene accepts: finite, within [`MAX_VALUE`].
-pub fn in_range(v: f32) -> bool {
-    v.is_finite() && v.abs() <= MAX_VALUE
-}
-
-impl TransformValue {
-    /// Whether every number is [`in_range`].
-    pub fn is_valid(&self) -> bool {
-        self.translation
-            .iter()
-            .chain(&self.rotation)
-            .chain(&self.scale)
-            .all(|v| in_range(*v))
-    }
-}
-
-fn identity_rotation() -> [f32; 4] {
-    [0.0, 0.0, 0.0, 1.0]
-}
-
-fn unit_scale() -> [f32; 3] {
-    [1.0; 3]
-}
-
-impl From<Transform> for TransformValue {
-    fn from(t: Transform) -> Self {
-        Self {
-            translation: t.translation.to_array(),
-            rotation: t.rotation.to_array(),
-            scale: t.scale.to_array(),
-        }
-    }
-}
-
-impl From<TransformValue> for Transform {
-    fn from(t: TransformValue) -> Self {
-        let rotation = Quat::from_array(t.rotation);
-        Transform {
-            translation: Vec3::from_array(t.translation),
-            // A unit quaternion (within glam's tolerance) is kept bit for bit, so a transform
-            // saved and read back is the same; others (hand-edited files) are made unit.
-            rotation: if rotation.is_normalized() {
-                rotation
-            } else if rotation.is_finite() && rotation.length_squared() > 0.0 {
-                rotation.normalize()
-            } else {
-                Quat::IDENTITY
-            },
-            scale: Vec3::from_array(t.scale),
-        }
-    }
-}
-
-/// What a material's alpha means (glTF's alpha modes).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum MaterialAlpha {
-    /// Alpha is ignored: the surface is solid.
-    Opaque,
-    /// Cut away where alpha is below the cutoff.
-    Mask(f32),
-    /// Lets `1 - alpha` of the light through.
-    Blend,
-}
-
-impl MaterialAlpha {
-    /// The three modes, for menus (the mask at glTF's default cutoff).
-    pub const ALL: [MaterialAlpha; 3] = [
-        MaterialAlpha::Opaque,
-        MaterialAlpha::Mask(0.5),
-        MaterialAlpha::Blend,
-    ];
-
-    /// The mode's name in the UI.
-    pub fn label(self) -> &'static str {
-        match self {
-            MaterialAlpha::Opaque => "Opaque",
-            MaterialAlpha::Mask(_) => "Mask",
-            MaterialAlpha::Blend => "Blend",
-        }
-    }
-
-    /// Bevy's alpha mode for this one.
-    pub fn to_bevy(self) -> AlphaMode {
-        match self {
-            MaterialAlpha::Opaque => AlphaMode::Opaque,
-            MaterialAlpha::Mask(c) => AlphaMode::Mask(c),
-            MaterialAlpha::Blend => AlphaMode::Blend,
-        }
-    }
-
-    /// This crate's mode for Bevy's (its other blending modes read as blend, alpha to coverage as
-    /// a mask at one half).
-    pub fn of_bevy(mode: AlphaMode) -> Self {
-        match mode {
-            AlphaMode::Opaque => MaterialAlpha::Opaque,
-            AlphaMode::Mask(c) => MaterialAlpha::Mask(c),
-            AlphaMode::AlphaToCoverage => MaterialAlpha::Mask(0.5),
-            _ => MaterialAlpha::Blend,
-        }
-    }
-}
-
-/// A material's editable values, as commands store them. The optional ones were added with
-/// project version 3: a file without them leaves those values as the material has them.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MaterialValue {
-    /// Base colour, sRGB with alpha.
-    pub base_color: [f32; 4],
-    /// Metallic, 0 to 1.
-    pub metallic: f32,
-    /// Perceptual roughness, 0 to 1.
-    pub perceptual_roughness: f32,
-    /// Emitted light, linear RGB (colour times strength).
-    #[serde(default)]
-    pub emissive: [f32; 3],
-    /// Whether back faces are drawn too.
-    #[serde(default)]
-    pub double_sided: bool,
-    /// What alpha means.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub alpha: Option<MaterialAlpha>,
-    /// Fraction of the unreflected light passing through (thin-walled), 0 to 1.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub transmission: Option<f32>,
-    /// Strength of a clear coat, 0 to 1.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub clearcoat: Option<f32>,
-    /// Perceptual roughness of the clear coat, 0 to 1.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub clearcoat_roughness: Option<f32>,
-}
-
-impl MaterialValue {
-    /// The values of `m`.
-    pub fn of(m: &StandardMaterial) -> Self {
-        let c = m.base_color.to_srgba();
-        Self {
-            base_color: [c.red, c.green, c.blue, c.alpha],
-            metallic: m.metallic,
-            perceptual_roughness: m.perceptual_roughness,
-            emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
-            double_sided: m.double_sided,
-            alpha: Some(MaterialAlpha::of_bevy(m.alpha_mode)),
-            transmission: Some(m.specular_transmission),
-            clearcoat: Some(m.clearcoat),
-            clearcoat_roughness: Some(m.clearcoat_perceptual_roughness),
-        }
-    }
-
-    /// Writes the values into `m` (a double-sided material is not culled).
-    pub fn write(&self, m: &mut StandardMaterial) {
-        let [r, g, b, a] = self.base_color;
-        m.base_color = Color::srgba(r, g, b, a);
-        m.metallic = self.metallic;
-        m.perceptual_roughness = self.perceptual_roughness;
-        let [r, g, b] = self.emissive;
-        m.emissive = LinearRgba::rgb(r, g, b);
-        m.double_sided = self.double_sided;
-        m.cull_mode = if self.double_sided {
-            None
-        } else {
-            Some(bevy::render::render_resource::Face::Back)
-        };
-        if let Some(alpha) = self.alpha {
-            m.alpha_mode = alpha.to_bevy();
-        }
-        if let Some(t) = self.transmission {
-            m.specular_transmission = t;
-        }
-        if let Some(c) = self.clearcoat {
-            m.clearcoat = c;
-        }
-        if let Some(r) = self.clearcoat_roughness {
-            m.clearcoat_perceptual_roughness = r;
-        }
-    }
-
-    /// Whether every value is [`in_range`], the emission is not negative and the fractions lie
-    /// within 0 to 1.
-    pub fn is_valid(&self) -> bool {
-        let unit = |v: Option<f32>| v.is_none_or(|v| (0.0..=1.0).contains(&v));
-        let cutoff = match self.alpha {
-            Some(MaterialAlpha::Mask(c)) => Some(c),
-            _ => None,
-        };
-        self.base_color
-            .iter()
-            .chain(&self.emissive)
-            .chain([&self.metallic, &self.perceptual_roughness])
-            .all(|v| in_range(*v))
-            && self.emissive.iter().all(|v| *v >= 0.0)
-            && [
-                self.transmission,
-                self.clearcoat,
-                self.clearcoat_roughness,
-                cutoff,
-            ]
-            .into_iter()
-            .all(unit)
-    }
-}
-
-pub use crate::light::LightKind;
-use crate::light::LightValue;
+pub use crate::values::light::LightKind;
+use crate::values::light::LightValue;
+/// The values commands carry, kept with them for the shell and scripts.
+pub use crate::values::material::{MaterialAlpha, MaterialValue};
+pub use crate::values::transform::{MAX_VALUE, TransformValue, in_range};
 
 /// One edit of the scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -400,15 +184,15 @@ pub enum EditError {
     )]
     BadLight,
     /// An exposure that is not finite or past the widest compensation.
-    #[error("the exposure is not finite or beyond ±{max} stops, or the sky is negative or brighter than {sky:e} nits", max = crate::look::MAX_EXPOSURE_STOPS, sky = crate::look::MAX_SKY)]
+    #[error("the exposure is not finite or beyond ±{max} stops, or the sky is negative or brighter than {sky:e} nits", max = crate::values::look::MAX_EXPOSURE_STOPS, sky = crate::values::look::MAX_SKY)]
     BadLook,
     /// A panorama that is not a `.hdr` or `.exr` file, or a rotation or intensity out of range.
-    #[error("the sky panorama is not a .hdr or .exr file, or its rotation is beyond a full turn, or its intensity is negative or above {max:e} nits", max = crate::environment::MAX_ENVIRONMENT_INTENSITY)]
+    #[error("the sky panorama is not a .hdr or .exr file, or its rotation is beyond a full turn, or its intensity is negative or above {max:e} nits", max = crate::scene::environment::MAX_ENVIRONMENT_INTENSITY)]
     BadEnvironment,
     /// A hierarchy that would nest deeper than the editor holds.
     #[error(
         "{0} would lie {1} levels deep, more than the {max} the editor holds",
-        max = crate::hierarchy::MAX_HIERARCHY_DEPTH
+        max = crate::scene::hierarchy::MAX_HIERARCHY_DEPTH
     )]
     TooDeep(SceneId, usize),
 }
@@ -567,7 +351,7 @@ impl EditCommand {
                     Some(p) => Some(index.entity(*p).ok_or(EditError::Missing(*p))?),
                     None => None,
                 };
-                let base = new_parent.map_or(0, |p| crate::hierarchy::depth_of(world, p));
+                let base = new_parent.map_or(0, |p| crate::scene::hierarchy::depth_of(world, p));
                 for id in ids {
                     let e = entity(world, *id)?;
                     // The new parent may not be the object or anything under it.
@@ -619,7 +403,7 @@ impl EditCommand {
                 }
                 // The group goes under the first object's parent; all of them go under it.
                 let first = entity(world, ids[0])?;
-                let base = crate::hierarchy::depth_of(world, first);
+                let base = crate::scene::hierarchy::depth_of(world, first);
                 for id in ids {
                     let e = entity(world, *id)?;
                     check_depth(world, *id, e, base)?;
@@ -779,7 +563,7 @@ impl EditCommand {
                     if let Some(s) = ObjectSnapshot::capture(world, e) {
                         snapshots.push(s);
                     }
-                    crate::hierarchy::despawn_subtree(world, e);
+                    crate::scene::hierarchy::despawn_subtree(world, e);
                 }
                 Undo::Respawn(snapshots)
             }
@@ -858,18 +642,18 @@ fn import(
 ) -> Result<Undo, EditError> {
     let parsed = root.and_then(|id| {
         world
-            .get_resource_mut::<crate::import::parse::ParsedImports>()
+            .get_resource_mut::<crate::scene::parsed::ParsedImports>()
             .and_then(|mut p| p.0.remove(&id))
     });
     let mut parsed = match parsed {
         Some(s) => s,
         None => treelight_import::load_scene(file)
-            .map(crate::import::parse::ParsedScene::from)
+            .map(crate::scene::parsed::ParsedScene::from)
             .map_err(|e| EditError::Import(e.to_string()))?,
     };
     // A redone import's root gets its id back.
     let root_id: Vec<SceneId> = root.iter().copied().collect();
-    let top = crate::import::spawn::spawn_scene_in_world(
+    let top = crate::scene::spawn::spawn_scene_in_world(
         world,
         file,
         &parsed.scene,
@@ -980,10 +764,10 @@ fn add_primitive(
 
 /// Refuses an id for a new object that another object already has, or that is out of range.
 /// Refuses to put `e` (object `id`) and its subtree under something at level `base`, if its
-/// deepest object would then pass [`crate::hierarchy::MAX_HIERARCHY_DEPTH`].
+/// deepest object would then pass [`crate::scene::hierarchy::MAX_HIERARCHY_DEPTH`].
 fn check_depth(world: &World, id: SceneId, e: Entity, base: usize) -> Result<(), EditError> {
-    let deepest = base + crate::hierarchy::height_of(world, e);
-    if deepest > crate::hierarchy::MAX_HIERARCHY_DEPTH {
+    let deepest = base + crate::scene::hierarchy::height_of(world, e);
+    if deepest > crate::scene::hierarchy::MAX_HIERARCHY_DEPTH {
         return Err(EditError::TooDeep(id, deepest));
     }
     Ok(())
@@ -1145,7 +929,7 @@ impl Undo {
             Undo::Despawn(ids) => {
                 for id in ids {
                     if let Some(e) = find(world, id) {
-                        crate::hierarchy::despawn_subtree(world, e);
+                        crate::scene::hierarchy::despawn_subtree(world, e);
                     }
                 }
             }

@@ -4,8 +4,8 @@
 
 use super::command::{EditCommand, EditError, Undo};
 use super::snapshot::ObjectSnapshot;
-use crate::object::{SceneId, SceneIndex};
-use crate::outbox::DocumentEvent;
+use crate::scene::outbox::DocumentEvent;
+use crate::values::object::{SceneId, SceneIndex};
 use bevy::prelude::*;
 use undo::{Edit, Merged, Record};
 

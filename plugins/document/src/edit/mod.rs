@@ -13,8 +13,8 @@ pub struct EditPlugin;
 
 impl Plugin for EditPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<crate::object::SceneIndex>()
-            .init_resource::<crate::object::EditedObjects>()
+        app.init_resource::<crate::values::object::SceneIndex>()
+            .init_resource::<crate::values::object::EditedObjects>()
             .init_resource::<history::EditHistory>()
             .init_resource::<history::EditRequests>();
     }

@@ -2,10 +2,10 @@
 //! material, lights and source key, and its children's snapshots, so it can be spawned again as it
 //! was.
 
-use crate::import::spawn::{MeshSource, SourceKey};
-use crate::object::SceneObject;
-use crate::object::{SceneId, SceneIndex};
-use crate::primitive::PrimitiveShape;
+use crate::scene::spawn::{MeshSource, SourceKey};
+use crate::values::object::SceneObject;
+use crate::values::object::{SceneId, SceneIndex};
+use crate::values::primitive::PrimitiveShape;
 use bevy::prelude::*;
 
 /// One object of a snapshot, without its children.

@@ -7,10 +7,10 @@ use crate::edit::history::EditRequests;
 use crate::import::ask::{HeldImport, ImportQuestions};
 use crate::import::jobs::TracingImports;
 use crate::import::parse::{ParsedImports, ParsedScene, PendingImport, PendingImports};
-use crate::notice::Notices;
-use crate::object::SceneIndex;
-use crate::outbox::DocumentEvent;
-use crate::placement::{Surface, place_on, surface_under};
+use crate::scene::notice::Notices;
+use crate::scene::outbox::DocumentEvent;
+use crate::scene::placement::{Surface, place_on, surface_under};
+use crate::values::object::SceneIndex;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use std::path::PathBuf;
@@ -26,7 +26,7 @@ pub fn drop_transform(bounds: (Vec3, Vec3), surface: Surface) -> Transform {
 /// notices and the messages for the shell.
 #[derive(SystemParam)]
 pub struct ImportStart<'w> {
-    view: ResMut<'w, crate::outbox::DocumentView>,
+    view: ResMut<'w, crate::scene::outbox::DocumentView>,
     parsed_imports: ResMut<'w, ParsedImports>,
     index: ResMut<'w, SceneIndex>,
     requests: ResMut<'w, EditRequests>,
@@ -45,7 +45,7 @@ impl ImportStart<'_> {
             self.events.write(DocumentEvent::Frame { min, max });
             // The view the file is framed with is the one a save records, with or without an
             // editor's camera to follow it.
-            self.view.0 = Some(crate::outbox::CameraValue::framing(min, max));
+            self.view.0 = Some(crate::scene::outbox::CameraValue::framing(min, max));
         }
         let scene = &parsed.scene;
         self.notices.info(format!(

@@ -3,8 +3,8 @@
 
 use crate::edit::history::EditHistory;
 use crate::import::parse::{ParsedImports, PendingImports};
-use crate::notice::Notices;
-use crate::object::{SceneId, SceneIndex};
+use crate::scene::notice::Notices;
+use crate::values::object::{SceneId, SceneIndex};
 use bevy::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;

@@ -8,8 +8,6 @@
 //! own and the one it was recovered from).
 
 use crate::edit::history::EditHistory;
-use crate::notice::Notices;
-use crate::outbox::DocumentEvent;
 use crate::project::capture::capture_project;
 use crate::project::editor_lock::{EditorLock, editors_with};
 use crate::project::format::{ProjectState, checked_project_text};
@@ -17,6 +15,8 @@ use crate::project::recovery::{
     HEADER, RecoveryCopy, copies_for_project, owned_by_running_editor, recovery_beside,
     recovery_beside_for, unsaved_copies, unsaved_recovery_in,
 };
+use crate::scene::notice::Notices;
+use crate::scene::outbox::DocumentEvent;
 use bevy::prelude::*;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -25,9 +25,9 @@ use std::time::{Duration, Instant};
 /// How soon a failed write is tried again (or the interval, if shorter).
 const RETRY: Duration = Duration::from_secs(5);
 
-/// Where unsaved scenes' recovery copies and the editors' locks go ([`crate::folders::cache_dir`]).
+/// Where unsaved scenes' recovery copies and the editors' locks go ([`crate::files::folders::cache_dir`]).
 pub fn cache_dir() -> Option<PathBuf> {
-    crate::folders::cache_dir()
+    crate::files::folders::cache_dir()
 }
 
 /// A recovery copy being written: where, and the thread's answer.
@@ -110,7 +110,9 @@ impl Autosave {
     /// for any other scene (the default one, a scene file) those of unsaved scenes.
     pub fn look_for_start(&mut self, scene: Option<&Path>) {
         self.look_for = Some(match scene {
-            Some(p) if crate::is_project_file(p) => LookFor::Project(p.to_owned()),
+            Some(p) if crate::files::file_kind::is_project_file(p) => {
+                LookFor::Project(p.to_owned())
+            }
             _ => LookFor::UnsavedScenes,
         });
     }
@@ -142,7 +144,7 @@ impl Autosave {
             || self.offer.iter().any(|c| c.path == usual)
             || (self.written.as_ref() != Some(&usual)
                 && owned_by_running_editor(&usual, self.cache.as_deref()));
-        let refused = crate::own_file::check_writable_place(&usual)
+        let refused = crate::files::own_file::check_writable_place(&usual)
             .err()
             .map(|e| format!("{}: {e}", usual.display()));
         Some(if taken || refused.is_some() {
@@ -209,7 +211,7 @@ fn take_lock(dir: &Path) -> Option<EditorLock> {
         Err(e) => {
             let path = crate::project::editor_lock::lock_path(dir, std::process::id());
             warn!("{e}");
-            crate::own_file::set_aside(&path).ok()?;
+            crate::files::own_file::set_aside(&path).ok()?;
             EditorLock::take(dir).ok()
         }
     }
@@ -308,7 +310,7 @@ pub fn autosave(world: &mut World) {
             if let Some(dir) = path.parent() {
                 std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
             }
-            crate::own_file::write_own(&path, text.as_bytes())
+            crate::files::own_file::write_own(&path, text.as_bytes())
                 .map_err(|e| format!("{}: {e}", path.display()))
         });
     let mut auto = world.resource_mut::<Autosave>();

@@ -5,12 +5,12 @@
 
 use crate::edit::command::MaterialValue;
 use crate::edit::history::EditHistory;
-use crate::import::spawn::{MeshSource, SourceCatalog, SourceKey};
-use crate::light::LightValue;
-use crate::object::{EditedObjects, SceneId, SceneObject};
-use crate::outbox::DocumentView;
-use crate::primitive::PrimitiveShape;
 use crate::project::format::*;
+use crate::scene::outbox::DocumentView;
+use crate::scene::spawn::{MeshSource, SourceCatalog, SourceKey};
+use crate::values::light::LightValue;
+use crate::values::object::{EditedObjects, SceneId, SceneObject};
+use crate::values::primitive::PrimitiveShape;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -29,19 +29,84 @@ type SaveItem = (
     Has<Mesh3d>,
 );
 
+/// One saved object's row of the scene.
+type SaveRow<'w, 's> = bevy::ecs::query::QueryItem<'w, 's, SaveItem>;
+
 /// The scene as a project to be saved at `path`; also the names of objects that cannot be saved
 /// (meshes made by code, with no source file and no shape).
 pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<String>) {
     let mut q = world.query_filtered::<SaveItem, With<SceneObject>>();
     let world: &World = world;
+    let (nodes, rows) = listed_rows(world, q.iter(world).collect());
+    let mut sources = Sources::default();
+    let (mut objects, unsaved) = object_rows(world, &rows, &mut sources);
+    let (mut deleted, mut source_ids) = import_nodes(world, &nodes, &mut sources);
+    keep_missing(
+        world.resource::<ProjectState>(),
+        &mut sources,
+        &mut objects,
+        &mut deleted,
+        &mut source_ids,
+    );
+    // Whatever the view became (a pan far out), it is saved as a reopen accepts it.
+    let camera = world
+        .get_resource::<DocumentView>()
+        .and_then(|v| v.0)
+        .map(crate::scene::outbox::CameraValue::clamped);
+    let project = ProjectFile {
+        version: PROJECT_VERSION,
+        sources: sources.0.iter().map(|s| store_source(path, &s.1)).collect(),
+        source_ids,
+        objects,
+        deleted,
+        camera,
+        look: world
+            .get_resource::<crate::values::look::SceneLook>()
+            .copied(),
+        environment: world
+            .get_resource::<crate::scene::environment::SceneEnvironment>()
+            .filter(|e| **e != crate::scene::environment::SceneEnvironment::default())
+            .map(|e| crate::scene::environment::SceneEnvironment {
+                image: e.image.as_deref().map(|i| store_source(path, i)),
+                ..e.clone()
+            }),
+    };
+    (project, unsaved)
+}
+
+/// The project's sources in the order objects first name them.
+#[derive(Default)]
+struct Sources(Vec<(SourceOf, PathBuf)>);
+
+impl Sources {
+    /// The index of source `of` (read from `file`), added if it is new.
+    fn index(&mut self, of: SourceOf, file: &Path) -> usize {
+        match self.0.iter().position(|s| s.0 == of) {
+            Some(i) => i,
+            None => {
+                self.0.push((of, file.to_owned()));
+                self.0.len() - 1
+            }
+        }
+    }
+
+    fn contains(&self, of: SourceOf) -> bool {
+        self.0.iter().any(|s| s.0 == of)
+    }
+}
+
+/// Each import's nodes by key index: gone (deleted), listed, or left as they were (only their
+/// ids are written, as runs); and the rows to list, by id. A source's root is always listed: an
+/// import places it. Each import of a file is a source of its own.
+fn listed_rows<'w, 's>(
+    world: &World,
+    all: Vec<SaveRow<'w, 's>>,
+) -> (HashMap<u32, Vec<Node>>, Vec<SaveRow<'w, 's>>) {
     let catalog = world.resource::<SourceCatalog>();
     let edited = world.resource::<EditedObjects>();
-    // Each import's nodes by key index: gone (deleted), listed, or left as they were (only their
-    // ids are written, as runs). A source's root is always listed: an import places it. Each
-    // import of a file is a source of its own.
     let mut nodes: HashMap<u32, Vec<Node>> = HashMap::new();
     let mut rows = Vec::new();
-    for row in q.iter(world) {
+    for row in all {
         if let Some(k) = row.6 {
             let listed = k.index == 0 || edited.0.contains(row.1);
             let slots = nodes.entry(k.import).or_insert_with(|| {
@@ -66,22 +131,18 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         rows.push(row);
     }
     rows.sort_by_key(|r| *r.1);
+    (nodes, rows)
+}
+
+/// The listed objects, and the names of those that cannot be saved. Meshes made by code, with
+/// no file or shape to rebuild them from, cannot be: their children are saved under the nearest
+/// ancestor that is (so the project opens again), where they stand in the world.
+fn object_rows(
+    world: &World,
+    rows: &[SaveRow],
+    sources: &mut Sources,
+) -> (Vec<ProjectObject>, Vec<String>) {
     let materials = world.resource::<Assets<StandardMaterial>>();
-    let state = world.resource::<ProjectState>();
-    let mut sources: Vec<(SourceOf, PathBuf)> = Vec::new();
-    let source_of = |of: SourceOf, file: &Path, sources: &mut Vec<(SourceOf, PathBuf)>| -> usize {
-        match sources.iter().position(|s| s.0 == of) {
-            Some(i) => i,
-            None => {
-                sources.push((of, file.to_owned()));
-                sources.len() - 1
-            }
-        }
-    };
-    let mut objects = Vec::new();
-    let mut unsaved = Vec::new();
-    // Meshes made by code, with no file or shape to rebuild them from, cannot be saved: their
-    // children are saved under the nearest ancestor that is (so the project opens again).
     let dropped: std::collections::HashSet<Entity> = rows
         .iter()
         .filter(|r| {
@@ -94,7 +155,7 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         .map(|r| r.0)
         .collect();
     // The parent an object is saved under, and its transform there (through the dropped
-    // meshes between, so it stays where it is in the world).
+    // meshes between).
     let saved_place = |parent: Option<&ChildOf>, t: Transform| -> (Option<SceneId>, Transform) {
         let mut at = parent.map(ChildOf::parent);
         let mut t = t;
@@ -105,17 +166,18 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         }
         (at.and_then(|p| world.get::<SceneId>(p).copied()), t)
     };
-    for (e, id, name, t, vis, parent, key, mesh_source, shape, mat, has_mesh) in &rows {
+    let (mut objects, mut unsaved) = (Vec::new(), Vec::new());
+    for (e, id, name, t, vis, parent, key, mesh_source, shape, mat, has_mesh) in rows {
         let name = name.map_or(String::new(), |n| n.as_str().to_owned());
         let light = LightValue::of(&world.entity(*e));
         let kind = if let Some(k) = key {
             ObjectKind::Node(SourceNode {
-                source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
+                source: sources.index(SourceOf::Import(k.import), &k.file),
                 key: k.key.to_string(),
             })
         } else if let Some(MeshSource(k)) = mesh_source {
             ObjectKind::MeshOf(SourceNode {
-                source: source_of(SourceOf::Import(k.import), &k.file, &mut sources),
+                source: sources.index(SourceOf::Import(k.import), &k.file),
                 key: k.key.to_string(),
             })
         } else if let Some(PrimitiveShape(s)) = shape {
@@ -141,13 +203,22 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
             kind,
         });
     }
-    // Deleted nodes: those each import had that are gone now, for the imports that left an
-    // object (one wholly deleted or undone is not written).
-    let mut deleted = Vec::new();
-    let mut source_ids = Vec::new();
-    let mut imports: Vec<(u32, &crate::import::spawn::SourceImport)> = catalog
+    (objects, unsaved)
+}
+
+/// Deleted nodes (those each import had that are gone now) and the runs of ids of the nodes left
+/// as they were, for the imports that left an object (one wholly deleted or undone is not
+/// written).
+fn import_nodes(
+    world: &World,
+    nodes: &HashMap<u32, Vec<Node>>,
+    sources: &mut Sources,
+) -> (Vec<SourceNode>, Vec<SourceIds>) {
+    let catalog = world.resource::<SourceCatalog>();
+    let (mut deleted, mut source_ids) = (Vec::new(), Vec::new());
+    let mut imports: Vec<(u32, &crate::scene::spawn::SourceImport)> = catalog
         .iter()
-        .filter(|(n, _)| sources.iter().any(|s| s.0 == SourceOf::Import(*n)))
+        .filter(|(n, _)| sources.contains(SourceOf::Import(*n)))
         .collect();
     imports.sort_by_key(|i| i.0);
     for (import, source) in imports {
@@ -157,7 +228,7 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         let slot = |i: usize| slots.and_then(|s| s.get(i)).copied().unwrap_or(Node::Gone);
         if slots.is_some_and(|s| s.iter().any(|n| matches!(n, Node::Unlisted(_)))) {
             source_ids.push(SourceIds {
-                source: source_of(of, file, &mut sources),
+                source: sources.index(of, file),
                 keys: keys_hash(keys.iter().map(|k| &**k)),
                 runs: id_runs((0..keys.len()).map(|i| match slot(i) {
                     Node::Unlisted(id) => Some(id),
@@ -174,57 +245,45 @@ pub fn capture_project(world: &mut World, path: &Path) -> (ProjectFile, Vec<Stri
         if gone.is_empty() {
             continue;
         }
-        let source = source_of(of, file, &mut sources);
+        let source = sources.index(of, file);
         deleted.extend(gone.into_iter().map(|k| SourceNode {
             source,
             key: k.to_string(),
         }));
     }
-    // What a missing source held stays as it was, each such source apart.
+    (deleted, source_ids)
+}
+
+/// What a missing source held stays as it was, each such source apart.
+fn keep_missing(
+    state: &ProjectState,
+    sources: &mut Sources,
+    objects: &mut Vec<ProjectObject>,
+    deleted: &mut Vec<SourceNode>,
+    source_ids: &mut Vec<SourceIds>,
+) {
     let missing_file = |i: usize| state.missing_sources.get(i).cloned().unwrap_or_default();
     for o in &state.missing {
         let mut o = o.clone();
         if let ObjectKind::Node(n) | ObjectKind::MeshOf(n) = &mut o.kind {
             let file = missing_file(n.source);
-            n.source = source_of(SourceOf::Missing(n.source), &file, &mut sources);
+            n.source = sources.index(SourceOf::Missing(n.source), &file);
         }
         objects.push(o);
     }
     for (i, key) in &state.missing_deleted {
         deleted.push(SourceNode {
-            source: source_of(SourceOf::Missing(*i), &missing_file(*i), &mut sources),
+            source: sources.index(SourceOf::Missing(*i), &missing_file(*i)),
             key: key.clone(),
         });
     }
     for ids in &state.missing_ids {
         let file = missing_file(ids.source);
         source_ids.push(SourceIds {
-            source: source_of(SourceOf::Missing(ids.source), &file, &mut sources),
+            source: sources.index(SourceOf::Missing(ids.source), &file),
             ..ids.clone()
         });
     }
-    // Whatever the view became (a pan far out), it is saved as a reopen accepts it.
-    let camera = world
-        .get_resource::<DocumentView>()
-        .and_then(|v| v.0)
-        .map(crate::outbox::CameraValue::clamped);
-    let project = ProjectFile {
-        version: PROJECT_VERSION,
-        sources: sources.iter().map(|s| store_source(path, &s.1)).collect(),
-        source_ids,
-        objects,
-        deleted,
-        camera,
-        look: world.get_resource::<crate::look::SceneLook>().copied(),
-        environment: world
-            .get_resource::<crate::environment::SceneEnvironment>()
-            .filter(|e| **e != crate::environment::SceneEnvironment::default())
-            .map(|e| crate::environment::SceneEnvironment {
-                image: e.image.as_deref().map(|i| store_source(path, i)),
-                ..e.clone()
-            }),
-    };
-    (project, unsaved)
 }
 
 /// Which source of the saved project an object's node belongs to: an import in the scene (by its

@@ -3,7 +3,7 @@
 //! so a second editor on one project is told, and files an editor leaves behind (recovery copies,
 //! crash reports) are left alone while it runs.
 
-use crate::own_file::{open_own_for_writing, read_text_bounded};
+use crate::files::own_file::{open_own_for_writing, read_text_bounded};
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -4,17 +4,17 @@
 //! consecutive ids), the objects added in the editor (shapes, lights, groups, copies of imported
 //! meshes), the camera, the look (exposure and tone curve) and the sky panorama; never a copy of the geometry, and no line per unchanged node, so a
 //! project grows with the edits, not the sources. Opening one imports its sources again and
-//! applies the rest ([`super::restore`]); a file imported several times is listed once per
+//! applies the rest (`restore.rs`); a file imported several times is listed once per
 //! import, each its own source with its own edits and ids. Saving writes a temporary file beside the target,
-//! flushes it and renames it over the target ([`super::capture`]). Version 1 files, which list
+//! flushes it and renames it over the target (`capture.rs`). Version 1 files, which list
 //! every node, version 2 files, without a look, and version 3 files, without a sky panorama,
 //! still open.
 
 use crate::edit::command::{MaterialValue, TransformValue, in_range};
-pub use crate::light::LightValue;
-use crate::object::SceneId;
-pub use crate::outbox::CameraValue;
-use crate::primitive::Primitive;
+pub use crate::scene::outbox::CameraValue;
+pub use crate::values::light::LightValue;
+use crate::values::object::SceneId;
+use crate::values::primitive::Primitive;
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -88,7 +88,7 @@ fn shown() -> bool {
 }
 
 /// Consecutive source nodes with consecutive ids: the nodes at key indices `index` to
-/// `index + count - 1` of a source ([`crate::import::spawn::source_keys`] order) have ids `id` to
+/// `index + count - 1` of a source ([`crate::scene::spawn::source_keys`] order) have ids `id` to
 /// `id + count - 1`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct IdRun(pub u32, pub SceneId, pub u32);
@@ -149,11 +149,11 @@ pub struct ProjectFile {
     pub camera: Option<CameraValue>,
     /// The exposure and tone curve (version 3; older projects have the defaults).
     #[serde(default)]
-    pub look: Option<crate::look::SceneLook>,
+    pub look: Option<crate::values::look::SceneLook>,
     /// The sky panorama, its file relative to the project's folder when inside it (version 4;
     /// older projects have none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub environment: Option<crate::environment::SceneEnvironment>,
+    pub environment: Option<crate::scene::environment::SceneEnvironment>,
 }
 
 /// Why a project cannot be opened or saved; each names the file.
@@ -250,7 +250,7 @@ impl ProjectFile {
         if self.look.is_some_and(|l| !l.is_valid()) {
             return Err(format!(
                 "its exposure is not finite or beyond ±{} stops, or its sky is out of range",
-                crate::look::MAX_EXPOSURE_STOPS
+                crate::values::look::MAX_EXPOSURE_STOPS
             ));
         }
         if self.environment.as_ref().is_some_and(|e| !e.is_valid()) {
@@ -431,11 +431,11 @@ pub(crate) fn check_forest(
         }
         for (k, id) in path.iter().rev().enumerate() {
             let depth = below + k + 1;
-            if depth > crate::hierarchy::MAX_HIERARCHY_DEPTH {
+            if depth > crate::scene::hierarchy::MAX_HIERARCHY_DEPTH {
                 return Err(format!(
                     "object {} lies {depth} levels deep, more than the {} the editor holds",
                     id.0,
-                    crate::hierarchy::MAX_HIERARCHY_DEPTH
+                    crate::scene::hierarchy::MAX_HIERARCHY_DEPTH
                 ));
             }
             level.insert(*id, depth);
@@ -464,7 +464,7 @@ const PARSE_BYTES_PER_BYTE: u64 = 12;
 /// read.
 pub fn read_project(path: &Path) -> Result<ProjectFile, ProjectError> {
     let io = |e: std::io::Error| ProjectError::Io(path.to_owned(), e.to_string());
-    let (_, len) = crate::own_file::open_regular(path).map_err(io)?;
+    let (_, len) = crate::files::own_file::open_regular(path).map_err(io)?;
     let budget = treelight_import::default_memory_budget();
     if len > MAX_PROJECT_BYTES || len.saturating_mul(PARSE_BYTES_PER_BYTE) > budget {
         return Err(ProjectError::Format(
@@ -476,7 +476,7 @@ pub fn read_project(path: &Path) -> Result<ProjectFile, ProjectError> {
             ),
         ));
     }
-    let text = crate::own_file::read_text_bounded(path, len.max(1)).map_err(io)?;
+    let text = crate::files::own_file::read_text_bounded(path, len.max(1)).map_err(io)?;
     read_project_str(&text, path)
 }
 
@@ -546,12 +546,12 @@ pub fn checked_project_text(path: &Path, project: &ProjectFile) -> Result<String
     Ok(text)
 }
 
-/// Writes `project` to `path` atomically ([`crate::atomic_file`]: a temporary file of a unique
+/// Writes `project` to `path` atomically ([`crate::files::atomic_file`]: a temporary file of a unique
 /// name beside it, flushed, renamed over it, the folder flushed; a link's destination written),
 /// once its text has been read back and checked ([`checked_project_text`]).
 pub fn write_project(path: &Path, project: &ProjectFile) -> Result<(), ProjectError> {
     let text = checked_project_text(path, project)?;
-    crate::atomic_file::write_atomically(path, text.as_bytes())
+    crate::files::atomic_file::write_atomically(path, text.as_bytes())
         .map_err(|e| ProjectError::Io(path.to_owned(), e.to_string()))
 }
 

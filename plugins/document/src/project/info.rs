@@ -103,7 +103,7 @@ fn project_triangles(p: &ProjectFile, path: &Path) -> Result<u64, String> {
             .map(|(i, k)| (k.as_ref(), i))
             .collect();
         let mut triangles = vec![0u64; source.tree.keys.len()];
-        for (key, mesh) in crate::import::spawn::mesh_object_keys(scene)
+        for (key, mesh) in crate::scene::spawn::mesh_object_keys(scene)
             .iter()
             .zip(&scene.meshes)
         {
@@ -113,7 +113,7 @@ fn project_triangles(p: &ProjectFile, path: &Path) -> Result<u64, String> {
         }
         for (i, parent) in source.tree.parents.iter().enumerate() {
             objects.add(triangles[i], parent.map(|q| base + q as usize));
-            if source.ids[i] != crate::object::SceneId::NEW {
+            if source.ids[i] != crate::values::object::SceneId::NEW {
                 objects.by_id.insert(source.ids[i], base + i);
             }
         }
@@ -123,7 +123,7 @@ fn project_triangles(p: &ProjectFile, path: &Path) -> Result<u64, String> {
         let (base, index) = keys.get(source)?.as_ref()?;
         index.get(key).map(|i| base + i)
     };
-    let mut shapes: HashMap<crate::primitive::Primitive, u64> = HashMap::new();
+    let mut shapes: HashMap<crate::values::primitive::Primitive, u64> = HashMap::new();
     let mut listed = Vec::with_capacity(p.objects.len());
     for o in &p.objects {
         let at = match &o.kind {
@@ -166,7 +166,7 @@ struct ObjectForest {
     triangles: Vec<u64>,
     parents: Vec<Option<usize>>,
     deleted: Vec<bool>,
-    by_id: HashMap<crate::object::SceneId, usize>,
+    by_id: HashMap<crate::values::object::SceneId, usize>,
 }
 
 impl ObjectForest {

@@ -3,13 +3,13 @@
 //! replaced in one frame. Until then the open scene is untouched, and a cancel leaves it so.
 
 use crate::edit::history::EditHistory;
-use crate::job::Job;
-use crate::notice::Notices;
-use crate::outbox::DocumentEvent;
+use crate::files::job::Job;
 use crate::project::format::{
     FileStamp, OpenReport, ProjectError, ProjectFile, ProjectState, read_project,
 };
 use crate::project::restore::{OpenProgress, ParsedSources, open_project_parsed, parse_sources};
+use crate::scene::notice::Notices;
+use crate::scene::outbox::DocumentEvent;
 use bevy::prelude::*;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -132,7 +132,7 @@ pub fn finish_opening(world: &mut World) {
         (Err(e), OpenKind::Recovery { .. }) => {
             // A copy that cannot be opened would be offered at every start: it is moved aside
             // (the editor's own file, by its name), and the user told where.
-            let aside = match crate::own_file::set_aside(&path) {
+            let aside = match crate::files::own_file::set_aside(&path) {
                 Ok(to) => format!("; it was moved to {}", to.display()),
                 Err(why) => format!("; it could not be moved aside ({why})"),
             };

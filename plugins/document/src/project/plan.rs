@@ -3,9 +3,9 @@
 //! hierarchies together form a forest (a listed node moved under one of its own descendants in
 //! the file closes a ring only the file shows).
 
-use crate::import::spawn::{SourceTree, source_tree};
-use crate::object::SceneId;
 use crate::project::format::{ObjectKind, ProjectFile, check_forest, keys_hash};
+use crate::scene::spawn::{SourceTree, source_tree};
+use crate::values::object::SceneId;
 use std::collections::{HashMap, HashSet};
 use treelight_import::ImportedScene;
 

@@ -5,7 +5,7 @@
 //! running are never offered. What belongs to which scene follows from the name alone: a copy
 //! beside a project is that project's, an unsaved copy is no project's.
 
-use crate::own_file::open_own;
+use crate::files::own_file::open_own;
 use crate::project::editor_lock::{editor_running, left_by_gone_editors, pid_in};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -108,7 +108,7 @@ pub fn owned_by_running_editor(path: &Path, cache: Option<&Path>) -> bool {
 /// than it (or it is gone) and whose editor is not running, newest first.
 pub fn copies_for_project(project: &Path, cache: Option<&Path>) -> Vec<RecoveryCopy> {
     let saved = modified(project);
-    let folder = crate::own_file::folder_of(project);
+    let folder = crate::files::own_file::folder_of(project);
     let Ok(entries) = std::fs::read_dir(&folder) else {
         return Vec::new();
     };

@@ -3,14 +3,14 @@
 //! settle, saves and exits.
 
 use crate::import::parse::{ParsedImports, PendingImports};
-use crate::notice::Notices;
-use crate::outbox::DocumentEvent;
 use crate::project::autosave::Autosave;
 use crate::project::capture::save_project;
 use crate::project::format::ProjectState;
 use crate::project::open::{OpenKind, OpeningProjects};
 use crate::project::restore::{empty_scene, relink_source};
 use crate::project::script::ScriptedEdits;
+use crate::scene::notice::Notices;
+use crate::scene::outbox::DocumentEvent;
 use bevy::prelude::*;
 use std::path::PathBuf;
 

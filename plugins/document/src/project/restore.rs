@@ -3,15 +3,15 @@
 
 use crate::edit::command::MaterialValue;
 use crate::edit::history::EditHistory;
-use crate::import::spawn::{MeshSource, SourceCatalog};
-use crate::map_transforms::MaterialMapTransforms;
-use crate::object::{EditedObjects, SceneId, SceneIndex, SceneObject};
-use crate::outbox::{CameraValue, DocumentEvent, DocumentView};
-use crate::primitive::Primitive;
-use crate::primitive::PrimitiveShape;
 use crate::project::capture::capture_project;
 use crate::project::format::*;
 use crate::project::plan::OpenPlan;
+use crate::scene::outbox::{CameraValue, DocumentEvent, DocumentView};
+use crate::scene::spawn::{MeshSource, SourceCatalog};
+use crate::values::map_transforms::MaterialMapTransforms;
+use crate::values::object::{EditedObjects, SceneId, SceneIndex, SceneObject};
+use crate::values::primitive::Primitive;
+use crate::values::primitive::PrimitiveShape;
 use bevy::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -245,15 +245,15 @@ pub fn open_project_value(
 pub fn empty_scene(world: &mut World) {
     let mut q = world.query_filtered::<Entity, (With<SceneObject>, Without<ChildOf>)>();
     for e in q.iter(world).collect::<Vec<_>>() {
-        crate::hierarchy::despawn_subtree(world, e);
+        crate::scene::hierarchy::despawn_subtree(world, e);
     }
     let mut q = world.query_filtered::<Entity, With<SceneObject>>();
     for e in q.iter(world).collect::<Vec<_>>() {
-        crate::hierarchy::despawn_subtree(world, e);
+        crate::scene::hierarchy::despawn_subtree(world, e);
     }
     *world.resource_mut::<EditHistory>() = EditHistory::default();
-    world.insert_resource(crate::look::SceneLook::default());
-    world.insert_resource(crate::environment::SceneEnvironment::default());
+    world.insert_resource(crate::values::look::SceneLook::default());
+    world.insert_resource(crate::scene::environment::SceneEnvironment::default());
     world.write_message(DocumentEvent::Replaced);
     world.resource_mut::<SourceCatalog>().clear();
 }
@@ -293,7 +293,7 @@ fn spawn_sources(
     for (i, scene) in parsed.iter().enumerate() {
         let spawned = scene.as_ref().and_then(|scene| {
             let ids = plan.sources[i].as_ref().map_or(&[][..], |p| &p.ids[..]);
-            crate::import::spawn::spawn_scene_in_world(
+            crate::scene::spawn::spawn_scene_in_world(
                 world,
                 &resolved[i],
                 scene,
@@ -386,101 +386,23 @@ pub fn open_project_parsed(
     let read: Vec<bool> = parsed.iter().map(Option::is_some).collect();
     clear_scene(world, &project, &read);
     let spawned = spawn_sources(world, &parsed, &resolved, &plan);
-    let node = |source: usize, key: &str| -> Option<Entity> {
-        spawned
-            .get(source)?
-            .get(plan.index_of(source, key)?)
-            .copied()
-    };
-
     let mut state = ProjectState {
         path: Some(path.to_owned()),
         ..default()
     };
-    let missing_source = |n: &SourceNode| parsed[n.source].is_none();
-    let mut by_id: HashMap<SceneId, Entity> = HashMap::new();
-    // Listed source nodes whose values differ from their file's: written again by the next save
-    // (a version 1 project lists every node, most as the file has them).
-    let mut edited: std::collections::HashSet<SceneId> = std::collections::HashSet::new();
-    let mut shape_meshes: HashMap<Primitive, Handle<Mesh>> = HashMap::new();
-    let mut shared_materials: HashMap<String, Handle<StandardMaterial>> = HashMap::new();
-    let mut made_material = |world: &mut World, value: &MaterialValue, base: StandardMaterial| {
-        let key = format!("{value:?}");
-        if let Some(h) = shared_materials.get(&key) {
-            return h.clone();
-        }
-        let mut m = base;
-        value.write(&mut m);
-        let h = world.resource_mut::<Assets<StandardMaterial>>().add(m);
-        shared_materials.insert(key, h.clone());
-        h
+    let mut making = ListedObjects {
+        parsed: &parsed,
+        spawned: &spawned,
+        plan: &plan,
+        shape_meshes: HashMap::new(),
+        shared_materials: HashMap::new(),
+        edited: std::collections::HashSet::new(),
     };
+    let mut by_id: HashMap<SceneId, Entity> = HashMap::new();
     for o in &project.objects {
-        let entity = match &o.kind {
-            ObjectKind::Node(n) | ObjectKind::MeshOf(n) if missing_source(n) => {
-                state.missing.push(o.clone());
-                continue;
-            }
-            ObjectKind::Node(n) => match node(n.source, &n.key) {
-                Some(e) => {
-                    if !node_as_listed(world, e, o) {
-                        edited.insert(o.id);
-                    }
-                    if let Some(value) = &o.material {
-                        apply_node_material(world, e, value);
-                    }
-                    if let Some(light) = &o.light {
-                        light.put_on(&mut world.entity_mut(e));
-                    }
-                    e
-                }
-                None => {
-                    report.missing_nodes += 1;
-                    if report.missing_names.len() < 10 {
-                        report
-                            .missing_names
-                            .push(format!("{} ('{}')", o.name, n.key));
-                    }
-                    state.missing.push(o.clone());
-                    continue;
-                }
-            },
-            ObjectKind::MeshOf(n) => {
-                let origin = node(n.source, &n.key);
-                let Some(e) = origin.and_then(|origin| spawn_copy(world, origin)) else {
-                    report.missing_nodes += 1;
-                    state.missing.push(o.clone());
-                    continue;
-                };
-                // A copy shares its original's material until one of them was made unique.
-                if let Some(value) = &o.material {
-                    apply_node_material(world, e, value);
-                }
-                if let Some(light) = &o.light {
-                    light.put_on(&mut world.entity_mut(e));
-                }
-                e
-            }
-            ObjectKind::Shape(shape) => {
-                let mesh = shape_meshes
-                    .entry(*shape)
-                    .or_insert_with(|| world.resource_mut::<Assets<Mesh>>().add(shape.mesh()))
-                    .clone();
-                let value = o
-                    .material
-                    .unwrap_or_else(|| MaterialValue::of(&shape.material()));
-                let material = made_material(world, &value, shape.material());
-                world
-                    .spawn((
-                        SceneObject,
-                        Mesh3d(mesh),
-                        MeshMaterial3d(material),
-                        PrimitiveShape(*shape),
-                    ))
-                    .id()
-            }
-            ObjectKind::Light(l) => spawn_light(world, l),
-            ObjectKind::Empty => world.spawn((SceneObject, Visibility::default())).id(),
+        let Some(entity) = making.make(world, o, &mut report) else {
+            state.missing.push(o.clone());
+            continue;
         };
         world.entity_mut(entity).insert((
             o.id,
@@ -494,15 +416,16 @@ pub fn open_project_parsed(
         ));
         by_id.insert(o.id, entity);
     }
+    let mut edited = std::mem::take(&mut making.edited);
     link_parents(world, &project, &by_id, &mut edited);
     // Deleted nodes go last: their children the user moved elsewhere are elsewhere by now.
     for d in &project.deleted {
         if parsed[d.source].is_none() {
             state.missing_deleted.push((d.source, d.key.clone()));
-        } else if let Some(e) = node(d.source, &d.key)
+        } else if let Some(e) = making.node(d.source, &d.key)
             && world.get_entity(e).is_ok()
         {
-            crate::hierarchy::despawn_subtree(world, e);
+            crate::scene::hierarchy::despawn_subtree(world, e);
         }
     }
     state.missing_sources = resolved.clone();
@@ -513,7 +436,7 @@ pub fn open_project_parsed(
     world.insert_resource(project.look.unwrap_or_default());
     // Checked by validation too; the file is read (and a missing one reported) by the loader.
     let environment = project.environment.clone().unwrap_or_default();
-    world.insert_resource(crate::environment::SceneEnvironment {
+    world.insert_resource(crate::scene::environment::SceneEnvironment {
         image: environment
             .image
             .as_deref()
@@ -529,6 +452,119 @@ pub fn open_project_parsed(
     world.resource_mut::<EditedObjects>().0 = edited;
     world.resource_mut::<EditHistory>().mark_saved();
     Ok(report)
+}
+
+/// What making a project's listed objects shares: the sources' spawned nodes, the meshes of the
+/// shapes and the materials made so far (one asset for equal values), and the listed nodes whose
+/// values differ from their file's (written again by the next save; a version 1 project lists
+/// every node, most as the file has them).
+struct ListedObjects<'a> {
+    parsed: &'a [Option<Arc<treelight_import::ImportedScene>>],
+    spawned: &'a [Vec<Entity>],
+    plan: &'a OpenPlan<'a>,
+    shape_meshes: HashMap<Primitive, Handle<Mesh>>,
+    shared_materials: HashMap<String, Handle<StandardMaterial>>,
+    edited: std::collections::HashSet<SceneId>,
+}
+
+impl ListedObjects<'_> {
+    /// The spawned node of source `source` with `key`, if it has one.
+    fn node(&self, source: usize, key: &str) -> Option<Entity> {
+        self.spawned
+            .get(source)?
+            .get(self.plan.index_of(source, key)?)
+            .copied()
+    }
+
+    /// A material of `value` over `base`, shared with any made of the same values.
+    fn material(
+        &mut self,
+        world: &mut World,
+        value: &MaterialValue,
+        base: StandardMaterial,
+    ) -> Handle<StandardMaterial> {
+        let key = format!("{value:?}");
+        if let Some(h) = self.shared_materials.get(&key) {
+            return h.clone();
+        }
+        let mut m = base;
+        value.write(&mut m);
+        let h = world.resource_mut::<Assets<StandardMaterial>>().add(m);
+        self.shared_materials.insert(key, h.clone());
+        h
+    }
+
+    /// The entity listed object `o` is: its source's node with the listed values, a copy of one,
+    /// or a shape, light or group made anew; `None` where its source or node is missing (counted
+    /// in `report`), kept for the next save.
+    fn make(
+        &mut self,
+        world: &mut World,
+        o: &ProjectObject,
+        report: &mut OpenReport,
+    ) -> Option<Entity> {
+        let missing_source = |n: &SourceNode| self.parsed[n.source].is_none();
+        Some(match &o.kind {
+            ObjectKind::Node(n) | ObjectKind::MeshOf(n) if missing_source(n) => return None,
+            ObjectKind::Node(n) => {
+                let Some(e) = self.node(n.source, &n.key) else {
+                    report.missing_nodes += 1;
+                    if report.missing_names.len() < 10 {
+                        report
+                            .missing_names
+                            .push(format!("{} ('{}')", o.name, n.key));
+                    }
+                    return None;
+                };
+                if !node_as_listed(world, e, o) {
+                    self.edited.insert(o.id);
+                }
+                if let Some(value) = &o.material {
+                    apply_node_material(world, e, value);
+                }
+                if let Some(light) = &o.light {
+                    light.put_on(&mut world.entity_mut(e));
+                }
+                e
+            }
+            ObjectKind::MeshOf(n) => {
+                let origin = self.node(n.source, &n.key);
+                let Some(e) = origin.and_then(|origin| spawn_copy(world, origin)) else {
+                    report.missing_nodes += 1;
+                    return None;
+                };
+                // A copy shares its original's material until one of them was made unique.
+                if let Some(value) = &o.material {
+                    apply_node_material(world, e, value);
+                }
+                if let Some(light) = &o.light {
+                    light.put_on(&mut world.entity_mut(e));
+                }
+                e
+            }
+            ObjectKind::Shape(shape) => {
+                let mesh = self
+                    .shape_meshes
+                    .entry(*shape)
+                    .or_insert_with(|| world.resource_mut::<Assets<Mesh>>().add(shape.mesh()))
+                    .clone();
+                let value = o
+                    .material
+                    .unwrap_or_else(|| MaterialValue::of(&shape.material()));
+                let material = self.material(world, &value, shape.material());
+                world
+                    .spawn((
+                        SceneObject,
+                        Mesh3d(mesh),
+                        MeshMaterial3d(material),
+                        PrimitiveShape(*shape),
+                    ))
+                    .id()
+            }
+            ObjectKind::Light(l) => spawn_light(world, l),
+            ObjectKind::Empty => world.spawn((SceneObject, Visibility::default())).id(),
+        })
+    }
 }
 
 /// Whether a source node's spawned values (its file's) are those the project lists: name,

@@ -4,7 +4,7 @@
 use crate::edit::command::EditCommand;
 use crate::edit::history::{EditRequest, apply_request};
 use crate::import::parse::PendingImports;
-use crate::object::SceneIndex;
+use crate::values::object::SceneIndex;
 use bevy::prelude::*;
 use std::path::{Path, PathBuf};
 use treelight_scene::SceneBvh;
@@ -36,14 +36,14 @@ const PARSE_BYTES_PER_BYTE: u64 = 12;
 /// Reads a RON list of [`EditCommand`]s: a regular file (a pipe or device is refused at once), no
 /// larger than a script can be nor than its parse fits in the import's memory budget.
 pub fn read_commands(path: &Path) -> Result<Vec<EditCommand>, ScriptError> {
-    let (_, len) =
-        crate::own_file::open_regular(path).map_err(|e| ScriptError::Read(path.into(), e))?;
+    let (_, len) = crate::files::own_file::open_regular(path)
+        .map_err(|e| ScriptError::Read(path.into(), e))?;
     if len > MAX_SCRIPT_BYTES
         || len.saturating_mul(PARSE_BYTES_PER_BYTE) > treelight_import::default_memory_budget()
     {
         return Err(ScriptError::TooLarge(path.into(), len));
     }
-    let text = crate::own_file::read_text_bounded(path, len.max(1))
+    let text = crate::files::own_file::read_text_bounded(path, len.max(1))
         .map_err(|e| ScriptError::Read(path.into(), e))?;
     ron::from_str(&text).map_err(|e| ScriptError::Parse(path.into(), Box::new(e)))
 }
@@ -135,7 +135,7 @@ pub fn run_scripted_edits(world: &mut World) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::object::SceneId;
+    use crate::values::object::SceneId;
 
     #[test]
     fn the_readme_example_parses() {

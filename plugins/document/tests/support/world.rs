@@ -3,7 +3,7 @@
 
 use bevy::prelude::*;
 use std::path::PathBuf;
-use treelight_document::outbox::{CameraValue, DocumentView};
+use treelight_document::scene::outbox::{CameraValue, DocumentView};
 
 /// The editor's headless app (the one `--save` runs), with the editor's starting view to save.
 pub fn editor_world() -> App {

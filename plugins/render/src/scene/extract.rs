@@ -1,0 +1,396 @@
+//! Main world to render world: the scene's change set becomes record writes, materials and lights are
+//! compared with what was sent before. Runs on the main thread during extraction, so it never waits:
+//! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
+
+use crate::scene::texture_layers::TextureLayers;
+use crate::types::map_transforms::MapUvTransforms;
+use crate::types::records::{
+    LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
+    outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
+};
+use crate::types::upload::{BufferKind, UploadPlan, Writes, runs};
+use crate::types::view::Outlined;
+use bevy::camera::primitives::Aabb;
+use bevy::camera::visibility::InheritedVisibility;
+use bevy::light::{DirectionalLight, PointLight, SpotLight};
+use bevy::math::Mat3;
+use bevy::mesh::UvChannel;
+use bevy::pbr::{MeshMaterial3d, StandardMaterial};
+use bevy::prelude::*;
+use bevy::render::{Extract, ExtractSchedule};
+use treelight_bvh::GroupId;
+use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
+
+pub(crate) fn build(render_app: &mut SubApp) {
+    render_app
+        .init_resource::<SceneSync>()
+        .add_systems(ExtractSchedule, extract_scene);
+}
+
+/// What the render world must write before tracing this frame.
+#[derive(Default)]
+pub(crate) struct PendingUpload {
+    /// Kept from frame to frame: the render world clears it once written.
+    pub writes: Writes,
+    /// Records each buffer must hold, in [`BufferKind::ALL`] order.
+    pub needed: [u64; 6],
+    pub root: Option<u32>,
+    pub light_count: Option<u32>,
+    /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
+    /// pixel's samples valid).
+    pub geometry_changed: bool,
+    /// The outline buffer's new words and the slots they cover (0: nothing outlined), when they
+    /// changed.
+    pub outlines: Option<(Vec<u32>, u32)>,
+    /// World-space bounds of the outlined meshes this frame; `None` when some mesh's are unknown
+    /// (then the whole view is searched for outlines).
+    pub outline_bounds: Option<[Vec3; 2]>,
+    /// The whole table of per-map UV transform sets, when it gained one.
+    pub map_transforms: Option<Vec<u8>>,
+    /// Whether new geometry is on its way into the scene's tree (`SceneBvh::is_filling`).
+    pub filling: bool,
+    /// The tree's version the writes bring the GPU copy up to, when changes were taken.
+    pub version: Option<u64>,
+}
+
+impl PendingUpload {
+    fn need(&mut self, kind: BufferKind, records: u64) {
+        let i = kind.index();
+        self.needed[i] = self.needed[i].max(records);
+    }
+}
+
+/// The render world's memory of what it has sent, so only differences are uploaded.
+#[derive(Resource, Default)]
+pub(crate) struct SceneSync {
+    /// Whether the first, complete change set has been taken.
+    synced: bool,
+    /// Object records as last written, by group slot.
+    objects: Vec<Option<Vec<u8>>>,
+    lights: Option<Vec<u8>>,
+    /// The sets of per-map UV transforms the object records name.
+    map_transforms: crate::types::map_transforms::MapTransformTable,
+    /// The outline words as last sent.
+    outlines: Vec<u32>,
+    /// The slots the views know re-laid groups by.
+    identities: crate::types::identity::SlotIdentities,
+    /// By group slot: whether its shading records were written holding two UV sets.
+    two_uv_sets: Vec<bool>,
+    pub pending: PendingUpload,
+}
+
+/// The meshes to outline, with what their world-space boxes are made from.
+type OutlinedQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Outlined,
+        Option<&'static Aabb>,
+        Option<&'static GlobalTransform>,
+    ),
+>;
+
+type MaterialQuery<'w, 's> = Query<'w, 's, &'static MeshMaterial3d<StandardMaterial>>;
+
+/// Main-world assets a material is read from.
+#[derive(Clone, Copy)]
+struct MaterialAssets<'a> {
+    materials: Option<&'a Assets<StandardMaterial>>,
+    images: Option<&'a Assets<Image>>,
+    map_transforms: Option<&'a MapUvTransforms>,
+}
+
+fn material_of(
+    e: Entity,
+    handles: &MaterialQuery,
+    assets: MaterialAssets,
+    layers: &mut TextureLayers,
+) -> SurfaceMaterial {
+    let Some((id, m)) = handles
+        .get(e)
+        .ok()
+        .and_then(|h| Some((h.0.id(), assets.materials?.get(&h.0)?)))
+    else {
+        return SurfaceMaterial::default();
+    };
+    let c = m.base_color.to_linear();
+    let mut layer = |h: &Option<Handle<Image>>, channel: &UvChannel| match (h, assets.images) {
+        (Some(h), Some(images)) => layers.layer_for(h.id(), images).map(|t| LayerTexture {
+            second_uv_set: *channel == UvChannel::Uv1,
+            ..t
+        }),
+        _ => None,
+    };
+    let tint = m.specular_tint.to_linear();
+    SurfaceMaterial {
+        base_color: [c.red, c.green, c.blue, c.alpha],
+        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue],
+        metallic: m.metallic,
+        perceptual_roughness: m.perceptual_roughness,
+        reflectance: m.reflectance,
+        specular_tint: [tint.red, tint.green, tint.blue],
+        transmission: m.specular_transmission,
+        clearcoat: m.clearcoat,
+        clearcoat_roughness: m.clearcoat_perceptual_roughness,
+        alpha: match m.alpha_mode {
+            AlphaMode::Opaque => SurfaceAlpha::Opaque,
+            AlphaMode::Mask(cutoff) => SurfaceAlpha::Mask(cutoff),
+            AlphaMode::AlphaToCoverage => SurfaceAlpha::Mask(0.5),
+            AlphaMode::Blend | AlphaMode::Premultiplied | AlphaMode::Add | AlphaMode::Multiply => {
+                SurfaceAlpha::Blend
+            }
+        },
+        base_color_texture: layer(&m.base_color_texture, &m.base_color_channel),
+        metallic_roughness_texture: layer(
+            &m.metallic_roughness_texture,
+            &m.metallic_roughness_channel,
+        ),
+        normal_texture: layer(&m.normal_map_texture, &m.normal_map_channel),
+        normal_y: if m.flip_normal_map_y { -1.0 } else { 1.0 },
+        occlusion_texture: layer(&m.occlusion_texture, &m.occlusion_channel),
+        emissive_texture: layer(&m.emissive_texture, &m.emissive_channel),
+        uv_transform: m.uv_transform,
+        map_uv_transforms: assets.map_transforms.and_then(|t| t.0.get(&id).copied()),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn extract_scene(
+    mut sync: ResMut<SceneSync>,
+    mut layers: ResMut<TextureLayers>,
+    scene: Extract<Option<Res<SceneBvh>>>,
+    handles: Extract<MaterialQuery>,
+    materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
+    images: Extract<Option<Res<Assets<Image>>>>,
+    map_transforms: Extract<Option<Res<MapUvTransforms>>>,
+    outlined: Extract<OutlinedQuery>,
+    points: Extract<Query<(&PointLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
+    spots: Extract<Query<(&SpotLight, &GlobalTransform, Option<&InheritedVisibility>)>>,
+    suns: Extract<
+        Query<(
+            &DirectionalLight,
+            &GlobalTransform,
+            Option<&InheritedVisibility>,
+        )>,
+    >,
+) {
+    let sync = &mut *sync;
+    let Some(scene) = scene.as_deref() else {
+        return;
+    };
+    let everything = !sync.synced;
+    sync.pending.filling = scene.is_filling();
+    let assets = MaterialAssets {
+        materials: materials.as_deref(),
+        images: images.as_deref(),
+        map_transforms: map_transforms.as_deref(),
+    };
+    let taken = scene.try_take_changes(everything, |tree, changes| {
+        scene_writes(sync, tree, changes, &handles, assets, &mut layers);
+        changes.version
+    });
+    if let Some(version) = taken {
+        sync.synced = true;
+        sync.pending.version = Some(version);
+    }
+    // The outlined meshes' group slots (when the worker holds the tree, the next frame looks).
+    if let Some(tree) = scene.try_read() {
+        let slots = tree.bvh.group_slots();
+        let mut words = vec![0u32; outline_words(slots as usize)];
+        for (e, o, ..) in &outlined {
+            for g in tree.groups_of(e) {
+                set_outline(&mut words, sync.identities.of(g.index()), o.shader_value());
+            }
+        }
+        if words != sync.outlines {
+            let covered = if words.iter().any(|&w| w != 0) {
+                slots
+            } else {
+                0
+            };
+            sync.pending.outlines = Some((words.clone(), covered));
+            sync.outlines = words;
+        }
+    }
+    sync.pending.outline_bounds = outlined_bounds(&outlined);
+    let mut lights: Vec<SceneLight> = Vec::new();
+    for (l, gt, vis) in &points {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Point {
+                position: gt.translation(),
+                power: Vec3::new(c.red, c.green, c.blue) * l.intensity,
+                radius: l.radius,
+                range: Some(l.range),
+            });
+        }
+    }
+    for (l, gt, vis) in &spots {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Spot {
+                position: gt.translation(),
+                direction: gt.forward().into(),
+                power: Vec3::new(c.red, c.green, c.blue) * l.intensity,
+                radius: l.radius,
+                range: Some(l.range),
+                inner_angle: l.inner_angle,
+                outer_angle: l.outer_angle,
+            });
+        }
+    }
+    for (l, gt, vis) in &suns {
+        if vis.is_none_or(|v| v.get()) {
+            let c = l.color.to_linear();
+            lights.push(SceneLight::Directional {
+                direction: gt.forward().into(),
+                illuminance: Vec3::new(c.red, c.green, c.blue) * l.illuminance,
+            });
+        }
+    }
+    let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+    if sync.lights.as_ref() != Some(&bytes) {
+        let p = &mut sync.pending;
+        p.need(BufferKind::Lights, lights.len() as u64);
+        p.light_count = Some(lights.len() as u32);
+        p.geometry_changed = true;
+        if !bytes.is_empty() {
+            p.writes.push(BufferKind::Lights, 0, &bytes);
+        }
+        sync.lights = Some(bytes);
+    }
+}
+
+/// The union of the outlined meshes' world-space boxes; `None` when one has no box or transform.
+fn outlined_bounds(outlined: &OutlinedQuery) -> Option<[Vec3; 2]> {
+    let mut out = [Vec3::INFINITY, Vec3::NEG_INFINITY];
+    for (_, _, aabb, gt) in outlined {
+        let (aabb, affine) = (aabb?, gt?.affine());
+        // The transformed box's bounds: its centre moved, its half extents through |M|.
+        let centre = Vec3::from(affine.transform_point3a(aabb.center));
+        let half = Vec3::from(affine.matrix3.abs() * aabb.half_extents);
+        out = [out[0].min(centre - half), out[1].max(centre + half)];
+    }
+    out[0].is_finite().then_some(out)
+}
+
+/// The writes for one change set, plus every object record whose transform or material changed.
+fn scene_writes(
+    sync: &mut SceneSync,
+    tree: &SceneTree,
+    changes: &SceneChanges,
+    handles: &MaterialQuery,
+    assets: MaterialAssets,
+    layers: &mut TextureLayers,
+) {
+    let bvh = &tree.bvh;
+    let p = &mut sync.pending;
+    let c = &changes.bvh;
+    // Capacities are settled by the render world when it applies the writes.
+    let plan = UploadPlan::new_in(bvh, c, [u64::MAX; 3], std::mem::take(&mut p.writes));
+    p.writes = plan.writes;
+    p.root = Some(plan.root);
+    let restart = c.geometry_changed() || !changes.fresh_groups.is_empty();
+    p.geometry_changed |= restart;
+    // The views restart, or keep what they traced and know each re-laid group as the one it
+    // replaced.
+    if restart {
+        sync.identities.restart();
+    } else {
+        for &(new, old) in &changes.relaid_groups {
+            sync.identities.relaid(new.index(), old.index());
+        }
+    }
+    p.need(BufferKind::Nodes, c.inner_capacity as u64);
+    p.need(BufferKind::Triangles, c.triangle_capacity as u64);
+    p.need(BufferKind::Instances, c.instance_capacity as u64);
+    p.need(BufferKind::Attributes, c.triangle_capacity as u64);
+    p.need(BufferKind::Objects, bvh.group_slots() as u64);
+
+    // Object records: compared with what was sent, so a material edit or a move uploads one record.
+    // A re-laid group's record is compared with the one of the group it replaced: the same one
+    // in a new slot changes no pixel.
+    sync.objects.resize(bvh.group_slots() as usize, None);
+    let replaced: std::collections::HashMap<GroupId, GroupId> =
+        changes.relaid_groups.iter().copied().collect();
+    sync.two_uv_sets.resize(bvh.group_slots() as usize, false);
+    let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
+    relay.extend(changes.relaid_groups.iter().map(|r| r.0));
+    layers.begin_pass();
+    let sets = sync.map_transforms.len();
+    for (&g, &e) in &tree.group_entity {
+        let Ok(transform) = bvh.group_transform(g) else {
+            continue;
+        };
+        let material = material_of(e, handles, assets, layers);
+        // Its shading records hold its second UV set where its material reads it.
+        let two = material.reads_second_uv_set()
+            && tree.shading.get(&g).is_some_and(|s| !s.uvs1.is_empty());
+        if std::mem::replace(&mut sync.two_uv_sets[g.index() as usize], two) != two {
+            // A material that began or stopped reading the second set: the group's records again.
+            relay.push(g);
+        }
+        let rec = with_identity(
+            object_bytes(
+                Mat3::from(transform.matrix3),
+                &material,
+                &mut sync.map_transforms,
+            ),
+            sync.identities.borrowed(g.index()),
+        );
+        let before = replaced
+            .get(&g)
+            .and_then(|old| sync.objects.get(old.index() as usize).cloned().flatten());
+        let slot = &mut sync.objects[g.index() as usize];
+        if slot.as_ref() != Some(&rec) {
+            p.geometry_changed |= !before.is_some_and(|b| same_drawing(&b, &rec));
+            p.writes.push(
+                BufferKind::Objects,
+                g.index() as u64 * crate::types::records::OBJECT_BYTES,
+                &rec,
+            );
+            *slot = Some(rec);
+        }
+    }
+    layers.end_pass();
+    if sync.map_transforms.len() != sets {
+        p.map_transforms = Some(sync.map_transforms.bytes());
+    }
+
+    // Shading records of new and re-laid groups (triangles that only moved keep theirs) and of
+    // groups whose material changed the UV sets it reads: which group and which of its triangles
+    // each id is, sorted by id, then written run by run.
+    let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
+    for g in relay {
+        let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
+            continue;
+        };
+        records.extend(ids.iter().enumerate().map(|(k, &t)| (t, g, k as u32)));
+    }
+    records.sort_unstable_by_key(|r| r.0);
+    records.dedup_by_key(|r| r.0);
+    let runs = runs(records.iter().map(|r| r.0), 0);
+    let two_uv_sets = &sync.two_uv_sets;
+    sync.pending
+        .writes
+        .push_records(BufferKind::Attributes, runs, |j, _| {
+            let (_, g, k) = records[j];
+            let k = k as usize;
+            let Some(shading) = tree.shading.get(&g) else {
+                return packed_attribute_record(None, None, g.index());
+            };
+            let mut record = packed_attribute_record(
+                shading.normals.get(k).copied(),
+                shading.uvs.get(k).copied(),
+                g.index(),
+            );
+            record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
+            if two_uv_sets[g.index() as usize]
+                && let Some(&uvs1) = shading.uvs1.get(k)
+            {
+                record = record.with_second_uv_set(uvs1);
+            }
+            record
+        });
+}

@@ -1,0 +1,7 @@
+//! The scene on the GPU: extraction of the tree's changes, staging, the texture layers and the
+//! scene's buffers and bind group.
+
+pub(crate) mod extract;
+pub(crate) mod gpu_scene;
+pub(crate) mod staging;
+pub(crate) mod texture_layers;

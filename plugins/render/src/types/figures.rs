@@ -1,0 +1,132 @@
+//! What the render world reports back to the main world: bytes, samples, kernels waited for.
+
+use crate::types::budget::CostSource;
+use bevy::prelude::*;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// Figures the render world reports back for the UI.
+#[derive(Clone, Debug, Default)]
+pub struct PathTracerFigures {
+    /// Bytes written to the scene buffers in the last frame that uploaded anything.
+    pub last_upload_bytes: u64,
+    /// Bytes written to the scene buffers since start.
+    pub total_upload_bytes: u64,
+    /// Frames that uploaded anything.
+    pub uploads: u64,
+    /// Samples every pixel has accumulated so far, per path-traced camera.
+    pub samples: HashMap<Entity, u32>,
+    /// The frame budget's latest figures, per path-traced camera.
+    pub traces: HashMap<Entity, TraceFigures>,
+    /// Whether the GPU copy has caught up with the scene at least once.
+    pub scene_ready: bool,
+    /// The scene tree's version ([`treelight_scene::SceneBvh::version`]) the GPU copy holds: the
+    /// copy is current when it equals the tree's.
+    pub uploaded_version: u64,
+    /// Why nothing is traced, when the scene or a view needs a buffer larger than the adapter can
+    /// bind: the path tracer stops (the scene itself is untouched) and an app shows another view.
+    pub trace_off: Option<String>,
+    /// The trace kernel the scene's views wait for while it is compiled away from their queue,
+    /// on a software adapter: at the start, when a scene first outgrows one binding, when a
+    /// texture of another kind is bound (with a cold shader cache most of a minute for the
+    /// whole-scene kernel and minutes for the split one; about a second once the driver's cache
+    /// holds it).
+    pub preparing_kernel: Option<PreparingKernel>,
+    /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
+    pub scene_buffer_bytes: u64,
+    /// The side, in texels, every texture is traced at: `TEXTURE_LAYER_SIZE` until more
+    /// textures are in use than its budget holds, then smaller (0 before any texture).
+    pub texture_side: u32,
+    /// Bytes of the device allocator's memory blocks, used or not: every buffer and texture of
+    /// the app and the uploads' staging (read about once a second); `None` where the backend keeps
+    /// no such report.
+    pub gpu_reserved_bytes: Option<u64>,
+    /// Mesh assets kept out of the render world while every active 3D camera is path traced
+    /// (`HoldBackRasterMeshes`).
+    pub meshes_held_back: usize,
+}
+
+/// A trace kernel the views wait for ([`PathTracerFigures::preparing_kernel`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparingKernel {
+    /// Whether it is the kernel over records split across bindings (a large scene), not the
+    /// whole-scene one.
+    pub split: bool,
+    /// Seconds the views have waited for it so far.
+    pub waited_s: f32,
+}
+
+impl PreparingKernel {
+    /// Whether the wait has lasted long enough to tell the user of it: with a warm shader cache
+    /// it is over in about a second, unnoticed.
+    pub fn noticeable(&self) -> bool {
+        self.waited_s >= 1.5
+    }
+}
+
+/// One path-traced camera's latest frame under its budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceFigures {
+    /// Pixel samples the frame traced.
+    pub traced_per_frame: u64,
+    /// What a pixel sample costs, nanoseconds, and how that was measured, once it was.
+    pub cost: Option<(f64, CostSource)>,
+    /// Whether the frame traced the coarse preview (the view had just changed).
+    pub previewing: bool,
+    /// Whether the frame traced triangles: it traced samples and the scene's tree was not empty.
+    pub geometry: bool,
+    /// Whether the camera's samples were traced under a sky panorama (not the flat sky colour):
+    /// read with [`PathTracerFigures::samples`], it tells which sky those samples show.
+    pub panorama: bool,
+}
+
+/// Figures about the path tracer (bytes uploaded, samples per camera), readable from the main world.
+#[derive(Resource, Clone, Default)]
+pub struct PathTracerStats(Arc<Mutex<PathTracerFigures>>);
+
+impl PathTracerStats {
+    /// A copy of the current figures.
+    pub fn figures(&self) -> PathTracerFigures {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Samples per pixel the camera has accumulated.
+    pub fn samples(&self, camera: Entity) -> u32 {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .samples
+            .get(&camera)
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// Why nothing is traced, once the path tracer stopped ([`PathTracerFigures::trace_off`]).
+    pub fn trace_off(&self) -> Option<String> {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .trace_off
+            .clone()
+    }
+
+    /// The trace kernel the views wait for ([`PathTracerFigures::preparing_kernel`]).
+    pub fn preparing_kernel(&self) -> Option<PreparingKernel> {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .preparing_kernel
+    }
+
+    /// The side every texture is traced at ([`PathTracerFigures::texture_side`]).
+    pub fn texture_side(&self) -> u32 {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .texture_side
+    }
+
+    pub(crate) fn update(&self, f: impl FnOnce(&mut PathTracerFigures)) {
+        f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
+    }
+}

@@ -1,0 +1,251 @@
+//! A scene buffer too large for one binding, split into parts: an adapter binds at most
+//! `max_storage_buffer_binding_size` bytes of a buffer, so the nodes, triangles and shading records
+//! of a large scene lie in several buffers of `1 << shift` records each, and the kernels read record
+//! `i` as record `i & mask` of part `i >> shift` (`scene_parts.wgsl`). A scene that fits one part
+//! has one buffer per kind, grown by doubling as before.
+
+use crate::types::upload::BufferKind;
+
+/// Parts the kernels declare for a kind (1 for the kinds that are never split).
+pub fn part_count(kind: BufferKind) -> usize {
+    match kind {
+        // A node record per inner node: about as many as triangles.
+        BufferKind::Nodes | BufferKind::Triangles | BufferKind::Attributes => 8,
+        BufferKind::Instances | BufferKind::Objects | BufferKind::Lights => 1,
+    }
+}
+
+/// The group-0 bindings of a kind's parts, part 0 first (`scene_parts.wgsl` and `pathtrace.wgsl`).
+pub fn part_bindings(kind: BufferKind) -> &'static [u32] {
+    match kind {
+        BufferKind::Nodes => &[0, 8, 9, 10, 11, 12, 13, 14],
+        BufferKind::Triangles => &[1, 15, 16, 17, 18, 19, 20, 21],
+        BufferKind::Instances => &[2],
+        BufferKind::Attributes => &[3, 22, 23, 24, 25, 26, 27, 28],
+        BufferKind::Objects => &[4],
+        BufferKind::Lights => &[5],
+    }
+}
+
+/// Storage buffers the trace kernel binds: the scene's parts and its per-map UV transforms, then
+/// the view's accumulation, aux and guides.
+pub fn trace_storage_buffers() -> u32 {
+    BufferKind::ALL
+        .iter()
+        .map(|&k| part_count(k) as u32)
+        .sum::<u32>()
+        + 1
+        + 3
+}
+
+/// The largest part shift any adapter gets: record references carry 30 bits of index.
+pub const MAX_PART_SHIFT: u32 = 30;
+
+/// How the split kinds are cut: parts of `1 << shift` records; the other kinds are one binding of
+/// at most `max_binding_bytes`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PartLayout {
+    /// Records per part, as a power of two.
+    pub shift: u32,
+    /// The most bytes one binding may hold.
+    pub max_binding_bytes: u64,
+}
+
+impl PartLayout {
+    /// The layout for an adapter binding at most `max_binding_bytes`: the largest power of two of
+    /// records of every split kind that one binding holds.
+    pub fn for_binding_limit(max_binding_bytes: u64) -> Self {
+        let widest = [
+            BufferKind::Nodes,
+            BufferKind::Triangles,
+            BufferKind::Attributes,
+        ]
+        .map(BufferKind::record_bytes)
+        .into_iter()
+        .max()
+        .unwrap_or(64);
+        let records = (max_binding_bytes / widest).max(1);
+        Self {
+            shift: records.ilog2().min(MAX_PART_SHIFT),
+            max_binding_bytes,
+        }
+    }
+
+    /// One part holding everything (the GPU tests' buffers).
+    pub fn whole() -> Self {
+        Self {
+            shift: MAX_PART_SHIFT,
+            max_binding_bytes: u64::MAX,
+        }
+    }
+
+    /// Records one part holds.
+    pub fn part_records(self) -> u64 {
+        1 << self.shift
+    }
+
+    /// Records one buffer of a kind holds at most: a part, or a whole binding for a kind never
+    /// split.
+    fn buffer_records(self, kind: BufferKind) -> u64 {
+        if part_count(kind) == 1 {
+            self.max_binding_bytes / kind.record_bytes()
+        } else {
+            self.part_records()
+        }
+    }
+
+    /// The most records a kind can hold.
+    pub fn max_records(self, kind: BufferKind) -> u64 {
+        part_count(kind) as u64 * self.buffer_records(kind)
+    }
+
+    /// Records in each part for a kind holding `capacity` records: one part until it is full,
+    /// then whole parts.
+    pub fn part_sizes(self, kind: BufferKind, capacity: u64) -> Vec<u64> {
+        let p = self.buffer_records(kind);
+        if capacity <= p {
+            return vec![capacity];
+        }
+        vec![p; capacity.div_ceil(p) as usize]
+    }
+
+    /// The capacity a kind grows to from `current` records to hold `needed`: doubling (from 1024)
+    /// within one part, then whole parts; `None` past what its parts can hold.
+    pub fn grown(self, kind: BufferKind, current: u64, needed: u64) -> Option<u64> {
+        if needed > self.max_records(kind) {
+            return None;
+        }
+        let p = self.buffer_records(kind);
+        if needed <= p {
+            return Some(crate::types::upload::grown_capacity(current, needed).min(p));
+        }
+        Some(needed.div_ceil(p) * p)
+    }
+
+    /// A write of `len` bytes at byte `offset` of a kind's records, as pieces within parts:
+    /// (part, byte offset in the part, byte range of the write).
+    pub fn pieces(
+        self,
+        kind: BufferKind,
+        offset: u64,
+        len: u64,
+    ) -> impl Iterator<Item = (usize, u64, std::ops::Range<usize>)> {
+        let part_bytes = if part_count(kind) == 1 {
+            u64::MAX
+        } else {
+            self.part_records() * kind.record_bytes()
+        };
+        let mut at = 0u64;
+        std::iter::from_fn(move || {
+            if at >= len {
+                return None;
+            }
+            let abs = offset + at;
+            let (part, within) = (abs / part_bytes, abs % part_bytes);
+            let take = (part_bytes - within).min(len - at);
+            let piece = (part as usize, within, at as usize..(at + take) as usize);
+            at += take;
+            Some(piece)
+        })
+    }
+}
+
+/// Why the trace kernel cannot run on this device, if it binds fewer storage buffers per shader
+/// stage than the kernel declares.
+pub(crate) fn too_few_bindings(device: &bevy::render::renderer::RenderDevice) -> Option<String> {
+    let have = device.limits().max_storage_buffers_per_shader_stage;
+    let need = trace_storage_buffers();
+    (have < need).then(|| {
+        format!(
+            "this adapter binds {have} storage buffers per shader stage and the path tracer needs \
+             {need}"
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bindings_are_distinct_and_counted() {
+        let mut all: Vec<u32> = BufferKind::ALL
+            .iter()
+            .flat_map(|&k| part_bindings(k).iter().copied())
+            .collect();
+        for k in BufferKind::ALL {
+            assert_eq!(part_bindings(k).len(), part_count(k), "{k:?}");
+        }
+        // The texture array, its sampler and the energy table fill the rest of group 0 up to 29, the
+        // panorama's three after it, then the per-map UV transforms.
+        all.extend([6, 7, crate::types::energy::ENERGY_BINDING]);
+        all.extend(crate::types::bindings::ENVIRONMENT_BINDINGS);
+        all.push(crate::types::map_transforms::MAP_TRANSFORMS_BINDING);
+        all.sort_unstable();
+        assert_eq!(all, (0..34).collect::<Vec<u32>>());
+        // 27 parts and the transforms, then the view's accumulation, aux and guides.
+        assert_eq!(trace_storage_buffers(), 31);
+    }
+
+    #[test]
+    fn a_part_is_the_largest_power_of_two_of_records_a_binding_holds() {
+        // 128 MiB of 64-byte nodes: 2^21 records.
+        let layout = PartLayout::for_binding_limit(128 << 20);
+        assert_eq!(layout.shift, 21);
+        assert!(layout.part_records() * 64 <= 128 << 20);
+        assert_eq!(PartLayout::for_binding_limit((128 << 20) - 1).shift, 20);
+        assert_eq!(
+            PartLayout::for_binding_limit(u64::MAX).shift,
+            MAX_PART_SHIFT
+        );
+        assert_eq!(PartLayout::for_binding_limit(1).shift, 0);
+    }
+
+    #[test]
+    fn growth_doubles_within_a_part_then_adds_whole_parts() {
+        let l = PartLayout {
+            shift: 12,
+            max_binding_bytes: 4096 * 64,
+        };
+        let t = BufferKind::Triangles;
+        assert_eq!(l.grown(t, 1024, 1500), Some(2048));
+        assert_eq!(l.grown(t, 2048, 4000), Some(4096));
+        assert_eq!(l.grown(t, 4096, 4097), Some(8192));
+        assert_eq!(l.grown(t, 8192, 3 * 4096 + 1), Some(4 * 4096));
+        assert_eq!(l.grown(t, 0, 8 * 4096), Some(8 * 4096));
+        assert_eq!(l.grown(t, 0, 8 * 4096 + 1), None);
+        // A kind never split holds what one binding does.
+        let o = BufferKind::Objects;
+        let most = 4096 * 64 / o.record_bytes();
+        assert_eq!(l.grown(o, 0, most), Some(most));
+        assert_eq!(l.grown(o, 0, most + 1), None);
+        assert_eq!(l.part_sizes(o, most), vec![most]);
+        assert_eq!(l.part_sizes(t, 3000), vec![3000]);
+        assert_eq!(l.part_sizes(t, 4096), vec![4096]);
+        assert_eq!(l.part_sizes(t, 3 * 4096), vec![4096; 3]);
+    }
+
+    #[test]
+    fn a_write_across_a_part_boundary_is_cut_there() {
+        let l = PartLayout {
+            shift: 4,
+            max_binding_bytes: 16 * 64,
+        };
+        let t = BufferKind::Triangles;
+        let rb = t.record_bytes();
+        // Records 14 to 33: 2 in part 0, 16 in part 1, 2 in part 2.
+        let pieces: Vec<_> = l.pieces(t, 14 * rb, 20 * rb).collect();
+        assert_eq!(
+            pieces,
+            vec![
+                (0, 14 * rb, 0..(2 * rb) as usize),
+                (1, 0, (2 * rb) as usize..(18 * rb) as usize),
+                (2, 0, (18 * rb) as usize..(20 * rb) as usize),
+            ]
+        );
+        // A kind never split is one piece wherever it writes.
+        let o = BufferKind::Objects;
+        let whole: Vec<_> = l.pieces(o, 100 * o.record_bytes(), 64).collect();
+        assert_eq!(whole, vec![(0, 100 * o.record_bytes(), 0..64)]);
+    }
+}

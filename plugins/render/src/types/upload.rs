@@ -1,0 +1,345 @@
+//! From a [`ChangeSet`] to the buffer writes a renderer issues: only changed records, buffers grown by
+//! doubling (the old contents copied on the GPU), and a byte count for the figure the UI shows.
+
+use std::ops::Range;
+use treelight_bvh::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle};
+
+/// Bytes of one node record (the compressed 4-wide record of `Bvh::gpu_wide_node`, one per inner
+/// node).
+pub const NODE_BYTES: u64 = size_of::<GpuCompressedNode>() as u64;
+/// Bytes of one triangle record.
+pub const TRIANGLE_BYTES: u64 = size_of::<GpuTriangle>() as u64;
+/// Bytes of one instance record.
+pub const INSTANCE_BYTES: u64 = size_of::<GpuInstance>() as u64;
+
+/// The GPU buffers of the scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BufferKind {
+    /// Inner node records.
+    Nodes,
+    /// Triangle records.
+    Triangles,
+    /// Instance records.
+    Instances,
+    /// Per-triangle shading records (normals, UVs, group).
+    Attributes,
+    /// Per-group records (normal matrix, material).
+    Objects,
+    /// Light records.
+    Lights,
+}
+
+impl BufferKind {
+    /// Every buffer, in binding order.
+    pub const ALL: [BufferKind; 6] = [
+        BufferKind::Nodes,
+        BufferKind::Triangles,
+        BufferKind::Instances,
+        BufferKind::Attributes,
+        BufferKind::Objects,
+        BufferKind::Lights,
+    ];
+
+    /// The buffer's position in [`BufferKind::ALL`] (its declaration order).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// What the buffer holds, for messages.
+    pub fn label(self) -> &'static str {
+        match self {
+            BufferKind::Nodes => "tree nodes",
+            BufferKind::Triangles => "triangles",
+            BufferKind::Instances => "instances",
+            BufferKind::Attributes => "shading records",
+            BufferKind::Objects => "object records",
+            BufferKind::Lights => "lights",
+        }
+    }
+
+    /// Bytes of one record.
+    pub fn record_bytes(self) -> u64 {
+        match self {
+            BufferKind::Nodes => NODE_BYTES,
+            BufferKind::Triangles => TRIANGLE_BYTES,
+            BufferKind::Instances => INSTANCE_BYTES,
+            BufferKind::Attributes => crate::types::records::ATTRIBUTE_BYTES,
+            BufferKind::Objects => crate::types::records::OBJECT_BYTES,
+            BufferKind::Lights => crate::types::records::LIGHT_BYTES,
+        }
+    }
+}
+
+/// One write: record bytes for `buffer` at byte `offset`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BufferWrite<'a> {
+    /// Target buffer.
+    pub buffer: BufferKind,
+    /// Byte offset.
+    pub offset: u64,
+    /// Little-endian record bytes.
+    pub bytes: &'a [u8],
+}
+
+/// Record writes whose bytes share one growing buffer. A renderer keeps it from frame to frame
+/// ([`Writes::clear`]): a fill's uploads are tens of megabytes a frame, and a fresh buffer each
+/// frame would have the kernel zero that many new pages again every time.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Writes {
+    bytes: Vec<u8>,
+    /// Target, offset and where the bytes are in `bytes`, in the order they were pushed.
+    list: Vec<(BufferKind, u64, Range<usize>)>,
+    /// [`Writes::push_records`]' record ids, kept for the same reason as `bytes` (a fill's frame
+    /// has millions); empty between calls.
+    ids: Vec<u32>,
+}
+
+impl Writes {
+    /// Adds a write of `bytes` to `buffer` at byte `offset`.
+    pub fn push(&mut self, buffer: BufferKind, offset: u64, bytes: &[u8]) {
+        let start = self.bytes.len();
+        self.bytes.extend_from_slice(bytes);
+        self.list.push((buffer, offset, start..self.bytes.len()));
+    }
+
+    /// Adds one write per range of record ids, records of `T`'s size; the record with id `i`, the
+    /// `j`th of all the ranges' ids, is `record(j, i)`. Made on rayon's threads: a fill's frame makes millions of
+    /// records, and the frame (and the worker, waiting for the tree) waits for them.
+    pub fn push_records<T: bytemuck::Pod>(
+        &mut self,
+        buffer: BufferKind,
+        ranges: impl IntoIterator<Item = Range<u32>>,
+        record: impl Fn(usize, u32) -> T + Sync,
+    ) {
+        use rayon::prelude::*;
+        let size = size_of::<T>();
+        // Offsets are counted in `T`s: they must be the buffer's records.
+        assert_eq!(size as u64, buffer.record_bytes(), "{buffer:?} records");
+        let start = self.bytes.len();
+        let ids = &mut self.ids;
+        ids.clear();
+        for r in ranges {
+            let at = start + ids.len() * size;
+            self.list.push((
+                buffer,
+                r.start as u64 * size as u64,
+                at..at + r.len() * size,
+            ));
+            ids.extend(r);
+        }
+        self.bytes.resize(start + ids.len() * size, 0);
+        self.bytes[start..]
+            .par_chunks_mut(size)
+            .zip(ids.par_iter())
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(j, (out, &i))| out.copy_from_slice(bytemuck::bytes_of(&record(j, i))));
+        ids.clear();
+    }
+
+    /// The writes, in the order they were added.
+    pub fn iter(&self) -> impl Iterator<Item = BufferWrite<'_>> {
+        self.list.iter().map(|(buffer, offset, range)| BufferWrite {
+            buffer: *buffer,
+            offset: *offset,
+            bytes: &self.bytes[range.clone()],
+        })
+    }
+
+    /// How many writes there are.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Bytes written, all writes together.
+    pub fn byte_len(&self) -> u64 {
+        self.bytes.len() as u64
+    }
+
+    /// Bytes held for writes to come: what [`Writes::clear`] keeps.
+    pub fn capacity_bytes(&self) -> u64 {
+        (self.bytes.capacity() + self.ids.capacity() * size_of::<u32>()) as u64
+    }
+
+    /// Forgets the writes and keeps the memory for the next ones.
+    pub fn clear(&mut self) {
+        self.bytes.clear();
+        self.list.clear();
+    }
+}
+
+/// What to do to bring the GPU copy up to date with one change set.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct UploadPlan {
+    /// Buffers that must grow first, with their new capacity in records (old contents are kept).
+    pub grow: Vec<(BufferKind, u64)>,
+    /// Writes, after growth.
+    pub writes: Writes,
+    /// The root reference.
+    pub root: u32,
+}
+
+/// The longest stretch of unchanged records, in bytes, that a plan rewrites (with their current
+/// contents) to join the changed records on either side into one write. Each write is a staging
+/// buffer and a copy command: an update pass that touched every other node record would otherwise
+/// be millions of writes, seconds of frame time and millions of small allocations in the driver.
+pub const JOIN_GAP_BYTES: u64 = 4096;
+
+/// The unchanged records of `kind` a plan rewrites to join two writes (see [`JOIN_GAP_BYTES`]).
+pub fn join_gap(kind: BufferKind) -> u32 {
+    (JOIN_GAP_BYTES / kind.record_bytes()) as u32
+}
+
+/// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).
+pub fn grown_capacity(current: u64, needed: u64) -> u64 {
+    let mut cap = current.max(1024);
+    while cap < needed {
+        cap *= 2;
+    }
+    cap
+}
+
+/// The 64 bytes of a node record.
+pub fn node_bytes(n: &GpuCompressedNode) -> Vec<u8> {
+    bytemuck::bytes_of(n).to_vec()
+}
+
+/// The 36 bytes of a triangle record.
+pub fn triangle_bytes(t: &GpuTriangle) -> Vec<u8> {
+    bytemuck::bytes_of(t).to_vec()
+}
+
+/// The 112 bytes of an instance record.
+pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
+    bytemuck::bytes_of(i).to_vec()
+}
+
+impl UploadPlan {
+    /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
+    /// Consecutive changed records become one write each, and so do changed records no more than
+    /// `join_gap` records apart (the records between rewritten as they are). A node record holds
+    /// its children's binary records, so the changed nodes' parents are rewritten with them
+    /// (`Bvh::gpu_wide_ranges`).
+    pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
+        Self::new_in(bvh, changes, capacities, Writes::default())
+    }
+
+    /// [`UploadPlan::new`], its writes added after those already in `writes` (a renderer's
+    /// buffer, kept from frame to frame).
+    pub fn new_in(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3], writes: Writes) -> Self {
+        let mut plan = UploadPlan {
+            root: bvh.gpu_root(),
+            writes,
+            grow: Vec::new(),
+        };
+        let needed = [
+            (BufferKind::Nodes, changes.inner_capacity as u64),
+            (BufferKind::Triangles, changes.triangle_capacity as u64),
+            (BufferKind::Instances, changes.instance_capacity as u64),
+        ];
+        for ((kind, need), cap) in needed.into_iter().zip(capacities) {
+            if need > cap {
+                plan.grow.push((kind, grown_capacity(cap, need)));
+            }
+        }
+        plan.writes.push_records(
+            BufferKind::Nodes,
+            joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)),
+            |_, i| bvh.gpu_wide_node(i),
+        );
+        let mut tris: Vec<u32> = changes
+            .written_triangles
+            .iter()
+            .chain(&changes.removed_triangles)
+            .copied()
+            .collect();
+        tris.sort_unstable();
+        tris.dedup();
+        plan.writes.push_records(
+            BufferKind::Triangles,
+            runs(tris, join_gap(BufferKind::Triangles)),
+            |_, t| bvh.gpu_triangle(t),
+        );
+        let mut instances = changes.instances.clone();
+        instances.sort_unstable();
+        instances.dedup();
+        plan.writes.push_records(
+            BufferKind::Instances,
+            runs(instances, join_gap(BufferKind::Instances)),
+            |_, i| bvh.gpu_instance(i),
+        );
+        plan
+    }
+
+    /// Bytes this plan uploads (growth copies stay on the GPU and are not counted).
+    pub fn upload_bytes(&self) -> u64 {
+        self.writes.byte_len() + 4
+    }
+}
+
+/// Sorted disjoint `ranges`, those at most `gap` apart joined into one, as they are read.
+fn joined(
+    ranges: impl IntoIterator<Item = Range<u32>>,
+    gap: u32,
+) -> impl Iterator<Item = Range<u32>> {
+    let mut ranges = ranges.into_iter().peekable();
+    std::iter::from_fn(move || {
+        let mut r = ranges.next()?;
+        while let Some(next) = ranges.next_if(|n| n.start - r.end <= gap) {
+            r.end = next.end;
+        }
+        Some(r)
+    })
+}
+
+/// The runs of `ids` (sorted, each once) no more than `gap` records apart, as ranges of records:
+/// one write each, the records between rewritten as they are; with `gap` 0, exactly `ids`.
+pub(crate) fn runs(
+    ids: impl IntoIterator<Item = u32>,
+    gap: u32,
+) -> impl Iterator<Item = Range<u32>> {
+    joined(ids.into_iter().map(|i| i..i + 1), gap)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_made_in_parallel_land_in_order_after_earlier_writes() {
+        let mut writes = Writes::default();
+        writes.push(BufferKind::Lights, 8, &[1, 2, 3, 4]);
+        // Enough records for several parallel pieces: triangle record (j, i) starts with both
+        // numbers.
+        let ranges = [5..8, 20..3000, 4000..9000];
+        writes.push_records(BufferKind::Triangles, ranges.clone(), |j, i| {
+            let mut record = [0u32; 9];
+            record[..2].copy_from_slice(&[j as u32, i]);
+            record
+        });
+        let all: Vec<BufferWrite> = writes.iter().collect();
+        assert_eq!(all.len(), 4);
+        assert_eq!(
+            (all[0].buffer, all[0].offset, all[0].bytes),
+            (BufferKind::Lights, 8, &[1u8, 2, 3, 4][..])
+        );
+        let mut j = 0u32;
+        for (w, r) in all[1..].iter().zip(ranges) {
+            assert_eq!(w.buffer, BufferKind::Triangles);
+            assert_eq!(w.offset, r.start as u64 * TRIANGLE_BYTES);
+            let words: &[u32] = bytemuck::cast_slice(w.bytes);
+            for (record, i) in words.chunks(9).zip(r) {
+                assert_eq!(record[..2], [j, i]);
+                j += 1;
+            }
+        }
+        assert_eq!(writes.byte_len(), 4 + TRIANGLE_BYTES * j as u64);
+        writes.clear();
+        assert!(writes.is_empty() && writes.capacity_bytes() >= TRIANGLE_BYTES * j as u64);
+    }
+}
