@@ -101,7 +101,6 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         },
         treelight_render::PathTracerPlugin,
         DocumentPlugin,
-        AutosavePlugin,
         editor::EditorPlugin,
         heap_trim::HeapTrimPlugin,
     ))
@@ -131,6 +130,12 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         },
         scale_chosen: cli.trace_scale.is_some(),
     });
+    // A run that ends by itself (`--frames`: a screenshot, a scripted check) neither keeps recovery
+    // copies (its scene is made again by running it again) nor offers the user's over what it
+    // shows.
+    if cli.frames.is_none() {
+        app.add_plugins(AutosavePlugin);
+    }
     insert_kernel_record(&mut app);
     match &cli.scene {
         Some(path) => treelight_document::app::open_at_start(app.world_mut(), path),

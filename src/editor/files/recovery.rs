@@ -42,12 +42,13 @@ enum Answer {
 /// Escape (or Later) leaves them all for the next start.
 pub fn offer_recovery(
     mut contexts: EguiContexts,
-    mut auto: ResMut<Autosave>,
+    auto: Option<ResMut<Autosave>>,
     mut requests: ResMut<ProjectRequests>,
 ) -> Result {
-    if auto.offer.is_empty() {
+    // No autosave (a run that ends by itself), or nothing to offer.
+    let Some(mut auto) = auto.filter(|a| !a.offer.is_empty()) else {
         return Ok(());
-    }
+    };
     let ctx = contexts.ctx_mut()?;
     let mut answer = None;
     egui::Window::new("Recover unsaved work?")
