@@ -18,7 +18,7 @@ pub struct ParsedScene {
     pub bounds: Option<(Vec3, Vec3)>,
 }
 
-/// Bevy meshes and images made from a scene ahead of spawning it; [`spawn_scene`](crate::scene::spawn::spawn_scene) takes them and
+/// Bevy meshes and images made from a scene ahead of spawning it; `spawn_scene` takes them and
 /// makes whatever is missing.
 #[derive(Default)]
 pub struct Prebuilt {
