@@ -7,11 +7,11 @@
 use bevy::prelude::*;
 use bevy_egui::egui;
 use std::time::{Duration, Instant};
+use treelight::editor::core::selection::Selection;
 use treelight::editor::panels::outliner::OutlinerItem;
 use treelight::editor::panels::outliner::OutlinerPanel;
 use treelight::editor::panels::outliner::OutlinerState;
 use treelight::editor::panels::outliner::rows;
-use treelight::editor::viewport::selection::Selection;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::values::object::SceneId;
 

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use treelight_render::PathTracerStats;
 use treelight_scene::SceneBvh;
 
-use crate::editor::panels::status_bar::resident_bytes;
+use crate::editor::core::resident::resident_bytes;
 
 /// How much the scene's own memory (the tree, its shading records, the path tracer's buffers) must
 /// have changed since the last trim, either way, for another.

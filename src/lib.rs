@@ -18,7 +18,7 @@ use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::settings::{RenderCreation, WgpuLimits, WgpuSettings};
 use bevy_egui::EguiPlugin;
-use editor::viewport::render_mode::ViewportRender;
+use editor::core::viewport_render::ViewportRender;
 use treelight_document::DocumentPlugin;
 use treelight_document::app::{run_schedules_on_one_thread, task_pools};
 use treelight_document::default_scene::open_default_scene;
@@ -147,7 +147,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         }
     }
     if let Some(name) = &cli.camera {
-        app.insert_resource(editor::viewport::camera::LookThrough::Named(name.clone()));
+        app.insert_resource(editor::core::view::LookThrough::Named(name.clone()));
     }
     let capturing = cli.screenshot.is_some() || cli.frames.is_some();
     if let Some(path) = &cli.save {
@@ -171,8 +171,8 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             .add_systems(
                 bevy_egui::EguiPrimaryContextPass,
                 (
-                    report::start_ui_clock.before(editor::panels::EditorUi),
-                    report::stop_ui_clock.after(editor::panels::EditorUi),
+                    report::start_ui_clock.before(editor::core::ui_order::EditorUi),
+                    report::stop_ui_clock.after(editor::core::ui_order::EditorUi),
                 ),
             )
             .add_systems(

@@ -3,7 +3,7 @@
 //! its scene whole. Errors that keep coming stop rendering, never the editor: the scene can still
 //! be saved (Ctrl+S) and is autosaved.
 
-use crate::editor::viewport::render_mode::ViewportRender;
+use crate::editor::core::viewport_render::ViewportRender;
 use bevy::prelude::*;
 use bevy::render::error_handler::{RenderError, RenderErrorHandler, RenderErrorPolicy};
 use treelight_document::scene::notice::Notices;

@@ -7,8 +7,9 @@
 //! pixel has `spp` samples, written atomically, with a progress bar on the terminal meanwhile.
 
 use crate::cli::RenderArgs;
+use crate::editor::core::view::OrbitCamera;
 use crate::editor::viewport::camera::{
-    OrbitCamera, apply_orbit, follow_document, look_through, no_camera_named,
+    apply_orbit, follow_document, look_through, no_camera_named,
 };
 use crate::editor::viewport::look::{apply_look, environment_to_tracer};
 use crate::editor::viewport::map_transforms::map_transforms_to_tracer;

@@ -4,12 +4,12 @@
 //! handles on screen and the frame count. Written every frame through a temporary file and a
 //! rename, so a reader never sees half of it.
 
-use crate::editor::viewport::camera::OrbitCamera;
+use crate::editor::core::view::OrbitCamera;
 
+use crate::editor::core::gizmo_settings::GizmoSettings;
+use crate::editor::core::selection::Selection;
 use crate::editor::viewport::camera::world_bounds;
-use crate::editor::viewport::gizmo::GizmoSettings;
 use crate::editor::viewport::gizmo::Handle;
-use crate::editor::viewport::selection::Selection;
 use bevy::camera::primitives::Aabb;
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -222,7 +222,7 @@ fn memory_report(
 ) -> MemoryReport {
     let stats = scene.stats();
     MemoryReport {
-        resident: crate::editor::panels::status_bar::resident_bytes().unwrap_or(0),
+        resident: crate::editor::core::resident::resident_bytes().unwrap_or(0),
         mesh_assets: meshes.iter().map(|(_, m)| mesh_bytes(m)).sum(),
         tree: stats.tree_bytes as u64,
         shading: stats.shading_bytes as u64,
@@ -335,7 +335,7 @@ pub struct EditorParams<'w, 's> {
     selection: Res<'w, Selection>,
     history: Res<'w, EditHistory>,
     gizmo: Res<'w, GizmoSettings>,
-    widgets: Res<'w, crate::editor::widget_rects::WidgetRects>,
+    widgets: Res<'w, crate::editor::core::widget_rects::WidgetRects>,
     project: Res<'w, treelight_document::project::format::ProjectState>,
     window: Query<'w, 's, &'static Window, With<bevy::window::PrimaryWindow>>,
     files: Res<'w, crate::editor::files::file_menu::FileUi>,
@@ -352,7 +352,7 @@ pub struct EditorParams<'w, 's> {
 #[derive(bevy::ecs::system::SystemParam)]
 pub struct RenderParams<'w, 's> {
     tracer: Res<'w, treelight_render::PathTracerStats>,
-    render: Res<'w, crate::editor::viewport::render_mode::ViewportRender>,
+    render: Res<'w, crate::editor::core::viewport_render::ViewportRender>,
     look: Res<'w, treelight_document::values::look::SceneLook>,
     environment: Res<'w, treelight_document::scene::environment::SceneEnvironment>,
     loaded: Res<'w, treelight_document::scene::environment::LoadedEnvironment>,
@@ -560,7 +560,7 @@ fn editor_state(
             render.settings.resolution_scale,
             render.settings.max_samples,
         ),
-        view: crate::editor::viewport::render_mode::ViewportRender::label(render.traced).to_owned(),
+        view: crate::editor::core::viewport_render::ViewportRender::label(render.traced).to_owned(),
         notices: editor.notices.0.iter().map(|n| n.text.clone()).collect(),
         samples: view_samples.0,
         traced_panorama: view_samples.1,

@@ -260,9 +260,9 @@ fn a_bad_commands_file_stops_the_start_with_its_name() {
 
 #[test]
 fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
-    use treelight::editor::files::settings::EditorSettings;
-    use treelight::editor::files::settings::write_settings;
-    use treelight::editor::panels::layout::EditorTab;
+    use treelight::editor::core::layout::EditorTab;
+    use treelight::editor::workspace::settings::EditorSettings;
+    use treelight::editor::workspace::settings::write_settings;
     use treelight::report::EditorState;
     let dir = temp_dir("layout");
     let config = dir.join("config");

@@ -7,7 +7,7 @@
 mod counting;
 
 use std::time::{Duration, Instant};
-use treelight::editor::files::settings::read_settings;
+use treelight::editor::workspace::settings::read_settings;
 
 #[global_allocator]
 static ALLOCATOR: counting::Counting = counting::Counting;
@@ -30,7 +30,7 @@ fn mutated_settings_never_panic_hang_or_take_much_memory() {
     let dir = std::env::temp_dir().join(format!("treelight-settings-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("settings.ron");
-    treelight::editor::files::settings::write_default_settings(&path).unwrap();
+    treelight::editor::workspace::settings::write_default_settings(&path).unwrap();
     let base = std::fs::read_to_string(&path).unwrap();
     let mut rng = Rng(0x2545_F491_4F6C_DD1D);
     let mut read = 0;
@@ -67,7 +67,7 @@ fn mutated_settings_never_panic_hang_or_take_much_memory() {
             let tabs: Vec<_> = settings.layout.iter_all_tabs().map(|(_, t)| *t).collect();
             assert_eq!(
                 tabs.len(),
-                treelight::editor::panels::layout::EditorTab::ALL.len()
+                treelight::editor::core::layout::EditorTab::ALL.len()
             );
         }
     }

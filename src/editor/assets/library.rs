@@ -2,7 +2,8 @@
 //! samples folder), kept current by a file watcher, each with a small shaded thumbnail that the
 //! engine ray-casts on a worker thread.
 
-use crate::editor::files::file_menu::FileUi;
+use crate::editor::core::file_requests::FileChosen;
+use crate::editor::core::palette_payload::FileReadAhead;
 use bevy::prelude::*;
 use bevy::tasks::futures_lite::future::{block_on, poll_once};
 use bevy::tasks::{AsyncComputeTaskPool, Task};
@@ -14,7 +15,7 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::SystemTime;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
-use treelight_document::import::parse::{ContentHashes, ParsedScene};
+use treelight_document::import::parse::ContentHashes;
 use treelight_document::scene::notice::Notices;
 
 /// Side of a thumbnail, pixels.
@@ -249,14 +250,16 @@ impl AssetLibrary {
         changed
     }
 
-    /// The file as read for its thumbnail, once it has been: ready to be imported (its meshes and
-    /// images made only where the scene lacks them).
-    pub fn parsed(&self, file: &Path) -> Option<ParsedScene> {
+    /// The file as read for its thumbnail, once it has been (and was small enough to keep).
+    pub fn read_ahead(&self, file: &Path) -> Option<FileReadAhead> {
         match self.thumbnails.get(file) {
-            Some(Thumbnail::Ready { image, .. }) => image
-                .scene
-                .clone()
-                .map(|scene| ParsedScene::read_ahead(scene, image.hashes.clone(), image.bounds)),
+            Some(Thumbnail::Ready { image, .. }) => {
+                image.scene.clone().map(|scene| FileReadAhead {
+                    scene,
+                    hashes: image.hashes.clone(),
+                    bounds: image.bounds,
+                })
+            }
             _ => None,
         }
     }
@@ -358,10 +361,14 @@ pub fn refresh_library(mut library: ResMut<AssetLibrary>) {
 /// Adds the folders the user chose (Assets → Add folder…) to the panel.
 pub fn add_chosen_folders(
     mut library: ResMut<AssetLibrary>,
-    mut files: ResMut<FileUi>,
+    mut chosen: MessageReader<FileChosen>,
     mut notices: ResMut<Notices>,
 ) {
-    for dir in std::mem::take(&mut files.asset_folders) {
+    for chosen in chosen.read() {
+        let FileChosen::AssetFolder(dir) = chosen else {
+            continue;
+        };
+        let dir = dir.clone();
         if dir.is_dir() {
             library.add_folder(dir, false);
         } else {

@@ -6,29 +6,20 @@
 //! where it is dropped, by the same rule.
 
 use crate::editor::assets::library::{AssetLibrary, THUMBNAIL, Thumbnail};
-use crate::editor::files::file_menu::{FileAction, FileUi};
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::viewport::place::{shape_at, view_ray};
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::file_requests::{FileAction, FileRequest};
+use crate::editor::core::palette_payload::{PaletteFile, PaletteItem, paint_drag_label};
+use crate::editor::core::place::{shape_at, view_ray};
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
 use std::collections::HashMap;
 use std::path::PathBuf;
-use treelight_document::edit::history::{EditHistory, EditRequests};
+use treelight_document::edit::history::EditRequests;
 use treelight_document::import::parse::PendingImports;
-use treelight_document::project::format::ProjectState;
-use treelight_document::project::requests::ProjectRequests;
 use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
-
-/// What a palette drag of a shape carries.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PaletteItem(pub Primitive);
-
-/// What a palette drag of a scene file carries.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct PaletteFile(pub PathBuf);
 
 /// What the user asked of the panel this frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,22 +46,6 @@ fn drag_label(ui: &egui::Ui, response: &egui::Response, text: &str) {
     {
         paint_drag_label(ui.ctx(), p, text);
     }
-}
-
-/// What is being dragged, in a label beside the pointer at `at`, above every panel (the Assets
-/// panel's tiles and the outliner's rows).
-pub fn paint_drag_label(ctx: &egui::Context, at: egui::Pos2, text: &str) {
-    ctx.layer_painter(egui::LayerId::new(
-        egui::Order::Tooltip,
-        egui::Id::new("drag-label"),
-    ))
-    .text(
-        at + egui::vec2(14.0, 4.0),
-        egui::Align2::LEFT_TOP,
-        text,
-        egui::FontId::proportional(13.0),
-        egui::Color32::WHITE,
-    );
 }
 
 /// Lays out the panel; returns what was clicked (not dragged). Each tile's rectangle goes to
@@ -143,7 +118,10 @@ pub fn palette_ui(
                             response.rect,
                         ));
                         if response.drag_started() {
-                            response.dnd_set_drag_payload(PaletteFile(file.clone()));
+                            response.dnd_set_drag_payload(PaletteFile {
+                                path: file.clone(),
+                                read: library.read_ahead(file),
+                            });
                         } else if response.clicked() {
                             clicked = Some(PaletteClick::File(file.clone()));
                         }
@@ -249,10 +227,7 @@ pub struct PaletteTargets<'w, 's> {
     pending: ResMut<'w, PendingImports>,
     scene: Res<'w, SceneBvh>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
-    files: ResMut<'w, FileUi>,
-    project: Res<'w, ProjectState>,
-    history: Res<'w, EditHistory>,
-    project_requests: ResMut<'w, ProjectRequests>,
+    files: MessageWriter<'w, FileRequest>,
 }
 
 /// Draws the Assets tab into `ui` and does what a click asked: a shape or a file goes where the
@@ -280,13 +255,7 @@ pub fn assets_tab(
         }
         Some(PaletteClick::File(file)) => t.pending.start_at(file, centre),
         Some(PaletteClick::AddFolder) => {
-            let dirty = t.history.is_dirty();
-            t.files.act(
-                FileAction::AddAssetFolder,
-                &t.project,
-                dirty,
-                &mut t.project_requests,
-            )
+            t.files.write(FileRequest(FileAction::AddAssetFolder));
         }
         Some(PaletteClick::RemoveFolder(dir)) => library.remove_folder(&dir),
         None => {}

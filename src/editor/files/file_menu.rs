@@ -3,13 +3,15 @@
 //! unsaved changes asks first (save, discard or cancel). What the user chose leaves as a
 //! [`ProjectRequest`] for the document.
 
+use crate::editor::core::file_requests::{FileAction, FileChosen, FileRequest, RecentProjects};
+use crate::editor::core::key_chords::KeyChords;
+use crate::editor::core::keymap::Action;
+use crate::editor::core::ui_order::UiStep;
+use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::files::file_dialog::DialogPurpose;
 use crate::editor::files::file_dialog::FileDialog;
 use crate::editor::files::native_dialog::NativeDialog;
 use crate::editor::files::native_dialog::native_dialogs;
-use crate::editor::input::key_chords::KeyChords;
-use crate::editor::input::keymap::Action;
-use crate::editor::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy::window::{PrimaryWindow, WindowCloseRequested};
 use bevy_egui::{EguiContexts, egui};
@@ -55,37 +57,11 @@ pub struct FileUi {
     pub relink: bool,
     /// The missing source the file dialog is choosing a file for.
     relink_from: Option<PathBuf>,
-    /// Folders chosen for the Assets panel, until the panel takes them.
-    pub asset_folders: Vec<PathBuf>,
+    /// Files chosen for other features (a folder for the Assets panel, a panorama for the sky),
+    /// until they are handed on as messages.
+    chosen: Vec<FileChosen>,
     /// File → Render image… was chosen, until the render window opens.
     pub render_image: bool,
-    /// A sky panorama chosen in the dialog, until the viewport's look takes it.
-    pub environment_chosen: Option<PathBuf>,
-}
-
-/// The menu's entries, chosen in the menu bar or by their keys.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum FileAction {
-    /// File → Open Recent → a project.
-    OpenRecent(PathBuf),
-    /// File → New.
-    New,
-    /// File → Open….
-    Open,
-    /// File → Import….
-    Import,
-    /// File → Save.
-    Save,
-    /// File → Save As….
-    SaveAs,
-    /// File → Quit.
-    Quit,
-    /// File → Relink….
-    Relink,
-    /// Assets → Add folder….
-    AddAssetFolder,
-    /// File → Render image….
-    RenderImage,
 }
 
 impl FileUi {
@@ -156,8 +132,12 @@ impl FileUi {
                     requests.0.push(ProjectRequest::Relink { from, to });
                 }
             }
-            (Some(dir), DialogPurpose::AssetFolder) => self.asset_folders.push(dir),
-            (Some(file), DialogPurpose::Environment) => self.environment_chosen = Some(file),
+            (Some(dir), DialogPurpose::AssetFolder) => {
+                self.chosen.push(FileChosen::AssetFolder(dir))
+            }
+            (Some(file), DialogPurpose::Environment) => {
+                self.chosen.push(FileChosen::Panorama(file))
+            }
             // A cancelled save also drops what was to follow it.
             (None, _) => self.then = None,
         }
@@ -198,6 +178,9 @@ impl FileUi {
                 let dir = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
                 self.open_dialog(DialogPurpose::AssetFolder, dir, String::new());
             }
+            FileAction::ChoosePanorama(current) => {
+                self.choose_environment(current.as_deref(), state)
+            }
         }
     }
 
@@ -213,7 +196,7 @@ impl FileUi {
 
     /// Opens the dialog that chooses a sky panorama, in the folder of `current` (the one in use)
     /// or the project's.
-    pub fn choose_environment(&mut self, current: Option<&std::path::Path>, state: &ProjectState) {
+    fn choose_environment(&mut self, current: Option<&std::path::Path>, state: &ProjectState) {
         let dir = current
             .and_then(|p| p.parent())
             .filter(|d| !d.as_os_str().is_empty())
@@ -407,23 +390,6 @@ impl FileUi {
     }
 }
 
-/// The projects opened or saved lately, newest first (kept in the settings file).
-#[derive(Resource, Debug, Default, Clone, PartialEq)]
-pub struct RecentProjects(pub Vec<PathBuf>);
-
-impl RecentProjects {
-    /// How many are kept.
-    pub const MAX: usize = 10;
-
-    /// Puts `path` first.
-    pub fn add(&mut self, path: &std::path::Path) {
-        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
-        self.0.retain(|p| *p != path);
-        self.0.insert(0, path);
-        self.0.truncate(Self::MAX);
-    }
-}
-
 /// New, Open, Save, Save As and Quit by their keys (not while a text field has the keyboard).
 pub fn file_shortcuts(
     chords: Res<KeyChords>,
@@ -433,8 +399,7 @@ pub fn file_shortcuts(
     history: Res<EditHistory>,
     mut requests: ResMut<ProjectRequests>,
 ) {
-    if chords.current.is_none()
-        || !crate::editor::input::key_chords::keyboard_is_free(&mut contexts)
+    if chords.current.is_none() || !crate::editor::core::key_chords::keyboard_is_free(&mut contexts)
     {
         return;
     }
@@ -510,17 +475,34 @@ pub fn follow_document(
     }
 }
 
-/// Shows the File menu's dialogs and questions; their buttons go to the state report.
+/// Acts on the File actions other features asked for this frame (the menu bar, the Assets
+/// panel, the sky controls).
+pub fn take_file_requests(
+    mut asked: MessageReader<FileRequest>,
+    mut files: ResMut<FileUi>,
+    state: Res<ProjectState>,
+    history: Res<EditHistory>,
+    mut requests: ResMut<ProjectRequests>,
+) {
+    for FileRequest(action) in asked.read() {
+        files.act(action.clone(), &state, history.is_dirty(), &mut requests);
+    }
+}
+
+/// Shows the File menu's dialogs and questions (their buttons go to the state report), and hands
+/// on the files chosen for other features.
 pub fn file_dialogs(
     mut contexts: EguiContexts,
     mut files: ResMut<FileUi>,
     state: Res<ProjectState>,
     mut requests: ResMut<ProjectRequests>,
     mut widgets: ResMut<WidgetRects>,
+    mut chosen: MessageWriter<FileChosen>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?.clone();
     let buttons = files.show(&ctx, &state, &mut requests);
     widgets.extend(buttons);
+    chosen.write_batch(std::mem::take(&mut files.chosen));
     Ok(())
 }
 
@@ -538,6 +520,12 @@ impl Plugin for FileMenuPlugin {
                     follow_document.after(apply_project_requests),
                     window_title,
                 ),
+            )
+            .add_systems(
+                bevy_egui::EguiPrimaryContextPass,
+                (take_file_requests, file_dialogs)
+                    .chain()
+                    .in_set(UiStep::Files),
             );
     }
 }

@@ -1,7 +1,7 @@
 //! The question an import too large for the free memory asks ([`ImportQuestions`]): import it
 //! anyway, or cancel it.
 
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy_egui::EguiContexts;
 use treelight_document::import::ask::{ImportQuestions, count_text, size_text};

@@ -1,5 +1,5 @@
 //! Files: the File menu and its dialogs ([`file_menu`], [`file_dialog`], [`native_dialog`]), the
-//! settings file ([`settings`]), the recovery offer ([`recovery`]), the question an import too
+//! recovery offer ([`recovery`]), the question an import too
 //! large for the free memory asks ([`import_question`]), the report of a crash ([`crash_report`])
 //! and File → Render image… ([`render_image`]).
 
@@ -10,11 +10,10 @@ pub mod import_question;
 pub mod native_dialog;
 pub mod recovery;
 pub mod render_image;
-pub mod settings;
 
 use bevy::prelude::*;
 
-/// The File menu, settings, the recovery offer, the large-import question and crash reports.
+/// The File menu, the recovery offer, the large-import question and crash reports.
 pub struct FilesPlugin;
 
 impl Plugin for FilesPlugin {
@@ -26,7 +25,6 @@ impl Plugin for FilesPlugin {
         });
         app.add_plugins((
             file_menu::FileMenuPlugin,
-            settings::SettingsPlugin,
             crash_report::CrashReportPlugin,
             crate::render_file::PipelineWatchPlugin,
         ))
@@ -37,8 +35,9 @@ impl Plugin for FilesPlugin {
             (
                 recovery::offer_recovery,
                 // After the panels, which clear the widget rectangles they record.
-                import_question::ask_about_large_imports.after(crate::editor::panels::EditorUi),
-                render_image::render_image_window.after(crate::editor::panels::EditorUi),
+                import_question::ask_about_large_imports
+                    .after(crate::editor::core::ui_order::EditorUi),
+                render_image::render_image_window.after(crate::editor::core::ui_order::EditorUi),
             ),
         );
     }

@@ -3,10 +3,10 @@
 //! an edit meanwhile restarts its samples), with progress and Cancel; the image is saved as a PNG
 //! (written atomically, an existing file replaced only when the user says so) and shown.
 
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::viewport_render::ViewportRender;
+use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::files::ask_yes_or_cancel;
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::viewport::render_mode::ViewportRender;
-use crate::editor::widget_rects::WidgetRects;
 use crate::render_file::{CaptureGate, ImageWrite, PipelinesReady, check_image_path, save_png};
 use bevy::camera::{Exposure, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;

@@ -1,10 +1,8 @@
-//! Input: the keys pressed this frame as chords ([`key_chords`]), the one key map that the
-//! handlers, the menus and Help read ([`keymap`]), and the edit shortcuts with the clipboard
-//! ([`shortcuts`]), and egui's click windows kept wide enough for slow frames ([`click_timing`]).
+//! Input: the keys pressed this frame read as chords (the chords and the one key map live in
+//! [`crate::editor::core`], which every feature reads), the edit shortcuts ([`shortcuts`]), and
+//! egui's click windows kept wide enough for slow frames ([`click_timing`]).
 
 pub mod click_timing;
-pub mod key_chords;
-pub mod keymap;
 pub mod shortcuts;
 
 use bevy::prelude::*;
@@ -15,8 +13,8 @@ pub struct InputPlugin;
 
 impl Plugin for InputPlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins(key_chords::KeyChordsPlugin)
-            .init_resource::<shortcuts::EditClipboard>()
+        app.add_plugins(crate::editor::core::key_chords::KeyChordsPlugin)
+            .init_resource::<crate::editor::core::clipboard::EditClipboard>()
             .add_systems(
                 Update,
                 (

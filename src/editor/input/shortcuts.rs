@@ -1,11 +1,12 @@
 //! Keyboard shortcuts for the history and the selection (undo, redo, delete, duplicate, copy,
-//! paste, group; their keys are in [`crate::editor::input::keymap`]). None fires while a text field has the
+//! paste, group; their keys are in [`crate::editor::core::keymap`]). None fires while a text field has the
 //! keyboard.
 
-use crate::editor::input::key_chords::KeyChords;
-use crate::editor::input::key_chords::keyboard_is_free;
-use crate::editor::input::keymap::Action;
-use crate::editor::viewport::selection::Selection;
+use crate::editor::core::clipboard::EditClipboard;
+use crate::editor::core::key_chords::KeyChords;
+use crate::editor::core::key_chords::keyboard_is_free;
+use crate::editor::core::keymap::Action;
+use crate::editor::core::selection::Selection;
 use bevy::prelude::*;
 use bevy_egui::EguiContexts;
 use treelight_document::edit::command::EditCommand;
@@ -50,32 +51,6 @@ pub fn shortcut(chords: &KeyChords, selected: &[SceneId]) -> Option<EditRequest>
         });
     }
     None
-}
-
-/// The objects Ctrl+C copied, by id.
-#[derive(Resource, Debug, Default, Clone, PartialEq)]
-pub struct EditClipboard(pub Vec<SceneId>);
-
-impl EditClipboard {
-    /// What pasting asks for: copies of the copied objects that still exist (in place, selected).
-    pub fn paste(
-        &self,
-        index: &treelight_document::values::object::SceneIndex,
-    ) -> Option<EditRequest> {
-        let ids: Vec<SceneId> = self
-            .0
-            .iter()
-            .copied()
-            .filter(|id| index.entity(*id).is_some())
-            .collect();
-        (!ids.is_empty()).then_some(EditRequest::Apply {
-            command: EditCommand::Duplicate {
-                ids,
-                copies: Vec::new(),
-            },
-            continuing: false,
-        })
-    }
 }
 
 /// Turns the frame's shortcuts into requests.

@@ -5,9 +5,9 @@ use treelight_document::edit::command::EditCommand;
 
 use treelight_document::edit::history::EditRequest;
 
-use crate::editor::viewport::object_item::Objects;
-use crate::editor::viewport::selection::Selection;
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::object_item::Objects;
+use crate::editor::core::selection::Selection;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
@@ -482,7 +482,7 @@ pub struct InspectorAccess<'w, 's> {
     textures: ResMut<'w, EguiUserTextures>,
     cameras:
         Query<'w, 's, &'static treelight_document::values::camera::SceneCamera, With<SceneObject>>,
-    look: ResMut<'w, crate::editor::viewport::camera::LookThrough>,
+    look: ResMut<'w, crate::editor::core::view::LookThrough>,
     /// The widget whose drag or typing made the last request, to merge what it does next.
     gesture: Local<'s, Option<egui::Id>>,
 }
@@ -532,7 +532,7 @@ pub fn inspector_tab(InMut(ui): InMut<egui::Ui>, mut access: InspectorAccess) {
     if edited.as_ref().is_some_and(|s| s.look_through)
         && let Some(e) = access.selection.active()
     {
-        *access.look = crate::editor::viewport::camera::LookThrough::Object(e);
+        *access.look = crate::editor::core::view::LookThrough::Object(e);
     }
     let ctx = ui.ctx();
     let active = ctx.dragged_id().or_else(|| ctx.memory(|m| m.focused()));

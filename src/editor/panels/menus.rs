@@ -5,30 +5,29 @@ use treelight_document::edit::history::EditHistory;
 
 use treelight_document::edit::command::LightKind;
 
-use crate::editor::files::file_menu::{FileUi, RecentProjects};
-use crate::editor::input::keymap::Action;
-use crate::editor::input::shortcuts::EditClipboard;
-use crate::editor::panels::layout::EditorDock;
-use crate::editor::viewport::camera::{OrbitCamera, ViewChange, ViewRequest};
-use crate::editor::viewport::gizmo::GizmoMode;
-use crate::editor::viewport::gizmo::GizmoSettings;
-use crate::editor::viewport::gizmo::GizmoSpace;
-use crate::editor::viewport::place::{light_at, shape_at, view_ray};
-use crate::editor::viewport::render_mode::ViewportRender;
-use crate::editor::viewport::selection::Selection;
+use crate::editor::core::clipboard::EditClipboard;
+use crate::editor::core::file_requests::{FileAction, FileRequest, RecentProjects};
+use crate::editor::core::gizmo_settings::GizmoMode;
+use crate::editor::core::gizmo_settings::GizmoSettings;
+use crate::editor::core::gizmo_settings::GizmoSpace;
+use crate::editor::core::keymap::Action;
+use crate::editor::core::layout::EditorDock;
+use crate::editor::core::place::{light_at, shape_at, view_ray};
+use crate::editor::core::selection::Selection;
+use crate::editor::core::view::{OrbitCamera, ViewChange, ViewRequest};
+use crate::editor::core::viewport_render::ViewportRender;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditRequest, EditRequests};
 use treelight_document::project::format::ProjectState;
-use treelight_document::project::requests::ProjectRequests;
 use treelight_document::values::object::{SceneId, SceneIndex};
 use treelight_document::values::primitive::Primitive;
 use treelight_scene::SceneBvh;
 
 /// The mouse controls and modified drags the Help menu lists after the keys (which come from
-/// [`crate::editor::input::keymap::KEYMAP`]).
+/// [`crate::editor::core::keymap::KEYMAP`]).
 pub const MOUSE: &[(&str, &str)] = &[
     (
         "Ctrl while dragging",
@@ -85,7 +84,7 @@ pub enum MenuAction {
     /// View → Look through → a scene camera.
     LookThrough(Entity),
     /// An entry of the File menu.
-    File(crate::editor::files::file_menu::FileAction),
+    File(FileAction),
 }
 
 /// What decides which menu entries are enabled.
@@ -132,7 +131,6 @@ pub fn menu_bar(
 /// The File menu.
 fn file_menu(ui: &mut egui::Ui, state: &MenuState) -> Option<MenuAction> {
     let mut action = None;
-    use crate::editor::files::file_menu::FileAction;
     let recent = state.recent;
     let project = state.project;
     for (what, label, keys) in [
@@ -407,18 +405,9 @@ pub struct MenuTargets<'w, 's> {
     index: Res<'w, SceneIndex>,
     view: ResMut<'w, ViewRequest>,
     dock: ResMut<'w, EditorDock>,
-    look: ResMut<'w, crate::editor::viewport::camera::LookThrough>,
+    look: ResMut<'w, crate::editor::core::view::LookThrough>,
     scene: Res<'w, SceneBvh>,
     cameras: Query<'w, 's, (&'static Camera, &'static GlobalTransform), With<OrbitCamera>>,
-}
-
-/// What the File menu changes.
-#[derive(SystemParam)]
-pub struct FileTargets<'w> {
-    files: ResMut<'w, FileUi>,
-    project: Res<'w, ProjectState>,
-    history: Res<'w, EditHistory>,
-    requests: ResMut<'w, ProjectRequests>,
 }
 
 /// Does what the menus asked: edits leave as requests; a shape or light goes where the view's
@@ -426,7 +415,7 @@ pub struct FileTargets<'w> {
 pub fn apply_menu_actions(
     mut actions: MessageReader<MenuAction>,
     mut t: MenuTargets,
-    mut f: FileTargets,
+    mut files: MessageWriter<FileRequest>,
 ) {
     for action in actions.read() {
         let selected = t.selection.ids(&t.ids);
@@ -437,8 +426,7 @@ pub fn apply_menu_actions(
             .and_then(|(c, g)| Some((view_ray(c, g, None)?, Vec3::from(g.forward()))));
         match action.clone() {
             MenuAction::File(a) => {
-                let dirty = f.history.is_dirty();
-                f.files.act(a, &f.project, dirty, &mut f.requests);
+                files.write(FileRequest(a));
             }
             MenuAction::Undo => t.requests.0.push(EditRequest::Undo),
             MenuAction::Redo => t.requests.0.push(EditRequest::Redo),
@@ -475,7 +463,7 @@ pub fn apply_menu_actions(
             }
             MenuAction::View(change) => t.view.0 = Some(change),
             MenuAction::LookThrough(e) => {
-                *t.look = crate::editor::viewport::camera::LookThrough::Object(e)
+                *t.look = crate::editor::core::view::LookThrough::Object(e)
             }
             MenuAction::ResetLayout => *t.dock = EditorDock::default(),
             _ => {}

@@ -1,6 +1,6 @@
 //! Notices stacked in the window's top-right corner; each can be dismissed.
 
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 use treelight_document::scene::notice::{Level, Notices};

@@ -3,11 +3,11 @@
 //! another when dragged onto its row (or to the top level when dropped below the rows). A filter
 //! keeps the rows whose names match, with their parents. Only the rows in sight are laid out.
 
-use crate::editor::input::key_chords::KeyChords;
-use crate::editor::input::keymap::Action;
-use crate::editor::viewport::object_item::{Objects, kind_of, parent_of};
-use crate::editor::viewport::selection::Selection;
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::key_chords::KeyChords;
+use crate::editor::core::keymap::Action;
+use crate::editor::core::object_item::{Objects, kind_of, parent_of};
+use crate::editor::core::selection::Selection;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
@@ -373,7 +373,7 @@ impl OutlinerPanel<'_> {
                     1 => format!("Move {}", item.name),
                     n => format!("Move {n} objects"),
                 };
-                crate::editor::assets::palette::paint_drag_label(ui.ctx(), p, &text);
+                crate::editor::core::palette_payload::paint_drag_label(ui.ctx(), p, &text);
             }
         });
         clicked

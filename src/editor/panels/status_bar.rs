@@ -2,10 +2,11 @@
 //! progress, the scene threads' health, the selection, and every file being opened or traced with
 //! its progress and a Cancel.
 
+use crate::editor::core::resident::resident_bytes;
+use crate::editor::core::selection::Selection;
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::viewport_render::ViewportRender;
 use crate::editor::panels::worker_watch::WorkerHealth;
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::viewport::render_mode::ViewportRender;
-use crate::editor::viewport::selection::Selection;
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
@@ -167,15 +168,6 @@ fn scene_figures(ui: &mut egui::Ui, f: &SceneFigures) {
         }
         _ => {}
     }
-}
-
-/// The process's resident set, bytes (`VmRSS` in `/proc/self/status`); `None` where there is no
-/// such file.
-pub fn resident_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
 }
 
 /// Each import until the tree holds it: parsing (no measure of its own), then the share of its

@@ -2,17 +2,17 @@
 //! the scene BVH; a palette item or file over the viewport is placed by the placement rule, as a
 //! live preview (a ghost, traced like any object) while it moves and one step when it is dropped.
 
-use crate::editor::assets::library::AssetLibrary;
-use crate::editor::assets::palette::PaletteItem;
-use crate::editor::viewport::camera::OrbitCamera;
+use crate::editor::core::object_item::{Objects, parent_of};
+use crate::editor::core::palette_payload::{PaletteFile, PaletteItem};
+use crate::editor::core::place::view_ray;
+use crate::editor::core::selection::{ClickModifiers, Selection};
+use crate::editor::core::view::OrbitCamera;
 use crate::editor::viewport::gizmo::ActiveDrag;
-use crate::editor::viewport::object_item::{Objects, parent_of};
-use crate::editor::viewport::place::view_ray;
-use crate::editor::viewport::selection::{ClickModifiers, Selection, click};
+use crate::editor::viewport::selection::click;
 use bevy::camera::primitives::Aabb;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
-use std::path::PathBuf;
+use std::sync::Arc;
 use treelight_document::edit::command::EditCommand;
 use treelight_document::edit::history::{EditHistory, EditRequest, EditRequests};
 use treelight_document::import::finish::drop_transform;
@@ -35,15 +35,11 @@ pub struct ViewportActions {
     pub requests: Vec<EditRequest>,
     /// A palette item over the viewport: the item, the pointer, whether Shift aligns it to the
     /// surface, and whether it was dropped this frame.
-    pub palette: Option<(
-        crate::editor::assets::palette::PaletteItem,
-        Vec2,
-        bool,
-        bool,
-    )>,
-    /// A scene file from the Assets panel over the viewport: the file, the pointer, whether Shift
-    /// aligns it to the surface, and whether it was dropped this frame.
-    pub palette_file: Option<(std::path::PathBuf, Vec2, bool, bool)>,
+    pub palette: Option<(PaletteItem, Vec2, bool, bool)>,
+    /// A scene file from the Assets panel over the viewport: the file (with what the panel read
+    /// of it), the pointer, whether Shift aligns it to the surface, and whether it was dropped
+    /// this frame.
+    pub palette_file: Option<(Arc<PaletteFile>, Vec2, bool, bool)>,
     /// The sky menu's Choose… was clicked: the file dialog opens for a panorama.
     pub choose_panorama: bool,
 }
@@ -66,7 +62,6 @@ pub struct Placing<'w> {
     index: ResMut<'w, SceneIndex>,
     pending: ResMut<'w, PendingImports>,
     parsed: ResMut<'w, ParsedImports>,
-    library: Res<'w, AssetLibrary>,
     drag: Res<'w, ActiveDrag>,
 }
 
@@ -172,16 +167,15 @@ fn place(mut actions: ViewportActions, p: &Picking, s: &mut Placing) {
 fn place_file(
     p: &Picking,
     s: &mut Placing,
-    (file, ray, dropped): (PathBuf, Option<bevy::math::Ray3d>, bool),
+    (file, ray, dropped): (Arc<PaletteFile>, Option<bevy::math::Ray3d>, bool),
     ghost: Option<treelight_document::values::object::SceneId>,
     ghost_parts: &[Entity],
     drop_ray: impl Fn() -> Option<bevy::math::Ray3d>,
 ) {
-    let read = s.library.parsed(&file);
-    match (ray, read.as_ref().and_then(|r| r.bounds)) {
-        (Some(ray), Some(bounds)) => {
+    match (ray, file.read.as_ref()) {
+        (Some(ray), Some(read)) => {
             let surface = surface_under_excluding(&p.scene, ray, 5.0, ghost_parts);
-            let transform = drop_transform(bounds, surface);
+            let transform = drop_transform(read.bounds, surface);
             match (dropped, ghost) {
                 (false, Some(id)) => {
                     s.requests
@@ -195,11 +189,9 @@ fn place_file(
                     // The import command takes the file as the panel read it, under the id its
                     // root will have.
                     let root = s.index.allocate();
-                    if let Some(read) = read {
-                        s.parsed.0.insert(root, read);
-                    }
+                    s.parsed.0.insert(root, read.parsed());
                     let command = EditCommand::Import {
-                        file,
+                        file: file.path.clone(),
                         root: Some(root),
                         transform: Some(transform.into()),
                     };
@@ -207,7 +199,7 @@ fn place_file(
                 }
             }
         }
-        _ if dropped => s.pending.start_at(file, drop_ray()),
+        _ if dropped => s.pending.start_at(file.path.clone(), drop_ray()),
         _ => {}
     }
 }

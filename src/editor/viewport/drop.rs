@@ -2,8 +2,8 @@
 //! ray from the viewport's camera under the pointer (the viewport's centre where the window system
 //! does not say).
 
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::viewport::place::view_ray;
+use crate::editor::core::place::view_ray;
+use crate::editor::core::view::OrbitCamera;
 use bevy::prelude::*;
 use bevy::window::FileDragAndDrop;
 use treelight_document::import::parse::PendingImports;

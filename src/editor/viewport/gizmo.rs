@@ -3,75 +3,16 @@
 //! the selected objects) and the settings; the viewport draws the handles and sends a drag's
 //! result as a live preview, then as one undoable command on release.
 
+use crate::editor::core::gizmo_settings::{GizmoMode, GizmoSettings};
 use treelight_document::edit::history::EditHistory;
 
 use treelight_document::edit::history::EditRequest;
 
-use crate::editor::input::key_chords::KeyChords;
-use crate::editor::input::keymap::Action;
+use crate::editor::core::key_chords::KeyChords;
+use crate::editor::core::keymap::Action;
 use bevy::math::{Affine3A, Mat3, Ray3d};
 use bevy::prelude::*;
 use treelight_document::edit::history::EditRequests;
-
-/// Which handles the gizmo shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum GizmoMode {
-    /// Arrows along the axes and squares for the planes between them (W).
-    #[default]
-    Translate,
-    /// A ring about each axis (E).
-    Rotate,
-    /// Axis handles ending in boxes and a centre handle for uniform scale (R).
-    Scale,
-}
-
-impl GizmoMode {
-    /// A name for the toolbar.
-    pub fn label(self) -> &'static str {
-        match self {
-            GizmoMode::Translate => "Move",
-            GizmoMode::Rotate => "Rotate",
-            GizmoMode::Scale => "Scale",
-        }
-    }
-}
-
-/// Whether the handles follow the world's axes or the active object's.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum GizmoSpace {
-    /// The world's axes.
-    #[default]
-    World,
-    /// The active object's own axes (scaling always uses them).
-    Local,
-}
-
-/// The gizmo's settings: mode, axes, and the snapping steps used while Ctrl is held.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
-pub struct GizmoSettings {
-    /// Which handles are shown.
-    pub mode: GizmoMode,
-    /// Which axes they follow.
-    pub space: GizmoSpace,
-    /// Grid step for moves while snapping, in world units.
-    pub grid_step: f32,
-    /// Angle step for rotations while snapping, degrees.
-    pub angle_step_deg: f32,
-    /// Factor step for scaling while snapping.
-    pub scale_step: f32,
-}
-
-impl Default for GizmoSettings {
-    fn default() -> Self {
-        Self {
-            mode: GizmoMode::Translate,
-            space: GizmoSpace::World,
-            grid_step: 0.25,
-            angle_step_deg: 15.0,
-            scale_step: 0.1,
-        }
-    }
-}
 
 /// One handle of the gizmo.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -536,7 +477,7 @@ pub fn gizmo_mode_keys(
 ) {
     if chords.current.is_none()
         || history.previewing()
-        || !crate::editor::input::key_chords::keyboard_is_free(&mut contexts)
+        || !crate::editor::core::key_chords::keyboard_is_free(&mut contexts)
     {
         return;
     }

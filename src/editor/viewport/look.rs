@@ -4,8 +4,9 @@
 //! on the 3D camera (so the raster view and the path tracer show the same exposure and curve) and
 //! the sky into the path tracer's settings.
 
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::widget_rects::WidgetRects;
+use crate::editor::core::file_requests::{FileAction, FileChosen, FileRequest};
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::widget_rects::WidgetRects;
 use bevy::camera::Exposure;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -52,7 +53,7 @@ pub fn apply_look(
 /// editor starts from).
 pub fn sky_to_tracer(
     look: Res<SceneLook>,
-    mut render: ResMut<crate::editor::viewport::render_mode::ViewportRender>,
+    mut render: ResMut<crate::editor::core::viewport_render::ViewportRender>,
 ) {
     if look.is_changed() {
         render.settings.sky = look.sky_radiance();
@@ -77,23 +78,35 @@ pub fn environment_to_tracer(
     });
 }
 
-/// Opens the file dialog when the sky menu's Choose… was clicked, and turns the file chosen into
-/// the scene's panorama (keeping its rotation, intensity and visibility).
-pub fn choose_panorama(
+/// Asks the File feature for a panorama when the sky menu's Choose… was clicked (its dialog starts
+/// in the folder of the panorama in use).
+pub fn ask_for_panorama(
     actions: Res<crate::editor::viewport::actions::ViewportActions>,
-    mut files: ResMut<crate::editor::files::file_menu::FileUi>,
-    state: Res<treelight_document::project::format::ProjectState>,
+    environment: Res<SceneEnvironment>,
+    mut files: MessageWriter<FileRequest>,
+) {
+    if actions.choose_panorama {
+        files.write(FileRequest(FileAction::ChoosePanorama(
+            environment.image.clone(),
+        )));
+    }
+}
+
+/// Turns the panorama chosen into the scene's sky (keeping its rotation, intensity and
+/// visibility).
+pub fn take_chosen_panorama(
+    mut chosen: MessageReader<FileChosen>,
     environment: Res<SceneEnvironment>,
     mut requests: ResMut<treelight_document::edit::history::EditRequests>,
 ) {
-    if actions.choose_panorama {
-        files.choose_environment(environment.image.as_deref(), &state);
-    }
-    if let Some(image) = files.environment_chosen.take() {
+    for chosen in chosen.read() {
+        let FileChosen::Panorama(image) = chosen else {
+            continue;
+        };
         requests.0.push(EditRequest::Apply {
             command: EditCommand::SetEnvironment {
                 environment: SceneEnvironment {
-                    image: Some(image),
+                    image: Some(image.clone()),
                     ..environment.clone()
                 },
             },

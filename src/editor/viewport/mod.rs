@@ -1,9 +1,9 @@
 //! The viewport: its tab ([`tab`], drawn by [`panel`]) and what is done there ([`actions`]: picking
-//! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), the selection
+//! and placing), the orbit camera ([`camera`]), the transform gizmo ([`gizmo`]), selecting
 //! ([`selection`]), the render mode ([`render_mode`]) and the look ([`look`]: exposure and tone
-//! curve; [`sky_box`]: the sky panorama behind the raster view), where added things go ([`place`]) and files
-//! dropped on the window ([`drop`](mod@drop), [`x11_pointer`]); what the viewport and the panels read of each
-//! object ([`object_item`]).
+//! curve; [`sky_box`]: the sky panorama behind the raster view), and files dropped on the window
+//! ([`drop`](mod@drop), [`x11_pointer`]). What it shares with the other features (the selection,
+//! the camera's parameters, the render settings) lives in [`crate::editor::core`].
 
 pub mod actions;
 pub mod camera;
@@ -11,15 +11,14 @@ pub mod drop;
 pub mod gizmo;
 pub mod look;
 pub mod map_transforms;
-pub mod object_item;
 pub mod panel;
-pub mod place;
 pub mod render_mode;
 pub mod selection;
 pub mod sky_box;
 pub mod tab;
 pub mod x11_pointer;
 
+use crate::editor::core::ui_order::UiStep;
 use bevy::prelude::*;
 
 /// The camera, the gizmo, the selection, the render mode and drops on the window.
@@ -51,6 +50,15 @@ impl Plugin for ViewportPlugin {
                 sky_box::make_sky_box,
                 sky_box::sky_box_to_camera.after(sky_box::make_sky_box),
                 tab::fit_camera_viewport,
+            ),
+        )
+        .add_systems(
+            bevy_egui::EguiPrimaryContextPass,
+            (
+                look::ask_for_panorama.in_set(UiStep::Menus),
+                (look::take_chosen_panorama, actions::apply_viewport_actions)
+                    .chain()
+                    .in_set(UiStep::Viewport),
             ),
         );
     }

@@ -3,19 +3,19 @@
 //! Drawn over the image, in raster and path-traced views alike: the selection's boxes, icons for
 //! lights and empty groups, the gizmo, and the selection box being dragged.
 
+use crate::editor::core::gizmo_settings::GizmoMode;
+use crate::editor::core::gizmo_settings::GizmoSettings;
+use crate::editor::core::gizmo_settings::GizmoSpace;
+use crate::editor::core::selection::ClickModifiers;
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::viewport_render::ViewportRender;
+use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::viewport::actions::ViewportActions;
-use crate::editor::viewport::camera::OrbitCamera;
 use crate::editor::viewport::gizmo::DragTarget;
 use crate::editor::viewport::gizmo::GizmoDrag;
 use crate::editor::viewport::gizmo::GizmoFrame;
-use crate::editor::viewport::gizmo::GizmoMode;
-use crate::editor::viewport::gizmo::GizmoSettings;
-use crate::editor::viewport::gizmo::GizmoSpace;
 use crate::editor::viewport::gizmo::Handle;
 use crate::editor::viewport::gizmo::ViewProjection;
-use crate::editor::viewport::render_mode::ViewportRender;
-use crate::editor::viewport::selection::ClickModifiers;
-use crate::editor::widget_rects::WidgetRects;
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bevy_egui::egui;
@@ -40,7 +40,7 @@ pub enum IconKind {
 impl IconKind {
     fn glyph(self) -> &'static str {
         match self {
-            IconKind::Light(kind) => super::object_item::light_glyph(kind),
+            IconKind::Light(kind) => crate::editor::core::object_item::light_glyph(kind),
             IconKind::Camera => "📷",
             IconKind::Empty => "◇",
         }
@@ -118,7 +118,7 @@ const BOX_EDGES: [(usize, usize); 12] = [
 /// children follow them) and the active object's world transform. `world_of` gives an object's id
 /// and world transform, `parent_of` its parent among the scene objects.
 pub fn drag_targets(
-    selection: &crate::editor::viewport::selection::Selection,
+    selection: &crate::editor::core::selection::Selection,
     world_of: impl Fn(Entity) -> Option<(SceneId, Affine3A)>,
     parent_of: impl Fn(Entity) -> Option<Entity>,
 ) -> (Vec<DragTarget>, Option<Affine3A>) {
@@ -198,7 +198,7 @@ fn quality_menu(ui: &mut egui::Ui, render: &mut ViewportRender, widgets: &mut Wi
                 ui.separator();
             }
             ui.label(egui::RichText::new("Resolution").strong());
-            for (scale, name) in crate::editor::viewport::render_mode::TRACE_SCALES {
+            for (scale, name) in crate::editor::core::viewport_render::TRACE_SCALES {
                 let chosen = render.settings.resolution_scale == scale;
                 let radio = ui.radio(chosen, name);
                 widgets.push(format!("Resolution {name}"), radio.rect);
@@ -361,6 +361,8 @@ pub struct ViewportPanel<'a> {
     pub rect: &'a mut egui::Rect,
     /// What the user did.
     pub actions: &'a mut ViewportActions,
+    /// The key map's Cancel was pressed this frame: a palette drag or a gizmo drag is dropped.
+    pub cancel: bool,
 }
 
 impl ViewportPanel<'_> {
@@ -398,7 +400,7 @@ impl ViewportPanel<'_> {
             modifiers: i.modifiers,
             secondary_pressed: i.pointer.button_pressed(egui::PointerButton::Secondary),
             press_origin: i.pointer.press_origin(),
-            escape: i.key_pressed(egui::Key::Escape),
+            escape: self.cancel,
         });
         let frame = gizmo_frame(
             &self.scene.targets,
@@ -433,7 +435,7 @@ impl ViewportPanel<'_> {
         } = *input;
         // A palette item dragged over the viewport is shown where it would land; Escape cancels it.
         if let Some(item) =
-            egui::DragAndDrop::payload::<crate::editor::assets::palette::PaletteItem>(ctx)
+            egui::DragAndDrop::payload::<crate::editor::core::palette_payload::PaletteItem>(ctx)
         {
             if escape {
                 egui::DragAndDrop::clear_payload(ctx);
@@ -445,33 +447,33 @@ impl ViewportPanel<'_> {
         }
         // Taking a payload drops one of another type: each kind is taken only when it is the one
         // carried.
-        if egui::DragAndDrop::has_payload_of_type::<crate::editor::assets::palette::PaletteItem>(
+        if egui::DragAndDrop::has_payload_of_type::<crate::editor::core::palette_payload::PaletteItem>(
             ctx,
         ) && let Some(item) =
-            response.dnd_release_payload::<crate::editor::assets::palette::PaletteItem>()
+            response.dnd_release_payload::<crate::editor::core::palette_payload::PaletteItem>()
             && let Some(p) = pointer.or(response.interact_pointer_pos())
         {
             self.actions.palette = Some((*item, vec(p), modifiers.shift, true));
         }
         // A file from the panel is shown where it would land, like a shape; Escape cancels it.
         if let Some(file) =
-            egui::DragAndDrop::payload::<crate::editor::assets::palette::PaletteFile>(ctx)
+            egui::DragAndDrop::payload::<crate::editor::core::palette_payload::PaletteFile>(ctx)
         {
             if escape {
                 egui::DragAndDrop::clear_payload(ctx);
             } else if let Some(p) = pointer
                 && rect.contains(p)
             {
-                self.actions.palette_file = Some((file.0.clone(), vec(p), modifiers.shift, false));
+                self.actions.palette_file = Some((file.clone(), vec(p), modifiers.shift, false));
             }
         }
-        if egui::DragAndDrop::has_payload_of_type::<crate::editor::assets::palette::PaletteFile>(
+        if egui::DragAndDrop::has_payload_of_type::<crate::editor::core::palette_payload::PaletteFile>(
             ctx,
         ) && let Some(file) =
-            response.dnd_release_payload::<crate::editor::assets::palette::PaletteFile>()
+            response.dnd_release_payload::<crate::editor::core::palette_payload::PaletteFile>()
             && let Some(p) = pointer.or(response.interact_pointer_pos())
         {
-            self.actions.palette_file = Some((file.0.clone(), vec(p), modifiers.shift, true));
+            self.actions.palette_file = Some((file, vec(p), modifiers.shift, true));
         }
     }
 
@@ -758,7 +760,7 @@ pub fn set_transforms(transforms: Vec<(SceneId, Transform)>) -> EditCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::editor::viewport::selection::Selection;
+    use crate::editor::core::selection::Selection;
 
     /// A pinhole camera at (0, 0, 10) looking down -z, 800 × 600 logical pixels, 60° vertical field.
     struct Pinhole;

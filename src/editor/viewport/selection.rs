@@ -1,104 +1,13 @@
 //! What belongs to the edited scene, what is selected, and how clicks and boxes in the viewport
 //! change the selection. The outliner and the viewport share the one [`Selection`].
 
+use crate::editor::core::selection::{ClickModifiers, Selection};
 use bevy::prelude::*;
 use treelight_render::Outlined;
 
 use treelight_document::edit::history::apply_edit_requests;
 use treelight_document::scene::outbox::DocumentEvent;
-use treelight_document::values::object::{SceneId, SceneIndex, SceneObject};
-
-/// The selected scene entities, in the order they were selected; the last is the active one (the
-/// inspector's, and the gizmo's frame in local mode).
-#[derive(Resource, Debug, Default, Clone, PartialEq)]
-pub struct Selection {
-    entities: Vec<Entity>,
-}
-
-impl Selection {
-    /// A selection of one entity, or none.
-    pub fn of(entity: Option<Entity>) -> Self {
-        Self {
-            entities: entity.into_iter().collect(),
-        }
-    }
-
-    /// The active entity: the one selected last.
-    pub fn active(&self) -> Option<Entity> {
-        self.entities.last().copied()
-    }
-
-    /// Every selected entity, the active one last.
-    pub fn entities(&self) -> &[Entity] {
-        &self.entities
-    }
-
-    /// The selected objects' ids (of those that have one), the active one last.
-    pub fn ids(&self, ids: &Query<&SceneId>) -> Vec<SceneId> {
-        self.entities
-            .iter()
-            .filter_map(|e| ids.get(*e).ok().copied())
-            .collect()
-    }
-
-    /// Whether `e` is selected.
-    pub fn contains(&self, e: Entity) -> bool {
-        self.entities.contains(&e)
-    }
-
-    /// Whether nothing is selected.
-    pub fn is_empty(&self) -> bool {
-        self.entities.is_empty()
-    }
-
-    /// Selects `e` alone (nothing for `None`).
-    pub fn set(&mut self, e: Option<Entity>) {
-        self.entities.clear();
-        self.entities.extend(e);
-    }
-
-    /// Selects exactly `entities`, the last active.
-    pub fn set_all(&mut self, entities: impl IntoIterator<Item = Entity>) {
-        self.entities.clear();
-        for e in entities {
-            self.add(e);
-        }
-    }
-
-    /// Adds `e` and makes it active.
-    pub fn add(&mut self, e: Entity) {
-        self.entities.retain(|x| *x != e);
-        self.entities.push(e);
-    }
-
-    /// Adds `e` if it is not selected, else removes it.
-    pub fn toggle(&mut self, e: Entity) {
-        if self.contains(e) {
-            self.entities.retain(|x| *x != e);
-        } else {
-            self.entities.push(e);
-        }
-    }
-
-    /// Clears the selection.
-    pub fn clear(&mut self) {
-        self.entities.clear();
-    }
-
-    /// Keeps only the entities `keep` accepts.
-    pub fn retain(&mut self, keep: impl FnMut(&Entity) -> bool) {
-        self.entities.retain(keep);
-    }
-}
-
-/// Modifier keys held during a click.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
-pub struct ClickModifiers {
-    /// Ctrl or Shift: add to or toggle in the selection.
-    pub toggle: bool,
-    /// Alt: select the parent assembly of what is under the pointer.
-    pub parent: bool,
-}
+use treelight_document::values::object::{SceneIndex, SceneObject};
 
 /// What a click in the viewport selects, given what the ray hit (`hit`, a scene object or `None`
 /// for empty space), the modifiers, whether it repeats the last click on the same spot, and
@@ -155,14 +64,14 @@ pub fn drop_stale_selection(
 /// Escape clears the selection (not while a text field has the keyboard, where it ends the edit,
 /// nor during a gizmo drag, which it cancels).
 pub fn clear_selection_on_escape(
-    chords: Res<crate::editor::input::key_chords::KeyChords>,
+    chords: Res<crate::editor::core::key_chords::KeyChords>,
     mut contexts: bevy_egui::EguiContexts,
     mut selection: ResMut<Selection>,
 ) {
-    if !chords.triggered(crate::editor::input::keymap::Action::Cancel) || selection.is_empty() {
+    if !chords.triggered(crate::editor::core::keymap::Action::Cancel) || selection.is_empty() {
         return;
     }
-    if !crate::editor::input::key_chords::keyboard_is_free(&mut contexts) {
+    if !crate::editor::core::key_chords::keyboard_is_free(&mut contexts) {
         return;
     }
     selection.clear();

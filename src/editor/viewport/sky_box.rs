@@ -5,8 +5,8 @@
 //! shown or hidden, it lights the raster view's meshes as it lights the path tracer's, through
 //! Bevy's environment map light filtered from the same cube on the GPU.
 
-use crate::editor::viewport::camera::OrbitCamera;
-use crate::editor::viewport::render_mode::ViewportRender;
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::viewport_render::ViewportRender;
 use bevy::asset::RenderAssetUsages;
 use bevy::light::{EnvironmentMapLight, GeneratedEnvironmentMapLight, Skybox};
 use bevy::prelude::*;

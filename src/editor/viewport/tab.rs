@@ -3,16 +3,20 @@
 //! [`super::actions`]; writes back the camera's orbit, the render mode, the gizmo's settings and
 //! where the panel is, which the 3D camera's viewport follows ([`fit_camera_viewport`]).
 
+use crate::editor::core::gizmo_settings::GizmoSettings;
+use crate::editor::core::key_chords::KeyChords;
+use crate::editor::core::keymap::Action;
+use crate::editor::core::object_item::{Objects, parent_of};
+use crate::editor::core::selection::Selection;
+use crate::editor::core::view::OrbitCamera;
+use crate::editor::core::viewport_render::ViewportRender;
+use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::viewport::actions::ViewportActions;
-use crate::editor::viewport::camera::{OrbitCamera, world_bounds};
-use crate::editor::viewport::gizmo::{ActiveDrag, GizmoSettings};
-use crate::editor::viewport::object_item::{Objects, parent_of};
+use crate::editor::viewport::camera::world_bounds;
+use crate::editor::viewport::gizmo::ActiveDrag;
 use crate::editor::viewport::panel::{
     IconKind, ViewportInteraction, ViewportPanel, ViewportScene, drag_targets,
 };
-use crate::editor::viewport::render_mode::ViewportRender;
-use crate::editor::viewport::selection::Selection;
-use crate::editor::widget_rects::WidgetRects;
 use bevy::camera::Viewport;
 use bevy::camera::primitives::Aabb;
 use bevy::ecs::system::SystemParam;
@@ -56,6 +60,7 @@ pub struct ViewportState<'w, 's> {
     rect: ResMut<'w, ViewportRect>,
     widgets: ResMut<'w, WidgetRects>,
     window: Single<'w, 's, &'static Window, With<PrimaryWindow>>,
+    chords: Res<'w, KeyChords>,
 }
 
 /// Draws the viewport tab into `ui`.
@@ -70,6 +75,7 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
         rect: mut viewport_rect,
         mut widgets,
         window,
+        chords,
     } = state;
     // The path tracer outlines the selected meshes' silhouettes itself
     // (selection::outline_selected_meshes); the rasteriser gets their boxes.
@@ -104,6 +110,7 @@ pub fn viewport_tab(InMut(ui): InMut<egui::Ui>, view: SceneView, state: Viewport
         interaction: &mut interaction,
         rect: &mut rect,
         actions: &mut done,
+        cancel: chords.triggered(Action::Cancel),
     }
     .ui(ui);
     *actions = done;

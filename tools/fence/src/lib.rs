@@ -128,6 +128,39 @@ pub fn assert_layers(src: &Path, prefix: &str, layers: &[&str]) {
     );
 }
 
+/// Fails, naming them, if a module under `src` names a folder it may not: `layers` lists groups
+/// of peer folders, lowest first (as `[["core"], ["input", "viewport"], ["workspace"]]`). A module
+/// may name its own folder and any folder of a lower layer, never a peer of its own layer nor a
+/// folder above; a module outside every folder (the root, `prefix` itself) may name any.
+pub fn assert_peers_apart(src: &Path, prefix: &str, layers: &[&[&str]]) {
+    let g = ModuleGraph::read(src, prefix);
+    let depth = usize::from(!prefix.is_empty());
+    let place = |m: &str| {
+        let folder = m.split("::").nth(depth).unwrap_or_default().to_owned();
+        let layer = layers.iter().position(|l| l.contains(&folder.as_str()));
+        (folder, layer)
+    };
+    let mut found = Vec::new();
+    for (module, named) in &g.names {
+        let (folder, Some(layer)) = place(module) else {
+            continue;
+        };
+        for n in named {
+            match place(n) {
+                (f, Some(l)) if l > layer || (l == layer && f != folder) => {
+                    found.push((module.clone(), n.clone()))
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "{}: modules naming a peer or a higher layer: {found:?}",
+        src.display()
+    );
+}
+
 fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     let mut entries: Vec<_> = std::fs::read_dir(dir)
         .expect("a source folder")

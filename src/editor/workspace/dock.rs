@@ -3,14 +3,14 @@
 //! turn); the panels' state and queries stay with each panel.
 
 use crate::editor::assets::palette::assets_tab;
+use crate::editor::core::layout::{EditorDock, EditorTab};
+use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::panels::history::history_tab;
 use crate::editor::panels::inspector::inspector_tab;
-use crate::editor::panels::layout::{EditorDock, EditorTab};
 use crate::editor::panels::menus::menu_bar_tab;
 use crate::editor::panels::outliner::outliner_tab;
 use crate::editor::panels::status_bar::status_bar;
 use crate::editor::viewport::tab::viewport_tab;
-use crate::editor::widget_rects::WidgetRects;
 use bevy::prelude::*;
 use bevy_egui::{EguiContext, PrimaryEguiContext, egui};
 use egui_dock::{DockArea, DockState, Style, TabViewer};

@@ -4,11 +4,11 @@
 //! through a temporary file and a rename.
 
 use crate::editor::assets::library::AssetLibrary;
-use crate::editor::files::file_menu::RecentProjects;
-use crate::editor::panels::layout::EditorDock;
-use crate::editor::panels::layout::EditorTab;
-use crate::editor::panels::layout::rebuild_layout;
-use crate::editor::viewport::gizmo::GizmoSettings;
+use crate::editor::core::file_requests::RecentProjects;
+use crate::editor::core::gizmo_settings::GizmoSettings;
+use crate::editor::core::layout::EditorDock;
+use crate::editor::core::layout::EditorTab;
+use crate::editor::core::layout::rebuild_layout;
 use bevy::prelude::*;
 use egui_dock::DockState;
 use serde::{Deserialize, Serialize};

@@ -1,9 +1,9 @@
 //! The editor's key map, in one table: every handler asks whether its [`Action`] was typed this
 //! frame, and the menus and Help show the keys from the same table.
 
-use crate::editor::input::key_chords::KeyChords;
+use crate::editor::core::key_chords::KeyChords;
 
-use crate::editor::input::key_chords::Modifiers;
+use crate::editor::core::key_chords::Modifiers;
 use bevy::prelude::KeyCode;
 
 /// What a key does.
