@@ -15,6 +15,7 @@ use treelight_render::PathTracerStats;
 use treelight_scene::SceneBvh;
 
 use crate::editor::core::resident::resident_bytes;
+use crate::editor::core::rest::{Activity, ActivitySources};
 
 /// How much the scene's own memory (the tree, its shading records, the path tracer's buffers) must
 /// have changed since the last trim, either way, for another.
@@ -35,7 +36,7 @@ impl Plugin for HeapTrimPlugin {
     fn build(&self, app: &mut App) {
         if cfg!(all(target_os = "linux", target_env = "gnu")) {
             app.init_resource::<HeapTrim>()
-                .add_systems(Last, trim_after_large_changes);
+                .add_systems(Last, trim_after_large_changes.in_set(ActivitySources));
         }
     }
 }
@@ -75,10 +76,7 @@ impl HeapTrim {
     /// the last trim was [`TRIM_EVERY_WHILE_BUSY`] ago. Remembers a trim it answers yes to.
     fn due(&mut self, now: SceneMemory, pending: usize, since: Option<Duration>) -> bool {
         let moving = std::mem::replace(&mut self.seen, now) != now;
-        let last = self.trimmed_at;
-        let worth = now.bytes.abs_diff(last.bytes) >= TRIM_AFTER
-            || now.uploaded.saturating_sub(last.uploaded) >= TRIM_AFTER
-            || now.rebuilt != last.rebuilt;
+        let worth = self.worth(now);
         let busy_long = since.is_none_or(|t| t >= TRIM_EVERY_WHILE_BUSY);
         if pending > 0 || !worth || (moving && !busy_long) {
             return false;
@@ -88,12 +86,23 @@ impl HeapTrim {
     }
 }
 
+impl HeapTrim {
+    /// Whether the scene, being `now`, has moved far enough from the last trim for another.
+    fn worth(&self, now: SceneMemory) -> bool {
+        let last = self.trimmed_at;
+        now.bytes.abs_diff(last.bytes) >= TRIM_AFTER
+            || now.uploaded.saturating_sub(last.uploaded) >= TRIM_AFTER
+            || now.rebuilt != last.rebuilt
+    }
+}
+
 /// Looks at the scene's memory once a [`LOOK_EVERY`] and starts a trim on its own thread when
 /// [`HeapTrim::due`] (and none is running).
 fn trim_after_large_changes(
     mut trim: ResMut<HeapTrim>,
     scene: Res<SceneBvh>,
     tracer: Res<PathTracerStats>,
+    mut activity: Option<ResMut<Activity>>,
 ) {
     if trim.looked.is_some_and(|t| t.elapsed() < LOOK_EVERY) {
         return;
@@ -108,6 +117,12 @@ fn trim_after_large_changes(
     };
     let since = trim.trimmed.map(|t| t.elapsed());
     if trim.running.load(Ordering::Acquire) || !trim.due(now, stats.pending, since) {
+        // A trim worth making waits for the scene to hold still: a resting editor looks again.
+        if trim.worth(now)
+            && let Some(activity) = activity.as_mut()
+        {
+            activity.due_in(LOOK_EVERY);
+        }
         return;
     }
     trim.trimmed = Some(Instant::now());

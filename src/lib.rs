@@ -116,6 +116,13 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             .map(|f| std::time::Duration::from_secs_f32(1.0 / f)),
     ))
     .add_systems(Last, cap_frame_rate)
+    // A run that ends by itself counts frames: they run on. Otherwise the editor draws only while
+    // something changes (editor::core::rest).
+    .insert_resource(if cli.frames.is_some() {
+        bevy::winit::WinitSettings::continuous()
+    } else {
+        editor::core::rest::resting_loop()
+    })
     .insert_resource(ViewportRender {
         traced: cli.view.debug_view(),
         settings: treelight_render::PathTraced {
@@ -177,7 +184,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
             )
             .add_systems(
                 Last,
-                (report::stop_frame_clock, report::write_state_report).chain(),
+                (report::stop_frame_clock, report::write_state_report)
+                    .chain()
+                    .after(editor::core::rest::RestDecision),
             );
     }
     if capturing {

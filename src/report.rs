@@ -118,6 +118,13 @@ pub struct EditorState {
     /// to be counted before it looks for their effect.
     #[serde(default)]
     pub inputs: u64,
+    /// Whether this frame asked for no other: the editor waits for input or its next alarm
+    /// (`editor::core::rest`). A driver waiting for frames after its input stops waiting then.
+    #[serde(default)]
+    pub at_rest: bool,
+    /// What kept the editor drawing when it last was busy (the sources of work, by name).
+    #[serde(default)]
+    pub last_busy: Vec<String>,
     /// The document's exposure and tone curve.
     #[serde(default)]
     pub look: treelight_document::values::look::SceneLook,
@@ -345,6 +352,7 @@ pub struct EditorParams<'w, 's> {
     clock: Option<Res<'w, MainThreadClock>>,
     diagnostics: Res<'w, bevy::diagnostic::DiagnosticsStore>,
     inputs: Res<'w, InputCount>,
+    activity: Option<Res<'w, crate::editor::core::rest::Activity>>,
 }
 
 /// What the report reads of the view's rendering: the path tracer, the render mode, the look and
@@ -576,6 +584,10 @@ fn editor_state(
             .and_then(|d| d.smoothed())
             .unwrap_or(0.0),
         inputs: editor.inputs.0,
+        at_rest: editor.activity.as_ref().is_some_and(|a| a.at_rest),
+        last_busy: editor.activity.as_ref().map_or_else(Vec::new, |a| {
+            a.last_busy.iter().map(|s| (*s).to_owned()).collect()
+        }),
         look: *rendered.look,
         camera_look: rendered
             .lens

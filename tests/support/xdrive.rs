@@ -257,7 +257,8 @@ impl Session {
         }
     }
 
-    /// Waits until the editor has drawn `n` more frames, and returns its report.
+    /// Waits until the editor has drawn `n` more frames, or come to rest (it draws no frame
+    /// without a change), and returns its report.
     pub fn frames(&mut self, n: u64) -> EditorState {
         let sent = self.sent.get();
         self.wait_until(
@@ -265,7 +266,13 @@ impl Session {
             Duration::from_secs(60),
             |s| s.inputs >= sent,
         );
-        self.frames_between(n)
+        // Every input sent has been read: an editor at rest has drawn its effects.
+        let now = self
+            .wait_until("a report", Duration::from_secs(60), |_| true)
+            .frame;
+        self.wait_until("frames", Duration::from_secs(120), |s| {
+            s.frame >= now + n || s.at_rest
+        })
     }
 
     /// [`Session::frames`] without waiting for the input sent to be read: between the halves of
@@ -274,7 +281,13 @@ impl Session {
         let now = self
             .wait_until("a report", Duration::from_secs(60), |_| true)
             .frame;
-        self.wait_until("frames", Duration::from_secs(120), |s| s.frame >= now + n)
+        // The input just sent wakes a resting editor: a frame after `now` has read it (input the
+        // X server drops, as a move to where the pointer is, wakes nothing: a second does).
+        let sent = Instant::now();
+        self.wait_until("frames", Duration::from_secs(120), |s| {
+            s.frame >= now + n
+                || (s.at_rest && (s.frame > now || sent.elapsed() > Duration::from_secs(1)))
+        })
     }
 
     fn find_window(&mut self) {

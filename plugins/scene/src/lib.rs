@@ -110,6 +110,7 @@ impl Plugin for SceneBvhPlugin {
             pending: AtomicUsize::new(0),
             incoming: AtomicUsize::new(0),
             filling: AtomicBool::new(false),
+            active: AtomicBool::new(false),
             failure: Mutex::new(None),
             refine_failure: Arc::new(Mutex::new(None)),
         });
@@ -594,6 +595,14 @@ impl SceneBvh {
         !self.is_copying()
             && self.shared.pending.load(Ordering::Acquire) == 0
             && self.worker_failure().is_none()
+    }
+
+    /// Whether the worker has nothing left to do until the next change: every change applied
+    /// ([`SceneBvh::is_idle`]) and no work of its own ahead (moved meshes to bake, update steps,
+    /// rebuilds). An app that draws only when something changes (Bevy's reactive `WinitSettings`)
+    /// keeps drawing while this is false: the tree still changes, and [`SceneBvh::version`] with it.
+    pub fn is_resting(&self) -> bool {
+        self.is_idle() && !self.shared.active.load(Ordering::Acquire)
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never

@@ -146,6 +146,11 @@ impl Refiner {
         }
     }
 
+    /// Whether a rebuild is in flight or candidates wait (now or once the edits pause).
+    pub(crate) fn has_work_ahead(&self) -> bool {
+        self.in_flight.is_some() || !self.queue.is_empty()
+    }
+
     /// Whether a rebuild is in flight, or candidates wait and the edits have paused.
     pub(crate) fn has_work(&self) -> bool {
         self.in_flight.is_some() || (!self.queue.is_empty() && self.is_quiet())

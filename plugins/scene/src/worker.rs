@@ -134,6 +134,9 @@ pub(crate) struct Shared {
     /// the cores the new meshes' builds need, and each rebuild swapped in re-lays a group a
     /// renderer must upload again, slowing the frames that copy the rest.
     pub filling: AtomicBool,
+    /// Set by the worker while it has work of its own ahead (moved meshes to bake, update steps,
+    /// rebuilds, a cost to publish): an app that rests between frames keeps drawing meanwhile.
+    pub active: AtomicBool,
     /// Why the worker stopped, once it has (it panicked).
     pub failure: Mutex<Option<String>>,
     /// Why background refinement stopped, once it has; the tree keeps its binned builds.
@@ -253,11 +256,17 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 Err(TryRecvError::Empty) => None,
                 Err(TryRecvError::Disconnected) => return,
             }
-        } else {
+        } else if shared.active.load(Ordering::Acquire) || filling {
             match rx.recv_timeout(config.idle_tick) {
                 Ok(c) => Some(c),
                 Err(RecvTimeoutError::Timeout) => None,
                 Err(RecvTimeoutError::Disconnected) => return,
+            }
+        } else {
+            // Nothing ahead: sleep until a command comes, waking no one.
+            match rx.recv() {
+                Ok(c) => Some(c),
+                Err(_) => return,
             }
         };
         let Some(first) = first else {
@@ -272,8 +281,15 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 &mut clock,
                 &mut refiner,
             );
+            let ahead = !last_move.is_empty()
+                || idle.is_pending()
+                || refiner.has_work_ahead()
+                || clock.stale;
+            shared.active.store(ahead, Ordering::Release);
             continue;
         };
+        // A command brings work (its bake, its updates) and leaves the worker active.
+        shared.active.store(true, Ordering::Release);
         queued.extend(rx.try_iter());
         // Only this thread writes the tree: the read waits for no one.
         let in_tree = shared

@@ -4,14 +4,15 @@
 
 use crate::editor::core::file_requests::FileChosen;
 use crate::editor::core::palette_payload::FileReadAhead;
+use crate::editor::core::rest::{Activity, ActivitySources, Waker};
 use bevy::prelude::*;
 use bevy::tasks::futures_lite::future::{block_on, poll_once};
 use bevy::tasks::{AsyncComputeTaskPool, Task};
 use notify::{RecommendedWatcher, RecursiveMode, Watcher};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::SystemTime;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
@@ -112,14 +113,21 @@ pub struct AssetLibrary {
     version: u32,
     /// A folder was added or changed since the files' dates were last looked at.
     stale: bool,
+    /// Wakes a resting editor when the watcher sees a change.
+    waker: Arc<OnceLock<Waker>>,
 }
 
 impl Default for AssetLibrary {
     fn default() -> Self {
         let (tx, rx) = channel();
+        let waker: Arc<OnceLock<Waker>> = Arc::default();
+        let wake = waker.clone();
         // No watcher (an exotic file system): folders are then listed when added, not refreshed.
         let watcher = notify::recommended_watcher(move |e| {
             let _ = tx.send(e);
+            if let Some(w) = wake.get() {
+                w.wake();
+            }
         })
         .ok();
         Self {
@@ -131,6 +139,7 @@ impl Default for AssetLibrary {
             events: Mutex::new(rx),
             version: 0,
             stale: false,
+            waker,
         }
     }
 }
@@ -358,6 +367,18 @@ pub fn refresh_library(mut library: ResMut<AssetLibrary>) {
     library.refresh();
 }
 
+/// Lets the watcher wake a resting editor.
+pub fn wake_on_changes(library: Res<AssetLibrary>, waker: Res<Waker>) {
+    let _ = library.waker.set(waker.clone());
+}
+
+/// Thumbnails being made keep the editor drawing until they are in.
+pub fn thumbnails_activity(library: Res<AssetLibrary>, mut activity: ResMut<Activity>) {
+    if library.busy() {
+        activity.busy("thumbnails");
+    }
+}
+
 /// Adds the folders the user chose (Assets → Add folder…) to the panel.
 pub fn add_chosen_folders(
     mut library: ResMut<AssetLibrary>,
@@ -390,8 +411,9 @@ pub struct AssetLibraryPlugin;
 impl Plugin for AssetLibraryPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<AssetLibrary>()
-            .add_systems(Startup, add_samples)
-            .add_systems(Update, (add_chosen_folders, refresh_library));
+            .add_systems(Startup, (add_samples, wake_on_changes))
+            .add_systems(Update, (add_chosen_folders, refresh_library))
+            .add_systems(Last, thumbnails_activity.in_set(ActivitySources));
     }
 }
 

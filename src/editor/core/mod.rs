@@ -13,6 +13,7 @@ pub mod object_item;
 pub mod palette_payload;
 pub mod place;
 pub mod resident;
+pub mod rest;
 pub mod selection;
 pub mod ui_order;
 pub mod view;
@@ -27,7 +28,8 @@ pub struct CorePlugin;
 impl Plugin for CorePlugin {
     fn build(&self, app: &mut App) {
         ui_order::configure_ui_steps(app);
-        app.init_resource::<widget_rects::WidgetRects>()
+        app.add_plugins(rest::RestPlugin)
+            .init_resource::<widget_rects::WidgetRects>()
             .add_message::<file_requests::FileRequest>()
             .add_message::<file_requests::FileChosen>();
     }

@@ -6,6 +6,7 @@
 use crate::editor::core::file_requests::{FileAction, FileChosen, FileRequest, RecentProjects};
 use crate::editor::core::key_chords::KeyChords;
 use crate::editor::core::keymap::Action;
+use crate::editor::core::rest::Waker;
 use crate::editor::core::ui_order::UiStep;
 use crate::editor::core::widget_rects::WidgetRects;
 use crate::editor::files::file_dialog::DialogPurpose;
@@ -60,6 +61,8 @@ pub struct FileUi {
     /// Files chosen for other features (a folder for the Assets panel, a panorama for the sky),
     /// until they are handed on as messages.
     chosen: Vec<FileChosen>,
+    /// Wakes a resting editor when a desktop dialog answers.
+    waker: Waker,
     /// File → Render image… was chosen, until the render window opens.
     pub render_image: bool,
 }
@@ -95,7 +98,7 @@ impl FileUi {
             return;
         }
         if native_dialogs() {
-            self.native = Some(NativeDialog::open(purpose, dir, name));
+            self.native = Some(NativeDialog::open(purpose, dir, name, self.waker.clone()));
         } else {
             self.dialog = Some(FileDialog::new(purpose, dir, name));
         }
@@ -475,6 +478,11 @@ pub fn follow_document(
     }
 }
 
+/// Lets a desktop dialog's answer wake a resting editor.
+fn wake_on_answers(mut files: ResMut<FileUi>, waker: Res<Waker>) {
+    files.waker = waker.clone();
+}
+
 /// Acts on the File actions other features asked for this frame (the menu bar, the Assets
 /// panel, the sky controls).
 pub fn take_file_requests(
@@ -513,6 +521,7 @@ impl Plugin for FileMenuPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<FileUi>()
             .init_resource::<RecentProjects>()
+            .add_systems(Startup, wake_on_answers)
             .add_systems(
                 Update,
                 (

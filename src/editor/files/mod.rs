@@ -11,6 +11,7 @@ pub mod native_dialog;
 pub mod recovery;
 pub mod render_image;
 
+use crate::editor::core::rest::{Activity, ActivitySources};
 use bevy::prelude::*;
 
 /// The File menu, the recovery offer, the large-import question and crash reports.
@@ -30,6 +31,7 @@ impl Plugin for FilesPlugin {
         ))
         .init_resource::<render_image::RenderImageUi>()
         .add_systems(Update, (open_render_window, render_image::finish_render))
+        .add_systems(Last, render_activity.in_set(ActivitySources))
         .add_systems(
             bevy_egui::EguiPrimaryContextPass,
             (
@@ -40,6 +42,13 @@ impl Plugin for FilesPlugin {
                 render_image::render_image_window.after(crate::editor::core::ui_order::EditorUi),
             ),
         );
+    }
+}
+
+/// A render to file keeps the editor drawing until it is saved.
+fn render_activity(render: Res<render_image::RenderImageUi>, mut activity: ResMut<Activity>) {
+    if render.job.is_some() {
+        activity.busy("render image");
     }
 }
 

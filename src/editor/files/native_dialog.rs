@@ -2,6 +2,7 @@
 //! missing), used when the desktop has one; otherwise the in-window dialog of `file_dialog.rs`.
 
 use super::file_dialog::DialogPurpose;
+use crate::editor::core::rest::Waker;
 use bevy::tasks::futures_lite::future::{block_on, poll_once};
 use bevy::tasks::{AsyncComputeTaskPool, Task};
 use std::path::{Path, PathBuf};
@@ -48,8 +49,9 @@ pub struct NativeDialog {
 }
 
 impl NativeDialog {
-    /// Opens the desktop's dialog for `purpose` in `dir` (with `name` filled in for a save).
-    pub fn open(purpose: DialogPurpose, dir: PathBuf, name: String) -> Self {
+    /// Opens the desktop's dialog for `purpose` in `dir` (with `name` filled in for a save); its
+    /// answer wakes a resting editor through `waker`.
+    pub fn open(purpose: DialogPurpose, dir: PathBuf, name: String, waker: Waker) -> Self {
         let dialog = rfd::AsyncFileDialog::new()
             .set_title(purpose.title())
             .set_directory(dir);
@@ -87,7 +89,7 @@ impl NativeDialog {
                 handle.map(|h| h.path().to_owned())
             };
             // A desktop dialog that crashes ends as an error, not the editor.
-            std::panic::AssertUnwindSafe(chosen)
+            let answer = std::panic::AssertUnwindSafe(chosen)
                 .catch_unwind()
                 .await
                 .map_err(|p| {
@@ -95,7 +97,9 @@ impl NativeDialog {
                         "the desktop file dialog".into(),
                         &*p,
                     )
-                })
+                });
+            waker.wake();
+            answer
         });
         Self { purpose, task }
     }

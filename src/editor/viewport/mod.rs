@@ -53,6 +53,10 @@ impl Plugin for ViewportPlugin {
             ),
         )
         .add_systems(
+            Last,
+            sky_box::sky_box_activity.in_set(crate::editor::core::rest::ActivitySources),
+        )
+        .add_systems(
             bevy_egui::EguiPrimaryContextPass,
             (
                 look::ask_for_panorama.in_set(UiStep::Menus),

@@ -5,6 +5,7 @@
 //! shown or hidden, it lights the raster view's meshes as it lights the path tracer's, through
 //! Bevy's environment map light filtered from the same cube on the GPU.
 
+use crate::editor::core::rest::Activity;
 use crate::editor::core::view::OrbitCamera;
 use crate::editor::core::viewport_render::ViewportRender;
 use bevy::asset::RenderAssetUsages;
@@ -160,6 +161,13 @@ pub fn make_sky_box(
         });
     if spawned.is_ok() {
         cube.making = Some(slot);
+    }
+}
+
+/// A cube being made keeps the editor drawing until it is in.
+pub fn sky_box_activity(cube: Res<SkyBoxCube>, mut activity: ResMut<Activity>) {
+    if cube.making.is_some() {
+        activity.busy("sky box");
     }
 }
 

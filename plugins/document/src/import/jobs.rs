@@ -55,6 +55,13 @@ pub struct TracingImports {
     pub(crate) awaiting: Vec<(SceneId, PathBuf, Instant)>,
 }
 
+impl TracingImports {
+    /// Whether no import is being traced or awaited.
+    pub fn is_empty(&self) -> bool {
+        self.jobs.is_empty() && self.awaiting.is_empty()
+    }
+}
+
 /// What the status bar's Cancel buttons (and tests) ask: stop importing these files.
 #[derive(Resource, Default)]
 pub struct CancelImports(pub Vec<PathBuf>);

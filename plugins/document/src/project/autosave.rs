@@ -79,6 +79,17 @@ pub struct Autosave {
 }
 
 impl Autosave {
+    /// When the next recovery copy is due, while there are unsaved changes: an editor that rests
+    /// between frames wakes then.
+    pub fn next_due(&self) -> Option<Instant> {
+        self.last.map(|last| last + self.interval)
+    }
+
+    /// Whether a recovery copy is being written (on its thread) or removed.
+    pub fn is_writing(&self) -> bool {
+        self.writer.is_some()
+    }
+
     /// Takes `path` as a copy of this scene's unsaved work, so a save or a discard removes it.
     pub fn adopt(&mut self, path: PathBuf) {
         self.offered.insert(path.clone());

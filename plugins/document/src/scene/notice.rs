@@ -1,6 +1,7 @@
 //! Messages for the user (import results, errors), shown by the UI until dismissed or expired.
 
 use bevy::prelude::*;
+use std::time::{Duration, Instant};
 
 /// How serious a notice is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -20,8 +21,8 @@ pub struct Notice {
     pub level: Level,
     /// Text, naming the file and the problem where there is one.
     pub text: String,
-    /// Seconds it stays; errors stay until dismissed.
-    pub ttl: Option<f32>,
+    /// When it fades; errors stay until dismissed.
+    pub until: Option<Instant>,
 }
 
 /// Notices waiting to be read.
@@ -36,7 +37,7 @@ impl Notices {
         self.0.push(Notice {
             level: Level::Info,
             text,
-            ttl: Some(6.0),
+            until: Some(Instant::now() + Duration::from_secs(6)),
         });
     }
     /// Adds a warning that fades after a while.
@@ -46,7 +47,7 @@ impl Notices {
         self.0.push(Notice {
             level: Level::Warning,
             text,
-            ttl: Some(15.0),
+            until: Some(Instant::now() + Duration::from_secs(15)),
         });
     }
     /// Whether an error is among them.
@@ -61,21 +62,23 @@ impl Notices {
         self.0.push(Notice {
             level: Level::Error,
             text,
-            ttl: None,
+            until: None,
         });
     }
 }
 
-/// Ages notices and drops the expired ones.
-pub fn expire_notices(time: Res<Time>, mut notices: ResMut<Notices>) {
-    let dt = time.delta_secs();
-    if notices.0.iter().all(|n| n.ttl.is_none()) {
-        return;
+impl Notices {
+    /// When the next notice fades, if one will: an app that rests between frames wakes then.
+    pub fn next_fade(&self) -> Option<Instant> {
+        self.0.iter().filter_map(|n| n.until).min()
     }
-    for n in &mut notices.0 {
-        if let Some(t) = &mut n.ttl {
-            *t -= dt;
-        }
+}
+
+/// Drops the notices whose time is up (by the clock, not by frames: a frame after a long rest
+/// drops all that faded meanwhile).
+pub fn expire_notices(mut notices: ResMut<Notices>) {
+    let now = Instant::now();
+    if notices.0.iter().any(|n| n.until.is_some_and(|t| t <= now)) {
+        notices.0.retain(|n| n.until.is_none_or(|t| t > now));
     }
-    notices.0.retain(|n| n.ttl.is_none_or(|t| t > 0.0));
 }
