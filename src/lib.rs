@@ -167,27 +167,7 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
         app.insert_resource(script);
     }
     if let Some(path) = &cli.state {
-        app.insert_resource(report::StateReport::new(path.clone()))
-            .init_resource::<report::MainThreadClock>()
-            .init_resource::<report::InputCount>()
-            .add_systems(First, report::start_frame_clock)
-            .add_systems(
-                PreUpdate,
-                report::count_inputs.after(bevy::input::InputSystems),
-            )
-            .add_systems(
-                bevy_egui::EguiPrimaryContextPass,
-                (
-                    report::start_ui_clock.before(editor::core::ui_order::EditorUi),
-                    report::stop_ui_clock.after(editor::core::ui_order::EditorUi),
-                ),
-            )
-            .add_systems(
-                Last,
-                (report::stop_frame_clock, report::write_state_report)
-                    .chain()
-                    .after(editor::core::rest::RestDecision),
-            );
+        add_state_report(&mut app, path.clone());
     }
     if capturing {
         app.insert_resource(capture::CaptureRequest {
@@ -212,6 +192,31 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     }
     run_schedules_on_one_thread(&mut app);
     app
+}
+
+/// `--state PATH`: the report written every frame, and the clocks and counts it reads.
+fn add_state_report(app: &mut App, path: std::path::PathBuf) {
+    app.insert_resource(report::StateReport::new(path))
+        .init_resource::<report::MainThreadClock>()
+        .init_resource::<report::InputCount>()
+        .add_systems(First, report::start_frame_clock)
+        .add_systems(
+            PreUpdate,
+            report::count_inputs.after(bevy::input::InputSystems),
+        )
+        .add_systems(
+            bevy_egui::EguiPrimaryContextPass,
+            (
+                report::start_ui_clock.before(editor::core::ui_order::EditorUi),
+                report::stop_ui_clock.after(editor::core::ui_order::EditorUi),
+            ),
+        )
+        .add_systems(
+            Last,
+            (report::stop_frame_clock, report::write_state_report)
+                .chain()
+                .after(editor::core::rest::RestDecision),
+        );
 }
 
 /// Keeps the record of the path tracer's kernel warm-ups (a software adapter's) in the cache
