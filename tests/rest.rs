@@ -1,6 +1,7 @@
 //! An editor at rest draws no frames, and wakes without input for each source of work that comes
 //! due or arrives while it rests: a file appearing in an Assets folder (the watcher), a recovery
-//! copy (autosave's alarm), a notice fading (its alarm). The real binary under Xvfb.
+//! copy (autosave's alarm), a notice fading (its alarm); an import started draws until it is in
+//! the tree. The real binary under Xvfb.
 
 mod support;
 #[path = "support/xdrive.rs"]
@@ -10,18 +11,30 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 use support::{run_without_display, temp_dir};
 use treelight::report::EditorState;
-use xdrive::{Session, keysym, object};
+use xdrive::{Session, keysym, object, widget};
 
-/// Settings whose Assets panel lists `folder`.
+/// Settings whose Assets panel, the window's left half, lists `folder`.
 fn settings_with_assets(config: &Path, folder: &Path) {
-    use treelight::editor::core::layout::EditorDock;
+    use treelight::editor::core::layout::EditorTab;
     use treelight::editor::workspace::settings::{EditorSettings, write_settings};
     std::fs::create_dir_all(config).unwrap();
+    let mut layout = egui_dock::DockState::new(vec![EditorTab::Viewport]);
+    let tree = layout.main_surface_mut();
+    let [_, assets] = tree.split_left(egui_dock::NodeIndex::root(), 0.5, vec![EditorTab::Assets]);
+    tree.split_below(
+        assets,
+        0.9,
+        vec![
+            EditorTab::Outliner,
+            EditorTab::Inspector,
+            EditorTab::History,
+        ],
+    );
     write_settings(
         &config.join("settings.ron"),
         &EditorSettings {
             version: 1,
-            layout: EditorDock::default().0,
+            layout,
             grid_step: 0.5,
             angle_step_deg: 15.0,
             scale_step: 0.1,
@@ -100,8 +113,37 @@ fn a_resting_editor_draws_nothing_and_wakes_for_watchers_and_alarms() {
     let st = st.unwrap_or_else(|| panic!("the new file's tile never came\n{}", s.log()));
     assert!(st.frame > later.frame);
 
+    // A click on its tile imports it at the view's centre; then nothing: the frames go on while
+    // the file is read and traced into the tree, and stop once it is there.
+    let (x, y) = widget(&st, "watched.obj");
+    let before = st.objects.len();
+    s.click(x, y);
+    let (st, _) = wait_untouched(&s, Duration::from_secs(60), |st| {
+        st.at_rest && st.settled && st.objects.len() > before
+    });
+    let st = st.unwrap_or_else(|| panic!("the import never finished at rest\n{}", s.log()));
+    assert!(
+        st.objects.iter().any(|o| o.name.contains("watched")),
+        "{:?}",
+        st.objects.iter().map(|o| &o.name).collect::<Vec<_>>()
+    );
+
+    // The import saved: the save's notice fades at its time, with no input.
+    s.key(&[keysym::CONTROL], keysym::letter('s'));
+    let st = s.wait_until("the save's notice", Duration::from_secs(30), |st| {
+        !st.dirty && st.notices.iter().any(|n| n.starts_with("saved"))
+    });
+    let shown = Instant::now();
+    let (faded, rested) = wait_untouched(&s, Duration::from_secs(15), |st| {
+        !st.notices.iter().any(|n| n.starts_with("saved"))
+    });
+    assert!(faded.is_some(), "the notice never faded ({:?})", st.notices);
+    assert!(rested, "the editor never rested while the notice showed");
+    assert!(shown.elapsed() > Duration::from_secs(3), "it faded early");
+
     // An edit, then nothing: the editor rests, and autosave's alarm wakes it to write the
     // recovery copy (the loop's longest sleep, 60 s, is far later).
+    let st = s.frames(1);
     let sphere = object(&st, "Sphere").screen.unwrap();
     s.click(sphere[0], sphere[1]);
     s.key(&[], keysym::DELETE);
@@ -116,18 +158,6 @@ fn a_resting_editor_draws_nothing_and_wakes_for_watchers_and_alarms() {
     );
     assert!(rested, "the editor never rested before the copy was due");
 
-    // A save's notice fades at its time, with no input.
-    s.key(&[keysym::CONTROL], keysym::letter('s'));
-    let st = s.wait_until("the save's notice", Duration::from_secs(30), |st| {
-        !st.dirty && st.notices.iter().any(|n| n.starts_with("saved"))
-    });
-    let shown = Instant::now();
-    let (faded, rested) = wait_untouched(&s, Duration::from_secs(15), |st| {
-        !st.notices.iter().any(|n| n.starts_with("saved"))
-    });
-    assert!(faded.is_some(), "the notice never faded ({:?})", st.notices);
-    assert!(rested, "the editor never rested while the notice showed");
-    assert!(shown.elapsed() > Duration::from_secs(3), "it faded early");
     drop(s);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -25,6 +25,7 @@ use std::sync::Arc;
 use thiserror::Error;
 
 pub use budget::{BUDGET_VARIABLE, ImportOptions, available_memory, default_memory_budget};
+pub use sandbox::file_kind;
 
 pub use environment::{
     EnvironmentImage, MAX_ENVIRONMENT_FILE, MAX_ENVIRONMENT_SIDE, MAX_ENVIRONMENT_WIDTH,

@@ -39,7 +39,7 @@ pub(crate) fn open_regular(
     };
     let meta = std::fs::metadata(file).map_err(cannot)?;
     if !meta.is_file() {
-        return Err(not_regular(kind_of(&meta)));
+        return Err(not_regular(file_kind(&meta)));
     }
     let mut options = std::fs::OpenOptions::new();
     options.read(true);
@@ -52,12 +52,14 @@ pub(crate) fn open_regular(
     let handle = options.open(file).map_err(cannot)?;
     let meta = handle.metadata().map_err(cannot)?;
     if !meta.is_file() {
-        return Err(not_regular(kind_of(&meta)));
+        return Err(not_regular(file_kind(&meta)));
     }
     Ok((handle, meta.len()))
 }
 
-fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+/// What a file that is not a regular one is, for a message: a device, a pipe, a socket, a link
+/// (when `meta` is the link's own), a folder (`meta` from `metadata` or `symlink_metadata`).
+pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
@@ -72,8 +74,12 @@ fn kind_of(meta: &std::fs::Metadata) -> &'static str {
             return "a socket";
         }
     }
-    if meta.is_dir() {
+    if meta.file_type().is_symlink() {
+        "a link"
+    } else if meta.is_dir() {
         "a folder"
+    } else if meta.is_file() {
+        "a regular file"
     } else {
         "not a regular file"
     }

@@ -237,9 +237,10 @@ fn rest_or_draw(
     waker: Res<Waker>,
     mut redraw: MessageWriter<RequestRedraw>,
 ) {
+    let activity = &mut *activity;
     if activity.is_busy() {
         activity.settling = SETTLE_FRAMES;
-        activity.last_busy = activity.busy.clone();
+        activity.last_busy.clone_from(&activity.busy);
     }
     if activity.settling > 0 {
         activity.settling -= 1;

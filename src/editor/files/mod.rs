@@ -31,7 +31,10 @@ impl Plugin for FilesPlugin {
         ))
         .init_resource::<render_image::RenderImageUi>()
         .add_systems(Update, (open_render_window, render_image::finish_render))
-        .add_systems(Last, render_activity.in_set(ActivitySources))
+        .add_systems(
+            Last,
+            (render_activity, pipelines_activity).in_set(ActivitySources),
+        )
         .add_systems(
             bevy_egui::EguiPrimaryContextPass,
             (
@@ -49,6 +52,17 @@ impl Plugin for FilesPlugin {
 fn render_activity(render: Res<render_image::RenderImageUi>, mut activity: ResMut<Activity>) {
     if render.job.is_some() {
         activity.busy("render image");
+    }
+}
+
+/// Render pipelines still compiling (a material's, the raster view's sky light filters, the
+/// tonemapper's for an image) keep the editor drawing: what they draw appears once they are in.
+fn pipelines_activity(
+    ready: Option<Res<crate::render_file::PipelinesReady>>,
+    mut activity: ResMut<Activity>,
+) {
+    if ready.is_some_and(|r| !r.is_ready()) {
+        activity.busy("pipelines compiling");
     }
 }
 

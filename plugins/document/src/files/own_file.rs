@@ -12,39 +12,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Temporary files made by this process so far, for their unique names.
 static TEMPORARIES: AtomicU64 = AtomicU64::new(0);
 
-/// What `meta` is, in words: "a folder", "a pipe", ...
-pub fn kind_of(meta: &Metadata) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        let t = meta.file_type();
-        if t.is_block_device() || t.is_char_device() {
-            return "a device";
-        }
-        if t.is_fifo() {
-            return "a pipe";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    if meta.file_type().is_symlink() {
-        "a link"
-    } else if meta.is_dir() {
-        "a folder"
-    } else if meta.is_file() {
-        "a regular file"
-    } else {
-        "not a regular file"
-    }
-}
+pub use treelight_import::file_kind;
 
 fn not_regular(meta: &Metadata) -> Error {
     Error::new(
         ErrorKind::InvalidInput,
         format!(
             "it is {}, not a regular file; only regular files are read",
-            kind_of(meta)
+            file_kind(meta)
         ),
     )
 }
@@ -133,7 +108,7 @@ pub fn check_writable_place(path: &Path) -> std::io::Result<()> {
         )),
         Ok(m) if !m.is_file() => Err(Error::new(
             ErrorKind::InvalidInput,
-            format!("it is {}, not a regular file", kind_of(&m)),
+            format!("it is {}, not a regular file", file_kind(&m)),
         )),
         Ok(_) => Ok(()),
         Err(e) if e.kind() == ErrorKind::NotFound => Ok(()),
@@ -244,7 +219,7 @@ pub fn open_own_for_writing(path: &Path) -> std::io::Result<File> {
     if !meta.is_file() {
         return Err(Error::new(
             ErrorKind::InvalidInput,
-            format!("it is {}, not a regular file", kind_of(&meta)),
+            format!("it is {}, not a regular file", file_kind(&meta)),
         ));
     }
     Ok(file)
