@@ -84,7 +84,7 @@ fn a_resting_editor_draws_nothing_and_wakes_for_watchers_and_alarms() {
     let env = [
         ("TREELIGHT_CACHE_DIR", cache.to_str().unwrap()),
         ("TREELIGHT_CONFIG_DIR", config.to_str().unwrap()),
-        ("TREELIGHT_AUTOSAVE_SECS", "12"),
+        ("TREELIGHT_AUTOSAVE_SECS", "25"),
     ];
     let mut s = Session::start_with("rest", &[project.to_str().unwrap(), "--samples", "2"], &env);
 
@@ -150,10 +150,10 @@ fn a_resting_editor_draws_nothing_and_wakes_for_watchers_and_alarms() {
     let st = s.frames(1);
     assert!(st.dirty);
     let copy = dir.join(".house.recovery.treelight");
-    let (written, rested) = wait_untouched(&s, Duration::from_secs(22), |_| copy.exists());
+    let (written, rested) = wait_untouched(&s, Duration::from_secs(40), |_| copy.exists());
     assert!(
         written.is_some(),
-        "no recovery copy within 22 s\n{}",
+        "no recovery copy within 40 s\n{}",
         s.log()
     );
     assert!(rested, "the editor never rested before the copy was due");
