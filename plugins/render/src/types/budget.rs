@@ -397,55 +397,62 @@ mod tests {
         assert!(per_tile.iter().all(|&n| n == sweeps || n == sweeps + 1));
     }
 
+    /// A budget of `millis` a frame and `share` of the rest of it, without a bound on samples.
+    fn budget(millis: f32, share: f32) -> FrameBudget {
+        FrameBudget {
+            millis,
+            share,
+            max_samples: u64::MAX,
+        }
+    }
+
+    /// Runs `frames` frames of `clock` under `budget`: a sample costs `trace_ns` by the pass's
+    /// timestamps (`None`: the adapter has none) and `frame_ns` in a frame whose rest takes
+    /// `rest_ns`.
+    fn run(
+        clock: &mut TraceClock,
+        budget: &FrameBudget,
+        frames: usize,
+        trace_ns: Option<f64>,
+        (rest_ns, frame_ns): (f64, f64),
+    ) {
+        for _ in 0..frames {
+            let samples = clock.dither(clock.sample_budget(budget));
+            if let Some(t) = trace_ns {
+                clock.observe_trace(samples, samples as f64 * t);
+            }
+            clock.observe_frame(samples, rest_ns + samples as f64 * frame_ns);
+        }
+    }
+
     #[test]
     fn the_budget_follows_the_gpu_timing_and_the_rest_of_the_frame() {
-        let budget = FrameBudget {
-            millis: 4.0,
-            share: 0.25,
-            max_samples: u64::MAX,
-        };
+        let budget = budget(4.0, 0.25);
         let mut clock = TraceClock::default();
         assert_eq!(clock.sample_budget(&budget), FIRST_GUESS_SAMPLES);
         // 100 ns a sample; the rest of the frame takes 8 ms, and overlaps part of the trace (so
         // the frames alone would say 60 ns): the fixed 4 ms wins.
-        for _ in 0..40 {
-            let samples = clock.dither(clock.sample_budget(&budget));
-            clock.observe_trace(samples, samples as f64 * 100.0);
-            clock.observe_frame(samples, 8e6 + samples as f64 * 60.0);
-        }
+        run(&mut clock, &budget, 40, Some(100.0), (8e6, 60.0));
         let n = clock.sample_budget(&budget) as f64;
         assert!((39_000.0..=41_000.0).contains(&n), "{n}");
         assert_eq!(clock.cost().unwrap().1, CostSource::Timestamps);
         // A slow rest of the frame (200 ms) lets the trace take a quarter of it.
-        for _ in 0..80 {
-            let samples = clock.dither(clock.sample_budget(&budget));
-            clock.observe_trace(samples, samples as f64 * 100.0);
-            clock.observe_frame(samples, 200e6 + samples as f64 * 100.0);
-        }
+        run(&mut clock, &budget, 80, Some(100.0), (200e6, 100.0));
         let n = clock.sample_budget(&budget) as f64;
         assert!((480_000.0..=520_000.0).contains(&n), "{n}");
-        assert_eq!(
-            clock.sample_budget(&FrameBudget {
-                millis: 0.0,
-                share: 0.25,
-                max_samples: u64::MAX,
-            }),
-            u64::MAX
-        );
+        // No fixed time: the whole image every frame.
+        let whole = FrameBudget {
+            millis: 0.0,
+            ..budget
+        };
+        assert_eq!(clock.sample_budget(&whole), u64::MAX);
     }
 
     #[test]
     fn without_timestamps_the_fit_finds_the_cost_from_frame_intervals() {
-        let budget = FrameBudget {
-            millis: 4.0,
-            share: 0.0,
-            max_samples: u64::MAX,
-        };
+        let budget = budget(4.0, 0.0);
         let mut clock = TraceClock::default();
-        for _ in 0..200 {
-            let samples = clock.dither(clock.sample_budget(&budget));
-            clock.observe_frame(samples, 30e6 + samples as f64 * 50.0);
-        }
+        run(&mut clock, &budget, 200, None, (30e6, 50.0));
         let cost = clock.ns_per_sample().unwrap();
         assert!((cost - 50.0).abs() < 2.5, "{cost}");
         let n = clock.sample_budget(&budget) as f64;
@@ -454,18 +461,10 @@ mod tests {
 
     #[test]
     fn timestamps_that_read_low_lose_to_the_frame_intervals() {
-        let budget = FrameBudget {
-            millis: 4.0,
-            share: 0.0,
-            max_samples: u64::MAX,
-        };
+        let budget = budget(4.0, 0.0);
         let mut clock = TraceClock::default();
-        for _ in 0..200 {
-            let samples = clock.dither(clock.sample_budget(&budget));
-            // The pass's timestamps say 1 ns a sample; the frames show 50.
-            clock.observe_trace(samples, samples as f64);
-            clock.observe_frame(samples, 30e6 + samples as f64 * 50.0);
-        }
+        // The pass's timestamps say 1 ns a sample; the frames show 50.
+        run(&mut clock, &budget, 200, Some(1.0), (30e6, 50.0));
         let (cost, source) = clock.cost().unwrap();
         assert_eq!(source, CostSource::FrameTimes);
         assert!((cost - 50.0).abs() < 2.5, "{cost}");
