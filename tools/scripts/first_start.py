@@ -11,24 +11,12 @@ TREELIGHT_CONFIG_DIR=$(mktemp -d).
 """
 import argparse
 import os
-import re
 import subprocess
 import sys
 import tempfile
 import time
 
-
-def read_state(path):
-    try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    except OSError:
-        return None
-    frame = re.search(r"\bframe: (\d+)", text)
-    samples = re.search(r"\bsamples: (\d+)", text)
-    if not frame or not samples:
-        return None  # written while read: the next read has it
-    return int(frame.group(1)), int(samples.group(1))
+from state_report import read_state
 
 
 def main():
@@ -48,7 +36,7 @@ def main():
                 now = time.monotonic()
                 s = read_state(state)
                 if s is not None:
-                    frame, samples = s
+                    frame, samples = s["frame"], s["samples"]
                     if frame != last_frame:
                         if last_frame is not None:
                             longest = max(longest, now - last_change)

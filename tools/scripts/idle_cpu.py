@@ -15,31 +15,12 @@ The binary defaults to the release build in $CARGO_TARGET_DIR (or target/).
 import argparse
 import ctypes
 import os
-import re
 import subprocess
 import sys
 import tempfile
 import time
 
-
-def read_state(path):
-    try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-    except OSError:
-        return None
-    fields = {}
-    for name in ("frame", "samples"):
-        m = re.search(r"\b%s: (\d+)" % name, text)
-        if not m:
-            return None  # written while read: the next read has it
-        fields[name] = int(m.group(1))
-    for name in ("settled", "at_rest"):
-        m = re.search(r"\b%s: (true|false)" % name, text)
-        fields[name] = bool(m and m.group(1) == "true")
-    busy = re.search(r"last_busy: \[([^\]]*)\]", text)
-    fields["last_busy"] = " ".join(busy.group(1).split()) if busy else ""
-    return fields
+from state_report import read_state
 
 
 def cpu_seconds(pid):

@@ -11,8 +11,8 @@ use bevy::tasks::{AsyncComputeTaskPool, Task};
 use notify::{RecommendedWatcher, RecursiveMode, Watcher};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, channel};
-use std::sync::{Arc, Mutex, OnceLock};
 use std::time::SystemTime;
 use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray, TopDown, Triangle};
@@ -113,21 +113,23 @@ pub struct AssetLibrary {
     version: u32,
     /// A folder was added or changed since the files' dates were last looked at.
     stale: bool,
-    /// Wakes a resting editor when the watcher sees a change.
-    waker: Arc<OnceLock<Waker>>,
 }
 
 impl Default for AssetLibrary {
+    /// A library whose watcher wakes no window loop.
     fn default() -> Self {
+        Self::waking(Waker::default())
+    }
+}
+
+impl AssetLibrary {
+    /// An empty library whose watcher, seeing a change, wakes a resting editor through `waker`.
+    pub fn waking(waker: Waker) -> Self {
         let (tx, rx) = channel();
-        let waker: Arc<OnceLock<Waker>> = Arc::default();
-        let wake = waker.clone();
         // No watcher (an exotic file system): folders are then listed when added, not refreshed.
         let watcher = notify::recommended_watcher(move |e| {
             let _ = tx.send(e);
-            if let Some(w) = wake.get() {
-                w.wake();
-            }
+            waker.wake();
         })
         .ok();
         Self {
@@ -139,12 +141,9 @@ impl Default for AssetLibrary {
             events: Mutex::new(rx),
             version: 0,
             stale: false,
-            waker,
         }
     }
-}
 
-impl AssetLibrary {
     /// Adds a folder (once), lists it and watches it.
     pub fn add_folder(&mut self, path: PathBuf, built_in: bool) {
         if self.folders.iter().any(|f| f.path == path) {
@@ -367,11 +366,6 @@ pub fn refresh_library(mut library: ResMut<AssetLibrary>) {
     library.refresh();
 }
 
-/// Lets the watcher wake a resting editor.
-pub fn wake_on_changes(library: Res<AssetLibrary>, waker: Res<Waker>) {
-    let _ = library.waker.set(waker.clone());
-}
-
 /// Thumbnails being made keep the editor drawing until they are in.
 pub fn thumbnails_activity(library: Res<AssetLibrary>, mut activity: ResMut<Activity>) {
     if library.busy() {
@@ -410,8 +404,14 @@ pub struct AssetLibraryPlugin;
 
 impl Plugin for AssetLibraryPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<AssetLibrary>()
-            .add_systems(Startup, (add_samples, wake_on_changes))
+        // The core's waker (its loop is started later; clones made now wake it then).
+        let waker = app
+            .world()
+            .get_resource::<Waker>()
+            .cloned()
+            .unwrap_or_default();
+        app.insert_resource(AssetLibrary::waking(waker))
+            .add_systems(Startup, add_samples)
             .add_systems(Update, (add_chosen_folders, refresh_library))
             .add_systems(Last, thumbnails_activity.in_set(ActivitySources));
     }

@@ -223,10 +223,9 @@ fn tracer_activity(
     if figures.uploaded_version < scene.version() {
         activity.busy("path tracer upload");
     }
-    if views
-        .iter()
-        .any(|(camera, traced)| stats.samples(camera) < traced.max_samples)
-    {
+    if views.iter().any(|(camera, traced)| {
+        figures.samples.get(&camera).copied().unwrap_or(0) < traced.max_samples
+    }) {
         activity.busy("path tracing");
     }
 }
