@@ -5,8 +5,9 @@
 //! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
 //! groups' shading, the path tracer's scene buffers) and per triangle, the device allocator's
 //! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
-//! buffers, so it is not in the sum), the resident set once idle and the peak resident set, less
-//! the default scene's; when the file was parsed (from the start of the process), how long after
+//! buffers, so it is not in the sum), the whole process's resident set once idle and its peak
+//! (the default scene's varies by hundreds of megabytes with the kernel cache and the heap's
+//! trims, so nothing is taken off); when the file was parsed (from the start of the process), how long after
 //! that the tree held its first triangles, the viewport traced a frame of them (a coarse preview
 //! while the tree fills) and showed a whole path-traced picture with them (every pixel sampled),
 //! when the tree held all of them (from the start); when the view kept its samples (the
@@ -17,9 +18,10 @@
 //! set are read once idle; the editor's log is `editor.log` in the run's temporary folder, with its
 //! mappings once idle (`smaps-NAME`, NAME the file's stem).
 //!
-//! Run: `cargo bench -p treelight --bench memory [-- PARTSxROWS ...]` (default `100x100 400x100
-//! 400x123`: 2M, 8M and 12.1M triangles). Needs Xvfb and Mesa's software Vulkan, as the tests do.
-//! The largest takes minutes and more than 10 GB.
+//! Run: `cargo bench --workspace --profile dev --bench memory [-- [busy] PARTSxROWS ...]` (default
+//! `100x100 400x100 400x123`: 2M, 8M and 12.1M triangles). `busy`: a thread of this process spins
+//! on one core while each assembly's editor runs (the fill on a busy machine). Needs Xvfb and
+//! Mesa's software Vulkan, as the tests do. The largest takes minutes and more than 10 GB.
 
 #[path = "../plugins/document/tests/support/assembly.rs"]
 mod assembly;
@@ -62,6 +64,8 @@ struct Run {
     /// The view's trace in its last frame once idle: pixel samples, and nanoseconds a sample as
     /// its budget estimates it (a slow frame rate with many samples is the budget's doing).
     trace: Option<(u64, Option<f64>)>,
+    /// The largest resident set seen in the polls, with the owners' counts and the phase then.
+    peak: Option<(u64, MemoryReport, &'static str)>,
 }
 
 /// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
@@ -84,6 +88,25 @@ fn editor_pid(group: u32) -> Option<u32> {
         }
     }
     None
+}
+
+/// The largest resident set seen in the reports' polls, with the owners' counts then and the
+/// phase of the run (where a peak comes from).
+struct PeakProbe {
+    group: u32,
+    pid: Option<u32>,
+    peak: Option<(u64, MemoryReport, &'static str)>,
+}
+
+impl PeakProbe {
+    fn see(&mut self, s: &EditorState, phase: &'static str) {
+        self.pid = self.pid.or_else(|| editor_pid(self.group));
+        if let Some(rss) = self.pid.map(|p| rss_and_peak(p).0)
+            && self.peak.as_ref().is_none_or(|(peak, ..)| rss > *peak)
+        {
+            self.peak = Some((rss, s.memory.clone(), phase));
+        }
+    }
 }
 
 /// VmRSS and VmHWM of `pid`, bytes.
@@ -116,7 +139,12 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     let (state, mut cmd) = editor_command(file, dir);
     let start = Instant::now();
     let mut child = cmd.spawn().expect("xvfb-run");
-    let fill = follow_fill(&state, start, triangles);
+    let mut probe = PeakProbe {
+        group: child.id(),
+        pid: None,
+        peak: None,
+    };
+    let fill = follow_fill(&state, start, triangles, &mut probe);
     let mut last = fill.last.clone();
     // Once every triangle is in, the worker still bakes and rebuilds the meshes in the background
     // (each one restarting the traced view's samples) for up to minutes: the frame rate is taken
@@ -130,7 +158,11 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     let mut quiet = None;
     while last.is_some() && quiet_from.elapsed() < Duration::from_secs(300) {
         std::thread::sleep(Duration::from_millis(250));
-        if state_now().is_some_and(|s| s.samples >= 4) {
+        let now = state_now();
+        if let Some(s) = &now {
+            probe.see(s, "bakes");
+        }
+        if now.is_some_and(|s| s.samples >= 4) {
             quiet = Some(start.elapsed().as_secs_f64());
             break;
         }
@@ -142,6 +174,7 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     while last.is_some() && quiet_from.elapsed() < Duration::from_secs(600) {
         std::thread::sleep(Duration::from_millis(500));
         if let Some(s) = state_now() {
+            probe.see(&s, "rebuilds");
             if s.memory.meshes_rebuilt != rebuilt.0 || !s.settled {
                 rebuilt = (s.memory.meshes_rebuilt, Instant::now());
             } else if rebuilt.0 >= meshes && rebuilt.1.elapsed() >= Duration::from_secs(5) {
@@ -244,6 +277,7 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         idle,
         growth_per_frame,
         trace,
+        peak: probe.peak,
     }
 }
 
@@ -293,7 +327,7 @@ struct Fill {
 
 /// Follows the reports at `state` until `triangles` are in the tree, the path tracer's buffers
 /// hold them, and the scene has settled.
-fn follow_fill(state: &Path, start: Instant, triangles: u64) -> Fill {
+fn follow_fill(state: &Path, start: Instant, triangles: u64, probe: &mut PeakProbe) -> Fill {
     let mut f = Fill::default();
     // (since when, the buffers' size then, the frame then)
     let mut settled_since = None::<(Instant, u64, u64)>;
@@ -310,6 +344,7 @@ fn follow_fill(state: &Path, start: Instant, triangles: u64) -> Fill {
             continue;
         };
         let t = start.elapsed().as_secs_f64();
+        probe.see(&s, "fill");
         if f.parsed.is_none() && s.notices.iter().any(|n| n.starts_with("opened ")) {
             f.parsed = Some(t);
             parse_frame = Some(s.frame);
@@ -349,8 +384,9 @@ fn follow_fill(state: &Path, start: Instant, triangles: u64) -> Fill {
         let complete = complete && buffers >= s.memory.triangles * per_triangle;
         match settled_since {
             Some((since, b, frame)) if complete && s.settled && b == buffers => {
+                // Ten more frames, or none needed: an editor at rest draws none.
                 if since.elapsed() >= Duration::from_secs(3)
-                    && s.frame >= frame + 10
+                    && (s.frame >= frame + 10 || s.at_rest)
                     && s.memory.tree > 0
                 {
                     f.last = Some(s);
@@ -384,7 +420,23 @@ fn kib(bytes: Option<f64>) -> String {
     bytes.map_or("?".into(), |b| format!("{:.1}", b / 1024.0))
 }
 
+/// A thread spinning on a core until the returned flag is cleared: a busy process beside the
+/// editor.
+fn busy_core() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let on = std::sync::Arc::new(AtomicBool::new(true));
+    let flag = on.clone();
+    std::thread::spawn(move || {
+        let mut x = 0u64;
+        while flag.load(Ordering::Relaxed) {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+        }
+    });
+    on
+}
+
 fn main() {
+    let busy = std::env::args().any(|a| a == "busy");
     let sizes: Vec<(usize, usize)> = {
         let args: Vec<(usize, usize)> = std::env::args()
             .skip(1)
@@ -412,13 +464,18 @@ fn main() {
         kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle, less the default scene | peak less the default scene | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle (the whole process) | peak, VmHWM (the whole process) | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut peaks = Vec::new();
     let mut traces = vec![format!("default scene: {}", trace_line(base.trace))];
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
+        let spinning = busy.then(busy_core);
         let r = run(Some(&file), triangles as u64, parts as u64, &dir);
+        if let Some(flag) = spinning {
+            flag.store(false, std::sync::atomic::Ordering::Relaxed);
+        }
         let m = &r.memory;
         let n = triangles as f64;
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
@@ -432,8 +489,8 @@ fn main() {
             cell(m.scene_buffers),
             cell(counted),
             cell(m.gpu_reserved),
-            cell(r.rss.saturating_sub(base.rss)),
-            cell(r.hwm.saturating_sub(base.hwm)),
+            cell(r.rss),
+            cell(r.hwm),
             r.parsed.unwrap_or(f64::NAN),
             r.first.unwrap_or(f64::NAN) - r.parsed.unwrap_or(f64::NAN),
             r.frames_to_first.map_or("?".into(), |f| f.to_string()),
@@ -448,12 +505,36 @@ fn main() {
             kib(r.growth_per_frame),
         );
         traces.push(format!("{parts} × {rows}: {}", trace_line(r.trace)));
+        if let Some((rss, m, phase)) = &r.peak {
+            peaks.push(format!(
+                "{parts} × {rows}: the process's peak (VmHWM) {}; the largest resident set polled \
+                 {}, during the {phase}; mesh \
+                 assets {}, BVH arrays {}, BVH shading {}, scene buffers {}, device allocator's \
+                 blocks {}; {} triangles in the tree then",
+                cell(r.hwm),
+                cell(*rss),
+                cell(m.mesh_assets),
+                cell(m.tree),
+                cell(m.shading),
+                cell(m.scene_buffers),
+                cell(m.gpu_reserved),
+                m.triangles
+            ));
+        }
         std::fs::remove_file(&file).ok();
         std::fs::remove_file(dir.join("assembly.bin")).ok();
     }
     println!("\nThe view's trace in its last frame once idle:");
     for t in traces {
         println!("- {t}");
+    }
+    println!(
+        "\nThe largest resident set seen in the polls (fill: every 50 to 250 ms; bakes and rebuilds: \
+         every 250 to 500 ms), with the owners' counts in the report read then (per triangle of \
+         the whole assembly):"
+    );
+    for p in peaks {
+        println!("- {p}");
     }
     // The generated files are gone; the editors' logs and mappings stay for a look.
     println!("\nThe editors' logs and mappings: {}", dir.display());

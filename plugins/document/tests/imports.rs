@@ -48,6 +48,14 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
         .collect();
     assert_eq!(roots.len(), 2, "{roots:?}");
     assert_eq!(app.world().resource::<TracingImports>().jobs.len(), 0);
+    // The parse made the tree's copy of each new mesh with its asset: the main thread copied
+    // none (the second import of the file shares the first one's mesh).
+    assert_eq!(
+        app.world()
+            .resource::<treelight_scene::SceneBvh>()
+            .meshes_handed_over(),
+        2
+    );
     // The two imports of one file show one mesh and one texture, each under a material of its
     // own: the tree holds the box once and the path tracer's array one layer.
     let world = app.world_mut();

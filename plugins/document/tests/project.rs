@@ -300,6 +300,24 @@ fn a_saved_project_opens_as_the_same_scene() {
     fresh.update();
     let after = state(fresh.world_mut());
     assert_eq!(after, before);
+    // The open's job made the tree's copy of each of the file's meshes with its asset: the frame
+    // copied none of those shown (the hidden one's waits until it is shown; the added primitive
+    // is the editor's own).
+    let meshes: std::collections::HashSet<_> = fresh
+        .world_mut()
+        .query_filtered::<(&Mesh3d, &InheritedVisibility), With<treelight_document::scene::spawn::MeshSource>>()
+        .iter(fresh.world())
+        .filter(|(_, v)| v.get())
+        .map(|(m, _)| m.0.id())
+        .collect();
+    assert!(!meshes.is_empty());
+    assert_eq!(
+        fresh
+            .world()
+            .resource::<treelight_scene::SceneBvh>()
+            .meshes_handed_over(),
+        meshes.len() as u64
+    );
     assert_eq!(*fresh.world().resource::<SceneLook>(), EDITED_LOOK);
     assert!(!fresh.world().resource::<EditHistory>().is_dirty());
     // Saving the opened project gives the same file.

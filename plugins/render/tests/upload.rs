@@ -146,26 +146,32 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
 }
 
 #[test]
-fn growth_doubles() {
+fn growth_takes_an_eighth_more() {
     assert_eq!(treelight_render::grown_capacity(0, 10), 1024);
     assert_eq!(treelight_render::grown_capacity(1024, 1025), 2048);
-    assert_eq!(treelight_render::grown_capacity(1024, 5000), 8192);
+    // An eighth more than asked, in whole 1024s, not the next power of two.
+    assert_eq!(treelight_render::grown_capacity(1024, 5000), 6144);
+    assert_eq!(treelight_render::grown_capacity(1024, 8_000_000), 9_000_960);
+    // Never less than the buffer holds already.
+    assert_eq!(treelight_render::grown_capacity(16384, 5000), 16384);
 }
 
 #[test]
-fn buffers_grow_by_doubling_up_to_what_the_adapter_binds_and_no_further() {
+fn buffers_grow_by_an_eighth_up_to_what_the_adapter_binds_and_no_further() {
     let kind = BufferKind::Objects;
     let within = |max_records: u64| PartLayout {
         shift: 10,
         max_binding_bytes: max_records * kind.record_bytes(),
     };
-    // Room to double.
-    assert_eq!(within(1 << 20).grown(kind, 1024, 3000), Some(4096));
-    // Doubling would pass the limit: the buffer stops at the limit, which still holds the records.
-    assert_eq!(within(3500).grown(kind, 1024, 3000), Some(3500));
-    assert_eq!(within(3500).grown(kind, 2048, 3500), Some(3500));
+    // Room to grow: 3000 and an eighth, in 1024s.
+    assert_eq!(within(1 << 20).grown(kind, 1024, 3000, 0), Some(4096));
+    // Growing would pass the limit: the buffer stops at the limit, which still holds the records.
+    assert_eq!(within(3500).grown(kind, 1024, 3400, 0), Some(3500));
+    assert_eq!(within(3500).grown(kind, 2048, 3500, 0), Some(3500));
+    // More on its way than the limit: the limit, while what is needed fits.
+    assert_eq!(within(3500).grown(kind, 1024, 2000, 9000), Some(3500));
     // More records than one binding holds, for a kind never split: no buffer at all.
-    assert_eq!(within(4000).grown(kind, 1024, 5000), None);
+    assert_eq!(within(4000).grown(kind, 1024, 5000, 0), None);
 }
 
 #[test]

@@ -109,6 +109,7 @@ impl Plugin for SceneBvhPlugin {
             version: AtomicU64::new(0),
             pending: AtomicUsize::new(0),
             incoming: AtomicUsize::new(0),
+            incoming_triangles: AtomicUsize::new(0),
             filling: AtomicBool::new(false),
             active: AtomicBool::new(false),
             failure: Mutex::new(None),
@@ -172,6 +173,8 @@ impl Plugin for SceneBvhPlugin {
             budget: self.config.main_thread_budget,
             share: self.config.main_thread_share,
             last_frame: Duration::ZERO,
+            prepared: HashMap::new(),
+            handed_over: 0,
         })
         .add_systems(
             PostUpdate,
@@ -179,6 +182,9 @@ impl Plugin for SceneBvhPlugin {
                 .chain()
                 .in_set(SceneBvhSystems)
                 .after(TransformSystems::Propagate)
+                // This frame's asset edits are seen this frame: none is missed by a copy handed
+                // over before it.
+                .after(bevy::asset::AssetEventSystems)
                 // A mesh spawned this frame is seen with this frame's visibility (before it, as
                 // hidden, so not sent for a frame: the scene looked idle with it unsent).
                 .after(bevy::camera::visibility::VisibilitySystems::VisibilityPropagate),
@@ -514,6 +520,11 @@ pub struct SceneBvh {
     share: f32,
     /// How long the last frame took.
     last_frame: Duration,
+    /// Geometry made off the main thread for mesh assets ([`SceneBvh::prepare`]), taken by the
+    /// first entity of each that is traced.
+    prepared: HashMap<AssetId<Mesh>, GeometryCopy>,
+    /// Meshes sent to the worker as handed over, with no copy.
+    handed_over: u64,
 }
 
 /// An entity whose mesh is being copied for another: it is sent as an instance once that copy is.
@@ -531,6 +542,9 @@ struct MeshCopy {
     transform: bevy::math::Affine3A,
     started: Instant,
     copy: GeometryCopy,
+    /// Whether `copy` was handed over whole ([`SceneBvh::prepare`]) and is still taken to be the
+    /// asset's (cleared when its sizes are not).
+    handed_over: bool,
 }
 
 /// Array elements (vertex attributes or indices) copied between looks at the clock: memory copies of
@@ -538,6 +552,23 @@ struct MeshCopy {
 const COPY_CHUNK: usize = 16 * 1024;
 
 impl SceneBvh {
+    /// Hands over a whole copy of `mesh`'s arrays ([`GeometryCopy::whole`]), made elsewhere from
+    /// the same asset (an importer can make it on its own thread as it makes the asset): the first
+    /// entity showing `mesh` that is traced sends it to the worker in the frame it is seen,
+    /// instead of copying the asset out of the world a budget's worth a frame. A large import
+    /// then fills the tree at the worker's pace, not the frame rate's. Taken once (further
+    /// entities of the mesh share its triangles); dropped when the asset is modified or removed
+    /// first, and replaced by a copy of the asset when its sizes are not the asset's.
+    pub fn prepare(&mut self, mesh: AssetId<Mesh>, copy: GeometryCopy) {
+        self.prepared.insert(mesh, copy);
+    }
+
+    /// How many meshes were sent to the worker as [`SceneBvh::prepare`] handed them over, with
+    /// no copy out of the world.
+    pub fn meshes_handed_over(&self) -> u64 {
+        self.handed_over
+    }
+
     /// Version of the tree, raised by every change the worker applies.
     pub fn version(&self) -> u64 {
         self.version
@@ -582,6 +613,15 @@ impl SceneBvh {
     pub fn is_filling(&self) -> bool {
         self.worker_failure().is_none()
             && (self.is_copying() || self.shared.incoming.load(Ordering::Acquire) > 0)
+    }
+
+    /// New triangles on their way into the tree: meshes being copied out of the world, and those
+    /// sent to the worker and not yet in. What the tree is about to grow by, so that a renderer
+    /// can size its buffers once for a whole import instead of growing them step by step (each
+    /// step holding the old and the new buffer at once).
+    pub fn incoming_triangles(&self) -> usize {
+        let copying: usize = self.copying.values().map(|j| j.copy.triangles()).sum();
+        copying + self.shared.incoming_triangles.load(Ordering::Acquire)
     }
 
     /// Whether meshes are still being copied out of the world, or entities sharing one wait for
@@ -742,7 +782,11 @@ impl SceneBvh {
 
     fn send(&self, c: Command) {
         let incoming = c.brings_geometry();
+        let triangles = c.new_triangles();
         self.shared.pending.fetch_add(1, Ordering::AcqRel);
+        self.shared
+            .incoming_triangles
+            .fetch_add(triangles, Ordering::AcqRel);
         if incoming {
             self.shared.incoming.fetch_add(1, Ordering::AcqRel);
         }
@@ -754,6 +798,9 @@ impl SceneBvh {
             .is_err()
         {
             self.shared.pending.fetch_sub(1, Ordering::AcqRel);
+            self.shared
+                .incoming_triangles
+                .fetch_sub(triangles, Ordering::AcqRel);
             if incoming {
                 self.shared.incoming.fetch_sub(1, Ordering::AcqRel);
             }
@@ -865,6 +912,13 @@ fn track_world(
             scene.sent_mesh.retain(|_, m| m != id);
             scene.mesh_senders.remove(id);
         }
+        if let AssetEvent::Modified { id }
+        | AssetEvent::Removed { id }
+        | AssetEvent::Unused { id } = ev
+        {
+            // Geometry handed over for an older version, or for a mesh no one shows any more.
+            scene.prepared.remove(id);
+        }
     }
     for item in &changed_mesh {
         upsert(scene, &meshes, &mut sent_now, item);
@@ -942,26 +996,48 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
     }
     let share = scene.last_frame.mul_f32(scene.share.clamp(0.0, 1.0));
     let deadline = Instant::now() + scene.budget.max(share);
-    let mut finished: Vec<(Entity, Result<(), MeshSkip>)> = Vec::new();
     let order = std::mem::take(&mut scene.copy_order);
+    // Meshes handed over whole go to the worker at once, nearest first, whatever the budget; one
+    // whose sizes are not its asset's is copied as any other (the copy starts over).
+    let mut finished: Vec<(Entity, Result<(), MeshSkip>)> = Vec::new();
+    for &e in &order {
+        if let Some(job) = scene.copying.get_mut(&e)
+            && job.handed_over
+        {
+            if meshes
+                .get(job.mesh)
+                .is_some_and(|m| job.copy.is_whole_copy_of(m))
+            {
+                finished.push((e, Ok(())));
+                scene.handed_over += 1;
+            } else {
+                job.handed_over = false;
+            }
+        }
+    }
     'jobs: for &e in &order {
         let Some(job) = scene.copying.get_mut(&e) else {
             continue;
         };
+        if job.handed_over {
+            // Finished above.
+            continue;
+        }
+        let copy = &mut job.copy;
         let Some(mesh) = meshes.get(job.mesh) else {
             // The asset went away; a new handle or a despawn will follow.
             finished.push((e, Err(MeshSkip::NoPositions)));
             continue;
         };
         loop {
-            let before = job.copy.copied();
-            match job.copy.copy(mesh, COPY_CHUNK) {
+            let before = copy.copied();
+            match copy.copy(mesh, COPY_CHUNK) {
                 Ok(true) => {
                     finished.push((e, Ok(())));
                     break;
                 }
                 // Its destination is still being made: the next mesh meanwhile.
-                Ok(false) if job.copy.copied() == before => break,
+                Ok(false) if copy.copied() == before => break,
                 Ok(false) => {}
                 Err(why) => {
                     finished.push((e, Err(why)));
@@ -1059,7 +1135,9 @@ fn upsert(
         scene.followers.insert(e, follower);
         return;
     }
-    match GeometryCopy::new(mesh) {
+    let prepared = scene.prepared.remove(&follower.mesh);
+    let handed_over = prepared.is_some();
+    match prepared.map_or_else(|| GeometryCopy::new(mesh), Ok) {
         Ok(copy) => {
             // Traced from now on: a removal must reach the worker even if the copy never finishes.
             scene.traced.insert(e);
@@ -1071,6 +1149,7 @@ fn upsert(
                     transform: gt.affine(),
                     started: Instant::now(),
                     copy,
+                    handed_over,
                 },
             );
         }

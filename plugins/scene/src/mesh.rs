@@ -77,9 +77,7 @@ pub fn mesh_triangles(mesh: &Mesh) -> Result<Vec<Triangle>, MeshSkip> {
 /// The mesh's triangles with their normals and texture coordinates. Normals or UVs in another format,
 /// or with a count that does not match the positions, are left out rather than misread.
 pub fn mesh_geometry(mesh: &Mesh) -> Result<MeshGeometry, MeshSkip> {
-    let mut copy = GeometryCopy::sized(mesh, false)?;
-    copy.copy(mesh, usize::MAX)?;
-    Ok(copy.finish())
+    Ok(GeometryCopy::whole(mesh)?.finish())
 }
 
 /// Copies a mesh out of the world a slice of its arrays at a time, so that a mesh of millions of
@@ -206,6 +204,14 @@ impl GeometryCopy {
         Self::sized(mesh, true)
     }
 
+    /// The whole copy at once, for a thread other than the frame's (an importer's, as it makes the
+    /// asset): what [`SceneBvh::prepare`](crate::SceneBvh::prepare) takes.
+    pub fn whole(mesh: &Mesh) -> Result<Self, MeshSkip> {
+        let mut copy = Self::sized(mesh, false)?;
+        copy.copy(mesh, usize::MAX)?;
+        Ok(copy)
+    }
+
     /// `background`: whether a big destination may be made on a thread of its own.
     fn sized(mesh: &Mesh, background: bool) -> Result<Self, MeshSkip> {
         let sh = shape(mesh)?;
@@ -251,6 +257,12 @@ impl GeometryCopy {
             if sh.uvs1 { v } else { 0 },
             if sh.indexed { 3 * sh.triangles } else { 0 },
         ]
+    }
+
+    /// Whether the copy is whole and of a mesh of `mesh`'s sizes (what a copy handed over must be
+    /// to go to the worker as it is).
+    pub fn is_whole_copy_of(&self, mesh: &Mesh) -> bool {
+        self.next == self.total() && shape(mesh).is_ok_and(|sh| sh == self.shape)
     }
 
     /// Elements copied so far.

@@ -101,7 +101,7 @@ impl Command {
     }
 
     /// The new triangles the command brings to the tree (0 for all but new or edited meshes).
-    fn new_triangles(&self) -> usize {
+    pub(crate) fn new_triangles(&self) -> usize {
         match self {
             Command::Copied { copy, .. } => copy.triangles(),
             Command::Upsert(m) => m.triangles.len(),
@@ -129,6 +129,8 @@ pub(crate) struct Shared {
     pub pending: AtomicUsize,
     /// Of the pending commands, those bringing geometry ([`Command::brings_geometry`]).
     pub incoming: AtomicUsize,
+    /// The new triangles those bring ([`Command::new_triangles`]): what the tree will grow by.
+    pub incoming_triangles: AtomicUsize,
     /// Set by the app each frame: meshes are being copied out of the world for the worker (an
     /// import streams in). Idle work waits meanwhile: bakes, rebuilds and update steps would take
     /// the cores the new meshes' builds need, and each rebuild swapped in re-lays a group a
@@ -304,6 +306,7 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         }
         let received = batch.len();
         let incoming = batch.iter().filter(|c| c.brings_geometry()).count();
+        let incoming_triangles: usize = batch.iter().map(Command::new_triangles).sum();
         // Copied meshes become triangles here, in parallel, rather than on the main thread.
         let batch: Vec<Command> = batch.into_par_iter().map(Command::with_triangles).collect();
         for c in &batch {
@@ -347,6 +350,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
         let elapsed = started.elapsed();
         shared.version.fetch_add(1, Ordering::Release);
         shared.incoming.fetch_sub(incoming, Ordering::AcqRel);
+        shared
+            .incoming_triangles
+            .fetch_sub(incoming_triangles, Ordering::AcqRel);
         publish_stats(&shared, &mut clock, InFlight::Done(received), |s| {
             if inserted_tris > 0 {
                 s.insertion_mtris_per_s =

@@ -387,6 +387,66 @@ fn big_meshes_are_copied_over_several_frames() {
 }
 
 #[test]
+fn geometry_handed_over_goes_to_the_worker_at_once_and_only_for_its_own_asset() {
+    // No main-thread budget: a copied mesh would take many frames.
+    let mut app = headless_app(SceneBvhConfig {
+        main_thread_budget: Duration::ZERO,
+        main_thread_share: 0.0,
+        ..default()
+    });
+    let add = |app: &mut App, mesh: Mesh| app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+    let sphere = Sphere::new(1.0).mesh().uv(200, 100);
+    let made = || treelight_scene::GeometryCopy::whole(&sphere).unwrap();
+    let triangles = mesh_triangles(&sphere).unwrap().len() as u32;
+    let handle = add(&mut app, sphere.clone());
+    let prepare = |app: &mut App, mesh: &Handle<Mesh>, geometry| {
+        app.world_mut()
+            .resource_mut::<SceneBvh>()
+            .prepare(mesh.id(), geometry)
+    };
+    prepare(&mut app, &handle, made());
+    for x in [0.0, 3.0] {
+        app.world_mut()
+            .spawn((Mesh3d(handle.clone()), Transform::from_xyz(x, 0.0, 0.0)));
+    }
+    app.update();
+    assert_eq!(
+        app.world().resource::<SceneBvh>().meshes_handed_over(),
+        1,
+        "sent in the first frame, with no copy; the second entity shares it"
+    );
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), triangles, "one copy, two instances");
+    check(&mut app, &rays(300, 11));
+
+    // Geometry that is not the asset's (another triangle count) is ignored: the asset is copied.
+    let cube = add(&mut app, Cuboid::new(1.0, 2.0, 1.0).mesh().build());
+    prepare(&mut app, &cube, made());
+    app.world_mut()
+        .spawn((Mesh3d(cube), Transform::from_xyz(-3.0, 0.0, 0.0)));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), triangles + 12);
+    // Geometry handed over before its asset was modified is of the old version: dropped.
+    let ring = Torus::new(0.5, 1.0).mesh().build();
+    let ring_triangles = mesh_triangles(&ring).unwrap().len() as u32;
+    let old = treelight_scene::GeometryCopy::whole(&ring).unwrap();
+    let torus = add(&mut app, ring.clone());
+    prepare(&mut app, &torus, old);
+    app.update();
+    // The same triangle count, elsewhere: only rays can tell the versions apart.
+    *app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .get_mut(&torus)
+        .unwrap() = ring.translated_by(Vec3::new(0.0, 0.0, 6.0));
+    app.world_mut()
+        .spawn((Mesh3d(torus), Transform::from_xyz(0.0, -6.0, 0.0)));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), triangles + 12 + ring_triangles);
+    assert_eq!(app.world().resource::<SceneBvh>().meshes_handed_over(), 1);
+    check(&mut app, &rays(300, 12));
+}
+
+#[test]
 fn meshes_that_are_not_triangle_lists_are_skipped() {
     let mut app = app(Duration::from_millis(20));
     let lines = app

@@ -141,6 +141,9 @@ pub struct OpenProgress {
 pub struct ParsedSources {
     resolved: Vec<PathBuf>,
     parsed: Vec<Option<Arc<treelight_import::ImportedScene>>>,
+    /// Each source's Bevy meshes, images and the tree's copies of the meshes, made on the job
+    /// that parsed it (`None` for a file read for an earlier source, whose assets it shares).
+    prebuilt: Vec<Option<crate::import::parse::Prebuilt>>,
     report: OpenReport,
 }
 
@@ -163,6 +166,7 @@ pub fn parse_sources(
     use std::sync::atomic::Ordering;
     let mut report = OpenReport::default();
     let mut parsed: Vec<Option<Arc<treelight_import::ImportedScene>>> = Vec::new();
+    let mut prebuilt: Vec<Option<crate::import::parse::Prebuilt>> = Vec::new();
     let resolved: Vec<PathBuf> = project
         .sources
         .iter()
@@ -181,6 +185,7 @@ pub fn parse_sources(
         // A file imported again: read once.
         if let Some(j) = resolved[..i].iter().position(|f| f == file) {
             parsed.push(parsed[j].clone());
+            prebuilt.push(None);
             if parsed[j].is_none()
                 && let Some(m) = report
                     .missing_sources
@@ -209,12 +214,19 @@ pub fn parse_sources(
                     .missing_sources
                     .push((file.clone(), "the file is gone".into()));
                 parsed.push(None);
+                prebuilt.push(None);
             }
             Ok(true) => match treelight_import::load_scene(file) {
-                Ok(scene) => parsed.push(Some(Arc::new(scene))),
+                Ok(scene) => {
+                    // Its meshes made here, off the frame, as an import's are.
+                    let made = crate::import::parse::ParsedScene::from(scene);
+                    parsed.push(Some(made.scene));
+                    prebuilt.push(Some(made.parts));
+                }
                 Err(e) => {
                     report.missing_sources.push((file.clone(), e.to_string()));
                     parsed.push(None);
+                    prebuilt.push(None);
                 }
             },
         }
@@ -225,6 +237,7 @@ pub fn parse_sources(
     Ok(ParsedSources {
         resolved,
         parsed,
+        prebuilt,
         report,
     })
 }
@@ -286,18 +299,21 @@ fn clear_scene(world: &mut World, project: &ProjectFile, read: &[bool]) {
 fn spawn_sources(
     world: &mut World,
     parsed: &[Option<Arc<treelight_import::ImportedScene>>],
+    prebuilt: Vec<Option<crate::import::parse::Prebuilt>>,
     resolved: &[PathBuf],
     plan: &OpenPlan,
 ) -> Vec<Vec<Entity>> {
     let mut objects = Vec::with_capacity(parsed.len());
+    let mut prebuilt = prebuilt.into_iter();
     for (i, scene) in parsed.iter().enumerate() {
+        let mut made = prebuilt.next().flatten().unwrap_or_default();
         let spawned = scene.as_ref().and_then(|scene| {
             let ids = plan.sources[i].as_ref().map_or(&[][..], |p| &p.ids[..]);
             crate::scene::spawn::spawn_scene_in_world(
                 world,
                 &resolved[i],
                 scene,
-                &mut crate::import::parse::Prebuilt::default(),
+                &mut made,
                 false,
                 ids,
             )
@@ -377,6 +393,7 @@ pub fn open_project_parsed(
     let ParsedSources {
         resolved,
         parsed,
+        prebuilt,
         mut report,
     } = sources;
     let plan = crate::project::plan::plan(&project, &parsed)
@@ -385,7 +402,7 @@ pub fn open_project_parsed(
 
     let read: Vec<bool> = parsed.iter().map(Option::is_some).collect();
     clear_scene(world, &project, &read);
-    let spawned = spawn_sources(world, &parsed, &resolved, &plan);
+    let spawned = spawn_sources(world, &parsed, prebuilt, &resolved, &plan);
     let mut state = ProjectState {
         path: Some(path.to_owned()),
         ..default()

@@ -35,6 +35,11 @@ pub struct Prebuilt {
     pub mesh_hashes: Vec<Option<u64>>,
     /// The content of each of the scene's textures ([`crate::scene::share::texture_hash`]).
     pub texture_hashes: Vec<u64>,
+    /// The scene BVH's copy of each of `meshes` ([`treelight_scene::GeometryCopy::whole`]), made
+    /// with it: handed to the scene plugin with the asset ([`treelight_scene::SceneBvh::prepare`]),
+    /// so the main thread never copies a mesh out for the tree and a large import fills it at the
+    /// worker's pace. `None` where `meshes` is, and for a mesh the tree cannot trace.
+    pub geometry: Vec<Option<treelight_scene::GeometryCopy>>,
 }
 
 /// The content of a scene's meshes (`None` for one that repeats an earlier one) and textures, as
@@ -105,6 +110,13 @@ impl From<ImportedScene> for ParsedScene {
                     .then(|| crate::scene::convert::to_bevy_mesh(m, t))
             })
             .collect();
+        let geometry = meshes
+            .iter()
+            .map(|m| {
+                m.as_ref()
+                    .and_then(|m| treelight_scene::GeometryCopy::whole(m).ok())
+            })
+            .collect();
         let own: Vec<_> = meshes
             .iter()
             .map(|m| m.as_ref().and_then(MeshAabb::compute_aabb))
@@ -134,6 +146,7 @@ impl From<ImportedScene> for ParsedScene {
                 bounds,
                 mesh_hashes,
                 texture_hashes,
+                geometry,
             },
         }
     }

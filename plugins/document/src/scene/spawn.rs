@@ -163,6 +163,8 @@ pub struct SceneAssets<'w> {
     pub shared: ResMut<'w, SharedAssets>,
     /// Each map's own UV transform, for materials whose maps differ.
     pub map_transforms: ResMut<'w, crate::values::map_transforms::MaterialMapTransforms>,
+    /// The scene BVH, which takes the traced geometry made with new meshes.
+    pub scene_bvh: Option<ResMut<'w, treelight_scene::SceneBvh>>,
 }
 
 /// Where an imported object came from: the file and the node's key in it (names from the top,
@@ -309,9 +311,17 @@ pub fn spawn_scene(
                     .flatten()
                     .unwrap_or_else(|| mesh_hash(&m.geometry, with_tangents));
                 let made = prebuilt.meshes.get_mut(i).and_then(Option::take);
-                assets.shared.mesh(hash, &mut assets.meshes, || {
+                let geometry = prebuilt.geometry.get_mut(i).and_then(Option::take);
+                let mut new = false;
+                let handle = assets.shared.mesh(hash, &mut assets.meshes, || {
+                    new = true;
                     made.unwrap_or_else(|| to_bevy_mesh(m, with_tangents))
-                })
+                });
+                // Only a mesh made now is the one the geometry was made from.
+                if new && let (Some(g), Some(bvh)) = (geometry, assets.scene_bvh.as_mut()) {
+                    bvh.prepare(handle.id(), g);
+                }
+                handle
             }
         };
         mesh_handles.push(mesh.clone());

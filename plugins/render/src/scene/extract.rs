@@ -34,6 +34,9 @@ pub(crate) struct PendingUpload {
     pub writes: Writes,
     /// Records each buffer must hold, in [`BufferKind::ALL`] order.
     pub needed: [u64; 6],
+    /// Records each buffer is about to need, with the triangles on their way into the tree: a
+    /// buffer that grows takes them at once.
+    pub expected: [u64; 6],
     pub root: Option<u32>,
     pub light_count: Option<u32>,
     /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
@@ -57,6 +60,11 @@ impl PendingUpload {
     fn need(&mut self, kind: BufferKind, records: u64) {
         let i = kind.index();
         self.needed[i] = self.needed[i].max(records);
+    }
+
+    fn expect(&mut self, kind: BufferKind, records: u64) {
+        let i = kind.index();
+        self.expected[i] = self.expected[i].max(records);
     }
 }
 
@@ -186,8 +194,18 @@ fn extract_scene(
         images: images.as_deref(),
         map_transforms: map_transforms.as_deref(),
     };
+    let incoming = scene.incoming_triangles() as u64;
     let taken = scene.try_take_changes(everything, |tree, changes| {
         scene_writes(sync, tree, changes, &handles, assets, &mut layers);
+        // Each new triangle brings a record of its own, its shading's and about one inner node.
+        let p = &mut sync.pending;
+        let triangles = u64::from(tree.bvh.triangle_count()) + incoming;
+        p.expect(BufferKind::Triangles, triangles);
+        p.expect(BufferKind::Attributes, triangles);
+        p.expect(
+            BufferKind::Nodes,
+            u64::from(tree.bvh.inner_count()) + incoming,
+        );
         changes.version
     });
     if let Some(version) = taken {

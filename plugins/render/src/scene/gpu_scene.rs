@@ -1,5 +1,5 @@
-//! Prepare, the scene: its GPU buffers (grown by doubling, old contents copied on the GPU, then
-//! patched with the frame's writes) and the scene bind group (made again only when a buffer or the
+//! Prepare, the scene: its GPU buffers (grown to what is coming and an eighth more, old contents
+//! copied on the GPU, then patched with the frame's writes) and the scene bind group (made again only when a buffer or the
 //! texture array grew).
 
 use crate::kernels::pipelines::PathTracerPipelines;
@@ -149,7 +149,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
     // Lights start small; the rest at the doubling floor (or a part, if that is smaller).
     let capacities = BufferKind::ALL.map(|k| match k {
         BufferKind::Lights => 16,
-        _ => layout.grown(k, 0, 1).unwrap_or(1),
+        _ => layout.grown(k, 0, 1, 0).unwrap_or(1),
     });
     let buffers = BufferKind::ALL
         .iter()
@@ -330,7 +330,7 @@ fn grow_buffers(
         if need <= scene.capacities[i] {
             continue;
         }
-        let Some(cap) = layout.grown(kind, scene.capacities[i], need) else {
+        let Some(cap) = layout.grown(kind, scene.capacities[i], need, pending.expected[i]) else {
             let parts = part_count(kind);
             let why = format!(
                 "the scene's {} need {} and this adapter binds at most {} in each of the \

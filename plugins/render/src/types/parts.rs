@@ -109,17 +109,25 @@ impl PartLayout {
         vec![p; capacity.div_ceil(p) as usize]
     }
 
-    /// The capacity a kind grows to from `current` records to hold `needed`: doubling (from 1024)
-    /// within one part, then whole parts; `None` past what its parts can hold.
-    pub fn grown(self, kind: BufferKind, current: u64, needed: u64) -> Option<u64> {
-        if needed > self.max_records(kind) {
+    /// The capacity a kind grows to from `current` records to hold `needed` now and `expected`
+    /// soon (what is on its way; 0 when nothing is): while `needed` fits one part, the larger of
+    /// the two and an eighth more ([`grown_capacity`](crate::types::upload::grown_capacity)), at
+    /// most the part; past one part, whole parts. `None` when `needed` is past what its parts can
+    /// hold (`expected` is only a hint, bounded by that).
+    pub fn grown(self, kind: BufferKind, current: u64, needed: u64, expected: u64) -> Option<u64> {
+        let most = self.max_records(kind);
+        if needed > most {
             return None;
         }
+        let target = needed.max(expected.min(most));
         let p = self.buffer_records(kind);
         if needed <= p {
-            return Some(crate::types::upload::grown_capacity(current, needed).min(p));
+            // What is coming fills one part at most: a second one switches the views to the split
+            // kernels (half the trace rate on llvmpipe, and a compile of minutes there) before
+            // any record needs it.
+            return Some(crate::types::upload::grown_capacity(current, target).min(p));
         }
-        Some(needed.div_ceil(p) * p)
+        Some(target.div_ceil(p) * p)
     }
 
     /// A write of `len` bytes at byte `offset` of a kind's records, as pieces within parts:
@@ -202,23 +210,32 @@ mod tests {
     }
 
     #[test]
-    fn growth_doubles_within_a_part_then_adds_whole_parts() {
+    fn growth_takes_what_is_coming_and_an_eighth_more_within_a_part_then_whole_parts() {
         let l = PartLayout {
             shift: 12,
             max_binding_bytes: 4096 * 64,
         };
         let t = BufferKind::Triangles;
-        assert_eq!(l.grown(t, 1024, 1500), Some(2048));
-        assert_eq!(l.grown(t, 2048, 4000), Some(4096));
-        assert_eq!(l.grown(t, 4096, 4097), Some(8192));
-        assert_eq!(l.grown(t, 8192, 3 * 4096 + 1), Some(4 * 4096));
-        assert_eq!(l.grown(t, 0, 8 * 4096), Some(8 * 4096));
-        assert_eq!(l.grown(t, 0, 8 * 4096 + 1), None);
+        assert_eq!(l.grown(t, 1024, 1500, 0), Some(2048));
+        assert_eq!(l.grown(t, 2048, 2049, 0), Some(3072));
+        assert_eq!(l.grown(t, 3072, 3100, 0), Some(4096), "at most a part");
+        // What an import is about to need is taken at once.
+        assert_eq!(l.grown(t, 1024, 1500, 2900), Some(4096));
+        assert_eq!(l.grown(t, 1024, 1500, 2000), Some(3072));
+        assert_eq!(l.grown(t, 4096, 4097, 0), Some(2 * 4096));
+        // Only what is needed takes a second part (the split kernels).
+        assert_eq!(l.grown(t, 1024, 1500, 5 * 4096 + 7), Some(4096));
+        assert_eq!(l.grown(t, 4096, 4097, 5 * 4096 + 7), Some(6 * 4096));
+        assert_eq!(l.grown(t, 8192, 3 * 4096 + 1, 0), Some(4 * 4096));
+        assert_eq!(l.grown(t, 0, 8 * 4096, 0), Some(8 * 4096));
+        assert_eq!(l.grown(t, 0, 8 * 4096 + 1, 0), None);
+        // More coming than the parts can hold: as much as they can, until it is needed.
+        assert_eq!(l.grown(t, 4096, 5000, 9 * 4096), Some(8 * 4096));
         // A kind never split holds what one binding does.
         let o = BufferKind::Objects;
         let most = 4096 * 64 / o.record_bytes();
-        assert_eq!(l.grown(o, 0, most), Some(most));
-        assert_eq!(l.grown(o, 0, most + 1), None);
+        assert_eq!(l.grown(o, 0, most, 0), Some(most));
+        assert_eq!(l.grown(o, 0, most + 1, 0), None);
         assert_eq!(l.part_sizes(o, most), vec![most]);
         assert_eq!(l.part_sizes(t, 3000), vec![3000]);
         assert_eq!(l.part_sizes(t, 4096), vec![4096]);

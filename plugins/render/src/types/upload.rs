@@ -195,13 +195,15 @@ pub fn join_gap(kind: BufferKind) -> u32 {
     (JOIN_GAP_BYTES / kind.record_bytes()) as u32
 }
 
-/// Records a buffer must hold to fit `needed`, doubling from `current` (at least 1024).
-pub fn grown_capacity(current: u64, needed: u64) -> u64 {
-    let mut cap = current.max(1024);
-    while cap < needed {
-        cap *= 2;
-    }
-    cap
+/// Records a buffer grows to from `current` to hold `target`: an eighth more, in whole thousands
+/// (1024s), never less than `current`. Doubling left up to half a large scene's buffers empty, and
+/// each growth holds the old and the new buffer at once: the renderer grows once to what is coming
+/// (the records an import is about to need), with room for edits after it.
+pub fn grown_capacity(current: u64, target: u64) -> u64 {
+    (target + target / 8)
+        .next_multiple_of(1024)
+        .max(current)
+        .max(1024)
 }
 
 /// The 64 bytes of a node record.
