@@ -558,7 +558,8 @@ impl SceneBvh {
     /// instead of copying the asset out of the world a budget's worth a frame. A large import
     /// then fills the tree at the worker's pace, not the frame rate's. Taken once (further
     /// entities of the mesh share its triangles); dropped when the asset is modified or removed
-    /// first, and replaced by a copy of the asset when its sizes are not the asset's.
+    /// first, and replaced by a copy of the asset when its sizes are not the asset's. While every
+    /// entity of the asset is hidden it waits here, until one is shown or the asset is dropped.
     pub fn prepare(&mut self, mesh: AssetId<Mesh>, copy: GeometryCopy) {
         self.prepared.insert(mesh, copy);
     }
