@@ -7,11 +7,11 @@
 //! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
 //! buffers, so it is not in the sum), the whole process's resident set once idle and its peak
 //! (the default scene's varies by hundreds of megabytes with the kernel cache and the heap's
-//! trims, so nothing is taken off); when the file was parsed (from the start of the process), how long after
-//! that the tree held its first triangles, the viewport traced a frame of them (a coarse preview
-//! while the tree fills) and showed a whole path-traced picture with them (every pixel sampled),
-//! when the tree held all of them (from the start); when the view kept its samples (the
-//! worker's background bakes over), when its idle-time rebuilds were over (every mesh rebuilt, the
+//! trims, so nothing is taken off); when the file was parsed (from the start of the process),
+//! how long after that the tree held its first triangles, the viewport traced a frame of them (a
+//! coarse preview while the tree fills) and showed a whole path-traced picture with them (every
+//! pixel sampled), when the tree held all of them (from the start); when the view kept its samples
+//! (the worker's background bakes over), when its idle-time rebuilds were over (every mesh rebuilt, the
 //! scene settled: idle); and the frame rate then (the median of 8 s of reports, 20 s after the
 //! resident set has held within 1% for 8 s) next to the default scene's, with how much the
 //! resident set grew per frame over those 8 s (nothing should). The owners' bytes and the resident
@@ -183,7 +183,8 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
         }
     }
     let idle = start.elapsed().as_secs_f64();
-    let pid = editor_pid(child.id());
+    // The editor's process, as the polls found it.
+    let pid = probe.pid.or_else(|| editor_pid(child.id()));
     // The updates that follow the last rebuild rewrite most node records, and their uploads'
     // staging comes and goes for seconds: the resident set is read once it has held within 1%
     // for 8 s (at most a minute).

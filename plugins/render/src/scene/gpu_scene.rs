@@ -1,6 +1,6 @@
 //! Prepare, the scene: its GPU buffers (grown to what is coming and an eighth more, old contents
-//! copied on the GPU, then patched with the frame's writes) and the scene bind group (made again only when a buffer or the
-//! texture array grew).
+//! copied on the GPU, then patched with the frame's writes) and the scene bind group (made again
+//! only when a buffer or the texture array grew).
 
 use crate::kernels::pipelines::PathTracerPipelines;
 use crate::scene::extract::SceneSync;
@@ -146,7 +146,7 @@ fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
 
 fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<PathTracerStats>) {
     let layout = PartLayout::for_binding_limit(max_binding_bytes(&device));
-    // Lights start small; the rest at the doubling floor (or a part, if that is smaller).
+    // Lights start small; the rest at the growth floor, 1024 (or a part, if that is smaller).
     let capacities = BufferKind::ALL.map(|k| match k {
         BufferKind::Lights => 16,
         _ => layout.grown(k, 0, 1, 0).unwrap_or(1),

@@ -156,7 +156,7 @@ pub enum CostSource {
 
 impl TraceClock {
     /// Tells the clock the size of the scene the next frame traces (its triangle records'
-    /// capacity, which grows by doubling). At a new size the clock forgets what a sample cost: a
+    /// capacity, which grows in steps of an eighth or more). At a new size the clock forgets what a sample cost: a
     /// scene that grew from empty to millions of triangles costs hundreds of times more a sample,
     /// and one frame traced at the old cost would stall the editor for a second. Until a timing
     /// of the new scene arrives, a frame traces a first guess's samples.

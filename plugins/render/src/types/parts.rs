@@ -2,7 +2,7 @@
 //! `max_storage_buffer_binding_size` bytes of a buffer, so the nodes, triangles and shading records
 //! of a large scene lie in several buffers of `1 << shift` records each, and the kernels read record
 //! `i` as record `i & mask` of part `i >> shift` (`scene_parts.wgsl`). A scene that fits one part
-//! has one buffer per kind, grown by doubling as before.
+//! has one buffer per kind, grown to what is coming and an eighth more (`grown_capacity`).
 
 use crate::types::upload::BufferKind;
 

@@ -1,5 +1,6 @@
 //! From a [`ChangeSet`] to the buffer writes a renderer issues: only changed records, buffers grown by
-//! doubling (the old contents copied on the GPU), and a byte count for the figure the UI shows.
+//! an eighth more than they must hold (the old contents copied on the GPU), and a byte count for the
+//! figure the UI shows.
 
 use std::ops::Range;
 use treelight_bvh::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle};
