@@ -145,6 +145,30 @@ pub struct RenderArgs {
     /// Nits of a sky panorama value of 1 (the project's, else 1000, without it).
     #[arg(long, value_name = "NITS", value_parser = sky_intensity)]
     pub sky_intensity: Option<f32>,
+    /// Whether a scene file without lights gets the editor's default sun (8,000 lux), as it does
+    /// when opened in the editor; off renders the file's own light and the sky alone. A project
+    /// keeps the lights it has either way.
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub default_sun: Switch,
+    /// The most bounces a path takes after the primary hit (Russian roulette ends most paths
+    /// before).
+    #[arg(long, value_name = "N", default_value_t = treelight_render::DEFAULT_MAX_BOUNCES,
+          value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub bounces: u32,
+    /// The largest luminance, in nits, light reflected twice or more may add to a sample (it
+    /// removes rare speckles at the cost of a little energy; direct light is never capped); 0
+    /// turns the cap off, for an unbiased image.
+    #[arg(long, value_name = "NITS", default_value_t = treelight_render::DEFAULT_INDIRECT_CLAMP,
+          value_parser = indirect_clamp)]
+    pub indirect_clamp: f32,
+}
+
+/// An indirect-light cap from the command line: nits, 0 for none.
+fn indirect_clamp(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("{text} is not a luminance of 0 or more nits")),
+    }
 }
 
 /// A panorama's turn from the command line: degrees within a full turn either way.

@@ -278,8 +278,13 @@ pub fn render_app(args: &RenderArgs) -> App {
         // A still image: only its own samples.
         temporal: false,
         seed: args.seed,
+        max_bounces: args.bounces,
+        indirect_clamp: args.indirect_clamp,
         ..default()
     };
+    app.insert_resource(treelight_document::scene::spawn::DefaultSun(
+        args.default_sun == crate::cli::Switch::On,
+    ));
     let progress = ProgressBar::new(u64::from(args.spp)).with_style(
         ProgressStyle::with_template(
             "{msg:>12} [{bar:40}] {pos}/{len} samples per pixel, {elapsed}",

@@ -549,3 +549,190 @@ fn a_gltf_assembly_renders_the_same_twice_denoised() {
         .collect();
     assert!(images[0] == images[1], "two denoised renders differ");
 }
+
+/// Writes `NAME.gltf` (and the shared `floor.bin`) into `dir`: a 20 m floor at y = 0 of base colour
+/// 0.5 with no specular reflection (`KHR_materials_specular` factor 0: a Lambert surface, radiance
+/// = 0.5 × irradiance / π), glowing at `glow` nits (`KHR_materials_emissive_strength`, base colour
+/// then black), a camera named Top 5 m above its centre looking down, and `light` (a
+/// `KHR_lights_punctual` light's JSON) on a node at `height` above the centre, pointing down.
+fn write_lit_floor(
+    dir: &std::path::Path,
+    name: &str,
+    light: Option<(&str, f32)>,
+    glow: f32,
+) -> String {
+    let mut bin: Vec<u8> = Vec::new();
+    for v in [
+        -10.0f32, 0.0, -10.0, -10.0, 0.0, 10.0, 10.0, 0.0, 10.0, 10.0, 0.0, -10.0,
+    ] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in [0u32, 1, 2, 0, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(dir.join("floor.bin"), &bin).unwrap();
+    let down = "[-0.70710678,0,0,0.70710678]";
+    let (lights, light_node, node_ref) = match light {
+        Some((json, height)) => (
+            format!(r#","extensions":{{"KHR_lights_punctual":{{"lights":[{json}]}}}}"#),
+            format!(
+                r#",{{"name":"light","translation":[0,{height},0],"rotation":{down},"extensions":{{"KHR_lights_punctual":{{"light":0}}}}}}"#
+            ),
+            ",2",
+        ),
+        None => (String::new(), String::new(), ""),
+    };
+    let (base, emissive) = if glow > 0.0 {
+        (
+            "[0,0,0,1]",
+            format!(
+                r#","emissiveFactor":[1,1,1],"extensions":{{"KHR_materials_specular":{{"specularFactor":0}},"KHR_materials_emissive_strength":{{"emissiveStrength":{glow}}}}}"#
+            ),
+        )
+    } else {
+        (
+            "[0.5,0.5,0.5,1]",
+            r#","extensions":{"KHR_materials_specular":{"specularFactor":0}}"#.to_string(),
+        )
+    };
+    let gltf = format!(
+        r#"{{"asset":{{"version":"2.0"}},"extensionsUsed":["KHR_lights_punctual","KHR_materials_specular","KHR_materials_emissive_strength"]{lights},
+        "scene":0,"scenes":[{{"nodes":[0,1{node_ref}]}}],
+        "nodes":[{{"name":"floor","mesh":0}},{{"name":"Top","camera":0,"translation":[0,5,0],"rotation":{down}}}{light_node}],
+        "cameras":[{{"type":"perspective","perspective":{{"yfov":0.5,"aspectRatio":1.0,"znear":0.1}}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+        "materials":[{{"doubleSided":true,"pbrMetallicRoughness":{{"baseColorFactor":{base},"metallicFactor":0.0,"roughnessFactor":1.0}}{emissive}}}],
+        "accessors":[
+          {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-10,0,-10],"max":[10,0,10]}},
+          {{"bufferView":1,"componentType":5125,"count":6,"type":"SCALAR"}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":24}}],
+        "buffers":[{{"uri":"floor.bin","byteLength":72}}]}}"#
+    );
+    let file = dir.join(format!("{name}.gltf"));
+    std::fs::write(&file, gltf).unwrap();
+    file.to_str().unwrap().to_owned()
+}
+
+/// KHR_lights_punctual's and KHR_materials_emissive_strength's units, end to end through import,
+/// the document, Bevy's components and the kernel, against the specifications' definitions:
+/// a point or spot light of I candela (lumens per steradian) at distance d gives I cos θ / d² lux;
+/// a directional light of E lux gives E lux on a surface facing it; a Lambert surface of albedo ρ
+/// under E lux shows ρ E / π nits; an emissive surface of factor 1 and strength S shows S nits. A
+/// light without `range` is unlimited (a point light 30 m up loses nothing to a window), and a file
+/// without lights gets the 8,000 lux default sun unless `--default-sun off`. The EXR holds the
+/// radiance times the camera's exposure, 2^-EV100 / 1.2 at the default EV100 (Bevy's camera).
+#[test]
+fn light_units_are_the_gltf_specification_s() {
+    let dir = temp_dir("render-light-units");
+    let render_exr = |scene: &str, sun: &str| {
+        let out = dir.join(format!("{}-{sun}.exr", scene.rsplit('/').next().unwrap()));
+        let (ok, log) = render(&[
+            scene,
+            "--out",
+            out.to_str().unwrap(),
+            "--camera",
+            "Top",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--spp",
+            "4",
+            "--denoise",
+            "off",
+            "--default-sun",
+            sun,
+            "--overwrite",
+        ]);
+        assert!(ok, "{log}");
+        image::open(&out).unwrap().to_rgb32f()
+    };
+    // Nits per EXR unit, and where on the floor each of the centre pixels looks.
+    let exposure = 2f32.powf(-treelight_document::values::look::DEFAULT_EV100) / 1.2;
+    let glow = render_exr(&write_lit_floor(&dir, "glow", None, 2000.0), "off");
+    let centre = |img: &image::Rgb32FImage| {
+        let mut sum = [0.0f32; 3];
+        for y in 14..18 {
+            for x in 14..18 {
+                for (s, v) in sum.iter_mut().zip(img.get_pixel(x, y).0) {
+                    *s += v / 16.0;
+                }
+            }
+        }
+        sum
+    };
+    let close = |what: &str, got: [f32; 3], want: f32| {
+        for g in got {
+            assert!(
+                (g / want - 1.0).abs() < 0.01,
+                "{what}: {got:?} nits, the specification says {want}"
+            );
+        }
+    };
+    close(
+        "an emissive floor of strength 2000",
+        centre(&glow).map(|v| v / exposure),
+        2000.0,
+    );
+    let plain = centre(&render_exr(
+        &write_lit_floor(&dir, "plain", None, 0.0),
+        "off",
+    ));
+    // The light each adds at the centre, in nits: the render less the unlit floor's (the sky).
+    let added = |name: &str, light: &str, height: f32| {
+        let scene = write_lit_floor(&dir, name, Some((light, height)), 0.0);
+        let lit = centre(&render_exr(&scene, "off"));
+        [0, 1, 2].map(|c| (lit[c] - plain[c]) / exposure)
+    };
+    let lambert = |lux: f32| 0.5 * lux / std::f32::consts::PI;
+    // A light of I cd at height h over the floor: I h / (h² + r²)^1.5 lux at r from its foot,
+    // averaged over what the centre pixels see (each 2 × 5 m × tan(0.25) / 32 across).
+    let under = |candela: f32, h: f32| {
+        let pixel = 10.0 * 0.25f32.tan() / 32.0;
+        let mut sum = 0.0;
+        let n = 64;
+        for i in 0..n {
+            for j in 0..n {
+                let at = |k: u32| (k as f32 + 0.5) / n as f32 * 4.0 * pixel - 2.0 * pixel;
+                let r2 = at(i).powi(2) + at(j).powi(2);
+                sum += candela * h / (h * h + r2).powf(1.5);
+            }
+        }
+        sum / (n * n) as f32
+    };
+    close(
+        "a point light of 4000 cd 2 m up",
+        added("point", r#"{"type":"point","intensity":4000}"#, 2.0),
+        lambert(under(4000.0, 2.0)),
+    );
+    close(
+        "a spot light of 4000 cd 2 m up, inside its cone",
+        added(
+            "spot",
+            r#"{"type":"spot","intensity":4000,"spot":{"innerConeAngle":0.3,"outerConeAngle":0.5}}"#,
+            2.0,
+        ),
+        lambert(under(4000.0, 2.0)),
+    );
+    close(
+        "a directional light of 1000 lux",
+        added("sun", r#"{"type":"directional","intensity":1000}"#, 3.0),
+        lambert(1000.0),
+    );
+    close(
+        "a point light of 900,000 cd 30 m up, without range",
+        added("far", r#"{"type":"point","intensity":900000}"#, 30.0),
+        lambert(under(900_000.0, 30.0)),
+    );
+    // The default sun: 8,000 lux from (1, 3, 2) towards the centre, so cos θ = 3 / √14.
+    let sunny = centre(&render_exr(
+        &write_lit_floor(&dir, "plain", None, 0.0),
+        "on",
+    ));
+    close(
+        "the default sun",
+        [0, 1, 2].map(|c| (sunny[c] - plain[c]) / exposure),
+        lambert(8000.0 * 3.0 / 14f32.sqrt()),
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -159,6 +159,7 @@ impl Plugin for DocumentPlugin {
             .init_resource::<crate::scene::environment::SceneEnvironment>()
             .init_resource::<crate::scene::environment::LoadedEnvironment>()
             .init_resource::<crate::scene::notice::Notices>()
+            .init_resource::<crate::scene::spawn::DefaultSun>()
             .init_resource::<crate::project::format::ProjectState>()
             .init_resource::<requests::ProjectRequests>()
             .init_resource::<open::OpeningProjects>()

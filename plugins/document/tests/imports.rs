@@ -1,6 +1,6 @@
 //! Imports without a window: each request is its own job, named by its root's id from the request
 //! to the tree, so imports opened in the same frame (two of one file, one of another) are all made
-//! and all followed into the tree.
+//! and all followed into the tree; files without lights get one default sun, and a notice says so.
 
 use bevy::prelude::*;
 use std::path::Path;
@@ -48,6 +48,26 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
         .collect();
     assert_eq!(roots.len(), 2, "{roots:?}");
     assert_eq!(app.world().resource::<TracingImports>().jobs.len(), 0);
+    // The files bring no light: the first import added the default sun and said so; the others
+    // found it there.
+    let suns = app
+        .world_mut()
+        .query::<(&Name, &DirectionalLight)>()
+        .iter(app.world())
+        .filter(|(n, l)| {
+            n.as_str() == "Sun"
+                && l.illuminance == treelight_document::scene::spawn::DEFAULT_SUN_LUX
+        })
+        .count();
+    assert_eq!(suns, 1);
+    let said = app
+        .world()
+        .resource::<Notices>()
+        .0
+        .iter()
+        .filter(|n| n.text.contains("has no lights: added a Sun of 8000 lux"))
+        .count();
+    assert_eq!(said, 1);
     // The parse made the tree's copy of each new mesh with its asset: the main thread copied
     // none (the second import of the file shares the first one's mesh).
     assert_eq!(

@@ -88,6 +88,7 @@ fn main() {
             samples: 1,
             mode: DebugView::PathTraced.shader_index(),
             light_count: 1,
+            emitters: (0, 0.0),
             indirect_clamp: 4.0,
             work,
             part_shift: treelight_render::MAX_PART_SHIFT,

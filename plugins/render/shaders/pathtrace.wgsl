@@ -3,8 +3,8 @@
 // Materials are glTF's metallic-roughness model with its maps: a GGX specular lobe compensated for
 // the energy single scattering loses, over a Lambert lobe or a thin-walled GGX transmission lobe
 // (weighted by what the specular leaves), under an optional clear coat. Punctual lights are
-// sampled directly (next-event estimation), emissive surfaces and a flat sky are found by the BSDF
-// samples; a panorama sky is both sampled directly, in proportion to its brightness, and found by
+// sampled directly (next-event estimation), a flat sky is found by the BSDF samples; emissive
+// triangles and a panorama sky are both sampled directly, in proportion to their power, and found by
 // the BSDF samples, the two weighed by multiple importance sampling. The crate appends a traversal
 // (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
@@ -55,10 +55,13 @@ struct Object {
     identity: u32,
 }
 
+// A punctual light, or (kind 3, after the punctual ones) an emissive triangle: corner 0 in
+// position, the edges to corners 1 and 2 in radiance and direction, the cumulative share of the
+// emitters' weight up to and including it in inv_range2 (emitters.rs).
 struct Light {
     // A point or spot light's position, or the unit direction towards a directional light.
     position: vec3<f32>,
-    // 0 point, 1 directional, 2 spot.
+    // 0 point, 1 directional, 2 spot, 3 emissive triangle.
     kind: u32,
     // Point and spot: intensity (luminous power / 4π). Directional: illuminance.
     radiance: vec3<f32>,
@@ -71,7 +74,8 @@ struct Light {
     // A spot light's cone: saturate(cos θ * scale + offset)².
     spot_scale: f32,
     spot_offset: f32,
-    pad: vec2<f32>,
+    // An emissive triangle's id and its group's object slot; unused by punctual lights.
+    ids: vec2<u32>,
 }
 
 struct View {
@@ -91,7 +95,8 @@ struct View {
     samples: u32,
     mode: u32,
     light_count: u32,
-    // Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
+    // Largest luminance in nits (scene units, before exposure) light reflected clamp_from times or
+    // more may add to a sample; 0 disables.
     indirect_clamp: f32,
     // Pixels per preview block along each axis; 0 traces tiles into the accumulation instead.
     preview_scale: u32,
@@ -106,6 +111,12 @@ struct View {
     part_shift: u32,
     // The samples' seed: a pixel's n-th sample depends on the pixel, n and this alone.
     sample_seed: u32,
+    // Reflections from which indirect_clamp applies: 2 for images, 1 for the preview.
+    clamp_from: u32,
+    // Emissive triangles listed in `lights` after the punctual ones, and the sum of their weights
+    // (luminance times area).
+    emitter_count: u32,
+    emitter_weight: f32,
     // The panorama sky: cos and sin of its turn about +Y, its radiance scale, and ENV_* flags as a
     // whole number (environment.rs).
     environment: vec4<f32>,
@@ -326,6 +337,20 @@ fn sample_map(o: Object, layer: u32, map: u32, t: vec2<f32>) -> vec4<f32> {
     return vec4<f32>(srgb_to_linear(texel.rgb), texel.a);
 }
 
+// Whether a masked material's alpha is below its cutoff at barycentrics (u, v) of a triangle: there
+// the surface is not.
+fn masked_out(o: Object, triangle: u32, u: f32, v: f32) -> bool {
+    if alpha_mode(o) != ALPHA_MASK {
+        return false;
+    }
+    var a = o.base_color.a;
+    if o.texture != NONE {
+        let uv = mesh_uv(attr_at(triangle), map_set(o, MAP_BASE), u, v);
+        a *= sample_map(o, o.texture, MAP_BASE, map_uv(o, MAP_BASE, uv)).a;
+    }
+    return a < o.emissive.w;
+}
+
 // Whether the surface is there at a candidate hit: where a masked material's alpha is below its
 // cutoff, rays pass through (shadow rays too). A shadow ray passes clear surfaces too, keeping what
 // they transmit (`shadow`). Called by the traversal for every candidate.
@@ -333,15 +358,8 @@ fn surface_is_there(triangle: u32, instance: u32, u: f32, v: f32) -> bool {
     let slot = slot_of(triangle, instance);
     let o = objects[slot];
     let mode = (o.wrap >> 20u) & 3u;
-    if mode == ALPHA_MASK {
-        var a = o.base_color.a;
-        if o.texture != NONE {
-            let uv = mesh_uv(attr_at(triangle), map_set(o, MAP_BASE), u, v);
-            a *= sample_map(o, o.texture, MAP_BASE, map_uv(o, MAP_BASE, uv)).a;
-        }
-        if a < o.emissive.w {
-            return false;
-        }
+    if masked_out(o, triangle, u, v) {
+        return false;
     }
     if filtering_shadow && (o.params.w > 0.0 || mode == ALPHA_BLEND) {
         let s = surface_at(Hit(0.0, triangle, u, v, 0u, instance), shadow_origin, shadow_direction);
@@ -890,6 +908,111 @@ fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     return f * through * sky_radiance(wi) * (abs(cos_l) * w / p_light);
 }
 
+// The light a material emits at barycentrics (u, v) of a triangle: its emission times its map
+// there; none where a mask cuts the surface away.
+fn emitted(o: Object, triangle: u32, u: f32, v: f32) -> vec3<f32> {
+    if masked_out(o, triangle, u, v) {
+        return vec3<f32>(0.0);
+    }
+    var e = o.emissive.rgb;
+    if o.maps.w != NONE {
+        let attr = attr_at(triangle);
+        let t0 = mesh_uv(attr, 0u, u, v);
+        var t1 = t0;
+        if map_set(o, MAP_EMISSIVE) == 1u {
+            t1 = mesh_uv(attr, 1u, u, v);
+        }
+        e *= sample_map(o, o.maps.w, MAP_EMISSIVE, map_coordinate(o, MAP_EMISSIVE, t0, t1)).rgb;
+    }
+    return e;
+}
+
+// The density, per solid angle at a point `dist` away seen at cosine `cos_e` to the emitter's
+// normal, of drawing that point of a triangle of a material emitting `emissive`: the triangle's
+// share of the list (its luminance times its area over the total) over its area.
+fn emitter_pdf(emissive: vec3<f32>, dist: f32, cos_e: f32) -> f32 {
+    if view.emitter_count == 0u || !(view.emitter_weight > 0.0) || !(cos_e > 0.0) {
+        return 0.0;
+    }
+    return luminance(emissive) / view.emitter_weight * dist * dist / cos_e;
+}
+
+// The listed emitter whose cumulative share first exceeds r.
+fn emitter_pick(r: f32) -> u32 {
+    var lo = view.light_count;
+    var hi = view.light_count + view.emitter_count - 1u;
+    loop {
+        if lo >= hi {
+            break;
+        }
+        let mid = (lo + hi) / 2u;
+        if lights[mid].inv_range2 > r {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+// Light from the emissive triangles at s through one shadow ray, to a point drawn on a triangle
+// drawn in proportion to its power, weighed against the BSDF's samples, which find the same light
+// when they meet the triangle (power heuristic). Emission is two-sided, as the BSDF's samples see it.
+fn emitter_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
+    if view.emitter_count == 0u || !(view.emitter_weight > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let e = lights[emitter_pick(rand())];
+    // A uniform point: barycentrics u (corner 1) and v (corner 2).
+    let r = sqrt(rand());
+    let r2 = rand();
+    let u = r * (1.0 - r2);
+    let v = r * r2;
+    let p = e.position + e.radiance * u + e.direction * v;
+    let n = cross(e.radiance, e.direction);
+    let to = p - s.p;
+    let d2 = dot(to, to);
+    let n_len = length(n);
+    if !(d2 > 0.0) || !(n_len > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dist = sqrt(d2);
+    let wi = to / dist;
+    let cos_e = abs(dot(n, wi)) / n_len;
+    let cos_l = dot(s.ns, wi);
+    let cos_g = dot(s.ng, wi);
+    if !(cos_e > 1e-6) || cos_l * cos_g <= 0.0
+        || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
+        return vec3<f32>(0.0);
+    }
+    let o = objects[e.ids.y];
+    let le = emitted(o, e.ids.x, u, v);
+    if max(le.x, max(le.y, le.z)) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let f = bsdf(s, l, wo, wi);
+    if max(f.x, max(f.y, f.z)) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    // Both ends moved off their surfaces: a shadow ray stopped short of the point by a fraction
+    // of its length would still meet the emitter where it passes close to another surface.
+    let start = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
+    let toward = n * sign(dot(n, s.p - p)) / n_len;
+    let span = offset(p, toward) - start;
+    let span_len = length(span);
+    if !(dot(span, wi) > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let through = shadow(start, span / span_len, span_len);
+    if max(through.x, max(through.y, through.z)) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let p_light = emitter_pdf(o.emissive.rgb, dist, cos_e);
+    let p_bsdf = pdf(s, l, wo, wi);
+    let w = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf);
+    return f * through * le * (abs(cos_l) * w / p_light);
+}
+
 // Light arriving at s from every light, through shadow rays, reflected (or passed through a thin
 // wall) towards wo.
 fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
@@ -938,14 +1061,18 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
         // Ambient light, which the occlusion map dims, as it dims the BSDF's samples of it.
         sum += environment_light(s, l, wo) * s.occlusion;
     }
+    // Emissive surfaces too are found by the BSDF's samples, which the occlusion map dims.
+    sum += emitter_light(s, l, wo) * s.occlusion;
     return sum;
 }
 
-// Caps what one indirect bounce adds: rare paths that find a light from up close otherwise show as
-// speckles for thousands of samples. Biased, so the reference test turns it off.
-fn indirect(c: vec3<f32>, bounce: u32) -> vec3<f32> {
-    let l = luminance(c) * view.sky.w;
-    if bounce == 0u || view.indirect_clamp <= 0.0 || l <= view.indirect_clamp {
+// Caps light that reaches the eye after `reflections` reflections, from clamp_from on: rare paths
+// that find a light from up close after a bounce otherwise show as speckles for thousands of
+// samples. Direct light (seen, or reflected once) is never capped in an image, and the cap is in
+// scene units, so the exposure changes no radiance. Biased, so the reference tests turn it off.
+fn indirect(c: vec3<f32>, reflections: u32) -> vec3<f32> {
+    let l = luminance(c);
+    if reflections < view.clamp_from || view.indirect_clamp <= 0.0 || l <= view.indirect_clamp {
         return c;
     }
     return c * (view.indirect_clamp / l);
@@ -961,6 +1088,8 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
     var bounce = 0u;
     // Clear surfaces passed straight: not bounces (a window does not cost the light behind it one).
     var passes = 0u;
+    // How far the path has come since its last bounce (through the clear surfaces it passed).
+    var travelled = 0.0;
     loop {
         let hit = closest_hit(view.root, o, d, FAR);
         if hit.triangle == NONE {
@@ -987,7 +1116,14 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             primary_normal = s.ns;
         }
         let wo = -d;
-        radiance += indirect(throughput * s.emissive, bounce);
+        var w_emitted = 1.0;
+        if bounce > 0u && max(s.emissive.x, max(s.emissive.y, s.emissive.z)) > 0.0 {
+            // The emitters' shadow rays find this light too: weigh the two (power heuristic).
+            let factor = objects[object_slot(hit)].emissive.rgb;
+            let p_light = emitter_pdf(factor, travelled + hit.t, abs(dot(s.ng, d)));
+            w_emitted = last_pdf * last_pdf / (last_pdf * last_pdf + p_light * p_light);
+        }
+        radiance += indirect(throughput * s.emissive * w_emitted, bounce);
         let last = bounce == view.max_bounces;
         let l = lobes_at(s, wo);
         if !last {
@@ -1002,6 +1138,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
                 break;
             }
             passes += 1u;
+            travelled += hit.t;
             throughput *= clear_transmittance(s, abs(dot(s.ng, wo))) / l.p.z;
             o = offset(s.p, -s.ng);
             continue;
@@ -1031,6 +1168,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         o = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
         d = wi;
         bounce += 1u;
+        travelled = 0.0;
     }
     return radiance * view.sky.w;
 }

@@ -162,6 +162,7 @@ impl Tracer {
             samples,
             mode: mode.shader_index(),
             light_count: self.lights,
+            emitters: (0, 0.0),
             indirect_clamp: 4.0,
             work,
             part_shift: treelight_render::MAX_PART_SHIFT,

@@ -3,7 +3,8 @@
 //! * The white furnace: a sphere of base colour 1 under a uniform white sky, with nothing else in
 //!   the world, must return the sky's radiance (energy is neither made nor lost) for roughness 0 to
 //!   1, metallic 0 and 1, under a clear coat and through a thin transmitting wall. Stated error:
-//!   the mean over the sphere's pixels within 3% of the sky.
+//!   the mean over the sphere's pixels within 1% of the sky for every lobe (2026-12-02: within
+//!   0.5%, the worst rough metal at 1.0043 and rough transmission at 1.0046).
 //! * Masked alpha: which object each pixel's ray meets, through a checkered mask on a quad kept
 //!   whole under a transform, against a CPU ray cast that reads the same alpha the same way.
 //! * Masked shadows: an occluder whose mask cuts all of it away leaves the image as it is without
@@ -93,7 +94,7 @@ fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
     }
     eprintln!("{table}");
     assert!(
-        worst < 0.03,
+        worst < 0.01,
         "the furnace is off by {worst:.4} somewhere:\n{table}"
     );
 }

@@ -201,7 +201,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 inv_range2,
                 spot_scale,
                 spot_offset,
-                pad
+                ids
             ]
         )
     );
@@ -230,6 +230,9 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 tile_stride,
                 part_shift,
                 sample_seed,
+                clamp_from,
+                emitter_count,
+                emitter_weight,
                 environment,
                 origin
             ]

@@ -353,22 +353,7 @@ fn light_ui(ui: &mut egui::Ui, light: &mut LightValue, widgets: &mut WidgetRects
             }
             ui.end_row();
             if light.kind.is_local() {
-                ui.label("Range");
-                let mut range = light
-                    .range
-                    .unwrap_or(treelight_document::values::light::DEFAULT_RANGE);
-                if ui
-                    .add(
-                        egui::DragValue::new(&mut range)
-                            .speed(0.1)
-                            .range(0.01..=1.0e6)
-                            .max_decimals(2),
-                    )
-                    .on_hover_text("Distance at which the light has faded to nothing")
-                    .changed()
-                {
-                    light.range = Some(range);
-                }
+                light_range(ui, light, widgets);
                 ui.end_row();
             }
             if light.kind == LightKind::Spot {
@@ -408,6 +393,39 @@ fn light_ui(ui: &mut egui::Ui, light: &mut LightValue, widgets: &mut WidgetRects
             ui.end_row();
         });
 }
+
+/// A point or spot light's range: unlimited (glTF's light without one: the inverse square alone),
+/// or limited to a distance at which it has faded to nothing ("Light range limited" in `widgets`).
+fn light_range(ui: &mut egui::Ui, light: &mut LightValue, widgets: &mut WidgetRects) {
+    ui.label("Range");
+    ui.horizontal(|ui| {
+        let mut limited = light.range.is_some();
+        let check = ui
+            .checkbox(&mut limited, "limited")
+            .on_hover_text("Off: the light falls off with the square of the distance alone");
+        widgets.push("Light range limited", check.rect);
+        if check.changed() {
+            light.range = limited.then_some(LIMITED_RANGE);
+        }
+        if let Some(mut range) = light.range {
+            let field = ui
+                .add(
+                    egui::DragValue::new(&mut range)
+                        .speed(0.1)
+                        .range(0.01..=1.0e5)
+                        .max_decimals(2)
+                        .suffix(" m"),
+                )
+                .on_hover_text("Distance at which the light has faded to nothing");
+            if field.changed() {
+                light.range = Some(range);
+            }
+        }
+    });
+}
+
+/// The range a light gets when the user first limits it, in metres.
+const LIMITED_RANGE: f32 = 20.0;
 
 fn vec3_row(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f32) {
     ui.label(label);

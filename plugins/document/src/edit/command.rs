@@ -653,16 +653,29 @@ fn import(
     };
     // A redone import's root gets its id back.
     let root_id: Vec<SceneId> = root.iter().copied().collect();
+    let add_sun = world
+        .get_resource::<crate::scene::spawn::DefaultSun>()
+        .is_none_or(|d| d.0);
     let top = crate::scene::spawn::spawn_scene_in_world(
         world,
         file,
         &parsed.scene,
         &mut parsed.parts,
-        true,
+        add_sun,
         &root_id,
     )
     .map_err(EditError::Import)?
     .top;
+    if top.len() > 1
+        && let Some(mut notices) = world.get_resource_mut::<crate::scene::notice::Notices>()
+    {
+        notices.info(format!(
+            "{} has no lights: added a Sun of {} lux (delete it to light the scene by the sky \
+             alone)",
+            file.display(),
+            crate::scene::spawn::DEFAULT_SUN_LUX
+        ));
+    }
     if let Some(t) = transform {
         world.entity_mut(top[0]).insert(Transform::from(*t));
     }

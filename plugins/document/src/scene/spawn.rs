@@ -92,6 +92,23 @@ fn has_own_object(scene: &ImportedScene, i: usize, counts: &[u32]) -> bool {
     node.is_none_or(|n| counts[n] != 1)
 }
 
+/// Whether an imported file that brings no light, into a scene that has none, gets a sun
+/// ([`DEFAULT_SUN_LUX`], named "Sun"): the sky alone leaves most scenes dim and flat, so the editor
+/// adds one and says so in a notice; `treelight render --default-sun off` keeps it out, to render
+/// the file's light alone. A project's opening never adds one.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DefaultSun(pub bool);
+
+impl Default for DefaultSun {
+    fn default() -> Self {
+        Self(true)
+    }
+}
+
+/// The illuminance of the sun [`DefaultSun`] adds, in lux: a bright overcast day's, which a
+/// camera at Bevy's default exposure shows without clipping a white surface.
+pub const DEFAULT_SUN_LUX: f32 = 8_000.0;
+
 /// What [`spawn_scene_in_world`] made.
 pub struct SpawnedScene {
     /// The entities at the top: the assembly's root, and the sun if one was added.
@@ -139,7 +156,7 @@ pub fn spawn_scene_in_world(
                     Name::new("Sun"),
                     SceneObject,
                     DirectionalLight {
-                        illuminance: 8_000.0,
+                        illuminance: DEFAULT_SUN_LUX,
                         ..default()
                     },
                     Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),

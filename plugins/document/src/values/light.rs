@@ -50,7 +50,8 @@ pub struct LightValue {
     #[serde(default = "shown")]
     pub shadows: bool,
     /// A point or spot light's range: past it the light has faded to nothing (glTF's smooth
-    /// window, which Bevy's rasteriser uses too).
+    /// window, which Bevy's rasteriser uses too). `None`: unlimited, the light falling off with
+    /// the square of the distance alone (glTF's meaning of a light without `range`).
     #[serde(default)]
     pub range: Option<f32>,
     /// A spot light's cone, radians from its axis: full intensity inside `inner_angle`, fading
@@ -78,8 +79,16 @@ pub type LightParts = (
     Option<&'static DirectionalLight>,
 );
 
-/// A point or spot light's range when none is given.
-pub const DEFAULT_RANGE: f32 = 40.0;
+/// The range Bevy's light components get for a light without one ([`LightValue::range`] `None`):
+/// Bevy's lights must have a finite range, and at a million metres glTF's window is 1 to within
+/// f32's precision for any distance under a kilometre (its fall-off is `(d / range)^4`), so the
+/// light is unlimited in effect. A component's range at or above it reads back as `None`.
+pub const UNLIMITED_RANGE: f32 = 1.0e6;
+
+/// A light component's range as a [`LightValue::range`]: `None` at [`UNLIMITED_RANGE`] and above.
+fn range_of_component(range: f32) -> Option<f32> {
+    (range < UNLIMITED_RANGE).then_some(range)
+}
 
 /// The luminous power of a point light of `candela` (glTF's unit for point and spot lights):
 /// 4π lumens per candela, as Bevy's glTF loader converts it.
@@ -103,7 +112,7 @@ impl LightValue {
                 LightKind::Directional => 3000.0,
             },
             shadows: true,
-            range: kind.is_local().then_some(DEFAULT_RANGE),
+            range: None,
             inner_angle: 0.0,
             outer_angle: default_outer_angle(),
         }
@@ -134,7 +143,7 @@ impl LightValue {
                 color: srgb(l.color),
                 intensity: l.intensity,
                 shadows: l.shadow_maps_enabled,
-                range: Some(l.range),
+                range: range_of_component(l.range),
                 ..Self::new(LightKind::Point)
             });
         }
@@ -144,7 +153,7 @@ impl LightValue {
                 color: srgb(l.color),
                 intensity: l.intensity,
                 shadows: l.shadow_maps_enabled,
-                range: Some(l.range),
+                range: range_of_component(l.range),
                 inner_angle: l.inner_angle,
                 outer_angle: l.outer_angle,
             });
@@ -178,7 +187,10 @@ impl LightValue {
         e.remove::<(PointLight, SpotLight, DirectionalLight)>();
         let [r, g, b] = self.color;
         let color = Color::srgb(r, g, b);
-        let range = self.range.filter(|r| *r > 0.0).unwrap_or(DEFAULT_RANGE);
+        let range = self
+            .range
+            .filter(|r| *r > 0.0)
+            .map_or(UNLIMITED_RANGE, |r| r.min(UNLIMITED_RANGE));
         match self.kind {
             LightKind::Point => e.insert(PointLight {
                 color,
@@ -292,5 +304,32 @@ mod tests {
             assert!(!bad.is_valid(), "{bad:?}");
         }
         assert!((lumens_to_candela(candela_to_lumens(3.0)) - 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_light_without_range_stays_unlimited_through_bevy_s_components() {
+        let mut world = World::new();
+        for kind in [LightKind::Point, LightKind::Spot] {
+            let value = LightValue::new(kind);
+            assert_eq!(value.range, None, "a new light is unlimited");
+            let mut e = world.spawn_empty();
+            value.put_on(&mut e);
+            let id = e.id();
+            let component_range = match kind {
+                LightKind::Point => world.get::<PointLight>(id).unwrap().range,
+                _ => world.get::<SpotLight>(id).unwrap().range,
+            };
+            // glTF's window at a kilometre from the light is 1 in f32.
+            let f = (1000.0f32 / component_range).powi(4);
+            assert_eq!((1.0 - f).max(0.0).powi(2), 1.0, "{kind:?}");
+            assert_eq!(LightValue::of(&world.entity(id)).unwrap().range, None);
+            // A range given stays that range.
+            let limited = LightValue {
+                range: Some(12.5),
+                ..value
+            };
+            limited.put_on(&mut world.entity_mut(id));
+            assert_eq!(LightValue::of(&world.entity(id)).unwrap().range, Some(12.5));
+        }
     }
 }

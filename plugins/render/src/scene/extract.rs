@@ -3,6 +3,7 @@
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
 use crate::scene::texture_layers::TextureLayers;
+use crate::types::emitters::{EmitterList, placed_triangles};
 use crate::types::map_transforms::MapUvTransforms;
 use crate::types::records::{
     LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
@@ -39,6 +40,8 @@ pub(crate) struct PendingUpload {
     pub expected: [u64; 6],
     pub root: Option<u32>,
     pub light_count: Option<u32>,
+    /// The emissive triangles listed after the lights and their total weight, when they changed.
+    pub emitters: Option<(u32, f32)>,
     /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
     /// pixel's samples valid).
     pub geometry_changed: bool,
@@ -84,6 +87,10 @@ pub(crate) struct SceneSync {
     identities: crate::types::identity::SlotIdentities,
     /// By group slot: whether its shading records were written holding two UV sets.
     two_uv_sets: Vec<bool>,
+    /// The emissive triangles, by group.
+    emitters: EmitterList,
+    /// Whether the emitters' records changed since the lights buffer was last written.
+    emitters_changed: bool,
     pub pending: PendingUpload,
 }
 
@@ -268,15 +275,26 @@ fn extract_scene(
         }
     }
     let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
-    if sync.lights.as_ref() != Some(&bytes) {
+    if sync.lights.as_ref() != Some(&bytes) || sync.emitters_changed {
+        // The emissive triangles follow the lights: either changing writes both.
+        let emitters = &sync.emitters;
         let p = &mut sync.pending;
-        p.need(BufferKind::Lights, lights.len() as u64);
+        p.need(
+            BufferKind::Lights,
+            lights.len() as u64 + u64::from(emitters.count()),
+        );
         p.light_count = Some(lights.len() as u32);
+        p.emitters = Some((emitters.count(), emitters.total()));
         p.geometry_changed = true;
         if !bytes.is_empty() {
             p.writes.push(BufferKind::Lights, 0, &bytes);
         }
+        if emitters.count() > 0 {
+            p.writes
+                .push(BufferKind::Lights, bytes.len() as u64, emitters.records());
+        }
         sync.lights = Some(bytes);
+        sync.emitters_changed = false;
     }
 }
 
@@ -336,12 +354,21 @@ fn scene_writes(
     let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
     relay.extend(changes.relaid_groups.iter().map(|r| r.0));
     layers.begin_pass();
+    sync.emitters.begin_pass();
     let sets = sync.map_transforms.len();
+    let relaid: std::collections::HashSet<GroupId> = relay.iter().copied().collect();
     for (&g, &e) in &tree.group_entity {
         let Ok(transform) = bvh.group_transform(g) else {
             continue;
         };
         let material = material_of(e, handles, assets, layers);
+        sync.emitters.group(
+            g.index(),
+            transform,
+            Vec3::from(material.emissive),
+            relaid.contains(&g),
+            || placed_triangles(bvh, g),
+        );
         // Its shading records hold its second UV set where its material reads it.
         let two = material.reads_second_uv_set()
             && tree.shading.get(&g).is_some_and(|s| !s.uvs1.is_empty());
@@ -372,6 +399,7 @@ fn scene_writes(
         }
     }
     layers.end_pass();
+    sync.emitters_changed |= sync.emitters.end_pass();
     if sync.map_transforms.len() != sets {
         p.map_transforms = Some(sync.map_transforms.bytes());
     }

@@ -46,6 +46,8 @@ pub(crate) struct GpuScene {
     pub(crate) energy: Buffer,
     pub root: u32,
     pub light_count: u32,
+    /// Emissive triangles listed after the lights, and the sum of their weights.
+    pub emitters: (u32, f32),
     /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
     /// views restart their accumulation when it changes.
     pub generation: u64,
@@ -173,6 +175,7 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         }),
         root: u32::MAX,
         light_count: 0,
+        emitters: (0, 0.0),
         generation: 0,
         tree_generation: 0,
         bind_group: None,
@@ -266,6 +269,9 @@ fn apply_scene_uploads(
     }
     if let Some(n) = pending.light_count {
         scene.light_count = n;
+    }
+    if let Some(e) = pending.emitters {
+        scene.emitters = e;
     }
     if let Some((words, covered)) = &pending.outlines {
         let need = words.len() as u64;

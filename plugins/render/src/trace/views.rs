@@ -757,6 +757,9 @@ fn prepare_view(
     });
 }
 
+/// The most bounces a view's paths take, whatever its settings ask.
+const MAX_BOUNCES: u32 = 256;
+
 /// The trace's uniform for this frame's `work`. The preview is one sample per block, shown for a
 /// frame: one bounce and a tight cap on indirect light keep it from flickering with fireflies
 /// while the camera moves.
@@ -772,17 +775,18 @@ fn view_params(
     let preview = matches!(work, TraceWork::Preview { .. });
     let (bounces, clamp) = if !preview {
         (
-            settings.max_bounces.min(64),
+            settings.max_bounces.min(MAX_BOUNCES),
             settings.indirect_clamp.max(0.0),
         )
-    } else if settings.indirect_clamp > 0.0 {
-        (
-            settings.max_bounces.min(1),
-            settings.indirect_clamp.min(1.0),
-        )
     } else {
-        // An uncapped view still gets the cap in its preview.
-        (settings.max_bounces.min(1), 1.0)
+        // The preview caps light at white as the camera exposes it (an uncapped view too): it is
+        // shown for one frame, and a speckle would flicker.
+        let white = 1.0 / exposure.max(f32::MIN_POSITIVE);
+        let clamp = match settings.indirect_clamp {
+            c if c > 0.0 => c.min(white),
+            _ => white,
+        };
+        (settings.max_bounces.min(1), clamp)
     };
     let scene = frame.scene;
     ViewParams {
@@ -797,6 +801,7 @@ fn view_params(
         samples: settings.samples_per_frame.clamp(1, 64),
         mode: settings.view.shader_index(),
         light_count: scene.light_count,
+        emitters: scene.emitters,
         indirect_clamp: clamp,
         work,
         part_shift: scene.layout.shift,

@@ -3,6 +3,7 @@
 
 pub(crate) mod bindings;
 pub(crate) mod budget;
+pub(crate) mod emitters;
 pub(crate) mod energy;
 pub(crate) mod figures;
 pub(crate) mod identity;

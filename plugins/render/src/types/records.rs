@@ -134,8 +134,9 @@ pub struct GpuLight {
     pub spot_scale: f32,
     /// See `spot_scale`.
     pub spot_offset: f32,
-    /// Pads the record to 16-byte alignment.
-    pub pad: [f32; 2],
+    /// An emissive triangle's id and its group's object slot
+    /// ([`crate::types::emitters`]); zero for a punctual light.
+    pub ids: [u32; 2],
 }
 
 /// `View` of `pathtrace.wgsl`: the per-view uniform ([`ViewParams`] as the kernel reads it).
@@ -163,7 +164,7 @@ pub struct GpuView {
     pub mode: u32,
     /// Lights in the light buffer.
     pub light_count: u32,
-    /// Indirect luminance cap; 0 disables.
+    /// Indirect luminance cap in nits (scene units, before exposure); 0 disables.
     pub indirect_clamp: f32,
     /// Pixels per preview block along each axis; 0 traces tiles instead.
     pub preview_scale: u32,
@@ -183,8 +184,13 @@ pub struct GpuView {
     pub part_shift: u32,
     /// The samples' seed ([`crate::types::view::PathTraced::seed`]).
     pub sample_seed: u32,
-    /// Padding to the next 16-byte field.
-    pub pad: [u32; 3],
+    /// Reflections from which light is capped by `indirect_clamp`: 2 for images (light seen or
+    /// reflected once is direct and never capped), 1 for the preview.
+    pub clamp_from: u32,
+    /// Emissive triangles listed after the lights ([`crate::types::emitters`]).
+    pub emitter_count: u32,
+    /// The sum of their weights (luminance times area).
+    pub emitter_weight: f32,
     /// The panorama sky (the `PathTracedEnvironment` resource): cos and sin of its turn, its radiance
     /// scale, its flags as a whole number (zero: the flat sky colour).
     pub environment: [f32; 4],
@@ -851,7 +857,7 @@ pub fn light_bytes(l: &SceneLight) -> Vec<u8> {
                 inv_range2: inv_range2(range),
                 spot_scale: scale,
                 spot_offset: -cos_outer * scale,
-                pad: [0.0; 2],
+                ids: [0; 2],
             }
         }
         SceneLight::Directional {
@@ -895,6 +901,15 @@ impl TraceWork {
     };
 }
 
+/// Reflections from which an image's samples are capped: light seen directly or after one reflection
+/// (what a light's shadow ray or a BSDF sample finds from the primary hit) is direct light, and
+/// always counts in full.
+pub const CLAMP_FROM_IMAGE: u32 = 2;
+
+/// Reflections from which the preview's samples are capped: it shows one sample a block for one
+/// frame while the camera moves, so light found by chance after one reflection is capped too.
+pub const CLAMP_FROM_PREVIEW: u32 = 1;
+
 /// The path tracer's per-view uniform.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewParams {
@@ -925,7 +940,12 @@ pub struct ViewParams {
     pub mode: u32,
     /// Lights in the light buffer.
     pub light_count: u32,
-    /// Largest luminance (after exposure) one indirect bounce may add to a sample; 0 disables.
+    /// Emissive triangles listed after the lights, and the sum of their weights
+    /// ([`crate::types::emitters`]); `(0, 0.0)` samples none directly.
+    pub emitters: (u32, f32),
+    /// Largest luminance, in nits (scene units: the exposure does not change it), that light
+    /// reflected twice or more may add to a sample (the preview caps light reflected once too);
+    /// 0 disables.
     pub indirect_clamp: f32,
     /// What this dispatch traces.
     pub work: TraceWork,
@@ -970,7 +990,12 @@ impl ViewParams {
             tile_stride: order.stride,
             part_shift: self.part_shift,
             sample_seed: self.seed,
-            pad: [0; 3],
+            clamp_from: match self.work {
+                TraceWork::Preview { .. } => CLAMP_FROM_PREVIEW,
+                TraceWork::Tiles { .. } => CLAMP_FROM_IMAGE,
+            },
+            emitter_count: self.emitters.0,
+            emitter_weight: self.emitters.1,
             environment: self.environment.to_array(),
             origin: self.origin.extend(0.0).to_array(),
         }
@@ -1238,6 +1263,7 @@ mod tests {
             samples: 1,
             mode: 0,
             light_count: 0,
+            emitters: (0, 0.0),
             indirect_clamp: 0.0,
             work: TraceWork::Tiles { start: 0, count: 1 },
             part_shift: 30,

@@ -60,7 +60,8 @@ impl DebugView {
 #[extract_component_filter(With<Camera>)]
 #[require(Hdr)]
 pub struct PathTraced {
-    /// Bounces after the primary hit.
+    /// Bounces after the primary hit, at most (Russian roulette ends most paths well before; the
+    /// preview shown while the camera moves takes one).
     pub max_bounces: u32,
     /// Samples a traced pixel adds at once.
     pub samples_per_frame: u32,
@@ -72,9 +73,11 @@ pub struct PathTraced {
     /// Radiance of the sky rays escape to, linear RGB in nits (scaled by the camera's exposure
     /// like every light).
     pub sky: LinearRgba,
-    /// Largest luminance (after exposure, where 1 is white) one indirect bounce may add to a sample.
-    /// Rare paths that find a light from up close otherwise show as speckles for thousands of
-    /// samples; the cap removes them at the cost of a little energy. 0 turns it off (unbiased).
+    /// Largest luminance, in nits, that light reflected twice or more may add to a sample. Rare
+    /// paths that find a light from up close after a bounce otherwise show as speckles for
+    /// thousands of samples; the cap removes them at the cost of a little energy. Direct light
+    /// (seen, or reflected once) is never capped, and the cap is in scene units, so the camera's
+    /// exposure changes no radiance. 0 turns it off (unbiased).
     pub indirect_clamp: f32,
     /// What to show.
     pub view: DebugView,
@@ -106,6 +109,15 @@ pub struct PathTraced {
     /// of the one it measures).
     pub seed: u32,
 }
+
+/// [`PathTraced::max_bounces`] by default: enough that a converged image lacks no light a
+/// reference renderer finds (Russian roulette, not the cap, ends nearly every path).
+pub const DEFAULT_MAX_BOUNCES: u32 = 16;
+
+/// [`PathTraced::indirect_clamp`] by default, in nits: ten times the white of Bevy's default
+/// exposure (EV100 9.7, about 1,000 nits), as Cycles caps indirect light at ten times its white.
+/// A white wall in 8,000 lux of sun is about 2,500 nits, so ordinary light bounced off it passes.
+pub const DEFAULT_INDIRECT_CLAMP: f32 = 10_000.0;
 
 /// How a path-traced view outlines [`Outlined`] meshes.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -176,12 +188,12 @@ impl PathTraced {
 impl Default for PathTraced {
     fn default() -> Self {
         Self {
-            max_bounces: 4,
+            max_bounces: DEFAULT_MAX_BOUNCES,
             samples_per_frame: 1,
             max_samples: 4096,
             resolution_scale: 1.0,
             sky: LinearRgba::rgb(110.0, 140.0, 200.0),
-            indirect_clamp: 4.0,
+            indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             view: DebugView::PathTraced,
             frame_budget_ms: 4.0,
             frame_budget_share: 1.0,

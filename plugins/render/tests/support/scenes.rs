@@ -6,9 +6,9 @@ use std::f32::consts::PI;
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, GpuAttribute, MapTransformTable, OBJECT_BYTES, PATHTRACE_WGSL,
-    SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_record, light_bytes,
-    object_bytes,
+    ATTRIBUTE_BYTES, DebugView, EmitterList, GpuAttribute, MapTransformTable, OBJECT_BYTES,
+    PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_record,
+    light_bytes, object_bytes, placed_triangles,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -21,6 +21,8 @@ pub struct Scene {
     pub objects: Vec<u8>,
     /// The sets of per-map UV transforms the object records name.
     pub map_transforms: MapTransformTable,
+    /// Each group's emission (linear, nits), for the emitters' list.
+    pub emission: Vec<(GroupId, Vec3)>,
 }
 
 impl Scene {
@@ -30,7 +32,23 @@ impl Scene {
             attrs: Vec::new(),
             objects: Vec::new(),
             map_transforms: MapTransformTable::default(),
+            emission: Vec::new(),
         }
+    }
+
+    /// The list of emissive triangles the plugin would upload after the lights: its records and
+    /// (count, total weight).
+    pub fn emitters(&self) -> (Vec<u8>, (u32, f32)) {
+        let mut list = EmitterList::default();
+        list.begin_pass();
+        for &(g, emissive) in &self.emission {
+            let transform = self.bvh.group_transform(g).unwrap();
+            list.group(g.index(), transform, emissive, true, || {
+                placed_triangles(&self.bvh, g)
+            });
+        }
+        list.end_pass();
+        (list.records().to_vec(), (list.count(), list.total()))
     }
 
     /// Adds a mesh: triangles with per-corner normals and UVs (object space), placed by
@@ -85,6 +103,7 @@ impl Scene {
     ) -> GroupId {
         let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
         let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
+        self.emission.push((g, Vec3::from(material.emissive)));
         let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
         self.attrs.resize(need.max(self.attrs.len()), 0);
         for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
@@ -228,12 +247,33 @@ pub struct Frames<'a> {
     layers: &'a Layers,
     buffers: [wgpu::Buffer; 7],
     pipeline: wgpu::ComputePipeline,
+    /// The emissive triangles listed after the lights, and their total weight.
+    emitters: (u32, f32),
 }
 
 impl<'a> Frames<'a> {
     pub fn new(gpu: &'a Gpu, scene: &'a Scene, layers: &'a Layers, lights: &[SceneLight]) -> Self {
-        let lights: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+        Self::sampling_emitters(gpu, scene, layers, lights, true)
+    }
+
+    /// [`Frames::new`]; without `emitters`, the emissive triangles are found by the BSDF's samples
+    /// alone, as before the kernel sampled them.
+    pub fn sampling_emitters(
+        gpu: &'a Gpu,
+        scene: &'a Scene,
+        layers: &'a Layers,
+        lights: &[SceneLight],
+        emitters: bool,
+    ) -> Self {
+        let mut lights: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+        let (records, listed) = if emitters {
+            scene.emitters()
+        } else {
+            (Vec::new(), (0, 0.0))
+        };
+        lights.extend_from_slice(&records);
         Self {
+            emitters: listed,
             gpu,
             scene,
             layers,
@@ -251,6 +291,11 @@ impl<'a> Frames<'a> {
     /// Traces `work` of `t` into a fresh target: `t.samples` a pixel for whole-image work, in
     /// dispatches of at most 16 (`t.lights` must be the lights the frames were made with).
     pub fn trace(&self, t: &Trace, work: TraceWork) -> super::TraceTarget {
+        self.trace_shot(t, work, Shot::RADIANCE)
+    }
+
+    /// [`Frames::trace`] with `shot`'s exposure, indirect cap and seed.
+    pub fn trace_shot(&self, t: &Trace, work: TraceWork, shot: Shot) -> super::TraceTarget {
         let target = self.gpu.trace_target(t.size, t.size);
         let per = t.samples.clamp(1, 16);
         for _ in 0..t.samples.div_ceil(per) {
@@ -258,7 +303,7 @@ impl<'a> Frames<'a> {
                 world_from_clip: t.world_from_clip,
                 origin: Vec3::ZERO,
                 sky: t.sky,
-                exposure: 1.0,
+                exposure: shot.exposure,
                 width: t.size,
                 height: t.size,
                 root: self.scene.bvh.gpu_root(),
@@ -266,10 +311,11 @@ impl<'a> Frames<'a> {
                 samples: per,
                 mode: t.mode,
                 light_count: t.lights.len() as u32,
-                indirect_clamp: 0.0,
+                emitters: self.emitters,
+                indirect_clamp: shot.indirect_clamp,
                 work,
                 part_shift: treelight_render::MAX_PART_SHIFT,
-                seed: 0,
+                seed: shot.seed,
                 environment: self.layers.environment_word,
             };
             self.gpu
@@ -277,6 +323,24 @@ impl<'a> Frames<'a> {
         }
         target
     }
+}
+
+/// What a trace runs with beside the scene: the camera's exposure multiplier, the view's indirect
+/// cap (nits, 0: none) and the samples' seed.
+#[derive(Clone, Copy, Debug)]
+pub struct Shot {
+    pub exposure: f32,
+    pub indirect_clamp: f32,
+    pub seed: u32,
+}
+
+impl Shot {
+    /// Radiance as it is: exposure 1, no cap, seed 0.
+    pub const RADIANCE: Shot = Shot {
+        exposure: 1.0,
+        indirect_clamp: 0.0,
+        seed: 0,
+    };
 }
 
 /// A grey floor, a red sphere and a rough metal one, lit by [`lit_frame`]'s light and sky.
