@@ -38,6 +38,10 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
     n
 }
 
+/// How long a test waits for the path-traced view to gather the samples it looks at: paths of up to
+/// 16 bounces with the lamp's glow sampled directly, on llvmpipe, beside the other tests.
+const CONVERGING: std::time::Duration = std::time::Duration::from_secs(180);
+
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     let mut s = Session::start("input", &[]);
@@ -852,11 +856,9 @@ fn viewport_brightness(img: &image::RgbImage, viewport: [f32; 4]) -> f32 {
 #[test]
 fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     let mut s = Session::start("exposure", &[]);
-    let st = s.wait_until(
-        "the scene settles",
-        std::time::Duration::from_secs(60),
-        |st| st.settled && st.samples >= 4,
-    );
+    let st = s.wait_until("the scene settles", CONVERGING, |st| {
+        st.settled && st.samples >= 4
+    });
     let (head, _) = st.history;
     assert_eq!(st.look.exposure, 0.0);
     let default_ev100 = st.camera_look.as_ref().expect("the camera's exposure").0;
@@ -879,11 +881,9 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
         st.look.exposure
     );
     assert!(st.dirty, "a new look is an unsaved change");
-    let st = s.wait_until(
-        "the picture converges again",
-        std::time::Duration::from_secs(60),
-        |st| st.samples >= 4,
-    );
+    let st = s.wait_until("the picture converges again", CONVERGING, |st| {
+        st.samples >= 4
+    });
     let bright = viewport_brightness(&s.screenshot(), st.viewport);
     assert!(
         bright > dark * 1.2 + 2.0,
@@ -913,11 +913,9 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
         treelight_document::values::look::SceneLook::default()
     );
     assert_eq!(st.camera_look.as_ref().unwrap().0, default_ev100);
-    let st = s.wait_until(
-        "the picture converges again",
-        std::time::Duration::from_secs(60),
-        |st| st.samples >= 4,
-    );
+    let st = s.wait_until("the picture converges again", CONVERGING, |st| {
+        st.samples >= 4
+    });
     let back = viewport_brightness(&s.screenshot(), st.viewport);
     assert!(
         (back - dark).abs() < 0.1 * dark + 2.0,
@@ -928,11 +926,9 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
 #[test]
 fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
     let mut s = Session::start("light-kind", &[]);
-    let st = s.wait_until(
-        "the scene settles",
-        std::time::Duration::from_secs(60),
-        |st| st.settled && st.samples >= 8,
-    );
+    let st = s.wait_until("the scene settles", CONVERGING, |st| {
+        st.settled && st.samples >= 8
+    });
     let lamp = object(&st, "Lamp light").clone();
     let point = lamp.light.expect("the lamp is a light");
     assert_eq!(
@@ -954,11 +950,9 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     assert_eq!(now.kind, treelight_document::values::light::LightKind::Spot);
     assert_eq!((now.intensity, now.color), (point.intensity, point.color));
     assert_eq!(st.history.0, head + 1, "one step");
-    let st = s.wait_until(
-        "the picture converges again",
-        std::time::Duration::from_secs(60),
-        |st| st.samples >= 8,
-    );
+    let st = s.wait_until("the picture converges again", CONVERGING, |st| {
+        st.samples >= 8
+    });
     let lit = viewport_brightness(&s.screenshot(), st.viewport);
     eprintln!("mean brightness: point {before}, spot {lit}");
     assert!(
@@ -1053,11 +1047,9 @@ fn sky_beside_the_room(img: &image::RgbImage, viewport: [f32; 4]) -> [f32; 3] {
 fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back() {
     let mut s = Session::start("panorama", &[]);
     support::write_two_sided_sky(&s.dir().join("sky.hdr"));
-    let st = s.wait_until(
-        "the scene settles",
-        std::time::Duration::from_secs(60),
-        |st| st.settled && st.samples >= 4,
-    );
+    let st = s.wait_until("the scene settles", CONVERGING, |st| {
+        st.settled && st.samples >= 4
+    });
     let (head, _) = st.history;
     let before = sky_beside_the_room(&s.screenshot(), st.viewport);
     // Sky → Choose… → the dialog, in the folder the editor runs in; the file's name, Return.
@@ -1102,7 +1094,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
     );
     // Undo: the flat sky again.
     s.key(&[keysym::CONTROL], keysym::letter('z'));
-    let st = s.wait_until("the flat sky", std::time::Duration::from_secs(60), |st| {
+    let st = s.wait_until("the flat sky", CONVERGING, |st| {
         st.environment.0.image.is_none() && !st.traced_panorama && st.samples >= 4
     });
     assert_eq!(st.history.0, head);
@@ -1118,11 +1110,9 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
 #[test]
 fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
     let mut s = Session::start("quality", &["--trace-scale", "1"]);
-    let st = s.wait_until(
-        "the view has samples",
-        std::time::Duration::from_secs(60),
-        |st| st.settled && st.samples >= 1,
-    );
+    let st = s.wait_until("the view has samples", CONVERGING, |st| {
+        st.settled && st.samples >= 1
+    });
     assert_eq!(
         st.quality,
         (true, 1.0, 4096),

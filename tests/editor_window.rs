@@ -821,7 +821,7 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
                     "600",
                 ],
             );
-            s.wait_until("the panorama", std::time::Duration::from_secs(120), |st| {
+            s.wait_until("the panorama", std::time::Duration::from_secs(240), |st| {
                 st.environment.1 && (*view == "raster" || st.traced_panorama && st.samples >= 2)
             });
             // The cube map is made on a thread of its own once the panorama is read, and Bevy
@@ -936,7 +936,7 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
                     "400",
                 ],
             );
-            s.wait_until("the panorama", std::time::Duration::from_secs(120), |st| {
+            s.wait_until("the panorama", std::time::Duration::from_secs(300), |st| {
                 st.environment.1 && (*view == "raster" || st.traced_panorama && st.samples >= 16)
             });
             // The sphere's middle: a box a tenth of the view's height across at its centre.
