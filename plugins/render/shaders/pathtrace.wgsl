@@ -881,6 +881,12 @@ fn env_sample(r1: f32, r2: f32) -> vec4<f32> {
     return vec4<f32>(env_to_world(env_direction(uv)), p);
 }
 
+// The weight of a sample drawn with density `a` where another strategy would have drawn it with
+// density `b` (Veach's power heuristic, exponent 2).
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    return a * a / (a * a + b * b);
+}
+
 // The panorama's light at s through one shadow ray drawn from its distribution, weighed against
 // the BSDF's samples, which find the same light when they leave the scene (power heuristic).
 fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
@@ -904,7 +910,7 @@ fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let p_bsdf = pdf(s, l, wo, wi);
-    let w = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf);
+    let w = power_heuristic(p_light, p_bsdf);
     return f * through * sky_radiance(wi) * (abs(cos_l) * w / p_light);
 }
 
@@ -1009,7 +1015,7 @@ fn emitter_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     }
     let p_light = emitter_pdf(o.emissive.rgb, dist, cos_e);
     let p_bsdf = pdf(s, l, wo, wi);
-    let w = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf);
+    let w = power_heuristic(p_light, p_bsdf);
     return f * through * le * (abs(cos_l) * w / p_light);
 }
 
@@ -1099,7 +1105,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
                 var w = 1.0;
                 if (env_flags() & ENV_SAMPLED) != 0u {
                     let p_light = env_pdf(d);
-                    w = last_pdf * last_pdf / (last_pdf * last_pdf + p_light * p_light);
+                    w = power_heuristic(last_pdf, p_light);
                 }
                 radiance += indirect(throughput * sky_radiance(d) * w, bounce);
             }
@@ -1121,7 +1127,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             // The emitters' shadow rays find this light too: weigh the two (power heuristic).
             let factor = objects[object_slot(hit)].emissive.rgb;
             let p_light = emitter_pdf(factor, travelled + hit.t, abs(dot(s.ng, d)));
-            w_emitted = last_pdf * last_pdf / (last_pdf * last_pdf + p_light * p_light);
+            w_emitted = power_heuristic(last_pdf, p_light);
         }
         radiance += indirect(throughput * s.emissive * w_emitted, bounce);
         let last = bounce == view.max_bounces;

@@ -20,7 +20,7 @@ use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
     ATTRIBUTE_BYTES, EmitterList, MapTransformTable, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL,
     PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_bytes,
-    light_bytes, object_bytes, placed_triangles,
+    light_bytes, object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -254,15 +254,13 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     let mut lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
     // The emissive panel and the glowing box follow the lights, sampled directly as the plugin
     // lists them.
-    let mut list = EmitterList::default();
-    list.begin_pass();
-    for (&g, m) in &scene.materials {
-        let transform = bvh.group_transform(g).unwrap();
-        list.group(g.index(), transform, Vec3::from(m.emissive), true, || {
-            placed_triangles(bvh, g)
-        });
-    }
-    list.end_pass();
+    let list = EmitterList::of_groups(
+        bvh,
+        scene
+            .materials
+            .iter()
+            .map(|(&g, m)| (g, Vec3::from(m.emissive))),
+    );
     lights.extend_from_slice(list.records());
     let table = map_transforms.bytes();
     let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights, &table);

@@ -78,7 +78,6 @@ pub struct EmitterList {
     pass: u64,
     changed: bool,
     records: Vec<u8>,
-    count: u32,
     total: f32,
 }
 
@@ -167,8 +166,22 @@ impl EmitterList {
         } else {
             emitter_records(all.into_iter().copied())
         };
-        self.count = (self.records.len() / size_of::<GpuLight>()) as u32;
         true
+    }
+
+    /// A list made in one pass over `groups` (each group and its material's emission) of `bvh`.
+    pub fn of_groups(bvh: &Bvh, groups: impl IntoIterator<Item = (GroupId, Vec3)>) -> Self {
+        let mut list = Self::default();
+        list.begin_pass();
+        for (g, emissive) in groups {
+            if let Ok(transform) = bvh.group_transform(g) {
+                list.group(g.index(), transform, emissive, true, || {
+                    placed_triangles(bvh, g)
+                });
+            }
+        }
+        list.end_pass();
+        list
     }
 
     /// The records, for the lights buffer after the punctual lights.
@@ -178,7 +191,7 @@ impl EmitterList {
 
     /// How many triangles the records list.
     pub fn count(&self) -> u32 {
-        self.count
+        (self.records.len() / size_of::<GpuLight>()) as u32
     }
 
     /// The sum of the listed triangles' weights (0 with none listed).

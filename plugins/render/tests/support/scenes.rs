@@ -8,7 +8,7 @@ use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
     ATTRIBUTE_BYTES, DebugView, EmitterList, GpuAttribute, MapTransformTable, OBJECT_BYTES,
     PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_record,
-    light_bytes, object_bytes, placed_triangles,
+    light_bytes, object_bytes,
 };
 
 /// A triangle with its corners' normals (when it has them) and UVs.
@@ -39,15 +39,7 @@ impl Scene {
     /// The list of emissive triangles the plugin would upload after the lights: its records and
     /// (count, total weight).
     pub fn emitters(&self) -> (Vec<u8>, (u32, f32)) {
-        let mut list = EmitterList::default();
-        list.begin_pass();
-        for &(g, emissive) in &self.emission {
-            let transform = self.bvh.group_transform(g).unwrap();
-            list.group(g.index(), transform, emissive, true, || {
-                placed_triangles(&self.bvh, g)
-            });
-        }
-        list.end_pass();
+        let list = EmitterList::of_groups(&self.bvh, self.emission.iter().copied());
         (list.records().to_vec(), (list.count(), list.total()))
     }
 
