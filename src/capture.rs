@@ -17,16 +17,22 @@ pub struct CaptureRequest {
     pub requested: bool,
 }
 
-/// Counts frames; at the chosen one, asks for a screenshot (or exits). Frames while the path
-/// tracer waits for its kernel do not count: the view has nothing to show yet, and how long the
-/// compile takes differs between machines.
+/// Counts frames; at the chosen one, asks for a screenshot (or exits). Frames before the scene on
+/// the command line has settled and the view draws it, and frames while the path tracer waits for
+/// its kernel, do not count: the view has nothing to show yet, and how long loading and the
+/// compile take differs between machines.
 pub fn count_frames_and_capture(
     mut commands: Commands,
     mut request: ResMut<CaptureRequest>,
     mut exit: MessageWriter<AppExit>,
-    tracer: Option<Res<treelight_render::PathTracerStats>>,
+    loading: treelight_document::app::SceneLoading,
+    render: Res<crate::editor::core::viewport_render::ViewportRender>,
+    tracer: Res<treelight_render::PathTracerStats>,
 ) {
-    if tracer.is_some_and(|t| t.preparing_kernel().is_some()) {
+    if !loading.settled()
+        || !render.draws_version(&tracer, loading.scene_version())
+        || tracer.preparing_kernel().is_some()
+    {
         return;
     }
     request.rendered += 1;

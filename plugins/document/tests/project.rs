@@ -1163,6 +1163,8 @@ fn a_file_s_lights_come_in_as_editor_lights_and_their_edits_are_saved() {
         (spot.kind, spot.inner_angle, spot.outer_angle),
         (LightKind::Spot, 0.2, 0.5)
     );
+    // The spot has no range in the file: unlimited, as glTF means it.
+    assert_eq!(spot.range, None);
     assert_eq!(lights["Sun"].kind, LightKind::Directional);
     assert_eq!(lights["Sun"].intensity, 3.0);
     // The spot shines down its node's -z axis, turned to face the floor.
@@ -1211,6 +1213,8 @@ fn a_file_s_lights_come_in_as_editor_lights_and_their_edits_are_saved() {
     fresh.update();
     assert_eq!(state(fresh.world_mut()), before);
     assert_eq!(light_of(&mut fresh, "Lamp"), Some(edited));
+    // Unlimited stays unlimited through the project file.
+    assert_eq!(light_of(&mut fresh, "Spot").map(|l| l.range), Some(None));
     // A light that is not one, and values out of range, are refused.
     let refused = apply_request(
         fresh.world_mut(),

@@ -887,31 +887,53 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     return a * a / (a * a + b * b);
 }
 
-// The panorama's light at s through one shadow ray drawn from its distribution, weighed against
-// the BSDF's samples, which find the same light when they leave the scene (power heuristic).
-fn environment_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
+// One shadow ray's worth of light at a surface: the direction wi it comes from, how far away its
+// source is (FAR: infinitely), the radiance it brings over the density it was drawn with, and that
+// density per solid angle (0: a punctual light, which no BSDF sample finds, so unweighed). An
+// emitter's sample also has the triangle's normal facing the surface (zero for the others), to
+// lift the shadow ray's far end off the emitter.
+struct LightSample {
+    wi: vec3<f32>,
+    dist: f32,
+    li: vec3<f32>,
+    p_light: f32,
+    toward: vec3<f32>,
+}
+
+fn no_light() -> LightSample {
+    return LightSample(vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
+}
+
+// Punctual light i seen from p: a point on its sphere (its radius), through glTF's range window and
+// a spot's cone; a directional light from its direction.
+fn punctual_sample(i: u32, p: vec3<f32>) -> LightSample {
+    let light = lights[i];
+    if light.kind == 1u {
+        return LightSample(light.position, FAR, light.radiance, 0.0, vec3<f32>(0.0));
+    }
+    let spot = light.position + uniform_sphere() * light.radius;
+    let to = spot - p;
+    let d2 = max(dot(to, to), 1e-8);
+    let dist = sqrt(d2);
+    let wi = to / dist;
+    // glTF's range window, as Bevy's rasteriser has it: (1 - (d / range)^4)^2.
+    let f = d2 * light.inv_range2;
+    let window = saturate(1.0 - f * f);
+    var li = light.radiance * (window * window / d2);
+    if light.kind == 2u {
+        let cone = saturate(dot(light.direction, -wi) * light.spot_scale + light.spot_offset);
+        li *= cone * cone;
+    }
+    return LightSample(wi, dist, li, 0.0, vec3<f32>(0.0));
+}
+
+// The panorama's light: a direction drawn from its distribution.
+fn environment_sample() -> LightSample {
     let e = env_sample(rand(), rand());
-    let wi = e.xyz;
-    let p_light = e.w;
-    if !(p_light > 0.0) {
-        return vec3<f32>(0.0);
+    if !(e.w > 0.0) {
+        return no_light();
     }
-    let cos_l = dot(s.ns, wi);
-    let cos_g = dot(s.ng, wi);
-    if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
-        return vec3<f32>(0.0);
-    }
-    let f = bsdf(s, l, wo, wi);
-    if max(f.x, max(f.y, f.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let through = shadow(offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, FAR);
-    if max(through.x, max(through.y, through.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let p_bsdf = pdf(s, l, wo, wi);
-    let w = power_heuristic(p_light, p_bsdf);
-    return f * through * sky_radiance(wi) * (abs(cos_l) * w / p_light);
+    return LightSample(e.xyz, FAR, sky_radiance(e.xyz) / e.w, e.w, vec3<f32>(0.0));
 }
 
 // The light a material emits at barycentrics (u, v) of a triangle: its emission times its map
@@ -961,95 +983,69 @@ fn emitter_pick(r: f32) -> u32 {
     return lo;
 }
 
-// Light from the emissive triangles at s through one shadow ray, to a point drawn on a triangle
-// drawn in proportion to its power, weighed against the BSDF's samples, which find the same light
-// when they meet the triangle (power heuristic). Emission is two-sided, as the BSDF's samples see it.
-fn emitter_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
-    if view.emitter_count == 0u || !(view.emitter_weight > 0.0) {
-        return vec3<f32>(0.0);
-    }
+// The emissive triangles' light at p: a uniform point on a triangle drawn in proportion to its
+// power. Emission is two-sided, as the BSDF's samples see it.
+fn emitter_sample(p: vec3<f32>) -> LightSample {
     let e = lights[emitter_pick(rand())];
     // A uniform point: barycentrics u (corner 1) and v (corner 2).
     let r = sqrt(rand());
     let r2 = rand();
     let u = r * (1.0 - r2);
     let v = r * r2;
-    let p = e.position + e.radiance * u + e.direction * v;
+    let q = e.position + e.radiance * u + e.direction * v;
     let n = cross(e.radiance, e.direction);
-    let to = p - s.p;
+    let to = q - p;
     let d2 = dot(to, to);
     let n_len = length(n);
     if !(d2 > 0.0) || !(n_len > 0.0) {
-        return vec3<f32>(0.0);
+        return no_light();
     }
     let dist = sqrt(d2);
     let wi = to / dist;
     let cos_e = abs(dot(n, wi)) / n_len;
-    let cos_l = dot(s.ns, wi);
-    let cos_g = dot(s.ng, wi);
-    if !(cos_e > 1e-6) || cos_l * cos_g <= 0.0
-        || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
-        return vec3<f32>(0.0);
+    if !(cos_e > 1e-6) {
+        return no_light();
     }
     let o = objects[e.ids.y];
-    let le = emitted(o, e.ids.x, u, v);
-    if max(le.x, max(le.y, le.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let f = bsdf(s, l, wo, wi);
-    if max(f.x, max(f.y, f.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    // Both ends moved off their surfaces: a shadow ray stopped short of the point by a fraction
-    // of its length would still meet the emitter where it passes close to another surface.
-    let start = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
-    let toward = n * sign(dot(n, s.p - p)) / n_len;
-    let span = offset(p, toward) - start;
-    let span_len = length(span);
-    if !(dot(span, wi) > 0.0) {
-        return vec3<f32>(0.0);
-    }
-    let through = shadow(start, span / span_len, span_len);
-    if max(through.x, max(through.y, through.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
     let p_light = emitter_pdf(o.emissive.rgb, dist, cos_e);
-    let p_bsdf = pdf(s, l, wo, wi);
-    let w = power_heuristic(p_light, p_bsdf);
-    return f * through * le * (abs(cos_l) * w / p_light);
+    if !(p_light > 0.0) {
+        return no_light();
+    }
+    let le = emitted(o, e.ids.x, u, v);
+    return LightSample(wi, dist, le / p_light, p_light, -n * sign(dot(n, wi)) / n_len);
+}
+
+// Light sample k at s: the punctual lights first, then the panorama, then the emitters.
+fn light_sample(s: Surface, k: u32) -> LightSample {
+    if k < view.light_count {
+        return punctual_sample(k, s.p);
+    }
+    // The occlusion map dims ambient and emitted light, as it dims the BSDF's samples of them.
+    var ls = no_light();
+    if k == view.light_count {
+        if (env_flags() & ENV_SAMPLED) != 0u {
+            ls = environment_sample();
+        }
+    } else if view.emitter_count > 0u && view.emitter_weight > 0.0 {
+        ls = emitter_sample(s.p);
+    }
+    ls.li *= s.occlusion;
+    return ls;
 }
 
 // Light arriving at s from every light, through shadow rays, reflected (or passed through a thin
-// wall) towards wo.
+// wall) towards wo. A sample of the panorama or of the emitters is weighed against the BSDF's
+// samples, which find the same light (power heuristic). One loop traces every shadow ray: llvmpipe
+// inlines the traversal wherever it is called, and the kernel split across bindings already takes
+// it minutes to compile.
 fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    for (var i = 0u; i < view.light_count; i += 1u) {
-        let light = lights[i];
-        var wi: vec3<f32>;
-        var li: vec3<f32>;
-        var t_max = FAR;
-        if light.kind != 1u {
-            let spot = light.position + uniform_sphere() * light.radius;
-            let to = spot - s.p;
-            let d2 = max(dot(to, to), 1e-8);
-            let dist = sqrt(d2);
-            wi = to / dist;
-            // glTF's range window, as Bevy's rasteriser has it: (1 - (d / range)^4)^2.
-            let f = d2 * light.inv_range2;
-            let window = saturate(1.0 - f * f);
-            li = light.radiance * (window * window / d2);
-            if light.kind == 2u {
-                let cone = saturate(dot(light.direction, -wi) * light.spot_scale + light.spot_offset);
-                li *= cone * cone;
-            }
-            if max(li.x, max(li.y, li.z)) <= 0.0 {
-                continue;
-            }
-            t_max = dist * 0.999;
-        } else {
-            wi = light.position;
-            li = light.radiance;
+    for (var k = 0u; k < view.light_count + 2u; k += 1u) {
+        let ls = light_sample(s, k);
+        if max(ls.li.x, max(ls.li.y, ls.li.z)) <= 0.0 {
+            continue;
         }
+        let wi = ls.wi;
         let cos_l = dot(s.ns, wi);
         let cos_g = dot(s.ng, wi);
         // The shading and geometric normals must agree on the side; the far side only counts
@@ -1057,18 +1053,36 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
         if cos_l * cos_g <= 0.0 || (cos_l < 0.0 && (s.transmission <= 0.0 || s.clear)) {
             continue;
         }
-        let through = shadow(offset(s.p, select(-s.ng, s.ng, cos_g > 0.0)), wi, t_max);
+        let f = bsdf(s, l, wo, wi);
+        if max(f.x, max(f.y, f.z)) <= 0.0 {
+            continue;
+        }
+        let start = offset(s.p, select(-s.ng, s.ng, cos_g > 0.0));
+        var d = wi;
+        var t_max = ls.dist;
+        if any(ls.toward != vec3<f32>(0.0)) {
+            // Both ends moved off their surfaces: a shadow ray stopped short of the point by a
+            // fraction of its length would still meet the emitter where it passes close to
+            // another surface.
+            let span = offset(s.p + wi * ls.dist, ls.toward) - start;
+            t_max = length(span);
+            if !(dot(span, wi) > 0.0) {
+                continue;
+            }
+            d = span / t_max;
+        } else if ls.dist < FAR {
+            t_max = ls.dist * 0.999;
+        }
+        let through = shadow(start, d, t_max);
         if max(through.x, max(through.y, through.z)) <= 0.0 {
             continue;
         }
-        sum += bsdf(s, l, wo, wi) * through * li * abs(cos_l);
+        var w = 1.0;
+        if ls.p_light > 0.0 {
+            w = power_heuristic(ls.p_light, pdf(s, l, wo, wi));
+        }
+        sum += f * through * ls.li * (abs(cos_l) * w);
     }
-    if (env_flags() & ENV_SAMPLED) != 0u {
-        // Ambient light, which the occlusion map dims, as it dims the BSDF's samples of it.
-        sum += environment_light(s, l, wo) * s.occlusion;
-    }
-    // Emissive surfaces too are found by the BSDF's samples, which the occlusion map dims.
-    sum += emitter_light(s, l, wo) * s.occlusion;
     return sum;
 }
 

@@ -2,7 +2,7 @@
 //! the toolbar and menus, shown in the status bar, put on the camera by the viewport.
 
 use bevy::prelude::*;
-use treelight_render::{DebugView, PathTraced};
+use treelight_render::{DebugView, PathTraced, PathTracerStats};
 
 /// How the viewport is drawn.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -38,5 +38,13 @@ impl ViewportRender {
     /// A name for a mode.
     pub fn label(mode: Option<DebugView>) -> &'static str {
         mode.map_or("Raster", DebugView::label)
+    }
+
+    /// Whether the view draws the scene tree's version `version`: rasterised (the meshes are
+    /// drawn as they are), or the path tracer's copy current, or the scene too large to trace.
+    pub fn draws_version(&self, tracer: &PathTracerStats, version: u64) -> bool {
+        self.traced.is_none()
+            || tracer.figures().trace_off.is_some()
+            || tracer.figures().uploaded_version >= version
     }
 }
