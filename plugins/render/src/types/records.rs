@@ -135,7 +135,7 @@ pub struct GpuLight {
     /// See `spot_scale`.
     pub spot_offset: f32,
     /// An emissive triangle's id and its group's object slot
-    /// ([`crate::EmitterList`]); zero for a punctual light.
+    /// (`EmitterList`); zero for a punctual light.
     pub ids: [u32; 2],
 }
 
@@ -187,7 +187,7 @@ pub struct GpuView {
     /// Reflections from which light is capped by `indirect_clamp`: 2 for images (light seen or
     /// reflected once is direct and never capped), 1 for the preview.
     pub clamp_from: u32,
-    /// Emissive triangles listed after the lights ([`crate::EmitterList`]).
+    /// Emissive triangles listed after the lights (`EmitterList`).
     pub emitter_count: u32,
     /// The sum of their weights (luminance times area).
     pub emitter_weight: f32,
@@ -941,7 +941,7 @@ pub struct ViewParams {
     /// Lights in the light buffer.
     pub light_count: u32,
     /// Emissive triangles listed after the lights, and the sum of their weights
-    /// ([`crate::EmitterList`]); `(0, 0.0)` samples none directly.
+    /// (`EmitterList`); `(0, 0.0)` samples none directly.
     pub emitters: (u32, f32),
     /// Largest luminance, in nits (scene units: the exposure does not change it), that light
     /// reflected twice or more may add to a sample (the preview caps light reflected once too);
