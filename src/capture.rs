@@ -29,10 +29,7 @@ pub fn count_frames_and_capture(
     render: Res<crate::editor::core::viewport_render::ViewportRender>,
     tracer: Res<treelight_render::PathTracerStats>,
 ) {
-    if !loading.settled()
-        || !render.draws_version(&tracer, loading.scene_version())
-        || tracer.preparing_kernel().is_some()
-    {
+    if !render.draws_settled_scene(&loading, &tracer) || tracer.preparing_kernel().is_some() {
         return;
     }
     request.rendered += 1;

@@ -536,7 +536,7 @@ fn editor_state(
         frame: report.frame,
         // Settled once the tree holds the whole scene and the path tracer's copy is current
         // (nothing to copy while the view is rasterised or the scene is too large to trace).
-        settled: scene.loading.settled() && render.draws_version(tracer, scene.scene.version()),
+        settled: render.draws_settled_scene(&scene.loading, tracer),
         objects: object_reports(scene, camera),
         selection: editor
             .selection

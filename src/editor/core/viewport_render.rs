@@ -2,6 +2,7 @@
 //! the toolbar and menus, shown in the status bar, put on the camera by the viewport.
 
 use bevy::prelude::*;
+use treelight_document::app::SceneLoading;
 use treelight_render::{DebugView, PathTraced, PathTracerStats};
 
 /// How the viewport is drawn.
@@ -40,11 +41,14 @@ impl ViewportRender {
         mode.map_or("Raster", DebugView::label)
     }
 
-    /// Whether the view draws the scene tree's version `version`: rasterised (the meshes are
-    /// drawn as they are), or the path tracer's copy current, or the scene too large to trace.
-    pub fn draws_version(&self, tracer: &PathTracerStats, version: u64) -> bool {
-        self.traced.is_none()
-            || tracer.figures().trace_off.is_some()
-            || tracer.figures().uploaded_version >= version
+    /// Whether the scene has settled (`SceneLoading::settled`) and the view draws it as it
+    /// settled: rasterised (the meshes are drawn as they are), or the path tracer's copy current,
+    /// or the scene too large to trace. What the state report calls settled and what `--frames`
+    /// waits for before it counts.
+    pub fn draws_settled_scene(&self, loading: &SceneLoading, tracer: &PathTracerStats) -> bool {
+        loading.settled()
+            && (self.traced.is_none()
+                || tracer.figures().trace_off.is_some()
+                || tracer.figures().uploaded_version >= loading.scene_version())
     }
 }

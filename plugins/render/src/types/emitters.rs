@@ -169,7 +169,8 @@ impl EmitterList {
         true
     }
 
-    /// A list made in one pass over `groups` (each group and its material's emission) of `bvh`.
+    /// A list made in one pass over `groups` (each group and its material's emission) of `bvh`;
+    /// a group the tree does not hold has no triangles to list.
     pub fn of_groups(bvh: &Bvh, groups: impl IntoIterator<Item = (GroupId, Vec3)>) -> Self {
         let mut list = Self::default();
         list.begin_pass();
