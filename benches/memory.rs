@@ -511,7 +511,8 @@ fn main() {
                 "{parts} × {rows}: the process's peak (VmHWM) {}; the largest resident set polled \
                  {}, during the {phase}; mesh \
                  assets {}, BVH arrays {}, BVH shading {}, scene buffers {}, device allocator's \
-                 blocks {}; {} triangles in the tree then",
+                 blocks {}; {} triangles in the tree then; the largest frame's writes so far {}, \
+                 by the run's end {}",
                 cell(r.hwm),
                 cell(*rss),
                 cell(m.mesh_assets),
@@ -519,7 +520,9 @@ fn main() {
                 cell(m.shading),
                 cell(m.scene_buffers),
                 cell(m.gpu_reserved),
-                m.triangles
+                m.triangles,
+                cell(m.largest_upload),
+                cell(r.memory.largest_upload),
             ));
         }
         std::fs::remove_file(&file).ok();

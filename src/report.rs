@@ -205,6 +205,10 @@ pub struct MemoryReport {
     /// traced).
     #[serde(default)]
     pub meshes_held_back: u64,
+    /// The most bytes one frame wrote to the path tracer's scene buffers so far (that frame's
+    /// writes were all in memory at once).
+    #[serde(default)]
+    pub largest_upload: u64,
 }
 
 /// Bytes of a mesh's vertex attributes and indices still in the main world.
@@ -238,6 +242,7 @@ fn memory_report(
         triangles: u64::from(stats.triangles),
         meshes_rebuilt: stats.meshes_refined,
         meshes_held_back: tracer.figures().meshes_held_back as u64,
+        largest_upload: tracer.figures().largest_upload_bytes,
     }
 }
 

@@ -174,12 +174,13 @@ fn incremental_upload_traces_like_a_full_one() {
 }
 
 /// Writes staged through the upload belt land whole: larger than its buffers (copied in pieces),
-/// over frames that reuse its buffers, and after it lets them go once the stream has ended.
+/// over frames that reuse its buffers, after it lets them go once the stream has ended, and in a
+/// frame larger than a round (handed to the GPU mid-frame, the rest after it).
 #[test]
-fn staged_writes_land_whole_across_pieces_reuse_and_release() {
-    use treelight_render::{CHUNK_BYTES, UploadBelt};
+fn staged_writes_land_whole_across_pieces_reuse_release_and_rounds() {
+    use treelight_render::{CHUNK_BYTES, ROUND_BYTES, UploadBelt};
     let gpu = Gpu::new();
-    let size = 5 * CHUNK_BYTES;
+    let size = ROUND_BYTES + 2 * CHUNK_BYTES;
     let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("target"),
         size,
@@ -194,25 +195,26 @@ fn staged_writes_land_whole_across_pieces_reuse_and_release() {
             .collect()
     };
     // Each frame's writes as (offset, length); below, whether new geometry still streams in.
-    let frames: [&[(u64, u64)]; 6] = [
+    let frames: [&[(u64, u64)]; 7] = [
         &[(4, 2 * CHUNK_BYTES + 400), (3 * CHUNK_BYTES, 4096)],
         &[(CHUNK_BYTES + 8, CHUNK_BYTES + 12)],
         &[(100, 4096)],
         &[(CHUNK_BYTES / 2, 2048)],
         &[(4 * CHUNK_BYTES, 1024), (64, 64)],
         &[(2 * CHUNK_BYTES - 4, 3 * CHUNK_BYTES)],
+        &[(12, 4096), (CHUNK_BYTES, ROUND_BYTES + 8), (40, 400)],
     ];
-    let streaming = [true, true, true, false, false, true];
+    let streaming = [true, true, true, false, false, true, true];
     for (k, (writes, &stream)) in frames.iter().zip(&streaming).enumerate() {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         for &(offset, len) in writes.iter() {
             let bytes = pattern(k as u32 * 7919 + offset as u32, len);
-            assert!(belt.write(&mut encoder, &target, offset, &bytes));
+            assert!(belt.write(&mut encoder, &gpu.queue, &target, offset, &bytes));
             expected[offset as usize..(offset + len) as usize].copy_from_slice(&bytes);
         }
         // Not whole words: left out, and said so.
-        assert!(!belt.write(&mut encoder, &target, 2, &[1, 2, 3, 4]));
-        assert!(!belt.write(&mut encoder, &target, 8, &[1, 2, 3]));
+        assert!(!belt.write(&mut encoder, &gpu.queue, &target, 2, &[1, 2, 3, 4]));
+        assert!(!belt.write(&mut encoder, &gpu.queue, &target, 8, &[1, 2, 3]));
         belt.finish();
         gpu.queue.submit([encoder.finish()]);
         belt.recall(stream);
@@ -220,6 +222,8 @@ fn staged_writes_land_whole_across_pieces_reuse_and_release() {
         // The fourth frame is the first quiet one, after frames of several buffers, once
         // nothing streams in.
         assert_eq!(belt.releases(), u64::from(k >= 3), "frame {k}");
+        // Only the last frame stages more than a round.
+        assert_eq!(belt.rounds(), u64::from(k == 6), "frame {k}");
     }
     assert!(
         gpu.read(&target) == expected,

@@ -287,6 +287,9 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
                 || idle.is_pending()
                 || refiner.has_work_ahead()
                 || clock.stale;
+            if !ahead {
+                trim_at_rest(&shared);
+            }
             shared.active.store(ahead, Ordering::Release);
             continue;
         };
@@ -597,6 +600,31 @@ fn idle_work(
             s.meshes_refined += u64::from(refined);
         });
     }
+}
+
+/// The least spare room worth giving back: a mebibyte, and an eighth of what the tree holds (a
+/// tree that grows by doubling in small steps is not trimmed after every one).
+const TRIM_MIN_BYTES: usize = 1 << 20;
+
+/// Going to sleep: gives back the room the tree's arrays kept for growth and the tables its passes
+/// sized by the whole tree (after a fill of millions of triangles, hundreds of megabytes), so a
+/// scene at rest holds what it uses, and says so in the published figures. The next edit grows
+/// what it needs again.
+fn trim_at_rest(shared: &Shared) {
+    let (spare, held) = shared.tree.read().map_or((0, 0), |t| {
+        (t.bvh.spare_bytes(), t.bvh.memory_bytes().total())
+    });
+    if spare < TRIM_MIN_BYTES || spare * 8 < held {
+        return;
+    }
+    let Ok(mut tree) = shared.tree.write() else {
+        return;
+    };
+    tree.bvh.trim();
+    let memory = tree.memory_bytes();
+    drop(tree);
+    let mut s = shared.stats.lock().unwrap_or_else(|p| p.into_inner());
+    (s.tree_bytes, s.shading_bytes) = memory;
 }
 
 /// When the SAH cost was last computed. The cost is O(n) (milliseconds on a million triangles), and

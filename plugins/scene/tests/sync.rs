@@ -386,6 +386,43 @@ fn big_meshes_are_copied_over_several_frames() {
     );
 }
 
+/// A fill grows the tree's arrays by doubling; once the worker has nothing left to do it gives the
+/// room back, and the published figures say so.
+#[test]
+fn a_tree_at_rest_after_a_fill_gives_back_its_spare_room() {
+    let mut app = app(Duration::from_millis(50));
+    for k in 0..24 {
+        let sphere = Sphere::new(1.0).mesh().uv(200, 100);
+        let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(sphere);
+        app.world_mut().spawn((
+            Mesh3d(handle),
+            Transform::from_xyz(3.0 * k as f32, 0.0, 0.0),
+        ));
+        // Meshes arriving frame by frame, as an import's do.
+        app.update();
+    }
+    settle(&mut app);
+    let start = Instant::now();
+    while !app.world().resource::<SceneBvh>().is_resting() {
+        assert!(start.elapsed() < Duration::from_secs(60), "never at rest");
+        app.update();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // The main world copies the worker's figures in its frame.
+    app.update();
+    let scene = app.world().resource::<SceneBvh>();
+    assert!(scene.is_resting());
+    let tree = scene.try_read().expect("the worker sleeps");
+    let (spare, held) = (tree.bvh.spare_bytes(), tree.bvh.memory_bytes().total());
+    assert!(tree.bvh.triangle_count() > 900_000);
+    assert!(spare * 8 < held, "{spare} spare bytes of {held}");
+    assert_eq!(
+        scene.stats().tree_bytes,
+        held,
+        "the figures say what it holds"
+    );
+}
+
 #[test]
 fn geometry_handed_over_goes_to_the_worker_at_once_and_only_for_its_own_asset() {
     // No main-thread budget: a copied mesh would take many frames.

@@ -31,6 +31,27 @@ impl ChangeLog {
             + vec_bytes(&self.inst_list)
     }
 
+    /// Bytes its flags and lists hold beyond their lengths (the lists are empty between takes).
+    pub(crate) fn spare_bytes(&self) -> usize {
+        let spare = |cap: usize, len: usize, size: usize| (cap - len) * size;
+        spare(self.inner_dirty.capacity(), self.inner_dirty.len(), 1)
+            + spare(self.tri_dirty.capacity(), self.tri_dirty.len(), 1)
+            + spare(self.inst_dirty.capacity(), self.inst_dirty.len(), 1)
+            + spare(self.inner_list.capacity(), self.inner_list.len(), 4)
+            + spare(self.tri_list.capacity(), self.tri_list.len(), 4)
+            + spare(self.inst_list.capacity(), self.inst_list.len(), 4)
+    }
+
+    /// Gives back the room counted by [`ChangeLog::spare_bytes`].
+    pub(crate) fn trim(&mut self) {
+        self.inner_dirty.shrink_to_fit();
+        self.tri_dirty.shrink_to_fit();
+        self.inst_dirty.shrink_to_fit();
+        self.inner_list.shrink_to_fit();
+        self.tri_list.shrink_to_fit();
+        self.inst_list.shrink_to_fit();
+    }
+
     /// Makes room for inner nodes up to `len` slots, so that growing to it copies nothing.
     pub(crate) fn reserve_inner(&mut self, len: usize) {
         self.inner_dirty

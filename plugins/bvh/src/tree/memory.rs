@@ -7,6 +7,11 @@ pub(crate) fn vec_bytes<T>(v: &Vec<T>) -> usize {
     v.capacity() * size_of::<T>()
 }
 
+/// Bytes a vector holds beyond its length.
+fn spare<T>(v: &Vec<T>) -> usize {
+    (v.capacity() - v.len()) * size_of::<T>()
+}
+
 /// Where a tree's heap bytes are, by what holds them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemoryBytes {
@@ -57,6 +62,47 @@ impl Bvh {
     }
 }
 
+impl Bvh {
+    /// Heap bytes the tree holds and does not use now: its arrays' room to grow (up to as much
+    /// again as they use, after growing by doubling through a large fill) and the working
+    /// memory its passes keep between calls (some sized by the whole tree). [`Bvh::trim`] gives
+    /// them back.
+    pub fn spare_bytes(&self) -> usize {
+        let t = &self.tri;
+        spare(&t.items)
+            + spare(&t.parent)
+            + spare(&t.group)
+            + spare(&t.free)
+            + spare(&self.inner)
+            + spare(&self.inner_free)
+            + spare(&self.instances)
+            + spare(&self.inst_free)
+            + spare(&self.cache.nodes)
+            + spare(&self.cache.queued)
+            + self.changes.spare_bytes()
+            + self.scratch.heap_bytes()
+    }
+
+    /// Gives back what [`Bvh::spare_bytes`] counts, for an owner whose tree has come to rest
+    /// after a large change (the scene worker after a fill). Nothing the tree holds changes; the
+    /// next growth or pass allocates again what it needs.
+    pub fn trim(&mut self) {
+        let t = &mut self.tri;
+        t.items.shrink_to_fit();
+        t.parent.shrink_to_fit();
+        t.group.shrink_to_fit();
+        t.free.shrink_to_fit();
+        self.inner.shrink_to_fit();
+        self.inner_free.shrink_to_fit();
+        self.instances.shrink_to_fit();
+        self.inst_free.shrink_to_fit();
+        self.cache.nodes.shrink_to_fit();
+        self.cache.queued.shrink_to_fit();
+        self.changes.trim();
+        self.scratch.trim();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use crate::{Bvh, BvhConfig, Triangle};
@@ -91,5 +137,48 @@ mod tests {
         bvh.bake_group(g).unwrap();
         assert!(bvh.memory_bytes().groups >= 1000 * (36 + 4));
         assert!(grouped.total() > loose.total());
+    }
+
+    #[test]
+    fn a_trimmed_tree_holds_less_and_answers_as_before() {
+        use crate::Ray;
+        let tri = |i: usize| {
+            let o = Vec3::new((i % 97) as f32, (i / 97) as f32, (i % 7) as f32 * 0.1);
+            Triangle::new(o, o + Vec3::X, o + Vec3::Y)
+        };
+        let mut bvh = Bvh::new(BvhConfig::default());
+        // Meshes one after another: the arrays grow by doubling, as in a fill.
+        for m in 0..20 {
+            let tris: Vec<Triangle> = (m * 500..(m + 1) * 500).map(tri).collect();
+            bvh.insert_group(&tris, Affine3A::IDENTITY, false).unwrap();
+        }
+        bvh.take_changes();
+        let rays: Vec<Ray> = (0..400)
+            .map(|i| {
+                // Inside the triangles, away from their edges.
+                let o = Vec3::new((i % 97) as f32 + 0.2371, (i % 20) as f32 + 0.3113, -1.0);
+                Ray::new(o, Vec3::Z)
+            })
+            .collect();
+        let before: Vec<_> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
+        assert!(before.iter().any(Option::is_some));
+        let (held, spare) = (bvh.memory_bytes().total(), bvh.spare_bytes());
+        assert!(spare > 0);
+        bvh.trim();
+        assert_eq!(bvh.spare_bytes(), 0);
+        assert_eq!(bvh.memory_bytes().total(), held - spare);
+        bvh.validate().unwrap();
+        // The same hits, and each the brute-force closest.
+        let after: Vec<_> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
+        assert_eq!(before, after);
+        for (r, h) in rays.iter().zip(&after) {
+            assert_eq!(*h, bvh.brute_force_closest_hit(r));
+        }
+        // It goes on growing and editing as before.
+        let g = bvh
+            .insert_group(&[tri(9000)], Affine3A::IDENTITY, false)
+            .unwrap();
+        bvh.remove_group(g).unwrap();
+        bvh.validate().unwrap();
     }
 }

@@ -25,6 +25,11 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
+    /// Lets every table go; each is made again, empty, at its next use.
+    pub(crate) fn trim(&mut self) {
+        *self = Scratch::default();
+    }
+
     /// Heap bytes its tables hold.
     pub(crate) fn heap_bytes(&self) -> usize {
         use crate::tree::memory::vec_bytes;

@@ -213,13 +213,12 @@ fn apply_scene_uploads(
     let Some(grown) = grow_buffers(scene, &pending, &device, &stats) else {
         return;
     };
-    let layout = scene.layout;
     if scene.bind_group.is_none() {
         // A buffer grew or a part was added.
         let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
         stats.update(|f| f.scene_buffer_bytes = total);
     }
-    // Growth copies first, then the writes, all in one submission.
+    // Growth copies first, then the writes, in rounds of bounded staging.
     let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
         label: Some("treelight scene upload"),
     });
@@ -227,38 +226,7 @@ fn apply_scene_uploads(
     for (old, bytes, i, k) in &grown {
         encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
     }
-    let mut bytes = 0u64;
-    for w in pending.writes.iter() {
-        let i = w.buffer.index();
-        let end = w.offset + w.bytes.len() as u64;
-        if end > scene.capacities[i] * w.buffer.record_bytes() {
-            // Extraction sized every buffer for its writes; a write past the end is a bug, and
-            // skipping it beats a device error that would stop all rendering.
-            error!(
-                "treelight: dropped a {:?} write past the buffer's end",
-                w.buffer
-            );
-            continue;
-        }
-        for (part, at, range) in layout.pieces(w.buffer, w.offset, w.bytes.len() as u64) {
-            let piece = &w.bytes[range];
-            if !scene
-                .staging
-                .write(&mut encoder, &scene.buffers[i][part], at, piece)
-            {
-                error!(
-                    "treelight: dropped a {:?} write of {} bytes at {at}: not whole words",
-                    w.buffer,
-                    piece.len()
-                );
-            }
-        }
-        bytes += w.bytes.len() as u64;
-    }
-    scene.staging.finish();
-    if !grown.is_empty() || bytes > 0 {
-        queue.submit([encoder.finish()]);
-    }
+    let bytes = stage_writes(scene, &pending.writes, encoder, &queue, !grown.is_empty());
     scene.staging.recall(pending.filling);
     let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
     if let Some(root) = pending.root
@@ -304,6 +272,7 @@ fn apply_scene_uploads(
         if bytes > 0 {
             f.last_upload_bytes = bytes;
             f.total_upload_bytes += bytes;
+            f.largest_upload_bytes = f.largest_upload_bytes.max(bytes);
             f.uploads += 1;
         }
         f.scene_ready |= ready;
@@ -317,6 +286,51 @@ fn apply_scene_uploads(
     if pending.filling || writes.capacity_bytes() <= KEPT_WRITE_BYTES {
         sync.pending.writes = writes;
     }
+}
+
+/// Records the copies of `writes` after what `encoder` holds and submits them, in rounds of
+/// bounded staging ([`UploadBelt::write`]): a frame that rewrites a large scene holds one round of
+/// staging beside its writes, not a second copy of them. Returns the bytes written; submits
+/// nothing when there was nothing to do (`grown`: the encoder holds growth copies).
+fn stage_writes(
+    scene: &mut GpuScene,
+    writes: &crate::types::upload::Writes,
+    mut encoder: wgpu::CommandEncoder,
+    queue: &wgpu::Queue,
+    grown: bool,
+) -> u64 {
+    let layout = scene.layout;
+    let mut bytes = 0u64;
+    for w in writes.iter() {
+        let i = w.buffer.index();
+        let end = w.offset + w.bytes.len() as u64;
+        if end > scene.capacities[i] * w.buffer.record_bytes() {
+            // Extraction sized every buffer for its writes; a write past the end is a bug, and
+            // skipping it beats a device error that would stop all rendering.
+            error!(
+                "treelight: dropped a {:?} write past the buffer's end",
+                w.buffer
+            );
+            continue;
+        }
+        for (part, at, range) in layout.pieces(w.buffer, w.offset, w.bytes.len() as u64) {
+            let piece = &w.bytes[range];
+            let target = &scene.buffers[i][part];
+            if !scene.staging.write(&mut encoder, queue, target, at, piece) {
+                error!(
+                    "treelight: dropped a {:?} write of {} bytes at {at}: not whole words",
+                    w.buffer,
+                    piece.len()
+                );
+            }
+        }
+        bytes += w.bytes.len() as u64;
+    }
+    scene.staging.finish();
+    if grown || bytes > 0 {
+        queue.submit([encoder.finish()]);
+    }
+    bytes
 }
 
 /// Grows the buffers that must hold more records: up to what the adapter binds, then the large

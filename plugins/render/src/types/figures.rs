@@ -12,6 +12,9 @@ pub struct PathTracerFigures {
     pub last_upload_bytes: u64,
     /// Bytes written to the scene buffers since start.
     pub total_upload_bytes: u64,
+    /// The most bytes one frame wrote to the scene buffers: what that frame held in its writes
+    /// (and, up to a round of them, in staging) at once.
+    pub largest_upload_bytes: u64,
     /// Frames that uploaded anything.
     pub uploads: u64,
     /// Samples every pixel has accumulated so far, per path-traced camera.
