@@ -115,9 +115,12 @@ impl RayData {
     pub fn hit_box(&self, min: Vec3, max: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
         let t0 = (min - self.origin) * self.inv_dir;
         let t1 = (max - self.origin) * self.inv_dir;
-        // NaN (0 * inf for rays in a slab plane) is dropped by max/min ordering below.
-        let tn = t0.min(t1);
-        let tf = t0.max(t1);
+        // A ray parallel to an axis and lying in one of the box's faces across it makes 0 * inf =
+        // NaN there, beside an infinite bound: it lies within that slab, which then bounds
+        // nothing (min and max alone would keep the infinity and miss the box).
+        let on_face = t0.is_nan_mask() | t1.is_nan_mask();
+        let tn = Vec3::select(on_face, Vec3::NEG_INFINITY, t0.min(t1));
+        let tf = Vec3::select(on_face, Vec3::INFINITY, t0.max(t1));
         let enter = tn.x.max(tn.y).max(tn.z).max(t_min);
         let exit = tf.x.min(tf.y).min(tf.z).min(t_max);
         (enter <= exit * 1.000_000_4).then_some(enter)
@@ -190,6 +193,45 @@ mod tests {
                 .hit_triangle(&tri, 0.0, f32::INFINITY)
                 .is_none()
         );
+    }
+
+    #[test]
+    fn a_ray_in_a_box_face_plane_meets_the_box() {
+        // Along +z at y = 2 exactly: in the plane of a box's minimum y, then of its maximum.
+        let r = RayData::new(&Ray::new(Vec3::new(8.25, 2.0, -1.0), Vec3::Z));
+        let (lo, hi) = (Vec3::new(8.0, 2.0, 0.6), Vec3::new(9.0, 3.0, 0.6));
+        assert_eq!(r.hit_box(lo, hi, 0.0, f32::INFINITY), Some(1.6));
+        let (lo, hi) = (Vec3::new(8.0, 1.0, 0.6), Vec3::new(9.0, 2.0, 0.6));
+        assert_eq!(r.hit_box(lo, hi, 0.0, f32::INFINITY), Some(1.6));
+        // Beside a box, parallel to it, above and below: missed.
+        let (lo, hi) = (Vec3::new(8.0, 2.5, 0.6), Vec3::new(9.0, 3.0, 0.6));
+        assert_eq!(r.hit_box(lo, hi, 0.0, f32::INFINITY), None);
+        let (lo, hi) = (Vec3::new(8.0, 1.0, 0.6), Vec3::new(9.0, 1.5, 0.6));
+        assert_eq!(r.hit_box(lo, hi, 0.0, f32::INFINITY), None);
+        // The same along -z, whose zero components are -0.0 (infinite reciprocals of both signs).
+        let r = RayData::new(&Ray::new(
+            Vec3::new(8.25, 2.0, 3.0),
+            Vec3::new(-0.0, -0.0, -1.0),
+        ));
+        let (lo, hi) = (Vec3::new(8.0, 1.0, 0.6), Vec3::new(9.0, 2.0, 0.6));
+        assert_eq!(r.hit_box(lo, hi, 0.0, f32::INFINITY), Some(2.4));
+        // The triangle on that face's edge is hit through a tree as by brute force.
+        let tri = Triangle::new(
+            Vec3::new(8.0, 2.0, 0.6),
+            Vec3::new(9.0, 2.0, 0.6),
+            Vec3::new(8.0, 3.0, 0.6),
+        );
+        let far = Triangle::new(
+            Vec3::splat(50.0),
+            Vec3::new(51.0, 50.0, 50.0),
+            Vec3::splat(51.0),
+        );
+        let mut bvh = crate::Bvh::new(crate::BvhConfig::default());
+        bvh.insert_triangles(&[tri, far]).unwrap();
+        let ray = Ray::new(Vec3::new(8.25, 2.0, -1.0), Vec3::Z);
+        let brute = bvh.brute_force_closest_hit(&ray);
+        assert!(brute.is_some());
+        assert_eq!(bvh.closest_hit(&ray), brute);
     }
 
     #[test]
