@@ -33,13 +33,13 @@ impl ChangeLog {
 
     /// Bytes its flags and lists hold beyond their lengths (the lists are empty between takes).
     pub(crate) fn spare_bytes(&self) -> usize {
-        let spare = |cap: usize, len: usize, size: usize| (cap - len) * size;
-        spare(self.inner_dirty.capacity(), self.inner_dirty.len(), 1)
-            + spare(self.tri_dirty.capacity(), self.tri_dirty.len(), 1)
-            + spare(self.inst_dirty.capacity(), self.inst_dirty.len(), 1)
-            + spare(self.inner_list.capacity(), self.inner_list.len(), 4)
-            + spare(self.tri_list.capacity(), self.tri_list.len(), 4)
-            + spare(self.inst_list.capacity(), self.inst_list.len(), 4)
+        use crate::tree::memory::spare;
+        spare(&self.inner_dirty)
+            + spare(&self.inner_list)
+            + spare(&self.tri_dirty)
+            + spare(&self.tri_list)
+            + spare(&self.inst_dirty)
+            + spare(&self.inst_list)
     }
 
     /// Gives back the room counted by [`ChangeLog::spare_bytes`].

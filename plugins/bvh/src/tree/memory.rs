@@ -8,7 +8,7 @@ pub(crate) fn vec_bytes<T>(v: &Vec<T>) -> usize {
 }
 
 /// Bytes a vector holds beyond its length.
-fn spare<T>(v: &Vec<T>) -> usize {
+pub(crate) fn spare<T>(v: &Vec<T>) -> usize {
     (v.capacity() - v.len()) * size_of::<T>()
 }
 
