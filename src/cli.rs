@@ -90,14 +90,20 @@ pub enum Command {
     /// the project's view (a file is framed from above), with its exposure and tone curve, and
     /// save the image.
     Render(RenderArgs),
-    /// Print each image's relative mean squared error against a reference image of the same
-    /// frame (a render at many samples), then exit.
+    /// Print how far each image is from a reference image of the same frame (a render at many
+    /// samples): relative mean squared error of linear colour, of display values and of display
+    /// values over the reference's detail, and the structural similarity; then exit.
     Compare {
         /// The reference (.png).
         reference: PathBuf,
         /// The images to measure (.png, the reference's size).
         #[arg(required = true)]
         images: Vec<PathBuf>,
+        /// Draw each image's difference from the reference into this folder, as
+        /// `<image>-residual.png` (red: brighter than the reference, blue: darker, 8× the
+        /// difference); an existing file is not replaced.
+        #[arg(long, value_name = "DIR")]
+        residuals: Option<PathBuf>,
     },
 }
 

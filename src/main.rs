@@ -19,17 +19,13 @@ fn main() -> std::process::ExitCode {
             }
         };
     }
-    if let Some(treelight::cli::Command::Compare { reference, images }) = &cli.command {
-        for image in images {
-            match treelight::compare::relative_mse(reference, image) {
-                Ok(e) => println!("{e:.6}  {}", image.display()),
-                Err(e) => {
-                    eprintln!("treelight: {e}");
-                    return std::process::ExitCode::from(1);
-                }
-            }
-        }
-        return std::process::ExitCode::SUCCESS;
+    if let Some(treelight::cli::Command::Compare {
+        reference,
+        images,
+        residuals,
+    }) = &cli.command
+    {
+        return treelight::compare::print_comparisons(reference, images, residuals.as_deref());
     }
     if let Some(treelight::cli::Command::Render(args)) = &cli.command {
         if let Err(e) = treelight::render_file::check_output(args) {

@@ -1,15 +1,27 @@
 // The denoiser: an edge-aware à-trous filter (SVGF's spatial part) over a view's accumulated
 // samples, guided by what the trace kernel keeps of each pixel's primary hits (the first one's
-// object slot, shading normal and depth; the mean albedo of all) and by the noise of each pixel's mean (from its samples' squared
-// luminance, averaged over its neighbours). Lighting is
-// filtered apart from the surface colour (divided by the albedo here, multiplied back by the
-// resolve), so textures stay sharp; taps on another object never count, so nothing smears across
-// an object's edge or over the selection outline. A first pass reads the accumulation and filters
-// nothing: it holds each pixel's lighting to at most TAME times its brightest neighbour's (a rare
-// bright path among few samples is a firefly the filter would spread into a blotch) and estimates
-// its noise. Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes
-// (rgb: demodulated colour, w: its variance) for the next, the last for the resolve. The crate
-// appends octahedral.wgsl.
+// object slot, shading normal and depth; the mean albedo and emission of all) and by the noise of
+// each pixel's mean. That noise is measured, not inferred from the samples' spread: a pixel's
+// samples cover it evenly (a Sobol sequence), so what varies across it (a texture finer than the
+// pixel, an edge) spreads them widely while their mean is nearly exact; the spread would call it
+// noise and the filter would blur it away. The trace kernel keeps the first P samples' sum apart
+// (P a power of two), and the difference between their mean and the rest's, two independent
+// estimates each covering the pixel evenly, gives the variance of the whole mean, averaged over
+// the 3 × 3 pixels of the same object around. The same two estimates decide how far two pixels'
+// lighting truly differs: the product of their differences has the squared true difference for
+// its mean, noise adding nothing (a difference of noisy means is inflated by their noise), so
+// the filter mixes pixels while their true difference stays within the noise it removes
+// (`sigma_luminance` deviations), and noise is not taken for detail nor detail for noise.
+//
+// Reflected light is filtered apart from the surface colour (divided by the albedo here,
+// multiplied back by the resolve), so textures stay sharp; emitted light and directly seen sky are
+// not filtered at all. Taps on another object never count, so nothing smears across an object's
+// edge or over the selection outline. A first pass reads the accumulation and filters nothing: it
+// holds each pixel's lighting to at most TAME times its brightest neighbour's (a rare bright path
+// among few samples is a firefly the filter would spread into a blotch) and estimates its noise.
+// Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes (rgb:
+// demodulated colour, w: its variance) for the next, the last for the resolve. The crate appends
+// guide_layout.wgsl and octahedral.wgsl.
 
 struct Denoise {
     width: u32,
@@ -35,7 +47,7 @@ const TAME: f32 = 3.0;
 @group(0) @binding(2) var<storage, read> params: Denoise;
 @group(0) @binding(3) var<storage, read> source: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> filtered: array<vec4<f32>>;
-// The trace kernel's guides, five words a pixel (see pathtrace.wgsl).
+// The trace kernel's guides (guide_layout.wgsl).
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
 
 fn luminance(c: vec3<f32>) -> f32 {
@@ -47,50 +59,86 @@ struct Guide {
     normal: vec3<f32>,
     depth: f32,
     albedo: vec3<f32>,
-    // The sum of the samples' squared luminance.
-    moment: f32,
+    // The mean light the samples' primary hits emit.
+    emission: vec3<f32>,
+    // The summed luminance of the first `head_count` samples.
+    head: f32,
     // Whether its samples met more than one object.
     mixed: bool,
 }
 
 fn guide(i: u32) -> Guide {
     let pixels = params.width * params.height;
-    let g = 5u * i;
+    let g = GUIDE_WORDS * i;
+    let n = max(accum[i].w, 1.0);
     var out: Guide;
     out.slot = aux[pixels + i];
-    out.normal = decode_normal(guides[g]);
+    out.normal = decode_normal(guides[g + GUIDE_NORMAL]);
     out.depth = bitcast<f32>(aux[i]);
-    let sum = vec3<f32>(bitcast<f32>(guides[g + 2u]), bitcast<f32>(guides[g + 3u]), bitcast<f32>(guides[g + 4u]));
-    out.albedo = sum / max(accum[i].w, 1.0);
-    let m = bitcast<f32>(guides[g + 1u]);
-    out.moment = abs(m);
-    out.mixed = m < 0.0;
+    let sum = vec3<f32>(
+        bitcast<f32>(guides[g + GUIDE_ALBEDO]),
+        bitcast<f32>(guides[g + GUIDE_ALBEDO + 1u]),
+        bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
+    );
+    out.albedo = sum / n;
+    out.emission = guide_emission(i, n);
+    let m = guides[g + GUIDE_HEAD];
+    out.head = bitcast<f32>(m & 0x7fffffffu);
+    out.mixed = (m >> 31u) != 0u;
     return out;
 }
 
-// The variance of a pixel's mean luminance, from its samples (in demodulated units).
-fn mean_variance(i: u32, g: Guide) -> f32 {
-    let a = accum[i];
-    let n = max(a.w, 1.0);
-    let mean = luminance(a.rgb) / n;
-    let v = max(g.moment / n - mean * mean, 0.0) / n;
-    let albedo = max(luminance(g.albedo), 0.02);
-    return v / (albedo * albedo);
+// How many of n samples the guide's head sum covers: the largest power of two below n.
+fn head_count(n: u32) -> u32 {
+    return 1u << (31u - countLeadingZeros(n - 1u));
 }
 
-// A pixel's mean colour divided by its albedo (lighting alone).
+// The variance of a pixel's mean luminance (in demodulated units), from its first samples and the
+// rest: two independent estimates of a and b samples whose difference d has the variance
+// s² (1 / a + 1 / b), s² a sample's, while the mean's is s² / (a + b). Negative where the pixel
+// has a single sample.
+fn mean_variance(i: u32, g: Guide) -> f32 {
+    let n = u32(accum[i].w);
+    if n < 2u {
+        return -1.0;
+    }
+    let a = f32(head_count(n));
+    let b = f32(n) - a;
+    let d = g.head / a - (luminance(accum[i].rgb) - g.head) / b;
+    let albedo = max(luminance(g.albedo), 0.02);
+    return d * d * a * b / (f32(n) * f32(n)) / (albedo * albedo);
+}
+
+// A pixel's two independent estimates of its lighting (luminance, demodulated): the mean of its
+// first samples and the rest's, and 1 (z) where it has two (0: a single sample).
+fn parts(i: u32, g: Guide) -> vec3<f32> {
+    let n = u32(accum[i].w);
+    if n < 2u {
+        return vec3<f32>(0.0);
+    }
+    let a = f32(head_count(n));
+    let b = f32(n) - a;
+    let albedo = max(luminance(g.albedo), 0.02);
+    let e = luminance(g.emission);
+    let la = (g.head / a - e) / albedo;
+    let lb = ((luminance(accum[i].rgb) - g.head) / b - e) / albedo;
+    return vec3<f32>(la, lb, 1.0);
+}
+
+// A pixel's mean reflected light (its colour less what its surfaces emit) divided by its albedo:
+// lighting alone.
 fn demodulated(i: u32, g: Guide) -> vec3<f32> {
     let a = accum[i];
-    return a.rgb / max(a.w, 1.0) / max(g.albedo, vec3<f32>(0.02));
+    let reflected = max(a.rgb / max(a.w, 1.0) - g.emission, vec3<f32>(0.0));
+    return reflected / max(g.albedo, vec3<f32>(0.02));
 }
 
 // A pixel's demodulated colour `c`, its luminance held to TAME times `top` (the brightest of its
-// 8 neighbours') but lowered by no more than 3 standard deviations of its mean (`variance`): a
-// firefly (one rare bright path among few samples) would spread into a blotch, while a bright
-// feature a pixel wide that the samples agree on stays.
-fn tamed(c: vec3<f32>, top: f32, variance: f32) -> vec3<f32> {
+// 8 neighbours') but not below `agreed`, what the samples agree on: a firefly (one rare bright
+// path among few samples) would spread into a blotch, while a bright feature a pixel wide stays.
+fn tamed(c: vec3<f32>, top: f32, agreed: f32) -> vec3<f32> {
     let l = luminance(c);
-    let bound = max(top * TAME, l - 3.0 * sqrt(variance));
+    let bound = max(top * TAME, agreed);
     if l > bound && bound > 0.0 {
         return c * (bound / l);
     }
@@ -132,12 +180,21 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let gp = guide(i);
+    // Directly seen sky is the sky itself, not noise: it passes every pass unfiltered.
+    if gp.slot == NONE && !gp.mixed {
+        filtered[i] = vec4<f32>(demodulated(i, gp), 0.0);
+        return;
+    }
     if params.first == 1u {
         // The first pass filters nothing: it writes each pixel's lighting, tamed by its 8
         // neighbours, and the noise of the pixels' means averaged over the 3 × 3 pixels of the
-        // same object around (a few samples say little about their own spread).
+        // same object around (one pixel's two halves say little about their spread). With one
+        // sample a pixel, the spread of those pixels' lighting stands in.
         var v = 0.0;
+        var nv = 0.0;
         var n = 0.0;
+        var l1 = 0.0;
+        var l2 = 0.0;
         var top = 0.0;
         for (var dy = -1; dy <= 1; dy += 1) {
             for (var dx = -1; dx <= 1; dx += 1) {
@@ -156,16 +213,36 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                         continue;
                     }
                 }
-                v += mean_variance(j, gq);
+                let vq = mean_variance(j, gq);
+                if vq >= 0.0 {
+                    v += vq;
+                    nv += 1.0;
+                }
+                let l = luminance(demodulated(j, gq));
+                l1 += l;
+                l2 += l * l;
                 n += 1.0;
             }
         }
-        filtered[i] = vec4<f32>(tamed(demodulated(i, gp), top, mean_variance(i, gp)), v / n);
+        var variance = v / max(nv, 1.0);
+        if mean_variance(i, gp) < 0.0 {
+            variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
+        }
+        // What the samples agree on: the lower of the pixel's two independent estimates (a
+        // firefly is in one of them only), or, with a single sample, 3 standard deviations below
+        // its mean.
+        let own = demodulated(i, gp);
+        let pp = parts(i, gp);
+        var agreed = luminance(own) - 3.0 * sqrt(variance);
+        if pp.z > 0.0 {
+            agreed = min(pp.x, pp.y);
+        }
+        filtered[i] = vec4<f32>(tamed(own, top, agreed), variance);
         return;
     }
     let centre = source[i];
-    let sigma = params.sigma_luminance * sqrt(centre.w) + 1e-4;
     let lp = luminance(centre.rgb);
+    let pp = parts(i, gp);
     let kernel = array<f32, 3>(3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
     var sum = vec3<f32>(0.0);
     var variance = 0.0;
@@ -187,7 +264,19 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
             let v = source[j];
             let k = kernel[abs(dx)] * kernel[abs(dy)];
             let distance = max(length(vec2<f32>(vec2<i32>(dx, dy) * i32(params.step))), 1.0);
-            let wl = exp(-abs(luminance(v.rgb) - lp) / sigma);
+            // How far q's lighting truly is from p's, against the noise of both: the product of
+            // the differences of their two independent estimates has the square of the true
+            // difference for its mean, noise adding nothing to it (as it would to a difference
+            // of the noisy means), so noise is not taken for detail nor a firefly for an edge.
+            let pq = parts(j, gq);
+            let raw = max(mean_variance(i, gp), 0.0) + max(mean_variance(j, gq), 0.0);
+            let spread = params.sigma_luminance * params.sigma_luminance * max(centre.w + v.w, raw) + 1e-8;
+            var wl = 1.0;
+            if pp.z > 0.0 && pq.z > 0.0 {
+                wl = exp(-max((pq.x - pp.x) * (pq.y - pp.y), 0.0) / spread);
+            } else {
+                wl = exp(-abs(luminance(v.rgb) - lp) / sqrt(spread));
+            }
             let w = k * geometry_weight(gp, gq, distance) * wl;
             sum += w * v.rgb;
             variance += w * w * v.w;

@@ -154,9 +154,7 @@ struct View {
 @group(1) @binding(0) var<uniform> view: View;
 @group(1) @binding(1) var<storage, read_write> accum: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read_write> aux: array<u32>;
-// The denoiser's guides, five words a pixel: the first sample's shading normal (octahedral, in
-// pack2x16snorm); the sum of its samples' squared luminance (an f32, negated once they met more
-// than one object); the sum of their primary hits' albedo (three f32).
+// The denoiser's guides (guide_layout.wgsl).
 @group(1) @binding(3) var<storage, read_write> guides: array<u32>;
 
 fn part_shift() -> u32 {
@@ -201,6 +199,9 @@ var<private> primary_object: u32;
 // escapes): the denoiser's guides (the first sample's normal, the albedo summed over samples).
 var<private> primary_albedo: vec3<f32>;
 var<private> primary_normal: vec3<f32>;
+// The light the current sample's primary hit emits, exposed as the samples are (the denoiser
+// passes it unfiltered).
+var<private> primary_emission: vec3<f32>;
 // A shadow ray under way: what the clear surfaces it passed leave of its light (`shadow`).
 var<private> shadow_filter: vec3<f32>;
 var<private> shadow_origin: vec3<f32>;
@@ -1134,6 +1135,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         if primary {
             primary_albedo = s.albedo;
             primary_normal = s.ns;
+            primary_emission = s.emissive * view.sky.w;
         }
         let wo = -d;
         var w_emitted = 1.0;
@@ -1271,6 +1273,7 @@ fn trace_sample(at: vec2<f32>) -> vec3<f32> {
     primary_object = NONE;
     primary_albedo = vec3<f32>(1.0);
     primary_normal = vec3<f32>(0.0);
+    primary_emission = vec3<f32>(0.0);
     let ray = camera_ray(at / vec2<f32>(f32(view.width), f32(view.height)));
     if view.mode == MODE_PATH {
         let l = path_radiance(ray[0], ray[1]);
@@ -1362,24 +1365,31 @@ fn path_trace(
     let acc = accum[pixel];
     let first = u32(acc.w);
     var sum = vec3<f32>(0.0);
-    // The sum of the samples' squared luminance: the denoiser's estimate of the pixel's noise.
-    // Stored negated once the pixel's samples have met more than one object (a silhouette): the
+    // The summed luminance of the first P samples, P the largest power of two below the count:
+    // they and the rest are two independent estimates of the pixel, each covering it evenly (a
+    // power-of-two run of the Sobol sequence, and the start of the next), so their difference
+    // tells the denoiser the noise of the mean (the samples' spread cannot: what varies across
+    // the pixel, a texture or an edge, spreads them while the even cover averages it out). Its
+    // sign bit is set once the pixel's samples have met more than one object (a silhouette): the
     // denoiser keeps such mixed pixels from standing in for their neighbours.
-    var moment = 0.0;
+    var head = 0.0;
     var mixed = false;
-    // And the sum of the primary hits' albedo: lighting is filtered apart from it.
+    // And the sums of the primary hits' albedo and emission: lighting is filtered apart from
+    // the one, and the other passes unfiltered.
     var albedo = vec3<f32>(0.0);
-    let g = 5u * pixel;
+    var emission = vec3<f32>(0.0);
+    let g = GUIDE_WORDS * pixel;
     let slot_at = view.width * view.height + pixel;
     if first > 0u {
-        let m = bitcast<f32>(guides[g + 1u]);
-        moment = abs(m);
-        mixed = m < 0.0;
+        let m = guides[g + GUIDE_HEAD];
+        head = bitcast<f32>(m & 0x7fffffffu);
+        mixed = (m >> 31u) != 0u;
         albedo = vec3<f32>(
-            bitcast<f32>(guides[g + 2u]),
-            bitcast<f32>(guides[g + 3u]),
-            bitcast<f32>(guides[g + 4u]),
+            bitcast<f32>(guides[g + GUIDE_ALBEDO]),
+            bitcast<f32>(guides[g + GUIDE_ALBEDO + 1u]),
+            bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
         );
+        emission = guide_emission(pixel, 1.0);
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1388,21 +1398,25 @@ fn path_trace(
             sub = pixel_position(pixel, first + k);
         }
         let value = trace_sample(vec2<f32>(p) + sub);
+        let index = first + k;
+        if index != 0u && (index & (index - 1u)) == 0u {
+            head = luminance(acc.rgb + sum);
+        }
         sum += value;
-        let l = luminance(value);
-        moment += l * l;
         albedo += clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0));
+        emission += primary_emission;
         if first + k == 0u {
             aux[pixel] = bitcast<u32>(primary_depth);
             aux[slot_at] = primary_object;
-            guides[g] = encode_normal(primary_normal);
+            guides[g + GUIDE_NORMAL] = encode_normal(primary_normal);
         } else if primary_object != aux[slot_at] {
             mixed = true;
         }
     }
-    guides[g + 1u] = bitcast<u32>(select(moment, -moment, mixed));
-    guides[g + 2u] = bitcast<u32>(albedo.r);
-    guides[g + 3u] = bitcast<u32>(albedo.g);
-    guides[g + 4u] = bitcast<u32>(albedo.b);
+    guides[g + GUIDE_HEAD] = bitcast<u32>(head) | select(0u, 0x80000000u, mixed);
+    for (var c = 0u; c < 3u; c += 1u) {
+        guides[g + GUIDE_ALBEDO + c] = bitcast<u32>(albedo[c]);
+        guides[g + GUIDE_EMISSION + c] = bitcast<u32>(emission[c]);
+    }
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -43,7 +43,8 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(3) var<storage, read> outlines: array<u32>;
 // The denoiser's last pass (denoise.wgsl): per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(4) var<storage, read> denoised: array<vec4<f32>>;
-// The trace kernel's guides (pathtrace.wgsl): the albedo summed over a pixel's samples at 2 to 4.
+// The trace kernel's guides (guide_layout.wgsl): the albedo and the emitted light summed over a
+// pixel's samples.
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
 // The temporal pass's picture: per traced pixel rgb and weight in half floats, depth, object slot
 // (temporal.wgsl).
@@ -94,9 +95,7 @@ fn traced(position: vec2<f32>) -> vec4<f32> {
     }
     if a.w > 0.0 {
         if resolve.denoised == 1u {
-            let g = 5u * i + 2u;
-            let albedo = vec3<f32>(bitcast<f32>(guides[g]), bitcast<f32>(guides[g + 1u]), bitcast<f32>(guides[g + 2u])) / a.w;
-            return vec4<f32>(denoised[i].rgb * max(albedo, vec3<f32>(0.02)), aux_f32(i));
+            return vec4<f32>(remodulated(i, a.w), aux_f32(i));
         }
         return vec4<f32>(a.rgb / a.w, aux_f32(i));
     }

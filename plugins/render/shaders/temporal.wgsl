@@ -36,7 +36,8 @@ const PREVIEW_WEIGHT: f32 = 1.0;
 @group(0) @binding(2) var<storage, read> params: Temporal;
 // The denoiser's last pass: per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(3) var<storage, read> denoised: array<vec4<f32>>;
-// The trace kernel's guides: the albedo summed over a pixel's samples at words 2 to 4 of five.
+// The trace kernel's guides (guide_layout.wgsl): the albedo and the emitted light summed over a
+// pixel's samples, and whether they met more than one object.
 @group(0) @binding(4) var<storage, read> guides: array<u32>;
 // The last frame's picture and this frame's, 16 bytes a pixel (as the accumulation, so a view that
 // binds one binds the other): rgb and weight in half floats (`pack_picture`), the primary hit's
@@ -90,17 +91,15 @@ fn estimate(p: vec2<u32>) -> Estimate {
     var e: Estimate;
     if a.w > 0.0 {
         if params.denoised == 1u {
-            let g = 5u * i + 2u;
-            let albedo = vec3<f32>(bitcast<f32>(guides[g]), bitcast<f32>(guides[g + 1u]), bitcast<f32>(guides[g + 2u])) / a.w;
-            e.colour = denoised[i].rgb * max(albedo, vec3<f32>(0.02));
+            e.colour = remodulated(i, a.w);
         } else {
             e.colour = a.rgb / a.w;
         }
         e.weight = a.w;
         e.depth = aux_f32(i);
         e.object = aux[pixels + i];
-        // The trace kernel stores the moment negated for such pixels.
-        e.mixed = bitcast<f32>(guides[5u * i + 1u]) < 0.0;
+        // The trace kernel sets the sign bit of their second guide word.
+        e.mixed = (guides[GUIDE_WORDS * i + GUIDE_HEAD] >> 31u) != 0u;
         return e;
     }
     let k = params.preview_scale;

@@ -15,6 +15,7 @@ pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../shaders/attrs_whole.wgsl"),
     include_str!("../../shaders/sampling.wgsl"),
     include_str!("../../shaders/aux_layout.wgsl"),
+    include_str!("../../shaders/guide_layout.wgsl"),
     include_str!("../../shaders/octahedral.wgsl")
 );
 
@@ -29,6 +30,7 @@ pub const PATHTRACE_SPLIT_WGSL: &str = concat!(
     include_str!("../../shaders/attrs_parts.wgsl"),
     include_str!("../../shaders/sampling.wgsl"),
     include_str!("../../shaders/aux_layout.wgsl"),
+    include_str!("../../shaders/guide_layout.wgsl"),
     include_str!("../../shaders/octahedral.wgsl")
 );
 
@@ -94,6 +96,7 @@ pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../shaders/texture_layer.w
 /// WGSL: the denoiser's pass (`denoise`), an edge-aware à-trous filter over a view's samples.
 pub const DENOISE_WGSL: &str = concat!(
     include_str!("../../shaders/denoise.wgsl"),
+    include_str!("../../shaders/guide_layout.wgsl"),
     include_str!("../../shaders/octahedral.wgsl")
 );
 
@@ -101,11 +104,15 @@ pub const DENOISE_WGSL: &str = concat!(
 /// the last frame's picture carried through the camera's move.
 pub const TEMPORAL_WGSL: &str = concat!(
     include_str!("../../shaders/temporal.wgsl"),
-    include_str!("../../shaders/aux_layout.wgsl")
+    include_str!("../../shaders/aux_layout.wgsl"),
+    include_str!("../../shaders/guide_layout.wgsl"),
+    include_str!("../../shaders/remodulate.wgsl")
 );
 
 /// WGSL: the pass that draws the accumulated average into the view target.
 pub const RESOLVE_WGSL: &str = concat!(
     include_str!("../../shaders/resolve.wgsl"),
-    include_str!("../../shaders/aux_layout.wgsl")
+    include_str!("../../shaders/aux_layout.wgsl"),
+    include_str!("../../shaders/guide_layout.wgsl"),
+    include_str!("../../shaders/remodulate.wgsl")
 );

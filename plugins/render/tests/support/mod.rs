@@ -710,7 +710,7 @@ pub struct TraceTarget {
     pub aux: wgpu::Buffer,
     /// The denoiser's two working images.
     pub denoised: [wgpu::Buffer; 2],
-    /// The trace kernel's guides for the denoiser, five words a pixel.
+    /// The trace kernel's guides for the denoiser (guide_layout.wgsl).
     pub guides: wgpu::Buffer,
     /// The image's width.
     pub width: u32,
