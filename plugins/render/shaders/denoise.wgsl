@@ -81,7 +81,7 @@ fn guide(i: u32) -> Guide {
         bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
     );
     out.albedo = sum / n;
-    out.emission = guide_emission(i, n);
+    out.emission = guide_emission(i);
     let m = guides[g + GUIDE_HEAD];
     out.head = bitcast<f32>(m & 0x7fffffffu);
     out.mixed = (m >> 31u) != 0u;

@@ -1,16 +1,17 @@
 // The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the first
 // sample's shading normal (octahedral, pack2x16snorm); the summed luminance of the first P samples,
 // P the largest power of two below their count (an f32, its sign bit set once the samples met
-// more than one object); the sum of the samples' primary hits' albedo (three f32); the sum of the
-// light those hits emit (three f32).
-const GUIDE_WORDS: u32 = 8u;
+// more than one object); the sum of the samples' primary hits' albedo (three f32); the mean light
+// those hits emit (three f16 in two words: the denoiser subtracts and the resolve adds back the
+// same value, so its rounding moves no light; the view's largest buffer stays small).
+const GUIDE_WORDS: u32 = 7u;
 const GUIDE_NORMAL: u32 = 0u;
 const GUIDE_HEAD: u32 = 1u;
 const GUIDE_ALBEDO: u32 = 2u;
 const GUIDE_EMISSION: u32 = 5u;
 
-// The mean light a pixel's `n` samples' primary hits emit.
-fn guide_emission(i: u32, n: f32) -> vec3<f32> {
+// The mean light a pixel's samples' primary hits emit.
+fn guide_emission(i: u32) -> vec3<f32> {
     let g = GUIDE_WORDS * i + GUIDE_EMISSION;
-    return vec3<f32>(bitcast<f32>(guides[g]), bitcast<f32>(guides[g + 1u]), bitcast<f32>(guides[g + 2u])) / n;
+    return vec3<f32>(unpack2x16float(guides[g]), unpack2x16float(guides[g + 1u]).x);
 }

@@ -1374,8 +1374,8 @@ fn path_trace(
     // denoiser keeps such mixed pixels from standing in for their neighbours.
     var head = 0.0;
     var mixed = false;
-    // And the sums of the primary hits' albedo and emission: lighting is filtered apart from
-    // the one, and the other passes unfiltered.
+    // And the sums of the primary hits' albedo and emission (kept as a mean): lighting is
+    // filtered apart from the one, and the other passes unfiltered.
     var albedo = vec3<f32>(0.0);
     var emission = vec3<f32>(0.0);
     let g = GUIDE_WORDS * pixel;
@@ -1389,7 +1389,7 @@ fn path_trace(
             bitcast<f32>(guides[g + GUIDE_ALBEDO + 1u]),
             bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
         );
-        emission = guide_emission(pixel, 1.0);
+        emission = guide_emission(pixel) * f32(first);
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1416,7 +1416,10 @@ fn path_trace(
     guides[g + GUIDE_HEAD] = bitcast<u32>(head) | select(0u, 0x80000000u, mixed);
     for (var c = 0u; c < 3u; c += 1u) {
         guides[g + GUIDE_ALBEDO + c] = bitcast<u32>(albedo[c]);
-        guides[g + GUIDE_EMISSION + c] = bitcast<u32>(emission[c]);
     }
+    // f16's largest finite value bounds it: an infinity would poison the subtraction.
+    let mean = min(emission / f32(first + view.samples), vec3<f32>(65504.0));
+    guides[g + GUIDE_EMISSION] = pack2x16float(mean.rg);
+    guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, 0.0));
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

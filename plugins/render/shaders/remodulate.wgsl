@@ -8,5 +8,5 @@ fn remodulated(i: u32, n: f32) -> vec3<f32> {
         bitcast<f32>(guides[g + GUIDE_ALBEDO + 1u]),
         bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
     ) / n;
-    return denoised[i].rgb * max(albedo, vec3<f32>(0.02)) + guide_emission(i, n);
+    return denoised[i].rgb * max(albedo, vec3<f32>(0.02)) + guide_emission(i);
 }

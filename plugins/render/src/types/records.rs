@@ -285,8 +285,9 @@ pub fn aux_bytes(width: u32, height: u32) -> u64 {
 }
 
 /// Words a pixel of the denoiser's guides (`GUIDE_WORDS` of guide_layout.wgsl): the first
-/// sample's normal, the head samples' luminance, the albedo summed (3) and the emission summed (3).
-pub const GUIDE_WORDS: u64 = 8;
+/// sample's normal, the head samples' luminance, the albedo summed (3) and the emission's mean
+/// (three halves in 2).
+pub const GUIDE_WORDS: u64 = 7;
 
 /// Bytes of a `width × height` view's denoiser guides (guide_layout.wgsl).
 pub fn guide_bytes(width: u32, height: u32) -> u64 {
