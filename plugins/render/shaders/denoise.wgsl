@@ -93,24 +93,8 @@ fn head_count(n: u32) -> u32 {
     return 1u << (31u - countLeadingZeros(n - 1u));
 }
 
-// The variance of a pixel's mean luminance (in demodulated units), from its first samples and the
-// rest: two independent estimates of a and b samples whose difference d has the variance
-// s² (1 / a + 1 / b), s² a sample's, while the mean's is s² / (a + b). Negative where the pixel
-// has a single sample.
-fn mean_variance(i: u32, g: Guide) -> f32 {
-    let n = u32(accum[i].w);
-    if n < 2u {
-        return -1.0;
-    }
-    let a = f32(head_count(n));
-    let b = f32(n) - a;
-    let d = g.head / a - (luminance(accum[i].rgb) - g.head) / b;
-    let albedo = max(luminance(g.albedo), 0.02);
-    return d * d * a * b / (f32(n) * f32(n)) / (albedo * albedo);
-}
-
 // A pixel's two independent estimates of its lighting (luminance, demodulated): the mean of its
-// first samples and the rest's, and 1 (z) where it has two (0: a single sample).
+// first a samples and the rest's (b), and (z) a b / n², 0 where it has a single sample.
 fn parts(i: u32, g: Guide) -> vec3<f32> {
     let n = u32(accum[i].w);
     if n < 2u {
@@ -122,7 +106,15 @@ fn parts(i: u32, g: Guide) -> vec3<f32> {
     let e = luminance(g.emission);
     let la = (g.head / a - e) / albedo;
     let lb = ((luminance(accum[i].rgb) - g.head) / b - e) / albedo;
-    return vec3<f32>(la, lb, 1.0);
+    return vec3<f32>(la, lb, a * b / (f32(n) * f32(n)));
+}
+
+// The variance of a pixel's mean luminance from its `parts`: two independent estimates of a and
+// b samples whose difference d has the variance s² (1 / a + 1 / b), s² a sample's, while the
+// mean's is s² / (a + b) = d² a b / n² on average. Negative where the pixel has a single sample.
+fn part_variance(parts: vec3<f32>) -> f32 {
+    let d = parts.x - parts.y;
+    return select(-1.0, d * d * parts.z, parts.z > 0.0);
 }
 
 // A pixel's mean reflected light (its colour less what its surfaces emit) divided by its albedo:
@@ -213,7 +205,7 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                         continue;
                     }
                 }
-                let vq = mean_variance(j, gq);
+                let vq = part_variance(parts(j, gq));
                 if vq >= 0.0 {
                     v += vq;
                     nv += 1.0;
@@ -224,15 +216,15 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                 n += 1.0;
             }
         }
+        let pp = parts(i, gp);
         var variance = v / max(nv, 1.0);
-        if mean_variance(i, gp) < 0.0 {
+        if pp.z == 0.0 {
             variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
         }
         // What the samples agree on: the lower of the pixel's two independent estimates (a
         // firefly is in one of them only), or, with a single sample, 3 standard deviations below
         // its mean.
         let own = demodulated(i, gp);
-        let pp = parts(i, gp);
         var agreed = luminance(own) - 3.0 * sqrt(variance);
         if pp.z > 0.0 {
             agreed = min(pp.x, pp.y);
@@ -243,6 +235,7 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
     let centre = source[i];
     let lp = luminance(centre.rgb);
     let pp = parts(i, gp);
+    let raw_p = max(part_variance(pp), 0.0);
     let kernel = array<f32, 3>(3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
     var sum = vec3<f32>(0.0);
     var variance = 0.0;
@@ -269,7 +262,7 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
             // difference for its mean, noise adding nothing to it (as it would to a difference
             // of the noisy means), so noise is not taken for detail nor a firefly for an edge.
             let pq = parts(j, gq);
-            let raw = max(mean_variance(i, gp), 0.0) + max(mean_variance(j, gq), 0.0);
+            let raw = raw_p + max(part_variance(pq), 0.0);
             let spread = params.sigma_luminance * params.sigma_luminance * max(centre.w + v.w, raw) + 1e-8;
             var wl = 1.0;
             if pp.z > 0.0 && pq.z > 0.0 {

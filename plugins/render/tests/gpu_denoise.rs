@@ -153,32 +153,42 @@ fn light_does_not_smear_across_an_object_s_edge() {
     );
 }
 
+/// A layer of 96 × 96 random texels, each `texel` of a random byte: about four to a pixel across
+/// `square(1.2)` in these tests' views, read through [`FINE_MAP`].
+fn random_texels(gpu: &Gpu, seed: u64, texel: impl Fn(u8) -> [u8; 4]) -> support::Layers {
+    let texels = 96;
+    let layers = gpu.layers(texels, 1);
+    let mut rng = Rng(seed);
+    let image: Vec<u8> = (0..texels * texels)
+        .flat_map(|_| texel(rng.byte()))
+        .collect();
+    gpu.copy_to_layer(&layers, 0, texels, texels, &image);
+    layers
+}
+
+/// The map of [`random_texels`]' layer, repeated.
+const FINE_MAP: LayerTexture = LayerTexture {
+    layer: 0,
+    wrap: [TextureWrap::Repeat; 2],
+    second_uv_set: false,
+};
+
 #[test]
 fn a_texture_finer_than_the_pixels_keeps_its_detail() {
     let gpu = Gpu::new();
     // Random texels, about four to a pixel across the quad: most of a pixel's spread of samples
     // is the texture under it.
-    let texels = 96;
-    let layers = gpu.layers(texels, 1);
-    let mut rng = Rng(11);
-    let image: Vec<u8> = (0..texels * texels)
-        .flat_map(|_| {
-            let v = 40 + rng.byte() / 2;
-            [v, v, v, 255]
-        })
-        .collect();
-    gpu.copy_to_layer(&layers, 0, texels, texels, &image);
+    let layers = random_texels(&gpu, 11, |v| {
+        let v = 40 + v / 2;
+        [v, v, v, 255]
+    });
     let mut s = Scene::new();
     s.add(
         &square(1.2),
         Affine3A::IDENTITY,
         false,
         &SurfaceMaterial {
-            base_color_texture: Some(LayerTexture {
-                layer: 0,
-                wrap: [TextureWrap::Repeat; 2],
-                second_uv_set: false,
-            }),
+            base_color_texture: Some(FINE_MAP),
             perceptual_roughness: 0.9,
             ..Default::default()
         },
@@ -211,16 +221,7 @@ fn emitted_light_passes_the_filter_untouched() {
     // A glowing quad whose emission map is random texels, about four to a pixel, and nothing else
     // lit: every pixel of it is emission alone, and the filter must leave each one as traced (a
     // filter mixing them would move each by about the texels' differences, tens of percent).
-    let texels = 96;
-    let layers = gpu.layers(texels, 1);
-    let mut rng = Rng(5);
-    let image: Vec<u8> = (0..texels * texels)
-        .flat_map(|_| {
-            let v = rng.byte();
-            [v, v / 2, 255 - v, 255]
-        })
-        .collect();
-    gpu.copy_to_layer(&layers, 0, texels, texels, &image);
+    let layers = random_texels(&gpu, 5, |v| [v, v / 2, 255 - v, 255]);
     let mut s = Scene::new();
     s.add(
         &square(1.2),
@@ -229,11 +230,7 @@ fn emitted_light_passes_the_filter_untouched() {
         &SurfaceMaterial {
             base_color: [0.0, 0.0, 0.0, 1.0],
             emissive: [3.0, 3.0, 3.0],
-            emissive_texture: Some(LayerTexture {
-                layer: 0,
-                wrap: [TextureWrap::Repeat; 2],
-                second_uv_set: false,
-            }),
+            emissive_texture: Some(FINE_MAP),
             ..Default::default()
         },
     );
