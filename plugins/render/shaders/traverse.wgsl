@@ -38,8 +38,8 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
                 let n = node_at(index);
                 hit.visited += 1u;
                 let c = child_boxes(n);
-                let ta = hit_box(f.o, f.inv, c.a_min, c.a_max, hit.t);
-                let tb = hit_box(f.o, f.inv, c.b_min, c.b_max, hit.t);
+                let ta = hit_box(f, c.a_min, c.a_max, hit.t);
+                let tb = hit_box(f, c.b_min, c.b_max, hit.t);
                 if ta < FAR && tb < FAR {
                     // Visit the nearer child next; the farther one waits on the stack.
                     var near = n.a_ref;

@@ -63,9 +63,9 @@ struct Hit {
 }
 
 // Entry parameter of the ray into the box, or FAR when it misses within [0, t_max].
-fn hit_box(o: vec3<f32>, inv: vec3<f32>, bmin: vec3<f32>, bmax: vec3<f32>, t_max: f32) -> f32 {
-    let t0 = (bmin - o) * inv;
-    let t1 = (bmax - o) * inv;
+fn hit_box(f: Frame, bmin: vec3<f32>, bmax: vec3<f32>, t_max: f32) -> f32 {
+    let t0 = (bmin - f.o) * f.inv;
+    let t1 = (bmax - f.o_max) * f.inv;
     let tn = min(t0, t1);
     let tf = max(t0, t1);
     let enter = max(max(tn.x, tn.y), max(tn.z, 0.0));
@@ -149,10 +149,22 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(1.0) / select(d, vec3<f32>(1e-30), d == vec3<f32>(0.0));
 }
 
+// The origin the slab tests measure a box's maximum planes from. Along an axis the ray does not
+// move (d 0, its inverse +1e30), an origin exactly in a box's maximum plane would put that plane
+// at t = 0 and the box behind the ray, though the ray runs inside it (the minimum plane gives
+// -1e30 and 0, right): there the origin steps at least one ulp down, so the ray meets the box
+// (and one an ulp beside it, which costs a visit, never a hit). Per frame, not per box.
+fn origin_for_max_planes(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let below = o - max(abs(o) * 2.384e-7, vec3<f32>(1e-30));
+    return select(o, below, d == vec3<f32>(0.0));
+}
+
 // The ray as the traversal tests it, in the space it is in: world space, or an instance's object
 // space while inside one.
 struct Frame {
     o: vec3<f32>,
+    // `origin_for_max_planes`.
+    o_max: vec3<f32>,
     inv: vec3<f32>,
     m: RayTest,
     // The instance the ray is inside; NONE in world space.
@@ -160,14 +172,15 @@ struct Frame {
 }
 
 fn world_frame(o: vec3<f32>, d: vec3<f32>) -> Frame {
-    return Frame(o, safe_inverse(d), ray_test(d), NONE);
+    return Frame(o, origin_for_max_planes(o, d), safe_inverse(d), ray_test(d), NONE);
 }
 
 // The world ray o + t d in the object space of instance `index` (t unchanged).
 fn instance_frame(index: u32, o: vec3<f32>, d: vec3<f32>) -> Frame {
     let inst = instances[index];
     let local_d = xform_vector(inst.world_to_object, d);
-    return Frame(xform_point(inst.world_to_object, o), safe_inverse(local_d), ray_test(local_d), index);
+    let local_o = xform_point(inst.world_to_object, o);
+    return Frame(local_o, origin_for_max_planes(local_o, local_d), safe_inverse(local_d), ray_test(local_d), index);
 }
 
 // Tests triangle `index` (a leaf); a nearer hit replaces `hit`. Returns whether it did.

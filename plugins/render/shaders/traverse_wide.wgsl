@@ -12,11 +12,11 @@
 fn slab_entries(f: Frame, min_x: vec4<f32>, max_x: vec4<f32>, min_y: vec4<f32>, max_y: vec4<f32>,
                 min_z: vec4<f32>, max_z: vec4<f32>, refs: vec4<u32>, t_max: f32) -> vec4<f32> {
     let tx0 = (min_x - vec4<f32>(f.o.x)) * f.inv.x;
-    let tx1 = (max_x - vec4<f32>(f.o.x)) * f.inv.x;
+    let tx1 = (max_x - vec4<f32>(f.o_max.x)) * f.inv.x;
     let ty0 = (min_y - vec4<f32>(f.o.y)) * f.inv.y;
-    let ty1 = (max_y - vec4<f32>(f.o.y)) * f.inv.y;
+    let ty1 = (max_y - vec4<f32>(f.o_max.y)) * f.inv.y;
     let tz0 = (min_z - vec4<f32>(f.o.z)) * f.inv.z;
-    let tz1 = (max_z - vec4<f32>(f.o.z)) * f.inv.z;
+    let tz1 = (max_z - vec4<f32>(f.o_max.z)) * f.inv.z;
     let enter = max(max(min(tx0, tx1), min(ty0, ty1)), max(min(tz0, tz1), vec4<f32>(0.0)));
     let exit = min(min(max(tx0, tx1), max(ty0, ty1)), min(max(tz0, tz1), vec4<f32>(t_max)));
     let entered = (enter <= exit * 1.0000004) & (refs != vec4<u32>(NONE));

@@ -2,7 +2,8 @@
 //! as the engine's CPU traversal, for the same camera rays, through each layout: the path tracer's
 //! (compressed 4-wide records, one per inner node), the binary records, the same renumbered depth
 //! first, the binary records with boxes in bytes, and the float 4-wide collapse; and the path
-//! tracer's records cut into parts across bindings, as a scene larger than one binding is.
+//! tracer's records cut into parts across bindings, as a scene larger than one binding is. A ray
+//! along an axis that lies in a box's face meets the box, as the engine's does.
 
 mod support;
 
@@ -130,5 +131,81 @@ fn instanced_groups_are_traversed_in_object_space() {
             "{layout}: GPU and CPU agree on {:.3}% of pixels",
             a * 100.0
         );
+    }
+}
+
+/// A one-pixel view whose only ray leaves `origin` along `direction` exactly (its zero components
+/// stay zero: the pixel's offsets along the empty horizontal and vertical are zero).
+fn single_ray(origin: Vec3, direction: Vec3) -> View {
+    View {
+        origin,
+        lower_left: direction,
+        horizontal: Vec3::ZERO,
+        vertical: Vec3::ZERO,
+        width: 1,
+        height: 1,
+    }
+}
+
+#[test]
+fn a_ray_along_an_axis_in_a_box_face_plane_meets_the_box() {
+    // Triangles at z = 0.6 whose boxes end at y = 2 from below and begin there from above, and
+    // one far away so the tree has inner boxes; rays along ±z at y = 2 exactly lie in those
+    // boxes' faces (their y and x components are zero) and touch the triangles' edges.
+    let below = Triangle::new(
+        Vec3::new(8.0, 2.0, 0.6),
+        Vec3::new(9.0, 2.0, 0.6),
+        Vec3::new(8.0, 1.0, 0.6),
+    );
+    let above = Triangle::new(
+        Vec3::new(8.0, 2.0, 0.6),
+        Vec3::new(9.0, 2.0, 0.6),
+        Vec3::new(8.0, 3.0, 0.6),
+    );
+    let far = Triangle::new(
+        Vec3::splat(50.0),
+        Vec3::new(51.0, 50.0, 50.0),
+        Vec3::splat(51.0),
+    );
+    let rays = [
+        (Vec3::new(8.25, 2.0, -1.0), Vec3::Z),
+        (Vec3::new(8.25, 2.0, 3.0), Vec3::NEG_Z),
+        // In the plane x = 8 of both boxes' minimum x.
+        (Vec3::new(8.0, 1.5, -1.0), Vec3::Z),
+        // Beside the boxes, parallel to them: a miss.
+        (Vec3::new(8.25, 3.5, -1.0), Vec3::Z),
+    ];
+    for tris in [vec![below, far], vec![above, far], vec![below, above, far]] {
+        let mut bvh = Bvh::new(BvhConfig::default());
+        bvh.insert_triangles(&tris).unwrap();
+        for (o, d) in rays {
+            let view = single_ray(o, d);
+            let ray = view.ray(0, 0);
+            let brute = bvh.brute_force_closest_hit(&ray);
+            // The two triangles touching along the ray are met at the same distance: either.
+            let ties: Vec<u32> = brute.map_or(vec![u32::MAX], |h| {
+                (0..tris.len() as u32)
+                    .filter(|&t| {
+                        treelight_bvh::RayData::new(&ray)
+                            .hit_triangle(&tris[t as usize], 0.0, f32::INFINITY)
+                            .is_some_and(|(d, _, _)| (d - h.t).abs() <= 1e-6 * h.t)
+                    })
+                    .collect()
+            });
+            for (layout, gpu) in [
+                ("the path tracer's", gpu_hits(&bvh, &view)),
+                ("binary", gpu_binary_hits(&bvh, &view)),
+                ("depth first", gpu_depth_first_hits(&bvh, &view)),
+                ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
+                ("4-wide", gpu_wide_hits(&bvh, &view)),
+            ] {
+                assert!(
+                    ties.contains(&gpu[0]),
+                    "{layout}: the ray from {o} along {d} over {} triangles met {} (brute force: {ties:?})",
+                    tris.len(),
+                    gpu[0]
+                );
+            }
+        }
     }
 }
