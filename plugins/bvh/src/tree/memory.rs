@@ -33,52 +33,106 @@ impl MemoryBytes {
     pub fn total(&self) -> usize {
         self.nodes + self.triangles + self.groups + self.instances + self.bookkeeping
     }
+
+    /// The figure `owner`'s bytes count under.
+    fn of(&mut self, owner: Owner) -> &mut usize {
+        match owner {
+            Owner::Nodes => &mut self.nodes,
+            Owner::Triangles => &mut self.triangles,
+            Owner::Groups => &mut self.groups,
+            Owner::Instances => &mut self.instances,
+            Owner::Bookkeeping => &mut self.bookkeeping,
+        }
+    }
+}
+
+/// Which of [`MemoryBytes`]' figures an array counts under.
+#[derive(Clone, Copy)]
+enum Owner {
+    Nodes,
+    Triangles,
+    Groups,
+    Instances,
+    Bookkeeping,
+}
+
+/// One of the tree's flat arrays, whatever it holds.
+trait FlatArray {
+    /// Bytes its buffer holds.
+    fn heap_bytes(&self) -> usize;
+    /// Bytes its buffer holds beyond its length.
+    fn spare_bytes(&self) -> usize;
+    /// Gives the spare bytes back.
+    fn shrink(&mut self);
+}
+
+impl<T> FlatArray for Vec<T> {
+    fn heap_bytes(&self) -> usize {
+        vec_bytes(self)
+    }
+    fn spare_bytes(&self) -> usize {
+        spare(self)
+    }
+    fn shrink(&mut self) {
+        self.shrink_to_fit();
+    }
+}
+
+/// The tree's flat arrays, listed once for the figures, the spare room and the trim, so that no
+/// array is counted by one of them and missed by another.
+macro_rules! flat_arrays {
+    ($($owner:ident: $($field:ident).+),* $(,)?) => {
+        impl Bvh {
+            fn flat_arrays(&self) -> Vec<(Owner, &dyn FlatArray)> {
+                vec![$((Owner::$owner, &self.$($field).+ as &dyn FlatArray)),*]
+            }
+            fn flat_arrays_mut(&mut self) -> Vec<&mut dyn FlatArray> {
+                vec![$(&mut self.$($field).+ as &mut dyn FlatArray),*]
+            }
+        }
+    };
+}
+
+flat_arrays! {
+    Nodes: inner,
+    Nodes: inner_free,
+    Triangles: tri.items,
+    Triangles: tri.parent,
+    Triangles: tri.group,
+    Triangles: tri.free,
+    Groups: groups,
+    Groups: group_free,
+    Instances: instances,
+    Instances: inst_free,
+    Bookkeeping: cache.nodes,
+    Bookkeeping: cache.queued,
 }
 
 impl Bvh {
     /// The heap bytes the tree holds, at its arrays' capacities.
     pub fn memory_bytes(&self) -> MemoryBytes {
-        let t = &self.tri;
-        let groups = self
+        let mut bytes = MemoryBytes::default();
+        for (owner, array) in self.flat_arrays() {
+            *bytes.of(owner) += array.heap_bytes();
+        }
+        bytes.groups += self
             .groups
             .iter()
             .map(|g| vec_bytes(&g.triangles) + vec_bytes(&g.object))
-            .sum::<usize>()
-            + vec_bytes(&self.groups)
-            + vec_bytes(&self.group_free);
-        MemoryBytes {
-            nodes: vec_bytes(&self.inner) + vec_bytes(&self.inner_free),
-            triangles: vec_bytes(&t.items)
-                + vec_bytes(&t.parent)
-                + vec_bytes(&t.group)
-                + vec_bytes(&t.free),
-            groups,
-            instances: vec_bytes(&self.instances) + vec_bytes(&self.inst_free),
-            bookkeeping: vec_bytes(&self.cache.nodes)
-                + vec_bytes(&self.cache.queued)
-                + self.changes.heap_bytes()
-                + self.scratch.heap_bytes(),
-        }
+            .sum::<usize>();
+        bytes.bookkeeping += self.changes.heap_bytes() + self.scratch.heap_bytes();
+        bytes
     }
-}
 
-impl Bvh {
     /// Heap bytes the tree holds and does not use now: its arrays' room to grow (up to as much
     /// again as they use, after growing by doubling through a large fill) and the working
     /// memory its passes keep between calls (some sized by the whole tree). [`Bvh::trim`] gives
     /// them back.
     pub fn spare_bytes(&self) -> usize {
-        let t = &self.tri;
-        spare(&t.items)
-            + spare(&t.parent)
-            + spare(&t.group)
-            + spare(&t.free)
-            + spare(&self.inner)
-            + spare(&self.inner_free)
-            + spare(&self.instances)
-            + spare(&self.inst_free)
-            + spare(&self.cache.nodes)
-            + spare(&self.cache.queued)
+        self.flat_arrays()
+            .iter()
+            .map(|(_, a)| a.spare_bytes())
+            .sum::<usize>()
             + self.changes.spare_bytes()
             + self.scratch.heap_bytes()
     }
@@ -87,17 +141,9 @@ impl Bvh {
     /// after a large change (the scene worker after a fill). Nothing the tree holds changes; the
     /// next growth or pass allocates again what it needs.
     pub fn trim(&mut self) {
-        let t = &mut self.tri;
-        t.items.shrink_to_fit();
-        t.parent.shrink_to_fit();
-        t.group.shrink_to_fit();
-        t.free.shrink_to_fit();
-        self.inner.shrink_to_fit();
-        self.inner_free.shrink_to_fit();
-        self.instances.shrink_to_fit();
-        self.inst_free.shrink_to_fit();
-        self.cache.nodes.shrink_to_fit();
-        self.cache.queued.shrink_to_fit();
+        for array in self.flat_arrays_mut() {
+            array.shrink();
+        }
         self.changes.trim();
         self.scratch.trim();
     }
