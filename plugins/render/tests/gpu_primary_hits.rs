@@ -39,6 +39,20 @@ fn agreement(bvh: &Bvh, view: &View, gpu: &[u32]) -> f64 {
     agree as f64 / (view.width * view.height) as f64
 }
 
+/// Each layout's name and the triangle each of `view`'s pixels meets through it.
+fn every_layout(bvh: &Bvh, view: &View) -> [(&'static str, Vec<u32>); 5] {
+    [
+        (
+            "the path tracer's (compressed 4-wide per node)",
+            gpu_hits(bvh, view),
+        ),
+        ("binary", gpu_binary_hits(bvh, view)),
+        ("depth first", gpu_depth_first_hits(bvh, view)),
+        ("binary compressed", gpu_binary_compressed_hits(bvh, view)),
+        ("4-wide", gpu_wide_hits(bvh, view)),
+    ]
+}
+
 fn sibenik() -> Vec<Triangle> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
     let scene = treelight_import::load_scene(&path).unwrap();
@@ -64,22 +78,13 @@ fn sibenik_primary_hits_match_the_cpu() {
         128,
         128,
     );
-    for (layout, gpu) in [
-        (
-            "the path tracer's (compressed 4-wide per node)",
-            gpu_hits(&bvh, &view),
-        ),
-        ("binary", gpu_binary_hits(&bvh, &view)),
-        ("depth first", gpu_depth_first_hits(&bvh, &view)),
-        ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
-        ("4-wide", gpu_wide_hits(&bvh, &view)),
-        // Parts of 2^14 records: the nodes and the triangles each lie in five bindings, as a
-        // scene five times larger than a binding would on the adapter.
-        (
-            "the path tracer's, split into parts",
-            gpu_split_hits(&bvh, &view, 14),
-        ),
-    ] {
+    // Parts of 2^14 records: the nodes and the triangles each lie in five bindings, as a scene
+    // five times larger than a binding would on the adapter.
+    let split = (
+        "the path tracer's, split into parts",
+        gpu_split_hits(&bvh, &view, 14),
+    );
+    for (layout, gpu) in every_layout(&bvh, &view).into_iter().chain([split]) {
         let hits = gpu.iter().filter(|&&g| g != u32::MAX).count();
         assert!(
             hits > 128 * 128 / 2,
@@ -115,16 +120,7 @@ fn instanced_groups_are_traversed_in_object_space() {
         96,
         96,
     );
-    for (layout, gpu) in [
-        (
-            "the path tracer's (compressed 4-wide per node)",
-            gpu_hits(&bvh, &view),
-        ),
-        ("binary", gpu_binary_hits(&bvh, &view)),
-        ("depth first", gpu_depth_first_hits(&bvh, &view)),
-        ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
-        ("4-wide", gpu_wide_hits(&bvh, &view)),
-    ] {
+    for (layout, gpu) in every_layout(&bvh, &view) {
         let a = agreement(&bvh, &view, &gpu);
         assert!(
             a >= 0.999,
@@ -192,13 +188,7 @@ fn a_ray_along_an_axis_in_a_box_face_plane_meets_the_box() {
                     })
                     .collect()
             });
-            for (layout, gpu) in [
-                ("the path tracer's", gpu_hits(&bvh, &view)),
-                ("binary", gpu_binary_hits(&bvh, &view)),
-                ("depth first", gpu_depth_first_hits(&bvh, &view)),
-                ("binary compressed", gpu_binary_compressed_hits(&bvh, &view)),
-                ("4-wide", gpu_wide_hits(&bvh, &view)),
-            ] {
+            for (layout, gpu) in every_layout(&bvh, &view) {
                 assert!(
                     ties.contains(&gpu[0]),
                     "{layout}: the ray from {o} along {d} over {} triangles met {} (brute force: {ties:?})",
