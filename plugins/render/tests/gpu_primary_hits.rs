@@ -199,3 +199,75 @@ fn a_ray_along_an_axis_in_a_box_face_plane_meets_the_box() {
         }
     }
 }
+
+#[test]
+fn triangles_met_at_the_same_distance_resolve_alike_in_any_tree() {
+    // Two overlapping triangles in the plane z = 1, and a wall standing on a floor: rays through
+    // the overlap, and along the wall's foot, meet two triangles at exactly the same distance.
+    // Inserted in other orders, the triangles land elsewhere in the tree and are visited in
+    // another order; the triangle met must stay the same.
+    let overlap_a = Triangle::new(
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(2.0, 0.0, 1.0),
+        Vec3::new(0.0, 2.0, 1.0),
+    );
+    let overlap_b = Triangle::new(
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(2.0, 2.0, 1.0),
+        Vec3::new(0.0, 2.0, 1.0),
+    );
+    let floor = Triangle::new(
+        Vec3::new(-4.0, -4.0, -3.0),
+        Vec3::new(6.0, -4.0, -3.0),
+        Vec3::new(-4.0, 6.0, -3.0),
+    );
+    let wall = Triangle::new(
+        Vec3::new(1.0, -4.0, -3.0),
+        Vec3::new(1.0, 4.0, -3.0),
+        Vec3::new(1.0, 0.0, -1.0),
+    );
+    let far = Triangle::new(
+        Vec3::splat(50.0),
+        Vec3::new(51.0, 50.0, 50.0),
+        Vec3::splat(51.0),
+    );
+    let shapes = [overlap_a, overlap_b, floor, wall, far];
+    let rays = [
+        (Vec3::new(0.5, 0.5, 5.0), Vec3::NEG_Z),
+        (Vec3::new(0.25, 1.0, 3.0), Vec3::new(0.125, 0.25, -1.0)),
+        // To the wall's foot at (1, 0.5, -3), met by the floor and the wall.
+        (Vec3::new(0.0, 0.5, -1.0), Vec3::new(1.0, 0.0, -2.0)),
+        (Vec3::new(3.0, -0.5, -2.0), Vec3::new(-2.0, 0.0, -1.0)),
+    ];
+    let orders: [[usize; 5]; 4] = [
+        [0, 1, 2, 3, 4],
+        [4, 3, 2, 1, 0],
+        [1, 0, 4, 3, 2],
+        [2, 4, 0, 3, 1],
+    ];
+    for (o, d) in rays {
+        let view = single_ray(o, d);
+        let mut met: Option<(String, usize)> = None;
+        for order in orders {
+            let tris: Vec<Triangle> = order.iter().map(|&k| shapes[k]).collect();
+            let mut bvh = Bvh::new(BvhConfig::default());
+            bvh.insert_triangles(&tris).unwrap();
+            for (layout, gpu) in every_layout(&bvh, &view) {
+                assert_ne!(
+                    gpu[0],
+                    u32::MAX,
+                    "{layout}: the ray from {o} along {d} missed"
+                );
+                let shape = order[gpu[0] as usize];
+                let seen = format!("{layout}, order {order:?}");
+                match &met {
+                    None => met = Some((seen, shape)),
+                    Some((first, s)) => assert_eq!(
+                        *s, shape,
+                        "the ray from {o} along {d} met shape {s} ({first}) and shape {shape} ({seen})"
+                    ),
+                }
+            }
+        }
+    }
+}
