@@ -195,12 +195,18 @@ var<private> rng_state: u32;
 var<private> primary_depth: f32;
 // The object slot of the current sample's primary hit (NONE when it escapes).
 var<private> primary_object: u32;
-// The albedo and shading normal of the current sample's primary hit (white and zero when it
-// escapes): the denoiser's guides (the first sample's normal, the albedo summed over samples).
+// The denoiser's guides (the first sample's normal, the albedo summed over samples): the shading
+// normal of the current sample's primary hit (zero when it escapes), and the albedo of the first
+// surface its path meets that is not smooth (`is_smooth`), times what the smooth ones before it
+// pass (white when the path escapes at once, black when it leaves through a mirror or glass): in
+// a mirror or through clear glass the texture seen is the one behind, and filtering its light
+// must leave that texture sharp.
 var<private> primary_albedo: vec3<f32>;
 var<private> primary_normal: vec3<f32>;
-// The light the current sample's primary hit emits, exposed as the samples are (the denoiser
-// passes it unfiltered).
+// The light the current sample gathers while its path has met only smooth surfaces (what its
+// primary hit emits; through a mirror or clear glass, also the sky, lights and glints seen in
+// them), exposed as the samples are: seen, not scattered, it is no noise the denoiser should
+// remove, and it passes unfiltered.
 var<private> primary_emission: vec3<f32>;
 // A shadow ray under way: what the clear surfaces it passed leave of its light (`shadow`).
 var<private> shadow_filter: vec3<f32>;
@@ -1087,6 +1093,13 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
+// A surface that scatters nothing diffusely and reflects or passes light nearly undisturbed (a
+// mirror, clear glass): what is seen in it is as sharp as what is seen directly.
+fn is_smooth(s: Surface, l: Lobes) -> bool {
+    return s.roughness <= CLEAR_ROUGHNESS && l.p.y <= 0.01 && (s.transmission <= 0.0 || s.clear)
+        && (s.clearcoat <= 0.0 || s.coat_roughness <= CLEAR_ROUGHNESS);
+}
+
 // Caps light that reaches the eye after `reflections` reflections, from clamp_from on: rare paths
 // that find a light from up close after a bounce otherwise show as speckles for thousands of
 // samples. Direct light (seen, or reflected once) is never capped in an image, and the cap is in
@@ -1111,18 +1124,28 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
     var passes = 0u;
     // How far the path has come since its last bounce (through the clear surfaces it passed).
     var travelled = 0.0;
+    // Whether every surface met so far was smooth (`is_smooth`): light gathered meanwhile is
+    // seen, not scattered (primary_emission).
+    var seen = true;
     loop {
         let hit = closest_hit(view.root, o, d, FAR);
         if hit.triangle == NONE {
+            var sky = vec3<f32>(0.0);
             if bounce == 0u {
-                radiance += background(d);
+                sky = throughput * background(d);
             } else {
                 var w = 1.0;
                 if (env_flags() & ENV_SAMPLED) != 0u {
                     let p_light = env_pdf(d);
                     w = power_heuristic(last_pdf, p_light);
                 }
-                radiance += indirect(throughput * sky_radiance(d) * w, bounce);
+                sky = indirect(throughput * sky_radiance(d) * w, bounce);
+            }
+            radiance += sky;
+            // Sky seen directly is the denoiser's sky pixel (its own albedo, white); seen in a
+            // mirror or through glass, it is light the smooth surfaces show.
+            if seen && !(bounce == 0u && passes == 0u) {
+                primary_emission += sky * view.sky.w;
             }
             break;
         }
@@ -1133,9 +1156,8 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
         }
         let s = surface_at(hit, o, d);
         if primary {
-            primary_albedo = s.albedo;
+            primary_albedo = vec3<f32>(0.0);
             primary_normal = s.ns;
-            primary_emission = s.emissive * view.sky.w;
         }
         let wo = -d;
         var w_emitted = 1.0;
@@ -1145,13 +1167,25 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             let p_light = emitter_pdf(factor, travelled + hit.t, abs(dot(s.ng, d)));
             w_emitted = power_heuristic(last_pdf, p_light);
         }
-        radiance += indirect(throughput * s.emissive * w_emitted, bounce);
+        let emitted = indirect(throughput * s.emissive * w_emitted, bounce);
+        radiance += emitted;
         let last = bounce == view.max_bounces;
         let l = lobes_at(s, wo);
+        if seen {
+            primary_emission += emitted * view.sky.w;
+            if !is_smooth(s, l) {
+                seen = false;
+                primary_albedo = throughput * s.albedo;
+            }
+        }
         if !last {
             // Light found by a shadow ray from this hit reaches the eye after bounce + 1
             // reflections.
-            radiance += indirect(throughput * direct_light(s, l, wo), bounce + 1u);
+            let direct = indirect(throughput * direct_light(s, l, wo), bounce + 1u);
+            radiance += direct;
+            if seen {
+                primary_emission += direct * view.sky.w;
+            }
         }
         // A clear surface passes the path straight on, with its transmission lobe's probability;
         // the light beyond counts as seen from the last bounce (its pdf weighs the sky's share).

@@ -62,7 +62,7 @@ fn trace(root: u32, world_o: vec3<f32>, world_d: vec3<f32>, t_max: f32, first: b
                     continue;
                 }
             } else if kind == KIND_LEAF {
-                if test_leaf(f, index, &hit, world_o, world_d) && first {
+                if test_leaf(f, index, &hit) && first {
                     return hit;
                 }
             } else if kind == KIND_INSTANCE {

@@ -109,9 +109,8 @@ fn ray_test(d: vec3<f32>) -> RayTest {
     return RayTest(px - d[kx] * sz * pz, py - d[ky] * sz * pz, sz * pz);
 }
 
-// Returns (t, u, v, det) with t < 0 for a miss; |det| is twice the triangle's area as the ray
-// sees it (sheared), the measure `wins_tie` compares.
-fn hit_triangle(o: vec3<f32>, m: RayTest, tri: Tri, t_max: f32) -> vec4<f32> {
+// Returns (t, u, v) with t < 0 for a miss.
+fn hit_triangle(o: vec3<f32>, m: RayTest, tri: Tri, t_max: f32) -> vec3<f32> {
     let a = tri.v0 - o;
     let b = tri.v1 - o;
     let c = tri.v2 - o;
@@ -125,17 +124,17 @@ fn hit_triangle(o: vec3<f32>, m: RayTest, tri: Tri, t_max: f32) -> vec4<f32> {
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return vec4<f32>(-1.0, 0.0, 0.0, 0.0);
+        return vec3<f32>(-1.0, 0.0, 0.0);
     }
     let det = u + v + w;
     if det == 0.0 {
-        return vec4<f32>(-1.0, 0.0, 0.0, 0.0);
+        return vec3<f32>(-1.0, 0.0, 0.0);
     }
     let t = (u * dot(m.mz, a) + v * dot(m.mz, b) + w * dot(m.mz, c)) / det;
     if t < 0.0 || t > t_max {
-        return vec4<f32>(-1.0, 0.0, 0.0, 0.0);
+        return vec3<f32>(-1.0, 0.0, 0.0);
     }
-    return vec4<f32>(t, v / det, w / det, det);
+    return vec3<f32>(t, v / det, w / det);
 }
 
 fn xform_point(m: array<vec4<f32>, 3>, p: vec3<f32>) -> vec3<f32> {
@@ -184,36 +183,13 @@ fn instance_frame(index: u32, o: vec3<f32>, d: vec3<f32>) -> Frame {
     return Frame(local_o, origin_for_max_planes(local_o, local_d), safe_inverse(local_d), ray_test(local_d), index);
 }
 
-// How squarely the ray meets a triangle: the area it sees over the triangle's own (|cos| of the
-// angle to the normal, times a factor the frame's triangles share).
-fn facing(tri: Tri, det: f32) -> f32 {
-    return abs(det) / length(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
-}
-
-// Whether `tri` (triangle `index`, met in frame f at exactly the distance of the hit so far)
-// takes the hit's place. Exact ties happen where surfaces touch (a box standing on a floor) or
-// along a shared edge. Settled by the triangles alone, not by the order the tree visits them in,
-// they leave an image independent of how the tree was built (the viewport's, filled as meshes
-// arrive, and a render's): the triangle facing the ray more squarely wins, then the one whose
-// corners sum less (x, then y, then z).
-fn wins_tie(f: Frame, index: u32, tri: Tri, det: f32, hit: Hit, world_o: vec3<f32>, world_d: vec3<f32>) -> bool {
-    if index == hit.triangle && f.inside == hit.instance {
-        return false;
-    }
-    var b = f;
-    if hit.instance != f.inside {
-        if hit.instance == NONE {
-            b = world_frame(world_o, world_d);
-        } else {
-            b = instance_frame(hit.instance, world_o, world_d);
-        }
-    }
+// Whether `tri`, met at exactly the distance of the hit so far, takes its place. Exact ties
+// happen where surfaces touch (a box standing on a floor) or along a shared edge. Settled by the
+// triangles' corners (the lower sum wins: x, then y, then z), not by the order the tree visits
+// them in, they leave an image independent of how the tree was built (the viewport's, filled as
+// meshes arrive, and a render's).
+fn wins_tie(tri: Tri, hit: Hit) -> bool {
     let best = tri_at(hit.triangle);
-    let mine = facing(tri, det);
-    let theirs = facing(best, hit_triangle(b.o, b.m, best, FAR).w);
-    if mine != theirs {
-        return mine > theirs;
-    }
     let s = tri.v0 + tri.v1 + tri.v2;
     let r = best.v0 + best.v1 + best.v2;
     if s.x != r.x {
@@ -227,13 +203,13 @@ fn wins_tie(f: Frame, index: u32, tri: Tri, det: f32, hit: Hit, world_o: vec3<f3
 
 // Tests triangle `index` (a leaf); a nearer hit replaces `hit`, and one as near if it `wins_tie`.
 // Returns whether it did.
-fn test_leaf(f: Frame, index: u32, hit: ptr<function, Hit>, world_o: vec3<f32>, world_d: vec3<f32>) -> bool {
+fn test_leaf(f: Frame, index: u32, hit: ptr<function, Hit>) -> bool {
     let tri = tri_at(index);
     let r = hit_triangle(f.o, f.m, tri, (*hit).t);
     if r.x < 0.0 {
         return false;
     }
-    if r.x == (*hit).t && (*hit).triangle != NONE && !wins_tie(f, index, tri, r.w, *hit, world_o, world_d) {
+    if r.x == (*hit).t && (*hit).triangle != NONE && !wins_tie(tri, *hit) {
         return false;
     }
     // The kernel says whether the surface is there (a masked material's cut-away parts are not).

@@ -99,6 +99,54 @@ fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
     );
 }
 
+/// A thin clear sphere tinted green (base colour 0.2, 1, 0.2) in the white furnace: its green
+/// channel passes and reflects all (the furnace's 1, within 1%), while red passes only a fifth at
+/// each of the two walls a ray through it crosses (0.04 of the sky), plus what the walls reflect
+/// (a few hundredths): the sky seen through the glass is tinted by it.
+#[test]
+fn the_sky_seen_through_tinted_clear_glass_is_tinted() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let mut scene = Scene::new();
+    let g = scene.add(
+        &sphere(48),
+        Affine3A::IDENTITY,
+        false,
+        &SurfaceMaterial {
+            base_color: [0.2, 1.0, 0.2, 1.0],
+            transmission: 1.0,
+            perceptual_roughness: 0.0,
+            ..Default::default()
+        },
+    );
+    let (image, slots) = trace(
+        &gpu,
+        &scene,
+        &layers,
+        &Trace {
+            size: 40,
+            samples: 64,
+            bounces: 12,
+            sky: Vec3::ONE,
+            mode: DebugView::PathTraced.shader_index(),
+            world_from_clip: camera(Vec3::new(0.3, 0.8, 3.0), Vec3::ZERO, Vec3::Y, 45.0),
+            lights: Vec::new(),
+        },
+    );
+    let on: Vec<Vec3> = image
+        .iter()
+        .zip(&slots)
+        .filter(|(_, s)| **s == g.index())
+        .map(|(c, _)| *c)
+        .collect();
+    assert!(on.len() > 400, "the sphere covers {} pixels", on.len());
+    let mean = on.iter().copied().sum::<Vec3>() / on.len() as f32;
+    assert!(
+        (mean.y - 1.0).abs() < 0.01 && mean.x < 0.25 && mean.z < 0.25,
+        "green glass in a white furnace: {mean:.4}"
+    );
+}
+
 const MASK_SIZE: u32 = 96;
 const MASK_TEXELS: u32 = 8;
 
