@@ -175,52 +175,22 @@ const FINE_MAP: LayerTexture = LayerTexture {
 
 #[test]
 fn a_texture_finer_than_the_pixels_keeps_its_detail() {
-    let gpu = Gpu::new();
     // Random texels, about four to a pixel across the quad: most of a pixel's spread of samples
     // is the texture under it.
-    let layers = random_texels(&gpu, 11, |v| {
-        let v = 40 + v / 2;
-        [v, v, v, 255]
-    });
-    let mut s = Scene::new();
-    s.add(
-        &square(1.2),
-        Affine3A::IDENTITY,
-        false,
-        &SurfaceMaterial {
-            base_color_texture: Some(FINE_MAP),
-            perceptual_roughness: 0.9,
-            ..Default::default()
-        },
+    detail_seen_through(
+        "seen directly",
+        None,
+        camera(Vec3::new(0.3, 0.2, 2.4), Vec3::ZERO, Vec3::Y, 50.0),
+        [1.0, 1.0],
     );
-    let t = |samples| Trace {
-        world_from_clip: camera(Vec3::new(0.3, 0.2, 2.4), Vec3::ZERO, Vec3::Y, 50.0),
-        ..lit_frame(SIZE, samples)
-    };
-    let (reference, _) = trace(&gpu, &s, &layers, &t(1024));
-    let mut table = String::from("spp  raw relMSE  denoised relMSE\n");
-    for spp in [16, 64] {
-        let (raw, _, target) = trace_into(&gpu, &s, &layers, &t(spp));
-        let clean = denoised(&gpu, &target, spp);
-        let (e_raw, e_clean) = (
-            relative_mse(&raw, &reference),
-            relative_mse(&clean, &reference),
-        );
-        table.push_str(&format!("{spp:>3}  {e_raw:.6}     {e_clean:.6}\n"));
-        assert!(
-            e_clean <= e_raw,
-            "denoising {spp} spp of a fine texture adds error:\n{table}"
-        );
-    }
-    eprintln!("{table}");
 }
 
-/// [`a_texture_finer_than_the_pixels_keeps_its_detail`]'s quad, seen through a smooth surface
-/// (`smooth`: mesh, placement, material) from `view`: denoised at 16 and 64 samples, at most
-/// `allowed` times as far from the converged frame as not denoised.
+/// A quad of fine random texels ([`random_texels`], rough grey), seen from `view` directly or
+/// through a smooth surface (`smooth`: mesh, placement, material): denoised at 16 and 64 samples,
+/// at most `allowed` times as far from the converged frame as not denoised.
 fn detail_seen_through(
     name: &str,
-    smooth: (Vec<ShadedTriangle>, Affine3A, SurfaceMaterial),
+    smooth: Option<(Vec<ShadedTriangle>, Affine3A, SurfaceMaterial)>,
     view: Mat4,
     allowed: [f32; 2],
 ) {
@@ -240,7 +210,9 @@ fn detail_seen_through(
             ..Default::default()
         },
     );
-    s.add(&smooth.0, smooth.1, false, &smooth.2);
+    if let Some((mesh, placement, material)) = smooth {
+        s.add(&mesh, placement, false, &material);
+    }
     let t = |samples| Trace {
         world_from_clip: view,
         ..lit_frame(SIZE, samples)
@@ -278,11 +250,11 @@ fn a_texture_seen_through_clear_glass_keeps_its_detail() {
     };
     detail_seen_through(
         "through clear glass",
-        (
+        Some((
             square(1.5),
             Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.8)),
             pane,
-        ),
+        )),
         camera(Vec3::new(0.3, 0.2, 2.4), Vec3::ZERO, Vec3::Y, 50.0),
         [1.0, 1.05],
     );
@@ -303,7 +275,7 @@ fn a_texture_seen_in_a_mirror_keeps_its_detail() {
     );
     detail_seen_through(
         "in a mirror",
-        (square(1.5), facing_back, mirror),
+        Some((square(1.5), facing_back, mirror)),
         camera(
             Vec3::new(0.3, 0.2, 1.2),
             Vec3::new(0.0, 0.0, 2.4),

@@ -13,8 +13,8 @@
 mod support;
 
 use std::f32::consts::PI;
-use support::Gpu;
 use support::scenes::{Scene, Trace, camera, sphere, square, trace};
+use support::{Gpu, Layers};
 use treelight_bvh::glam::{Affine3A, Vec2, Vec3};
 use treelight_render::{
     DebugView, LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, TextureWrap,
@@ -24,7 +24,6 @@ use treelight_render::{
 fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
-    let mesh = sphere(48);
     let white = |metallic: f32, roughness: f32| SurfaceMaterial {
         base_color: [1.0; 4],
         metallic,
@@ -60,34 +59,7 @@ fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
     let mut worst = 0.0f32;
     let mut table = String::new();
     for (name, material) in &cases {
-        let mut scene = Scene::new();
-        let g = scene.add(&mesh, Affine3A::IDENTITY, false, material);
-        let (image, slots) = trace(
-            &gpu,
-            &scene,
-            &layers,
-            &Trace {
-                size: 40,
-                samples: 64,
-                bounces: 12,
-                sky: Vec3::ONE,
-                mode: DebugView::PathTraced.shader_index(),
-                world_from_clip: camera(Vec3::new(0.3, 0.8, 3.0), Vec3::ZERO, Vec3::Y, 45.0),
-                lights: Vec::new(),
-            },
-        );
-        let on: Vec<Vec3> = image
-            .iter()
-            .zip(&slots)
-            .filter(|(_, s)| **s == g.index())
-            .map(|(c, _)| *c)
-            .collect();
-        assert!(
-            on.len() > 400,
-            "{name}: the sphere covers {} pixels",
-            on.len()
-        );
-        let mean = on.iter().copied().sum::<Vec3>() / on.len() as f32;
+        let mean = furnace_mean(&gpu, &layers, material, name);
         let err = (mean - Vec3::ONE).abs().max_element();
         table.push_str(&format!("{name}: {mean:.4}\n"));
         worst = worst.max(err);
@@ -107,22 +79,28 @@ fn a_white_sphere_in_a_white_furnace_returns_the_furnace_s_light() {
 fn the_sky_seen_through_tinted_clear_glass_is_tinted() {
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
-    let mut scene = Scene::new();
-    let g = scene.add(
-        &sphere(48),
-        Affine3A::IDENTITY,
-        false,
-        &SurfaceMaterial {
-            base_color: [0.2, 1.0, 0.2, 1.0],
-            transmission: 1.0,
-            perceptual_roughness: 0.0,
-            ..Default::default()
-        },
+    let green = SurfaceMaterial {
+        base_color: [0.2, 1.0, 0.2, 1.0],
+        transmission: 1.0,
+        perceptual_roughness: 0.0,
+        ..Default::default()
+    };
+    let mean = furnace_mean(&gpu, &layers, &green, "green clear glass");
+    assert!(
+        (mean.y - 1.0).abs() < 0.01 && mean.x < 0.25 && mean.z < 0.25,
+        "green glass in a white furnace: {mean:.4}"
     );
+}
+
+/// The mean colour over a sphere's pixels (48 segments, at the origin, alone in the world) of the
+/// given material under a uniform white sky of radiance 1: the furnace.
+fn furnace_mean(gpu: &Gpu, layers: &Layers, material: &SurfaceMaterial, name: &str) -> Vec3 {
+    let mut scene = Scene::new();
+    let g = scene.add(&sphere(48), Affine3A::IDENTITY, false, material);
     let (image, slots) = trace(
-        &gpu,
+        gpu,
         &scene,
-        &layers,
+        layers,
         &Trace {
             size: 40,
             samples: 64,
@@ -139,12 +117,12 @@ fn the_sky_seen_through_tinted_clear_glass_is_tinted() {
         .filter(|(_, s)| **s == g.index())
         .map(|(c, _)| *c)
         .collect();
-    assert!(on.len() > 400, "the sphere covers {} pixels", on.len());
-    let mean = on.iter().copied().sum::<Vec3>() / on.len() as f32;
     assert!(
-        (mean.y - 1.0).abs() < 0.01 && mean.x < 0.25 && mean.z < 0.25,
-        "green glass in a white furnace: {mean:.4}"
+        on.len() > 400,
+        "{name}: the sphere covers {} pixels",
+        on.len()
     );
+    on.iter().copied().sum::<Vec3>() / on.len() as f32
 }
 
 const MASK_SIZE: u32 = 96;
