@@ -61,8 +61,10 @@ struct Guide {
     albedo: vec3<f32>,
     // The mean light the samples' primary hits emit.
     emission: vec3<f32>,
-    // The summed luminance of the first `head_count` samples.
+    // The summed luminance of the light the first `head_count` samples reflect, and their mean
+    // albedo luminance.
     head: f32,
+    head_albedo: f32,
     // Whether its samples met more than one object.
     mixed: bool,
 }
@@ -84,6 +86,7 @@ fn guide(i: u32) -> Guide {
     out.emission = guide_emission(i);
     let m = guides[g + GUIDE_HEAD];
     out.head = bitcast<f32>(m & 0x7fffffffu);
+    out.head_albedo = guide_head_albedo(i);
     out.mixed = (m >> 31u) != 0u;
     return out;
 }
@@ -94,7 +97,8 @@ fn head_count(n: u32) -> u32 {
 }
 
 // A pixel's two independent estimates of its lighting (luminance, demodulated): the mean of its
-// first a samples and the rest's (b), and (z) a b / n², 0 where it has a single sample.
+// first a samples and the rest's (b), each divided by its own samples' albedo, and (z) a b / n², 0
+// where it has a single sample.
 fn parts(i: u32, g: Guide) -> vec3<f32> {
     let n = u32(accum[i].w);
     if n < 2u {
@@ -102,10 +106,11 @@ fn parts(i: u32, g: Guide) -> vec3<f32> {
     }
     let a = f32(head_count(n));
     let b = f32(n) - a;
-    let albedo = max(luminance(g.albedo), 0.02);
-    let e = luminance(g.emission);
-    let la = (g.head / a - e) / albedo;
-    let lb = ((luminance(accum[i].rgb) - g.head) / b - e) / albedo;
+    let whole = luminance(g.albedo) * f32(n);
+    let tail_albedo = (whole - g.head_albedo * a) / b;
+    let reflected = luminance(accum[i].rgb) - luminance(g.emission) * f32(n);
+    let la = g.head / a / max(g.head_albedo, 0.02);
+    let lb = (reflected - g.head) / b / max(tail_albedo, 0.02);
     return vec3<f32>(la, lb, a * b / (f32(n) * f32(n)));
 }
 

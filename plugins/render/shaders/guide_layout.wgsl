@@ -1,9 +1,12 @@
 // The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the first
-// sample's shading normal (octahedral, pack2x16snorm); the summed luminance of the first P samples,
-// P the largest power of two below their count (an f32, its sign bit set once the samples met
-// more than one object); the sum of the samples' primary hits' albedo (three f32); the mean light
-// those hits emit (three f16 in two words: the denoiser subtracts and the resolve adds back the
-// same value, so its rounding moves no light; the view's largest buffer stays small).
+// sample's shading normal (octahedral, pack2x16snorm); the summed luminance of the light the first
+// P samples reflect (their colour less what their primary hits emit), P the largest power of two
+// below their count (an f32, its sign bit set once the samples met more than one object); the sum
+// of the samples' primary hits' albedo (three f32); the mean light those hits emit (three f16 in
+// two words: the denoiser subtracts and the resolve adds back the same value, so its rounding
+// moves no light; the view's largest buffer stays small); in the last half word, the mean albedo
+// luminance of the first P samples (an f16), so the denoiser can demodulate them apart from the
+// rest.
 const GUIDE_WORDS: u32 = 7u;
 const GUIDE_NORMAL: u32 = 0u;
 const GUIDE_HEAD: u32 = 1u;
@@ -14,4 +17,9 @@ const GUIDE_EMISSION: u32 = 5u;
 fn guide_emission(i: u32) -> vec3<f32> {
     let g = GUIDE_WORDS * i + GUIDE_EMISSION;
     return vec3<f32>(unpack2x16float(guides[g]), unpack2x16float(guides[g + 1u]).x);
+}
+
+// The mean albedo luminance of a pixel's first P samples (the head sum's samples).
+fn guide_head_albedo(i: u32) -> f32 {
+    return unpack2x16float(guides[GUIDE_WORDS * i + GUIDE_EMISSION + 1u]).y;
 }

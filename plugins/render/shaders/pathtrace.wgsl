@@ -196,8 +196,9 @@ var<private> primary_depth: f32;
 // The object slot of the current sample's primary hit (NONE when it escapes).
 var<private> primary_object: u32;
 // The denoiser's guides (the first sample's normal, the albedo summed over samples): the shading
-// normal of the current sample's primary hit (zero when it escapes), and the albedo of the first
-// surface its path meets that is not smooth (`is_smooth`), times what the smooth ones before it
+// normal of the current sample's primary hit (zero when it escapes), and the reflectance
+// (`reflectance`) of the first surface its path meets that is not smooth (`is_smooth`), times what
+// the smooth ones before it
 // pass (white when the path escapes at once, black when it leaves through a mirror or glass): in
 // a mirror or through clear glass the texture seen is the one behind, and filtering its light
 // must leave that texture sharp.
@@ -1093,6 +1094,21 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
+// What a surface returns of white light arriving evenly from everywhere, seen from wo: its lobes'
+// directional albedo (what the furnace measures), the denoiser's albedo guide. The base colour
+// alone would leave out the specular sheen, which no texel tints: divided by each pixel's texels
+// and multiplied back after filtering, a textured glossy wall's sheen would follow its texture
+// (too much on the light texels, too little on the dark).
+fn reflectance(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
+    let nv = max(dot(s.ns, wo), 1e-4);
+    let ss = split_sum(nv, s.roughness);
+    let spec = l.compensation * (l.f0 * ss.x + vec3<f32>(ss.y));
+    let cc = split_sum(nv, s.coat_roughness);
+    let coat = s.clearcoat * (0.04 * cc.x + cc.y);
+    // The diffuse and thin-transmission lobes share l.base × albedo.
+    return l.under * (spec + l.base * s.albedo) + vec3<f32>(coat);
+}
+
 // A surface that scatters nothing diffusely and reflects or passes light nearly undisturbed (a
 // mirror, clear glass): what is seen in it is as sharp as what is seen directly.
 fn is_smooth(s: Surface, l: Lobes) -> bool {
@@ -1175,7 +1191,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             primary_emission += emitted * view.sky.w;
             if !is_smooth(s, l) {
                 seen = false;
-                primary_albedo = throughput * s.albedo;
+                primary_albedo = throughput * reflectance(s, l, wo);
             }
         }
         if !last {
@@ -1399,14 +1415,18 @@ fn path_trace(
     let acc = accum[pixel];
     let first = u32(acc.w);
     var sum = vec3<f32>(0.0);
-    // The summed luminance of the first P samples, P the largest power of two below the count:
-    // they and the rest are two independent estimates of the pixel, each covering it evenly (a
-    // power-of-two run of the Sobol sequence, and the start of the next), so their difference
-    // tells the denoiser the noise of the mean (the samples' spread cannot: what varies across
-    // the pixel, a texture or an edge, spreads them while the even cover averages it out). Its
-    // sign bit is set once the pixel's samples have met more than one object (a silhouette): the
-    // denoiser keeps such mixed pixels from standing in for their neighbours.
+    // The summed luminance of the light the first P samples reflect, P the largest power of two
+    // below the count, and their mean albedo luminance: they and the rest are two independent
+    // estimates of the pixel's lighting, each covering it evenly (a power-of-two run of the Sobol
+    // sequence, and the start of the next), so their difference tells the denoiser the noise of
+    // the mean (the samples' spread cannot: what varies across the pixel, a texture or an edge,
+    // spreads them while the even cover averages it out). Each part is divided by its own albedo
+    // and less its own emission, so the texels a part's samples met, or whether a pane passed or
+    // reflected them, is not taken for noise. The head's sign bit is set once the pixel's samples
+    // have met more than one object (a silhouette): the denoiser keeps such mixed pixels from
+    // standing in for their neighbours.
     var head = 0.0;
+    var head_albedo = 0.0;
     var mixed = false;
     // And the sums of the primary hits' albedo and emission (kept as a mean): lighting is
     // filtered apart from the one, and the other passes unfiltered.
@@ -1424,6 +1444,7 @@ fn path_trace(
             bitcast<f32>(guides[g + GUIDE_ALBEDO + 2u]),
         );
         emission = guide_emission(pixel) * f32(first);
+        head_albedo = guide_head_albedo(pixel);
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1434,7 +1455,9 @@ fn path_trace(
         let value = trace_sample(vec2<f32>(p) + sub);
         let index = first + k;
         if index != 0u && (index & (index - 1u)) == 0u {
-            head = luminance(acc.rgb + sum);
+            // Not below 0 (the emission's rounding): the sign bit is the mixed flag.
+            head = max(luminance(acc.rgb + sum - emission), 0.0);
+            head_albedo = luminance(albedo) / f32(index);
         }
         sum += value;
         albedo += clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0));
@@ -1454,6 +1477,6 @@ fn path_trace(
     // f16's largest finite value bounds it: an infinity would poison the subtraction.
     let mean = min(emission / f32(first + view.samples), vec3<f32>(65504.0));
     guides[g + GUIDE_EMISSION] = pack2x16float(mean.rg);
-    guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, 0.0));
+    guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, head_albedo));
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }
