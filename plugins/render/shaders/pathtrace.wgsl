@@ -629,6 +629,8 @@ struct Lobes {
     f0: vec3<f32>,
     // Multiple-scattering compensation of the specular lobe: 1 + f0 (1 - E) / E.
     compensation: vec3<f32>,
+    // The specular lobe's directional albedo (what it reflects of even white light).
+    specular: vec3<f32>,
     // Weight of what lies under the dielectric's specular reflection (diffuse and transmission).
     base: vec3<f32>,
     // 1 / E with f0 = 1: makes the thin transmission lobe pass all it receives.
@@ -653,7 +655,8 @@ fn lobes_at(s: Surface, wo: vec3<f32>) -> Lobes {
     let cc = split_sum(nv, s.coat_roughness);
     let coat = s.clearcoat * (0.04 * cc.x + cc.y);
     l.under = 1.0 - coat;
-    let spec = luminance(l.compensation * (l.f0 * ss.x + vec3<f32>(ss.y))) * l.under;
+    l.specular = l.compensation * (l.f0 * ss.x + vec3<f32>(ss.y));
+    let spec = luminance(l.specular) * l.under;
     let below = luminance(l.base * s.albedo) * l.under;
     let w = vec4<f32>(spec, below * (1.0 - s.transmission), below * s.transmission, coat);
     let total = w.x + w.y + w.z + w.w;
@@ -1094,19 +1097,15 @@ fn direct_light(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// What a surface returns of white light arriving evenly from everywhere, seen from wo: its lobes'
-// directional albedo (what the furnace measures), the denoiser's albedo guide. The base colour
+// What a surface returns of white light arriving evenly from everywhere, seen from the direction
+// its lobes were weighed for (`lobes_at`): their directional albedo (what the furnace measures), the denoiser's albedo guide. The base colour
 // alone would leave out the specular sheen, which no texel tints: divided by each pixel's texels
 // and multiplied back after filtering, a textured glossy wall's sheen would follow its texture
 // (too much on the light texels, too little on the dark).
-fn reflectance(s: Surface, l: Lobes, wo: vec3<f32>) -> vec3<f32> {
-    let nv = max(dot(s.ns, wo), 1e-4);
-    let ss = split_sum(nv, s.roughness);
-    let spec = l.compensation * (l.f0 * ss.x + vec3<f32>(ss.y));
-    let cc = split_sum(nv, s.coat_roughness);
-    let coat = s.clearcoat * (0.04 * cc.x + cc.y);
-    // The diffuse and thin-transmission lobes share l.base × albedo.
-    return l.under * (spec + l.base * s.albedo) + vec3<f32>(coat);
+fn reflectance(s: Surface, l: Lobes) -> vec3<f32> {
+    // The diffuse and thin-transmission lobes share l.base × albedo; the coat reflects what it
+    // does not leave to the layers below.
+    return l.under * (l.specular + l.base * s.albedo) + vec3<f32>(1.0 - l.under);
 }
 
 // A surface that scatters nothing diffusely and reflects or passes light nearly undisturbed (a
@@ -1191,7 +1190,7 @@ fn path_radiance(o0: vec3<f32>, d0: vec3<f32>) -> vec3<f32> {
             primary_emission += emitted * view.sky.w;
             if !is_smooth(s, l) {
                 seen = false;
-                primary_albedo = throughput * reflectance(s, l, wo);
+                primary_albedo = throughput * reflectance(s, l);
             }
         }
         if !last {
