@@ -42,6 +42,36 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
 /// 16 bounces with the lamp's glow sampled directly, on llvmpipe, beside the other tests.
 const CONVERGING: std::time::Duration = std::time::Duration::from_secs(180);
 
+/// A display whose server died without cleaning up (killed outright, the machine's `/tmp` kept
+/// between runs) is taken over; one whose server lives, or whose lock does not read as a pid, is
+/// not. CI once ran out of display numbers to such leftovers.
+#[test]
+fn a_stale_x_lock_frees_its_display_number_and_a_live_one_does_not() {
+    let n = 5000 + std::process::id() % 1000;
+    let (lock, socket) = (xdrive::lock_path(n), xdrive::socket_path(n));
+    let _ = std::fs::create_dir_all(socket.parent().unwrap());
+    let mut gone = std::process::Command::new("true").spawn().unwrap();
+    gone.wait().unwrap();
+    let write = |pid: &str| {
+        std::fs::write(&lock, format!("{pid:>10}\n")).unwrap();
+        std::fs::write(&socket, b"").unwrap();
+    };
+    write(&gone.id().to_string());
+    assert!(xdrive::display_free(n), "a dead server's display");
+    assert!(!lock.exists() && !socket.exists(), "its leftovers removed");
+    write(&std::process::id().to_string());
+    assert!(!xdrive::display_free(n), "a live process's display");
+    write("not a pid");
+    assert!(!xdrive::display_free(n), "an unreadable lock");
+    assert!(
+        lock.exists() && socket.exists(),
+        "nothing removed that was not stale"
+    );
+    let _ = std::fs::remove_file(&lock);
+    let _ = std::fs::remove_file(&socket);
+    assert!(xdrive::display_free(n), "no lock and no socket");
+}
+
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
     let mut s = Session::start("input", &[]);

@@ -65,8 +65,67 @@ impl Drop for Session {
     fn drop(&mut self) {
         let _ = self.editor.kill();
         let _ = self.editor.wait();
-        let _ = self.xvfb.kill();
-        let _ = self.xvfb.wait();
+        end_server(&mut self.xvfb, self.display);
+    }
+}
+
+/// Ends an Xvfb politely (SIGTERM, so it removes its lock file and socket) and then firmly, and
+/// removes what a server killed outright left behind: stale locks from thousands of earlier runs
+/// on a machine whose `/tmp` persists would otherwise leave no display number free.
+fn end_server(xvfb: &mut Child, display: u32) {
+    if let Ok(pid) = i32::try_from(xvfb.id()) {
+        // SAFETY: `kill` with a child's own pid and a signal number has no memory effects.
+        unsafe { libc::kill(pid, libc::SIGTERM) };
+    }
+    let start = Instant::now();
+    while !matches!(xvfb.try_wait(), Ok(Some(_))) && start.elapsed() < Duration::from_secs(3) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = xvfb.kill();
+    let _ = xvfb.wait();
+    let lock = lock_path(display);
+    if lock_owner(&lock) == Some(xvfb.id()) {
+        let _ = std::fs::remove_file(socket_path(display));
+        let _ = std::fs::remove_file(&lock);
+    }
+}
+
+/// Where an X server on `display` keeps its lock file.
+pub fn lock_path(display: u32) -> PathBuf {
+    PathBuf::from(format!("/tmp/.X{display}-lock"))
+}
+
+/// Where an X server on `display` listens.
+pub fn socket_path(display: u32) -> PathBuf {
+    PathBuf::from(format!("/tmp/.X11-unix/X{display}"))
+}
+
+/// The pid an X server wrote into its lock file (ten digits and a newline), if it reads as one.
+fn lock_owner(lock: &Path) -> Option<u32> {
+    use std::io::Read as _;
+    let mut text = String::new();
+    std::fs::File::open(lock)
+        .ok()?
+        .take(64)
+        .read_to_string(&mut text)
+        .ok()?;
+    text.trim().parse().ok()
+}
+
+/// Whether display `n` can be had: no lock and no socket, or a lock whose server is gone (its
+/// leftovers are removed, as an X server does itself with a stale lock).
+pub fn display_free(n: u32) -> bool {
+    let (lock, socket) = (lock_path(n), socket_path(n));
+    if !lock.exists() {
+        return !socket.exists();
+    }
+    match lock_owner(&lock) {
+        Some(pid) if !Path::new(&format!("/proc/{pid}")).exists() => {
+            let _ = std::fs::remove_file(&socket);
+            let _ = std::fs::remove_file(&lock);
+            !lock.exists() && !socket.exists()
+        }
+        _ => false,
     }
 }
 
@@ -75,12 +134,9 @@ fn free_display() -> u32 {
     static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let base = 200 + (std::process::id() % 500) + call * 7;
-    (base..base + 200)
-        .find(|n| {
-            !Path::new(&format!("/tmp/.X{n}-lock")).exists()
-                && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
-        })
-        .expect("a free X display number")
+    (base..base + 2000)
+        .find(|&n| display_free(n))
+        .expect("a free X display number (every one from 200 on has a live server's lock)")
 }
 
 impl Session {
@@ -128,7 +184,7 @@ impl Session {
                 .unwrap_or_else(|e| {
                     panic!("cannot start Xvfb ({e}). Install: apt-get install -y xvfb")
                 });
-            let socket = PathBuf::from(format!("/tmp/.X11-unix/X{display}"));
+            let socket = socket_path(display);
             let start = Instant::now();
             while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
                 if let Ok(Some(_)) = xvfb.try_wait() {
@@ -146,8 +202,7 @@ impl Session {
             };
             let Some((conn, screen)) = connected else {
                 last_error = format!("cannot connect to Xvfb on :{display}");
-                let _ = xvfb.kill();
-                let _ = xvfb.wait();
+                end_server(&mut xvfb, display);
                 continue;
             };
             let root = conn.setup().roots[screen].root;
