@@ -1,8 +1,10 @@
 //! The denoiser's cost per frame: all its passes (the first, then five filter passes) over a
 //! traced image of 1080p's pixel count (1440 × 1440 = 1920 × 1080 pixels), and the temporal pass
 //! after them (carrying the last frame's picture through a camera move), each timed from
-//! submission to completion, on whatever adapter the machine has. `cargo run -p treelight_render --example denoise_cost` (the dev profile is
-//! optimised).
+//! submission to completion, on whatever adapter the machine has. `cargo run -p treelight_render
+//! --example denoise_cost [-- SIDE]` (the dev profile is optimised): SIDE × SIDE pixels, 1440 unless
+//! given; the square whose pixel count is a view's traced one prices that view (the editor's
+//! 1280 × 800 window traces its viewport at half resolution on a software adapter).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -14,10 +16,20 @@ use support::temporal::Pictures;
 use treelight_render::TemporalRestart;
 
 fn main() {
+    let side: u32 = match std::env::args().nth(1) {
+        Some(text) => match text.parse() {
+            Ok(side @ 8..=8192) => side,
+            _ => {
+                eprintln!("denoise_cost: SIDE is a number of pixels from 8 to 8192, not {text:?}");
+                std::process::exit(2);
+            }
+        },
+        None => 1440,
+    };
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
     let scene = spheres_on_a_floor();
-    let frame = lit_frame(1440, 1);
+    let frame = lit_frame(side, 1);
     let (_, _, target) = trace_into(&gpu, &scene, &layers, &frame);
     let pipeline = gpu.pipeline(treelight_render::DENOISE_WGSL, "denoise");
     gpu.denoise_with(&pipeline, &target, 1);
@@ -36,10 +48,10 @@ fn main() {
     };
     let (m, min, n) = median(Box::new(|| gpu.denoise_with(&pipeline, &target, 1)));
     println!(
-        "denoiser, 1440×1440 (1080p's pixels), the first and 5 filter passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
+        "denoiser, {side}×{side}, the first and 5 filter passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
     );
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");
-    let mut pictures = Pictures::new(&gpu, 1440, 1440);
+    let mut pictures = Pictures::new(&gpu, side, side);
     let step = frame.world_from_clip.inverse() * frame.world_from_clip;
     pictures.pass(&gpu, &temporal, &target, step, 0, TemporalRestart::Clear);
     let (m, min, n) = median(Box::new(|| {
@@ -53,6 +65,6 @@ fn main() {
         );
     }));
     println!(
-        "temporal pass, 1440×1440, reprojecting every pixel: median {m:.1} ms, min {min:.1} ms over {n} runs"
+        "temporal pass, {side}×{side}, reprojecting every pixel: median {m:.1} ms, min {min:.1} ms over {n} runs"
     );
 }

@@ -35,6 +35,7 @@ impl Plugin for ViewportPlugin {
         .init_resource::<panel::ViewportInteraction>()
         .init_resource::<actions::ViewportActions>()
         .init_resource::<sky_box::SkyBoxCube>()
+        .add_plugins(sky_box::SkyLightPlugin)
         .add_systems(Startup, render_mode::adapt_to_adapter)
         .add_systems(
             Update,

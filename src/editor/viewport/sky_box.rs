@@ -10,11 +10,17 @@ use crate::editor::core::view::OrbitCamera;
 use crate::editor::core::viewport_render::ViewportRender;
 use bevy::asset::RenderAssetUsages;
 use bevy::light::{EnvironmentMapLight, GeneratedEnvironmentMapLight, Skybox};
+use bevy::pbr::generate::{GeneratorBindGroups, GeneratorPipelines, RenderEnvironmentMap};
 use bevy::prelude::*;
+use bevy::render::render_asset::RenderAssets;
+use bevy::render::render_resource::PipelineCache;
 use bevy::render::render_resource::{
     Extent3d, TextureDimension, TextureFormat, TextureViewDescriptor, TextureViewDimension,
 };
-use std::sync::{Arc, OnceLock};
+use bevy::render::texture::GpuImage;
+use bevy::render::{Extract, ExtractSchedule, Render, RenderApp, RenderSystems};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
 use treelight_document::scene::environment::{LoadedEnvironment, SceneEnvironment};
 
 /// Largest cube face side: a 2048-wide panorama's texels per quarter turn (the raster view is a
@@ -164,16 +170,124 @@ pub fn make_sky_box(
     }
 }
 
-/// A cube being made keeps the editor drawing until it is in.
-pub fn sky_box_activity(cube: Res<SkyBoxCube>, mut activity: ResMut<Activity>) {
+/// The longest a new sky light keeps the editor drawing while its filters are not seen to run (a
+/// machine whose adapter cannot filter, or whose filter pipelines fail, rests after it).
+const SKY_LIGHT_WAIT: Duration = Duration::from_secs(120);
+
+/// Whether the raster view's light from the panorama has reached its meshes. Bevy filters the
+/// cube into the light on the GPU a few frames after the camera is given it (its images uploaded,
+/// the view's light extracted, the filter and mesh pipelines compiled), with no sign in the main
+/// world: the render world counts the frames in which it filtered each cube, and a new light
+/// keeps the editor drawing until its cube has been filtered in two (the mesh pipelines those
+/// frames queued are then in [`crate::render_file::PipelinesReady`]'s count), so a resting editor
+/// never shows it unlit.
+#[derive(Resource, Default)]
+pub struct SkyLight {
+    /// The cube the render world filtered last, and in how many frames.
+    filtered: FilteredFrames,
+    /// The cube the camera's newest light is filtered from, and since when.
+    awaited: Option<(AssetId<Image>, Instant)>,
+}
+
+/// The render world's cube filtered last and its count of frames, shared with the main world.
+#[derive(Resource, Clone, Default)]
+pub struct FilteredFrames(Arc<Mutex<(Option<AssetId<Image>>, u64)>>);
+
+/// The cube whose light was extracted for the view this render frame, if one was.
+#[derive(Resource, Default)]
+struct ExtractedSkyLight(Option<AssetId<Image>>);
+
+/// Keeps [`SkyLight`], and the render world's count behind it where the app renders.
+pub struct SkyLightPlugin;
+
+impl Plugin for SkyLightPlugin {
+    fn build(&self, app: &mut App) {
+        let light = SkyLight::default();
+        let frames = light.filtered.clone();
+        app.insert_resource(light);
+        if let Some(render) = app.get_sub_app_mut(RenderApp) {
+            render
+                .insert_resource(frames)
+                .init_resource::<ExtractedSkyLight>()
+                .add_systems(ExtractSchedule, extract_sky_light)
+                .add_systems(
+                    Render,
+                    count_filtered_frames
+                        .after(RenderSystems::PrepareBindGroups)
+                        .before(RenderSystems::Render),
+                );
+        }
+    }
+}
+
+/// The cube of the camera's light, where Bevy's generator extracts it this frame: the cube and
+/// the two maps filtered from it are on the GPU.
+fn extract_sky_light(
+    cameras: Extract<Query<(&GeneratedEnvironmentMapLight, &EnvironmentMapLight)>>,
+    images: Res<RenderAssets<GpuImage>>,
+    mut extracted: ResMut<ExtractedSkyLight>,
+) {
+    extracted.0 = cameras.iter().find_map(|(generated, light)| {
+        let on_gpu = |h: &Handle<Image>| images.get(h).is_some();
+        (on_gpu(&generated.environment_map)
+            && on_gpu(&light.diffuse_map)
+            && on_gpu(&light.specular_map))
+        .then(|| generated.environment_map.id())
+    });
+}
+
+/// Counts a render frame in which Bevy's generator filters the extracted cube: a view with its map
+/// and bind groups, and every filter pipeline compiled.
+fn count_filtered_frames(
+    maps: Query<(), (With<RenderEnvironmentMap>, With<GeneratorBindGroups>)>,
+    pipelines: Option<Res<GeneratorPipelines>>,
+    cache: Res<PipelineCache>,
+    extracted: Res<ExtractedSkyLight>,
+    frames: Res<FilteredFrames>,
+) {
+    let compiled = pipelines.is_some_and(|p| {
+        [
+            p.downsample_first,
+            p.downsample_second,
+            p.copy,
+            p.radiance,
+            p.irradiance,
+        ]
+        .into_iter()
+        .all(|id| cache.get_compute_pipeline(id).is_some())
+    });
+    let (Some(cube), true, false) = (extracted.0, compiled, maps.is_empty()) else {
+        return;
+    };
+    let mut shared = frames.0.lock().unwrap_or_else(|p| p.into_inner());
+    *shared = match *shared {
+        (Some(last), n) if last == cube => (Some(cube), n + 1),
+        _ => (Some(cube), 1),
+    };
+}
+
+/// A cube being made keeps the editor drawing until it is in, and a new sky light until it lights.
+pub fn sky_box_activity(
+    cube: Res<SkyBoxCube>,
+    mut light: ResMut<SkyLight>,
+    mut activity: ResMut<Activity>,
+) {
     if cube.making.is_some() {
         activity.busy("sky box");
+    }
+    if let Some((awaited, since)) = light.awaited {
+        let (filtered, frames) = *light.filtered.0.lock().unwrap_or_else(|p| p.into_inner());
+        if (filtered == Some(awaited) && frames >= 2) || since.elapsed() > SKY_LIGHT_WAIT {
+            light.awaited = None;
+        } else {
+            activity.busy("sky light");
+        }
     }
 }
 
 /// The environment light the viewport camera has: the one Bevy filters from the cube, with the
 /// panorama's turn and scale.
-type SkyLight<'a> = (
+type CameraLight<'a> = (
     Option<&'a GeneratedEnvironmentMapLight>,
     Option<&'a mut EnvironmentMapLight>,
 );
@@ -186,7 +300,8 @@ pub fn sky_box_to_camera(
     cube: Res<SkyBoxCube>,
     environment: Res<SceneEnvironment>,
     render: Res<ViewportRender>,
-    mut cameras: Query<(Entity, Option<&Skybox>, SkyLight), With<OrbitCamera>>,
+    mut sky_light: ResMut<SkyLight>,
+    mut cameras: Query<(Entity, Option<&Skybox>, CameraLight), With<OrbitCamera>>,
 ) {
     let light = match (&cube.cube, &environment.image) {
         (Some((image, scale)), Some(_)) if render.traced.is_none() => {
@@ -222,6 +337,7 @@ pub fn sky_box_to_camera(
                     .entity(entity)
                     .remove::<EnvironmentMapLight>()
                     .insert(l.clone());
+                sky_light.awaited = Some((l.environment_map.id(), Instant::now()));
             }
             // A new turn or scale: the maps filtered from the cube stay.
             (Some(l), Some(g)) if g.intensity != l.intensity || g.rotation != l.rotation => {
