@@ -96,10 +96,13 @@ def main():
             print(f"(frame {f}: an interval missed, not counted)")
             continue
         cost = sum(window) - len(window) * frame
-        costs.append(cost)
         s = next(s for (_, g, s) in seen if g == f)
+        # At the limit the trace stops: the frames after it are cheaper than the median.
+        last = s >= a.samples
+        if not last:
+            costs.append(cost)
         print(f"{s:7} | {' '.join(f'{w * 1e3:.0f}' for w in window):>26} | {cost * 1e3:23.0f} "
-              f"| {cost / (frame + cost):.2f}")
+              f"| {cost / (frame + cost):.2f}{' (the limit: the trace stops after it; not counted)' if last else ''}")
     if costs:
         m = statistics.median(costs)
         print(f"median cost {m * 1e3:.0f} ms over {len(costs)} runs: "

@@ -4,8 +4,8 @@
 //! which one group moved (its triangles placed again, then every record made again: the cumulative
 //! shares all shift, and the whole list is uploaded). The bytes each change uploads are printed.
 //!
-//! Run: `cargo bench -p treelight_render --profile dev --bench emitters` (the dev profile is
-//! optimised, and shares the workspace's build).
+//! Run: `cargo bench --workspace --profile dev --bench emitters` (the dev profile is optimised,
+//! and shares the workspace's build).
 
 use bevy::math::{Affine3A, Vec3};
 use criterion::{Criterion, criterion_group, criterion_main};
