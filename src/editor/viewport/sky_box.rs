@@ -314,6 +314,10 @@ pub fn sky_box_to_camera(
         }
         _ => None,
     };
+    if light.is_none() && sky_light.awaited.is_some() {
+        // No light to wait for (the view went path traced, the panorama went): no busy frames.
+        sky_light.awaited = None;
+    }
     let wanted = match (&cube.cube, &environment.image) {
         (Some((image, scale)), Some(_)) if environment.shown && render.traced.is_none() => {
             Some(Skybox {
