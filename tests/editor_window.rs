@@ -943,6 +943,7 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
             let middle = |s: &mut xdrive::Session| {
                 let state = s.frames(5);
                 let shot = s.screenshot();
+                shot.save(dir.join("view.png")).ok();
                 let [x, y, w, h] = state.viewport.map(|v| v as u32);
                 let (cx, cy, r) = (x + w / 2, y + h / 2, h / 20);
                 let crop =
@@ -965,9 +966,7 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
                     |st| st.at_rest,
                 );
             }
-            let m = middle(&mut s);
-            s.screenshot().save(dir.join("view.png")).ok();
-            m
+            middle(&mut s)
         })
         .collect();
     let (raster, traced) = (middles[0], middles[1]);
