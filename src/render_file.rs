@@ -102,8 +102,9 @@ pub fn check_image_path(out: &Path, formats: &[&str]) -> Result<(), String> {
     Ok(())
 }
 
-/// When a render's image may be captured: every pixel has its samples, and every pipeline has been
-/// compiled two frames in a row (the render world runs a frame behind). Both renders use it.
+/// When a render's image may be captured: the picture is finished (every pixel has its samples and
+/// the denoiser's last run has ended), and every pipeline has been compiled two frames in a row
+/// (the render world runs a frame behind). Both renders use it.
 #[derive(Default)]
 pub struct CaptureGate {
     /// Frames in a row with every pipeline compiled.
@@ -111,14 +112,15 @@ pub struct CaptureGate {
 }
 
 impl CaptureGate {
-    /// Called once a frame: whether the image may be captured now.
-    pub fn open(&mut self, samples: u32, spp: u32, ready: &PipelinesReady) -> bool {
+    /// Called once a frame: whether the image may be captured now, the picture `finished`
+    /// ([`PathTracerStats::finished`]).
+    pub fn open(&mut self, finished: bool, ready: &PipelinesReady) -> bool {
         self.compiled = if ready.is_ready() {
             self.compiled + 1
         } else {
             0
         };
-        samples >= spp && self.compiled >= 2
+        finished && self.compiled >= 2
     }
 }
 
@@ -483,8 +485,8 @@ fn follow_samples(
     }
     job.progress.set_message("tracing");
     job.progress.set_position(u64::from(samples.min(job.spp)));
-    let spp = job.spp;
-    if !job.gate.open(samples, spp, &sky.pipelines) {
+    let finished = stats.finished(*view.camera, job.spp);
+    if !job.gate.open(finished, &sky.pipelines) {
         return;
     }
     job.captured = true;

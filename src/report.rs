@@ -154,6 +154,13 @@ pub struct EditorState {
     /// a coarse preview while the tree fills.
     #[serde(default)]
     pub traced_geometry: bool,
+    /// Whether a run of the denoiser is part way in the viewport (one pass a frame): the picture
+    /// at `samples` changes again when it ends.
+    #[serde(default)]
+    pub denoising: bool,
+    /// The denoiser's pass the viewport's latest frame made, of how many its run makes.
+    #[serde(default)]
+    pub denoise_pass: Option<(u32, u32)>,
     /// The trace kernel the view waits for while it is compiled away from its queue, "whole"
     /// or "split" ([`treelight_render::PathTracerFigures::preparing_kernel`]).
     #[serde(default)]
@@ -382,9 +389,12 @@ pub struct RenderParams<'w, 's> {
     >,
 }
 
-/// The view's samples, whether they show the panorama, the latest frame's trace (pixels traced,
-/// nanoseconds a sample) and whether it traced geometry, from one copy of the figures.
-type ViewSamples = (u32, bool, Option<(u64, Option<f64>)>, bool);
+/// The viewport camera's samples and latest trace, from one copy of the figures.
+#[derive(Default)]
+struct ViewSamples {
+    samples: u32,
+    trace: Option<treelight_render::TraceFigures>,
+}
 
 /// Writes the report for this frame.
 pub fn write_state_report(
@@ -395,20 +405,16 @@ pub fn write_state_report(
 ) {
     report.frame += 1;
     let camera = scene.cameras.single().ok();
-    let view_samples: ViewSamples =
-        scene
-            .camera_ids
-            .single()
-            .map_or((0, false, None, false), |c| {
-                let figures = rendered.tracer.figures();
-                let trace = figures.traces.get(&c).copied();
-                (
-                    figures.samples.get(&c).copied().unwrap_or(0),
-                    trace.is_some_and(|t| t.panorama),
-                    trace.map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
-                    trace.is_some_and(|t| t.geometry),
-                )
-            });
+    let view_samples: ViewSamples = scene.camera_ids.single().map_or_else(
+        |_| ViewSamples::default(),
+        |c| {
+            let figures = rendered.tracer.figures();
+            ViewSamples {
+                samples: figures.samples.get(&c).copied().unwrap_or(0),
+                trace: figures.traces.get(&c).copied(),
+            }
+        },
+    );
     let state = editor_state(&report, &scene, &editor, &rendered, camera, view_samples);
     let text = match ron::ser::to_string_pretty(&state, ron::ser::PrettyConfig::default()) {
         Ok(t) => t,
@@ -572,10 +578,14 @@ fn editor_state(
         ),
         view: crate::editor::core::viewport_render::ViewportRender::label(render.traced).to_owned(),
         notices: editor.notices.0.iter().map(|n| n.text.clone()).collect(),
-        samples: view_samples.0,
-        traced_panorama: view_samples.1,
-        trace: view_samples.2,
-        traced_geometry: view_samples.3,
+        samples: view_samples.samples,
+        traced_panorama: view_samples.trace.is_some_and(|t| t.panorama),
+        trace: view_samples
+            .trace
+            .map(|t| (t.traced_per_frame, t.cost.map(|(ns, _)| ns))),
+        traced_geometry: view_samples.trace.is_some_and(|t| t.geometry),
+        denoising: view_samples.trace.is_some_and(|t| t.denoising),
+        denoise_pass: view_samples.trace.and_then(|t| t.denoise_pass),
         preparing_kernel: tracer
             .preparing_kernel()
             .map(|k| if k.split { "split" } else { "whole" }.to_owned()),

@@ -887,7 +887,7 @@ fn viewport_brightness(img: &image::RgbImage, viewport: [f32; 4]) -> f32 {
 fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     let mut s = Session::start("exposure", &[]);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
-        st.settled && st.samples >= 4
+        st.settled && st.samples >= 4 && !st.denoising
     });
     let (head, _) = st.history;
     assert_eq!(st.look.exposure, 0.0);
@@ -912,7 +912,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     );
     assert!(st.dirty, "a new look is an unsaved change");
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
-        st.samples >= 4
+        st.samples >= 4 && !st.denoising
     });
     let bright = viewport_brightness(&s.screenshot(), st.viewport);
     assert!(
@@ -944,7 +944,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     );
     assert_eq!(st.camera_look.as_ref().unwrap().0, default_ev100);
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
-        st.samples >= 4
+        st.samples >= 4 && !st.denoising
     });
     let back = viewport_brightness(&s.screenshot(), st.viewport);
     assert!(
@@ -957,7 +957,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
 fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
     let mut s = Session::start("light-kind", &[]);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
-        st.settled && st.samples >= 8
+        st.settled && st.samples >= 8 && !st.denoising
     });
     let lamp = object(&st, "Lamp light").clone();
     let point = lamp.light.expect("the lamp is a light");
@@ -981,7 +981,7 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     assert_eq!((now.intensity, now.color), (point.intensity, point.color));
     assert_eq!(st.history.0, head + 1, "one step");
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
-        st.samples >= 8
+        st.samples >= 8 && !st.denoising
     });
     let lit = viewport_brightness(&s.screenshot(), st.viewport);
     eprintln!("mean brightness: point {before}, spot {lit}");
@@ -1078,7 +1078,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
     let mut s = Session::start("panorama", &[]);
     support::write_two_sided_sky(&s.dir().join("sky.hdr"));
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
-        st.settled && st.samples >= 4
+        st.settled && st.samples >= 4 && !st.denoising
     });
     let (head, _) = st.history;
     let before = sky_beside_the_room(&s.screenshot(), st.viewport);

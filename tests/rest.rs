@@ -95,6 +95,10 @@ fn a_resting_editor_draws_nothing_and_wakes_for_watchers_and_alarms() {
     // (The window loop may run one more frame after the last one that asked for none.)
     std::thread::sleep(Duration::from_secs(1));
     let st = s.try_state().unwrap();
+    // At rest only with the view's samples all denoised (the denoiser makes a pass a frame, its
+    // last run after the last samples).
+    assert_eq!(st.samples, 2);
+    assert!(!st.denoising, "at rest with the denoiser part way");
     std::thread::sleep(Duration::from_secs(3));
     let later = s.try_state().unwrap();
     assert_eq!(

@@ -17,10 +17,9 @@ import ctypes
 import os
 import subprocess
 import sys
-import tempfile
 import time
 
-from state_report import read_state
+from state_report import read_state, start_editor
 
 
 def cpu_seconds(pid):
@@ -68,14 +67,8 @@ def main():
     parser.add_argument("--timeout", type=float, default=600.0)
     parser.add_argument("editor_args", nargs="*")
     a = parser.parse_args()
-    tmp = tempfile.mkdtemp(prefix="treelight-idle-")
-    state = os.path.join(tmp, "state.ron")
-    env = dict(os.environ, TREELIGHT_CONFIG_DIR=os.path.join(tmp, "config"),
-               TREELIGHT_CACHE_DIR=os.path.join(tmp, "cache"))
-    args = [a.binary, "--samples", "16", "--width", "1280", "--height", "800",
-            "--state", state] + a.editor_args
-    editor = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL,
-                              stderr=open(os.path.join(tmp, "editor.log"), "w"))
+    editor, state, tmp = start_editor(a.binary, "treelight-idle-", ["--samples", "16"] + a.editor_args,
+                                      stdout=subprocess.DEVNULL)
     try:
         start = time.monotonic()
         while True:

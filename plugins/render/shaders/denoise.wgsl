@@ -20,8 +20,11 @@
 // holds each pixel's lighting to at most TAME times its brightest neighbour's (a rare bright path
 // among few samples is a firefly the filter would spread into a blotch) and estimates its noise.
 // Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes (rgb:
-// demodulated colour, w: its variance) for the next, the last for the resolve. The crate appends
-// guide_layout.wgsl and octahedral.wgsl.
+// demodulated colour, w: its variance) for the next, the last for the resolve. The first pass also
+// keeps what a tap reads of each pixel (`taps`): the filter passes read that alone, a third of
+// the words (most of a pass's cost on a CPU adapter is in its gathers), and a run spread over
+// frames filters one snapshot while the trace goes on. The crate appends guide_layout.wgsl and
+// octahedral.wgsl.
 
 struct Denoise {
     width: u32,
@@ -37,6 +40,7 @@ struct Denoise {
 }
 
 const NONE: u32 = 0xffffffffu;
+const LOG2_E: f32 = 1.4426950408889634;
 // How far above its brightest neighbour a pixel's lighting may stand.
 const TAME: f32 = 3.0;
 
@@ -49,6 +53,68 @@ const TAME: f32 = 3.0;
 @group(0) @binding(4) var<storage, read_write> filtered: array<vec4<f32>>;
 // The trace kernel's guides (guide_layout.wgsl).
 @group(0) @binding(5) var<storage, read> guides: array<u32>;
+// Written by the first pass, read by the others: TAP_WORDS words a pixel, what `Tap` holds.
+@group(0) @binding(6) var<storage, read_write> taps: array<u32>;
+
+const TAP_WORDS: u32 = 7u;
+// A tap's flags: the pixel had samples; they met more than one object.
+const TAP_SAMPLED: u32 = 1u;
+const TAP_MIXED: u32 = 2u;
+
+// What a filter pass reads of a pixel it taps, as the first pass saw it.
+struct Tap {
+    slot: u32,
+    flags: u32,
+    normal: vec3<f32>,
+    depth: f32,
+    // Its two independent estimates of the lighting (`parts`), and the variance of its mean
+    // (`part_variance`, negative with a single sample).
+    la: f32,
+    lb: f32,
+    variance: f32,
+}
+
+fn snapshot(i: u32, g: Guide) -> Tap {
+    let pp = parts(i, g);
+    var t: Tap;
+    t.slot = g.slot;
+    t.flags = TAP_SAMPLED | select(0u, TAP_MIXED, g.mixed);
+    t.normal = g.normal;
+    t.depth = g.depth;
+    t.la = pp.x;
+    t.lb = pp.y;
+    t.variance = part_variance(pp);
+    return t;
+}
+
+fn keep_tap(i: u32, t: Tap) {
+    let w = TAP_WORDS * i;
+    taps[w] = t.slot;
+    taps[w + 1u] = t.flags;
+    taps[w + 2u] = guides[GUIDE_WORDS * i + GUIDE_NORMAL];
+    taps[w + 3u] = bitcast<u32>(t.depth);
+    taps[w + 4u] = bitcast<u32>(t.la);
+    taps[w + 5u] = bitcast<u32>(t.lb);
+    taps[w + 6u] = bitcast<u32>(t.variance);
+}
+
+// The slot and flags of a pixel's tap, read first: most taps go no further.
+fn tap_head(j: u32) -> vec2<u32> {
+    return vec2<u32>(taps[TAP_WORDS * j], taps[TAP_WORDS * j + 1u]);
+}
+
+fn read_tap(j: u32, head: vec2<u32>) -> Tap {
+    let w = TAP_WORDS * j;
+    var t: Tap;
+    t.slot = head.x;
+    t.flags = head.y;
+    t.normal = decode_normal(taps[w + 2u]);
+    t.depth = bitcast<f32>(taps[w + 3u]);
+    t.la = bitcast<f32>(taps[w + 4u]);
+    t.lb = bitcast<f32>(taps[w + 5u]);
+    t.variance = bitcast<f32>(taps[w + 6u]);
+    return t;
+}
 
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
@@ -142,26 +208,31 @@ fn tamed(c: vec3<f32>, top: f32, agreed: f32) -> vec3<f32> {
     return c;
 }
 
-// Whether q can stand in for p at all: the same object, and both inside it or both on its
-// silhouette (where samples met another object too: such pixels blend two surfaces, and only
-// those along the same edge blend them alike).
-fn same_surface(p: Guide, q: Guide) -> bool {
-    return q.slot == p.slot && q.mixed == p.mixed;
+// Whether q can stand in for p at all (their taps' slots and flags): the same object, and both
+// inside it or both on its silhouette (where samples met another object too: such pixels blend
+// two surfaces, and only those along the same edge blend them alike).
+fn same_surface(p: vec2<u32>, q: vec2<u32>) -> bool {
+    return q.x == p.x && (q.y & TAP_MIXED) == (p.y & TAP_MIXED);
 }
 
-// The edge-stopping weight of q's value at p (besides the kernel's and the luminance's).
-fn geometry_weight(p: Guide, q: Guide, distance: f32) -> f32 {
-    let wn = pow(max(dot(p.normal, q.normal), 0.0), params.sigma_normal);
-    // Reversed-z depth is inversely proportional to distance: their ratio is the distances'.
-    var wz = 1.0;
-    if p.depth > 0.0 && q.depth > 0.0 {
-        wz = exp(-abs(q.depth / p.depth - 1.0) / (params.sigma_depth * distance));
-    }
+// The edge-stopping weight of q's value at p (besides the kernel's and the luminance's), as its
+// base-2 logarithm: a tap's weights multiply, so one exp2 of their logarithms' sum takes the place
+// of three exponentials (on a CPU adapter these dominate a pass).
+fn geometry_log_weight(p: Tap, q: Tap, distance: f32) -> f32 {
     // Sky pixels (no normal) filter with sky pixels.
     if p.slot == NONE {
-        return 1.0;
+        return 0.0;
     }
-    return wn * wz;
+    let cosine = dot(p.normal, q.normal);
+    if cosine <= 0.0 {
+        return -1e30;
+    }
+    var l = params.sigma_normal * log2(cosine);
+    // Reversed-z depth is inversely proportional to distance: their ratio is the distances'.
+    if p.depth > 0.0 && q.depth > 0.0 {
+        l -= LOG2_E * abs(q.depth / p.depth - 1.0) / (params.sigma_depth * distance);
+    }
+    return l;
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -169,78 +240,101 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
-    let p = vec2<i32>(id.xy);
-    let size = vec2<i32>(i32(params.width), i32(params.height));
     let i = id.y * params.width + id.x;
+    if params.first == 1u {
+        first_pass(vec2<i32>(id.xy), i);
+    } else {
+        filter_pass(vec2<i32>(id.xy), i);
+    }
+}
+
+// The first pass filters nothing: it writes each pixel's lighting, tamed by its 8 neighbours, and
+// the noise of the pixels' means averaged over the 3 × 3 pixels of the same object around (one
+// pixel's two halves say little about their spread), and keeps the pixel's tap. With one sample a
+// pixel, the spread of those pixels' lighting stands in.
+fn first_pass(p: vec2<i32>, i: u32) {
     if accum[i].w <= 0.0 {
         filtered[i] = vec4<f32>(0.0);
+        taps[TAP_WORDS * i + 1u] = 0u;
         return;
     }
+    let size = vec2<i32>(i32(params.width), i32(params.height));
     let gp = guide(i);
+    let tp = snapshot(i, gp);
+    keep_tap(i, tp);
     // Directly seen sky is the sky itself, not noise: it passes every pass unfiltered.
     if gp.slot == NONE && !gp.mixed {
         filtered[i] = vec4<f32>(demodulated(i, gp), 0.0);
         return;
     }
-    if params.first == 1u {
-        // The first pass filters nothing: it writes each pixel's lighting, tamed by its 8
-        // neighbours, and the noise of the pixels' means averaged over the 3 × 3 pixels of the
-        // same object around (one pixel's two halves say little about their spread). With one
-        // sample a pixel, the spread of those pixels' lighting stands in.
-        var v = 0.0;
-        var nv = 0.0;
-        var n = 0.0;
-        var l1 = 0.0;
-        var l2 = 0.0;
-        var top = 0.0;
-        for (var dy = -1; dy <= 1; dy += 1) {
-            for (var dx = -1; dx <= 1; dx += 1) {
-                let q = p + vec2<i32>(dx, dy);
-                if any(q < vec2<i32>(0)) || any(q >= size) {
-                    continue;
-                }
-                let j = u32(q.y) * params.width + u32(q.x);
-                if accum[j].w <= 0.0 {
-                    continue;
-                }
-                let gq = guide(j);
-                if j != i {
-                    top = max(top, luminance(demodulated(j, gq)));
-                    if !same_surface(gp, gq) {
-                        continue;
-                    }
-                }
-                let vq = part_variance(parts(j, gq));
-                if vq >= 0.0 {
-                    v += vq;
-                    nv += 1.0;
-                }
-                let l = luminance(demodulated(j, gq));
-                l1 += l;
-                l2 += l * l;
-                n += 1.0;
+    let hp = vec2<u32>(tp.slot, tp.flags);
+    var v = 0.0;
+    var nv = 0.0;
+    var n = 0.0;
+    var l1 = 0.0;
+    var l2 = 0.0;
+    var top = 0.0;
+    for (var dy = -1; dy <= 1; dy += 1) {
+        for (var dx = -1; dx <= 1; dx += 1) {
+            let q = p + vec2<i32>(dx, dy);
+            if any(q < vec2<i32>(0)) || any(q >= size) {
+                continue;
             }
+            let j = u32(q.y) * params.width + u32(q.x);
+            if accum[j].w <= 0.0 {
+                continue;
+            }
+            let gq = guide(j);
+            let lq = luminance(demodulated(j, gq));
+            if j != i {
+                top = max(top, lq);
+                let hq = vec2<u32>(gq.slot, select(0u, TAP_MIXED, gq.mixed));
+                if !same_surface(hp, hq) {
+                    continue;
+                }
+            }
+            let vq = part_variance(parts(j, gq));
+            if vq >= 0.0 {
+                v += vq;
+                nv += 1.0;
+            }
+            l1 += lq;
+            l2 += lq * lq;
+            n += 1.0;
         }
-        let pp = parts(i, gp);
-        var variance = v / max(nv, 1.0);
-        if pp.z == 0.0 {
-            variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
-        }
-        // What the samples agree on: the lower of the pixel's two independent estimates (a
-        // firefly is in one of them only), or, with a single sample, 3 standard deviations below
-        // its mean.
-        let own = demodulated(i, gp);
-        var agreed = luminance(own) - 3.0 * sqrt(variance);
-        if pp.z > 0.0 {
-            agreed = min(pp.x, pp.y);
-        }
-        filtered[i] = vec4<f32>(tamed(own, top, agreed), variance);
+    }
+    var variance = v / max(nv, 1.0);
+    if tp.variance < 0.0 {
+        variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
+    }
+    // What the samples agree on: the lower of the pixel's two independent estimates (a firefly is
+    // in one of them only), or, with a single sample, 3 standard deviations below its mean.
+    let own = demodulated(i, gp);
+    var agreed = luminance(own) - 3.0 * sqrt(variance);
+    if tp.variance >= 0.0 {
+        agreed = min(tp.la, tp.lb);
+    }
+    filtered[i] = vec4<f32>(tamed(own, top, agreed), variance);
+}
+
+// A filter pass: 5 × 5 taps `step` pixels apart, over the first pass's taps and the last pass's
+// output.
+fn filter_pass(p: vec2<i32>, i: u32) {
+    let hp = tap_head(i);
+    if (hp.y & TAP_SAMPLED) == 0u {
+        filtered[i] = vec4<f32>(0.0);
         return;
     }
+    // Directly seen sky passes as the first pass left it.
+    if hp.x == NONE && (hp.y & TAP_MIXED) == 0u {
+        filtered[i] = source[i];
+        return;
+    }
+    let size = vec2<i32>(i32(params.width), i32(params.height));
+    let tp = read_tap(i, hp);
     let centre = source[i];
     let lp = luminance(centre.rgb);
-    let pp = parts(i, gp);
-    let raw_p = max(part_variance(pp), 0.0);
+    let raw_p = max(tp.variance, 0.0);
     let kernel = array<f32, 3>(3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
     var sum = vec3<f32>(0.0);
     var variance = 0.0;
@@ -252,13 +346,11 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let j = u32(q.y) * params.width + u32(q.x);
-            if accum[j].w <= 0.0 {
+            let hq = tap_head(j);
+            if (hq.y & TAP_SAMPLED) == 0u || (j != i && !same_surface(hp, hq)) {
                 continue;
             }
-            let gq = guide(j);
-            if j != i && !same_surface(gp, gq) {
-                continue;
-            }
+            let tq = read_tap(j, hq);
             let v = source[j];
             let k = kernel[abs(dx)] * kernel[abs(dy)];
             let distance = max(length(vec2<f32>(vec2<i32>(dx, dy) * i32(params.step))), 1.0);
@@ -266,16 +358,15 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
             // the differences of their two independent estimates has the square of the true
             // difference for its mean, noise adding nothing to it (as it would to a difference
             // of the noisy means), so noise is not taken for detail nor a firefly for an edge.
-            let pq = parts(j, gq);
-            let raw = raw_p + max(part_variance(pq), 0.0);
+            let raw = raw_p + max(tq.variance, 0.0);
             let spread = params.sigma_luminance * params.sigma_luminance * max(centre.w + v.w, raw) + 1e-8;
-            var wl = 1.0;
-            if pp.z > 0.0 && pq.z > 0.0 {
-                wl = exp(-max((pq.x - pp.x) * (pq.y - pp.y), 0.0) / spread);
+            var ll = 0.0;
+            if tp.variance >= 0.0 && tq.variance >= 0.0 {
+                ll = max((tq.la - tp.la) * (tq.lb - tp.lb), 0.0) / spread;
             } else {
-                wl = exp(-abs(luminance(v.rgb) - lp) / sqrt(spread));
+                ll = abs(luminance(v.rgb) - lp) / sqrt(spread);
             }
-            let w = k * geometry_weight(gp, gq, distance) * wl;
+            let w = k * exp2(geometry_log_weight(tp, tq, distance) - LOG2_E * ll);
             sum += w * v.rgb;
             variance += w * w * v.w;
             total += w;

@@ -203,7 +203,8 @@ fn document_activity(
     }
 }
 
-/// Every path-traced view short of its sample limit keeps drawing (a kernel still compiling too).
+/// Every path-traced view short of its sample limit keeps drawing, or with a run of the denoiser
+/// part way (a kernel still compiling too).
 fn tracer_activity(
     views: Query<(Entity, &PathTraced)>,
     stats: Option<Res<PathTracerStats>>,
@@ -227,6 +228,12 @@ fn tracer_activity(
         figures.samples.get(&camera).copied().unwrap_or(0) < traced.max_samples
     }) {
         activity.busy("path tracing");
+    }
+    if views
+        .iter()
+        .any(|(camera, _)| figures.traces.get(&camera).is_some_and(|t| t.denoising))
+    {
+        activity.busy("denoiser");
     }
 }
 

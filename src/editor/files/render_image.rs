@@ -361,8 +361,7 @@ pub fn finish_render(
     if job.captured {
         return;
     }
-    let (samples, spp) = (stats.samples(job.camera), job.spp);
-    if !job.gate.open(samples, spp, &ready) {
+    if !job.gate.open(stats.finished(job.camera, job.spp), &ready) {
         return;
     }
     job.captured = true;

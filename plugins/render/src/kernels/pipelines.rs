@@ -53,7 +53,7 @@ pub(crate) struct PathTracerPipelines {
     /// the scene's outline bits, the denoiser's result, the guides and the temporal pass's picture.
     pub resolve_layout: BindGroupLayoutDescriptor,
     /// A denoiser pass's group: the accumulation, aux, the pass's uniform, its source and target,
-    /// the guides.
+    /// the guides, the taps the first pass keeps for the others.
     pub denoise_layout: BindGroupLayoutDescriptor,
     /// The denoiser's pass.
     pub denoise: CachedComputePipelineId,
@@ -133,6 +133,7 @@ fn init_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
     );

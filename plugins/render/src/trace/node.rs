@@ -25,8 +25,8 @@ pub(crate) fn build(render_app: &mut SubApp) {
 }
 
 /// Traces this frame's share of the view's work (clearing the accumulation first on a restart, and
-/// timing the pass where the adapter can), denoises and carries the last frame's picture over
-/// when due, then draws the image and its depth into the view.
+/// timing the pass where the adapter can), makes the denoiser's pass and carries the last
+/// frame's picture over when due, then draws the image and its depth into the view.
 fn path_trace(
     view: ViewQuery<(&ViewTarget, Option<&ViewDepthTexture>)>,
     pipeline_cache: Res<PipelineCache>,
@@ -68,11 +68,12 @@ fn path_trace(
             t.copy_out(slot, encoder);
         }
     }
-    if let Some((pipeline, passes)) = frame
+    if let Some((pipeline, step)) = frame
         .denoise
-        .and_then(|(id, n)| Some((pipeline_cache.get_compute_pipeline(id)?, n)))
+        .and_then(|d| Some((pipeline_cache.get_compute_pipeline(d.pipeline)?, d)))
     {
         let size = state.buffers.size();
+        let target = crate::types::records::denoise_target(step.pass, step.passes);
         let mut pass = ctx
             .command_encoder()
             .begin_compute_pass(&ComputePassDescriptor {
@@ -80,17 +81,12 @@ fn path_trace(
                 timestamp_writes: None,
             });
         pass.set_pipeline(pipeline);
-        for (k, groups) in state.buffers.denoise_bind_groups[..passes as usize]
-            .iter()
-            .enumerate()
-        {
-            pass.set_bind_group(
-                0,
-                &groups[crate::types::records::denoise_target(k as u32, passes)],
-                &[],
-            );
-            pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
-        }
+        pass.set_bind_group(
+            0,
+            &state.buffers.denoise_bind_groups[step.pass as usize][target],
+            &[],
+        );
+        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
     }
     if let Some(pipeline) = frame
         .temporal

@@ -92,15 +92,65 @@ pub(crate) struct ViewFrame {
     pub writes_depth: bool,
     /// The camera's viewport in target pixels: x, y, width, height.
     pub viewport: UVec4,
-    /// The denoiser's pipeline and how many passes it makes, when it runs this frame (after the
-    /// trace).
-    pub denoise: Option<(CachedComputePipelineId, u32)>,
+    /// The denoiser's pass this frame, when one runs (after the trace).
+    pub denoise: Option<DenoisePass>,
     /// The temporal pass's pipeline, when it runs this frame (after the denoiser; not while the
     /// view is idle).
     pub temporal: Option<CachedComputePipelineId>,
     /// Which of the view's two pictures the resolve shows this frame (the one the temporal pass
     /// writes when it runs): the bind groups' index.
     pub parity: usize,
+}
+
+/// One pass of the denoiser: its pipeline, which pass of how many.
+#[derive(Clone, Copy)]
+pub(crate) struct DenoisePass {
+    pub pipeline: CachedComputePipelineId,
+    pub pass: u32,
+    pub passes: u32,
+}
+
+/// A run of the denoiser over one picture of a view, one pass a frame: on a software adapter
+/// its passes together cost more than a frame's trace, and a frame that carried them all would
+/// stall the editor. Each pass reads what the one before wrote, and the first the samples then
+/// accumulated; the samples traced meanwhile wait for the next run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DenoiseRun {
+    /// The sweeps over the image when its first pass ran: what its result is of.
+    pub sweeps: u64,
+    /// Its passes ([`crate::types::records::denoise_passes`] of the samples then).
+    pub passes: u32,
+    /// The pass it makes next.
+    pub next: u32,
+}
+
+impl DenoiseRun {
+    /// The run to start after `sweeps` sweeps of `samples_per_sweep` samples, if one is due: when
+    /// none is in progress, and the sweeps have passed a power of two since the last result was
+    /// made (`done`, its sweeps; the result improves most early) or reached the view's limit
+    /// (`limit` samples, 0 for none).
+    pub fn due(sweeps: u64, samples_per_sweep: u64, done: Option<u64>, limit: u64) -> Option<Self> {
+        if sweeps == 0 {
+            return None;
+        }
+        let done = done.unwrap_or(0);
+        let risen = 1u64 << sweeps.ilog2() > done;
+        let at_limit = limit > 0 && sweeps * samples_per_sweep >= limit && done != sweeps;
+        (risen || at_limit).then(|| Self {
+            sweeps,
+            passes: crate::types::records::denoise_passes(sweeps * samples_per_sweep),
+            next: 0,
+        })
+    }
+
+    /// This frame's pass, and the run after it (`None` once it made its last pass).
+    pub fn step(self) -> (u32, Option<Self>) {
+        let next = Self {
+            next: self.next + 1,
+            ..self
+        };
+        (self.next, (next.next < self.passes).then_some(next))
+    }
 }
 
 /// A view's buffers, made for one size: the accumulation (per pixel the sum of its samples and their
@@ -112,14 +162,14 @@ pub(crate) struct ViewBuffers {
     aux: Buffer,
     view_uniform: Buffer,
     resolve_params: Buffer,
-    /// The denoiser's two working images (the last pass leaves its result in the first).
-    denoised: [Buffer; 2],
+    /// The denoiser's result (the first) and its two working images.
+    denoised: [Buffer; crate::types::records::DENOISE_IMAGES],
     /// What the trace keeps for the denoiser: five words a pixel.
     guides: Buffer,
     /// Group 1 of the trace kernel.
     pub trace_bind_group: BindGroup,
-    /// The denoiser's passes' groups, in order, each writing the first image or the second.
-    pub denoise_bind_groups: Vec<[BindGroup; 2]>,
+    /// The denoiser's passes' groups, in order, the `t`-th writing image `t`.
+    pub denoise_bind_groups: Vec<[BindGroup; crate::types::records::DENOISE_IMAGES]>,
     /// The temporal pass's pictures: the one each frame writes, the other the last frame's; per
     /// pixel rgb and weight in half floats, depth and object slot (as large as the accumulation).
     shown: [Buffer; 2],
@@ -152,8 +202,10 @@ pub(crate) struct ViewState {
     /// This frame's work, when the trace pipeline is ready.
     pub frame: Option<ViewFrame>,
     /// The sweeps over the image the denoiser's result is of; `None` since the last restart until
-    /// it runs.
+    /// a run completes.
     denoised_sweeps: Option<u64>,
+    /// The denoiser's run in progress, one pass a frame.
+    denoise_run: Option<DenoiseRun>,
     /// The picture the temporal pass writes next; the other holds the last frame's.
     parity: usize,
     /// The camera the last frame's picture was seen through (its clip from world), when the
@@ -244,10 +296,13 @@ fn view_buffers(
         "treelight denoiser guides",
         crate::types::records::guide_bytes(size.x, size.y),
     );
-    let denoised = [
-        storage(device, "treelight denoised", pixels * 16),
-        storage(device, "treelight denoised", pixels * 16),
-    ];
+    let denoised = [0; crate::types::records::DENOISE_IMAGES]
+        .map(|_| storage(device, "treelight denoised", pixels * 16));
+    let denoise_taps = storage(
+        device,
+        "treelight denoiser taps",
+        crate::types::records::denoise_tap_bytes(size.x, size.y),
+    );
     let view_uniform = uniform(device, "treelight view", VIEW_BYTES);
     // The per-frame passes' parameters are storage buffers, not uniform ones: lavapipe (Mesa 22)
     // inlines the uniform values a shader's branches test, compiling a new variant at every bind
@@ -295,7 +350,8 @@ fn view_buffers(
             )),
         )
     });
-    // Pass k writes either image (reading the other): the last pass of a run writes the first.
+    // Pass k writes any image (reading the one `denoise_source` names): the last pass of a run
+    // writes the first.
     let denoise_bind_groups = (0..crate::types::records::DENOISE_PASSES)
         .map(|k| {
             let pass_params = device.create_buffer_with_data(&BufferInitDescriptor {
@@ -304,7 +360,7 @@ fn view_buffers(
                 // Not a uniform buffer, as for the resolve's parameters above.
                 usage: BufferUsages::STORAGE,
             });
-            [0, 1].map(|target| {
+            std::array::from_fn(|target| {
                 device.create_bind_group(
                     "treelight denoise",
                     &cache.get_bind_group_layout(&pipelines.denoise_layout),
@@ -312,9 +368,10 @@ fn view_buffers(
                         accum.as_entire_binding(),
                         aux.as_entire_binding(),
                         pass_params.as_entire_binding(),
-                        denoised[1 - target].as_entire_binding(),
+                        denoised[crate::types::records::denoise_source(target)].as_entire_binding(),
                         denoised[target].as_entire_binding(),
                         guides.as_entire_binding(),
+                        denoise_taps.as_entire_binding(),
                     )),
                 )
             })
@@ -369,6 +426,7 @@ impl ViewState {
             seen: true,
             frame: None,
             denoised_sweeps: None,
+            denoise_run: None,
             parity: 0,
             last_picture: None,
         }
@@ -514,9 +572,10 @@ fn traced_size(viewport: UVec4, settings: &PathTraced) -> UVec2 {
 }
 
 /// Why a view of `size` cannot be traced on this adapter, if its largest buffer (the denoiser's
-/// guides, one binding too) outgrows what one binding holds.
+/// guides or taps, one binding each) outgrows what one binding holds.
 fn too_big(size: UVec2, max_bytes: u64) -> Option<String> {
     let view_bytes = crate::types::records::guide_bytes(size.x, size.y)
+        .max(crate::types::records::denoise_tap_bytes(size.x, size.y))
         .max(crate::types::records::aux_bytes(size.x, size.y))
         .max(size.x as u64 * size.y as u64 * 16);
     (view_bytes > max_bytes).then(|| {
@@ -665,6 +724,7 @@ fn prepare_view(
         state.cursor = TileCursor::default();
         state.preview_scale = 0;
         state.denoised_sweeps = None;
+        state.denoise_run = None;
     }
     let scene = frame.scene;
     state
@@ -750,6 +810,8 @@ fn prepare_view(
         previewing: work.is_some_and(|(w, _)| matches!(w, TraceWork::Preview { .. })),
         geometry: traced > 0 && scene.has_geometry(),
         panorama: frame.environment_word.w as u32 & 1 != 0,
+        denoising: filters.denoise_owed,
+        denoise_pass: filters.denoise.map(|d| (d.pass, d.passes)),
     };
     frame.stats.update(|f| {
         f.samples.insert(main_entity.id(), samples);
@@ -816,8 +878,10 @@ struct Filters {
     shown_preview: u32,
     /// Whether the denoiser filters this view at all.
     denoising: bool,
-    /// The denoiser's pipeline and passes, when it runs this frame.
-    denoise: Option<(CachedComputePipelineId, u32)>,
+    /// The denoiser's pass, when one runs this frame.
+    denoise: Option<DenoisePass>,
+    /// Whether the denoiser has passes to make after this frame's: a run part way, or one due.
+    denoise_owed: bool,
     /// Whether temporal reuse is on, and its pipeline when it runs this frame.
     temporal: bool,
     run_temporal: Option<CachedComputePipelineId>,
@@ -827,11 +891,11 @@ struct Filters {
 
 /// The denoiser and temporal reuse for this frame, with the temporal pass's uniform written.
 /// The preview stands in for pixels without a sample until a whole sweep has run. The denoiser,
-/// in the path-traced view only, runs when a sweep over the image completes (every pixel has new
-/// samples) and the sweeps have doubled since it last ran, and once at a view's sample limit: its
-/// result improves most early, and on a software adapter one run costs about a frame. Not over an
-/// empty scene (the sky has no noise to filter), nor while the tree fills (the next frame's
-/// triangles restart the picture it would filter).
+/// in the path-traced view only, starts a run ([`DenoiseRun::due`]) when the sweeps over the image
+/// (each gives every pixel new samples) have passed a power of two since its last result, and once
+/// at a view's sample limit, and makes one pass a frame. Not over an empty scene (the sky has no
+/// noise to filter), nor while the tree fills (the next frame's triangles restart the picture it
+/// would filter).
 fn filters(
     frame: &FrameInputs,
     state: &mut ViewState,
@@ -848,16 +912,41 @@ fn filters(
         && !scene.filling
         && cache.get_compute_pipeline(pipelines.denoise).is_some();
     let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
-    let due = sweeps.is_power_of_two()
-        || (settings.max_samples > 0 && sweeps * spf >= u64::from(settings.max_samples));
-    let denoise = (denoising && sweeps > 0 && due && state.denoised_sweeps != Some(sweeps))
-        .then_some((
-            pipelines.denoise,
-            crate::types::records::denoise_passes(sweeps * spf),
-        ));
-    if denoise.is_some() {
-        state.denoised_sweeps = Some(sweeps);
+    if !denoising {
+        state.denoise_run = None;
+    } else if state.denoise_run.is_none() {
+        state.denoise_run = DenoiseRun::due(
+            sweeps,
+            spf,
+            state.denoised_sweeps,
+            u64::from(settings.max_samples),
+        );
     }
+    let denoise = state.denoise_run.map(|run| {
+        let (pass, rest) = run.step();
+        state.denoise_run = rest;
+        if rest.is_none() {
+            state.denoised_sweeps = Some(run.sweeps);
+        }
+        DenoisePass {
+            pipeline: pipelines.denoise,
+            pass,
+            passes: run.passes,
+        }
+    });
+    // The picture shows a new result in the frame a run makes its last pass.
+    let new_result = denoise.is_some_and(|d| d.pass + 1 == d.passes);
+    // A run ended this frame may leave another due (the sweeps passed a power of two, or the
+    // limit, meanwhile): it starts next frame, and the picture is not finished before it ends.
+    let denoise_owed = state.denoise_run.is_some()
+        || (denoising
+            && DenoiseRun::due(
+                sweeps,
+                spf,
+                state.denoised_sweeps,
+                u64::from(settings.max_samples),
+            )
+            .is_some());
     let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
     // Temporal reuse, with the denoiser, in the path-traced view.
     let temporal = (denoising && settings.temporal)
@@ -869,7 +958,7 @@ fn filters(
         .flatten();
     // The picture changes only with new samples, a denoised result or a restart: an idle view
     // shows the last one again without running the pass.
-    let picture_changes = restart || traced || denoise.is_some() || state.last_picture.is_none();
+    let picture_changes = restart || traced || new_result || state.last_picture.is_none();
     let run_temporal = temporal.filter(|_| picture_changes);
     let parity = if run_temporal.is_some() || temporal.is_none() {
         state.parity
@@ -906,6 +995,7 @@ fn filters(
         shown_preview,
         denoising,
         denoise,
+        denoise_owed,
         temporal: temporal.is_some(),
         run_temporal,
         parity,
@@ -968,6 +1058,54 @@ fn forget_views(mut states: ResMut<ViewStates>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The runs a view's denoiser completes, as (frame, sweeps of its result), and the frames it
+    /// made a pass in, tracing one sweep of one sample a frame up to `limit` samples.
+    fn denoiser_runs(limit: u64, frames: u64) -> (Vec<(u64, u64)>, Vec<u64>) {
+        let (mut run, mut done) = (None::<DenoiseRun>, None);
+        let (mut results, mut busy) = (vec![], vec![]);
+        for frame in 1..=frames {
+            let sweeps = frame.min(limit);
+            if run.is_none() {
+                run = DenoiseRun::due(sweeps, 1, done, limit);
+            }
+            if let Some(r) = run {
+                let (pass, rest) = r.step();
+                assert_eq!(pass, r.next);
+                busy.push(frame);
+                run = rest;
+                if rest.is_none() {
+                    assert_eq!(pass + 1, r.passes, "a run ends with its last pass");
+                    done = Some(r.sweeps);
+                    results.push((frame, r.sweeps));
+                }
+            }
+        }
+        (results, busy)
+    }
+
+    #[test]
+    fn the_denoiser_makes_one_pass_a_frame_and_ends_on_the_view_s_last_samples() {
+        // Six passes over the first sweep (frames 1 to 6); then a run whenever the sweeps passed a
+        // power of two since the last result (4 and 8 while the first two ran), with fewer
+        // passes as the samples grow; the last over all 32.
+        let (results, busy) = denoiser_runs(32, 60);
+        assert_eq!(results, [(6, 1), (11, 7), (15, 12), (19, 16), (35, 32)]);
+        assert_eq!(busy.len(), 6 + 5 + 4 + 4 + 4);
+        assert_eq!(
+            busy.last(),
+            Some(&35),
+            "nothing after the last samples' run"
+        );
+        // A limit off the powers of two gets a run of its own once reached.
+        let (results, busy) = denoiser_runs(24, 60);
+        assert_eq!(results.last(), Some(&(27, 24)));
+        assert_eq!(busy.last(), Some(&27));
+        // No sweep yet, no run.
+        assert_eq!(DenoiseRun::due(0, 1, None, 16), None);
+        // A result of the sweeps at the limit is the last.
+        assert_eq!(DenoiseRun::due(16, 1, Some(16), 16), None);
+    }
 
     #[test]
     fn the_outline_rectangle_covers_the_projected_bounds_or_the_whole_view() {

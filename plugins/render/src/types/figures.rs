@@ -81,6 +81,12 @@ pub struct TraceFigures {
     /// Whether the camera's samples were traced under a sky panorama (not the flat sky colour):
     /// read with [`PathTracerFigures::samples`], it tells which sky those samples show.
     pub panorama: bool,
+    /// Whether the denoiser has passes to make after this frame's (a run part way, or one due to
+    /// start next frame; it makes one pass a frame): the picture changes again when they are
+    /// made, so a view at its sample limit is finished only once this is false.
+    pub denoising: bool,
+    /// The denoiser's pass the frame made, of how many its run makes, when it made one.
+    pub denoise_pass: Option<(u32, u32)>,
 }
 
 /// Figures about the path tracer (bytes uploaded, samples per camera), readable from the main world.
@@ -102,6 +108,14 @@ impl PathTracerStats {
             .get(&camera)
             .copied()
             .unwrap_or(0)
+    }
+
+    /// Whether the camera's picture is finished at `samples` a pixel: it has them, and no run of
+    /// the denoiser is part way (the last samples' run ends a few frames after them).
+    pub fn finished(&self, camera: Entity, samples: u32) -> bool {
+        let figures = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        figures.samples.get(&camera).is_some_and(|&n| n >= samples)
+            && !figures.traces.get(&camera).is_some_and(|t| t.denoising)
     }
 
     /// Why nothing is traced, once the path tracer stopped ([`PathTracerFigures::trace_off`]).

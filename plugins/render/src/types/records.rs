@@ -294,6 +294,14 @@ pub fn guide_bytes(width: u32, height: u32) -> u64 {
     u64::from(width) * u64::from(height) * GUIDE_WORDS * 4
 }
 
+/// Words a pixel of what the denoiser's first pass keeps for the filter passes' taps.
+pub const DENOISE_TAP_WORDS: u64 = 7;
+
+/// Bytes of a `width × height` view's denoiser taps (denoise.wgsl's `Tap`).
+pub fn denoise_tap_bytes(width: u32, height: u32) -> u64 {
+    u64::from(width) * u64::from(height) * DENOISE_TAP_WORDS * 4
+}
+
 /// Most passes of the denoiser: the first, which tames fireflies and estimates each pixel's
 /// noise, then the filter's, taps 1, 2, 4, 8 and 16 pixels apart.
 pub const DENOISE_PASSES: u32 = 6;
@@ -313,10 +321,26 @@ pub fn denoise_passes(samples: u64) -> u32 {
     passes
 }
 
-/// Which of the denoiser's two images pass `pass` of `passes` writes: the last always the first
-/// image (the resolve reads it), the ones before alternating.
+/// The denoiser's images: the result the resolve and the temporal pass read, and two working
+/// images. A view runs its passes over several frames, so the result its pictures show must not
+/// be written before the last pass.
+pub const DENOISE_IMAGES: usize = 3;
+
+/// Which of the denoiser's images pass `pass` of `passes` writes: the last always the first image
+/// (the result), the ones before alternating between the two working images, so that the last
+/// pass before it writes the second.
 pub fn denoise_target(pass: u32, passes: u32) -> usize {
-    ((passes - 1 - pass) % 2) as usize
+    if pass + 1 >= passes {
+        0
+    } else {
+        1 + ((passes - 2 - pass) % 2) as usize
+    }
+}
+
+/// Which image a pass that writes image `target` reads: what the pass before it wrote (the first
+/// pass reads the accumulation alone, and is bound to the same image as the pass after it).
+pub fn denoise_source(target: usize) -> usize {
+    if target == 1 { 2 } else { 1 }
 }
 
 /// `Temporal` of `temporal.wgsl`: the temporal pass over a view.
@@ -1216,12 +1240,29 @@ mod tests {
             .collect();
         assert_eq!(passes, [6, 6, 5, 5, 4, 4, 3, 3, 2, 2]);
         for n in 2..=DENOISE_PASSES {
-            // The last pass writes the first image; each pass reads what the one before wrote.
+            // The last pass writes the first image, and only the last: the result stays whole
+            // while a run is spread over frames. Each pass reads what the one before wrote.
             assert_eq!(denoise_target(n - 1, n), 0);
-            for k in 1..n {
-                assert_ne!(denoise_target(k, n), denoise_target(k - 1, n));
+            for k in 0..n {
+                let t = denoise_target(k, n);
+                assert!(t < DENOISE_IMAGES);
+                assert_ne!(denoise_source(t), t);
+                assert_eq!(t == 0, k == n - 1, "pass {k} of {n}");
+                if k > 0 {
+                    assert_eq!(
+                        denoise_source(t),
+                        denoise_target(k - 1, n),
+                        "pass {k} of {n}"
+                    );
+                }
             }
         }
+    }
+
+    #[test]
+    fn the_denoiser_s_tap_words_are_its_kernel_s() {
+        let kernel = include_str!("../../shaders/denoise.wgsl");
+        assert!(kernel.contains(&format!("const TAP_WORDS: u32 = {DENOISE_TAP_WORDS}u;")));
     }
 
     #[test]

@@ -520,13 +520,15 @@ impl Gpu {
                 "aux",
                 &vec![0u8; treelight_render::aux_bytes(width, height) as usize],
             ),
-            denoised: [
-                self.storage("denoised", &vec![0u8; pixels * 16]),
-                self.storage("denoised", &vec![0u8; pixels * 16]),
-            ],
+            denoised: [0; treelight_render::DENOISE_IMAGES]
+                .map(|_| self.storage("denoised", &vec![0u8; pixels * 16])),
             guides: self.storage(
                 "guides",
                 &vec![0u8; treelight_render::guide_bytes(width, height) as usize],
+            ),
+            denoise_taps: self.storage(
+                "denoiser taps",
+                &vec![0u8; treelight_render::denoise_tap_bytes(width, height) as usize],
             ),
             width,
             height,
@@ -549,28 +551,43 @@ impl Gpu {
         target: &TraceTarget,
         samples: u32,
     ) {
-        let (w, h) = (target.width, target.height);
         let passes = treelight_render::denoise_passes(u64::from(samples));
         for k in 0..passes {
-            let params = self.storage(
-                "denoise pass",
-                &treelight_render::denoise_pass_bytes(w, h, k),
-            );
-            let t = treelight_render::denoise_target(k, passes);
-            let (source, out) = (&target.denoised[1 - t], &target.denoised[t]);
-            self.dispatch_indexed(
-                pipeline,
-                vec![vec![
-                    (0, target.accum.as_entire_binding()),
-                    (1, target.aux.as_entire_binding()),
-                    (2, params.as_entire_binding()),
-                    (3, source.as_entire_binding()),
-                    (4, out.as_entire_binding()),
-                    (5, target.guides.as_entire_binding()),
-                ]],
-                (w.div_ceil(8), h.div_ceil(8)),
-            );
+            self.denoise_pass(pipeline, target, k, passes);
         }
+    }
+
+    /// Pass `pass` of the denoiser's `passes` over `target`, as the plugin makes it (one a frame).
+    pub fn denoise_pass(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        target: &TraceTarget,
+        pass: u32,
+        passes: u32,
+    ) {
+        let (w, h) = (target.width, target.height);
+        let params = self.storage(
+            "denoise pass",
+            &treelight_render::denoise_pass_bytes(w, h, pass),
+        );
+        let t = treelight_render::denoise_target(pass, passes);
+        let (source, out) = (
+            &target.denoised[treelight_render::denoise_source(t)],
+            &target.denoised[t],
+        );
+        self.dispatch_indexed(
+            pipeline,
+            vec![vec![
+                (0, target.accum.as_entire_binding()),
+                (1, target.aux.as_entire_binding()),
+                (2, params.as_entire_binding()),
+                (3, source.as_entire_binding()),
+                (4, out.as_entire_binding()),
+                (5, target.guides.as_entire_binding()),
+                (6, target.denoise_taps.as_entire_binding()),
+            ]],
+            (w.div_ceil(8), h.div_ceil(8)),
+        );
     }
 
     /// One dispatch of `path_trace` (`pipeline`): the work `view` names, into `target`.
@@ -708,10 +725,12 @@ pub struct TraceTarget {
     pub accum: wgpu::Buffer,
     /// As `treelight_render::aux_bytes` lays it out.
     pub aux: wgpu::Buffer,
-    /// The denoiser's two working images.
-    pub denoised: [wgpu::Buffer; 2],
+    /// The denoiser's result (the first) and its two working images.
+    pub denoised: [wgpu::Buffer; treelight_render::DENOISE_IMAGES],
     /// The trace kernel's guides for the denoiser (guide_layout.wgsl).
     pub guides: wgpu::Buffer,
+    /// What the denoiser's first pass keeps for the others' taps.
+    pub denoise_taps: wgpu::Buffer,
     /// The image's width.
     pub width: u32,
     /// The image's height.
