@@ -5,13 +5,14 @@ Starts the editor on its default scene (1280x800, path traced at the default fra
 denoiser on as it is by default) with `--samples N --state`, reads the state report every few
 milliseconds and notes when each frame's report first appears, whether that frame traced, and
 whether it made one of the denoiser's passes (it makes one a frame, a run of up to six after each
-rise of the samples past a power of two). Frames that traced with a pass are priced against those
-that traced without one:
+rise of the samples past a power of two). Each run is priced whole against the frames just
+before and after it (frames grow cheaper as the view converges, and their intervals alternate
+long and short as Bevy's main and render worlds overlap, so windows of an even count are taken):
 
-    a pass's cost = (median frame with a pass) - (median frame without one)
+    a pass's cost = (time over the run's frames - as many frames at the mean around it) / passes
 
-and its share of its frame is cost / (median frame with a pass). Only frames amid frames of their
-kind count: the report may be a frame ahead of the render world. Run from the
+and its share of its frame is cost / (the mean frame around it + cost). A run too close to
+another to have plain frames around it is not counted. Run from the
 repository under a display (a headless machine: `xvfb-run -a -s "-screen 0 1600x1000x24"`):
 
     python3 tools/scripts/denoise_frame_cost.py [--binary PATH] [--samples 64] [-- EDITOR ARGS]
@@ -53,12 +54,6 @@ def record(binary, samples, editor_args, timeout):
         editor.wait()
 
 
-def neighbourly(entry):
-    """What a frame's neighbours must share with it to count: whether they traced, and whether
-    they made a pass."""
-    return entry[1], entry[2] is not None
-
-
 def main():
     parser = argparse.ArgumentParser()
     target = os.environ.get("CARGO_TARGET_DIR", "target")
@@ -74,57 +69,43 @@ def main():
                     for k, (t, traced, p) in json.load(f).items()}
     else:
         seen = record(a.binary, a.samples, a.editor_args, a.timeout)
-    # Frame intervals alternate long and short (the main and render worlds overlap), so a frame
-    # is priced by the mean of its interval and the next one's; it counts where the frames from
-    # the one before to the one after next were all seen and are of its kind.
-    by_kind = {}
-    for f, entry in seen.items():
-        span = [seen.get(f + d) for d in (-2, -1, 1, 2)]
-        if None in span or any(neighbourly(e) != neighbourly(entry) for e in span):
-            continue
-        pair = (seen[f + 1][0] - seen[f - 1][0]) / 2
-        by_kind.setdefault(neighbourly(entry), []).append(pair)
-    plain = by_kind.get((True, False), [])
-    if len(plain) < 3:
-        sys.exit(f"too few frames that traced without the denoiser ({len(plain)}) to compare with")
-    frame = statistics.median(plain)
+    plain = [b[0] - a[0] for f, b in seen.items() for a in [seen.get(f - 1)]
+             if a and b[1] and not b[2]]
     runs = sum(1 for e in seen.values() if e[2] and e[2][0] == 0)
     passes = sum(1 for e in seen.values() if e[2])
-    print(f"frames seen: {len(seen)}; runs of the denoiser: {runs}, {passes} passes")
-    print(f"frames that traced without a pass: {len(plain)} counted, median {frame * 1e3:.0f} ms "
-          f"(the temporal pass and the trace's budget included)")
-    with_pass = by_kind.get((True, True), [])
-    if len(with_pass) < 3:
-        sys.exit(f"too few frames that traced with a pass ({len(with_pass)}) to price it")
-    m = statistics.median(with_pass)
-    cost = m - frame
-    print(f"frames that traced with a pass: {len(with_pass)} counted, median {m * 1e3:.0f} ms; "
-          f"the pass costs {cost * 1e3:.0f} ms, {cost / m:.2f} of its frame (target under 0.33)")
+    print(f"frames seen: {len(seen)}; runs of the denoiser: {runs}, {passes} passes; frames that "
+          f"traced without a pass: median {statistics.median(plain) * 1e3:.0f} ms")
     # Each run whole: the time from a frame before it to the frame after it, over an even count
-    # of intervals (the long and short ones balance), less as many frames at the median.
-    print("run | passes | frames, ms | its cost, ms | a pass's | share of its frame")
-    per_pass = []
+    # of intervals (the long and short ones balance), less as many frames at the mean of the 8
+    # frames before it and the 8 after it (the frames grow cheaper as the view converges, so the
+    # whole run's median would price early runs high).
+    print("run | passes | frames with it, ms | around it, ms | a pass's cost, ms | share of its frame")
+    per_pass, shares = [], []
     for f0 in sorted(f for f, e in seen.items() if e[2] and e[2][0] == 0):
         n = seen[f0][2][1]
         end = f0 + n
         start = f0 - 1 if n % 2 == 1 else f0 - 2
         window = [seen.get(f) for f in range(start, end + 1)]
-        if None in window or not all(e[1] for e in window):
+        before = [seen.get(f) for f in range(start - 8, start + 1)]
+        after = [seen.get(f) for f in range(end + 1, end + 10)]
+        if any(e is None or not e[1] for e in window + before + after) or \
+                any(e[2] for e in before + after):
             continue
         spent = window[-1][0] - window[0][0]
-        cost = spent - (end - start) * frame
-        per_pass.append(cost / n)
-        print(f"{f0:4} | {n:6} | {spent * 1e3:10.0f} | {cost * 1e3:12.0f} | {cost / n * 1e3:8.0f} "
-              f"| {cost / n / (frame + cost / n):.2f}")
+        plain = (before[-1][0] - before[0][0] + after[-1][0] - after[0][0]) / 16
+        cost = (spent - (end - start) * plain) / n
+        per_pass.append(cost)
+        shares.append(cost / (plain + cost))
+        print(f"{f0:4} | {n:6} | {spent / (end - start) * 1e3:18.0f} | {plain * 1e3:13.0f} "
+              f"| {cost * 1e3:17.0f} | {cost / (plain + cost):.2f}")
     if per_pass:
-        c = statistics.median(per_pass)
-        print(f"median over {len(per_pass)} runs: a pass costs {c * 1e3:.0f} ms, "
-              f"{c / (frame + c):.2f} of its frame (target under 0.33)")
-    alone = by_kind.get((False, True), [])
+        print(f"median over {len(per_pass)} runs: a pass costs {statistics.median(per_pass) * 1e3:.0f}"
+              f" ms, {statistics.median(shares):.2f} of its frame (target under 0.33)")
+    alone = [b[0] - a[0] for f, b in seen.items() for a in [seen.get(f - 1)]
+             if a and not b[1] and b[2]]
     if alone:
-        print(f"frames with a pass after the limit (the trace stopped): {len(alone)} counted, "
+        print(f"frames with a pass after the limit (the trace stopped): {len(alone)}, "
               f"median {statistics.median(alone) * 1e3:.0f} ms")
-
 
 if __name__ == "__main__":
     main()
