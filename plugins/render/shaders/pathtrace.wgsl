@@ -55,13 +55,16 @@ struct Object {
     identity: u32,
 }
 
-// A punctual light, or (kind 3, after the punctual ones) an emissive triangle: corner 0 in
-// position, the edges to corners 1 and 2 in radiance and direction, the cumulative share of the
-// emitters' weight up to and including it in inv_range2 (emitters.rs).
+// A punctual light; after the punctual ones, the emitters' table (kind 4, one record per emitting
+// group: the cumulative share of the emitters' weight up to and including the group in
+// inv_range2, its first triangle's record from the table's start and their count in ids); then
+// the emissive triangles (kind 3): corner 0 in position, the edges to corners 1 and 2 in radiance
+// and direction, the cumulative share of its group's weight up to and including it in
+// inv_range2 (emitters.rs).
 struct Light {
     // A point or spot light's position, or the unit direction towards a directional light.
     position: vec3<f32>,
-    // 0 point, 1 directional, 2 spot, 3 emissive triangle.
+    // 0 point, 1 directional, 2 spot, 3 emissive triangle, 4 emitting group.
     kind: u32,
     // Point and spot: intensity (luminous power / 4π). Directional: illuminance.
     radiance: vec3<f32>,
@@ -74,7 +77,8 @@ struct Light {
     // A spot light's cone: saturate(cos θ * scale + offset)².
     spot_scale: f32,
     spot_offset: f32,
-    // An emissive triangle's id and its group's object slot; unused by punctual lights.
+    // An emissive triangle's id and its group's object slot; a group's first triangle record and
+    // count; unused by punctual lights.
     ids: vec2<u32>,
 }
 
@@ -113,9 +117,10 @@ struct View {
     sample_seed: u32,
     // Reflections from which indirect_clamp applies: 2 for images, 1 for the preview.
     clamp_from: u32,
-    // Emissive triangles listed in `lights` after the punctual ones, and the sum of their weights
+    // Groups in the emitters' table in `lights` after the punctual ones (each names its emissive
+    // triangles' records, which follow the table), and the sum of the triangles' weights
     // (luminance times area).
-    emitter_count: u32,
+    emitter_groups: u32,
     emitter_weight: f32,
     // The panorama sky: cos and sin of its turn about +Y, its radiance scale, and ENV_* flags as a
     // whole number (environment.rs).
@@ -970,16 +975,16 @@ fn emitted(o: Object, triangle: u32, u: f32, v: f32) -> vec3<f32> {
 // normal, of drawing that point of a triangle of a material emitting `emissive`: the triangle's
 // share of the list (its luminance times its area over the total) over its area.
 fn emitter_pdf(emissive: vec3<f32>, dist: f32, cos_e: f32) -> f32 {
-    if view.emitter_count == 0u || !(view.emitter_weight > 0.0) || !(cos_e > 0.0) {
+    if view.emitter_groups == 0u || !(view.emitter_weight > 0.0) || !(cos_e > 0.0) {
         return 0.0;
     }
     return luminance(emissive) / view.emitter_weight * dist * dist / cos_e;
 }
 
-// The listed emitter whose cumulative share first exceeds r.
-fn emitter_pick(r: f32) -> u32 {
-    var lo = view.light_count;
-    var hi = view.light_count + view.emitter_count - 1u;
+// The record in lights[lo..=hi] whose cumulative share first exceeds r.
+fn cumulative_pick(first: u32, last: u32, r: f32) -> u32 {
+    var lo = first;
+    var hi = last;
     loop {
         if lo >= hi {
             break;
@@ -994,10 +999,22 @@ fn emitter_pick(r: f32) -> u32 {
     return lo;
 }
 
+// An emissive triangle's record: a group by its share of the list's power (r1), then one of its
+// triangles by its share of the group's (r2).
+fn emitter_pick(r1: f32, r2: f32) -> u32 {
+    let table = view.light_count;
+    let g = cumulative_pick(table, table + view.emitter_groups - 1u, r1);
+    let range = lights[g].ids;
+    let first = table + range.x;
+    return cumulative_pick(first, first + max(range.y, 1u) - 1u, r2);
+}
+
 // The emissive triangles' light at p: a uniform point on a triangle drawn in proportion to its
 // power. Emission is two-sided, as the BSDF's samples see it.
 fn emitter_sample(p: vec3<f32>) -> LightSample {
-    let e = lights[emitter_pick(rand())];
+    let pick_group = rand();
+    let pick_triangle = rand();
+    let e = lights[emitter_pick(pick_group, pick_triangle)];
     // A uniform point: barycentrics u (corner 1) and v (corner 2).
     let r = sqrt(rand());
     let r2 = rand();
@@ -1037,7 +1054,7 @@ fn light_sample(s: Surface, k: u32) -> LightSample {
         if (env_flags() & ENV_SAMPLED) != 0u {
             ls = environment_sample();
         }
-    } else if view.emitter_count > 0u && view.emitter_weight > 0.0 {
+    } else if view.emitter_groups > 0u && view.emitter_weight > 0.0 {
         ls = emitter_sample(s.p);
     }
     ls.li *= s.occlusion;

@@ -42,7 +42,7 @@ pub use types::budget::{
     preview_scale,
 };
 pub use types::emitters::{
-    EMITTER_KIND, Emitter, EmitterList, MAX_EMITTERS, emitter_records, placed_triangles,
+    EMITTER_GROUP_KIND, EMITTER_KIND, EmitterList, MAX_EMITTERS, placed_triangles,
 };
 pub use types::energy::{ENERGY_BINDING, ENERGY_SIZE, energy_bytes, energy_table, split_sum};
 pub use types::figures::{PathTracerFigures, PathTracerStats, PreparingKernel, TraceFigures};

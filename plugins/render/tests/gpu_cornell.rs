@@ -261,7 +261,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
             .iter()
             .map(|(&g, m)| (g, Vec3::from(m.emissive))),
     );
-    lights.extend_from_slice(list.records());
+    lights.extend_from_slice(&list.bytes());
     let table = map_transforms.bytes();
     let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights, &table);
     let split =
@@ -290,7 +290,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
             samples: PER_DISPATCH,
             mode: 0,
             light_count: scene.lights.len() as u32,
-            emitters: (list.count(), list.total()),
+            emitters: (list.group_count(), list.total()),
             indirect_clamp: 0.0,
             work: TraceWork::WHOLE_IMAGE,
             part_shift: split_shift.unwrap_or(treelight_render::MAX_PART_SHIFT),

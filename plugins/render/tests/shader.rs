@@ -231,7 +231,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
                 part_shift,
                 sample_seed,
                 clamp_from,
-                emitter_count,
+                emitter_groups,
                 emitter_weight,
                 environment,
                 origin

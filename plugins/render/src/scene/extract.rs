@@ -40,7 +40,8 @@ pub(crate) struct PendingUpload {
     pub expected: [u64; 6],
     pub root: Option<u32>,
     pub light_count: Option<u32>,
-    /// The emissive triangles listed after the lights and their total weight, when they changed.
+    /// The groups in the emitters' table after the lights and the triangles' total weight, when
+    /// they changed.
     pub emitters: Option<(u32, f32)>,
     /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
     /// pixel's samples valid).
@@ -275,23 +276,26 @@ fn extract_scene(
         }
     }
     let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
-    if sync.lights.as_ref() != Some(&bytes) || sync.emitters_changed {
-        // The emissive triangles follow the lights: either changing writes both.
-        let emitters = &sync.emitters;
+    let lights_changed = sync.lights.as_ref() != Some(&bytes);
+    if lights_changed || sync.emitters_changed {
+        // The emitters' records follow the lights: a change in the lights' number moves them all.
+        let moved = sync.lights.as_ref().map(Vec::len) != Some(bytes.len());
+        let emitters = &mut sync.emitters;
+        let writes = emitters.take_writes(moved);
         let p = &mut sync.pending;
         p.need(
             BufferKind::Lights,
-            lights.len() as u64 + u64::from(emitters.count()),
+            lights.len() as u64 + u64::from(emitters.record_count()),
         );
         p.light_count = Some(lights.len() as u32);
-        p.emitters = Some((emitters.count(), emitters.total()));
+        p.emitters = Some((emitters.group_count(), emitters.total()));
         p.geometry_changed = true;
-        if !bytes.is_empty() {
+        if lights_changed && !bytes.is_empty() {
             p.writes.push(BufferKind::Lights, 0, &bytes);
         }
-        if emitters.count() > 0 {
+        for (at, records) in writes {
             p.writes
-                .push(BufferKind::Lights, bytes.len() as u64, emitters.records());
+                .push(BufferKind::Lights, bytes.len() as u64 + at, &records);
         }
         sync.lights = Some(bytes);
         sync.emitters_changed = false;

@@ -46,7 +46,8 @@ pub(crate) struct GpuScene {
     pub(crate) energy: Buffer,
     pub root: u32,
     pub light_count: u32,
-    /// Emissive triangles listed after the lights, and the sum of their weights.
+    /// Groups in the emitters' table after the lights (`EmitterList`), and the sum of their
+    /// triangles' weights.
     pub emitters: (u32, f32),
     /// Raised by every upload that changes what a ray sees (geometry, materials, lights, textures):
     /// views restart their accumulation when it changes.

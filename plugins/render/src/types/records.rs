@@ -127,15 +127,17 @@ pub struct GpuLight {
     pub radius: f32,
     /// A spot light's axis: the unit direction it shines in.
     pub direction: [f32; 3],
-    /// 1 / range² of a point or spot light (glTF's smooth window); 0: no range.
+    /// 1 / range² of a point or spot light (glTF's smooth window); 0: no range. An emissive
+    /// triangle's or an emitting group's cumulative share (`EmitterList`).
     pub inv_range2: f32,
     /// A spot light's cone: the attenuation is `saturate(cos θ * scale + offset)²`, θ the angle
     /// from the axis (glTF's and Bevy's formula).
     pub spot_scale: f32,
     /// See `spot_scale`.
     pub spot_offset: f32,
-    /// An emissive triangle's id and its group's object slot
-    /// (`EmitterList`); zero for a punctual light.
+    /// An emissive triangle's id and its group's object slot, or an emitting group's first
+    /// triangle record (from the emitters' table's start) and their count (`EmitterList`); zero
+    /// for a punctual light.
     pub ids: [u32; 2],
 }
 
@@ -187,8 +189,9 @@ pub struct GpuView {
     /// Reflections from which light is capped by `indirect_clamp`: 2 for images (light seen or
     /// reflected once is direct and never capped), 1 for the preview.
     pub clamp_from: u32,
-    /// Emissive triangles listed after the lights (`EmitterList`).
-    pub emitter_count: u32,
+    /// Groups in the emitters' table after the lights (`EmitterList`), each naming its
+    /// triangles' records.
+    pub emitter_groups: u32,
     /// The sum of their weights (luminance times area).
     pub emitter_weight: f32,
     /// The panorama sky (the `PathTracedEnvironment` resource): cos and sin of its turn, its radiance
@@ -977,8 +980,8 @@ pub struct ViewParams {
     pub mode: u32,
     /// Lights in the light buffer.
     pub light_count: u32,
-    /// Emissive triangles listed after the lights, and the sum of their weights
-    /// (`EmitterList`); `(0, 0.0)` samples none directly.
+    /// Groups in the emitters' table after the lights (`EmitterList`), and the sum of their
+    /// triangles' weights; `(0, 0.0)` samples none directly.
     pub emitters: (u32, f32),
     /// Largest luminance, in nits (scene units: the exposure does not change it), that light
     /// reflected twice or more may add to a sample (the preview caps light reflected once too);
@@ -1031,7 +1034,7 @@ impl ViewParams {
                 TraceWork::Preview { .. } => CLAMP_FROM_PREVIEW,
                 TraceWork::Tiles { .. } => CLAMP_FROM_IMAGE,
             },
-            emitter_count: self.emitters.0,
+            emitter_groups: self.emitters.0,
             emitter_weight: self.emitters.1,
             environment: self.environment.to_array(),
             origin: self.origin.extend(0.0).to_array(),

@@ -36,11 +36,11 @@ impl Scene {
         }
     }
 
-    /// The list of emissive triangles the plugin would upload after the lights: its records and
-    /// (count, total weight).
+    /// The list of emissive triangles the plugin would upload after the lights: its records (the
+    /// groups' table, then their triangles) and (groups in the table, total weight).
     pub fn emitters(&self) -> (Vec<u8>, (u32, f32)) {
         let list = EmitterList::of_groups(&self.bvh, self.emission.iter().copied());
-        (list.records().to_vec(), (list.count(), list.total()))
+        (list.bytes(), (list.group_count(), list.total()))
     }
 
     /// Adds a mesh: triangles with per-corner normals and UVs (object space), placed by
@@ -239,7 +239,7 @@ pub struct Frames<'a> {
     layers: &'a Layers,
     buffers: [wgpu::Buffer; 7],
     pipeline: wgpu::ComputePipeline,
-    /// The emissive triangles listed after the lights, and their total weight.
+    /// The groups in the emitters' table after the lights, and their triangles' total weight.
     emitters: (u32, f32),
 }
 
