@@ -19,7 +19,7 @@ use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferInitDescriptor, BufferUsages,
-    CachedComputePipelineId, CachedRenderPipelineId, PipelineCache,
+    CachedComputePipelineId, CachedPipelineState, CachedRenderPipelineId, PipelineCache,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::sync_world::MainEntity;
@@ -906,11 +906,16 @@ fn filters(
 ) -> Filters {
     let (pipelines, cache, scene) = (frame.pipelines, frame.pipeline_cache, frame.scene);
     let sweeps = state.cursor.sweeps(&state.order);
-    let denoising = settings.denoise
+    let wanted = settings.denoise
         && settings.view == DebugView::PathTraced
         && scene.has_geometry()
-        && !scene.filling
-        && cache.get_compute_pipeline(pipelines.denoise).is_some();
+        && !scene.filling;
+    let denoising = wanted && cache.get_compute_pipeline(pipelines.denoise).is_some();
+    // A pipeline still compiling owes the picture its runs (one that failed owes nothing).
+    let compiling = matches!(
+        cache.get_compute_pipeline_state(pipelines.denoise),
+        CachedPipelineState::Queued | CachedPipelineState::Creating(_)
+    );
     let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
     if !denoising {
         state.denoise_run = None;
@@ -938,7 +943,9 @@ fn filters(
     let new_result = denoise.is_some_and(|d| d.pass + 1 == d.passes);
     // A run ended this frame may leave another due (the sweeps passed a power of two, or the
     // limit, meanwhile): it starts next frame, and the picture is not finished before it ends.
+    // Nor is it while the denoiser's pipeline compiles: its runs start once it is ready.
     let denoise_owed = state.denoise_run.is_some()
+        || (wanted && compiling)
         || (denoising
             && DenoiseRun::due(
                 sweeps,
