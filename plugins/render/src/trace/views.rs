@@ -906,11 +906,9 @@ fn filters(
 ) -> Filters {
     let (pipelines, cache, scene) = (frame.pipelines, frame.pipeline_cache, frame.scene);
     let sweeps = state.cursor.sweeps(&state.order);
-    let wanted = settings.denoise
-        && settings.view == DebugView::PathTraced
-        && scene.has_geometry()
-        && !scene.filling;
-    let denoising = wanted && cache.get_compute_pipeline(pipelines.denoise).is_some();
+    let wanted = settings.denoise && settings.view == DebugView::PathTraced && scene.has_geometry();
+    let denoising =
+        wanted && !scene.filling && cache.get_compute_pipeline(pipelines.denoise).is_some();
     // A pipeline still compiling owes the picture its runs (one that failed owes nothing).
     let compiling = matches!(
         cache.get_compute_pipeline_state(pipelines.denoise),
@@ -943,9 +941,9 @@ fn filters(
     let new_result = denoise.is_some_and(|d| d.pass + 1 == d.passes);
     // A run ended this frame may leave another due (the sweeps passed a power of two, or the
     // limit, meanwhile): it starts next frame, and the picture is not finished before it ends.
-    // Nor is it while the denoiser's pipeline compiles: its runs start once it is ready.
+    // Nor is it while the tree fills or the denoiser's pipeline compiles: its runs start after.
     let denoise_owed = state.denoise_run.is_some()
-        || (wanted && compiling)
+        || (wanted && (compiling || scene.filling))
         || (denoising
             && DenoiseRun::due(
                 sweeps,

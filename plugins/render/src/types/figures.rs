@@ -82,9 +82,9 @@ pub struct TraceFigures {
     /// read with [`PathTracerFigures::samples`], it tells which sky those samples show.
     pub panorama: bool,
     /// Whether the denoiser has passes to make after this frame's (a run part way, one due to
-    /// start next frame, or its pipeline still compiling; it makes one pass a frame): the picture
-    /// changes again when they are made, so a view at its sample limit is finished only once
-    /// this is false.
+    /// start next frame, the tree still filling or its pipeline compiling; it makes one pass a
+    /// frame): the picture changes again when they are made, so a view at its sample limit is
+    /// finished only once this is false.
     pub denoising: bool,
     /// The denoiser's pass the frame made, of how many its run makes, when it made one.
     pub denoise_pass: Option<(u32, u32)>,
