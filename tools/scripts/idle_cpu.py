@@ -67,7 +67,8 @@ def main():
     parser.add_argument("--timeout", type=float, default=600.0)
     parser.add_argument("editor_args", nargs="*")
     a = parser.parse_args()
-    editor, state, tmp = start_editor(a.binary, "treelight-idle-", ["--samples", "16"] + a.editor_args,
+    editor, state, tmp = start_editor(a.binary, "treelight-idle-",
+                                      ["--samples", "16"] + a.editor_args,
                                       stdout=subprocess.DEVNULL)
     try:
         start = time.monotonic()
