@@ -154,8 +154,9 @@ pub struct EditorState {
     /// a coarse preview while the tree fills.
     #[serde(default)]
     pub traced_geometry: bool,
-    /// Whether a run of the denoiser is part way in the viewport (one pass a frame): the picture
-    /// at `samples` changes again when it ends.
+    /// Whether the viewport's denoiser owes its picture passes (a run part way or due, its
+    /// pipeline compiling, the tree filling: `treelight_render::TraceFigures::denoising`): the
+    /// picture at `samples` changes again when they are made.
     #[serde(default)]
     pub denoising: bool,
     /// The denoiser's pass the viewport's latest frame made, of how many its run makes.

@@ -203,8 +203,8 @@ fn document_activity(
     }
 }
 
-/// Every path-traced view short of its sample limit keeps drawing, or with a run of the denoiser
-/// part way (a kernel still compiling too).
+/// Every path-traced view short of its sample limit keeps drawing, or whose denoiser owes its
+/// picture passes (a kernel still compiling too).
 fn tracer_activity(
     views: Query<(Entity, &PathTraced)>,
     stats: Option<Res<PathTracerStats>>,

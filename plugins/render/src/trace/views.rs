@@ -880,7 +880,7 @@ struct Filters {
     denoising: bool,
     /// The denoiser's pass, when one runs this frame.
     denoise: Option<DenoisePass>,
-    /// Whether the denoiser has passes to make after this frame's: a run part way, or one due.
+    /// Whether the denoiser has passes to make after this frame's ([`TraceFigures::denoising`]).
     denoise_owed: bool,
     /// Whether temporal reuse is on, and its pipeline when it runs this frame.
     temporal: bool,
@@ -915,15 +915,14 @@ fn filters(
         CachedPipelineState::Queued | CachedPipelineState::Creating(_)
     );
     let spf = u64::from(settings.samples_per_frame.clamp(1, 64));
+    // The run due after the result `done`: the same rule starts a run and tells a waiter one is
+    // owed.
+    let due =
+        |done: Option<u64>| DenoiseRun::due(sweeps, spf, done, u64::from(settings.max_samples));
     if !denoising {
         state.denoise_run = None;
     } else if state.denoise_run.is_none() {
-        state.denoise_run = DenoiseRun::due(
-            sweeps,
-            spf,
-            state.denoised_sweeps,
-            u64::from(settings.max_samples),
-        );
+        state.denoise_run = due(state.denoised_sweeps);
     }
     let denoise = state.denoise_run.map(|run| {
         let (pass, rest) = run.step();
@@ -944,14 +943,7 @@ fn filters(
     // Nor is it while the tree fills or the denoiser's pipeline compiles: its runs start after.
     let denoise_owed = state.denoise_run.is_some()
         || (wanted && (compiling || scene.filling))
-        || (denoising
-            && DenoiseRun::due(
-                sweeps,
-                spf,
-                state.denoised_sweeps,
-                u64::from(settings.max_samples),
-            )
-            .is_some());
+        || (denoising && due(state.denoised_sweeps).is_some());
     let shown_preview = if sweeps == 0 { state.preview_scale } else { 0 };
     // Temporal reuse, with the denoiser, in the path-traced view.
     let temporal = (denoising && settings.temporal)

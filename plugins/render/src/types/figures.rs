@@ -111,8 +111,9 @@ impl PathTracerStats {
             .unwrap_or(0)
     }
 
-    /// Whether the camera's picture is finished at `samples` a pixel: it has them, and no run of
-    /// the denoiser is part way (the last samples' run ends a few frames after them).
+    /// Whether the camera's picture is finished at `samples` a pixel: it has them, and the
+    /// denoiser owes it no pass ([`TraceFigures::denoising`]; the last samples' run ends a few
+    /// frames after them).
     pub fn finished(&self, camera: Entity, samples: u32) -> bool {
         let figures = self.0.lock().unwrap_or_else(|p| p.into_inner());
         figures.samples.get(&camera).is_some_and(|&n| n >= samples)
