@@ -25,9 +25,11 @@
 
 #[path = "../plugins/document/tests/support/assembly.rs"]
 mod assembly;
+#[path = "support/editor_process.rs"]
+mod editor_process;
 
+use editor_process::{busy_core, editor_command, editor_pid, stop};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 use treelight::report::{EditorState, MemoryReport};
 use treelight_render::BufferKind;
@@ -68,28 +70,6 @@ struct Run {
     peak: Option<(u64, MemoryReport, &'static str)>,
 }
 
-/// The editor's process among `child`'s group (xvfb-run starts Xvfb and the editor in it).
-fn editor_pid(group: u32) -> Option<u32> {
-    for entry in std::fs::read_dir("/proc").ok()?.flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-            continue;
-        };
-        // pid (comm) state ppid pgrp ...
-        let Some(close) = stat.rfind(')') else {
-            continue;
-        };
-        let comm = &stat[stat.find('(').map_or(0, |i| i + 1)..close];
-        let pgrp = stat[close + 2..].split_whitespace().nth(2);
-        if comm == "treelight" && pgrp == Some(&group.to_string()) {
-            return Some(pid);
-        }
-    }
-    None
-}
-
 /// The largest resident set seen in the reports' polls, with the owners' counts then and the
 /// phase of the run (where a peak comes from).
 struct PeakProbe {
@@ -122,14 +102,6 @@ fn rss_and_peak(pid: u32) -> (u64, u64) {
             * 1024
     };
     (field("VmRSS:"), field("VmHWM:"))
-}
-
-fn stop(child: &mut Child) {
-    // The whole group: xvfb-run, Xvfb and the editor.
-    let _ = Command::new("kill")
-        .args(["-9", "--", &format!("-{}", child.id())])
-        .status();
-    let _ = child.wait();
 }
 
 /// Runs the editor on `file` (or its default scene) until `triangles` are in the tree, `meshes`
@@ -282,35 +254,6 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     }
 }
 
-/// The editor under Xvfb on `file` (or its default scene), writing its report to the returned
-/// path, with its own config folder in `dir`.
-fn editor_command(file: Option<&Path>, dir: &Path) -> (std::path::PathBuf, Command) {
-    use std::os::unix::process::CommandExt;
-    let state = dir.join("state.ron");
-    std::fs::remove_file(&state).ok();
-    let config = dir.join("config");
-    let mut cmd = Command::new("xvfb-run");
-    cmd.args(["-a", "-s", "-screen 0 1600x1000x24"]);
-    // TREELIGHT_MEMORY_HEAPTRACK=1 runs the assembly's editor under heaptrack, its profile in the
-    // run's folder (far slower: for finding owners, not for the figures).
-    if file.is_some() && std::env::var_os("TREELIGHT_MEMORY_HEAPTRACK").is_some() {
-        cmd.args(["heaptrack", "-o"]).arg(dir.join("heaptrack"));
-    }
-    cmd.arg(env!("CARGO_BIN_EXE_treelight"))
-        .args(file.map(|f| f.as_os_str()))
-        .arg("--state")
-        .arg(&state)
-        .env("TREELIGHT_CONFIG_DIR", &config)
-        .env("TREELIGHT_CACHE_DIR", config.join("cache"))
-        .stdout(std::process::Stdio::null())
-        .stderr(
-            std::fs::File::create(dir.join("editor.log"))
-                .map_or(std::process::Stdio::null(), Into::into),
-        )
-        .process_group(0);
-    (state, cmd)
-}
-
 /// The fill's moments, from the reports of a run until every triangle is in and settled.
 #[derive(Default)]
 struct Fill {
@@ -419,21 +362,6 @@ fn trace_line(trace: Option<(u64, Option<f64>)>) -> String {
 /// Bytes a frame as KiB, or `?` where no frame was drawn.
 fn kib(bytes: Option<f64>) -> String {
     bytes.map_or("?".into(), |b| format!("{:.1}", b / 1024.0))
-}
-
-/// A thread spinning on a core until the returned flag is cleared: a busy process beside the
-/// editor.
-fn busy_core() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    let on = std::sync::Arc::new(AtomicBool::new(true));
-    let flag = on.clone();
-    std::thread::spawn(move || {
-        let mut x = 0u64;
-        while flag.load(Ordering::Relaxed) {
-            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
-        }
-    });
-    on
 }
 
 fn main() {

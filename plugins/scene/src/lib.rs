@@ -65,9 +65,17 @@ pub struct SceneBvhConfig {
     /// be done), and how big the chunks are: the engine's [`PieceRule`](treelight_bvh::PieceRule),
     /// by default meshes over 262,144 triangles in chunks of at most 65,536.
     pub chunks: treelight_bvh::PieceRule,
-    /// How many nice steps below the app's threads the worker and its thread pool run (0: the
-    /// same priority), so that on a busy machine the frame wins the cores. Default 10.
+    /// How many nice steps below the app's threads the worker runs its background work (0: the
+    /// same priority): bakes, the global updates after edits, and (as many steps again) the
+    /// full-sweep rebuilds, so that on a busy machine the frame wins the cores from work nobody
+    /// waits for. Default 10.
     pub worker_nice: i32,
+    /// How many nice steps below the app's threads the worker takes in what a user waits for:
+    /// meshes into the tree (their bBVH builds and insertion) and edits. Default 5: at 10, the
+    /// fill of a large import on a machine with one core busy took the leftovers of a frame that
+    /// a software adapter draws on the CPU, three times the fill's own CPU time in the wall clock
+    /// (`cargo bench --bench fill`); at 0 the frames of the fill came at half the rate.
+    pub fill_nice: i32,
     /// Threads in the worker's pool for its parallel builds; 0 (the default): one fewer than the
     /// machine's cores, at least one. The core left over keeps the frame's thread from waiting for a
     /// core while big imports build (on a busy core it can wait until the scheduler's next tick).
@@ -84,6 +92,7 @@ impl Default for SceneBvhConfig {
             preset: Preset::Balanced,
             chunks: treelight_bvh::PieceRule::default(),
             worker_nice: 10,
+            fill_nice: 5,
             worker_threads: 0,
         }
     }
@@ -125,28 +134,39 @@ impl Plugin for SceneBvhPlugin {
             nice: self.config.worker_nice,
         };
         let worker_threads = self.config.worker_threads;
+        let fill_nice = self.config.fill_nice;
         std::thread::Builder::new()
             .name("treelight-scene-bvh".into())
             .spawn(move || {
-                // The worker's parallel builds run on a pool of its own, at its priority.
-                let nice = cfg.nice;
+                // The worker's parallel builds run on a pool of its own at the fill's priority,
+                // its background work on a thread of its own lower down (the pools' threads
+                // take their nice from the app's, so both are built before this thread lowers
+                // itself).
                 let threads = match worker_threads {
                     0 => std::thread::available_parallelism()
                         .map_or(1, |n| n.get().saturating_sub(1).max(1)),
                     n => n,
                 };
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .thread_name(|i| format!("treelight-bvh-{i}"))
-                    .num_threads(threads)
-                    .start_handler(move |_| priority::lower_current_thread(nice))
-                    .build();
-                priority::lower_current_thread(nice);
+                let pool = |name: &'static str, threads: usize, nice: i32| {
+                    rayon::ThreadPoolBuilder::new()
+                        .thread_name(move |i| format!("treelight-{name}-{i}"))
+                        .num_threads(threads)
+                        .start_handler(move |_| priority::lower_current_thread(nice))
+                        .build()
+                        .ok()
+                };
+                let fill = pool("bvh", threads, fill_nice);
+                let background = pool("bvh-idle", 1, cfg.nice);
+                priority::lower_current_thread(fill_nice);
                 // A bug in the worker stops the tree's updates, not the app: the panic is kept
                 // for the app to report (SceneBvh::worker_failure).
                 let shared = worker_shared.clone();
-                let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match pool {
-                    Ok(pool) => pool.install(|| worker::run(worker_shared, rx, cfg)),
-                    Err(_) => worker::run(worker_shared, rx, cfg),
+                let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    let run = || worker::run(worker_shared, rx, cfg, background.as_ref());
+                    match &fill {
+                        Some(pool) => pool.install(run),
+                        None => run(),
+                    }
                 }));
                 if let Err(payload) = ran {
                     let why = panic_message(&*payload);

@@ -236,15 +236,31 @@ fn coalesce(batch: Vec<Command>) -> Vec<Command> {
     out
 }
 
-pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConfig) {
+/// The worker's loop: commands into the tree on the calling thread (at the fill's priority), the
+/// work between them on `background` (at the worker's lower one), where there is such a pool.
+pub(crate) fn run(
+    shared: Arc<Shared>,
+    rx: Receiver<Command>,
+    config: WorkerConfig,
+    background: Option<&rayon::ThreadPool>,
+) {
+    let in_background = |work: &mut (dyn FnMut() + Send)| match background {
+        Some(pool) => pool.install(work),
+        None => work(),
+    };
     let mut last_move: HashMap<Entity, Instant> = HashMap::new();
     let mut idle = IdleWork::default();
     let mut clock = CostClock::default();
-    let mut refiner = Refiner::start(
-        config.nice,
-        config.bake_after,
-        shared.refine_failure.clone(),
-    );
+    // Started from the background thread, the refiner's thread takes its priority from there.
+    let mut refiner = None;
+    in_background(&mut || {
+        refiner = Some(Refiner::start(
+            config.nice,
+            config.bake_after,
+            shared.refine_failure.clone(),
+        ));
+    });
+    let mut refiner = refiner.expect("the refiner was started");
     // Commands received but left for a later batch, oldest first.
     let mut queued: VecDeque<Command> = VecDeque::new();
     loop {
@@ -275,14 +291,16 @@ pub(crate) fn run(shared: Arc<Shared>, rx: Receiver<Command>, config: WorkerConf
             if filling {
                 continue;
             }
-            idle_work(
-                &shared,
-                &mut last_move,
-                config,
-                &mut idle,
-                &mut clock,
-                &mut refiner,
-            );
+            in_background(&mut || {
+                idle_work(
+                    &shared,
+                    &mut last_move,
+                    config,
+                    &mut idle,
+                    &mut clock,
+                    &mut refiner,
+                );
+            });
             let ahead = !last_move.is_empty()
                 || idle.is_pending()
                 || refiner.has_work_ahead()
