@@ -275,14 +275,24 @@ fn extract_scene(
             });
         }
     }
-    let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
-    let lights_changed = sync.lights.as_ref() != Some(&bytes);
-    if lights_changed || sync.emitters_changed {
-        // The emitters' records follow the lights: a change in the lights' number moves them all.
-        let moved = sync.lights.as_ref().map(Vec::len) != Some(bytes.len());
-        let emitters = &mut sync.emitters;
+    sync.write_lights(&lights);
+}
+
+impl SceneSync {
+    /// The lights buffer's writes for this frame's punctual `lights` and the emitters' list as
+    /// the last pass left it: the lights' records first, then the emitters' table and triangles.
+    /// Only what changed is written, except that a change in the lights' number moves (and
+    /// rewrites) every emitter record.
+    fn write_lights(&mut self, lights: &[SceneLight]) {
+        let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+        let lights_changed = self.lights.as_ref() != Some(&bytes);
+        if !lights_changed && !self.emitters_changed {
+            return;
+        }
+        let moved = self.lights.as_ref().map(Vec::len) != Some(bytes.len());
+        let emitters = &mut self.emitters;
         let writes = emitters.take_writes(moved);
-        let p = &mut sync.pending;
+        let p = &mut self.pending;
         p.need(
             BufferKind::Lights,
             lights.len() as u64 + u64::from(emitters.record_count()),
@@ -297,8 +307,8 @@ fn extract_scene(
             p.writes
                 .push(BufferKind::Lights, bytes.len() as u64 + at, &records);
         }
-        sync.lights = Some(bytes);
-        sync.emitters_changed = false;
+        self.lights = Some(bytes);
+        self.emitters_changed = false;
     }
 }
 
@@ -443,4 +453,105 @@ fn scene_writes(
             }
             record
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bevy::math::Affine3A;
+    use std::collections::{HashMap, HashSet};
+
+    /// `size` squares of two triangles from `at` along z, as ids and world-space corners.
+    fn squares(at: Vec3, size: u32) -> Vec<(u32, [Vec3; 3])> {
+        (0..size)
+            .flat_map(|k| {
+                let a = at + Vec3::Z * k as f32;
+                let (x, z) = (Vec3::X, Vec3::Z);
+                [
+                    (2 * k, [a, a + x, a + x + z]),
+                    (2 * k + 1, [a, a + x + z, a + z]),
+                ]
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// Frame after frame of punctual lights coming and going and emissive groups changing,
+        /// a copy of the lights buffer that only this frame's writes touch (grown as the render
+        /// world grows it, keeping its bytes) holds the lights' records and then the emitters'
+        /// list, and the counts the kernel reads with it say where each part ends.
+        #[test]
+        fn the_lights_buffer_kept_by_the_writes_is_the_lights_then_the_emitters(
+            frames in proptest::collection::vec(
+                (
+                    proptest::collection::vec(1u32..5, 0..4),
+                    proptest::collection::vec(
+                        (0u32..5, 0u32..3, 1u32..4, proptest::bool::ANY),
+                        0..4,
+                    ),
+                ),
+                1..14,
+            )
+        ) {
+            let mut sync = SceneSync::default();
+            let mut copy: Vec<u8> = Vec::new();
+            let (mut light_count, mut emitters) = (0u32, (0u32, 0.0f32));
+            // Per slot: place, brightness (0: dark), squares.
+            let mut scene: HashMap<u32, (u32, u32, u32)> = HashMap::new();
+            for (powers, edits) in frames {
+                let mut edited = HashSet::new();
+                for (slot, place, size, dark) in edits {
+                    scene.insert(slot, (place, if dark { 0 } else { size }, size));
+                    edited.insert(slot);
+                }
+                sync.emitters.begin_pass();
+                for (&slot, &(place, bright, size)) in &scene {
+                    let at = Vec3::new(slot as f32 * 3.0, place as f32, 0.0);
+                    sync.emitters.group(
+                        slot,
+                        Affine3A::from_translation(at),
+                        Vec3::splat(bright as f32),
+                        edited.contains(&slot),
+                        || squares(at, size),
+                    );
+                }
+                // As `scene_writes` ends its pass.
+                sync.emitters_changed |= sync.emitters.end_pass();
+                let lights: Vec<SceneLight> = powers
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &w)| SceneLight::Point {
+                        position: Vec3::new(i as f32, 5.0, 0.0),
+                        power: Vec3::splat(w as f32 * 100.0),
+                        radius: 0.0,
+                        range: None,
+                    })
+                    .collect();
+                sync.write_lights(&lights);
+                // The render world takes the frame's upload: grows the buffer to what it needs
+                // (the old bytes kept), then writes.
+                let p = std::mem::take(&mut sync.pending);
+                let need = p.needed[BufferKind::Lights.index()] * BufferKind::Lights.record_bytes();
+                if copy.len() < need as usize {
+                    copy.resize(need as usize, 0);
+                }
+                for w in p.writes.iter() {
+                    proptest::prop_assert_eq!(w.buffer, BufferKind::Lights);
+                    let at = w.offset as usize;
+                    proptest::prop_assert!(at + w.bytes.len() <= copy.len(), "a write past the buffer");
+                    copy[at..at + w.bytes.len()].copy_from_slice(w.bytes);
+                }
+                light_count = p.light_count.unwrap_or(light_count);
+                emitters = p.emitters.unwrap_or(emitters);
+                let mut want: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
+                want.extend(sync.emitters.bytes());
+                proptest::prop_assert_eq!(&copy[..want.len()], &want[..]);
+                proptest::prop_assert_eq!(light_count as usize, lights.len());
+                proptest::prop_assert_eq!(
+                    emitters,
+                    (sync.emitters.group_count(), sync.emitters.total())
+                );
+            }
+        }
+    }
 }
