@@ -18,7 +18,12 @@
 //! set are read once idle; the editor's log is `editor.log` in the run's temporary folder, with its
 //! mappings once idle (`smaps-NAME`, NAME the file's stem).
 //!
-//! Run: `cargo bench --workspace --profile dev --bench memory [-- [busy] PARTSxROWS ...]` (default
+//! After each assembly's editor, `treelight render` draws the same file headless (320×200, 4
+//! samples a pixel) and its peak resident set is printed under the table, from the kernel's
+//! account of the finished process (`wait4`'s maximum resident set).
+//!
+//! Run: `cargo bench --workspace --profile dev --bench memory [-- [busy] [render] PARTSxROWS ...]`
+//! (`render`: the headless renders alone, no editor; default
 //! `100x100 400x100 400x123`: 2M, 8M and 12.1M triangles). `busy`: a thread of this process spins
 //! on one core while each assembly's editor runs (the fill on a busy machine). Needs Xvfb and
 //! Mesa's software Vulkan, as the tests do. The largest takes minutes and more than 10 GB.
@@ -30,6 +35,7 @@ mod editor_process;
 
 use editor_process::{busy_core, editor_command, editor_pid, stop};
 use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use treelight::report::{EditorState, MemoryReport};
 use treelight_render::BufferKind;
@@ -254,6 +260,66 @@ fn run(file: Option<&Path>, triangles: u64, meshes: u64, dir: &Path) -> Run {
     }
 }
 
+/// `treelight render` of `file` into `dir`, headless: its peak resident set (bytes, the kernel's
+/// maximum for the finished process) and its wall time, or why it failed.
+fn render_peak(file: &Path, dir: &Path) -> Result<(u64, f64), String> {
+    let start = Instant::now();
+    // Under heaptrack too with TREELIGHT_MEMORY_HEAPTRACK=1 (its profile `heaptrack-render`).
+    let mut cmd = if std::env::var_os("TREELIGHT_MEMORY_HEAPTRACK").is_some() {
+        let mut c = Command::new("heaptrack");
+        c.arg("-o")
+            .arg(dir.join("heaptrack-render"))
+            .arg(env!("CARGO_BIN_EXE_treelight"));
+        c
+    } else {
+        Command::new(env!("CARGO_BIN_EXE_treelight"))
+    };
+    let child = cmd
+        .arg("render")
+        .arg(file)
+        .arg("--out")
+        .arg(dir.join("render.png"))
+        .arg("--overwrite")
+        .args(["--width", "320", "--height", "200", "--spp", "4"])
+        .env("TREELIGHT_CONFIG_DIR", dir.join("config"))
+        .env("TREELIGHT_CACHE_DIR", dir.join("config").join("cache"))
+        .stdout(std::process::Stdio::null())
+        .stderr(
+            std::fs::File::create(dir.join("render.log"))
+                .map_or(std::process::Stdio::null(), Into::into),
+        )
+        .spawn()
+        .map_err(|e| format!("cannot start treelight render: {e}"))?;
+    let mut status = 0;
+    // SAFETY: a zeroed rusage is valid; wait4 fills it for our own child, which is reaped here
+    // (the Child handle is not waited on again).
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let waited = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    if waited < 0 {
+        return Err(format!("wait4: {}", std::io::Error::last_os_error()));
+    }
+    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+        return Err(format!(
+            "treelight render failed (status {status}); see {}",
+            dir.join("render.log").display()
+        ));
+    }
+    // ru_maxrss is in kilobytes on Linux.
+    Ok((usage.ru_maxrss as u64 * 1024, start.elapsed().as_secs_f64()))
+}
+
+/// A line on `treelight render` of the assembly `file`: its peak per triangle and its time.
+fn render_line(parts: usize, rows: usize, triangles: usize, file: &Path, dir: &Path) -> String {
+    match render_peak(file, dir) {
+        Ok((peak, seconds)) => format!(
+            "{parts} × {rows}: `treelight render` peaked at {:.0} MiB, {:.0} B a triangle, in {seconds:.1} s",
+            peak as f64 / 1048576.0,
+            peak as f64 / triangles as f64
+        ),
+        Err(why) => format!("{parts} × {rows}: {why}"),
+    }
+}
+
 /// The fill's moments, from the reports of a run until every triangle is in and settled.
 #[derive(Default)]
 struct Fill {
@@ -383,6 +449,15 @@ fn main() {
     let dir: PathBuf =
         std::env::temp_dir().join(format!("treelight-memory-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    if std::env::args().any(|a| a == "render") {
+        for (parts, rows) in sizes {
+            let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
+            println!("- {}", render_line(parts, rows, triangles, &file, &dir));
+            std::fs::remove_file(&file).ok();
+            std::fs::remove_file(dir.join("assembly.bin")).ok();
+        }
+        return;
+    }
     let base = run(None, 1, 0, &dir);
     println!(
         "\nThe default scene: {:.0} MiB resident, {:.0} MiB at peak, {:.1} frames/s, resident set \
@@ -398,6 +473,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut peaks = Vec::new();
     let mut traces = vec![format!("default scene: {}", trace_line(base.trace))];
+    let mut renders = Vec::new();
     for (parts, rows) in sizes {
         let (file, triangles) = assembly::generated_assembly(&dir, parts, rows);
         let spinning = busy.then(busy_core);
@@ -405,6 +481,7 @@ fn main() {
         if let Some(flag) = spinning {
             flag.store(false, std::sync::atomic::Ordering::Relaxed);
         }
+        renders.push(render_line(parts, rows, triangles, &file, &dir));
         let m = &r.memory;
         let n = triangles as f64;
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
@@ -459,6 +536,10 @@ fn main() {
     println!("\nThe view's trace in its last frame once idle:");
     for t in traces {
         println!("- {t}");
+    }
+    println!("\n`treelight render` of each file, 320×200, 4 samples a pixel, headless:");
+    for r in renders {
+        println!("- {r}");
     }
     println!(
         "\nThe largest resident set seen in the polls (fill: every 50 to 250 ms; bakes and rebuilds: \
