@@ -19,7 +19,10 @@ pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
         RenderAssetUsages::default(),
     )
     .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, m.geometry.positions.clone())
-    .with_inserted_indices(Indices::U32(m.geometry.indices.clone()));
+    .with_inserted_indices(bevy_indices(
+        &m.geometry.indices,
+        m.geometry.positions.len(),
+    ));
     if let Some(uvs) = &m.geometry.uvs {
         mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
     }
@@ -40,6 +43,18 @@ pub fn to_bevy_mesh(m: &ImportedMesh, tangents: bool) -> Mesh {
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, t);
     }
     mesh
+}
+
+/// Triangle-list `indices` into `vertices` vertices as a Bevy mesh keeps them: 16 bits each where
+/// every vertex can be named so (most meshes; glTF writers store such indices in 16 bits and the
+/// importer widens them), half the bytes of 32.
+pub fn bevy_indices(indices: &[u32], vertices: usize) -> Indices {
+    if vertices <= usize::from(u16::MAX) + 1
+        && let Ok(narrow) = indices.iter().map(|&i| u16::try_from(i)).collect()
+    {
+        return Indices::U16(narrow);
+    }
+    Indices::U32(indices.to_vec())
 }
 
 /// For each mesh of `scene`, whether its Bevy mesh needs tangents: a normal map is drawn on it, or
@@ -306,6 +321,17 @@ mod tests {
             height: 1,
             rgba8: rgba.to_vec(),
         }
+    }
+
+    #[test]
+    fn indices_take_16_bits_where_every_vertex_fits() {
+        let small = bevy_indices(&[0, 1, 2, 2, 1, 65_535], 65_536);
+        assert!(matches!(&small, Indices::U16(i) if i == &[0, 1, 2, 2, 1, 65_535]));
+        let large = bevy_indices(&[0, 1, 65_536], 65_537);
+        assert!(matches!(&large, Indices::U32(i) if i == &[0, 1, 65_536]));
+        // A mesh with few vertices never has an index past them, but if one came it would not
+        // be cut short.
+        assert!(matches!(bevy_indices(&[0, 1, 70_000], 3), Indices::U32(_)));
     }
 
     #[test]
