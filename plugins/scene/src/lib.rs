@@ -73,7 +73,7 @@ pub struct SceneBvhConfig {
     /// How many nice steps below the app's threads the worker takes in what a user waits for:
     /// meshes into the tree (their bBVH builds and insertion) and edits. Default 5: at 10, the
     /// fill of a large import on a machine with one core busy took the leftovers of a frame that
-    /// a software adapter draws on the CPU, three times the fill's own CPU time in the wall clock
+    /// a software adapter draws on the CPU, five times the fill's own CPU time in the wall clock
     /// (`cargo bench --bench fill`); at 0 the frames of the fill came at half the rate.
     pub fill_nice: i32,
     /// Threads in the worker's pool for its parallel builds; 0 (the default): one fewer than the
