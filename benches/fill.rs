@@ -54,7 +54,8 @@ type ThreadCpu = (u32, String, f64);
 
 /// Each live thread of `pid`.
 fn threads(pid: u32) -> Vec<ThreadCpu> {
-    let tick = 100.0; // USER_HZ on Linux
+    // SAFETY: sysconf only reads a configuration value.
+    let tick = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as f64;
     let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
         return Vec::new();
     };
