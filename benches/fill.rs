@@ -110,9 +110,10 @@ fn run(file: &Path, triangles: u64, dir: &Path) -> Option<Fill> {
             continue;
         };
         let t = start.elapsed().as_secs_f64();
-        let now = pid.map(threads).unwrap_or_default();
+        // The threads' CPU is read at the two moments only: the bench shares the cores it measures.
+        let cpu_now = || pid.map(threads).unwrap_or_default();
         if at_parse.is_none() && s.notices.iter().any(|n| n.starts_with("opened ")) {
-            at_parse = Some((t, s.frame, now.clone()));
+            at_parse = Some((t, s.frame, cpu_now()));
         }
         if let Some((parsed, frame, before)) = &at_parse
             && s.memory.triangles >= triangles
@@ -121,7 +122,7 @@ fn run(file: &Path, triangles: u64, dir: &Path) -> Option<Fill> {
                 parsed: *parsed,
                 all_in: t,
                 frames: s.frame.saturating_sub(*frame),
-                cpu: cpu_between(before, &now),
+                cpu: cpu_between(before, &cpu_now()),
             });
             break;
         }
