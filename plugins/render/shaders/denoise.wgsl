@@ -13,12 +13,20 @@
 // the filter mixes pixels while their true difference stays within the noise it removes
 // (`sigma_luminance` deviations), and noise is not taken for detail nor detail for noise.
 //
+// Those two estimates cannot tell a few rare bright paths that fell in both (a caustic, one
+// sample in 20, lands in both halves of 16 samples one time in nine) from true detail, and the
+// filter would keep such a pixel as a speckle. The trace kernel splits the head in two, so a pixel
+// has three parts, and the middle one of them is its lighting with what one part alone caught left
+// out: a pixel standing far above that level of all its neighbours is a firefly whatever its own
+// parts say. It is tamed, and the filter mixes it with its neighbours as noise.
+//
 // Reflected light is filtered apart from the surface colour (divided by the albedo here,
 // multiplied back by the resolve), so textures stay sharp; emitted light and directly seen sky are
 // not filtered at all. Taps on another object never count, so nothing smears across an object's
 // edge or over the selection outline. A first pass reads the accumulation and filters nothing: it
-// holds each pixel's lighting to at most TAME times its brightest neighbour's (a rare bright path
-// among few samples is a firefly the filter would spread into a blotch) and estimates its noise.
+// holds each pixel's lighting to at most TAME times its neighbours' highest middle part (a rare
+// bright path among few samples is a firefly the filter would spread into a blotch) and estimates
+// its noise.
 // Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes (rgb:
 // demodulated colour, w: its variance) for the next, the last for the resolve. The first pass also
 // keeps what a tap reads of each pixel (`taps`): the filter passes read that alone, a third of
@@ -41,7 +49,7 @@ struct Denoise {
 
 const NONE: u32 = 0xffffffffu;
 const LOG2_E: f32 = 1.4426950408889634;
-// How far above its brightest neighbour a pixel's lighting may stand.
+// How far above its neighbours' highest middle part a pixel's lighting may stand.
 const TAME: f32 = 3.0;
 
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
@@ -60,6 +68,8 @@ const TAP_WORDS: u32 = 7u;
 // A tap's flags: the pixel had samples; they met more than one object.
 const TAP_SAMPLED: u32 = 1u;
 const TAP_MIXED: u32 = 2u;
+// The noise a firefly's tap declares: any difference from its neighbours is within it.
+const UNBOUNDED: f32 = 1e30;
 
 // What a filter pass reads of a pixel it taps, as the first pass saw it.
 struct Tap {
@@ -128,9 +138,11 @@ struct Guide {
     // The mean light the samples' primary hits emit.
     emission: vec3<f32>,
     // The summed luminance of the light the first `head_count` samples reflect, and their mean
-    // albedo luminance.
+    // albedo luminance; the first half of those samples' share of that sum, and their mean albedo
+    // luminance.
     head: f32,
     head_albedo: f32,
+    split: vec2<f32>,
     // Whether its samples met more than one object.
     mixed: bool,
 }
@@ -153,6 +165,7 @@ fn guide(i: u32) -> Guide {
     let m = guides[g + GUIDE_HEAD];
     out.head = bitcast<f32>(m & 0x7fffffffu);
     out.head_albedo = guide_head_albedo(i);
+    out.split = unpack2x16unorm(guides[g + GUIDE_SPLIT]);
     out.mixed = (m >> 31u) != 0u;
     return out;
 }
@@ -180,6 +193,29 @@ fn parts(i: u32, g: Guide) -> vec3<f32> {
     return vec3<f32>(la, lb, a * b / (f32(n) * f32(n)));
 }
 
+// A pixel's three independent estimates of its lighting (luminance, demodulated): the means of its
+// first P / 2 samples, of the next P / 2 and of the rest, each divided by its own samples' albedo;
+// below 3 samples, its mean three times. They are used for fireflies only: a part of a single
+// sample covers one point of the pixel, so their spread would count what varies across the pixel
+// as noise, as the halves' (`parts`) does not.
+fn thirds(i: u32, g: Guide) -> vec3<f32> {
+    let n = u32(accum[i].w);
+    if n < 3u {
+        return vec3<f32>(luminance(demodulated(i, g)));
+    }
+    let h = 0.5 * f32(head_count(n));
+    let second_albedo = 2.0 * g.head_albedo - g.split.y;
+    let first = g.split.x * g.head / h / max(g.split.y, 0.02);
+    let second = (1.0 - g.split.x) * g.head / h / max(second_albedo, 0.02);
+    return vec3<f32>(first, second, parts(i, g).y);
+}
+
+// The middle one of three values: a pixel's lighting with what one of its parts caught alone left
+// out.
+fn middle(v: vec3<f32>) -> f32 {
+    return max(min(v.x, v.y), min(max(v.x, v.y), v.z));
+}
+
 // The variance of a pixel's mean luminance from its `parts`: two independent estimates of a and
 // b samples whose difference d has the variance s² (1 / a + 1 / b), s² a sample's, while the
 // mean's is s² / (a + b) = d² a b / n² on average. Negative where the pixel has a single sample.
@@ -196,9 +232,10 @@ fn demodulated(i: u32, g: Guide) -> vec3<f32> {
     return reflected / max(g.albedo, vec3<f32>(0.02));
 }
 
-// A pixel's demodulated colour `c`, its luminance held to TAME times `top` (the brightest of its
-// 8 neighbours') but not below `agreed`, what the samples agree on: a firefly (one rare bright
-// path among few samples) would spread into a blotch, while a bright feature a pixel wide stays.
+// A pixel's demodulated colour `c`, its luminance held to TAME times `top` (the highest of its 8
+// neighbours' middle parts) but not below `agreed`, what the samples agree on: a firefly (rare
+// bright paths among few samples) would spread into a blotch, while a bright feature a pixel wide
+// stays (its neighbours along it, or all its samples, agree).
 fn tamed(c: vec3<f32>, top: f32, agreed: f32) -> vec3<f32> {
     let l = luminance(c);
     let bound = max(top * TAME, agreed);
@@ -287,7 +324,7 @@ fn first_pass(p: vec2<i32>, i: u32) {
             let gq = guide(j);
             let lq = luminance(demodulated(j, gq));
             if j != i {
-                top = max(top, lq);
+                top = max(top, middle(thirds(j, gq)));
                 let hq = vec2<u32>(gq.slot, select(0u, TAP_MIXED, gq.mixed));
                 if !same_surface(hp, hq) {
                     continue;
@@ -307,14 +344,21 @@ fn first_pass(p: vec2<i32>, i: u32) {
     if tp.variance < 0.0 {
         variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
     }
-    // What the samples agree on: the lower of the pixel's two independent estimates (a firefly is
-    // in one of them only), or, with a single sample, 3 standard deviations below its mean.
+    // What the samples agree on: the lowest of the pixel's three parts (a firefly must be in all
+    // three to pass), or, with a single sample, 3 standard deviations below its mean.
     let own = demodulated(i, gp);
     var agreed = luminance(own) - 3.0 * sqrt(variance);
     if tp.variance >= 0.0 {
-        agreed = min(tp.la, tp.lb);
+        let t = thirds(i, gp);
+        agreed = min(min(t.x, t.y), t.z);
     }
-    filtered[i] = vec4<f32>(tamed(own, top, agreed), variance);
+    let kept = tamed(own, top, agreed);
+    // Held down by its neighbours, not by what its own samples agree on: a firefly, whose excess
+    // is noise, so the filter passes mix it with its neighbours.
+    if luminance(own) > top * TAME && agreed < top * TAME {
+        taps[TAP_WORDS * i + 6u] = bitcast<u32>(UNBOUNDED);
+    }
+    filtered[i] = vec4<f32>(kept, variance);
 }
 
 // A filter pass: 5 × 5 taps `step` pixels apart, over the first pass's taps and the last pass's

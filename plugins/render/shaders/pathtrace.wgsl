@@ -1443,6 +1443,11 @@ fn path_trace(
     // standing in for their neighbours.
     var head = 0.0;
     var head_albedo = 0.0;
+    // The first P / 2 samples' share of the head sum and their mean albedo luminance: the head
+    // split in two, so the denoiser has three parts, and a firefly must be in all three to pass
+    // for lighting the samples agree on (two parts of 8 samples each both catch a path that one
+    // sample in 20 finds one time in nine).
+    var split = vec2<f32>(0.0);
     var mixed = false;
     // And the sums of the primary hits' albedo and emission (kept as a mean): lighting is
     // filtered apart from the one, and the other passes unfiltered.
@@ -1461,6 +1466,7 @@ fn path_trace(
         );
         emission = guide_emission(pixel) * f32(first);
         head_albedo = guide_head_albedo(pixel);
+        split = unpack2x16unorm(guides[g + GUIDE_SPLIT]);
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1472,7 +1478,10 @@ fn path_trace(
         let index = first + k;
         if index != 0u && (index & (index - 1u)) == 0u {
             // Not below 0 (the emission's rounding): the sign bit is the mixed flag.
-            head = max(luminance(acc.rgb + sum - emission), 0.0);
+            let whole = max(luminance(acc.rgb + sum - emission), 0.0);
+            // The old head covered the first index / 2 samples.
+            split = vec2<f32>(select(0.5, head / whole, whole > 0.0), head_albedo);
+            head = whole;
             head_albedo = luminance(albedo) / f32(index);
         }
         sum += value;
@@ -1494,5 +1503,6 @@ fn path_trace(
     let mean = min(emission / f32(first + view.samples), vec3<f32>(65504.0));
     guides[g + GUIDE_EMISSION] = pack2x16float(mean.rg);
     guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, head_albedo));
+    guides[g + GUIDE_SPLIT] = pack2x16unorm(split);
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -9,15 +9,20 @@
 //! * Detail: a texture finer than the pixels, at 16 and 64 samples, is no further from the
 //!   converged frame denoised than not: the samples' spread over such a pixel is the texture's,
 //!   which its evenly spread samples average out, not noise the filter may remove.
+//! * Fireflies: a pixel whose rare bright paths fell in both halves of its samples, but not in all
+//!   three parts the trace kernel keeps, is tamed and mixed with its neighbours, while a bright
+//!   pixel all of whose parts agree stays; and the kernel's split of the head sum holds whatever
+//!   frames the samples came in.
 
 mod support;
 
 use support::scenes::{
-    Scene, ShadedTriangle, Trace, camera, lit_frame, spheres_on_a_floor, square, trace, trace_into,
+    Frames, Scene, ShadedTriangle, Trace, camera, lit_frame, spheres_on_a_floor, square, trace,
+    trace_into,
 };
-use support::{Gpu, Rng, floats, relative_mse};
+use support::{Gpu, Rng, floats, relative_mse, words};
 use treelight_bvh::glam::{Affine3A, Mat4, Quat, Vec3};
-use treelight_render::{DebugView, LayerTexture, SurfaceMaterial, TextureWrap};
+use treelight_render::{DebugView, LayerTexture, SurfaceMaterial, TextureWrap, TraceWork};
 
 const SIZE: u32 = 48;
 
@@ -350,4 +355,122 @@ fn emitted_light_passes_the_filter_untouched() {
         );
     }
     assert!(checked > 1000, "{checked} pixels on the quad");
+}
+
+/// A flat grey wall of `SPOT` × `SPOT` pixels of 16 samples each, as the trace kernel would leave
+/// its buffers: one object, facing the camera, albedo 1, no emission, lit at about 1 (each part of
+/// each pixel a little off, as noise), except the centre pixel, whose three parts (the means of
+/// its first 4 samples, of the next 4 and of the last 8: guide_layout.wgsl) are `centre`. Returns
+/// the denoised lighting at the centre and the mean of its 8 neighbours'.
+fn denoised_spot(gpu: &Gpu, centre: [f32; 3]) -> (f32, f32) {
+    const SPOT: u32 = 15;
+    let target = gpu.trace_target(SPOT, SPOT);
+    let pixels = (SPOT * SPOT) as usize;
+    let words = treelight_render::GUIDE_WORDS as usize;
+    let (mut accum, mut aux, mut guides) = (
+        vec![0f32; 4 * pixels],
+        vec![0u32; 2 * pixels],
+        vec![0u32; words * pixels],
+    );
+    let mut rng = Rng(7);
+    let normal = treelight_render::encode_normal(Vec3::Z);
+    for i in 0..pixels {
+        let [a, b, c] = if i == pixels / 2 {
+            centre
+        } else {
+            [(); 3].map(|_| 1.0 + 0.1 * (rng.next() - 0.5))
+        };
+        let head = 4.0 * (a + b);
+        let sum = head + 8.0 * c;
+        accum[4 * i..4 * i + 4].copy_from_slice(&[sum, sum, sum, 16.0]);
+        aux[i] = 0.5f32.to_bits();
+        aux[pixels + i] = 0;
+        let g = &mut guides[words * i..words * (i + 1)];
+        g[0] = normal;
+        g[1] = head.to_bits();
+        g[2..5].copy_from_slice(&[16.0f32.to_bits(); 3]);
+        // The emission's halves are 0; the head's mean albedo luminance, 1, in the last half.
+        g[6] = u32::from(half::f16::from_f32(1.0).to_bits()) << 16;
+        let share = (4.0 * a / head * 65535.0).round() as u32;
+        g[7] = share | (65535 << 16);
+    }
+    let bytes = |v: &[u32]| v.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>();
+    let accum_words: Vec<u32> = accum.iter().map(|f| f.to_bits()).collect();
+    let queue = &gpu.queue;
+    queue.write_buffer(&target.accum, 0, &bytes(&accum_words));
+    queue.write_buffer(&target.aux, 0, &bytes(&aux));
+    queue.write_buffer(&target.guides, 0, &bytes(&guides));
+    gpu.denoise(&target, 16);
+    let light = floats(&gpu.read(&target.denoised[0]));
+    let at = |x: u32, y: u32| light[4 * (y * SPOT + x) as usize];
+    let m = SPOT / 2;
+    let neighbours = (0..9)
+        .filter(|&k| k != 4)
+        .map(|k| at(m + k % 3 - 1, m + k / 3 - 1))
+        .sum::<f32>()
+        / 8.0;
+    (at(m, m), neighbours)
+}
+
+#[test]
+fn a_firefly_both_halves_of_a_pixel_caught_is_not_kept_as_a_speckle() {
+    let gpu = Gpu::new();
+    // Rare bright paths in the second quarter of the samples and in the last half: the two halves
+    // (4 + 4 and 8 samples) agree at 5, the first quarter says 1.
+    let (centre, around) = denoised_spot(&gpu, [1.0, 9.0, 5.0]);
+    assert!(
+        centre < 1.5 && around < 1.5,
+        "the firefly stands as a speckle: {centre} (its neighbours {around})"
+    );
+    assert!(around > 0.9, "the neighbours lost their light: {around}");
+}
+
+#[test]
+fn a_bright_pixel_all_of_whose_samples_agree_stays() {
+    let gpu = Gpu::new();
+    let (centre, around) = denoised_spot(&gpu, [5.0, 5.0, 5.0]);
+    assert!(
+        centre > 4.5 && around < 1.2,
+        "a bright pixel every part of whose samples agrees was filtered away: {centre} (its \
+         neighbours {around})"
+    );
+}
+
+#[test]
+fn the_head_s_first_half_is_kept_apart_however_the_frames_split_the_samples() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let s = spheres_on_a_floor();
+    let frames = Frames::new(&gpu, &s, &layers, &lit_frame(16, 1).lights);
+    // 16 samples in one dispatch; 24 in two, 16 and 8 (the head of 16 samples is snapshotted at
+    // the second's start, from the guides the first left). A pixel's n-th sample is the same in
+    // both, so the first 8 samples' sum is the head after 16, and the first 16's after 24.
+    let guides = |samples| {
+        let t = frames.trace(&lit_frame(16, samples), TraceWork::WHOLE_IMAGE);
+        words(&gpu.read(&t.guides))
+    };
+    let (g16, g24) = (guides(16), guides(24));
+    let w = treelight_render::GUIDE_WORDS as usize;
+    let mut checked = 0;
+    for i in 0..(16 * 16) {
+        let (a, b) = (&g16[w * i..w * (i + 1)], &g24[w * i..w * (i + 1)]);
+        let head = |g: &[u32]| f32::from_bits(g[1] & 0x7fff_ffff);
+        let share = (b[7] & 0xffff) as f32 / 65535.0;
+        let albedo = (b[7] >> 16) as f32 / 65535.0;
+        if head(b) > 1e-3 {
+            let expected = head(a) / head(b);
+            assert!(
+                (share - expected).abs() < 2e-5,
+                "pixel {i}: the first 8 samples' share {share}, their sum over the first 16's \
+                 {expected}"
+            );
+            checked += 1;
+        }
+        let expected_albedo = half_to_f32(a[6] >> 16);
+        assert!(
+            (albedo - expected_albedo).abs() < 1e-3,
+            "pixel {i}: the first 8 samples' albedo {albedo}, after 16 samples {expected_albedo}"
+        );
+    }
+    assert!(checked > 200, "{checked} lit pixels");
 }

@@ -288,9 +288,10 @@ pub fn aux_bytes(width: u32, height: u32) -> u64 {
 }
 
 /// Words a pixel of the denoiser's guides (`GUIDE_WORDS` of guide_layout.wgsl): the first
-/// sample's normal, the head samples' reflected luminance, the albedo summed (3), and in 2 the
-/// emission's mean (three halves) and the head samples' mean albedo luminance (a half).
-pub const GUIDE_WORDS: u64 = 7;
+/// sample's normal, the head samples' reflected luminance, the albedo summed (3), in 2 the
+/// emission's mean (three halves) and the head samples' mean albedo luminance (a half), and the
+/// head's first half's share of it and mean albedo luminance (two unorm16).
+pub const GUIDE_WORDS: u64 = 8;
 
 /// Bytes of a `width × height` view's denoiser guides (guide_layout.wgsl).
 pub fn guide_bytes(width: u32, height: u32) -> u64 {
