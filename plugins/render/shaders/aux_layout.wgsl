@@ -5,3 +5,11 @@ fn block_objects_start(width: u32, height: u32) -> u32 {
     return 2u * width * height + 4u * ((width + 1u) / 2u) * ((height + 1u) / 2u);
 }
 
+// Where pixel i's split of the denoiser's head sum lies (guide_layout.wgsl: the first P / 2
+// samples' share of it and their mean albedo luminance, two unorm16), after the blocks' slots:
+// in `aux`, not in the guides, so a view's largest buffer (the guides, 7 words a pixel) does not
+// grow.
+fn head_split_at(width: u32, height: u32, i: u32) -> u32 {
+    return block_objects_start(width, height) + ((width + 1u) / 2u) * ((height + 1u) / 2u) + i;
+}
+

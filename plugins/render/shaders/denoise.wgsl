@@ -31,8 +31,8 @@
 // demodulated colour, w: its variance) for the next, the last for the resolve. The first pass also
 // keeps what a tap reads of each pixel (`taps`): the filter passes read that alone, a third of
 // the words (most of a pass's cost on a CPU adapter is in its gathers), and a run spread over
-// frames filters one snapshot while the trace goes on. The crate appends guide_layout.wgsl and
-// octahedral.wgsl.
+// frames filters one snapshot while the trace goes on. The crate appends aux_layout.wgsl,
+// guide_layout.wgsl and octahedral.wgsl.
 
 struct Denoise {
     width: u32,
@@ -165,7 +165,7 @@ fn guide(i: u32) -> Guide {
     let m = guides[g + GUIDE_HEAD];
     out.head = bitcast<f32>(m & 0x7fffffffu);
     out.head_albedo = guide_head_albedo(i);
-    out.split = unpack2x16unorm(guides[g + GUIDE_SPLIT]);
+    out.split = unpack2x16unorm(aux[head_split_at(params.width, params.height, i)]);
     out.mixed = (m >> 31u) != 0u;
     return out;
 }

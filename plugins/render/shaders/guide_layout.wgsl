@@ -6,14 +6,14 @@
 // two words: the denoiser subtracts and the resolve adds back the same value, so its rounding
 // moves no light; the view's largest buffer stays small); in the last half word, the mean albedo
 // luminance of the first P samples (an f16), so the denoiser can demodulate them apart from the
-// rest; and the first P / 2 samples' share of the head sum and their mean albedo luminance (two
-// unorm16: a share, not a sum, so no light is too bright for it), the head split in two.
-const GUIDE_WORDS: u32 = 8u;
+// rest. The first P / 2 samples' share of the head sum and their mean albedo luminance (two
+// unorm16: a share, not a sum, so no light is too bright for it), the head split in two, lie in
+// the view's `aux` buffer (`head_split_at`, aux_layout.wgsl).
+const GUIDE_WORDS: u32 = 7u;
 const GUIDE_NORMAL: u32 = 0u;
 const GUIDE_HEAD: u32 = 1u;
 const GUIDE_ALBEDO: u32 = 2u;
 const GUIDE_EMISSION: u32 = 5u;
-const GUIDE_SPLIT: u32 = 7u;
 
 // The mean light a pixel's samples' primary hits emit.
 fn guide_emission(i: u32) -> vec3<f32> {

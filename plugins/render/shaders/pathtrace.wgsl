@@ -1466,7 +1466,7 @@ fn path_trace(
         );
         emission = guide_emission(pixel) * f32(first);
         head_albedo = guide_head_albedo(pixel);
-        split = unpack2x16unorm(guides[g + GUIDE_SPLIT]);
+        split = unpack2x16unorm(aux[head_split_at(view.width, view.height, pixel)]);
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1503,6 +1503,6 @@ fn path_trace(
     let mean = min(emission / f32(first + view.samples), vec3<f32>(65504.0));
     guides[g + GUIDE_EMISSION] = pack2x16float(mean.rg);
     guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, head_albedo));
-    guides[g + GUIDE_SPLIT] = pack2x16unorm(split);
+    aux[head_split_at(view.width, view.height, pixel)] = pack2x16unorm(split);
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -96,6 +96,7 @@ pub const TEXTURE_LAYER_WGSL: &str = include_str!("../../shaders/texture_layer.w
 /// WGSL: the denoiser's pass (`denoise`), an edge-aware à-trous filter over a view's samples.
 pub const DENOISE_WGSL: &str = concat!(
     include_str!("../../shaders/denoise.wgsl"),
+    include_str!("../../shaders/aux_layout.wgsl"),
     include_str!("../../shaders/guide_layout.wgsl"),
     include_str!("../../shaders/octahedral.wgsl")
 );
