@@ -195,19 +195,20 @@ fn parts(i: u32, g: Guide) -> vec3<f32> {
 
 // A pixel's three independent estimates of its lighting (luminance, demodulated): the means of its
 // first P / 2 samples, of the next P / 2 and of the rest, each divided by its own samples' albedo;
-// below 3 samples, its mean three times. They are used for fireflies only: a part of a single
-// sample covers one point of the pixel, so their spread would count what varies across the pixel
-// as noise, as the halves' (`parts`) does not.
-fn thirds(i: u32, g: Guide) -> vec3<f32> {
+// below 3 samples, its mean three times. `rest` is the last (the second of its `parts`), `mean`
+// its whole demodulated luminance, both already at hand where this is asked. They are used for
+// fireflies only: a part of a single sample covers one point of the pixel, so their spread would
+// count what varies across the pixel as noise, as the halves' (`parts`) does not.
+fn thirds(i: u32, g: Guide, rest: f32, mean: f32) -> vec3<f32> {
     let n = u32(accum[i].w);
     if n < 3u {
-        return vec3<f32>(luminance(demodulated(i, g)));
+        return vec3<f32>(mean);
     }
     let h = 0.5 * f32(head_count(n));
     let second_albedo = 2.0 * g.head_albedo - g.split.y;
     let first = g.split.x * g.head / h / max(g.split.y, 0.02);
     let second = (1.0 - g.split.x) * g.head / h / max(second_albedo, 0.02);
-    return vec3<f32>(first, second, parts(i, g).y);
+    return vec3<f32>(first, second, rest);
 }
 
 // The middle one of three values: a pixel's lighting with what one of its parts caught alone left
@@ -323,14 +324,15 @@ fn first_pass(p: vec2<i32>, i: u32) {
             }
             let gq = guide(j);
             let lq = luminance(demodulated(j, gq));
+            let pq = parts(j, gq);
             if j != i {
-                top = max(top, middle(thirds(j, gq)));
+                top = max(top, middle(thirds(j, gq, pq.y, lq)));
                 let hq = vec2<u32>(gq.slot, select(0u, TAP_MIXED, gq.mixed));
                 if !same_surface(hp, hq) {
                     continue;
                 }
             }
-            let vq = part_variance(parts(j, gq));
+            let vq = part_variance(pq);
             if vq >= 0.0 {
                 v += vq;
                 nv += 1.0;
@@ -349,7 +351,7 @@ fn first_pass(p: vec2<i32>, i: u32) {
     let own = demodulated(i, gp);
     var agreed = luminance(own) - 3.0 * sqrt(variance);
     if tp.variance >= 0.0 {
-        let t = thirds(i, gp);
+        let t = thirds(i, gp, tp.lb, luminance(own));
         agreed = min(min(t.x, t.y), t.z);
     }
     let kept = tamed(own, top, agreed);

@@ -357,14 +357,6 @@ fn emitted_light_passes_the_filter_untouched() {
     assert!(checked > 1000, "{checked} pixels on the quad");
 }
 
-/// Where pixel `i`'s split of the head sum lies in a `width × height` view's `aux` words
-/// (aux_layout.wgsl): after the per-pixel depths and slots, the 2 × 2 blocks' samples and their
-/// slots.
-fn head_split_at(width: u32, height: u32, i: usize) -> usize {
-    let (pixels, blocks) = (width * height, width.div_ceil(2) * height.div_ceil(2));
-    (2 * pixels + 5 * blocks) as usize + i
-}
-
 /// A flat grey wall of `SPOT` × `SPOT` pixels of 16 samples each, as the trace kernel would leave
 /// its buffers: one object, facing the camera, albedo 1, no emission, lit at about 1 (each part of
 /// each pixel a little off, as noise), except the centre pixel, whose three parts (the means of
@@ -401,7 +393,7 @@ fn denoised_spot(gpu: &Gpu, centre: [f32; 3]) -> (f32, f32) {
         // The emission's halves are 0; the head's mean albedo luminance, 1, in the last half.
         g[6] = u32::from(half::f16::from_f32(1.0).to_bits()) << 16;
         let share = (4.0 * a / head * 65535.0).round() as u32;
-        aux[head_split_at(SPOT, SPOT, i)] = share | (65535 << 16);
+        aux[target.head_splits_start() + i] = share | (65535 << 16);
     }
     let bytes = |v: &[u32]| v.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>();
     let accum_words: Vec<u32> = accum.iter().map(|f| f.to_bits()).collect();
@@ -456,15 +448,15 @@ fn the_head_s_first_half_is_kept_apart_however_the_frames_split_the_samples() {
     // both, so the first 8 samples' sum is the head after 16, and the first 16's after 24.
     let guides = |samples| {
         let t = frames.trace(&lit_frame(16, samples), TraceWork::WHOLE_IMAGE);
-        (words(&gpu.read(&t.guides)), words(&gpu.read(&t.aux)))
+        (words(&gpu.read(&t.guides)), gpu.read_head_splits(&t))
     };
-    let ((g16, _), (g24, aux24)) = (guides(16), guides(24));
+    let ((g16, _), (g24, splits24)) = (guides(16), guides(24));
     let w = treelight_render::GUIDE_WORDS as usize;
     let mut checked = 0;
     for i in 0..(16 * 16) {
         let (a, b) = (&g16[w * i..w * (i + 1)], &g24[w * i..w * (i + 1)]);
         let head = |g: &[u32]| f32::from_bits(g[1] & 0x7fff_ffff);
-        let split = aux24[head_split_at(16, 16, i)];
+        let split = splits24[i];
         let share = (split & 0xffff) as f32 / 65535.0;
         let albedo = (split >> 16) as f32 / 65535.0;
         if head(b) > 1e-3 {

@@ -763,6 +763,20 @@ impl Gpu {
         let start = 2 * target.pixels + 4 * target.blocks;
         words(&self.read(&target.aux))[start..start + target.blocks].to_vec()
     }
+
+    /// Per pixel, the split of the denoiser's head sum (`head_split_at` of aux_layout.wgsl).
+    pub fn read_head_splits(&self, target: &TraceTarget) -> Vec<u32> {
+        let start = target.head_splits_start();
+        words(&self.read(&target.aux))[start..start + target.pixels].to_vec()
+    }
+}
+
+impl TraceTarget {
+    /// The word of `aux` where the pixels' splits of the denoiser's head sum start: after the
+    /// per-pixel depths and slots, the blocks' samples and their slots.
+    pub fn head_splits_start(&self) -> usize {
+        2 * self.pixels + 5 * self.blocks
+    }
 }
 
 /// Writes `record` into slot `index` of an array of equal-sized records.
