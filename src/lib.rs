@@ -156,6 +156,9 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     if let Some(name) = &cli.camera {
         app.insert_resource(editor::core::view::LookThrough::Named(name.clone()));
     }
+    if let Some(kib) = cli.upload_round {
+        app.insert_resource(treelight_render::UploadRound(u64::from(kib) << 10));
+    }
     let capturing = cli.screenshot.is_some() || cli.frames.is_some();
     if let Some(path) = &cli.save {
         let mut save = SaveWhenSettled::new(path.clone());

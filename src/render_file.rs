@@ -287,6 +287,9 @@ pub fn render_app(args: &RenderArgs) -> App {
     app.insert_resource(treelight_document::scene::spawn::DefaultSun(
         args.default_sun == crate::cli::Switch::On,
     ));
+    if let Some(kib) = args.upload_round {
+        app.insert_resource(treelight_render::UploadRound(u64::from(kib) << 10));
+    }
     let progress = ProgressBar::new(u64::from(args.spp)).with_style(
         ProgressStyle::with_template(
             "{msg:>12} [{bar:40}] {pos}/{len} samples per pixel, {elapsed}",
@@ -466,6 +469,14 @@ fn follow_samples(
         // The last geometry that reached the GPU restarted the accumulation: every sample counted
         // from here on saw the whole scene (a later change of it starts the count again).
         job.settled = true;
+        info!(
+            "the scene is on the GPU: {:.1} MiB of records in {} frames, the largest {:.1} MiB, \
+             {} rounds handed over before their frame's end",
+            figures.total_upload_bytes as f64 / 1048576.0,
+            figures.uploads,
+            figures.largest_upload_bytes as f64 / 1048576.0,
+            figures.upload_rounds,
+        );
     }
     let samples = stats.samples(*view.camera);
     match job.rate {

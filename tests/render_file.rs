@@ -551,6 +551,62 @@ fn a_gltf_assembly_renders_the_same_twice_denoised() {
     assert!(images[0] == images[1], "two denoised renders differ");
 }
 
+/// The rounds `treelight render`'s log says were handed to the GPU before their frame's end.
+fn upload_rounds(log: &str) -> u64 {
+    let line = log
+        .lines()
+        .find(|l| l.contains("rounds handed over"))
+        .unwrap_or_else(|| panic!("no upload figures in the log:\n{log}"));
+    let before = line.split(" rounds handed over").next().unwrap_or("");
+    let number = before.rsplit(' ').next().unwrap_or("");
+    number
+        .parse()
+        .unwrap_or_else(|_| panic!("no round count in {line:?}"))
+}
+
+/// A scene whose records are handed to the GPU in rounds of 16 KiB while they are made (the
+/// buffers grown before the first, the writes left over after the frame's end) renders as the same
+/// scene handed over whole at the end of each frame.
+#[test]
+fn a_scene_uploaded_in_small_rounds_renders_as_one_uploaded_whole() {
+    let dir = temp_dir("render-rounds");
+    let helmet = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
+    );
+    let mut runs = Vec::new();
+    for (name, round) in [("whole.png", None), ("rounds.png", Some("16"))] {
+        let out = dir.join(name);
+        let mut args = vec![
+            helmet,
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--spp",
+            "4",
+            "--denoise",
+            "off",
+        ];
+        if let Some(kib) = round {
+            args.extend(["--upload-round", kib]);
+        }
+        let (ok, log) = render(&args);
+        assert!(ok, "{log}");
+        runs.push((load_rgb(&out).into_raw(), upload_rounds(&log)));
+    }
+    // The helmet's records are megabytes: many rounds of 16 KiB, and none of 64 MiB.
+    assert_eq!(runs[0].1, 0, "rounds of the default size");
+    assert!(runs[1].1 > 50, "{} rounds of 16 KiB", runs[1].1);
+    assert!(
+        runs[0].0 == runs[1].0,
+        "the render uploaded in rounds differs from the one uploaded whole"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Writes `NAME.gltf` (and the shared `floor.bin`) into `dir`: a 20 m floor at y = 0 of base colour
 /// 0.5 with no specular reflection (`KHR_materials_specular` factor 0: a Lambert surface, radiance
 /// = 0.5 × irradiance / π), glowing at `glow` nits (`KHR_materials_emissive_strength`, base colour

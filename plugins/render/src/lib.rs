@@ -27,7 +27,7 @@ mod types;
 
 pub use kernels::sources::*;
 pub use raster::raster_meshes::HoldBackRasterMeshes;
-pub use scene::staging::{CHUNK_BYTES, ROUND_BYTES, UploadBelt};
+pub use scene::staging::{CHUNK_BYTES, ROUND_BYTES, UploadBelt, UploadRound};
 pub use scene::texture_layers::{
     MAX_TEXTURE_LAYERS, MIN_TEXTURE_LAYER_SIZE, TEXTURE_BUDGET_BYTES, TEXTURE_LAYER_SIZE,
     layer_side_for, layers_at,

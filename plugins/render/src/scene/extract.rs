@@ -2,6 +2,9 @@
 //! compared with what was sent before. Runs on the main thread during extraction, so it never waits:
 //! when the scene worker holds the tree, this frame uploads nothing and the next one catches up.
 
+use crate::scene::gpu_scene::StreamTarget;
+use crate::scene::pending::PendingUpload;
+use crate::scene::staging::UploadRound;
 use crate::scene::texture_layers::TextureLayers;
 use crate::types::emitters::{EmitterList, placed_triangles};
 use crate::types::map_transforms::MapUvTransforms;
@@ -25,51 +28,8 @@ use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
 pub(crate) fn build(render_app: &mut SubApp) {
     render_app
         .init_resource::<SceneSync>()
+        .init_resource::<PendingUpload>()
         .add_systems(ExtractSchedule, extract_scene);
-}
-
-/// What the render world must write before tracing this frame.
-#[derive(Default)]
-pub(crate) struct PendingUpload {
-    /// Kept from frame to frame: the render world clears it once written.
-    pub writes: Writes,
-    /// Records each buffer must hold, in [`BufferKind::ALL`] order.
-    pub needed: [u64; 6],
-    /// Records each buffer is about to need, with the triangles on their way into the tree: a
-    /// buffer that grows takes them at once.
-    pub expected: [u64; 6],
-    pub root: Option<u32>,
-    pub light_count: Option<u32>,
-    /// The groups in the emitters' table after the lights and the triangles' total weight, when
-    /// they changed.
-    pub emitters: Option<(u32, f32)>,
-    /// Whether anything but the tree's organisation changed (a pure restructuring leaves every
-    /// pixel's samples valid).
-    pub geometry_changed: bool,
-    /// The outline buffer's new words and the slots they cover (0: nothing outlined), when they
-    /// changed.
-    pub outlines: Option<(Vec<u32>, u32)>,
-    /// World-space bounds of the outlined meshes this frame; `None` when some mesh's are unknown
-    /// (then the whole view is searched for outlines).
-    pub outline_bounds: Option<[Vec3; 2]>,
-    /// The whole table of per-map UV transform sets, when it gained one.
-    pub map_transforms: Option<Vec<u8>>,
-    /// Whether new geometry is on its way into the scene's tree (`SceneBvh::is_filling`).
-    pub filling: bool,
-    /// The tree's version the writes bring the GPU copy up to, when changes were taken.
-    pub version: Option<u64>,
-}
-
-impl PendingUpload {
-    fn need(&mut self, kind: BufferKind, records: u64) {
-        let i = kind.index();
-        self.needed[i] = self.needed[i].max(records);
-    }
-
-    fn expect(&mut self, kind: BufferKind, records: u64) {
-        let i = kind.index();
-        self.expected[i] = self.expected[i].max(records);
-    }
 }
 
 /// The render world's memory of what it has sent, so only differences are uploaded.
@@ -92,7 +52,6 @@ pub(crate) struct SceneSync {
     emitters: EmitterList,
     /// Whether the emitters' records changed since the lights buffer was last written.
     emitters_changed: bool,
-    pub pending: PendingUpload,
 }
 
 /// The meshes to outline, with what their world-space boxes are made from.
@@ -174,8 +133,11 @@ fn material_of(
 #[allow(clippy::too_many_arguments)]
 fn extract_scene(
     mut sync: ResMut<SceneSync>,
+    mut pending: ResMut<PendingUpload>,
+    mut target: StreamTarget,
     mut layers: ResMut<TextureLayers>,
     scene: Extract<Option<Res<SceneBvh>>>,
+    round: Extract<Option<Res<UploadRound>>>,
     handles: Extract<MaterialQuery>,
     materials: Extract<Option<Res<Assets<StandardMaterial>>>>,
     images: Extract<Option<Res<Assets<Image>>>>,
@@ -192,11 +154,12 @@ fn extract_scene(
     >,
 ) {
     let sync = &mut *sync;
+    let pending = &mut *pending;
     let Some(scene) = scene.as_deref() else {
         return;
     };
     let everything = !sync.synced;
-    sync.pending.filling = scene.is_filling();
+    pending.filling = scene.is_filling();
     let assets = MaterialAssets {
         materials: materials.as_deref(),
         images: images.as_deref(),
@@ -204,21 +167,27 @@ fn extract_scene(
     };
     let incoming = scene.incoming_triangles() as u64;
     let taken = scene.try_take_changes(everything, |tree, changes| {
-        scene_writes(sync, tree, changes, &handles, assets, &mut layers);
         // Each new triangle brings a record of its own, its shading's and about one inner node.
-        let p = &mut sync.pending;
         let triangles = u64::from(tree.bvh.triangle_count()) + incoming;
-        p.expect(BufferKind::Triangles, triangles);
-        p.expect(BufferKind::Attributes, triangles);
-        p.expect(
+        pending.expect(BufferKind::Triangles, triangles);
+        pending.expect(BufferKind::Attributes, triangles);
+        pending.expect(
             BufferKind::Nodes,
             u64::from(tree.bvh.inner_count()) + incoming,
         );
+        let frame = FrameUpload {
+            tree,
+            changes,
+            handles: &handles,
+            assets,
+            round: round.as_deref().copied().unwrap_or_default().0,
+        };
+        scene_writes(sync, pending, &mut target, frame, &mut layers);
         changes.version
     });
     if let Some(version) = taken {
         sync.synced = true;
-        sync.pending.version = Some(version);
+        pending.version = Some(version);
     }
     // The outlined meshes' group slots (when the worker holds the tree, the next frame looks).
     if let Some(tree) = scene.try_read() {
@@ -235,11 +204,11 @@ fn extract_scene(
             } else {
                 0
             };
-            sync.pending.outlines = Some((words.clone(), covered));
+            pending.outlines = Some((words.clone(), covered));
             sync.outlines = words;
         }
     }
-    sync.pending.outline_bounds = outlined_bounds(&outlined);
+    pending.outline_bounds = outlined_bounds(&outlined);
     let mut lights: Vec<SceneLight> = Vec::new();
     for (l, gt, vis) in &points {
         if vis.is_none_or(|v| v.get()) {
@@ -275,7 +244,7 @@ fn extract_scene(
             });
         }
     }
-    sync.write_lights(&lights);
+    sync.write_lights(&lights, pending);
 }
 
 impl SceneSync {
@@ -283,7 +252,7 @@ impl SceneSync {
     /// the last pass left it: the lights' records first, then the emitters' table and triangles.
     /// Only what changed is written, except that a change in the lights' number moves (and
     /// rewrites) every emitter record.
-    fn write_lights(&mut self, lights: &[SceneLight]) {
+    fn write_lights(&mut self, lights: &[SceneLight], p: &mut PendingUpload) {
         let bytes: Vec<u8> = lights.iter().flat_map(light_bytes).collect();
         let lights_changed = self.lights.as_ref() != Some(&bytes);
         if !lights_changed && !self.emitters_changed {
@@ -292,7 +261,6 @@ impl SceneSync {
         let moved = self.lights.as_ref().map(Vec::len) != Some(bytes.len());
         let emitters = &mut self.emitters;
         let writes = emitters.take_writes(moved);
-        let p = &mut self.pending;
         p.need(
             BufferKind::Lights,
             lights.len() as u64 + u64::from(emitters.record_count()),
@@ -325,20 +293,52 @@ fn outlined_bounds(outlined: &OutlinedQuery) -> Option<[Vec3; 2]> {
     out[0].is_finite().then_some(out)
 }
 
+/// What one frame's scene writes are made from: the tree and its changes under the worker's lock,
+/// and the main world's materials.
+struct FrameUpload<'a, 'w, 's> {
+    tree: &'a SceneTree,
+    changes: &'a SceneChanges,
+    handles: &'a MaterialQuery<'w, 's>,
+    assets: MaterialAssets<'a>,
+    /// Bytes of writes handed over at a time ([`UploadRound`]).
+    round: u64,
+}
+
 /// The writes for one change set, plus every object record whose transform or material changed.
+/// Each round's worth goes to `target` as it is made ([`StreamTarget::flush`]), the buffers grown
+/// first to what the change set needs; what is left is in `p`'s writes.
 fn scene_writes(
     sync: &mut SceneSync,
-    tree: &SceneTree,
-    changes: &SceneChanges,
-    handles: &MaterialQuery,
-    assets: MaterialAssets,
+    p: &mut PendingUpload,
+    target: &mut StreamTarget,
+    frame: FrameUpload,
     layers: &mut TextureLayers,
 ) {
+    let FrameUpload {
+        tree,
+        changes,
+        handles,
+        assets,
+        round,
+    } = frame;
     let bvh = &tree.bvh;
-    let p = &mut sync.pending;
     let c = &changes.bvh;
+    p.need(BufferKind::Nodes, c.inner_capacity as u64);
+    p.need(BufferKind::Triangles, c.triangle_capacity as u64);
+    p.need(BufferKind::Instances, c.instance_capacity as u64);
+    p.need(BufferKind::Attributes, c.triangle_capacity as u64);
+    p.need(BufferKind::Objects, bvh.group_slots() as u64);
+    let (needed, expected) = (p.needed, p.expected);
+    let mut flush = |w: &mut Writes| target.flush(w, &needed, &expected);
     // Capacities are settled by the render world when it applies the writes.
-    let plan = UploadPlan::new_in(bvh, c, [u64::MAX; 3], std::mem::take(&mut p.writes));
+    let plan = UploadPlan::streamed(
+        bvh,
+        c,
+        [u64::MAX; 3],
+        std::mem::take(&mut p.writes),
+        round,
+        &mut flush,
+    );
     p.writes = plan.writes;
     p.root = Some(plan.root);
     let restart = c.geometry_changed() || !changes.fresh_groups.is_empty();
@@ -352,11 +352,6 @@ fn scene_writes(
             sync.identities.relaid(new.index(), old.index());
         }
     }
-    p.need(BufferKind::Nodes, c.inner_capacity as u64);
-    p.need(BufferKind::Triangles, c.triangle_capacity as u64);
-    p.need(BufferKind::Instances, c.instance_capacity as u64);
-    p.need(BufferKind::Attributes, c.triangle_capacity as u64);
-    p.need(BufferKind::Objects, bvh.group_slots() as u64);
 
     // Object records: compared with what was sent, so a material edit or a move uploads one record.
     // A re-laid group's record is compared with the one of the group it replaced: the same one
@@ -432,9 +427,10 @@ fn scene_writes(
     records.dedup_by_key(|r| r.0);
     let runs = runs(records.iter().map(|r| r.0), 0);
     let two_uv_sets = &sync.two_uv_sets;
-    sync.pending
-        .writes
-        .push_records(BufferKind::Attributes, runs, |j, _| {
+    p.writes.push_records_in_rounds(
+        BufferKind::Attributes,
+        runs,
+        |j, _| {
             let (_, g, k) = records[j];
             let k = k as usize;
             let Some(shading) = tree.shading.get(&g) else {
@@ -452,7 +448,10 @@ fn scene_writes(
                 record = record.with_second_uv_set(uvs1);
             }
             record
-        });
+        },
+        round,
+        &mut flush,
+    );
 }
 
 #[cfg(test)]
@@ -527,10 +526,10 @@ mod tests {
                         range: None,
                     })
                     .collect();
-                sync.write_lights(&lights);
+                let mut p = PendingUpload::default();
+                sync.write_lights(&lights, &mut p);
                 // The render world takes the frame's upload: grows the buffer to what it needs
                 // (the old bytes kept), then writes.
-                let p = std::mem::take(&mut sync.pending);
                 let need = p.needed[BufferKind::Lights.index()] * BufferKind::Lights.record_bytes();
                 if copy.len() < need as usize {
                     copy.resize(need as usize, 0);

@@ -3,14 +3,15 @@
 //! only when a buffer or the texture array grew).
 
 use crate::kernels::pipelines::PathTracerPipelines;
-use crate::scene::extract::SceneSync;
+use crate::scene::pending::PendingUpload;
 use crate::scene::staging::UploadBelt;
 use crate::scene::texture_layers::TextureLayers;
 use crate::sky::environment::GpuEnvironment;
 use crate::types::figures::PathTracerStats;
 use crate::types::parts::too_few_bindings;
 use crate::types::parts::{PartLayout, part_bindings, part_count};
-use crate::types::upload::BufferKind;
+use crate::types::upload::{BufferKind, Writes};
+use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntry, BindingResource, Buffer, BufferDescriptor, BufferInitDescriptor,
@@ -81,6 +82,12 @@ pub(crate) struct GpuScene {
     pub filling: bool,
     /// Where the frame's record writes are staged.
     pub(crate) staging: UploadBelt,
+    /// The copies the extraction recorded this frame (buffer growth, then the rounds it
+    /// streamed that are not yet submitted), submitted first when the frame's uploads are.
+    pub(crate) streamed: Option<wgpu::CommandEncoder>,
+    /// Bytes the extraction streamed this frame, and whether some of them were node records.
+    pub(crate) streamed_bytes: u64,
+    pub(crate) streamed_nodes: bool,
 }
 
 impl GpuScene {
@@ -194,24 +201,31 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         too_large,
         filling: false,
         staging: UploadBelt::new(device.wgpu_device()),
+        streamed: None,
+        streamed_bytes: 0,
+        streamed_nodes: false,
     });
 }
 
-/// Grows the buffers that must hold more records, then writes the frame's records.
+/// Grows the buffers that must hold more records, then writes the frame's records: after the
+/// rounds the extraction streamed, what it left.
 fn apply_scene_uploads(
-    mut sync: ResMut<SceneSync>,
+    mut next: ResMut<PendingUpload>,
     mut scene: ResMut<GpuScene>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     stats: Res<PathTracerStats>,
 ) {
-    let mut pending = std::mem::take(&mut sync.pending);
+    let mut pending = std::mem::take(&mut *next);
     scene.filling = pending.filling;
     let scene = &mut *scene;
     if scene.too_large.is_some() {
+        scene.streamed = None;
         return;
     }
-    let Some(grown) = grow_buffers(scene, &pending, &device, &stats) else {
+    let Some(grown) = grow_buffers(scene, &pending.needed, &pending.expected, &device, &stats)
+    else {
+        scene.streamed = None;
         return;
     };
     if scene.bind_group.is_none() {
@@ -219,17 +233,24 @@ fn apply_scene_uploads(
         let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
         stats.update(|f| f.scene_buffer_bytes = total);
     }
-    // Growth copies first, then the writes, in rounds of bounded staging.
-    let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
-        label: Some("treelight scene upload"),
+    // The extraction's copies first, then growth copies, then the writes, in rounds of bounded
+    // staging.
+    let streamed = scene.streamed.take();
+    let submit = !grown.is_empty() || streamed.is_some();
+    let mut encoder = streamed.unwrap_or_else(|| {
+        device.create_command_encoder(&CommandEncoderDescriptor {
+            label: Some("treelight scene upload"),
+        })
     });
     // Keep what is already on the GPU: records outside this frame's writes stay valid.
     for (old, bytes, i, k) in &grown {
         encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
     }
-    let bytes = stage_writes(scene, &pending.writes, encoder, &queue, !grown.is_empty());
+    let bytes = stage_writes(scene, &pending.writes, encoder, &queue, submit)
+        + std::mem::take(&mut scene.streamed_bytes);
     scene.staging.recall(pending.filling);
-    let mut tree_changed = pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
+    let mut tree_changed = std::mem::take(&mut scene.streamed_nodes)
+        || pending.writes.iter().any(|w| w.buffer == BufferKind::Nodes);
     if let Some(root) = pending.root
         && root != scene.root
     {
@@ -285,7 +306,7 @@ fn apply_scene_uploads(
     let mut writes = std::mem::take(&mut pending.writes);
     writes.clear();
     if pending.filling || writes.capacity_bytes() <= KEPT_WRITE_BYTES {
-        sync.pending.writes = writes;
+        next.writes = writes;
     }
 }
 
@@ -295,10 +316,26 @@ fn apply_scene_uploads(
 /// nothing when there was nothing to do (`grown`: the encoder holds growth copies).
 fn stage_writes(
     scene: &mut GpuScene,
-    writes: &crate::types::upload::Writes,
+    writes: &Writes,
     mut encoder: wgpu::CommandEncoder,
     queue: &wgpu::Queue,
     grown: bool,
+) -> u64 {
+    let bytes = record_writes(scene, writes, &mut encoder, queue);
+    scene.staging.finish();
+    if grown || bytes > 0 {
+        queue.submit([encoder.finish()]);
+    }
+    bytes
+}
+
+/// Records into `encoder` the staged copies of `writes` (a round's worth submitted and waited for
+/// whenever one is staged: [`UploadBelt::write`]). Returns the bytes written.
+fn record_writes(
+    scene: &mut GpuScene,
+    writes: &Writes,
+    encoder: &mut wgpu::CommandEncoder,
+    queue: &wgpu::Queue,
 ) -> u64 {
     let layout = scene.layout;
     let mut bytes = 0u64;
@@ -317,7 +354,7 @@ fn stage_writes(
         for (part, at, range) in layout.pieces(w.buffer, w.offset, w.bytes.len() as u64) {
             let piece = &w.bytes[range];
             let target = &scene.buffers[i][part];
-            if !scene.staging.write(&mut encoder, queue, target, at, piece) {
+            if !scene.staging.write(encoder, queue, target, at, piece) {
                 error!(
                     "treelight: dropped a {:?} write of {} bytes at {at}: not whole words",
                     w.buffer,
@@ -327,11 +364,54 @@ fn stage_writes(
         }
         bytes += w.bytes.len() as u64;
     }
-    scene.staging.finish();
-    if grown || bytes > 0 {
-        queue.submit([encoder.finish()]);
-    }
     bytes
+}
+
+/// The scene's buffers as the extraction sees them: a frame whose writes reach a staging round
+/// ([`crate::scene::staging::ROUND_BYTES`]) hands them over round by round while it makes them,
+/// so it holds one round of records at a time instead of all of them (a fill's frame can write
+/// hundreds of megabytes).
+#[derive(SystemParam)]
+pub(crate) struct StreamTarget<'w> {
+    scene: Option<ResMut<'w, GpuScene>>,
+    device: Res<'w, RenderDevice>,
+    queue: Res<'w, RenderQueue>,
+    stats: Res<'w, PathTracerStats>,
+}
+
+impl StreamTarget<'_> {
+    /// Grows the buffers to hold `needed` records of each kind (and `expected`, as
+    /// [`PendingUpload::expected`] says), then stages `writes` and empties them; the copies go to
+    /// the GPU with the frame's uploads, or sooner, a round at a time. Before the scene's buffers
+    /// exist the writes are left as they are.
+    pub(crate) fn flush(&mut self, writes: &mut Writes, needed: &[u64; 6], expected: &[u64; 6]) {
+        let Some(scene) = self.scene.as_deref_mut() else {
+            return;
+        };
+        let grown = match scene.too_large {
+            None => grow_buffers(scene, needed, expected, &self.device, &self.stats),
+            Some(_) => None,
+        };
+        let Some(grown) = grown else {
+            // Nothing is written once the scene is too large to trace here.
+            writes.clear();
+            return;
+        };
+        let mut encoder = scene.streamed.take().unwrap_or_else(|| {
+            self.device
+                .create_command_encoder(&CommandEncoderDescriptor {
+                    label: Some("treelight scene upload"),
+                })
+        });
+        for (old, bytes, i, k) in &grown {
+            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
+        }
+        scene.streamed_bytes += record_writes(scene, writes, &mut encoder, &self.queue);
+        self.stats.update(|f| f.upload_rounds += 1);
+        scene.streamed_nodes |= writes.iter().any(|w| w.buffer == BufferKind::Nodes);
+        scene.streamed = Some(encoder);
+        writes.clear();
+    }
 }
 
 /// Grows the buffers that must hold more records: up to what the adapter binds, then the large
@@ -340,18 +420,19 @@ fn stage_writes(
 /// declares: tracing stops, with the reason in the figures.
 fn grow_buffers(
     scene: &mut GpuScene,
-    pending: &crate::scene::extract::PendingUpload,
+    needed: &[u64; 6],
+    expected: &[u64; 6],
     device: &RenderDevice,
     stats: &PathTracerStats,
 ) -> Option<Vec<(Buffer, u64, usize, usize)>> {
     let layout = scene.layout;
     let mut grown = Vec::new();
     for (i, &kind) in BufferKind::ALL.iter().enumerate() {
-        let need = pending.needed[i];
+        let need = needed[i];
         if need <= scene.capacities[i] {
             continue;
         }
-        let Some(cap) = layout.grown(kind, scene.capacities[i], need, pending.expected[i]) else {
+        let Some(cap) = layout.grown(kind, scene.capacities[i], need, expected[i]) else {
             let parts = part_count(kind);
             let why = format!(
                 "the scene's {} need {} and this adapter binds at most {} in each of the \

@@ -16,6 +16,19 @@ pub const CHUNK_BYTES: u64 = 8 << 20;
 /// Bytes staged before they are handed to the GPU and the belt waits for their copies.
 pub const ROUND_BYTES: u64 = 8 * CHUNK_BYTES;
 
+/// How many bytes of records a frame makes before it hands them to the GPU ([`ROUND_BYTES`]
+/// without it), for an app to insert into its main world: a smaller round holds less memory while
+/// a large scene streams in, and waits for the GPU more often. At least one record is handed over
+/// each time.
+#[derive(bevy::prelude::Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UploadRound(pub u64);
+
+impl Default for UploadRound {
+    fn default() -> Self {
+        UploadRound(ROUND_BYTES)
+    }
+}
+
 /// The longest wait for a round's copies (behind the frame the queue is still tracing). A round
 /// whose copies take longer stays in its buffers, and the next one takes fresh ones.
 const ROUND_WAIT: std::time::Duration = std::time::Duration::from_secs(2);

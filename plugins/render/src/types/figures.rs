@@ -12,9 +12,11 @@ pub struct PathTracerFigures {
     pub last_upload_bytes: u64,
     /// Bytes written to the scene buffers since start.
     pub total_upload_bytes: u64,
-    /// The most bytes one frame wrote to the scene buffers: what that frame held in its writes
-    /// (and, up to a round of them, in staging) at once.
+    /// The most bytes one frame wrote to the scene buffers. A frame holds at most a round of
+    /// them at once in its writes (`UploadRound`), and a round in staging.
     pub largest_upload_bytes: u64,
+    /// Rounds of writes the extraction handed to the GPU before their frame's end, since start.
+    pub upload_rounds: u64,
     /// Frames that uploaded anything.
     pub uploads: u64,
     /// Samples every pixel has accumulated so far, per path-traced camera.

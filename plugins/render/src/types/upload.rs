@@ -138,6 +138,49 @@ impl Writes {
         ids.clear();
     }
 
+    /// [`Writes::push_records`], handing the writes to `flush` each time they reach `round` bytes:
+    /// a frame that rewrites a large scene then holds one round of records at a time, not all of
+    /// them. Record `(j, i)` is as in `push_records`. What `flush` leaves in the writes stays, and
+    /// the next round counts from it.
+    pub fn push_records_in_rounds<T: bytemuck::Pod>(
+        &mut self,
+        buffer: BufferKind,
+        ranges: impl IntoIterator<Item = Range<u32>>,
+        record: impl Fn(usize, u32) -> T + Sync,
+        round: u64,
+        flush: &mut dyn FnMut(&mut Writes),
+    ) {
+        let size = size_of::<T>() as u64;
+        // Bytes a flush left behind: not this round's.
+        let mut floor = 0u64;
+        let mut done = 0usize;
+        let mut batch: Vec<Range<u32>> = Vec::new();
+        let mut batch_records = 0u64;
+        let mut ranges = ranges.into_iter();
+        let mut rest: Option<Range<u32>> = None;
+        while let Some(r) = rest.take().or_else(|| ranges.next()) {
+            let used = self.byte_len() - floor + batch_records * size;
+            // At least one record a round, so a round smaller than a record still moves on.
+            let room = (round.saturating_sub(used) / size).max(1);
+            let take = (r.len() as u64).min(room) as u32;
+            batch.push(r.start..r.start + take);
+            batch_records += u64::from(take);
+            if take < r.len() as u32 {
+                rest = Some(r.start + take..r.end);
+            }
+            if self.byte_len() - floor + batch_records * size >= round {
+                let first = done;
+                self.push_records(buffer, batch.drain(..), |j, i| record(first + j, i));
+                done += batch_records as usize;
+                batch_records = 0;
+                flush(self);
+                floor = self.byte_len();
+            }
+        }
+        let first = done;
+        self.push_records(buffer, batch, |j, i| record(first + j, i));
+    }
+
     /// The writes, in the order they were added.
     pub fn iter(&self) -> impl Iterator<Item = BufferWrite<'_>> {
         self.list.iter().map(|(buffer, offset, range)| BufferWrite {
@@ -235,6 +278,20 @@ impl UploadPlan {
     /// [`UploadPlan::new`], its writes added after those already in `writes` (a renderer's
     /// buffer, kept from frame to frame).
     pub fn new_in(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3], writes: Writes) -> Self {
+        Self::streamed(bvh, changes, capacities, writes, u64::MAX, &mut |_| {})
+    }
+
+    /// [`UploadPlan::new_in`], the writes handed to `flush` each time they reach `round` bytes
+    /// ([`Writes::push_records_in_rounds`]); what is left when the plan is made is in its writes.
+    /// The renderer must have grown its buffers to `changes`' capacities before the first flush.
+    pub fn streamed(
+        bvh: &Bvh,
+        changes: &ChangeSet,
+        capacities: [u64; 3],
+        writes: Writes,
+        round: u64,
+        flush: &mut dyn FnMut(&mut Writes),
+    ) -> Self {
         let mut plan = UploadPlan {
             root: bvh.gpu_root(),
             writes,
@@ -250,10 +307,12 @@ impl UploadPlan {
                 plan.grow.push((kind, grown_capacity(cap, need)));
             }
         }
-        plan.writes.push_records(
+        plan.writes.push_records_in_rounds(
             BufferKind::Nodes,
             joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)),
             |_, i| bvh.gpu_wide_node(i),
+            round,
+            flush,
         );
         let mut tris: Vec<u32> = changes
             .written_triangles
@@ -263,18 +322,22 @@ impl UploadPlan {
             .collect();
         tris.sort_unstable();
         tris.dedup();
-        plan.writes.push_records(
+        plan.writes.push_records_in_rounds(
             BufferKind::Triangles,
             runs(tris, join_gap(BufferKind::Triangles)),
             |_, t| bvh.gpu_triangle(t),
+            round,
+            flush,
         );
         let mut instances = changes.instances.clone();
         instances.sort_unstable();
         instances.dedup();
-        plan.writes.push_records(
+        plan.writes.push_records_in_rounds(
             BufferKind::Instances,
             runs(instances, join_gap(BufferKind::Instances)),
             |_, i| bvh.gpu_instance(i),
+            round,
+            flush,
         );
         plan
     }
@@ -344,5 +407,70 @@ mod tests {
         assert_eq!(writes.byte_len(), 4 + TRIANGLE_BYTES * j as u64);
         writes.clear();
         assert!(writes.is_empty() && writes.capacity_bytes() >= TRIANGLE_BYTES * j as u64);
+    }
+
+    /// The writes' (buffer, offset, bytes) as one list of records: (offset of each record, its
+    /// bytes), so writes cut at other places compare equal.
+    fn records_of(writes: &Writes, size: usize) -> Vec<(u64, Vec<u8>)> {
+        writes
+            .iter()
+            .flat_map(|w| {
+                w.bytes
+                    .chunks(size)
+                    .enumerate()
+                    .map(move |(k, b)| (w.offset + (k * size) as u64, b.to_vec()))
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// Records made in rounds are the records made at once, in the same order, with the same
+        /// `(j, i)`; every round handed over holds at least `round` bytes and less than `round`
+        /// plus a record more than it, and what is left holds less than a round.
+        #[test]
+        fn records_made_in_rounds_are_the_records_made_at_once(
+            ranges in proptest::collection::vec((0u32..400, 0u32..60), 0..12),
+            round_records in 1u64..40,
+            before in 0usize..3,
+        ) {
+            // Sorted disjoint ranges from (gap, length) pairs.
+            let mut at = 0u32;
+            let ranges: Vec<Range<u32>> = ranges
+                .into_iter()
+                .map(|(gap, len)| {
+                    let r = at + gap..at + gap + len;
+                    at = r.end;
+                    r
+                })
+                .collect();
+            let record = |j: usize, i: u32| [j as u32, i, 7, 7, 7, 7, 7, 7, 7];
+            let mut whole = Writes::default();
+            let mut cut = Writes::default();
+            for k in 0..before {
+                whole.push(BufferKind::Lights, 4 * k as u64, &[k as u8; 4]);
+                cut.push(BufferKind::Lights, 4 * k as u64, &[k as u8; 4]);
+            }
+            whole.push_records(BufferKind::Triangles, ranges.clone(), record);
+            let round = round_records * TRIANGLE_BYTES;
+            let mut handed: Vec<(u64, Vec<u8>)> = Vec::new();
+            let mut sizes = Vec::new();
+            cut.push_records_in_rounds(
+                BufferKind::Triangles,
+                ranges,
+                record,
+                round,
+                &mut |w: &mut Writes| {
+                    sizes.push(w.byte_len());
+                    handed.extend(records_of(w, 4));
+                    w.clear();
+                },
+            );
+            for s in &sizes {
+                proptest::prop_assert!(*s >= round && *s < round + TRIANGLE_BYTES, "a round of {s}");
+            }
+            proptest::prop_assert!(cut.byte_len() < round);
+            handed.extend(records_of(&cut, 4));
+            proptest::prop_assert_eq!(handed, records_of(&whole, 4));
+        }
     }
 }
