@@ -14,8 +14,8 @@ use crate::types::upload::{BufferKind, Writes};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntry, BindingResource, Buffer, BufferDescriptor, BufferInitDescriptor,
-    BufferUsages, CommandEncoderDescriptor, PipelineCache,
+    BindGroup, BindGroupEntry, BindingResource, Buffer, BufferBinding, BufferDescriptor,
+    BufferInitDescriptor, BufferUsages, CommandEncoderDescriptor, PipelineCache,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::{Render, RenderStartup, RenderSystems};
@@ -59,6 +59,11 @@ pub(crate) struct GpuScene {
     /// Group 0 of the trace kernel over the current buffers and texture array; `None` after a
     /// buffer grew, until it is made again.
     pub bind_group: Option<BindGroup>,
+    /// Records of each kind the kernels may read (the most any frame needed): the bind group
+    /// covers these, not the buffers' room to grow ([`PartLayout::bound_sizes`]).
+    pub(crate) in_use: [u64; 6],
+    /// What `in_use` was when the bind group was made.
+    pub(crate) bound: [u64; 6],
     /// The texture array's and the panorama's versions the bind group was made with.
     pub(crate) bound_array: u64,
     pub(crate) bound_environment: u64,
@@ -187,6 +192,8 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         generation: 0,
         tree_generation: 0,
         bind_group: None,
+        in_use: [0; 6],
+        bound: [0; 6],
         bound_array: 0,
         bound_environment: 0,
         outlines: outline_buffer(&device, 64),
@@ -228,6 +235,13 @@ fn apply_scene_uploads(
         scene.streamed = None;
         return;
     };
+    for (in_use, needed) in scene.in_use.iter_mut().zip(pending.needed) {
+        *in_use = (*in_use).max(needed);
+    }
+    if scene.in_use != scene.bound {
+        // The kernels may read records past what the bind group covers.
+        scene.bind_group = None;
+    }
     if scene.bind_group.is_none() {
         // A buffer grew or a part was added.
         let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
@@ -495,12 +509,19 @@ pub(crate) fn prepare_scene_bind_group(
     // Each kind's parts at their bindings, the stand-in where a kind has fewer.
     let mut entries: Vec<BindGroupEntry> = Vec::new();
     for (i, &kind) in BufferKind::ALL.iter().enumerate() {
+        let bound = scene
+            .layout
+            .bound_sizes(kind, scene.capacities[i], scene.in_use[i]);
         for (k, &binding) in part_bindings(kind).iter().enumerate() {
-            let buffer = scene.buffers[i].get(k).unwrap_or(&scene.stand_in);
-            entries.push(BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            });
+            let resource = match (scene.buffers[i].get(k), bound.get(k)) {
+                (Some(buffer), Some(&records)) => BindingResource::Buffer(BufferBinding {
+                    buffer,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(records * kind.record_bytes()),
+                }),
+                _ => scene.stand_in.as_entire_binding(),
+            };
+            entries.push(BindGroupEntry { binding, resource });
         }
     }
     entries.push(BindGroupEntry {
@@ -537,5 +558,6 @@ pub(crate) fn prepare_scene_bind_group(
     let group = device.create_bind_group("treelight scene", &layout, &entries);
     scene.bind_group = Some(group);
     scene.bound_array = layers.array_version;
+    scene.bound = scene.in_use;
     scene.bound_environment = environment.version;
 }

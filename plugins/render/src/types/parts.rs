@@ -109,6 +109,23 @@ impl PartLayout {
         vec![p; capacity.div_ceil(p) as usize]
     }
 
+    /// Records each part's binding covers for a kind holding `capacity` records of which the
+    /// kernels read the first `in_use`: the part up to `in_use`, at least one record (a binding
+    /// is never empty). The rest of a buffer stays out of its binding, so the device never clears
+    /// it: wgpu zeroes the unwritten bytes of every range bound, and on a software adapter those
+    /// are the process's own pages (an eighth of a large scene's buffers is room to grow).
+    pub fn bound_sizes(self, kind: BufferKind, capacity: u64, in_use: u64) -> Vec<u64> {
+        let mut start = 0;
+        self.part_sizes(kind, capacity)
+            .into_iter()
+            .map(|size| {
+                let bound = in_use.saturating_sub(start).clamp(1, size.max(1));
+                start += size;
+                bound
+            })
+            .collect()
+    }
+
     /// The capacity a kind grows to from `current` records to hold `needed` now and `expected`
     /// soon (what is on its way; 0 when nothing is): while `needed` fits one part, the larger of
     /// the two and an eighth more ([`grown_capacity`](crate::types::upload::grown_capacity)), at
@@ -240,6 +257,26 @@ mod tests {
         assert_eq!(l.part_sizes(t, 3000), vec![3000]);
         assert_eq!(l.part_sizes(t, 4096), vec![4096]);
         assert_eq!(l.part_sizes(t, 3 * 4096), vec![4096; 3]);
+    }
+
+    #[test]
+    fn a_binding_covers_the_records_in_use_and_never_nothing() {
+        let l = PartLayout {
+            shift: 12,
+            max_binding_bytes: 4096 * 64,
+        };
+        let t = BufferKind::Triangles;
+        assert_eq!(l.bound_sizes(t, 3072, 2000), vec![2000]);
+        assert_eq!(l.bound_sizes(t, 3072, 0), vec![1]);
+        assert_eq!(
+            l.bound_sizes(t, 3072, 5000),
+            vec![3072],
+            "at most the buffer"
+        );
+        assert_eq!(l.bound_sizes(t, 3 * 4096, 4096 + 5), vec![4096, 5, 1]);
+        assert_eq!(l.bound_sizes(t, 3 * 4096, 3 * 4096), vec![4096; 3]);
+        let o = BufferKind::Objects;
+        assert_eq!(l.bound_sizes(o, 900, 17), vec![17]);
     }
 
     #[test]
