@@ -68,7 +68,7 @@ pub struct Cli {
     /// for a scene that needs more than it has, and says so).
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..))]
     pub gpu_binding_limit: Option<u32>,
-    /// Hand the scene's records to the GPU in rounds of at most this many KiB (64 MiB without
+    /// Hand the scene's records to the GPU in rounds of at most this many KiB (16 MiB without
     /// it): a smaller round holds less memory while a large scene loads, and waits for the GPU
     /// more often.
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..))]
@@ -172,7 +172,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "NITS", default_value_t = treelight_render::DEFAULT_INDIRECT_CLAMP,
           value_parser = indirect_clamp)]
     pub indirect_clamp: f32,
-    /// Hand the scene's records to the GPU in rounds of at most this many KiB (64 MiB without
+    /// Hand the scene's records to the GPU in rounds of at most this many KiB (16 MiB without
     /// it): a smaller round holds less memory while a large scene loads, and waits for the GPU
     /// more often.
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..))]

@@ -180,7 +180,7 @@ fn incremental_upload_traces_like_a_full_one() {
 fn staged_writes_land_whole_across_pieces_reuse_release_and_rounds() {
     use treelight_render::{CHUNK_BYTES, ROUND_BYTES, UploadBelt};
     let gpu = Gpu::new();
-    let size = ROUND_BYTES + 2 * CHUNK_BYTES;
+    let size = ROUND_BYTES + 3 * CHUNK_BYTES;
     let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("target"),
         size,
@@ -196,15 +196,19 @@ fn staged_writes_land_whole_across_pieces_reuse_release_and_rounds() {
     };
     // Each frame's writes as (offset, length); below, whether new geometry still streams in.
     let frames: [&[(u64, u64)]; 7] = [
-        &[(4, 2 * CHUNK_BYTES + 400), (3 * CHUNK_BYTES, 4096)],
+        &[(4, CHUNK_BYTES + 400), (3 * CHUNK_BYTES, 4096)],
         &[(CHUNK_BYTES + 8, CHUNK_BYTES + 12)],
         &[(100, 4096)],
         &[(CHUNK_BYTES / 2, 2048)],
         &[(4 * CHUNK_BYTES, 1024), (64, 64)],
-        &[(2 * CHUNK_BYTES - 4, 3 * CHUNK_BYTES)],
+        &[(2 * CHUNK_BYTES - 4, CHUNK_BYTES + 20)],
         &[(12, 4096), (CHUNK_BYTES, ROUND_BYTES + 8), (40, 400)],
     ];
     let streaming = [true, true, true, false, false, true, true];
+    // Every frame but the last stages less than a round.
+    for writes in &frames[..6] {
+        assert!(writes.iter().map(|w| w.1).sum::<u64>() < ROUND_BYTES);
+    }
     for (k, (writes, &stream)) in frames.iter().zip(&streaming).enumerate() {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         for &(offset, len) in writes.iter() {

@@ -14,7 +14,7 @@ use wgpu::util::StagingBelt;
 pub const CHUNK_BYTES: u64 = 8 << 20;
 
 /// Bytes staged before they are handed to the GPU and the belt waits for their copies.
-pub const ROUND_BYTES: u64 = 8 * CHUNK_BYTES;
+pub const ROUND_BYTES: u64 = 2 * CHUNK_BYTES;
 
 /// How many bytes of records a frame makes before it hands them to the GPU ([`ROUND_BYTES`]
 /// without it), for an app to insert into its main world: a smaller round holds less memory while
