@@ -3,7 +3,8 @@
 //! [`PathTracerPlugin`] and the camera component [`PathTraced`] turn any Bevy 3D camera into a live
 //! path-traced view of what `treelight_scene`'s [`SceneBvhPlugin`](treelight_scene::SceneBvhPlugin)
 //! tracks. It is laid out as Bevy's own render features are: extraction takes the scene's change set
-//! and turns it into record writes ([`UploadPlan`]); prepare grows and patches the GPU buffers and
+//! and turns it into record writes ([`UploadPlan`]), handing a large frame's to the GPU a round at
+//! a time as it makes them ([`UploadRound`]); prepare grows and patches the GPU buffers and
 //! readies each view's uniforms and bind groups; the node, a system in the camera's `Core3d`
 //! schedule, only binds and dispatches the compute pass that traces the tree and accumulates
 //! samples, and the small render pass that writes the average into the view target, in HDR, before
