@@ -517,16 +517,19 @@ fn maps_with_their_own_texture_transforms_are_path_traced_through_each() {
     );
 }
 
+/// FlightHelmet, a textured glTF assembly from the shared scenes.
+const HELMET: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
+);
+
 /// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes
 /// while the samples accumulate (without restarting them), and the denoiser, guided by the object
 /// each pixel's first sample hit, sees each mesh as the same object before and after.
 #[test]
 fn a_gltf_assembly_renders_the_same_twice_denoised() {
     let dir = temp_dir("render-helmet");
-    let helmet = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
-    );
+    let helmet = HELMET;
     let images: Vec<Vec<u8>> = ["a.png", "b.png"]
         .iter()
         .map(|name| {
@@ -570,10 +573,7 @@ fn upload_rounds(log: &str) -> u64 {
 #[test]
 fn a_scene_uploaded_in_small_rounds_renders_as_one_uploaded_whole() {
     let dir = temp_dir("render-rounds");
-    let helmet = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
-    );
+    let helmet = HELMET;
     let mut runs = Vec::new();
     for (name, round) in [("whole.png", None), ("rounds.png", Some("16"))] {
         let out = dir.join(name);

@@ -87,8 +87,8 @@ pub(crate) struct GpuScene {
     pub filling: bool,
     /// Where the frame's record writes are staged.
     pub(crate) staging: UploadBelt,
-    /// The copies the extraction recorded this frame (buffer growth, then the rounds it
-    /// streamed that are not yet submitted), submitted first when the frame's uploads are.
+    /// The copies recorded this frame and not yet submitted (buffer growth, the rounds the
+    /// extraction streamed), submitted first when the frame's uploads are.
     pub(crate) streamed: Option<wgpu::CommandEncoder>,
     /// Bytes the extraction streamed this frame, and whether some of them were node records.
     pub(crate) streamed_bytes: u64,
@@ -96,6 +96,16 @@ pub(crate) struct GpuScene {
 }
 
 impl GpuScene {
+    /// The encoder this frame's uploads are recorded into: the one the frame opened (growth
+    /// copies, the extraction's rounds), or a new one.
+    fn upload_encoder(&mut self, device: &RenderDevice) -> wgpu::CommandEncoder {
+        self.streamed.take().unwrap_or_else(|| {
+            device.create_command_encoder(&CommandEncoderDescriptor {
+                label: Some("treelight scene upload"),
+            })
+        })
+    }
+
     /// Whether a kind's records lie in more than one buffer: the split kernel reads them.
     pub fn split(&self) -> bool {
         self.buffers.iter().any(|parts| parts.len() > 1)
@@ -226,15 +236,9 @@ fn apply_scene_uploads(
     let mut pending = std::mem::take(&mut *next);
     scene.filling = pending.filling;
     let scene = &mut *scene;
-    if scene.too_large.is_some() {
-        scene.streamed = None;
+    if grow_recorded(scene, &pending.needed, &pending.expected, &device, &stats).is_none() {
         return;
     }
-    let Some(grown) = grow_buffers(scene, &pending.needed, &pending.expected, &device, &stats)
-    else {
-        scene.streamed = None;
-        return;
-    };
     for (in_use, needed) in scene.in_use.iter_mut().zip(pending.needed) {
         *in_use = (*in_use).max(needed);
     }
@@ -247,19 +251,10 @@ fn apply_scene_uploads(
         let total: u64 = scene.buffers.iter().flatten().map(|b| b.size()).sum();
         stats.update(|f| f.scene_buffer_bytes = total);
     }
-    // The extraction's copies first, then growth copies, then the writes, in rounds of bounded
+    // The extraction's copies and growth copies first, then the writes, in rounds of bounded
     // staging.
-    let streamed = scene.streamed.take();
-    let submit = !grown.is_empty() || streamed.is_some();
-    let mut encoder = streamed.unwrap_or_else(|| {
-        device.create_command_encoder(&CommandEncoderDescriptor {
-            label: Some("treelight scene upload"),
-        })
-    });
-    // Keep what is already on the GPU: records outside this frame's writes stay valid.
-    for (old, bytes, i, k) in &grown {
-        encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
-    }
+    let submit = scene.streamed.is_some();
+    let encoder = scene.upload_encoder(&device);
     let bytes = stage_writes(scene, &pending.writes, encoder, &queue, submit)
         + std::mem::take(&mut scene.streamed_bytes);
     scene.staging.recall(pending.filling);
@@ -327,17 +322,17 @@ fn apply_scene_uploads(
 /// Records the copies of `writes` after what `encoder` holds and submits them, in rounds of
 /// bounded staging ([`UploadBelt::write`]): a frame that rewrites a large scene holds one round of
 /// staging beside its writes, not a second copy of them. Returns the bytes written; submits
-/// nothing when there was nothing to do (`grown`: the encoder holds growth copies).
+/// nothing when there was nothing to do (`holds_copies`: the encoder already holds copies).
 fn stage_writes(
     scene: &mut GpuScene,
     writes: &Writes,
     mut encoder: wgpu::CommandEncoder,
     queue: &wgpu::Queue,
-    grown: bool,
+    holds_copies: bool,
 ) -> u64 {
     let bytes = record_writes(scene, writes, &mut encoder, queue);
     scene.staging.finish();
-    if grown || bytes > 0 {
+    if holds_copies || bytes > 0 {
         queue.submit([encoder.finish()]);
     }
     bytes
@@ -402,30 +397,47 @@ impl StreamTarget<'_> {
         let Some(scene) = self.scene.as_deref_mut() else {
             return;
         };
-        let grown = match scene.too_large {
-            None => grow_buffers(scene, needed, expected, &self.device, &self.stats),
-            Some(_) => None,
-        };
-        let Some(grown) = grown else {
+        if grow_recorded(scene, needed, expected, &self.device, &self.stats).is_none() {
             // Nothing is written once the scene is too large to trace here.
             writes.clear();
             return;
-        };
-        let mut encoder = scene.streamed.take().unwrap_or_else(|| {
-            self.device
-                .create_command_encoder(&CommandEncoderDescriptor {
-                    label: Some("treelight scene upload"),
-                })
-        });
-        for (old, bytes, i, k) in &grown {
-            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
         }
+        let mut encoder = scene.upload_encoder(&self.device);
         scene.streamed_bytes += record_writes(scene, writes, &mut encoder, &self.queue);
         self.stats.update(|f| f.upload_rounds += 1);
         scene.streamed_nodes |= writes.iter().any(|w| w.buffer == BufferKind::Nodes);
         scene.streamed = Some(encoder);
         writes.clear();
     }
+}
+
+/// Grows the buffers to hold `needed` records of each kind (and `expected`: [`grow_buffers`]) and
+/// records into the scene's open upload encoder the copies that keep their records: records
+/// outside this frame's writes stay valid. `None` once the scene is too large to trace here: then
+/// nothing is written, and the copies recorded this frame are dropped.
+fn grow_recorded(
+    scene: &mut GpuScene,
+    needed: &[u64; 6],
+    expected: &[u64; 6],
+    device: &RenderDevice,
+    stats: &PathTracerStats,
+) -> Option<()> {
+    let grown = match scene.too_large {
+        None => grow_buffers(scene, needed, expected, device, stats),
+        Some(_) => None,
+    };
+    let Some(grown) = grown else {
+        scene.streamed = None;
+        return None;
+    };
+    if !grown.is_empty() {
+        let mut encoder = scene.upload_encoder(device);
+        for (old, bytes, i, k) in &grown {
+            encoder.copy_buffer_to_buffer(old, 0, &scene.buffers[*i][*k], 0, *bytes);
+        }
+        scene.streamed = Some(encoder);
+    }
+    Some(())
 }
 
 /// Grows the buffers that must hold more records: up to what the adapter binds, then the large
