@@ -2,8 +2,8 @@
 //! traced image of 1080p's pixel count (1440 × 1440 = 1920 × 1080 pixels), and the temporal pass
 //! after them (carrying the last frame's picture through a camera move), each timed from
 //! submission to completion, on whatever adapter the machine has. `cargo run -p treelight_render
-//! --example denoise_cost [-- SIDE]` (the dev profile is optimised): SIDE × SIDE pixels, 1440 unless
-//! given; the square whose pixel count is a view's traced one prices that view (the editor's
+//! --example denoise_cost [-- SIDE [SAMPLES]]` (the dev profile is optimised): SIDE × SIDE pixels,
+//! 1440 unless given, traced at SAMPLES a pixel (1 unless given); the square whose pixel count is a view's traced one prices that view (the editor's
 //! 1280 × 800 window traces its viewport at half resolution on a software adapter).
 
 #[path = "../tests/support/mod.rs"]
@@ -26,10 +26,22 @@ fn main() {
         },
         None => 1440,
     };
+    // The samples a pixel of the traced image: from 16 a pixel has the four parts the filter
+    // compares (denoise.wgsl's `quarters`).
+    let samples: u32 = match std::env::args().nth(2) {
+        Some(text) => match text.parse() {
+            Ok(samples @ 1..=1024) => samples,
+            _ => {
+                eprintln!("denoise_cost: SAMPLES is a number from 1 to 1024, not {text:?}");
+                std::process::exit(2);
+            }
+        },
+        None => 1,
+    };
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
     let scene = spheres_on_a_floor();
-    let frame = lit_frame(side, 1);
+    let frame = lit_frame(side, samples);
     let (_, _, target) = trace_into(&gpu, &scene, &layers, &frame);
     let pipeline = gpu.pipeline(treelight_render::DENOISE_WGSL, "denoise");
     gpu.denoise_with(&pipeline, &target, 1);
@@ -48,7 +60,7 @@ fn main() {
     };
     let (m, min, n) = median(Box::new(|| gpu.denoise_with(&pipeline, &target, 1)));
     println!(
-        "denoiser, {side}×{side}, the first and 5 filter passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
+        "denoiser, {side}×{side} at {samples} samples, the first and 5 filter passes: median {m:.1} ms, min {min:.1} ms over {n} runs"
     );
     // One frame's share in the editor, which makes a pass a frame: the first, and the costliest
     // filter pass (the widest, its taps furthest apart).
@@ -58,7 +70,7 @@ fn main() {
             gpu.denoise_pass(pipeline, target, pass, 6)
         }));
         println!(
-            "denoiser, {side}×{side}, {name} alone: median {m:.1} ms, min {min:.1} ms over {n} runs"
+            "denoiser, {side}×{side} at {samples} samples, {name} alone: median {m:.1} ms, min {min:.1} ms over {n} runs"
         );
     }
     let temporal = gpu.pipeline(treelight_render::TEMPORAL_WGSL, "temporal");

@@ -13,3 +13,10 @@ fn head_split_at(width: u32, height: u32, i: u32) -> u32 {
     return block_objects_start(width, height) + ((width + 1u) / 2u) * ((height + 1u) / 2u) + i;
 }
 
+
+// Where pixel i's split of the denoiser's tail lies (the samples after the head: the first half
+// of a head's count of them, their share of the tail's sum and their mean albedo luminance, two
+// unorm16), after the head splits.
+fn tail_split_at(width: u32, height: u32, i: u32) -> u32 {
+    return head_split_at(width, height, width * height) + i;
+}

@@ -15,16 +15,20 @@
 //
 // Those two estimates cannot tell a few rare bright paths that fell in both (a caustic, one
 // sample in 20, lands in both halves of 16 samples one time in nine) from true detail, and the
-// filter would keep such a pixel as a speckle. The trace kernel splits the head in two, so a pixel
-// has three parts, and the middle one of them is its lighting with what one part alone caught left
-// out: a pixel standing far above that level of all its neighbours is a firefly whatever its own
-// parts say. It is tamed, and the filter mixes it with its neighbours as noise.
+// filter would keep such a pixel as a speckle. The trace kernel splits the head in two and the
+// tail in two, so a pixel has four parts (three until its tail passes its first half), and the
+// second lowest of them is its lighting with what its parts caught alone left out: a pixel
+// standing far above that level of all its neighbours, and whose own parts do not all agree, is a
+// firefly. It is tamed, and the filter mixes it with its neighbours as noise. Where each part
+// holds at least 4 samples, the four parts also give the noise (three independent contrasts, not
+// one) and the filter's differences (the mean of their six pairwise products, not one), both
+// steadier than the halves alone.
 //
 // Reflected light is filtered apart from the surface colour (divided by the albedo here,
 // multiplied back by the resolve), so textures stay sharp; emitted light and directly seen sky are
 // not filtered at all. Taps on another object never count, so nothing smears across an object's
 // edge or over the selection outline. A first pass reads the accumulation and filters nothing: it
-// holds each pixel's lighting to at most TAME times its neighbours' highest middle part (a rare
+// holds each pixel's lighting to at most TAME times its neighbours' highest level (a rare
 // bright path among few samples is a firefly the filter would spread into a blotch) and estimates
 // its noise.
 // Then up to five filter passes, taps 1, 2, 4, 8 and 16 pixels apart. Each pass writes (rgb:
@@ -49,7 +53,7 @@ struct Denoise {
 
 const NONE: u32 = 0xffffffffu;
 const LOG2_E: f32 = 1.4426950408889634;
-// How far above its neighbours' highest middle part a pixel's lighting may stand.
+// How far above its neighbours' highest level (`PartStats`) a pixel's lighting may stand.
 const TAME: f32 = 3.0;
 
 @group(0) @binding(0) var<storage, read> accum: array<vec4<f32>>;
@@ -64,10 +68,18 @@ const TAME: f32 = 3.0;
 // Written by the first pass, read by the others: TAP_WORDS words a pixel, what `Tap` holds.
 @group(0) @binding(6) var<storage, read_write> taps: array<u32>;
 
+// A tap's words: its slot and flags (the slot shifted past TAP_FLAG_BITS), its normal, depth and
+// variance, then its parts as a scale (f32) and four fractions of it (two pack2x16snorm).
 const TAP_WORDS: u32 = 7u;
+const TAP_FLAG_BITS: u32 = 3u;
+// The slot word's slot part for NONE: a view holds no object slot this high (its records would
+// outgrow any binding).
+const TAP_NO_SLOT: u32 = 0x1fffffffu;
 // A tap's flags: the pixel had samples; they met more than one object.
 const TAP_SAMPLED: u32 = 1u;
 const TAP_MIXED: u32 = 2u;
+// The tap holds four parts to compare (`quarters`), not two.
+const TAP_FOUR: u32 = 4u;
 // The noise a firefly's tap declares: any difference from its neighbours is within it.
 const UNBOUNDED: f32 = 1e30;
 
@@ -77,15 +89,17 @@ struct Tap {
     flags: u32,
     normal: vec3<f32>,
     depth: f32,
-    // Its two independent estimates of the lighting (`parts`), and the variance of its mean
-    // (`part_variance`, negative with a single sample).
+    // Its two independent estimates of the lighting (`parts`), or with TAP_FOUR its four in la,
+    // lb, lc and ld (`quarters`), and the variance of its mean (`PartStats`, negative with a
+    // single sample).
     la: f32,
     lb: f32,
     variance: f32,
+    lc: f32,
+    ld: f32,
 }
 
-fn snapshot(i: u32, g: Guide) -> Tap {
-    let pp = parts(i, g);
+fn snapshot(g: Guide, pp: vec3<f32>, stats: PartStats) -> Tap {
     var t: Tap;
     t.slot = g.slot;
     t.flags = TAP_SAMPLED | select(0u, TAP_MIXED, g.mixed);
@@ -93,24 +107,58 @@ fn snapshot(i: u32, g: Guide) -> Tap {
     t.depth = g.depth;
     t.la = pp.x;
     t.lb = pp.y;
-    t.variance = part_variance(pp);
+    t.lc = 0.0;
+    t.ld = 0.0;
+    t.variance = stats.variance;
+    if stats.compared {
+        t.flags |= TAP_FOUR;
+        t.la = stats.quarters.x;
+        t.lb = stats.quarters.y;
+        t.lc = stats.quarters.z;
+        t.ld = stats.quarters.w;
+    }
     return t;
+}
+
+// A tap's two independent estimates of its lighting: its halves, or, from four parts, the means
+// of its head's two and its tail's two (where the taps compared had different sample counts).
+fn tap_halves(t: Tap) -> vec2<f32> {
+    if (t.flags & TAP_FOUR) != 0u {
+        return 0.5 * vec2<f32>(t.la + t.lb, t.lc + t.ld);
+    }
+    return vec2<f32>(t.la, t.lb);
 }
 
 fn keep_tap(i: u32, t: Tap) {
     let w = TAP_WORDS * i;
-    taps[w] = t.slot;
-    taps[w + 1u] = t.flags;
-    taps[w + 2u] = guides[GUIDE_WORDS * i + GUIDE_NORMAL];
-    taps[w + 3u] = bitcast<u32>(t.depth);
-    taps[w + 4u] = bitcast<u32>(t.la);
-    taps[w + 5u] = bitcast<u32>(t.lb);
-    taps[w + 6u] = bitcast<u32>(t.variance);
+    taps[w] = (min(t.slot, TAP_NO_SLOT) << TAP_FLAG_BITS) | t.flags;
+    taps[w + 1u] = guides[GUIDE_WORDS * i + GUIDE_NORMAL];
+    taps[w + 2u] = bitcast<u32>(t.depth);
+    taps[w + 3u] = bitcast<u32>(t.variance);
+    // The parts as fractions of the largest: a fixed step of it, however bright the pixel.
+    let parts = vec4<f32>(t.la, t.lb, t.lc, t.ld);
+    let largest = max(max(abs(parts.x), abs(parts.y)), max(abs(parts.z), abs(parts.w)));
+    let fractions = select(vec4<f32>(0.0), parts / largest, largest > 0.0);
+    taps[w + 4u] = bitcast<u32>(largest);
+    taps[w + 5u] = pack2x16snorm(fractions.xy);
+    taps[w + 6u] = pack2x16snorm(fractions.zw);
 }
 
 // The slot and flags of a pixel's tap, read first: most taps go no further.
 fn tap_head(j: u32) -> vec2<u32> {
-    return vec2<u32>(taps[TAP_WORDS * j], taps[TAP_WORDS * j + 1u]);
+    let word = taps[TAP_WORDS * j];
+    let slot = word >> TAP_FLAG_BITS;
+    return vec2<u32>(select(slot, NONE, slot == TAP_NO_SLOT), word & ((1u << TAP_FLAG_BITS) - 1u));
+}
+
+// Marks pixel i's tap as having no samples.
+fn clear_tap(i: u32) {
+    taps[TAP_WORDS * i] = 0u;
+}
+
+// Declares pixel i's tap a firefly's: any difference from its neighbours is within its noise.
+fn declare_firefly(i: u32) {
+    taps[TAP_WORDS * i + 3u] = bitcast<u32>(UNBOUNDED);
 }
 
 fn read_tap(j: u32, head: vec2<u32>) -> Tap {
@@ -118,11 +166,16 @@ fn read_tap(j: u32, head: vec2<u32>) -> Tap {
     var t: Tap;
     t.slot = head.x;
     t.flags = head.y;
-    t.normal = decode_normal(taps[w + 2u]);
-    t.depth = bitcast<f32>(taps[w + 3u]);
-    t.la = bitcast<f32>(taps[w + 4u]);
-    t.lb = bitcast<f32>(taps[w + 5u]);
-    t.variance = bitcast<f32>(taps[w + 6u]);
+    t.normal = decode_normal(taps[w + 1u]);
+    t.depth = bitcast<f32>(taps[w + 2u]);
+    t.variance = bitcast<f32>(taps[w + 3u]);
+    let largest = bitcast<f32>(taps[w + 4u]);
+    let ab = unpack2x16snorm(taps[w + 5u]) * largest;
+    let cd = unpack2x16snorm(taps[w + 6u]) * largest;
+    t.la = ab.x;
+    t.lb = ab.y;
+    t.lc = cd.x;
+    t.ld = cd.y;
     return t;
 }
 
@@ -143,6 +196,9 @@ struct Guide {
     head: f32,
     head_albedo: f32,
     split: vec2<f32>,
+    // The tail's split: the share of the tail's sum of its first half a head's count of samples,
+    // and their mean albedo luminance.
+    tail_split: vec2<f32>,
     // Whether its samples met more than one object.
     mixed: bool,
 }
@@ -166,6 +222,7 @@ fn guide(i: u32) -> Guide {
     out.head = bitcast<f32>(m & 0x7fffffffu);
     out.head_albedo = guide_head_albedo(i);
     out.split = unpack2x16unorm(aux[head_split_at(params.width, params.height, i)]);
+    out.tail_split = unpack2x16unorm(aux[tail_split_at(params.width, params.height, i)]);
     out.mixed = (m >> 31u) != 0u;
     return out;
 }
@@ -209,6 +266,86 @@ fn thirds(i: u32, g: Guide, rest: f32, mean: f32) -> vec3<f32> {
     let first = g.split.x * g.head / h / max(g.split.y, 0.02);
     let second = (1.0 - g.split.x) * g.head / h / max(second_albedo, 0.02);
     return vec3<f32>(first, second, rest);
+}
+
+// Whether a pixel of n samples has four parts: its samples reach past the first half of its tail.
+fn four_parts(n: u32) -> bool {
+    if n < 4u {
+        return false;
+    }
+    let a = head_count(n);
+    return n > a + a / 2u;
+}
+
+// A pixel's four independent estimates of its lighting (luminance, demodulated) where it has
+// them (`four_parts`): the means of the head's two halves (`thirds`' first two), then of the
+// tail's first half a head's count of samples and of the rest, each divided by its own samples'
+// albedo.
+fn quarters(i: u32, g: Guide, t: vec3<f32>) -> vec4<f32> {
+    let n = f32(accum[i].w);
+    let a = f32(head_count(u32(n)));
+    let half = 0.5 * a;
+    let reflected = luminance(accum[i].rgb) - luminance(g.emission) * n;
+    let tail = max(reflected - g.head, 0.0);
+    let last = n - a - half;
+    let tail_albedo = luminance(g.albedo) * n - g.head_albedo * a;
+    let last_albedo = (tail_albedo - g.tail_split.y * half) / last;
+    let c = g.tail_split.x * tail / half / max(g.tail_split.y, 0.02);
+    let d = (1.0 - g.tail_split.x) * tail / last / max(last_albedo, 0.02);
+    return vec4<f32>(t.x, t.y, c, d);
+}
+
+// What a pixel's parts say of it.
+struct PartStats {
+    // Its lighting with what its parts caught alone left out: the second lowest of four parts,
+    // the middle of three.
+    level: f32,
+    // What all its parts agree on: the lowest.
+    agreed: f32,
+    // The variance of its mean luminance (negative with a single sample).
+    variance: f32,
+    // Its four parts, where `compared`.
+    quarters: vec4<f32>,
+    // Whether it has four parts of at least 4 samples each, which then also give the variance
+    // and the filter's differences: a part of fewer samples covers the pixel too unevenly, and
+    // their spread would count what varies across the pixel (a texture, an edge) as noise.
+    compared: bool,
+}
+
+// A pixel's `PartStats` from its `parts` (`pp`) and its whole demodulated luminance (`mean`).
+fn part_stats(i: u32, g: Guide, pp: vec3<f32>, mean: f32) -> PartStats {
+    let n = u32(accum[i].w);
+    let t = thirds(i, g, pp.y, mean);
+    var out: PartStats;
+    out.variance = part_variance(pp);
+    out.compared = false;
+    if !four_parts(n) {
+        out.level = middle(t);
+        out.agreed = min(min(t.x, t.y), t.z);
+        return out;
+    }
+    let q = quarters(i, g, t);
+    let lo = min(q.xz, q.yw);
+    let hi = max(q.xz, q.yw);
+    // The second lowest of the four: the higher of the pairs' lows, or the lower of their highs.
+    out.level = min(max(lo.x, lo.y), min(hi.x, hi.y));
+    out.agreed = min(lo.x, lo.y);
+    let h = 0.5 * f32(head_count(n));
+    let last = f32(n) - 3.0 * h;
+    if h < 4.0 || last < 4.0 {
+        return out;
+    }
+    // Three independent contrasts (the halves, and each half's two parts), each an estimate of
+    // the mean's variance s² / n: a difference of means of x and y samples has the variance
+    // s² (1 / x + 1 / y).
+    let c2 = q.x - q.y;
+    let c3 = q.z - q.w;
+    let v2 = c2 * c2 / (f32(n) * (2.0 / h));
+    let v3 = c3 * c3 / (f32(n) * (1.0 / h + 1.0 / last));
+    out.variance = (out.variance + v2 + v3) / 3.0;
+    out.quarters = q;
+    out.compared = true;
+    return out;
 }
 
 // The middle one of three values: a pixel's lighting with what one of its parts caught alone left
@@ -293,12 +430,15 @@ fn denoise(@builtin(global_invocation_id) id: vec3<u32>) {
 fn first_pass(p: vec2<i32>, i: u32) {
     if accum[i].w <= 0.0 {
         filtered[i] = vec4<f32>(0.0);
-        taps[TAP_WORDS * i + 1u] = 0u;
+        clear_tap(i);
         return;
     }
     let size = vec2<i32>(i32(params.width), i32(params.height));
     let gp = guide(i);
-    let tp = snapshot(i, gp);
+    let own = demodulated(i, gp);
+    let pp = parts(i, gp);
+    let sp = part_stats(i, gp, pp, luminance(own));
+    let tp = snapshot(gp, pp, sp);
     keep_tap(i, tp);
     // Directly seen sky is the sky itself, not noise: it passes every pass unfiltered.
     if gp.slot == NONE && !gp.mixed {
@@ -324,17 +464,17 @@ fn first_pass(p: vec2<i32>, i: u32) {
             }
             let gq = guide(j);
             let lq = luminance(demodulated(j, gq));
-            let pq = parts(j, gq);
+            var sq = sp;
             if j != i {
-                top = max(top, middle(thirds(j, gq, pq.y, lq)));
+                sq = part_stats(j, gq, parts(j, gq), lq);
+                top = max(top, sq.level);
                 let hq = vec2<u32>(gq.slot, select(0u, TAP_MIXED, gq.mixed));
                 if !same_surface(hp, hq) {
                     continue;
                 }
             }
-            let vq = part_variance(pq);
-            if vq >= 0.0 {
-                v += vq;
+            if sq.variance >= 0.0 {
+                v += sq.variance;
                 nv += 1.0;
             }
             l1 += lq;
@@ -346,19 +486,17 @@ fn first_pass(p: vec2<i32>, i: u32) {
     if tp.variance < 0.0 {
         variance = max(l2 / n - (l1 / n) * (l1 / n), 0.0);
     }
-    // What the samples agree on: the lowest of the pixel's three parts (a firefly must be in all
-    // three to pass), or, with a single sample, 3 standard deviations below its mean.
-    let own = demodulated(i, gp);
+    // What the samples agree on: the lowest of the pixel's parts (a firefly must be in all of
+    // them to pass), or, with a single sample, 3 standard deviations below its mean.
     var agreed = luminance(own) - 3.0 * sqrt(variance);
     if tp.variance >= 0.0 {
-        let t = thirds(i, gp, tp.lb, luminance(own));
-        agreed = min(min(t.x, t.y), t.z);
+        agreed = sp.agreed;
     }
     let kept = tamed(own, top, agreed);
     // Held down by its neighbours, not by what its own samples agree on: a firefly, whose excess
     // is noise, so the filter passes mix it with its neighbours.
     if luminance(own) > top * TAME && agreed < top * TAME {
-        taps[TAP_WORDS * i + 6u] = bitcast<u32>(UNBOUNDED);
+        declare_firefly(i);
     }
     filtered[i] = vec4<f32>(kept, variance);
 }
@@ -407,8 +545,14 @@ fn filter_pass(p: vec2<i32>, i: u32) {
             let raw = raw_p + max(tq.variance, 0.0);
             let spread = params.sigma_luminance * params.sigma_luminance * max(centre.w + v.w, raw) + 1e-8;
             var ll = 0.0;
-            if tp.variance >= 0.0 && tq.variance >= 0.0 {
-                ll = max((tq.la - tp.la) * (tq.lb - tp.lb), 0.0) / spread;
+            if (tp.flags & tq.flags & TAP_FOUR) != 0u {
+                // Every pair of independent parts gives an estimate: their mean.
+                let d = vec4<f32>(tq.la - tp.la, tq.lb - tp.lb, tq.lc - tp.lc, tq.ld - tp.ld);
+                let s1 = d.x + d.y + d.z + d.w;
+                ll = max((s1 * s1 - dot(d, d)) / 12.0, 0.0) / spread;
+            } else if tp.variance >= 0.0 && tq.variance >= 0.0 {
+                let dp = tap_halves(tq) - tap_halves(tp);
+                ll = max(dp.x * dp.y, 0.0) / spread;
             } else {
                 ll = abs(luminance(v.rgb) - lp) / sqrt(spread);
             }

@@ -8,7 +8,8 @@
 // luminance of the first P samples (an f16), so the denoiser can demodulate them apart from the
 // rest. The first P / 2 samples' share of the head sum and their mean albedo luminance (two
 // unorm16: a share, not a sum, so no light is too bright for it), the head split in two, lie in
-// the view's `aux` buffer (`head_split_at`, aux_layout.wgsl).
+// the view's `aux` buffer (`head_split_at`, aux_layout.wgsl), and so does the tail's split in two
+// (`tail_split_at`).
 const GUIDE_WORDS: u32 = 7u;
 const GUIDE_NORMAL: u32 = 0u;
 const GUIDE_HEAD: u32 = 1u;

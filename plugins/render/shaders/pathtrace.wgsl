@@ -564,6 +564,16 @@ fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     return select(pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
 
+// Whether n samples reach past the first half of the tail: n > a + a / 2, a the head's count (the
+// largest power of two below n), at least 2.
+fn tail_split_passed(n: u32) -> bool {
+    if n < 4u {
+        return false;
+    }
+    let a = 1u << (31u - countLeadingZeros(n - 1u));
+    return n > a + a / 2u;
+}
+
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
@@ -1444,10 +1454,17 @@ fn path_trace(
     var head = 0.0;
     var head_albedo = 0.0;
     // The first P / 2 samples' share of the head sum and their mean albedo luminance: the head
-    // split in two, so the denoiser has three parts, and a firefly must be in all three to pass
-    // for lighting the samples agree on (two parts of 8 samples each both catch a path that one
-    // sample in 20 finds one time in nine).
+    // split in two, so the denoiser has three parts (four with the tail's split, below), and a
+    // firefly must be in all of them to pass for lighting the samples agree on (two parts of 8
+    // samples each both catch a path that one sample in 20 finds one time in nine; four parts of
+    // 4 samples, one time in 850).
     var split = vec2<f32>(0.0);
+    // The tail's split (the samples after the head): the first half of a head's count of them,
+    // their share of the tail's sum and their mean albedo luminance, so the denoiser has four
+    // parts once the tail is past that half. Kept as a share of the tail as it stands, so each
+    // frame turns it back into a sum (`tail_first`) and the sum into a share again.
+    var tail_split = vec2<f32>(0.0);
+    var tail_first = 0.0;
     var mixed = false;
     // And the sums of the primary hits' albedo and emission (kept as a mean): lighting is
     // filtered apart from the one, and the other passes unfiltered.
@@ -1467,6 +1484,10 @@ fn path_trace(
         emission = guide_emission(pixel) * f32(first);
         head_albedo = guide_head_albedo(pixel);
         split = unpack2x16unorm(aux[head_split_at(view.width, view.height, pixel)]);
+        tail_split = unpack2x16unorm(aux[tail_split_at(view.width, view.height, pixel)]);
+        if tail_split_passed(first) {
+            tail_first = tail_split.x * max(luminance(acc.rgb - emission) - head, 0.0);
+        }
     }
     for (var k = 0u; k < view.samples; k += 1u) {
         rng_state = seed(pixel, first + k);
@@ -1483,6 +1504,13 @@ fn path_trace(
             split = vec2<f32>(select(0.5, head / whole, whole > 0.0), head_albedo);
             head = whole;
             head_albedo = luminance(albedo) / f32(index);
+            tail_first = 0.0;
+            tail_split = vec2<f32>(0.0);
+        } else if index > 2u && tail_split_passed(index + 1u) && !tail_split_passed(index) {
+            // The tail's first half is complete.
+            let a = f32(1u << (31u - countLeadingZeros(index)));
+            tail_first = max(luminance(acc.rgb + sum - emission) - head, 0.0);
+            tail_split.y = max(luminance(albedo) - head_albedo * a, 0.0) / (0.5 * a);
         }
         sum += value;
         albedo += clamp(primary_albedo, vec3<f32>(0.0), vec3<f32>(1.0));
@@ -1504,5 +1532,13 @@ fn path_trace(
     guides[g + GUIDE_EMISSION] = pack2x16float(mean.rg);
     guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, head_albedo));
     aux[head_split_at(view.width, view.height, pixel)] = pack2x16unorm(split);
+    let n = first + view.samples;
+    if tail_split_passed(n) {
+        let tail = max(luminance(acc.rgb + sum - emission) - head, 0.0);
+        tail_split.x = select(0.5, tail_first / tail, tail > 0.0);
+    } else {
+        tail_split = vec2<f32>(0.0);
+    }
+    aux[tail_split_at(view.width, view.height, pixel)] = pack2x16unorm(tail_split);
     accum[pixel] = vec4<f32>(acc.rgb + sum, acc.w + f32(view.samples));
 }

@@ -280,17 +280,19 @@ impl ResolveParams {
 
 /// Bytes of a `width × height` view's `aux` buffer (aux_layout.wgsl): per pixel its first sample's
 /// depth and object slot; per preview block (room made for the finest scale, 2 × 2 pixels) a sample
-/// and its depth, then its object slot; then per pixel the split of the denoiser's head sum.
+/// and its depth, then its object slot; then per pixel the split of the denoiser's head sum, then
+/// that of its tail.
 pub fn aux_bytes(width: u32, height: u32) -> u64 {
     let pixels = u64::from(width) * u64::from(height);
     let blocks = u64::from(width.div_ceil(2)) * u64::from(height.div_ceil(2));
-    pixels * 12 + blocks * 20
+    pixels * 16 + blocks * 20
 }
 
 /// Words a pixel of the denoiser's guides (`GUIDE_WORDS` of guide_layout.wgsl): the first
 /// sample's normal, the head samples' reflected luminance, the albedo summed (3), and in 2 the
 /// emission's mean (three halves) and the head samples' mean albedo luminance (a half). The head's
-/// split lies in `aux` ([`aux_bytes`]), so this, a view's largest buffer, stays at 7 words.
+/// and the tail's splits lie in `aux` ([`aux_bytes`]), so this, a view's largest buffer, stays at
+/// 7 words.
 pub const GUIDE_WORDS: u64 = 7;
 
 /// Bytes of a `width × height` view's denoiser guides (guide_layout.wgsl).

@@ -769,6 +769,12 @@ impl Gpu {
         let start = target.head_splits_start();
         words(&self.read(&target.aux))[start..start + target.pixels].to_vec()
     }
+
+    /// Per pixel, the split of the denoiser's tail (`tail_split_at` of aux_layout.wgsl).
+    pub fn read_tail_splits(&self, target: &TraceTarget) -> Vec<u32> {
+        let start = target.head_splits_start() + target.pixels;
+        words(&self.read(&target.aux))[start..start + target.pixels].to_vec()
+    }
 }
 
 impl TraceTarget {

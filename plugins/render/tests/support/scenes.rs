@@ -288,8 +288,19 @@ impl<'a> Frames<'a> {
 
     /// [`Frames::trace`] with `shot`'s exposure, indirect cap and seed.
     pub fn trace_shot(&self, t: &Trace, work: TraceWork, shot: Shot) -> super::TraceTarget {
+        self.trace_in_dispatches(t, work, shot, t.samples.clamp(1, 16))
+    }
+
+    /// [`Frames::trace_shot`] in dispatches of `per` samples a pixel: `t.samples` rounded up to
+    /// a whole number of them.
+    pub fn trace_in_dispatches(
+        &self,
+        t: &Trace,
+        work: TraceWork,
+        shot: Shot,
+        per: u32,
+    ) -> super::TraceTarget {
         let target = self.gpu.trace_target(t.size, t.size);
-        let per = t.samples.clamp(1, 16);
         for _ in 0..t.samples.div_ceil(per) {
             let params = ViewParams {
                 world_from_clip: t.world_from_clip,
