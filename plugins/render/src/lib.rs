@@ -107,6 +107,7 @@ impl Plugin for PathTracerPlugin {
         app.insert_resource(shaders.clone());
         raster::raster_skip::build(app);
         raster::raster_meshes::build(app);
+        raster::shadow_maps::build(app);
         sky::environment::build(app);
         let Some(render_app) = app.get_sub_app_mut(bevy::render::RenderApp) else {
             return;

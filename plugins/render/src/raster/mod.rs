@@ -2,3 +2,4 @@
 
 pub(crate) mod raster_meshes;
 pub(crate) mod raster_skip;
+pub(crate) mod shadow_maps;
