@@ -3,8 +3,9 @@
 //! after them (carrying the last frame's picture through a camera move), each timed from
 //! submission to completion, on whatever adapter the machine has. `cargo run -p treelight_render
 //! --example denoise_cost [-- SIDE [SAMPLES]]` (the dev profile is optimised): SIDE × SIDE pixels,
-//! 1440 unless given, traced at SAMPLES a pixel (1 unless given); the square whose pixel count is a view's traced one prices that view (the editor's
-//! 1280 × 800 window traces its viewport at half resolution on a software adapter).
+//! 1440 unless given, traced at SAMPLES a pixel (1 unless given); the square whose pixel count is
+//! a view's traced one prices that view (the editor's 1280 × 800 window traces its viewport at
+//! half resolution on a software adapter).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -15,29 +16,30 @@ use support::scenes::{lit_frame, spheres_on_a_floor, trace_into};
 use support::temporal::Pictures;
 use treelight_render::TemporalRestart;
 
-fn main() {
-    let side: u32 = match std::env::args().nth(1) {
-        Some(text) => match text.parse() {
-            Ok(side @ 8..=8192) => side,
-            _ => {
-                eprintln!("denoise_cost: SIDE is a number of pixels from 8 to 8192, not {text:?}");
-                std::process::exit(2);
-            }
-        },
-        None => 1440,
+/// The `k`-th argument, a number in `range`, or `default` where it is not given; anything else
+/// ends the run with a message naming it.
+fn number_arg(k: usize, name: &str, range: std::ops::RangeInclusive<u32>, default: u32) -> u32 {
+    let Some(text) = std::env::args().nth(k) else {
+        return default;
     };
+    match text.parse() {
+        Ok(n) if range.contains(&n) => n,
+        _ => {
+            eprintln!(
+                "denoise_cost: {name} is a number from {} to {}, not {text:?}",
+                range.start(),
+                range.end()
+            );
+            std::process::exit(2);
+        }
+    }
+}
+
+fn main() {
+    let side = number_arg(1, "SIDE (pixels)", 8..=8192, 1440);
     // The samples a pixel of the traced image: from 16 a pixel has the four parts the filter
     // compares (denoise.wgsl's `quarters`).
-    let samples: u32 = match std::env::args().nth(2) {
-        Some(text) => match text.parse() {
-            Ok(samples @ 1..=1024) => samples,
-            _ => {
-                eprintln!("denoise_cost: SAMPLES is a number from 1 to 1024, not {text:?}");
-                std::process::exit(2);
-            }
-        },
-        None => 1,
-    };
+    let samples = number_arg(2, "SAMPLES", 1..=1024, 1);
     let gpu = Gpu::new();
     let layers = gpu.layers(4, 1);
     let scene = spheres_on_a_floor();

@@ -227,11 +227,6 @@ fn guide(i: u32) -> Guide {
     return out;
 }
 
-// How many of n samples the guide's head sum covers: the largest power of two below n.
-fn head_count(n: u32) -> u32 {
-    return 1u << (31u - countLeadingZeros(n - 1u));
-}
-
 // A pixel's two independent estimates of its lighting (luminance, demodulated): the mean of its
 // first a samples and the rest's (b), each divided by its own samples' albedo, and (z) a b / n², 0
 // where it has a single sample.
@@ -266,15 +261,6 @@ fn thirds(i: u32, g: Guide, rest: f32, mean: f32) -> vec3<f32> {
     let first = g.split.x * g.head / h / max(g.split.y, 0.02);
     let second = (1.0 - g.split.x) * g.head / h / max(second_albedo, 0.02);
     return vec3<f32>(first, second, rest);
-}
-
-// Whether a pixel of n samples has four parts: its samples reach past the first half of its tail.
-fn four_parts(n: u32) -> bool {
-    if n < 4u {
-        return false;
-    }
-    let a = head_count(n);
-    return n > a + a / 2u;
 }
 
 // A pixel's four independent estimates of its lighting (luminance, demodulated) where it has

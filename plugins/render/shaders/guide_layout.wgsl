@@ -11,6 +11,21 @@
 // the view's `aux` buffer (`head_split_at`, aux_layout.wgsl), and so does the tail's split in two
 // (`tail_split_at`).
 const GUIDE_WORDS: u32 = 7u;
+
+// How many of n samples the guide's head sum covers: the largest power of two below n.
+fn head_count(n: u32) -> u32 {
+    return 1u << (31u - countLeadingZeros(n - 1u));
+}
+
+// Whether a pixel of n samples has four parts: its samples reach past the first half of its tail
+// (`tail_split_at`, aux_layout.wgsl), n > a + a / 2 for a head of a samples, at least 2.
+fn four_parts(n: u32) -> bool {
+    if n < 4u {
+        return false;
+    }
+    let a = head_count(n);
+    return n > a + a / 2u;
+}
 const GUIDE_NORMAL: u32 = 0u;
 const GUIDE_HEAD: u32 = 1u;
 const GUIDE_ALBEDO: u32 = 2u;

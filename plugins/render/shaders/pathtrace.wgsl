@@ -564,16 +564,6 @@ fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     return select(pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
 
-// Whether n samples reach past the first half of the tail: n > a + a / 2, a the head's count (the
-// largest power of two below n), at least 2.
-fn tail_split_passed(n: u32) -> bool {
-    if n < 4u {
-        return false;
-    }
-    let a = 1u << (31u - countLeadingZeros(n - 1u));
-    return n > a + a / 2u;
-}
-
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
@@ -1485,7 +1475,7 @@ fn path_trace(
         head_albedo = guide_head_albedo(pixel);
         split = unpack2x16unorm(aux[head_split_at(view.width, view.height, pixel)]);
         tail_split = unpack2x16unorm(aux[tail_split_at(view.width, view.height, pixel)]);
-        if tail_split_passed(first) {
+        if four_parts(first) {
             tail_first = tail_split.x * max(luminance(acc.rgb - emission) - head, 0.0);
         }
     }
@@ -1506,9 +1496,9 @@ fn path_trace(
             head_albedo = luminance(albedo) / f32(index);
             tail_first = 0.0;
             tail_split = vec2<f32>(0.0);
-        } else if index > 2u && tail_split_passed(index + 1u) && !tail_split_passed(index) {
+        } else if four_parts(index + 1u) && !four_parts(index) {
             // The tail's first half is complete.
-            let a = f32(1u << (31u - countLeadingZeros(index)));
+            let a = f32(head_count(index + 1u));
             tail_first = max(luminance(acc.rgb + sum - emission) - head, 0.0);
             tail_split.y = max(luminance(albedo) - head_albedo * a, 0.0) / (0.5 * a);
         }
@@ -1533,7 +1523,7 @@ fn path_trace(
     guides[g + GUIDE_EMISSION + 1u] = pack2x16float(vec2<f32>(mean.b, head_albedo));
     aux[head_split_at(view.width, view.height, pixel)] = pack2x16unorm(split);
     let n = first + view.samples;
-    if tail_split_passed(n) {
+    if four_parts(n) {
         let tail = max(luminance(acc.rgb + sum - emission) - head, 0.0);
         tail_split.x = select(0.5, tail_first / tail, tail > 0.0);
     } else {

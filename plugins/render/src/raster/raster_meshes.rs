@@ -38,16 +38,9 @@ pub(crate) struct HeldMeshes {
     send: Vec<AssetId<Mesh>>,
     /// Meshes whose render-world copies to drop this frame (the last rasterising camera went).
     drop: Vec<AssetId<Mesh>>,
-    /// Whether a rasterising camera was active in the last frame.
-    pub(crate) rasterised: bool,
-}
-
-impl HeldMeshes {
-    /// Whether a camera rasterised this frame, or meshes are not held back
+    /// Whether a rasterising camera was active in the last frame, or meshes are not held back
     /// ([`HoldBackRasterMeshes`]): Bevy's own raster work goes on as the app set it up.
-    pub(crate) fn rasterised(&self) -> bool {
-        self.rasterised
-    }
+    pub(crate) rasterised: bool,
 }
 
 pub(crate) fn build(app: &mut App) {

@@ -59,7 +59,7 @@ fn extract_raster_shadows(
     mut state: ResMut<RasterShadows>,
 ) {
     let state = &mut *state;
-    state.rasterised = held.as_ref().is_none_or(|h| h.rasterised());
+    state.rasterised = held.as_ref().is_none_or(|h| h.rasterised);
     state.directional = directional.as_ref().map_or(2048, |d| d.size);
     state.point = point.as_ref().map_or(1024, |p| p.size);
     state.casts.clear();
