@@ -75,7 +75,7 @@ const TAP_FLAG_BITS: u32 = 3u;
 // The slot word's slot part for NONE: a view holds no object slot this high (its records would
 // outgrow any binding).
 const TAP_NO_SLOT: u32 = 0x1fffffffu;
-// A tap's flags: the pixel had samples; they met more than one object.
+// A tap's flags: the pixel had samples; they met more than one surface (a silhouette or a crease).
 const TAP_SAMPLED: u32 = 1u;
 const TAP_MIXED: u32 = 2u;
 // The tap holds four parts to compare (`quarters`), not two.
@@ -199,7 +199,7 @@ struct Guide {
     // The tail's split: the share of the tail's sum of its first half a head's count of samples,
     // and their mean albedo luminance.
     tail_split: vec2<f32>,
-    // Whether its samples met more than one object.
+    // Whether its samples met more than one surface (a silhouette or a crease).
     mixed: bool,
 }
 
@@ -370,8 +370,9 @@ fn tamed(c: vec3<f32>, top: f32, agreed: f32) -> vec3<f32> {
 }
 
 // Whether q can stand in for p at all (their taps' slots and flags): the same object, and both
-// inside it or both on its silhouette (where samples met another object too: such pixels blend
-// two surfaces, and only those along the same edge blend them alike).
+// inside it or both on its silhouette or a crease (where samples met another object too, or
+// another face of it: such pixels blend two surfaces, and only those along the same edge blend
+// them alike).
 fn same_surface(p: vec2<u32>, q: vec2<u32>) -> bool {
     return q.x == p.x && (q.y & TAP_MIXED) == (p.y & TAP_MIXED);
 }

@@ -1,7 +1,8 @@
 // The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the first
 // sample's shading normal (octahedral, pack2x16snorm); the summed luminance of the light the first
 // P samples reflect (their colour less what their primary hits emit), P the largest power of two
-// below their count (an f32, its sign bit set once the samples met more than one object); the sum
+// below their count (an f32, its sign bit set once the samples met more than one surface: another
+// object, or another face of a crease, `CREASE_COSINE` in pathtrace.wgsl); the sum
 // of the samples' primary hits' albedo (three f32); the mean light those hits emit (three f16 in
 // two words: the denoiser subtracts and the resolve adds back the same value, so its rounding
 // moves no light; the view's largest buffer stays small); in the last half word, the mean albedo

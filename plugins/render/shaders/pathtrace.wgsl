@@ -195,6 +195,11 @@ const MAX_PASSES: u32 = 8u;
 // as its hottest colour.
 const HEATMAP_MAX: f32 = 80.0;
 
+// A pixel's samples whose primary hits' shading normals are further apart than this cosine
+// (60°) met two faces of a crease, not one curved surface: the pixel blends two surfaces' light,
+// as a silhouette's does, and is marked mixed for the denoiser.
+const CREASE_COSINE: f32 = 0.5;
+
 var<private> rng_state: u32;
 // The depth of the current sample's primary hit (0, the far plane, when it escapes).
 var<private> primary_depth: f32;
@@ -1439,8 +1444,8 @@ fn path_trace(
     // spreads them while the even cover averages it out). Each part is divided by its own albedo
     // and less its own emission, so the texels a part's samples met, or whether a pane passed or
     // reflected them, is not taken for noise. The head's sign bit is set once the pixel's samples
-    // have met more than one object (a silhouette): the denoiser keeps such mixed pixels from
-    // standing in for their neighbours.
+    // have met more than one surface (a silhouette, or a crease: `CREASE_COSINE`): the denoiser
+    // keeps such mixed pixels from standing in for their neighbours.
     var head = 0.0;
     var head_albedo = 0.0;
     // The first P / 2 samples' share of the head sum and their mean albedo luminance: the head
@@ -1510,6 +1515,9 @@ fn path_trace(
             aux[slot_at] = primary_object;
             guides[g + GUIDE_NORMAL] = encode_normal(primary_normal);
         } else if primary_object != aux[slot_at] {
+            mixed = true;
+        } else if primary_object != NONE
+            && dot(primary_normal, decode_normal(guides[g + GUIDE_NORMAL])) < CREASE_COSINE {
             mixed = true;
         }
     }

@@ -37,11 +37,11 @@ const PREVIEW_WEIGHT: f32 = 1.0;
 // The denoiser's last pass: per pixel its lighting, to be multiplied by the albedo.
 @group(0) @binding(3) var<storage, read> denoised: array<vec4<f32>>;
 // The trace kernel's guides (guide_layout.wgsl): the albedo and the emitted light summed over a
-// pixel's samples, and whether they met more than one object.
+// pixel's samples, and whether they met more than one surface.
 @group(0) @binding(4) var<storage, read> guides: array<u32>;
 // The last frame's picture and this frame's, 16 bytes a pixel (as the accumulation, so a view that
 // binds one binds the other): rgb and weight in half floats (`pack_picture`), the primary hit's
-// depth (negated less one where the pixel's samples met more than one object) and object slot.
+// depth (negated less one where the pixel's samples met more than one surface) and object slot.
 @group(0) @binding(5) var<storage, read> history: array<vec4<u32>>;
 @group(0) @binding(6) var<storage, read_write> shown: array<vec4<u32>>;
 // Per pixel the prior: (rgb, weight).
@@ -63,7 +63,8 @@ struct Estimate {
     weight: f32,
     depth: f32,
     object: u32,
-    // Its samples met more than one object (a silhouette): its colour is no one object's.
+    // Its samples met more than one surface (a silhouette or a crease): its colour is no one
+    // surface's.
     mixed: bool,
 }
 
@@ -168,7 +169,7 @@ fn reprojected(p: vec2<u32>, e: Estimate) -> vec4<f32> {
         let j = u32(tap.y) * params.width + u32(tap.x);
         let seen = history[j];
         let seen_depth = bitcast<f32>(seen.z);
-        // A negative depth marks a pixel whose samples met more than one object.
+        // A negative depth marks a pixel whose samples met more than one surface.
         if seen_depth < 0.0 || seen.w != e.object || !same_depth(q.z, seen_depth, e.object) {
             continue;
         }

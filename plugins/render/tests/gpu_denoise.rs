@@ -13,6 +13,8 @@
 //!   three parts the trace kernel keeps, is tamed and mixed with its neighbours, while a bright
 //!   pixel all of whose parts agree stays; and the kernel's split of the head sum holds whatever
 //!   frames the samples came in.
+//! * Creases: a pixel whose samples met two faces of one object at 90° is marked mixed, as a
+//!   silhouette's is, and its neighbours on one face are not.
 
 mod support;
 
@@ -559,4 +561,88 @@ fn the_tail_s_first_half_is_kept_apart_however_the_frames_split_the_samples() {
         );
     }
     assert!(checked > 200, "{checked} lit pixels");
+}
+
+/// A roof: two faces of one mesh meeting at 90° along a ridge on the y axis, each 3 wide and 6
+/// tall, facing +z.
+fn roof() -> Vec<ShadedTriangle> {
+    let face = |dx: f32| {
+        // Corners of the face: along the ridge, and out to x = dx (receding to z = -|dx|).
+        let c = [
+            Vec3::new(0.0, -3.0, 0.0),
+            Vec3::new(dx, -3.0, -dx.abs()),
+            Vec3::new(dx, 3.0, -dx.abs()),
+            Vec3::new(0.0, 3.0, 0.0),
+        ];
+        let order = if dx < 0.0 {
+            [[0, 2, 1], [0, 3, 2]]
+        } else {
+            [[0, 1, 2], [0, 2, 3]]
+        };
+        order.map(|f| {
+            let p = f.map(|k| c[k]);
+            (
+                treelight_bvh::Triangle::new(p[0], p[1], p[2]),
+                None,
+                [treelight_bvh::glam::Vec2::ZERO; 3],
+            )
+        })
+    };
+    face(-3.0).into_iter().chain(face(3.0)).collect()
+}
+
+#[test]
+fn a_crease_inside_one_object_marks_the_pixels_across_it_mixed() {
+    let gpu = Gpu::new();
+    let layers = gpu.layers(4, 1);
+    let mut s = Scene::new();
+    s.add(
+        &roof(),
+        Affine3A::IDENTITY,
+        false,
+        &SurfaceMaterial::default(),
+    );
+    // Looking at the ridge from 3 in front, a little to its right: the ridge is a vertical line
+    // through the middle of one column, and the roof fills the view.
+    let size = 16;
+    let world_from_clip = camera(
+        Vec3::new(0.068, 0.0, 3.0),
+        Vec3::new(0.068, 0.0, 0.0),
+        Vec3::Y,
+        40.0,
+    );
+    let t = Trace {
+        size,
+        samples: 8,
+        bounces: 1,
+        sky: Vec3::ONE,
+        mode: DebugView::PathTraced.shader_index(),
+        world_from_clip,
+        lights: Vec::new(),
+    };
+    let ndc = world_from_clip.inverse().project_point3(Vec3::ZERO);
+    let ridge = (ndc.x + 1.0) * 0.5 * size as f32;
+    assert!(
+        (0.3..0.7).contains(&ridge.fract()),
+        "the ridge is at {ridge} pixels, too near a column's edge for this test"
+    );
+    let column = ridge as i32;
+    let (_, slots, target) = trace_into(&gpu, &s, &layers, &t);
+    assert!(
+        slots.iter().all(|&slot| slot == slots[0]),
+        "the roof does not fill the view"
+    );
+    let guides = words(&gpu.read(&target.guides));
+    let w = treelight_render::GUIDE_WORDS as usize;
+    for y in 0..size as i32 {
+        for x in 0..size as i32 {
+            let i = (y * size as i32 + x) as usize;
+            let mixed = guides[w * i + 1] >> 31 != 0;
+            assert_eq!(
+                mixed,
+                x == column,
+                "pixel ({x}, {y}): mixed {mixed}, the ridge in column {column}"
+            );
+        }
+    }
 }
