@@ -1,6 +1,7 @@
 // The denoiser: an edge-aware à-trous filter (SVGF's spatial part) over a view's accumulated
 // samples, guided by what the trace kernel keeps of each pixel's primary hits (the first one's
-// object slot, shading normal and depth; the mean albedo and emission of all) and by the noise of
+// object slot and depth, the mean shading normal of those on its object, the mean albedo and
+// emission of all) and by the noise of
 // each pixel's mean. That noise is measured, not inferred from the samples' spread: a pixel's
 // samples cover it evenly (a Sobol sequence), so what varies across it (a texture finer than the
 // pixel, an edge) spreads them widely while their mean is nearly exact; the spread would call it

@@ -1,5 +1,6 @@
-// The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the first
-// sample's shading normal (octahedral, pack2x16snorm); the summed luminance of the light the first
+// The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the mean shading
+// normal of the samples whose primary hit is on the first one's object (octahedral,
+// pack2x16snorm; on a crease, between its faces', so the pixels along it filter alike); the summed luminance of the light the first
 // P samples reflect (their colour less what their primary hits emit), P the largest power of two
 // below their count (an f32, its sign bit set once the samples met more than one surface: another
 // object, or another face of a crease, `CREASE_COSINE` in pathtrace.wgsl); the sum

@@ -195,9 +195,9 @@ const MAX_PASSES: u32 = 8u;
 // as its hottest colour.
 const HEATMAP_MAX: f32 = 80.0;
 
-// A pixel's samples whose primary hits' shading normals are further apart than this cosine
-// (60°) met two faces of a crease, not one curved surface: the pixel blends two surfaces' light,
-// as a silhouette's does, and is marked mixed for the denoiser.
+// A pixel's sample whose primary hit's shading normal is further than this cosine (60°) from the
+// mean of those before it met two faces of a crease, not one curved surface: the pixel blends two
+// surfaces' light, as a silhouette's does, and is marked mixed for the denoiser.
 const CREASE_COSINE: f32 = 0.5;
 
 var<private> rng_state: u32;
@@ -205,7 +205,7 @@ var<private> rng_state: u32;
 var<private> primary_depth: f32;
 // The object slot of the current sample's primary hit (NONE when it escapes).
 var<private> primary_object: u32;
-// The denoiser's guides (the first sample's normal, the albedo summed over samples): the shading
+// The denoiser's guides (the mean normal, the albedo summed over samples): the shading
 // normal of the current sample's primary hit (zero when it escapes), and the reflectance
 // (`reflectance`) of the first surface its path meets that is not smooth (`is_smooth`), times what
 // the smooth ones before it
@@ -1516,9 +1516,18 @@ fn path_trace(
             guides[g + GUIDE_NORMAL] = encode_normal(primary_normal);
         } else if primary_object != aux[slot_at] {
             mixed = true;
-        } else if primary_object != NONE
-            && dot(primary_normal, decode_normal(guides[g + GUIDE_NORMAL])) < CREASE_COSINE {
-            mixed = true;
+        } else if primary_object != NONE {
+            // The normal guide is the mean of the normals met on the first sample's object
+            // (weighed as every sample before: close enough for a guide), and a sample far from
+            // it found a crease.
+            let mean = decode_normal(guides[g + GUIDE_NORMAL]);
+            if dot(primary_normal, mean) < CREASE_COSINE {
+                mixed = true;
+            }
+            let summed = mean * f32(first + k) + primary_normal;
+            if dot(summed, summed) > 1e-12 {
+                guides[g + GUIDE_NORMAL] = encode_normal(normalize(summed));
+            }
         }
     }
     guides[g + GUIDE_HEAD] = bitcast<u32>(head) | select(0u, 0x80000000u, mixed);

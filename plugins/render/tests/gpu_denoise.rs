@@ -14,7 +14,8 @@
 //!   pixel all of whose parts agree stays; and the kernel's split of the head sum holds whatever
 //!   frames the samples came in.
 //! * Creases: a pixel whose samples met two faces of one object at 90° is marked mixed, as a
-//!   silhouette's is, and its neighbours on one face are not.
+//!   silhouette's is, and its neighbours on one face are not; its normal guide is the mean of
+//!   its samples' normals, between the faces'.
 
 mod support;
 
@@ -634,6 +635,7 @@ fn a_crease_inside_one_object_marks_the_pixels_across_it_mixed() {
     );
     let guides = words(&gpu.read(&target.guides));
     let w = treelight_render::GUIDE_WORDS as usize;
+    let faces = [Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0)].map(Vec3::normalize);
     for y in 0..size as i32 {
         for x in 0..size as i32 {
             let i = (y * size as i32 + x) as usize;
@@ -643,6 +645,32 @@ fn a_crease_inside_one_object_marks_the_pixels_across_it_mixed() {
                 x == column,
                 "pixel ({x}, {y}): mixed {mixed}, the ridge in column {column}"
             );
+            // The normal guide is the mean of the samples' normals: a face's own beside the
+            // ridge, between the two faces' (each 45° from +z) on it.
+            let normal = decode_normal(guides[w * i]);
+            if x == column {
+                assert!(
+                    normal.y.abs() < 1e-3 && normal.z > 0.8,
+                    "pixel ({x}, {y}) on the ridge: normal {normal}, not between the faces'"
+                );
+            } else {
+                let face = faces[usize::from(x > column)];
+                assert!(
+                    normal.distance(face) < 2e-3,
+                    "pixel ({x}, {y}): normal {normal}, its face's {face}"
+                );
+            }
         }
     }
+}
+
+/// The unit vector of an octahedral normal guide (two snorm16; octahedral.wgsl).
+fn decode_normal(word: u32) -> Vec3 {
+    let snorm = |bits: u32| (f32::from(bits as u16 as i16) / 32767.0).max(-1.0);
+    let (ex, ey) = (snorm(word), snorm(word >> 16));
+    let mut n = Vec3::new(ex, ey, 1.0 - ex.abs() - ey.abs());
+    let t = (-n.z).max(0.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
 }

@@ -288,8 +288,8 @@ pub fn aux_bytes(width: u32, height: u32) -> u64 {
     pixels * 16 + blocks * 20
 }
 
-/// Words a pixel of the denoiser's guides (`GUIDE_WORDS` of guide_layout.wgsl): the first
-/// sample's normal, the head samples' reflected luminance, the albedo summed (3), and in 2 the
+/// Words a pixel of the denoiser's guides (`GUIDE_WORDS` of guide_layout.wgsl): the mean normal
+/// of the samples on the first one's object, the head samples' reflected luminance, the albedo summed (3), and in 2 the
 /// emission's mean (three halves) and the head samples' mean albedo luminance (a half). The head's
 /// and the tail's splits lie in `aux` ([`aux_bytes`]), so this, a view's largest buffer, stays at
 /// 7 words.
