@@ -1,16 +1,16 @@
 // The denoiser's guides, GUIDE_WORDS words a pixel, written by the trace kernel: the mean shading
-// normal of the samples whose primary hit is on the first one's object (octahedral,
-// pack2x16snorm; on a crease, between its faces', so the pixels along it filter alike); the summed luminance of the light the first
-// P samples reflect (their colour less what their primary hits emit), P the largest power of two
-// below their count (an f32, its sign bit set once the samples met more than one surface: another
-// object, or another face of a crease, `CREASE_COSINE` in pathtrace.wgsl); the sum
-// of the samples' primary hits' albedo (three f32); the mean light those hits emit (three f16 in
-// two words: the denoiser subtracts and the resolve adds back the same value, so its rounding
+// normal of the samples whose primary hit is on the first one's object (octahedral, pack2x16snorm;
+// on a crease, between its faces', so the pixels along it filter alike); the summed luminance of
+// the light the first P samples reflect (their colour less what their primary hits emit), P the
+// largest power of two below their count (an f32, its sign bit set once the samples met more than
+// one surface: another object, or another face of a crease, `CREASE_COSINE` in pathtrace.wgsl); the
+// sum of the samples' primary hits' albedo (three f32); the mean light those hits emit (three f16
+// in two words: the denoiser subtracts and the resolve adds back the same value, so its rounding
 // moves no light; the view's largest buffer stays small); in the last half word, the mean albedo
 // luminance of the first P samples (an f16), so the denoiser can demodulate them apart from the
 // rest. The first P / 2 samples' share of the head sum and their mean albedo luminance (two
-// unorm16: a share, not a sum, so no light is too bright for it), the head split in two, lie in
-// the view's `aux` buffer (`head_split_at`, aux_layout.wgsl), and so does the tail's split in two
+// unorm16: a share, not a sum, so no light is too bright for it), the head split in two, lie in the
+// view's `aux` buffer (`head_split_at`, aux_layout.wgsl), and so does the tail's split in two
 // (`tail_split_at`).
 const GUIDE_WORDS: u32 = 7u;
 
