@@ -2,10 +2,11 @@
 //! in its per-thread arenas, so after an import (its parse, the worker's temporaries and idle-time
 //! rebuilds, the upload's staging) the editor stays as large as at the import's peak. Once the
 //! scene's memory has moved by at least [`TRIM_AFTER`] bytes, or its worker has rebuilt meshes,
-//! and then the scene has held still with nothing pending, a background thread asks glibc to
-//! return its free pages (`malloc_trim`), which keeps allocation as fast as before; a different
-//! global allocator returns memory too, but copies where glibc's `realloc` remaps, and a growing
-//! BVH reallocates its arrays many times.
+//! or the path tracer's kernel has been compiled (with a cold shader cache llvmpipe's compiler
+//! leaves some 250 MiB freed in the heap), and then the scene has held still with nothing
+//! pending, a background thread asks glibc to return its free pages (`malloc_trim`), which keeps
+//! allocation as fast as before; a different global allocator returns memory too, but copies where
+//! glibc's `realloc` remaps, and a growing BVH reallocates its arrays many times.
 
 use bevy::prelude::*;
 use std::sync::Arc;
@@ -66,6 +67,9 @@ struct SceneMemory {
     /// Bytes the path tracer has uploaded so far: each upload passes through staging memory that
     /// is freed once the GPU has it (the worker's idle-time bakes and rebuilds upload much).
     uploaded: u64,
+    /// Waits for a trace kernel that have ended
+    /// ([`treelight_render::PathTracerFigures::kernels_prepared`]).
+    kernels: u64,
 }
 
 impl HeapTrim {
@@ -93,6 +97,7 @@ impl HeapTrim {
         now.bytes.abs_diff(last.bytes) >= TRIM_AFTER
             || now.uploaded.saturating_sub(last.uploaded) >= TRIM_AFTER
             || now.rebuilt != last.rebuilt
+            || now.kernels != last.kernels
     }
 }
 
@@ -114,6 +119,7 @@ fn trim_after_large_changes(
         bytes: (stats.tree_bytes + stats.shading_bytes) as u64 + figures.scene_buffer_bytes,
         rebuilt: stats.meshes_refined,
         uploaded: figures.total_upload_bytes,
+        kernels: figures.kernels_prepared,
     };
     let since = trim.trimmed.map(|t| t.elapsed());
     if trim.running.load(Ordering::Acquire) || !trim.due(now, stats.pending, since) {
@@ -190,6 +196,7 @@ mod tests {
             bytes: mib * MIB,
             rebuilt,
             uploaded: 0,
+            kernels: 0,
         }
     }
 
@@ -225,6 +232,24 @@ mod tests {
         assert!(!t.due(uploaded(10), 0, SOON));
         assert!(!t.due(uploaded(60), 0, SOON));
         assert!(t.due(uploaded(60), 0, SOON));
+    }
+
+    #[test]
+    fn a_compiled_kernel_is_trimmed_after_once_the_scene_holds_still() {
+        let mut t = HeapTrim::default();
+        assert!(t.due(at(100, 0), 0, None));
+        let compiled = |n: u64| SceneMemory {
+            kernels: n,
+            ..at(100, 0)
+        };
+        // The scene unchanged, a kernel's compile ended: trimmed once it holds still.
+        assert!(!t.due(compiled(1), 0, SOON));
+        assert!(t.due(compiled(1), 0, SOON));
+        assert!(!t.due(compiled(1), 0, SOON));
+        // Not while the worker has work pending.
+        assert!(!t.due(compiled(2), 0, SOON));
+        assert!(!t.due(compiled(2), 1, SOON));
+        assert!(t.due(compiled(2), 0, SOON));
     }
 
     #[test]

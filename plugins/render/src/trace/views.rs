@@ -518,7 +518,7 @@ fn prepare_views(
     };
     if scene.too_large.is_some() {
         // Nothing is traced, so nothing waits for a kernel.
-        stats.update(|f| f.preparing_kernel = None);
+        stats.update(|f| f.set_preparing_kernel(None));
         return;
     }
     let trace_pipeline = pipelines.trace_pipeline(&pipeline_cache, scene.split());
@@ -529,10 +529,12 @@ fn prepare_views(
         .filter(|_| !views.is_empty())
         .and_then(|mut w| w.wait(kernel));
     stats.update(|f| {
-        f.preparing_kernel = waited.map(|waited_s| crate::types::figures::PreparingKernel {
-            split: kernel == TraceKernel::Split,
-            waited_s,
-        })
+        f.set_preparing_kernel(
+            waited.map(|waited_s| crate::types::figures::PreparingKernel {
+                split: kernel == TraceKernel::Split,
+                waited_s,
+            }),
+        )
     });
     let frame = FrameInputs {
         trace_ready: pipeline_cache

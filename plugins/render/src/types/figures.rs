@@ -37,6 +37,10 @@ pub struct PathTracerFigures {
     /// whole-scene kernel and minutes for the split one; about a second once the driver's cache
     /// holds it).
     pub preparing_kernel: Option<PreparingKernel>,
+    /// Waits for a trace kernel that have ended so far (a [`PathTracerFigures::preparing_kernel`]
+    /// gone): a compile with a cold shader cache leaves hundreds of MiB of the compiler's freed
+    /// memory with the allocator, which an app may hand back to the system then.
+    pub kernels_prepared: u64,
     /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
     pub scene_buffer_bytes: u64,
     /// The side, in texels, every texture is traced at: `TEXTURE_LAYER_SIZE` until more
@@ -49,6 +53,15 @@ pub struct PathTracerFigures {
     /// Mesh assets kept out of the render world while every active 3D camera is path traced
     /// (`HoldBackRasterMeshes`).
     pub meshes_held_back: usize,
+}
+
+impl PathTracerFigures {
+    /// Sets the kernel the views wait for this frame, counting a wait that ends
+    /// ([`PathTracerFigures::kernels_prepared`]).
+    pub(crate) fn set_preparing_kernel(&mut self, kernel: Option<PreparingKernel>) {
+        self.kernels_prepared += u64::from(self.preparing_kernel.is_some() && kernel.is_none());
+        self.preparing_kernel = kernel;
+    }
 }
 
 /// A trace kernel the views wait for ([`PathTracerFigures::preparing_kernel`]).
@@ -149,5 +162,32 @@ impl PathTracerStats {
 
     pub(crate) fn update(&self, f: impl FnOnce(&mut PathTracerFigures)) {
         f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_wait_for_a_kernel_is_counted_when_it_ends() {
+        let waiting = Some(PreparingKernel {
+            split: true,
+            waited_s: 1.0,
+        });
+        let mut f = PathTracerFigures::default();
+        f.set_preparing_kernel(None);
+        assert_eq!(f.kernels_prepared, 0, "no wait, none ended");
+        f.set_preparing_kernel(waiting);
+        f.set_preparing_kernel(waiting);
+        assert_eq!(f.kernels_prepared, 0, "still waiting");
+        f.set_preparing_kernel(None);
+        assert_eq!(f.kernels_prepared, 1);
+        assert!(f.preparing_kernel.is_none());
+        f.set_preparing_kernel(None);
+        assert_eq!(f.kernels_prepared, 1, "one wait counts once");
+        f.set_preparing_kernel(waiting);
+        f.set_preparing_kernel(None);
+        assert_eq!(f.kernels_prepared, 2);
     }
 }
