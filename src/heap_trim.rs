@@ -3,7 +3,7 @@
 //! rebuilds, the upload's staging) the editor stays as large as at the import's peak. Once the
 //! scene's memory has moved by at least [`TRIM_AFTER`] bytes, or its worker has rebuilt meshes,
 //! or the path tracer's kernel has been compiled (with a cold shader cache llvmpipe's compiler
-//! leaves some 250 MiB freed in the heap), and then the scene has held still with nothing
+//! leaves 300 to 600 MiB freed in the heap), and then the scene has held still with nothing
 //! pending, a background thread asks glibc to return its free pages (`malloc_trim`), which keeps
 //! allocation as fast as before; a different global allocator returns memory too, but copies where
 //! glibc's `realloc` remaps, and a growing BVH reallocates its arrays many times.
