@@ -468,7 +468,7 @@ fn main() {
         kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers | counted | device allocator's blocks | resident once idle (the whole process) | peak, VmHWM (the whole process) | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
+        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers and their record map | counted | device allocator's blocks | resident once idle (the whole process) | peak, VmHWM (the whole process) | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut peaks = Vec::new();
@@ -485,14 +485,14 @@ fn main() {
         let m = &r.memory;
         let n = triangles as f64;
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
-        let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers;
+        let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers + m.record_layout;
         println!(
             "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
             cell(m.tree),
             cell(m.shading),
-            cell(m.scene_buffers),
+            cell(m.scene_buffers + m.record_layout),
             cell(counted),
             cell(m.gpu_reserved),
             cell(r.rss),
@@ -515,7 +515,7 @@ fn main() {
             peaks.push(format!(
                 "{parts} × {rows}: the process's peak (VmHWM) {}; the largest resident set polled \
                  {}, during the {phase}; mesh \
-                 assets {}, BVH arrays {}, BVH shading {}, scene buffers {}, device allocator's \
+                 assets {}, BVH arrays {}, BVH shading {}, scene buffers and their record map {}, device allocator's \
                  blocks {}; {} triangles in the tree then; the largest frame's writes so far {}, \
                  by the run's end {}",
                 cell(r.hwm),
@@ -523,7 +523,7 @@ fn main() {
                 cell(m.mesh_assets),
                 cell(m.tree),
                 cell(m.shading),
-                cell(m.scene_buffers),
+                cell(m.scene_buffers + m.record_layout),
                 cell(m.gpu_reserved),
                 m.triangles,
                 cell(m.largest_upload),

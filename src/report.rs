@@ -200,6 +200,9 @@ pub struct MemoryReport {
     pub shading: u64,
     /// The path tracer's scene buffers.
     pub scene_buffers: u64,
+    /// The path tracer's map of which tree nodes own a node record, and where.
+    #[serde(default)]
+    pub record_layout: u64,
     /// The device allocator's memory blocks (every buffer and texture, and upload staging), where
     /// the backend reports them; 0 where not.
     #[serde(default)]
@@ -246,6 +249,7 @@ fn memory_report(
         tree: stats.tree_bytes as u64,
         shading: stats.shading_bytes as u64,
         scene_buffers: tracer.figures().scene_buffer_bytes,
+        record_layout: tracer.figures().record_layout_bytes,
         gpu_reserved: tracer.figures().gpu_reserved_bytes.unwrap_or(0),
         triangles: u64::from(stats.triangles),
         meshes_rebuilt: stats.meshes_refined,

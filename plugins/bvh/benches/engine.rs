@@ -112,14 +112,15 @@ fn engine(c: &mut Criterion) {
         )
     });
 
-    // What a first upload makes of the whole tree: every inner node's compressed 4-wide record and
-    // every triangle's record.
+    // What a first upload makes of the whole tree: the path tracer's record layout decided afresh
+    // and each of its compressed 4-wide records, and every triangle's record.
     let mut g = c.benchmark_group("export");
     g.throughput(criterion::Throughput::Elements(tree.inner_capacity() as u64));
     g.bench_function("wide_node_records_sibenik", |b| {
         b.iter(|| {
-            (0..tree.inner_capacity())
-                .map(|i| black_box(tree.gpu_wide_node(i)).refs[0])
+            let layout = treelight_bvh::WideRecords::of(&tree);
+            (0..layout.capacity())
+                .map(|s| black_box(layout.record(&tree, s)).refs[0])
                 .fold(0u32, u32::wrapping_add)
         })
     });

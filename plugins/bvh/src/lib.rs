@@ -11,7 +11,8 @@
 //!   [`Bvh::hit_group`]), triangles ([`Bvh::remove_triangles`], [`Bvh::set_triangles`]);
 //!   [`Bvh::reserve`] ahead of an edit whose latency matters.
 //! * Query: [`Bvh::closest_hit`], [`Bvh::any_hit`], [`Bvh::overlapping_triangles`].
-//! * Export: [`Bvh::gpu_node`] and [`Bvh::take_changes`] for GPUs, [`Bvh::write_tlbvh`] for files.
+//! * Export: [`Bvh::take_changes`] for GPUs, with the path tracer's 4-wide records laid out and kept
+//!   in step by [`WideRecords`] (or [`Bvh::gpu_node`], binary); [`Bvh::write_tlbvh`] for files.
 //! * Choose a whole policy by name: [`Preset`] (`fast`, `balanced`, `best`) and its [`Policy`].
 //! * Check: [`Bvh::validate`], [`Bvh::sah_cost`].
 
@@ -49,6 +50,7 @@ pub use export::change::ChangeSet;
 pub use export::compressed::{GpuCompressedBinaryNode, GpuCompressedNode};
 pub use export::depth_first::DepthFirstLayout;
 pub use export::gpu::{GpuInstance, GpuLayout, GpuNode, GpuTriangle};
+pub use export::records::{RecordChanges, WideRecords};
 pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};
 pub use export::wide::{GpuWideNode, WideLayout};
 pub use glam;

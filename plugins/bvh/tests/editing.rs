@@ -7,7 +7,8 @@ use proptest::prelude::*;
 use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId, Triangle,
+    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId, NodeKind,
+    NodeRef, Triangle, WideRecords,
 };
 
 #[derive(Clone, Debug)]
@@ -132,8 +133,12 @@ fn xf(angle: f32, offset: f32, scale: f32) -> Affine3A {
 #[derive(Default)]
 struct Mirror {
     nodes: Vec<GpuNode>,
-    /// The path tracer's records (`Bvh::gpu_wide_node`), patched through `Bvh::gpu_wide_ranges`.
+    /// The path tracer's record layout, its records, instances and root, patched through
+    /// `WideRecords::update`.
+    records: WideRecords,
     wide: Vec<GpuCompressedNode>,
+    wide_instances: Vec<GpuInstance>,
+    wide_root: u32,
     tris: Vec<GpuTriangle>,
     instances: Vec<GpuInstance>,
     root: u32,
@@ -148,18 +153,27 @@ impl Mirror {
             .resize(c.triangle_capacity as usize, GpuTriangle::default());
         self.instances
             .resize(c.instance_capacity as usize, GpuInstance::default());
-        self.wide
-            .resize(c.inner_capacity as usize, GpuCompressedNode::zeroed());
         for r in &c.inner_ranges {
             for i in r.clone() {
                 self.nodes[i as usize] = bvh.gpu_node(i);
             }
         }
-        for r in bvh.gpu_wide_ranges(&c) {
-            for i in r {
-                self.wide[i as usize] = bvh.gpu_wide_node(i);
+        let rc = self.records.update(bvh, &c);
+        self.wide.resize(
+            self.records.capacity() as usize,
+            GpuCompressedNode::zeroed(),
+        );
+        for r in rc.ranges {
+            for s in r {
+                self.wide[s as usize] = self.records.record(bvh, s);
             }
         }
+        self.wide_instances
+            .resize(c.instance_capacity as usize, GpuInstance::default());
+        for &i in c.instances.iter().chain(&rc.instances) {
+            self.wide_instances[i as usize] = self.records.instance(bvh, i);
+        }
+        self.wide_root = self.records.root(bvh);
         for &t in c.written_triangles.iter().chain(&c.removed_triangles) {
             self.tris[t as usize] = bvh.gpu_triangle(t);
         }
@@ -179,13 +193,7 @@ impl Mirror {
                 self.nodes[i], full[i]
             );
         }
-        let full = bvh.gpu_wide_nodes();
-        if let Some(i) = (0..full.len()).find(|&i| self.wide[i] != full[i]) {
-            panic!(
-                "wide record {i} drifted from the change log: {:?} vs {:?}",
-                self.wide[i], full[i]
-            );
-        }
+        self.check_wide(bvh);
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
                 assert_eq!(
@@ -204,6 +212,104 @@ impl Mirror {
                 );
             }
         }
+    }
+}
+
+impl Mirror {
+    /// The path tracer's records: a valid layout, each live slot as a fresh encoding, every live
+    /// triangle reached from the root through the patched records alone; and a layout made afresh
+    /// has its records at alternate levels.
+    fn check_wide(&self, bvh: &Bvh) {
+        self.records.check(bvh).unwrap();
+        assert_eq!(self.wide_root, self.records.root(bvh));
+        for s in 0..self.records.capacity() {
+            if self.records.node_of(s).is_some() {
+                assert_eq!(
+                    self.wide[s as usize],
+                    self.records.record(bvh, s),
+                    "wide record {s} drifted from the change log"
+                );
+            }
+        }
+        for i in 0..bvh.instance_capacity() {
+            if bvh.instance(i).is_some() {
+                assert_eq!(
+                    self.wide_instances[i as usize],
+                    self.records.instance(bvh, i),
+                    "wide instance {i} drifted"
+                );
+            }
+        }
+        let mut reached = vec![0u32; bvh.triangle_capacity() as usize];
+        let mut stack = vec![NodeRef(self.wide_root)];
+        let mut visits = 0usize;
+        while let Some(r) = stack.pop() {
+            visits += 1;
+            assert!(
+                visits
+                    <= 8 * (bvh.inner_capacity() as usize + bvh.triangle_capacity() as usize + 4)
+            );
+            match r.kind() {
+                NodeKind::Inner => {
+                    assert!(
+                        self.records.node_of(r.index()).is_some(),
+                        "a record names free slot {}",
+                        r.index()
+                    );
+                    stack.extend(
+                        self.wide[r.index() as usize]
+                            .refs
+                            .iter()
+                            .map(|&c| NodeRef(c)),
+                    );
+                }
+                NodeKind::Leaf => reached[r.index() as usize] += 1,
+                NodeKind::Instance => {
+                    stack.push(NodeRef(self.wide_instances[r.index() as usize].root))
+                }
+                NodeKind::None => {}
+            }
+        }
+        for t in 0..bvh.triangle_capacity() {
+            if bvh.is_live_triangle(t) {
+                assert!(
+                    reached[t as usize] > 0,
+                    "live triangle {t} not reached through the records"
+                );
+            } else {
+                assert_eq!(reached[t as usize], 0, "freed triangle {t} reached");
+            }
+        }
+        // Laid out afresh, the records are exactly the nodes at even depths below a root: those
+        // the traversal read when every inner node had one.
+        let fresh = WideRecords::of(bvh);
+        fresh.check(bvh).unwrap();
+        let mut even = vec![false; bvh.inner_capacity() as usize];
+        for i in 0..bvh.inner_capacity() {
+            let Some(n) = bvh.inner_node(i) else { continue };
+            if n.parent == treelight_bvh::NONE {
+                let mut stack = vec![(i, true)];
+                while let Some((x, at_even)) = stack.pop() {
+                    even[x as usize] = at_even;
+                    for c in bvh.inner_node(x).unwrap().children {
+                        if c.is_inner() && !c.is_none() {
+                            stack.push((c.index(), !at_even));
+                        }
+                    }
+                }
+            }
+        }
+        let mut owners: Vec<u32> = (0..fresh.capacity())
+            .filter_map(|s| fresh.node_of(s))
+            .collect();
+        owners.sort_unstable();
+        let want: Vec<u32> = (0..bvh.inner_capacity())
+            .filter(|&i| bvh.inner_node(i).is_some() && even[i as usize])
+            .collect();
+        assert_eq!(
+            owners, want,
+            "a fresh layout's records are the nodes at even depths"
+        );
     }
 }
 

@@ -2,9 +2,10 @@
 //! two to four children whose boxes hold what lies under them. The depth-first one
 //! (`Bvh::gpu_depth_first_layout`): every live node once, siblings adjacent, the root first. A
 //! traversal of either's records finds the same closest hits as brute force, through baked
-//! triangles, groups kept whole and shared instances. The path tracer's (`Bvh::gpu_wide_node`): each
-//! inner node's record holds its grandchildren, each box as decoded holding the engine's and at most
-//! a step wider on each side; so does the binary record with its boxes in bytes.
+//! triangles, groups kept whole and shared instances. The path tracer's (`WideRecords`): each record
+//! holds its node's children, an inner child without a record expanded into its two, each box as
+//! decoded holding the engine's and at most a step wider on each side; so does the binary record
+//! with its boxes in bytes.
 
 mod support;
 
@@ -13,7 +14,7 @@ use support::{Rng, rays, soup};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
     Aabb, Bvh, DepthFirstLayout, GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode,
-    GpuWideNode, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout,
+    GpuWideNode, NodeKind, NodeRef, Ray, RayData, Triangle, WideLayout, WideRecords,
 };
 
 fn apply(rows: &[[f32; 4]; 3], p: Vec3, w: f32) -> Vec3 {
@@ -182,31 +183,44 @@ fn check_binary_compressed(n: &GpuNode, c: &GpuCompressedBinaryNode) {
     }
 }
 
-/// Each inner node's record of `Bvh::gpu_wide_node`: its grandchildren (a child that is not inner
-/// standing in for its own two), each box as decoded holding the engine's; none for a freed slot.
+/// Each record of the path tracer's layout (`WideRecords`): its node's children, an inner child
+/// without a record of its own standing in for its two, each box as decoded holding the engine's,
+/// an inner reference naming that node's record; and no node without a record under a parent
+/// without one.
 fn check_wide_nodes(bvh: &Bvh) {
+    let layout = WideRecords::of(bvh);
+    layout.check(bvh).unwrap();
+    let slot_of = |x: u32| (0..layout.capacity()).find(|&s| layout.node_of(s) == Some(x));
     let mut records = 0;
-    for i in 0..bvh.inner_capacity() {
-        let rec = bvh.gpu_wide_node(i);
-        let node = bvh.gpu_node(i);
-        if node.a_ref == NodeRef::NONE.0 {
-            assert_eq!(rec.refs, [NodeRef::NONE.0; 4], "freed slot {i}");
+    for s in 0..layout.capacity() {
+        let rec = layout.record(bvh, s);
+        let Some(x) = layout.node_of(s) else {
+            assert_eq!(rec.refs, [NodeRef::NONE.0; 4], "free slot {s}");
             continue;
-        }
+        };
+        let node = bvh.gpu_node(x);
         let mut want = GpuWideNode::default();
         let mut k = 0;
         for c in [node.a_ref, node.b_ref].map(NodeRef) {
-            let slots = if c.is_inner() {
+            let slots = if c.is_inner() && slot_of(c.index()).is_none() {
                 let n = bvh.gpu_node(c.index());
                 vec![n.a_ref, n.b_ref]
             } else {
                 vec![c.0]
             };
             for r in slots.into_iter().map(NodeRef) {
-                want.set_child(k, &bvh.aabb(r), r);
+                let named = if r.is_inner() {
+                    NodeRef::inner(
+                        slot_of(r.index()).expect("an expanded child's inner child has a record"),
+                    )
+                } else {
+                    r
+                };
+                want.set_child(k, &bvh.aabb(r), named);
                 k += 1;
             }
         }
+        assert_eq!(rec.refs, want.refs, "record {s} of node {x}");
         check_compressed(&want, &rec);
         records += 1;
     }

@@ -3,7 +3,7 @@
 //! distributed, closest hit at any distance) and ambient-occlusion rays (short, any hit), over the
 //! trees `--trees` names (default `incru`: IncrU, baked; `sah`: full-sweep SAH; `editor`: the tree
 //! the editor traces, `treelight_bench::editor_tree` after its idle work), through each GPU layout:
-//! the path tracer's (compressed 4-wide records, one per inner node: `Bvh::gpu_wide_node`), the
+//! the path tracer's (compressed 4-wide records where the traversal reads them: `WideRecords`), the
 //! binary records in the tree's order and renumbered depth first (`Bvh::gpu_depth_first_layout`),
 //! the binary records with their boxes in bytes (`GpuCompressedBinaryNode`), and the float 4-wide
 //! collapse (`Bvh::gpu_wide_layout`). Then the
@@ -24,7 +24,7 @@ mod support;
 use std::time::Instant;
 use support::{
     Gpu, PinholeView, arg, binary_compressed_tree_bytes, binary_tree_bytes, depth_first_tree_bytes,
-    scene_args, tree_bytes, wide_tree_bytes,
+    scene_args, traced_root, tree_bytes, wide_tree_bytes,
 };
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Preset, TopDown, Triangle};
@@ -154,6 +154,7 @@ fn print_incremental_upload(mut bvh: Bvh) {
     // A 10k-triangle mesh joins the scene: what the incremental upload writes.
     bvh.take_changes();
     let full: u64 = tree_bytes(&bvh).iter().map(|b| b.len() as u64).sum();
+    let mut records = treelight_bvh::WideRecords::of(&bvh);
     let b = bvh.bounds();
     let mesh: Vec<Triangle> = treelight_bench::scenes::hairball(10_000, 7)
         .into_iter()
@@ -166,7 +167,16 @@ fn print_incremental_upload(mut bvh: Bvh) {
     bvh.insert_group(&mesh, Affine3A::IDENTITY, false)
         .expect("the mesh is valid");
     let changes = bvh.take_changes();
-    let plan = UploadPlan::new(&bvh, &changes, [u64::MAX; 3]);
+    let moved = records.update(&bvh, &changes);
+    let plan = UploadPlan::streamed(
+        &bvh,
+        (&records, &moved),
+        &changes,
+        [u64::MAX; 3],
+        Default::default(),
+        u64::MAX,
+        &mut |_| {},
+    );
     println!(
         "\nAdding a 10000-triangle mesh to a {}-triangle scene uploads {} bytes \
          ({:.2}% of the scene's {} bytes): {} node records, {} triangles.",
@@ -174,10 +184,7 @@ fn print_incremental_upload(mut bvh: Bvh) {
         plan.upload_bytes(),
         plan.upload_bytes() as f64 / full as f64 * 100.0,
         full,
-        bvh.gpu_wide_ranges(&changes)
-            .iter()
-            .map(|r| r.len())
-            .sum::<usize>(),
+        moved.ranges.iter().map(|r| r.len()).sum::<usize>(),
         changes.written_triangles.len()
     );
 }
@@ -224,7 +231,7 @@ const LAYOUTS: [Layout; 5] = [
     (
         "wide",
         "compressed 4-wide per node (the path tracer's)",
-        |b| (tree_bytes(b), b.gpu_root()),
+        |b| (tree_bytes(b), traced_root(b)),
         PRIMARY_HITS_WGSL,
     ),
     (

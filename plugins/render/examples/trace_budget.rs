@@ -9,7 +9,7 @@
 mod support;
 
 use std::time::Instant;
-use support::{Gpu, arg, scene_args};
+use support::{Gpu, arg, scene_args, traced_root};
 use treelight_bvh::glam::{Mat4, Vec3};
 use treelight_bvh::{Bvh, BvhConfig};
 use treelight_render::{
@@ -83,7 +83,7 @@ fn main() {
             exposure: 1.0,
             width: resolution,
             height: resolution,
-            root: bvh.gpu_root(),
+            root: traced_root(&bvh),
             max_bounces: 4,
             samples: 1,
             mode: DebugView::PathTraced.shader_index(),

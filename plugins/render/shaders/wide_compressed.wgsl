@@ -1,4 +1,4 @@
-// The 4-wide records with boxes in bytes (`Bvh::gpu_compressed_layout`), for traverse_wide.wgsl:
+// The 4-wide records with boxes in bytes (`treelight_bvh::WideRecords`), for traverse_wide.wgsl:
 // child k's box on an axis is origin + q * step, q byte k of the axis's word, step a power of two
 // whose exponent bits the record holds. q * step is exact, so the box is the one the engine rounded
 // outwards.

@@ -143,7 +143,7 @@ impl Tracer {
             buffers: gpu.scene_buffers(bvh, &attrs, &objects, &lights, &map_transforms.bytes()),
             pipeline: gpu.pipeline(PATHTRACE_WGSL, "path_trace"),
             layers: gpu.layers(4, 1),
-            root: bvh.gpu_root(),
+            root: support::traced_root(bvh),
             lights: scene.lights.len() as u32,
             gpu,
         }

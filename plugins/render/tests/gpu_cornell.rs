@@ -285,7 +285,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
             exposure: 1.0,
             width: SIZE,
             height: SIZE,
-            root: bvh.gpu_root(),
+            root: support::traced_root(bvh),
             max_bounces: BOUNCES,
             samples: PER_DISPATCH,
             mode: 0,

@@ -1,13 +1,14 @@
 //! A mesh added to a tree already on the GPU, uploaded as an incremental plan (growth copied on the
-//! GPU, then only the changed records), traces exactly like a complete upload of the same tree.
+//! GPU, then only the changed records), traces exactly like a complete upload of the same records,
+//! and meets the same triangles as a layout made afresh (or, where two are equally near, the other).
 
 mod support;
 
 use std::path::Path;
-use support::{Gpu, PinholeView, gpu_hits, hits_on, tree_bytes};
+use support::{Gpu, PinholeView, all_triangle_bytes, gpu_hits, hits_on, tree_bytes};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
-use treelight_bvh::{Bvh, BvhConfig, Triangle};
-use treelight_render::{BufferKind, UploadPlan};
+use treelight_bvh::{Bvh, BvhConfig, RayData, Triangle, WideRecords};
+use treelight_render::{BufferKind, UploadPlan, instance_bytes, node_bytes};
 
 fn sibenik() -> Vec<Triangle> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
@@ -51,14 +52,17 @@ fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Vec<Triangle>
 struct Mirror {
     buffers: [wgpu::Buffer; 3],
     capacities: [u64; 3],
+    /// The node records' layout, as the upload of `tree_bytes` laid it out, then kept by the plans.
+    records: WideRecords,
 }
 
 impl Mirror {
     fn upload_all(gpu: &Gpu, bvh: &Bvh) -> Self {
         let [n, t, i] = tree_bytes(bvh);
+        let records = WideRecords::of(bvh);
         Self {
             capacities: [
-                bvh.inner_capacity() as u64,
+                records.capacity() as u64,
                 bvh.triangle_capacity() as u64,
                 bvh.instance_capacity() as u64,
             ],
@@ -67,6 +71,7 @@ impl Mirror {
                 gpu.storage("triangles", &t),
                 gpu.storage("instances", &i),
             ],
+            records,
         }
     }
 
@@ -104,10 +109,60 @@ impl Mirror {
     /// patched copy: the bytes written and the triangle hit at each pixel.
     fn follow(&mut self, gpu: &Gpu, bvh: &mut Bvh, view: &PinholeView) -> (u64, Vec<u32>) {
         let changes = bvh.take_changes();
-        let plan = UploadPlan::new(bvh, &changes, self.capacities);
+        let plan = UploadPlan::new(bvh, &mut self.records, &changes, self.capacities);
         let written = self.apply(gpu, &plan);
         let [n, t, i] = &self.buffers;
         (written, hits_on(gpu, [n, t, i], plan.root, view))
+    }
+
+    /// `patched`, the hits through the patched buffers, equals the hits through a complete upload
+    /// of the same records, exactly; and against a complete upload of a layout made afresh (whose
+    /// records group the nodes otherwise, so equally near triangles may be met in another order)
+    /// each pixel meets the same triangle or one at the same distance along its ray.
+    fn assert_traces_like_fresh(&self, gpu: &Gpu, bvh: &Bvh, view: &PinholeView, patched: &[u32]) {
+        let nodes: Vec<u8> = self
+            .records
+            .records(bvh)
+            .iter()
+            .flat_map(node_bytes)
+            .collect();
+        let instances: Vec<u8> = (0..bvh.instance_capacity())
+            .flat_map(|i| instance_bytes(&self.records.instance(bvh, i)))
+            .collect();
+        let complete = [
+            gpu.storage("nodes", &nodes),
+            gpu.storage("triangles", &all_triangle_bytes(bvh)),
+            gpu.storage("instances", &instances),
+        ];
+        let [n, t, i] = &complete;
+        let same = hits_on(gpu, [n, t, i], self.records.root(bvh), view);
+        let differ = patched.iter().zip(&same).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differ, 0,
+            "{differ} pixels differ from a complete upload of the same records"
+        );
+        let fresh = gpu_hits(bvh, view);
+        for (k, (&a, &b)) in patched
+            .iter()
+            .zip(&fresh)
+            .enumerate()
+            .filter(|(_, (a, b))| a != b)
+        {
+            let (x, y) = (k as u32 % view.width, k as u32 / view.width);
+            let ray = view.ray(x, y);
+            let t = |id: u32| {
+                bvh.world_triangle(id)
+                    .and_then(|tri| RayData::new(&ray).hit_triangle(&tri, 0.0, f32::INFINITY))
+                    .map(|(t, _, _)| t)
+            };
+            let (ta, tb) = (t(a), t(b));
+            assert!(
+                ta.zip(tb)
+                    .is_some_and(|(ta, tb)| (ta - tb).abs() <= 1e-4 * ta.max(1.0)),
+                "pixel ({x}, {y}): triangle {a} at {ta:?} through the patched copy, {b} at {tb:?} \
+                 through a fresh layout"
+            );
+        }
     }
 }
 
@@ -137,12 +192,7 @@ fn incremental_upload_traces_like_a_full_one() {
     )
     .unwrap();
     let (written, patched) = mirror.follow(&gpu, &mut bvh, &view);
-    let fresh = gpu_hits(&bvh, &view);
-    let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
-    assert_eq!(
-        differ, 0,
-        "{differ} pixels differ between the patched and the fresh copy"
-    );
+    mirror.assert_traces_like_fresh(&gpu, &bvh, &view, &patched);
 
     let new_ids: Vec<u32> = bvh
         .group_triangles(baked)
@@ -168,9 +218,7 @@ fn incremental_upload_traces_like_a_full_one() {
     .unwrap();
     bvh.swap_group(baked, rebuilt).unwrap();
     let (_, patched) = mirror.follow(&gpu, &mut bvh, &view);
-    let fresh = gpu_hits(&bvh, &view);
-    let differ = patched.iter().zip(&fresh).filter(|(a, b)| a != b).count();
-    assert_eq!(differ, 0, "{differ} pixels differ after the swap");
+    mirror.assert_traces_like_fresh(&gpu, &bvh, &view, &patched);
 }
 
 /// Writes staged through the upload belt land whole: larger than its buffers (copied in pieces),

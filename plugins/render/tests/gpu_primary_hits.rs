@@ -1,6 +1,6 @@
 //! The WGSL traversal on a real adapter (Mesa's llvmpipe in CI) finds the same primary-hit triangles
 //! as the engine's CPU traversal, for the same camera rays, through each layout: the path tracer's
-//! (compressed 4-wide records, one per inner node), the binary records, the same renumbered depth
+//! (compressed 4-wide records where the traversal reads them), the binary records, the same renumbered depth
 //! first, the binary records with boxes in bytes, and the float 4-wide collapse; and the path
 //! tracer's records cut into parts across bindings, as a scene larger than one binding is. A ray
 //! along an axis that lies in a box's face meets the box, as the engine's does.

@@ -1,7 +1,7 @@
 //! Buffers patched only through upload plans equal a full export, and a small edit uploads little.
 
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{Bvh, Triangle};
+use treelight_bvh::{Bvh, Triangle, WideRecords};
 use treelight_render::{
     BufferKind, PartLayout, UploadPlan, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -25,9 +25,17 @@ struct FakeGpu {
     buffers: [Vec<u8>; 3],
     caps: [u64; 3],
     uploaded: u64,
+    /// The node records' layout, kept by the plans as a renderer keeps it.
+    records: WideRecords,
+    root: u32,
 }
 
 impl FakeGpu {
+    fn plan(&mut self, bvh: &mut Bvh) -> UploadPlan {
+        let c = bvh.take_changes();
+        UploadPlan::new(bvh, &mut self.records, &c, self.caps)
+    }
+
     fn apply(&mut self, plan: &UploadPlan) {
         for &(kind, cap) in &plan.grow {
             let k = kind as usize;
@@ -42,17 +50,30 @@ impl FakeGpu {
             buf[w.offset as usize..end].copy_from_slice(w.bytes);
         }
         self.uploaded += plan.upload_bytes();
+        self.root = plan.root;
     }
 
+    /// Every live record slot holds its record, the root names the layout's, and the layout
+    /// holds no more records than a fresh one by a tenth.
     fn check(&self, bvh: &Bvh) {
-        for i in 0..bvh.inner_capacity() {
-            let at = i as usize * 64;
-            assert_eq!(
-                &self.buffers[0][at..at + 64],
-                node_bytes(&bvh.gpu_wide_node(i)).as_slice(),
-                "node {i}"
-            );
+        self.records.check(bvh).unwrap();
+        assert_eq!(self.root, self.records.root(bvh));
+        for s in 0..self.records.capacity() {
+            if self.records.node_of(s).is_some() {
+                let at = s as usize * 64;
+                assert_eq!(
+                    &self.buffers[0][at..at + 64],
+                    node_bytes(&self.records.record(bvh, s)).as_slice(),
+                    "record {s}"
+                );
+            }
         }
+        let fresh = WideRecords::of(bvh).live();
+        assert!(
+            self.records.live() <= fresh + fresh / 10 + 2,
+            "{} records kept, {fresh} laid out afresh",
+            self.records.live()
+        );
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
                 let at = t as usize * 36;
@@ -67,7 +88,7 @@ impl FakeGpu {
                 let at = i as usize * 112;
                 assert_eq!(
                     &self.buffers[2][at..at + 112],
-                    instance_bytes(&bvh.gpu_instance(i)).as_slice()
+                    instance_bytes(&self.records.instance(bvh, i)).as_slice()
                 );
             }
         }
@@ -80,18 +101,25 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     let mut gpu = FakeGpu::default();
     bvh.insert_triangles_block_parallel(&grid(20_000, 0.0))
         .unwrap();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     gpu.check(&bvh);
     let full = gpu.uploaded;
+    // Records only where the traversal reads them: about half the inner nodes (one each before).
+    assert!(
+        gpu.records.live() * 5 <= bvh.inner_count() * 3,
+        "{} records for {} inner nodes",
+        gpu.records.live(),
+        bvh.inner_count()
+    );
 
     // A small mesh added incrementally: the upload is proportional to it, not to the scene.
     let before = gpu.uploaded;
     let g = bvh
         .insert_group(&grid(100, 200.0), Affine3A::IDENTITY, false)
         .unwrap();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     gpu.check(&bvh);
     let small = gpu.uploaded - before;
     assert!(
@@ -103,13 +131,12 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     let before = gpu.uploaded;
     bvh.set_group_transform(g, Affine3A::from_translation(Vec3::new(0.0, 3.0, 0.0)))
         .unwrap();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     bvh.set_group_transform(g, Affine3A::from_translation(Vec3::new(0.0, 4.0, 0.0)))
         .unwrap();
     let before_second = gpu.uploaded;
-    let c = bvh.take_changes();
-    let plan = UploadPlan::new(&bvh, &c, gpu.caps);
+    let plan = gpu.plan(&mut bvh);
     assert!(
         plan.writes
             .iter()
@@ -134,14 +161,14 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     )
     .unwrap();
     let g = bvh.swap_group(g, rebuilt).unwrap();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     gpu.check(&bvh);
 
     // Removal.
     bvh.remove_group(g).unwrap();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     gpu.check(&bvh);
 }
 
@@ -188,8 +215,8 @@ fn an_update_pass_over_the_whole_tree_is_a_few_writes_joined_over_unchanged_reco
     let mut bvh = Bvh::default();
     bvh.insert_triangles(&tris).unwrap();
     let mut gpu = FakeGpu::default();
-    let c = bvh.take_changes();
-    gpu.apply(&UploadPlan::new(&bvh, &c, gpu.caps));
+    let plan = gpu.plan(&mut bvh);
+    gpu.apply(&plan);
     gpu.check(&bvh);
 
     let updates = treelight_bvh::Preset::Best.policy().idle;
@@ -198,8 +225,8 @@ fn an_update_pass_over_the_whole_tree_is_a_few_writes_joined_over_unchanged_reco
         "the updates moved nothing"
     );
     let c = bvh.take_changes();
-    let changed = bvh.gpu_wide_ranges(&c);
-    let plan = UploadPlan::new(&bvh, &c, gpu.caps);
+    let changed = gpu.records.clone().update(&bvh, &c).ranges;
+    let plan = UploadPlan::new(&bvh, &mut gpu.records, &c, gpu.caps);
     let node_writes = plan
         .writes
         .iter()

@@ -2,16 +2,13 @@
 //! holds the minimum corner of its children's boxes and a power-of-two step per axis, and each
 //! child's box as whole steps from that corner, rounded outwards so it still holds the child.
 //!
-//! The path tracer's record is 4-wide, one per inner node ([`Bvh::gpu_wide_node`]): 64 bytes for four
-//! children where the binary record takes 64 for two, indexed as the inner nodes so that an edit
-//! re-encodes only the records it touched and their parents. The binary record with its boxes in
-//! bytes ([`GpuCompressedBinaryNode`], 48 bytes) is kept for measuring layouts.
+//! The path tracer's record is 4-wide: 64 bytes for four children where the binary record takes 64
+//! for two, laid out by [`crate::WideRecords`] at the inner nodes the traversal reads. The binary
+//! record with its boxes in bytes ([`GpuCompressedBinaryNode`], 48 bytes) is kept for measuring
+//! layouts.
 
-use crate::export::change::coalesce;
-use crate::tree::node::{FREE, NONE};
-use crate::{Bvh, ChangeSet, GpuNode, GpuWideNode, NodeRef};
+use crate::{GpuNode, GpuWideNode, NodeRef};
 use bytemuck::{Pod, Zeroable};
-use std::ops::Range;
 
 /// One compressed 4-wide node for the GPU, 64 bytes. Child `k`'s box on axis `a` is
 /// `origin[a] + q * step(a)` for byte `k` of the axis's minimum and maximum words, where
@@ -54,61 +51,6 @@ pub struct GpuCompressedBinaryNode {
     pub b_ref: u32,
     /// Padding to 48 bytes, the record's size in a WGSL array.
     pub pad: [u32; 3],
-}
-
-impl Bvh {
-    /// The compressed 4-wide record of inner node `i`, kept in step with the binary tree: its slots
-    /// hold `i`'s grandchildren (a child that is a leaf or an instance takes a slot itself), and an
-    /// inner grandchild's reference names its own record, at its own index. So the records are
-    /// indexed as the inner nodes are, and an edit rewrites the records of the nodes it changed and
-    /// of their parents ([`Bvh::gpu_wide_ranges`]). A freed slot's record has no children.
-    pub fn gpu_wide_node(&self, i: u32) -> GpuCompressedNode {
-        let mut wide = GpuWideNode::default();
-        let n = &self.inner[i as usize];
-        if n.parent == FREE {
-            return GpuCompressedNode::quantize(&wide);
-        }
-        let mut k = 0;
-        let mut put = |r: NodeRef| {
-            wide.set_child(k, &self.aabb(r), r);
-            k += 1;
-        };
-        for c in n.children {
-            if c.is_inner() {
-                for g in self.inner[c.index() as usize].children {
-                    put(g);
-                }
-            } else {
-                put(c);
-            }
-        }
-        GpuCompressedNode::quantize(&wide)
-    }
-
-    /// The records of [`Bvh::gpu_wide_node`] that `changes` touches, as sorted disjoint ranges: the
-    /// changed inner nodes and their parents (a record holds its children's binary records).
-    pub fn gpu_wide_ranges(&self, changes: &ChangeSet) -> Vec<Range<u32>> {
-        let mut ids: Vec<u32> = Vec::with_capacity(changes.inner_count() as usize * 2);
-        for r in &changes.inner_ranges {
-            for i in r.clone() {
-                ids.push(i);
-                let parent = self.inner.get(i as usize).map_or(FREE, |n| n.parent);
-                if parent != FREE && parent != NONE {
-                    ids.push(parent);
-                }
-            }
-        }
-        ids.sort_unstable();
-        ids.dedup();
-        coalesce(&ids)
-    }
-
-    /// Every inner node's record of [`Bvh::gpu_wide_node`], for a first full upload.
-    pub fn gpu_wide_nodes(&self) -> Vec<GpuCompressedNode> {
-        (0..self.inner.len() as u32)
-            .map(|i| self.gpu_wide_node(i))
-            .collect()
-    }
 }
 
 fn step(exponent: u32) -> f32 {

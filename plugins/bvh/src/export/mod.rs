@@ -5,5 +5,6 @@ pub(crate) mod change;
 pub(crate) mod compressed;
 pub(crate) mod depth_first;
 pub(crate) mod gpu;
+pub(crate) mod records;
 pub(crate) mod tlbvh;
 pub(crate) mod wide;

@@ -5,7 +5,7 @@
 // are appended to it, as WGSL resolves module-scope names in any order.
 
 /// WGSL: the path-tracing kernel (`path_trace`) with the traversal (the compressed 4-wide records
-/// of `treelight_bvh::Bvh::gpu_wide_node`).
+/// of `treelight_bvh::WideRecords`).
 pub const PATHTRACE_WGSL: &str = concat!(
     include_str!("../../shaders/pathtrace.wgsl"),
     include_str!("../../shaders/traverse_wide.wgsl"),

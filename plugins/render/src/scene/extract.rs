@@ -22,7 +22,7 @@ use bevy::mesh::UvChannel;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 use bevy::render::{Extract, ExtractSchedule};
-use treelight_bvh::GroupId;
+use treelight_bvh::{GroupId, WideRecords};
 use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
 
 pub(crate) fn build(render_app: &mut SubApp) {
@@ -52,6 +52,8 @@ pub(crate) struct SceneSync {
     emitters: EmitterList,
     /// Whether the emitters' records changed since the lights buffer was last written.
     emitters_changed: bool,
+    /// Which inner nodes own a node record, and where: kept in step with the tree's change sets.
+    records: WideRecords,
 }
 
 /// The meshes to outline, with what their world-space boxes are made from.
@@ -159,6 +161,9 @@ fn extract_scene(
         return;
     };
     let everything = !sync.synced;
+    if everything {
+        sync.records = WideRecords::default();
+    }
     pending.filling = scene.is_filling();
     let assets = MaterialAssets {
         materials: materials.as_deref(),
@@ -171,9 +176,15 @@ fn extract_scene(
         let triangles = u64::from(tree.bvh.triangle_count()) + incoming;
         pending.expect(BufferKind::Triangles, triangles);
         pending.expect(BufferKind::Attributes, triangles);
+        // Node records: as many a new triangle as the tree has now (at most one an inner node,
+        // half of them once laid out afresh).
+        let per_inner = match tree.bvh.inner_count() {
+            0..1024 => 0.5,
+            n => f64::from(sync.records.live()) / f64::from(n),
+        };
         pending.expect(
             BufferKind::Nodes,
-            u64::from(tree.bvh.inner_count()) + incoming,
+            u64::from(sync.records.capacity()) + (incoming as f64 * per_inner.min(1.0)) as u64,
         );
         let frame = FrameUpload {
             tree,
@@ -323,7 +334,9 @@ fn scene_writes(
     } = frame;
     let bvh = &tree.bvh;
     let c = &changes.bvh;
-    p.need(BufferKind::Nodes, c.inner_capacity as u64);
+    let moved = sync.records.update(bvh, c);
+    target.set_record_layout_bytes(sync.records.heap_bytes() as u64);
+    p.need(BufferKind::Nodes, u64::from(sync.records.capacity()));
     p.need(BufferKind::Triangles, c.triangle_capacity as u64);
     p.need(BufferKind::Instances, c.instance_capacity as u64);
     p.need(BufferKind::Attributes, c.triangle_capacity as u64);
@@ -333,6 +346,7 @@ fn scene_writes(
     // Capacities are settled by the render world when it applies the writes.
     let plan = UploadPlan::streamed(
         bvh,
+        (&sync.records, &moved),
         c,
         [u64::MAX; 3],
         std::mem::take(&mut p.writes),

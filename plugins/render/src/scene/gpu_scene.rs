@@ -389,6 +389,12 @@ pub(crate) struct StreamTarget<'w> {
 }
 
 impl StreamTarget<'_> {
+    /// Publishes the heap bytes of the node records' layout
+    /// ([`PathTracerFigures::record_layout_bytes`](crate::types::figures::PathTracerFigures::record_layout_bytes)).
+    pub(crate) fn set_record_layout_bytes(&self, bytes: u64) {
+        self.stats.update(|f| f.record_layout_bytes = bytes);
+    }
+
     /// Grows the buffers to hold `needed` records of each kind (and `expected`, as
     /// [`PendingUpload::expected`] says), then stages `writes` and empties them; the copies go to
     /// the GPU with the frame's uploads, or sooner, a round at a time. Before the scene's buffers

@@ -43,6 +43,9 @@ pub struct PathTracerFigures {
     pub kernels_prepared: u64,
     /// Bytes of the scene's GPU buffers (on a software adapter, in the process's own memory).
     pub scene_buffer_bytes: u64,
+    /// Heap bytes of the node records' layout ([`treelight_bvh::WideRecords`]) the extraction
+    /// keeps in step with the tree: which inner nodes own a record, and where.
+    pub record_layout_bytes: u64,
     /// The side, in texels, every texture is traced at: `TEXTURE_LAYER_SIZE` until more
     /// textures are in use than its budget holds, then smaller (0 before any texture).
     pub texture_side: u32,

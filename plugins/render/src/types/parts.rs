@@ -9,7 +9,7 @@ use crate::types::upload::BufferKind;
 /// Parts the kernels declare for a kind (1 for the kinds that are never split).
 pub fn part_count(kind: BufferKind) -> usize {
     match kind {
-        // A node record per inner node: about as many as triangles.
+        // Node records at under half the inner nodes, triangles and shading records one each.
         BufferKind::Nodes | BufferKind::Triangles | BufferKind::Attributes => 8,
         BufferKind::Instances | BufferKind::Objects | BufferKind::Lights => 1,
     }

@@ -3,10 +3,12 @@
 //! figure the UI shows.
 
 use std::ops::Range;
-use treelight_bvh::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle};
+use treelight_bvh::{
+    Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle, RecordChanges, WideRecords,
+};
 
-/// Bytes of one node record (the compressed 4-wide record of `Bvh::gpu_wide_node`, one per inner
-/// node).
+/// Bytes of one node record (the compressed 4-wide record of `WideRecords::record`, one per inner
+/// node the traversal reads).
 pub const NODE_BYTES: u64 = size_of::<GpuCompressedNode>() as u64;
 /// Bytes of one triangle record.
 pub const TRIANGLE_BYTES: u64 = size_of::<GpuTriangle>() as u64;
@@ -268,37 +270,61 @@ pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
 impl UploadPlan {
     /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
     /// Consecutive changed records become one write each, and so do changed records no more than
-    /// `join_gap` records apart (the records between rewritten as they are). A node record holds
-    /// its children's binary records, so the changed nodes' parents are rewritten with them
-    /// (`Bvh::gpu_wide_ranges`).
-    pub fn new(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3]) -> Self {
-        Self::new_in(bvh, changes, capacities, Writes::default())
+    /// `join_gap` records apart (the records between rewritten as they are). `records`, the node
+    /// records' layout, is brought up to date with `changes` first ([`WideRecords::update`]): it
+    /// says which records hold what changed.
+    pub fn new(
+        bvh: &Bvh,
+        records: &mut WideRecords,
+        changes: &ChangeSet,
+        capacities: [u64; 3],
+    ) -> Self {
+        Self::new_in(bvh, records, changes, capacities, Writes::default())
     }
 
     /// [`UploadPlan::new`], its writes added after those already in `writes` (a renderer's
     /// buffer, kept from frame to frame).
-    pub fn new_in(bvh: &Bvh, changes: &ChangeSet, capacities: [u64; 3], writes: Writes) -> Self {
-        Self::streamed(bvh, changes, capacities, writes, u64::MAX, &mut |_| {})
+    pub fn new_in(
+        bvh: &Bvh,
+        records: &mut WideRecords,
+        changes: &ChangeSet,
+        capacities: [u64; 3],
+        writes: Writes,
+    ) -> Self {
+        let moved = records.update(bvh, changes);
+        Self::streamed(
+            bvh,
+            (records, &moved),
+            changes,
+            capacities,
+            writes,
+            u64::MAX,
+            &mut |_| {},
+        )
     }
 
-    /// [`UploadPlan::new_in`], the writes handed to `flush` each time they reach `round` bytes
+    /// [`UploadPlan::new_in`] with the layout already updated (`records`: the layout and what its
+    /// update said to rewrite), the writes handed to `flush` each time they reach `round` bytes
     /// ([`Writes::push_records_in_rounds`]); what is left when the plan is made is in its writes.
-    /// The renderer must have grown its buffers to `changes`' capacities before the first flush.
+    /// The renderer must have grown its buffers to `changes`' capacities and the layout's before
+    /// the first flush.
     pub fn streamed(
         bvh: &Bvh,
+        records: (&WideRecords, &RecordChanges),
         changes: &ChangeSet,
         capacities: [u64; 3],
         writes: Writes,
         round: u64,
         flush: &mut dyn FnMut(&mut Writes),
     ) -> Self {
+        let (layout, moved) = records;
         let mut plan = UploadPlan {
-            root: bvh.gpu_root(),
+            root: layout.root(bvh),
             writes,
             grow: Vec::new(),
         };
         let needed = [
-            (BufferKind::Nodes, changes.inner_capacity as u64),
+            (BufferKind::Nodes, layout.capacity() as u64),
             (BufferKind::Triangles, changes.triangle_capacity as u64),
             (BufferKind::Instances, changes.instance_capacity as u64),
         ];
@@ -309,8 +335,8 @@ impl UploadPlan {
         }
         plan.writes.push_records_in_rounds(
             BufferKind::Nodes,
-            joined(bvh.gpu_wide_ranges(changes), join_gap(BufferKind::Nodes)),
-            |_, i| bvh.gpu_wide_node(i),
+            joined(moved.ranges.iter().cloned(), join_gap(BufferKind::Nodes)),
+            |_, s| layout.record(bvh, s),
             round,
             flush,
         );
@@ -330,12 +356,13 @@ impl UploadPlan {
             flush,
         );
         let mut instances = changes.instances.clone();
+        instances.extend(&moved.instances);
         instances.sort_unstable();
         instances.dedup();
         plan.writes.push_records_in_rounds(
             BufferKind::Instances,
             runs(instances, join_gap(BufferKind::Instances)),
-            |_, i| bvh.gpu_instance(i),
+            |_, i| layout.instance(bvh, i),
             round,
             flush,
         );

@@ -833,24 +833,41 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// The tree's node, triangle and instance records, complete.
+/// The path tracer's node, triangle and instance records, complete: the nodes as
+/// `WideRecords` lays the tree out afresh (its root is [`traced_root`]).
 pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
+    let layout = treelight_bvh::WideRecords::of(bvh);
     [
-        (0..bvh.inner_capacity())
-            .flat_map(|i| node_bytes(&bvh.gpu_wide_node(i)))
-            .collect(),
-        (0..bvh.triangle_capacity())
-            .flat_map(|t| triangle_bytes(&bvh.gpu_triangle(t)))
-            .collect(),
+        layout.records(bvh).iter().flat_map(node_bytes).collect(),
+        all_triangle_bytes(bvh),
         (0..bvh.instance_capacity())
-            .flat_map(|i| instance_bytes(&bvh.gpu_instance(i)))
+            .flat_map(|i| instance_bytes(&layout.instance(bvh, i)))
             .collect(),
     ]
 }
 
+/// The root reference of [`tree_bytes`]' records.
+pub fn traced_root(bvh: &Bvh) -> u32 {
+    treelight_bvh::WideRecords::of(bvh).root(bvh)
+}
+
+/// Every triangle's record.
+pub fn all_triangle_bytes(bvh: &Bvh) -> Vec<u8> {
+    (0..bvh.triangle_capacity())
+        .flat_map(|t| triangle_bytes(&bvh.gpu_triangle(t)))
+        .collect()
+}
+
+/// Every instance's record with its root named as the binary layouts name it (by inner node).
+pub fn binary_instance_bytes(bvh: &Bvh) -> Vec<u8> {
+    (0..bvh.instance_capacity())
+        .flat_map(|i| instance_bytes(&bvh.gpu_instance(i)))
+        .collect()
+}
+
 /// The binary records (`Bvh::gpu_node`): nodes, triangles, instances, and the root reference.
 pub fn binary_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
-    let [_, triangles, instances] = tree_bytes(bvh);
+    let (triangles, instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&bvh.gpu_nodes()).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
@@ -862,7 +879,7 @@ pub fn binary_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
 /// The binary records renumbered depth first: nodes, triangles, instances, and the root reference.
 pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
     let d = bvh.gpu_depth_first_layout();
-    let [_, triangles, _] = tree_bytes(bvh);
+    let triangles = all_triangle_bytes(bvh);
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&d.nodes).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
@@ -875,7 +892,7 @@ pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
 /// The tree as 4-wide records: nodes, triangles, instances, and the root reference.
 pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
     let wide = bvh.gpu_wide_layout();
-    let [_, triangles, _] = tree_bytes(bvh);
+    let triangles = all_triangle_bytes(bvh);
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&wide.nodes).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
@@ -887,7 +904,7 @@ pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
 
 /// The binary records with boxes in bytes: nodes, triangles, instances, and the root reference.
 pub fn binary_compressed_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
-    let [_, triangles, instances] = tree_bytes(bvh);
+    let (triangles, instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
     let nodes = bvh
         .gpu_nodes()
         .iter()
@@ -1021,7 +1038,7 @@ pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
     };
     let (nodes, tris) = (cut(BufferKind::Nodes, &n), cut(BufferKind::Triangles, &t));
     let insts = gpu.storage("instances", &i);
-    let mut camera_bytes = view.uniform(bvh.gpu_root());
+    let mut camera_bytes = view.uniform(traced_root(bvh));
     // The camera's last word is the part shift.
     let at = camera_bytes.len() - 4;
     camera_bytes[at..].copy_from_slice(&shift.to_le_bytes());
@@ -1043,7 +1060,7 @@ pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
 
 /// `primary_hits` on a complete upload of the tree.
 pub fn gpu_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
-    hits_through(PRIMARY_HITS_WGSL, (tree_bytes(bvh), bvh.gpu_root()), view)
+    hits_through(PRIMARY_HITS_WGSL, (tree_bytes(bvh), traced_root(bvh)), view)
 }
 
 /// `primary_hits` through the binary records ([`binary_tree_bytes`]).

@@ -309,7 +309,7 @@ impl<'a> Frames<'a> {
                 exposure: shot.exposure,
                 width: t.size,
                 height: t.size,
-                root: self.scene.bvh.gpu_root(),
+                root: super::traced_root(&self.scene.bvh),
                 max_bounces: t.bounces,
                 samples: per,
                 mode: t.mode,
