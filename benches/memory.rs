@@ -382,16 +382,15 @@ fn follow_fill(state: &Path, start: Instant, triangles: u64, probe: &mut PeakPro
         // Settled, the path tracer's buffers holding every triangle's records (node, triangle and
         // shading; its uploads follow the tree, at times many seconds behind), and no longer
         // growing over 3 s and 10 frames.
+        // (Node records: a third of the inner nodes at the least, as a record holds at most two
+        // expanded children.)
         let buffers = s.memory.scene_buffers;
-        let per_triangle: u64 = [
-            BufferKind::Nodes,
-            BufferKind::Triangles,
-            BufferKind::Attributes,
-        ]
-        .map(BufferKind::record_bytes)
-        .iter()
-        .sum();
-        let complete = complete && buffers >= s.memory.triangles * per_triangle;
+        let per_triangle: u64 = [BufferKind::Triangles, BufferKind::Attributes]
+            .map(BufferKind::record_bytes)
+            .iter()
+            .sum();
+        let nodes = s.memory.triangles.saturating_sub(1) / 3 * BufferKind::Nodes.record_bytes();
+        let complete = complete && buffers >= s.memory.triangles * per_triangle + nodes;
         match settled_since {
             Some((since, b, frame)) if complete && s.settled && b == buffers => {
                 // Ten more frames, or none needed: an editor at rest draws none.
