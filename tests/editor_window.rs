@@ -690,10 +690,11 @@ fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_qu
 #[test]
 fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_editor() {
     use treelight::report::EditorState;
-    // 100 tiles of 5,408 triangles: 540,800 triangles, and as many tree nodes. At most 4 MiB per
-    // binding holds 65,536 node records, so the eight bindings the path tracer has for them hold
-    // 524,288: the tree outgrows them while the assembly streams in. (A smaller limit would stop
-    // Bevy's own passes, and the view's accumulation needs 2.1 MiB.)
+    // 100 tiles of 5,408 triangles: 540,800 triangles. At most 4 MiB per binding holds 65,536
+    // triangle records (a power of two a part), so the eight bindings the path tracer has for
+    // them hold 524,288: the triangles outgrow them while the assembly streams in (the node
+    // records, at half the inner nodes, fit). (A smaller limit would stop Bevy's own passes, and
+    // the view's accumulation needs 2.1 MiB.)
     let dir = temp_dir("binding-limit");
     let state = dir.join("state.ron");
     let (assembly, triangles) = assembly::generated_assembly(&dir, 100, 52);
@@ -715,7 +716,7 @@ fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_ed
     assert_eq!(s.view, "Raster");
     assert!(
         s.notices.iter().any(|n| n.contains("Path tracing is off")
-            && n.contains("tree nodes need")
+            && n.contains("triangles need")
             && n.contains("binds at most 4 MiB in each of the 8 buffers")),
         "{:?}",
         s.notices
