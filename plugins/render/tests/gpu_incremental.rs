@@ -5,10 +5,10 @@
 mod support;
 
 use std::path::Path;
-use support::{Gpu, PinholeView, all_triangle_bytes, gpu_hits, hits_on, tree_bytes};
+use support::{Gpu, PinholeView, gpu_hits, hits_on, layout_bytes};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, RayData, Triangle, WideRecords};
-use treelight_render::{BufferKind, UploadPlan, instance_bytes, node_bytes};
+use treelight_render::{BufferKind, UploadPlan};
 
 fn sibenik() -> Vec<Triangle> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
@@ -52,14 +52,14 @@ fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Vec<Triangle>
 struct Mirror {
     buffers: [wgpu::Buffer; 3],
     capacities: [u64; 3],
-    /// The node records' layout, as the upload of `tree_bytes` laid it out, then kept by the plans.
+    /// The node records' layout, made afresh for the first upload, then kept by the plans.
     records: WideRecords,
 }
 
 impl Mirror {
     fn upload_all(gpu: &Gpu, bvh: &Bvh) -> Self {
-        let [n, t, i] = tree_bytes(bvh);
         let records = WideRecords::of(bvh);
+        let [n, t, i] = layout_bytes(bvh, &records);
         Self {
             capacities: [
                 records.capacity() as u64,
@@ -120,18 +120,10 @@ impl Mirror {
     /// records group the nodes otherwise, so equally near triangles may be met in another order)
     /// each pixel meets the same triangle or one at the same distance along its ray.
     fn assert_traces_like_fresh(&self, gpu: &Gpu, bvh: &Bvh, view: &PinholeView, patched: &[u32]) {
-        let nodes: Vec<u8> = self
-            .records
-            .records(bvh)
-            .iter()
-            .flat_map(node_bytes)
-            .collect();
-        let instances: Vec<u8> = (0..bvh.instance_capacity())
-            .flat_map(|i| instance_bytes(&self.records.instance(bvh, i)))
-            .collect();
+        let [nodes, triangles, instances] = layout_bytes(bvh, &self.records);
         let complete = [
             gpu.storage("nodes", &nodes),
-            gpu.storage("triangles", &all_triangle_bytes(bvh)),
+            gpu.storage("triangles", &triangles),
             gpu.storage("instances", &instances),
         ];
         let [n, t, i] = &complete;

@@ -30,12 +30,15 @@ pub struct WideRecords {
     node: Vec<u32>,
     /// Free slots, reused first.
     free: Vec<u32>,
-    /// Scratch, kept between updates so a steady stream of edits allocates nothing: per inner node
-    /// whether the change set being applied names it, the nodes it names, a walk's stack, the
-    /// nodes whose slot changed and the slots to rewrite.
+    /// Scratch, kept between updates so that their working lists grow once: per inner node
+    /// whether the change set being applied names it, the tops of its changed subtrees, a walk's
+    /// stack, the nodes decided or given a record (whose records and holders are rewritten), the
+    /// roots given a record (whose instances are rewritten) and the slots to rewrite.
     marked: Vec<bool>,
+    tops: Vec<u32>,
     stack: Vec<u32>,
     touched: Vec<u32>,
+    new_roots: Vec<u32>,
     dirty: Vec<u32>,
 }
 
@@ -78,8 +81,10 @@ impl WideRecords {
             + vec_bytes(&self.node)
             + vec_bytes(&self.free)
             + vec_bytes(&self.marked)
+            + vec_bytes(&self.tops)
             + vec_bytes(&self.stack)
             + vec_bytes(&self.touched)
+            + vec_bytes(&self.new_roots)
             + vec_bytes(&self.dirty)
     }
 
@@ -92,7 +97,9 @@ impl WideRecords {
         }
         self.marked.clear();
         self.marked.resize(len, false);
+        self.tops.clear();
         self.touched.clear();
+        self.new_roots.clear();
         self.dirty.clear();
         let live = |i: u32| bvh.inner[i as usize].parent != FREE;
         for r in &changes.inner_ranges {
@@ -109,7 +116,6 @@ impl WideRecords {
             }
         }
         // The tops of the changed subtrees, each decided from its parent down.
-        let mut tops = Vec::new();
         for r in &changes.inner_ranges {
             for i in r
                 .clone()
@@ -117,38 +123,32 @@ impl WideRecords {
             {
                 let p = bvh.inner[i as usize].parent;
                 if p == NONE || !self.marked[p as usize] {
-                    tops.push(i);
+                    self.tops.push(i);
                 }
             }
         }
-        for &t in &tops {
-            self.decide_below(bvh, t);
+        for k in 0..self.tops.len() {
+            self.decide_below(bvh, self.tops[k]);
         }
         // Roots always own a record, whether or not the change set names them.
         if bvh.root.is_inner() {
-            self.root_needs_record(bvh.root.index());
+            self.root_needs_record(bvh, bvh.root.index());
         }
         for &i in &changes.instances {
             if let Some(inst) = bvh.instance(i).filter(|inst| inst.root.is_inner()) {
-                self.root_needs_record(inst.root.index());
+                self.root_needs_record(bvh, inst.root.index());
             }
         }
         self.collect_dirty(bvh);
-        // A subtree's root given a record here moves its instance's reference: rare (a root's
-        // record stays while it lives), so the instances are looked through only then.
-        let mut new_roots: Vec<u32> = self
-            .touched
-            .iter()
-            .copied()
-            .filter(|&x| bvh.inner[x as usize].parent == NONE)
-            .collect();
+        // A root given a record here moves its instance's reference: rare (a root's record stays
+        // while it lives), so the instances are looked through only then.
         let mut moved_roots = Vec::new();
-        if !new_roots.is_empty() {
-            new_roots.sort_unstable();
+        if !self.new_roots.is_empty() {
+            self.new_roots.sort_unstable();
             for i in 0..bvh.instances.len() as u32 {
                 if let Some(inst) = bvh.instance(i)
                     && inst.root.is_inner()
-                    && new_roots.binary_search(&inst.root.index()).is_ok()
+                    && self.new_roots.binary_search(&inst.root.index()).is_ok()
                 {
                     moved_roots.push(i);
                 }
@@ -260,7 +260,7 @@ impl WideRecords {
             let own = n.parent == NONE || self.slot[n.parent as usize] == NONE;
             let s = self.slot[x as usize];
             if own && s == NONE {
-                self.slot[x as usize] = self.allocate(x);
+                self.give_record(bvh, x);
             } else if !own && s != NONE {
                 self.slot[x as usize] = NONE;
                 self.release(s);
@@ -275,17 +275,25 @@ impl WideRecords {
                 if self.marked[c as usize] {
                     self.stack.push(c);
                 } else if !own && self.slot[c as usize] == NONE {
-                    self.slot[c as usize] = self.allocate(c);
+                    self.give_record(bvh, c);
                     self.touched.push(c);
                 }
             }
         }
     }
 
-    fn root_needs_record(&mut self, r: u32) {
+    fn root_needs_record(&mut self, bvh: &Bvh, r: u32) {
         if self.slot[r as usize] == NONE {
-            self.slot[r as usize] = self.allocate(r);
+            self.give_record(bvh, r);
             self.touched.push(r);
+        }
+    }
+
+    /// Gives `x`, without a record, a slot; a root's is listed, as its instance names it.
+    fn give_record(&mut self, bvh: &Bvh, x: u32) {
+        self.slot[x as usize] = self.allocate(x);
+        if bvh.inner[x as usize].parent == NONE {
+            self.new_roots.push(x);
         }
     }
 

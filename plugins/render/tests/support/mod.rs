@@ -836,7 +836,12 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 /// The path tracer's node, triangle and instance records, complete: the nodes as
 /// `WideRecords` lays the tree out afresh (its root is [`traced_root`]).
 pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
-    let layout = treelight_bvh::WideRecords::of(bvh);
+    layout_bytes(bvh, &treelight_bvh::WideRecords::of(bvh))
+}
+
+/// The path tracer's node, triangle and instance records, complete, the nodes as `layout` lays
+/// them out (its root is `layout.root(bvh)`).
+pub fn layout_bytes(bvh: &Bvh, layout: &treelight_bvh::WideRecords) -> [Vec<u8>; 3] {
     [
         layout.records(bvh).iter().flat_map(node_bytes).collect(),
         all_triangle_bytes(bvh),
