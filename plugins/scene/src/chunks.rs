@@ -2,7 +2,7 @@
 //! camera first, each a group of the same entity: the preview fills in from the front instead of
 //! waiting for the whole mesh's build.
 
-use crate::TriangleShading;
+use crate::MeshShading;
 use std::sync::Arc;
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup, Triangle};
@@ -12,13 +12,13 @@ use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup, Triangle};
 pub(crate) struct MeshChunks {
     pieces: MeshPieces,
     triangles: Arc<Vec<Triangle>>,
-    shading: Arc<TriangleShading>,
+    shading: Arc<MeshShading>,
 }
 
 impl MeshChunks {
     pub fn cut(
         triangles: Arc<Vec<Triangle>>,
-        shading: Arc<TriangleShading>,
+        shading: Arc<MeshShading>,
         rule: PieceRule,
         transform: &Affine3A,
         eye: Option<Vec3>,
@@ -41,32 +41,21 @@ impl MeshChunks {
         self.pieces.build(k, &self.triangles, transform)
     }
 
-    /// Chunk `k`'s triangles' shading, in the order of its triangles.
-    pub fn shading(&self, k: usize) -> TriangleShading {
+    /// Chunk `k`'s triangles' shading, in the order of its triangles, sharing the mesh's vertex
+    /// arrays. Shading that does not cover the mesh's triangles is left out, not misread.
+    pub fn shading(&self, k: usize) -> MeshShading {
         let ids = self.pieces.ids().nth(k).unwrap_or_default();
-        let whole = self.triangles.len();
-        TriangleShading {
-            normals: gather(&self.shading.normals, ids, whole),
-            uvs: gather(&self.shading.uvs, ids, whole),
-            uvs1: gather(&self.shading.uvs1, ids, whole),
-            tangents: gather(&self.shading.tangents, ids, whole),
+        if self.shading.len() != self.triangles.len() {
+            return MeshShading::default();
         }
-    }
-}
-
-/// The entries of `ids` from a per-triangle array. Shading arrays hold one entry per triangle or
-/// none (`GeometryCopy` leaves out what it cannot read); any other length is left out, not misread.
-fn gather<T: Copy>(all: &[T], ids: &[u32], whole: usize) -> Vec<T> {
-    if all.len() == whole {
-        ids.iter().map(|&t| all[t as usize]).collect()
-    } else {
-        Vec::new()
+        self.shading.subset(ids)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ShadingVertices;
     use treelight_bvh::glam::Vec2;
 
     const RULE: PieceRule = PieceRule {
@@ -76,16 +65,24 @@ mod tests {
 
     #[test]
     fn chunks_hold_every_triangle_once_with_its_shading() {
-        // A 30 × 30 grid of triangles, each with shading that names it.
+        // A 30 × 30 grid of triangles, each with vertices (three of its own) that name it.
         let mut triangles = Vec::new();
-        let mut shading = TriangleShading::default();
-        for k in 0..900 {
+        let mut vertices = ShadingVertices::default();
+        let mut corners = Vec::new();
+        for k in 0..900u32 {
             let p = Vec3::new((k % 30) as f32, 0.0, (k / 30) as f32);
             triangles.push(Triangle::new(p, p + Vec3::X, p + Vec3::Z));
-            shading.normals.push([k; 3]);
-            shading.uvs.push([Vec2::splat(k as f32); 3]);
-            shading.tangents.push([k; 2]);
+            // Corners in reverse, so that the chunks' must be gathered, not counted.
+            let first = 3 * (899 - k);
+            corners.push([first, first + 1, first + 2]);
         }
+        for v in 0..2700u32 {
+            let k = 899 - v / 3;
+            vertices.normals.push(k);
+            vertices.uvs.push(Vec2::splat(k as f32));
+            vertices.tangents.push(k);
+        }
+        let shading = MeshShading::new(vertices, &corners);
         let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
         let eye = Vec3::new(100.0, 5.0, -10.0);
         let chunks = MeshChunks::cut(
@@ -101,17 +98,14 @@ mod tests {
             let group = chunks.build(k, transform).unwrap();
             let shading = chunks.shading(k);
             assert!(!group.is_empty() && group.len() <= 64);
-            assert_eq!(shading.normals.len(), group.len());
-            assert_eq!(shading.uvs.len(), group.len());
-            assert_eq!(shading.tangents.len(), group.len());
-            for ((n, uv), tangent) in shading
-                .normals
-                .iter()
-                .zip(&shading.uvs)
-                .zip(&shading.tangents)
-            {
+            assert_eq!(shading.len(), group.len());
+            for j in 0..shading.len() {
+                let n = shading.normals(j).unwrap();
                 let t = n[0] as usize;
+                assert_eq!(n, [t as u32; 3]);
+                let uv = shading.uvs(j).unwrap();
                 assert_eq!(uv[0].x as usize, t, "normals and UVs of one triangle");
+                let tangent = shading.vertex_tangents(j).unwrap();
                 assert_eq!(
                     tangent[0] as usize, t,
                     "normals and tangents of one triangle"
@@ -122,15 +116,18 @@ mod tests {
         }
         assert!(seen.into_iter().all(|s| s));
         // Shading that does not match the triangles is left out, not misread.
-        let short = TriangleShading {
-            normals: vec![[0; 3]; 10],
-            ..Default::default()
-        };
+        let short = MeshShading::new(
+            ShadingVertices {
+                normals: vec![0; 3],
+                ..Default::default()
+            },
+            &[[0, 1, 2]; 10],
+        );
         let triangles = chunks.triangles.clone();
         let chunks = MeshChunks::cut(triangles, Arc::new(short), RULE, &transform, None);
         for k in 0..chunks.len() {
             let shading = chunks.shading(k);
-            assert!(shading.normals.is_empty() && shading.uvs.is_empty());
+            assert!(shading.is_empty() && shading.normals(0).is_none());
         }
     }
 }

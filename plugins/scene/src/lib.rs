@@ -18,12 +18,12 @@ pub mod packed;
 mod picking;
 pub mod priority;
 mod refine;
+mod shading;
 mod worker;
 
-pub use mesh::{
-    GeometryCopy, MeshGeometry, MeshSkip, TriangleShading, mesh_geometry, mesh_triangles,
-};
+pub use mesh::{GeometryCopy, MeshGeometry, MeshSkip, mesh_geometry, mesh_triangles};
 pub use picking::SceneBvhPickingPlugin;
+pub use shading::{MeshShading, ShadingVertices};
 /// The engine's named policies, which [`SceneBvhConfig::preset`] takes.
 pub use treelight_bvh::Preset;
 
@@ -266,7 +266,7 @@ pub struct SceneTree {
     pub entity_groups: HashMap<Entity, Vec<GroupId>>,
     /// Each group's normals and texture coordinates, in the order of its triangles
     /// ([`Bvh::group_triangles`]).
-    pub shading: HashMap<GroupId, Arc<TriangleShading>>,
+    pub shading: HashMap<GroupId, Arc<MeshShading>>,
     /// Groups inserted since a renderer last took the changes (bounded by the live groups: removed
     /// ones leave the set).
     fresh_groups: HashSet<GroupId>,
@@ -285,15 +285,16 @@ pub struct SceneTree {
 impl SceneTree {
     /// Heap bytes of the tree's arrays and of the groups' shading (each shared set once).
     pub fn memory_bytes(&self) -> (usize, usize) {
-        let mut seen: HashSet<*const TriangleShading> = HashSet::new();
+        // Shading shared by groups (instances, re-laid groups) counts once, and vertex arrays
+        // shared by a mesh's chunks once.
+        let (mut sets, mut vertex_sets) = (HashSet::new(), HashSet::new());
         let shading = self
             .shading
             .values()
-            .filter(|s| seen.insert(Arc::as_ptr(s)))
+            .filter(|s| sets.insert(Arc::as_ptr(s)))
             .map(|s| {
-                s.normals.capacity() * size_of::<[u32; 3]>()
-                    + (s.uvs.capacity() + s.uvs1.capacity()) * size_of::<[Vec2; 3]>()
-                    + s.tangents.capacity() * size_of::<[u32; 2]>()
+                let (vertices, at) = s.vertex_bytes();
+                s.corner_bytes() + if vertex_sets.insert(at) { vertices } else { 0 }
             })
             .sum();
         (self.bvh.memory_bytes().total(), shading)
@@ -303,7 +304,7 @@ impl SceneTree {
         &mut self,
         e: Entity,
         g: GroupId,
-        shading: Arc<TriangleShading>,
+        shading: Arc<MeshShading>,
         mesh: AssetId<Mesh>,
     ) {
         self.group_entity.insert(g, e);

@@ -1,6 +1,7 @@
 //! Bevy meshes to engine triangles (object space).
 
-use crate::packed::{encode_normal, encode_tangents};
+use crate::packed::{encode_normal, encode_tangent};
+use crate::shading::{MeshShading, ShadingVertices};
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use std::fmt;
 use treelight_bvh::Triangle;
@@ -40,33 +41,13 @@ impl fmt::Display for MeshSkip {
     }
 }
 
-/// Per-triangle shading data, in the order of [`mesh_triangles`]: what a renderer interpolates at a
-/// hit. Kept apart from the triangles because the BVH never needs it.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriangleShading {
-    /// Object-space vertex normals of each triangle's corners, packed
-    /// ([`encode_normal`](crate::packed::encode_normal)); empty when the mesh has none (the renderer
-    /// then shades flat).
-    pub normals: Vec<[u32; 3]>,
-    /// `UV_0` of each triangle's corners; empty when the mesh has none.
-    pub uvs: Vec<[Vec2; 3]>,
-    /// `UV_1` of each triangle's corners (the second set, which some of a material's maps may
-    /// read); empty when the mesh has none.
-    pub uvs1: Vec<[Vec2; 3]>,
-    /// Object-space tangents of each triangle's corners (xyz, and the bitangent's sign in w, as
-    /// glTF and Bevy's `ATTRIBUTE_TANGENT` have them), packed
-    /// ([`encode_tangents`](crate::packed::encode_tangents)), so a renderer bends normal maps along
-    /// the same frame as Bevy's; empty when the mesh has none.
-    pub tangents: Vec<[u32; 2]>,
-}
-
 /// A mesh as the scene BVH and a renderer see it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshGeometry {
     /// Object-space triangles, in index order.
     pub triangles: Vec<Triangle>,
-    /// Their normals and texture coordinates.
-    pub shading: TriangleShading,
+    /// Their normals, texture coordinates and tangents.
+    pub shading: MeshShading,
 }
 
 /// The mesh's triangles in object space, in index order.
@@ -392,43 +373,30 @@ impl GeometryCopy {
             .into_iter()
             .filter(|c| c.iter().all(|&i| (i as usize) < v))
             .collect();
-        // Each triangle's corners of one copied array, only when it was copied in full.
-        fn per_corner<T: Copy, U>(
-            corners: &[[u32; 3]],
-            all: &[T],
-            v: usize,
-            to: impl Fn(T) -> U,
-        ) -> Vec<[U; 3]> {
-            if all.len() != v || v == 0 {
+        // An attribute the mesh lacks was never copied, and one copied in part is left out: a
+        // vertex array holds an entry for every vertex or none.
+        fn whole<T: Copy, U>(all: &[T], v: usize, to: impl Fn(T) -> U) -> Vec<U> {
+            if all.len() != v {
                 return Vec::new();
             }
-            corners
-                .iter()
-                .map(|c| c.map(|i| to(all[i as usize])))
-                .collect()
+            all.iter().map(|&x| to(x)).collect()
         }
-        let triangles = per_corner(&corners, &a.positions, v, Vec3::from_array)
-            .into_iter()
-            .map(|[a, b, c]| Triangle::new(a, b, c))
+        let triangles = corners
+            .iter()
+            .map(|c| {
+                let [a, b, c] = c.map(|i| Vec3::from_array(a.positions[i as usize]));
+                Triangle::new(a, b, c)
+            })
             .collect();
-        // An attribute the mesh lacks was never copied: its array is empty.
-        let normals = per_corner(&corners, &a.normals, v, |n| {
-            encode_normal(Vec3::from_array(n))
-        });
-        let uvs = per_corner(&corners, &a.uvs, v, Vec2::from_array);
-        let uvs1 = per_corner(&corners, &a.uvs1, v, Vec2::from_array);
-        let tangents = per_corner(&corners, &a.tangents, v, Vec4::from_array)
-            .into_iter()
-            .map(encode_tangents)
-            .collect();
+        let vertices = ShadingVertices {
+            normals: whole(&a.normals, v, |n| encode_normal(Vec3::from_array(n))),
+            uvs: whole(&a.uvs, v, Vec2::from_array),
+            uvs1: whole(&a.uvs1, v, Vec2::from_array),
+            tangents: whole(&a.tangents, v, |t| encode_tangent(Vec4::from_array(t))),
+        };
         MeshGeometry {
             triangles,
-            shading: TriangleShading {
-                normals,
-                uvs,
-                uvs1,
-                tangents,
-            },
+            shading: MeshShading::new(vertices, &corners),
         }
     }
 }
@@ -436,6 +404,7 @@ impl GeometryCopy {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::packed::encode_tangents;
     use bevy::asset::RenderAssetUsages;
     use bevy::math::primitives::Cuboid;
     use bevy::mesh::{MeshBuilder, Meshable};
@@ -504,7 +473,9 @@ mod tests {
         let uvs1: Vec<[f32; 2]> = (0..vertices).map(|i| uv1_of(i).to_array()).collect();
         mesh.insert_attribute(Mesh::ATTRIBUTE_UV_1, uvs1);
         let whole = mesh_geometry(&mesh).unwrap();
-        assert!(!whole.shading.normals.is_empty() && !whole.shading.uvs.is_empty());
+        let v = &whole.shading.vertices();
+        assert!(!v.normals.is_empty() && !v.uvs.is_empty());
+        assert_eq!(v.normals.len(), vertices, "one entry a vertex");
         let mut copy = GeometryCopy::new(&mesh).unwrap();
         assert_eq!(copy.triangles(), whole.triangles.len());
         let mut calls = 0;
@@ -520,21 +491,15 @@ mod tests {
             unreachable!()
         };
         let ix: Vec<usize> = mesh.indices().unwrap().iter().collect();
-        assert_eq!(whole.shading.tangents.len(), whole.triangles.len());
-        assert_eq!(whole.shading.uvs1.len(), whole.triangles.len());
-        for (((t, f), tangents), uvs1) in whole
-            .triangles
-            .iter()
-            .zip(ix.chunks_exact(3))
-            .zip(&whole.shading.tangents)
-            .zip(&whole.shading.uvs1)
-        {
-            for k in 0..3 {
-                assert_eq!(t.v[k], Vec3::from_array(p[f[k]]));
-                assert_eq!(uvs1[k], uv1_of(f[k]));
+        assert_eq!(whole.shading.len(), whole.triangles.len());
+        for (k, (t, f)) in whole.triangles.iter().zip(ix.chunks_exact(3)).enumerate() {
+            let uvs1 = whole.shading.uvs1(k).unwrap();
+            for c in 0..3 {
+                assert_eq!(t.v[c], Vec3::from_array(p[f[c]]));
+                assert_eq!(uvs1[c], uv1_of(f[c]));
             }
             assert_eq!(
-                *tangents,
+                whole.shading.tangents(k).unwrap(),
                 encode_tangents([tangent_of(f[0]), tangent_of(f[1]), tangent_of(f[2])])
             );
         }
@@ -562,12 +527,12 @@ mod tests {
     #[test]
     fn shading_follows_the_triangles() {
         let g = mesh_geometry(&Cuboid::new(2.0, 2.0, 2.0).mesh().build()).unwrap();
-        assert_eq!(g.shading.normals.len(), g.triangles.len());
-        assert_eq!(g.shading.uvs.len(), g.triangles.len());
-        for (t, n) in g.triangles.iter().zip(&g.shading.normals) {
+        assert_eq!(g.shading.len(), g.triangles.len());
+        for (k, t) in g.triangles.iter().enumerate() {
+            assert!(g.shading.uvs(k).is_some());
             // A cuboid's vertex normals are its face normals.
             let face = t.normal().normalize();
-            for &c in n {
+            for c in g.shading.normals(k).unwrap() {
                 let c = crate::packed::decode_normal(c);
                 assert!(c.dot(face) > 0.999, "{c} vs {face}");
             }
@@ -580,11 +545,21 @@ mod tests {
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; 2])
         .with_inserted_attribute(Mesh::ATTRIBUTE_TANGENT, vec![[1.0f32, 0.0, 0.0, 1.0]; 4]);
         let g = mesh_geometry(&bare).unwrap();
-        assert!(g.shading.tangents.is_empty());
-        assert!(
-            g.shading.normals.is_empty(),
-            "mismatched counts are left out"
-        );
-        assert!(g.shading.uvs.is_empty());
+        assert_eq!(g.shading.tangents(0), None);
+        assert_eq!(g.shading.normals(0), None, "mismatched counts are left out");
+        assert_eq!(g.shading.uvs(0), None);
+        assert!(g.shading.vertices().is_empty());
+    }
+
+    #[test]
+    fn an_indexed_mesh_keeps_its_shading_by_vertex() {
+        use bevy::math::primitives::Sphere;
+        let mesh = Sphere::new(1.0).mesh().uv(32, 16);
+        let g = mesh_geometry(&mesh).unwrap();
+        let v = g.shading.vertices();
+        assert_eq!(v.normals.len(), mesh.count_vertices());
+        // Sixteen-bit corners where the vertices fit.
+        assert_eq!(g.shading.corner_bytes(), 6 * g.triangles.len());
+        assert!(g.shading.vertex_bytes().0 < 12 * g.triangles.len());
     }
 }

@@ -39,6 +39,27 @@ pub fn encode_tangents(t: [Vec4; 3]) -> [u32; 2] {
     ]
 }
 
+/// One vertex's tangent (xyz, and the bitangent's sign in w) in 32 bits, as a mesh's shading keeps
+/// it by vertex: the direction's two 10-bit octahedral fields as [`encode_tangents`] makes them
+/// (bits 0–19), the sign (bit 30) and a flag (bit 31). [`triangle_tangents`] lays three of them out
+/// as a triangle's words, bit for bit what [`encode_tangents`] gives for the same corners.
+pub fn encode_tangent(t: Vec4) -> u32 {
+    let q = |v: f32| ((v.clamp(-1.0, 1.0) * TANGENT_STEPS).round() + TANGENT_STEPS) as u32;
+    let [x, y] = octahedral(t.truncate().normalize_or(Vec3::X)).map(q);
+    x | (y << 10) | (u32::from(t.w < 0.0) << 30) | (1 << 31)
+}
+
+/// A triangle's tangent words ([`encode_tangents`]' layout) from its corners' vertex words
+/// ([`encode_tangent`]): the bitangent's sign is corner 0's.
+pub fn triangle_tangents(corners: [u32; 3]) -> [u32; 2] {
+    let field = |w: u32, at: u32| (w >> at) & 0x3ff;
+    let [a, b, c] = corners;
+    [
+        field(a, 0) | (field(a, 10) << 10) | (field(b, 0) << 20) | (a & (1 << 30)) | (1 << 31),
+        field(b, 10) | (field(c, 0) << 10) | (field(c, 10) << 20),
+    ]
+}
+
 /// The inverse of [`encode_tangents`], as the kernel computes it: the corners' unit directions and
 /// the bitangent's sign, or `None` for words without tangents (all zero).
 pub fn decode_tangents(w: [u32; 2]) -> Option<([Vec3; 3], f32)> {
@@ -105,5 +126,26 @@ mod tests {
             }
         }
         assert_eq!(decode_tangents([0, 0]), None);
+    }
+
+    #[test]
+    fn vertex_tangents_make_a_triangles_words_bit_for_bit() {
+        let mut seed = 11u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..2000 {
+            let t: [Vec4; 3] = std::array::from_fn(|_| {
+                Vec3::new(next(), next(), next())
+                    .normalize_or(Vec3::X)
+                    .extend(next())
+            });
+            assert_eq!(
+                triangle_tangents(t.map(encode_tangent)),
+                encode_tangents(t),
+                "{t:?}"
+            );
+        }
     }
 }

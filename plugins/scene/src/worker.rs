@@ -3,7 +3,7 @@
 
 use crate::chunks::MeshChunks;
 use crate::refine::Refiner;
-use crate::{GeometryCopy, SceneStats, SceneTree, TriangleShading};
+use crate::{GeometryCopy, MeshShading, SceneStats, SceneTree};
 use bevy::asset::AssetId;
 use bevy::log::warn;
 use bevy::mesh::Mesh;
@@ -55,7 +55,7 @@ pub(crate) struct NewMesh {
     mesh: AssetId<Mesh>,
     name: String,
     triangles: Arc<Vec<Triangle>>,
-    shading: Arc<TriangleShading>,
+    shading: Arc<MeshShading>,
     transform: Affine3A,
     /// The camera's position when it was sent: a mesh inserted in chunks starts nearest it.
     eye: Option<Vec3>,
@@ -741,7 +741,7 @@ mod tests {
             mesh: AssetId::default(),
             name: format!("mesh {index}"),
             triangles: Arc::new(vec![t; triangles]),
-            shading: Arc::new(TriangleShading::default()),
+            shading: Arc::new(MeshShading::default()),
             transform: Affine3A::IDENTITY,
             eye: None,
             sent: Instant::now(),

@@ -394,7 +394,7 @@ fn scene_writes(
         );
         // Its shading records hold its second UV set where its material reads it.
         let two = material.reads_second_uv_set()
-            && tree.shading.get(&g).is_some_and(|s| !s.uvs1.is_empty());
+            && tree.shading.get(&g).is_some_and(|s| s.has_second_uv_set());
         if std::mem::replace(&mut sync.two_uv_sets[g.index() as usize], two) != two {
             // A material that began or stopped reading the second set: the group's records again.
             relay.push(g);
@@ -450,14 +450,10 @@ fn scene_writes(
             let Some(shading) = tree.shading.get(&g) else {
                 return packed_attribute_record(None, None, g.index());
             };
-            let mut record = packed_attribute_record(
-                shading.normals.get(k).copied(),
-                shading.uvs.get(k).copied(),
-                g.index(),
-            );
-            record.tangents = shading.tangents.get(k).copied().unwrap_or_default();
+            let mut record = packed_attribute_record(shading.normals(k), shading.uvs(k), g.index());
+            record.tangents = shading.tangents(k).unwrap_or_default();
             if two_uv_sets[g.index() as usize]
-                && let Some(&uvs1) = shading.uvs1.get(k)
+                && let Some(uvs1) = shading.uvs1(k)
             {
                 record = record.with_second_uv_set(uvs1);
             }
