@@ -13,8 +13,8 @@ use support::{Gpu, arg, scene_args, traced_root};
 use treelight_bvh::glam::{Mat4, Vec3};
 use treelight_bvh::{Bvh, BvhConfig};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, MapTransformTable, PATHTRACE_WGSL, SceneLight, SurfaceMaterial,
-    TileCursor, TileOrder, TraceWork, ViewParams, attribute_bytes, light_bytes, object_bytes,
+    DebugView, MapTransformTable, PATHTRACE_WGSL, SceneLight, ShadingBuffers, SurfaceMaterial,
+    TileCursor, TileOrder, TraceWork, ViewParams, attribute_record, light_bytes, object_bytes,
 };
 
 fn main() {
@@ -42,13 +42,10 @@ fn main() {
         let b = bvh.bounds();
         let diag = (b.max - b.min).length();
         // Grey Lambert everywhere (group 0), a point light above the centre, a blue sky.
-        let attrs: Vec<u8> = (0..bvh.triangle_capacity())
-            .flat_map(|_| attribute_bytes(None, None, 0))
-            .collect();
-        assert_eq!(
-            attrs.len() as u64,
-            bvh.triangle_capacity() as u64 * ATTRIBUTE_BYTES
-        );
+        let mut shading = ShadingBuffers::default();
+        for id in 0..bvh.triangle_capacity() {
+            shading.put(id, &attribute_record(None, None, 0));
+        }
         let material = SurfaceMaterial {
             base_color: [0.7, 0.7, 0.7, 1.0],
             perceptual_roughness: 0.8,
@@ -68,7 +65,7 @@ fn main() {
         };
         let buffers = gpu.scene_buffers(
             &bvh,
-            &attrs,
+            &shading,
             &objects,
             &light_bytes(&light),
             &map_transforms.bytes(),

@@ -8,21 +8,87 @@
 // the BSDF samples, the two weighed by multiple importance sampling. The crate appends a traversal
 // (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
+// A triangle's shading record as the buffer holds it: the pool records of its three corners and
+// its group's slot with flags (HAS_NORMALS, TWO_UV_SETS, HAS_VERTICES).
+struct ShadingRecord {
+    corners: vec3<u32>,
+    group: u32,
+}
+
+// One record of the shading vertices' pool: a vertex's packed normal and tangent and its UV, or,
+// as the second record of a vertex with two UV sets, its second set in `uv`.
+struct ShadingVertex {
+    normal: u32,
+    tangent: u32,
+    uv: vec2<f32>,
+}
+
+// A triangle's shading, gathered from its record and its corners' vertices (attr_at).
 struct Attr {
     // Object-space corner normals, octahedral, snorm16x2 each.
     normals: vec3<u32>,
     // The group's slot; bit 31 set when the normals are present, bit 30 (TWO_UV_SETS) when the
-    // record holds two UV sets.
+    // corners have a second UV set.
     group: u32,
-    // UVs of corners 0 and 1. With two sets: set 0's corner 0, then its corners 1 and 2 less
-    // corner 0 as half-float pairs.
-    uv01: vec4<f32>,
-    // UV of corner 2. With two sets: set 1's corner 0.
-    uv2: vec2<f32>,
+    // The corners' UVs, set 0 then set 1 (set 1 as set 0 without a second set).
+    uvs: array<vec2<f32>, 3>,
+    uvs1: array<vec2<f32>, 3>,
     // The corners' object-space tangents, three octahedral 10-bit pairs, a sign and a flag
-    // (`records::encode_tangents`); zero without. With two sets: set 1's corners 1 and 2 less
-    // corner 0 as half-float pairs (tangents are then made per triangle).
+    // (`packed::encode_tangents`); zero without.
     tangents: vec2<u32>,
+}
+
+// Bit 29 of a shading record's group word: its corners name vertices.
+const HAS_VERTICES: u32 = 0x20000000u;
+
+// Triangle i's shading: its record's corners read from the pool.
+fn attr_at(i: u32) -> Attr {
+    let r = shading_record_at(i);
+    var a: Attr;
+    a.group = r.group & ~HAS_VERTICES;
+    if (r.group & HAS_VERTICES) == 0u {
+        return a;
+    }
+    let v0 = shading_vertex_at(r.corners.x);
+    let v1 = shading_vertex_at(r.corners.y);
+    let v2 = shading_vertex_at(r.corners.z);
+    a.normals = vec3<u32>(v0.normal, v1.normal, v2.normal);
+    a.uvs = array<vec2<f32>, 3>(v0.uv, v1.uv, v2.uv);
+    a.uvs1 = a.uvs;
+    if (r.group & TWO_UV_SETS) != 0u {
+        a.uvs1 = corner_uvs_at(i, 1u);
+    }
+    a.tangents = triangle_tangents(v0.tangent, v1.tangent, v2.tangent);
+    return a;
+}
+
+// The corners' UVs of set `uv_set` of triangle i (set 0 where it has one), read from the pool
+// alone: what a mask or an emission map needs of a candidate hit.
+fn corner_uvs_at(i: u32, uv_set: u32) -> array<vec2<f32>, 3> {
+    let r = shading_record_at(i);
+    if (r.group & HAS_VERTICES) == 0u {
+        return array<vec2<f32>, 3>(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
+    }
+    let second = select(0u, 1u, uv_set == 1u && (r.group & TWO_UV_SETS) != 0u);
+    return array<vec2<f32>, 3>(
+        shading_vertex_at(r.corners.x + second).uv,
+        shading_vertex_at(r.corners.y + second).uv,
+        shading_vertex_at(r.corners.z + second).uv,
+    );
+}
+
+// A triangle's tangent words from its corners' (`packed::triangle_tangents`): corner 0's two
+// fields, corner 1's x, corner 0's sign and the flag; then corner 1's y and corner 2's two. Zero
+// when corner 0 has none.
+fn triangle_tangents(a: u32, b: u32, c: u32) -> vec2<u32> {
+    if (a & TANGENTS_PRESENT) == 0u {
+        return vec2<u32>(0u);
+    }
+    let f = 0x3ffu;
+    return vec2<u32>(
+        (a & 0xfffffu) | ((b & f) << 20u) | (a & 0x40000000u) | TANGENTS_PRESENT,
+        ((b >> 10u) & f) | ((c & f) << 10u) | (((c >> 10u) & f) << 20u),
+    );
 }
 
 struct Object {
@@ -278,7 +344,7 @@ fn slot_of(triangle: u32, instance: u32) -> u32 {
     if instance != NONE {
         return instances[instance].group;
     }
-    return attr_at(triangle).group & ~(HAS_NORMALS | TWO_UV_SETS);
+    return shading_record_at(triangle).group & ~(HAS_NORMALS | TWO_UV_SETS | HAS_VERTICES);
 }
 
 fn object_slot(hit: Hit) -> u32 {
@@ -299,24 +365,18 @@ fn alpha_mode(o: Object) -> u32 {
 // Bit 30 of a shading record's group word: it holds two UV sets.
 const TWO_UV_SETS: u32 = 0x40000000u;
 
-// The corners' UVs of set `uv_set` (0 or 1) in a triangle's shading record; set 0 for either
-// where the record holds one.
+// The corners' UVs of set `uv_set` (0 or 1) of a triangle's shading; set 0 for either where the
+// corners have one.
 fn corner_uvs(attr: Attr, uv_set: u32) -> array<vec2<f32>, 3> {
-    if (attr.group & TWO_UV_SETS) == 0u {
-        return array<vec2<f32>, 3>(attr.uv01.xy, attr.uv01.zw, attr.uv2);
-    }
-    var c = attr.uv01.xy;
-    var offsets = vec2<u32>(bitcast<u32>(attr.uv01.z), bitcast<u32>(attr.uv01.w));
     if uv_set == 1u {
-        c = attr.uv2;
-        offsets = attr.tangents;
+        return attr.uvs1;
     }
-    return array<vec2<f32>, 3>(c, c + unpack2x16float(offsets.x), c + unpack2x16float(offsets.y));
+    return attr.uvs;
 }
 
-// Whether the record holds the corners' own tangents.
+// Whether the corners have tangents of their own.
 fn has_corner_tangents(attr: Attr) -> bool {
-    return (attr.group & TWO_UV_SETS) == 0u && (attr.tangents.x & TANGENTS_PRESENT) != 0u;
+    return (attr.tangents.x & TANGENTS_PRESENT) != 0u;
 }
 
 // The UV set material map `map` reads.
@@ -363,7 +423,8 @@ fn masked_out(o: Object, triangle: u32, u: f32, v: f32) -> bool {
     }
     var a = o.base_color.a;
     if o.texture != NONE {
-        let uv = mesh_uv(attr_at(triangle), map_set(o, MAP_BASE), u, v);
+        let c = corner_uvs_at(triangle, map_set(o, MAP_BASE));
+        let uv = c[0] * (1.0 - u - v) + c[1] * u + c[2] * v;
         a *= sample_map(o, o.texture, MAP_BASE, map_uv(o, MAP_BASE, uv)).a;
     }
     return a < o.emissive.w;
@@ -965,13 +1026,9 @@ fn emitted(o: Object, triangle: u32, u: f32, v: f32) -> vec3<f32> {
     }
     var e = o.emissive.rgb;
     if o.maps.w != NONE {
-        let attr = attr_at(triangle);
-        let t0 = mesh_uv(attr, 0u, u, v);
-        var t1 = t0;
-        if map_set(o, MAP_EMISSIVE) == 1u {
-            t1 = mesh_uv(attr, 1u, u, v);
-        }
-        e *= sample_map(o, o.maps.w, MAP_EMISSIVE, map_coordinate(o, MAP_EMISSIVE, t0, t1)).rgb;
+        let c = corner_uvs_at(triangle, map_set(o, MAP_EMISSIVE));
+        let t = c[0] * (1.0 - u - v) + c[1] * u + c[2] * v;
+        e *= sample_map(o, o.maps.w, MAP_EMISSIVE, map_uv(o, MAP_EMISSIVE, t)).rgb;
     }
     return e;
 }

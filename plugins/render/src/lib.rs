@@ -55,15 +55,18 @@ pub use types::parts::{
     MAX_PART_SHIFT, PartLayout, part_bindings, part_count, trace_storage_buffers,
 };
 pub use types::records::{
-    ATTRIBUTE_BYTES, CLAMP_FROM_IMAGE, CLAMP_FROM_PREVIEW, DENOISE_IMAGES, DENOISE_PASSES,
-    DENOISE_SIGMA_LUMINANCE, DENOISE_TAP_WORDS, GUIDE_WORDS, GpuAoParams, GpuAttribute, GpuDenoise,
-    GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuTemporal, GpuView, LIGHT_BYTES,
-    LayerTexture, MaterialMap, OBJECT_BYTES, ResolveParams, SceneLight, SurfaceAlpha,
-    SurfaceMaterial, TEMPORAL_FADE_SAMPLES, TEMPORAL_MAX_WEIGHT, TemporalRestart, TextureWrap,
-    TraceWork, VIEW_BYTES, ViewParams, attribute_bytes, attribute_record, aux_bytes, decode_normal,
-    decode_tangents, denoise_pass_bytes, denoise_passes, denoise_source, denoise_tap_bytes,
-    denoise_target, encode_normal, encode_tangents, guide_bytes, light_bytes, object_bytes,
-    outline_words, packed_attribute_record, set_outline, temporal_bytes,
+    CLAMP_FROM_IMAGE, CLAMP_FROM_PREVIEW, DENOISE_IMAGES, DENOISE_PASSES, DENOISE_SIGMA_LUMINANCE,
+    DENOISE_TAP_WORDS, GUIDE_WORDS, GpuAoParams, GpuDenoise, GpuLight, GpuObject, GpuPrimaryCamera,
+    GpuResolve, GpuTemporal, GpuView, LIGHT_BYTES, LayerTexture, MaterialMap, OBJECT_BYTES,
+    ResolveParams, SceneLight, SurfaceAlpha, SurfaceMaterial, TEMPORAL_FADE_SAMPLES,
+    TEMPORAL_MAX_WEIGHT, TemporalRestart, TextureWrap, TraceWork, VIEW_BYTES, ViewParams,
+    aux_bytes, decode_normal, decode_tangents, denoise_pass_bytes, denoise_passes, denoise_source,
+    denoise_tap_bytes, denoise_target, encode_normal, encode_tangents, guide_bytes, light_bytes,
+    object_bytes, outline_words, set_outline, temporal_bytes,
+};
+pub use types::shading::{
+    ATTRIBUTE_BYTES, CornerShading, GpuAttribute, GpuShadingVertex, SHADING_VERTEX_BYTES,
+    ShadingBuffers, VertexLayout, attribute_record, shading_record, vertex_count, vertex_records,
 };
 pub use types::upload::{
     BufferKind, BufferWrite, UploadPlan, Writes, grown_capacity, instance_bytes, node_bytes,

@@ -13,9 +13,9 @@ use support::{Gpu, TraceTarget, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, MapTransformTable, OBJECT_BYTES, OutlineStyle, PATHTRACE_WGSL,
-    ResolveParams, SceneLight, SurfaceMaterial, TileCursor, TileOrder, TraceWork, ViewParams,
-    attribute_bytes, light_bytes, object_bytes, outline_words, set_outline,
+    DebugView, MapTransformTable, OBJECT_BYTES, OutlineStyle, PATHTRACE_WGSL, ResolveParams,
+    SceneLight, ShadingBuffers, SurfaceMaterial, TileCursor, TileOrder, TraceWork, ViewParams,
+    attribute_record, light_bytes, object_bytes, outline_words, set_outline,
 };
 
 // Not a multiple of the tile size, so edge tiles are partly outside the image.
@@ -114,7 +114,7 @@ fn world_from_clip() -> Mat4 {
 
 struct Tracer {
     gpu: Gpu,
-    buffers: [wgpu::Buffer; 7],
+    buffers: [wgpu::Buffer; 8],
     pipeline: wgpu::ComputePipeline,
     layers: support::Layers,
     root: u32,
@@ -125,12 +125,13 @@ impl Tracer {
     fn new(scene: &Scene) -> Self {
         let gpu = Gpu::new();
         let bvh = &scene.bvh;
-        let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
+        let mut shading = ShadingBuffers::default();
+        shading.reserve_triangles(bvh.triangle_capacity());
         let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
         let mut map_transforms = MapTransformTable::default();
         for (&g, m) in &scene.materials {
             for &id in bvh.group_triangles(g).unwrap() {
-                put_record(&mut attrs, id, &attribute_bytes(None, None, g.index()));
+                shading.put(id, &attribute_record(None, None, g.index()));
             }
             put_record(
                 &mut objects,
@@ -140,7 +141,7 @@ impl Tracer {
         }
         let lights: Vec<u8> = scene.lights.iter().flat_map(light_bytes).collect();
         Self {
-            buffers: gpu.scene_buffers(bvh, &attrs, &objects, &lights, &map_transforms.bytes()),
+            buffers: gpu.scene_buffers(bvh, &shading, &objects, &lights, &map_transforms.bytes()),
             pipeline: gpu.pipeline(PATHTRACE_WGSL, "path_trace"),
             layers: gpu.layers(4, 1),
             root: support::traced_root(bvh),

@@ -18,9 +18,9 @@ use support::{Gpu, Rng, floats, put_record};
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3};
 use treelight_bvh::{Bvh, GroupId, Ray, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, EmitterList, MapTransformTable, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL,
-    PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_bytes,
-    light_bytes, object_bytes,
+    EmitterList, MapTransformTable, OBJECT_BYTES, PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, SceneLight,
+    ShadingBuffers, SurfaceMaterial, TraceWork, ViewParams, attribute_record, light_bytes,
+    object_bytes,
 };
 
 const SIZE: u32 = 32;
@@ -237,12 +237,13 @@ fn gpu_image(scene: &Scene) -> Vec<Vec3> {
 fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     let gpu = Gpu::new();
     let bvh = &scene.bvh;
-    let mut attrs = vec![0u8; bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize];
+    let mut shading = ShadingBuffers::default();
+    shading.reserve_triangles(bvh.triangle_capacity());
     let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
     let mut map_transforms = MapTransformTable::default();
     for (&g, m) in &scene.materials {
         for &id in bvh.group_triangles(g).unwrap() {
-            put_record(&mut attrs, id, &attribute_bytes(None, None, g.index()));
+            shading.put(id, &attribute_record(None, None, g.index()));
         }
         let rec = object_bytes(
             Mat3::from(bvh.group_transform(g).unwrap().matrix3),
@@ -263,9 +264,9 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     );
     lights.extend_from_slice(&list.bytes());
     let table = map_transforms.bytes();
-    let buffers = gpu.scene_buffers(bvh, &attrs, &objects, &lights, &table);
+    let buffers = gpu.scene_buffers(bvh, &shading, &objects, &lights, &table);
     let split =
-        split_shift.map(|s| gpu.split_scene_buffers(bvh, &attrs, &objects, &lights, &table, s));
+        split_shift.map(|s| gpu.split_scene_buffers(bvh, &shading, &objects, &lights, &table, s));
     let target = gpu.trace_target(SIZE, SIZE);
     let pipeline = gpu.pipeline(
         if split.is_some() {

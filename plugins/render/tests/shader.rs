@@ -7,8 +7,8 @@ use treelight_bvh::{
     GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GpuWideNode,
 };
 use treelight_render::{
-    GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuView,
-    PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, PRIMARY_HITS_BINARY_COMPRESSED_WGSL,
+    GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuShadingVertex,
+    GpuView, PATHTRACE_SPLIT_WGSL, PATHTRACE_WGSL, PRIMARY_HITS_BINARY_COMPRESSED_WGSL,
     PRIMARY_HITS_BINARY_WGSL, PRIMARY_HITS_SPLIT_WGSL, PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL,
     RESOLVE_WGSL,
 };
@@ -164,8 +164,12 @@ fn path_tracer_records_have_the_crate_s_layout() {
     let m = module(PATHTRACE_WGSL);
     assert!(has_entry(&m, "path_trace"));
     assert_eq!(
-        wgsl_layout(&m, "Attr"),
-        rust_layout!(GpuAttribute, [normals, group, uv01, uv2, tangents])
+        wgsl_layout(&m, "ShadingRecord"),
+        rust_layout!(GpuAttribute, [corners, group])
+    );
+    assert_eq!(
+        wgsl_layout(&m, "ShadingVertex"),
+        rust_layout!(GpuShadingVertex, [normal, tangent, uv])
     );
     assert_eq!(
         wgsl_layout(&m, "Object"),

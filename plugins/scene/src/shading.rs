@@ -112,6 +112,12 @@ impl MeshShading {
         &self.vertices
     }
 
+    /// The vertex arrays as shared: the same for every shading made from one mesh (its chunks,
+    /// the groups that show it), so a renderer uploads them once.
+    pub fn shared_vertices(&self) -> &Arc<ShadingVertices> {
+        &self.vertices
+    }
+
     /// Triangle `k`'s three vertices, if it has them.
     pub fn corners(&self, k: usize) -> Option<[u32; 3]> {
         match &self.corners {

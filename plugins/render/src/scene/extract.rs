@@ -10,9 +10,10 @@ use crate::types::emitters::{EmitterList, placed_triangles};
 use crate::types::map_transforms::MapUvTransforms;
 use crate::types::records::{
     LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
-    outline_words, packed_attribute_record, same_drawing, set_outline, with_identity,
+    outline_words, same_drawing, set_outline, with_identity,
 };
 use crate::types::upload::{BufferKind, UploadPlan, Writes, runs};
+use crate::types::vertex_pool::ShadingPool;
 use crate::types::view::Outlined;
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::InheritedVisibility;
@@ -46,8 +47,8 @@ pub(crate) struct SceneSync {
     outlines: Vec<u32>,
     /// The slots the views know re-laid groups by.
     identities: crate::types::identity::SlotIdentities,
-    /// By group slot: whether its shading records were written holding two UV sets.
-    two_uv_sets: Vec<bool>,
+    /// The shading vertices' pool: a run per mesh, and the run each group's records name.
+    pool: ShadingPool,
     /// The emissive triangles, by group.
     emitters: EmitterList,
     /// Whether the emitters' records changed since the lights buffer was last written.
@@ -163,6 +164,7 @@ fn extract_scene(
     let everything = !sync.synced;
     if everything {
         sync.records = WideRecords::default();
+        sync.pool = ShadingPool::default();
     }
     pending.filling = scene.is_filling();
     let assets = MaterialAssets {
@@ -176,6 +178,16 @@ fn extract_scene(
         let triangles = u64::from(tree.bvh.triangle_count()) + incoming;
         pending.expect(BufferKind::Triangles, triangles);
         pending.expect(BufferKind::Attributes, triangles);
+        // Shading vertices: as many a new triangle as the pool holds a triangle now (one before
+        // there is a pool to go by).
+        let per_triangle = match tree.bvh.triangle_count() {
+            0..1024 => 1.0,
+            n => sync.pool.live_records() as f64 / f64::from(n),
+        };
+        pending.expect(
+            BufferKind::ShadingVertices,
+            u64::from(sync.pool.end()) + (incoming as f64 * per_triangle.min(3.0)) as u64,
+        );
         // Node records: as many a new triangle as the tree has now (at most one an inner node,
         // half of them once laid out afresh).
         let per_inner = match tree.bvh.inner_count() {
@@ -373,11 +385,11 @@ fn scene_writes(
     sync.objects.resize(bvh.group_slots() as usize, None);
     let replaced: std::collections::HashMap<GroupId, GroupId> =
         changes.relaid_groups.iter().copied().collect();
-    sync.two_uv_sets.resize(bvh.group_slots() as usize, false);
     let mut relay: Vec<GroupId> = changes.fresh_groups.clone();
     relay.extend(changes.relaid_groups.iter().map(|r| r.0));
     layers.begin_pass();
     sync.emitters.begin_pass();
+    sync.pool.begin_pass(bvh.group_slots());
     let sets = sync.map_transforms.len();
     let relaid: std::collections::HashSet<GroupId> = relay.iter().copied().collect();
     for (&g, &e) in &tree.group_entity {
@@ -392,11 +404,13 @@ fn scene_writes(
             relaid.contains(&g),
             || placed_triangles(bvh, g),
         );
-        // Its shading records hold its second UV set where its material reads it.
-        let two = material.reads_second_uv_set()
-            && tree.shading.get(&g).is_some_and(|s| s.has_second_uv_set());
-        if std::mem::replace(&mut sync.two_uv_sets[g.index() as usize], two) != two {
-            // A material that began or stopped reading the second set: the group's records again.
+        // Its shading vertices hold its second UV set where its material reads it. New vertices,
+        // or a material that began or stopped reading the second set: the group's records again.
+        let shading = tree.shading.get(&g).map(|s| &**s);
+        if sync
+            .pool
+            .group(g.index(), shading, material.reads_second_uv_set())
+        {
             relay.push(g);
         }
         let rec = with_identity(
@@ -422,14 +436,21 @@ fn scene_writes(
         }
     }
     layers.end_pass();
+    sync.pool.end_pass();
     sync.emitters_changed |= sync.emitters.end_pass();
     if sync.map_transforms.len() != sets {
         p.map_transforms = Some(sync.map_transforms.bytes());
     }
 
-    // Shading records of new and re-laid groups (triangles that only moved keep theirs) and of
-    // groups whose material changed the UV sets it reads: which group and which of its triangles
-    // each id is, sorted by id, then written run by run.
+    // The vertices of meshes new to the pool, then the shading records of new and re-laid
+    // groups (triangles that only moved keep theirs) and of groups whose vertices moved in the
+    // pool or whose material changed the UV sets it reads: which group and which of its
+    // triangles each id is, sorted by id, then written run by run.
+    p.need(BufferKind::ShadingVertices, u64::from(sync.pool.end()));
+    let (needed, expected) = (p.needed, p.expected);
+    let mut flush = |w: &mut Writes| target.flush(w, &needed, &expected);
+    sync.pool
+        .write_new_vertices(&mut p.writes, round, &mut flush);
     let mut records: Vec<(u32, GroupId, u32)> = Vec::new();
     for g in relay {
         let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
@@ -440,24 +461,13 @@ fn scene_writes(
     records.sort_unstable_by_key(|r| r.0);
     records.dedup_by_key(|r| r.0);
     let runs = runs(records.iter().map(|r| r.0), 0);
-    let two_uv_sets = &sync.two_uv_sets;
+    let pool = &sync.pool;
     p.writes.push_records_in_rounds(
         BufferKind::Attributes,
         runs,
         |j, _| {
             let (_, g, k) = records[j];
-            let k = k as usize;
-            let Some(shading) = tree.shading.get(&g) else {
-                return packed_attribute_record(None, None, g.index());
-            };
-            let mut record = packed_attribute_record(shading.normals(k), shading.uvs(k), g.index());
-            record.tangents = shading.tangents(k).unwrap_or_default();
-            if two_uv_sets[g.index() as usize]
-                && let Some(uvs1) = shading.uvs1(k)
-            {
-                record = record.with_second_uv_set(uvs1);
-            }
-            record
+            pool.record(g.index(), tree.shading.get(&g).map(|s| &**s), k as usize)
         },
         round,
         &mut flush,

@@ -38,7 +38,7 @@ pub(crate) struct GpuScene {
     /// In [`BufferKind::ALL`] order, each kind's parts (one until a part is full).
     pub(crate) buffers: Vec<Vec<Buffer>>,
     /// Records each kind holds, all its parts together.
-    pub(crate) capacities: [u64; 6],
+    pub(crate) capacities: [u64; 7],
     /// How the large kinds are split across bindings on this adapter.
     pub layout: PartLayout,
     /// Bound where a kind has fewer parts than the kernel declares.
@@ -61,9 +61,9 @@ pub(crate) struct GpuScene {
     pub bind_group: Option<BindGroup>,
     /// Records of each kind the kernels may read (the most any frame needed): the bind group
     /// covers these, not the buffers' room to grow ([`PartLayout::bound_sizes`]).
-    pub(crate) in_use: [u64; 6],
+    pub(crate) in_use: [u64; 7],
     /// What `in_use` was when the bind group was made.
-    pub(crate) bound: [u64; 6],
+    pub(crate) bound: [u64; 7],
     /// The texture array's and the panorama's versions the bind group was made with.
     pub(crate) bound_array: u64,
     pub(crate) bound_environment: u64,
@@ -160,6 +160,7 @@ fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
             BufferKind::Triangles => "treelight triangles",
             BufferKind::Instances => "treelight instances",
             BufferKind::Attributes => "treelight triangle shading",
+            BufferKind::ShadingVertices => "treelight shading vertices",
             BufferKind::Objects => "treelight objects",
             BufferKind::Lights => "treelight lights",
         }),
@@ -202,8 +203,8 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         generation: 0,
         tree_generation: 0,
         bind_group: None,
-        in_use: [0; 6],
-        bound: [0; 6],
+        in_use: [0; 7],
+        bound: [0; 7],
         bound_array: 0,
         bound_environment: 0,
         outlines: outline_buffer(&device, 64),
@@ -399,7 +400,7 @@ impl StreamTarget<'_> {
     /// [`PendingUpload::expected`] says), then stages `writes` and empties them; the copies go to
     /// the GPU with the frame's uploads, or sooner, a round at a time. Before the scene's buffers
     /// exist the writes are left as they are.
-    pub(crate) fn flush(&mut self, writes: &mut Writes, needed: &[u64; 6], expected: &[u64; 6]) {
+    pub(crate) fn flush(&mut self, writes: &mut Writes, needed: &[u64; 7], expected: &[u64; 7]) {
         let Some(scene) = self.scene.as_deref_mut() else {
             return;
         };
@@ -423,8 +424,8 @@ impl StreamTarget<'_> {
 /// nothing is written, and the copies recorded this frame are dropped.
 fn grow_recorded(
     scene: &mut GpuScene,
-    needed: &[u64; 6],
-    expected: &[u64; 6],
+    needed: &[u64; 7],
+    expected: &[u64; 7],
     device: &RenderDevice,
     stats: &PathTracerStats,
 ) -> Option<()> {
@@ -452,8 +453,8 @@ fn grow_recorded(
 /// declares: tracing stops, with the reason in the figures.
 fn grow_buffers(
     scene: &mut GpuScene,
-    needed: &[u64; 6],
-    expected: &[u64; 6],
+    needed: &[u64; 7],
+    expected: &[u64; 7],
     device: &RenderDevice,
     stats: &PathTracerStats,
 ) -> Option<Vec<(Buffer, u64, usize, usize)>> {

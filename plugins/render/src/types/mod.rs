@@ -10,5 +10,7 @@ pub(crate) mod identity;
 pub(crate) mod map_transforms;
 pub(crate) mod parts;
 pub(crate) mod records;
+pub(crate) mod shading;
 pub(crate) mod upload;
+pub(crate) mod vertex_pool;
 pub(crate) mod view;

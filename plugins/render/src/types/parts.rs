@@ -9,8 +9,12 @@ use crate::types::upload::BufferKind;
 /// Parts the kernels declare for a kind (1 for the kinds that are never split).
 pub fn part_count(kind: BufferKind) -> usize {
     match kind {
-        // Node records at under half the inner nodes, triangles and shading records one each.
-        BufferKind::Nodes | BufferKind::Triangles | BufferKind::Attributes => 8,
+        // Node records at under half the inner nodes, triangle records one a triangle.
+        BufferKind::Nodes | BufferKind::Triangles => 8,
+        // Parts of four times the records (a quarter of a node's bytes each): the triangles'
+        // shading records in two, the shading vertices (up to three a triangle) in six.
+        BufferKind::Attributes => 2,
+        BufferKind::ShadingVertices => 6,
         BufferKind::Instances | BufferKind::Objects | BufferKind::Lights => 1,
     }
 }
@@ -21,7 +25,8 @@ pub fn part_bindings(kind: BufferKind) -> &'static [u32] {
         BufferKind::Nodes => &[0, 8, 9, 10, 11, 12, 13, 14],
         BufferKind::Triangles => &[1, 15, 16, 17, 18, 19, 20, 21],
         BufferKind::Instances => &[2],
-        BufferKind::Attributes => &[3, 22, 23, 24, 25, 26, 27, 28],
+        BufferKind::Attributes => &[3, 22],
+        BufferKind::ShadingVertices => &[23, 24, 25, 26, 27, 28],
         BufferKind::Objects => &[4],
         BufferKind::Lights => &[5],
     }
@@ -41,8 +46,9 @@ pub fn trace_storage_buffers() -> u32 {
 /// The largest part shift any adapter gets: record references carry 30 bits of index.
 pub const MAX_PART_SHIFT: u32 = 30;
 
-/// How the split kinds are cut: parts of `1 << shift` records; the other kinds are one binding of
-/// at most `max_binding_bytes`.
+/// How the split kinds are cut: parts of `1 << shift` records (four times as many for the 16-byte
+/// shading kinds: [`PartLayout::shift_of`]); the other kinds are one binding of at most
+/// `max_binding_bytes`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PartLayout {
     /// Records per part, as a power of two.
@@ -55,15 +61,11 @@ impl PartLayout {
     /// The layout for an adapter binding at most `max_binding_bytes`: the largest power of two of
     /// records of every split kind that one binding holds.
     pub fn for_binding_limit(max_binding_bytes: u64) -> Self {
-        let widest = [
-            BufferKind::Nodes,
-            BufferKind::Triangles,
-            BufferKind::Attributes,
-        ]
-        .map(BufferKind::record_bytes)
-        .into_iter()
-        .max()
-        .unwrap_or(64);
+        let widest = [BufferKind::Nodes, BufferKind::Triangles]
+            .map(BufferKind::record_bytes)
+            .into_iter()
+            .max()
+            .unwrap_or(64);
         let records = (max_binding_bytes / widest).max(1);
         Self {
             shift: records.ilog2().min(MAX_PART_SHIFT),
@@ -79,9 +81,21 @@ impl PartLayout {
         }
     }
 
-    /// Records one part holds.
+    /// Records one part of the nodes and triangles holds.
     pub fn part_records(self) -> u64 {
         1 << self.shift
+    }
+
+    /// Records one part of a split kind holds, as a power of two: `shift` for nodes and
+    /// triangles, two more for the 16-byte shading records and vertices (a part of theirs is no
+    /// more bytes than a part of nodes). The kernels' `attr_part_shift` says the same.
+    pub fn shift_of(self, kind: BufferKind) -> u32 {
+        match kind {
+            BufferKind::Attributes | BufferKind::ShadingVertices => {
+                (self.shift + 2).min(MAX_PART_SHIFT)
+            }
+            _ => self.shift,
+        }
     }
 
     /// Records one buffer of a kind holds at most: a part, or a whole binding for a kind never
@@ -90,7 +104,7 @@ impl PartLayout {
         if part_count(kind) == 1 {
             self.max_binding_bytes / kind.record_bytes()
         } else {
-            self.part_records()
+            1 << self.shift_of(kind)
         }
     }
 
@@ -158,7 +172,7 @@ impl PartLayout {
         let part_bytes = if part_count(kind) == 1 {
             u64::MAX
         } else {
-            self.part_records() * kind.record_bytes()
+            self.buffer_records(kind) * kind.record_bytes()
         };
         let mut at = 0u64;
         std::iter::from_fn(move || {
@@ -208,7 +222,8 @@ mod tests {
         all.push(crate::types::map_transforms::MAP_TRANSFORMS_BINDING);
         all.sort_unstable();
         assert_eq!(all, (0..34).collect::<Vec<u32>>());
-        // 27 parts and the transforms, then the view's accumulation, aux and guides.
+        // 27 parts and the transforms, then the view's accumulation, aux and guides: 31, what
+        // Metal binds in a stage.
         assert_eq!(trace_storage_buffers(), 31);
     }
 
@@ -297,6 +312,20 @@ mod tests {
                 (2, 0, (18 * rb) as usize..(20 * rb) as usize),
             ]
         );
+        // The shading kinds' parts hold four times the records: the same bytes.
+        let a = BufferKind::Attributes;
+        assert_eq!(l.shift_of(a), 6);
+        assert_eq!(l.shift_of(BufferKind::ShadingVertices), 6);
+        let pieces: Vec<_> = l.pieces(a, 60 * 16, 8 * 16).collect();
+        assert_eq!(pieces, vec![(0, 60 * 16, 0..64), (1, 0, 64..128)]);
+        // Shading records for as many triangles as the triangle records hold, and three vertices
+        // a triangle.
+        assert_eq!(l.max_records(a), l.max_records(t));
+        assert_eq!(
+            l.max_records(BufferKind::ShadingVertices),
+            3 * l.max_records(t)
+        );
+        assert_eq!(PartLayout::whole().shift_of(a), MAX_PART_SHIFT);
         // A kind never split is one piece wherever it writes.
         let o = BufferKind::Objects;
         let whole: Vec<_> = l.pieces(o, 100 * o.record_bytes(), 64).collect();

@@ -8,8 +8,6 @@ use bytemuck::{Pod, Zeroable};
 use crate::types::map_transforms::MapTransformTable;
 pub use treelight_scene::packed::{decode_normal, decode_tangents, encode_normal, encode_tangents};
 
-/// Bytes of one per-triangle shading record.
-pub const ATTRIBUTE_BYTES: u64 = size_of::<GpuAttribute>() as u64;
 /// Bytes of one per-group record (normal matrix and material).
 pub const OBJECT_BYTES: u64 = size_of::<GpuObject>() as u64;
 /// Bytes of one light record.
@@ -17,31 +15,8 @@ pub const LIGHT_BYTES: u64 = size_of::<GpuLight>() as u64;
 /// Bytes of the path tracer's view uniform.
 pub const VIEW_BYTES: u64 = size_of::<GpuView>() as u64;
 
-const HAS_NORMALS: u32 = 0x8000_0000;
-/// Bit 30 of a shading record's group word: the record holds two UV sets ([`GpuAttribute::uv01`]).
-const TWO_UV_SETS: u32 = 0x4000_0000;
 /// Bit of a material's wrap word from which each map says it reads the second UV set.
 const SECOND_SET_BITS: u32 = 22;
-
-/// `Attr` of `pathtrace.wgsl`: one triangle's shading.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuAttribute {
-    /// Object-space corner normals, octahedral ([`encode_normal`]).
-    pub normals: [u32; 3],
-    /// The group's slot; bit 31 set when the normals are present, bit 30 when the record holds two
-    /// UV sets.
-    pub group: u32,
-    /// UVs of corners 0 and 1. With two sets: set 0's corner 0, then its corners 1 and 2 less
-    /// corner 0, as two half-float pairs (`pack2x16float`'s bits).
-    pub uv01: [f32; 4],
-    /// UV of corner 2. With two sets: set 1's corner 0.
-    pub uv2: [f32; 2],
-    /// The corners' object-space tangents ([`encode_tangents`]); zero when the mesh has none (the
-    /// kernel then makes one per triangle from its UVs). With two sets: set 1's corners 1 and 2
-    /// less corner 0, as half-float pairs (the kernel then makes tangents per triangle).
-    pub tangents: [u32; 2],
-}
 
 /// `Object` of `pathtrace.wgsl`: one group's normal matrix and material.
 #[repr(C)]
@@ -515,73 +490,6 @@ pub struct GpuAoParams {
     pub pad0: u32,
     /// Padding.
     pub pad1: u32,
-}
-
-/// One triangle's shading record: its corners' object-space normals (or none: flat shading), UVs and
-/// the slot of the group whose object record holds its material.
-pub fn attribute_bytes(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>, group: u32) -> Vec<u8> {
-    bytemuck::bytes_of(&attribute_record(normals, uvs, group)).to_vec()
-}
-
-/// [`attribute_bytes`] as the record itself.
-pub fn attribute_record(
-    normals: Option<[Vec3; 3]>,
-    uvs: Option<[Vec2; 3]>,
-    group: u32,
-) -> GpuAttribute {
-    packed_attribute_record(normals.map(|n| n.map(encode_normal)), uvs, group)
-}
-
-/// [`attribute_record`] from normals already packed ([`encode_normal`], as a scene keeps them).
-pub fn packed_attribute_record(
-    normals: Option<[u32; 3]>,
-    uvs: Option<[Vec2; 3]>,
-    group: u32,
-) -> GpuAttribute {
-    let flag = if normals.is_some() { HAS_NORMALS } else { 0 };
-    let uv = uvs.unwrap_or([Vec2::ZERO; 3]);
-    GpuAttribute {
-        normals: normals.unwrap_or([0; 3]),
-        group: (group & !(HAS_NORMALS | TWO_UV_SETS)) | flag,
-        uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
-        uv2: [uv[2].x, uv[2].y],
-        tangents: [0; 2],
-    }
-}
-
-impl GpuAttribute {
-    /// The record with its corners' tangents (xyz and the bitangent's sign in w, glTF's
-    /// convention), or without any.
-    pub fn with_tangents(mut self, tangents: Option<[Vec4; 3]>) -> Self {
-        self.tangents = tangents.map_or([0; 2], encode_tangents);
-        self
-    }
-
-    /// The record holding a second UV set (`uvs1`) beside its first, for a material whose maps
-    /// read both. Each set keeps its corner 0 in full and its other corners as half-float offsets
-    /// from it (exact to about 1/2048 of the triangle's extent in UV space), in the room the first
-    /// set's corners and the corner tangents took: the kernel makes tangents per triangle for such
-    /// records. Set 0 is the record's own UVs.
-    pub fn with_second_uv_set(mut self, uvs1: [Vec2; 3]) -> Self {
-        let uv0 = [
-            Vec2::new(self.uv01[0], self.uv01[1]),
-            Vec2::new(self.uv01[2], self.uv01[3]),
-            Vec2::new(self.uv2[0], self.uv2[1]),
-        ];
-        let offsets = |c: [Vec2; 3]| [half_pair(c[1] - c[0]), half_pair(c[2] - c[0])];
-        let [a, b] = offsets(uv0);
-        self.uv01 = [uv0[0].x, uv0[0].y, f32::from_bits(a), f32::from_bits(b)];
-        self.uv2 = uvs1[0].to_array();
-        self.tangents = offsets(uvs1);
-        self.group |= TWO_UV_SETS;
-        self
-    }
-}
-
-/// `pack2x16float` of WGSL: x in the low half, y in the high, each rounded to the nearest half.
-fn half_pair(v: Vec2) -> u32 {
-    u32::from(half::f16::from_f32(v.x).to_bits())
-        | (u32::from(half::f16::from_f32(v.y).to_bits()) << 16)
 }
 
 /// How a texture coordinate outside 0..1 folds back, along one axis.
@@ -1073,75 +981,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_record_with_two_uv_sets_holds_both_to_half_precision_of_its_extent() {
-        let uv0 = [
-            Vec2::new(12.5, -3.0),
-            Vec2::new(12.75, -2.5),
-            Vec2::new(12.0, -2.875),
-        ];
-        let uv1 = [
-            Vec2::new(0.25, 0.5),
-            Vec2::new(0.2501, 0.5),
-            Vec2::new(0.25, 0.5003),
-        ];
-        let slot = 0x3fff_fffe;
-        let r = attribute_record(Some([Vec3::Z; 3]), Some(uv0), slot).with_second_uv_set(uv1);
-        assert_eq!(r.group & 0x3fff_ffff, slot, "the slot");
-        assert_eq!(
-            r.group & (HAS_NORMALS | TWO_UV_SETS),
-            HAS_NORMALS | TWO_UV_SETS
-        );
-        // What the kernel's corner_uvs reads back.
-        let unpack = |w: u32| {
-            let h = |b: u32| half::f16::from_bits(b as u16).to_f32();
-            Vec2::new(h(w & 0xffff), h(w >> 16))
-        };
-        let c0 = Vec2::new(r.uv01[0], r.uv01[1]);
-        let set0 = [
-            c0,
-            c0 + unpack(r.uv01[2].to_bits()),
-            c0 + unpack(r.uv01[3].to_bits()),
-        ];
-        let c1 = Vec2::from_array(r.uv2);
-        let set1 = [c1, c1 + unpack(r.tangents[0]), c1 + unpack(r.tangents[1])];
-        for k in 0..3 {
-            // Corner 0 exactly; the others to 1/2048 of their offset from it.
-            let bound = |a: [Vec2; 3]| (a[k] - a[0]).abs().max_element() / 2048.0;
-            assert!(
-                (set0[k] - uv0[k]).abs().max_element() <= bound(uv0),
-                "set 0 corner {k}"
-            );
-            assert!(
-                (set1[k] - uv1[k]).abs().max_element() <= bound(uv1),
-                "set 1 corner {k}"
-            );
-        }
-        // A second UV set reads from bit 22 of the wrap word, one bit a map.
-        let map = |second_uv_set| {
-            Some(LayerTexture {
-                layer: 0,
-                wrap: [TextureWrap::Clamp; 2],
-                second_uv_set,
-            })
-        };
-        let m = SurfaceMaterial {
-            base_color_texture: map(false),
-            occlusion_texture: map(true),
-            ..Default::default()
-        };
-        assert!(m.reads_second_uv_set());
-        let o: GpuObject = bytemuck::pod_read_unaligned(&object_bytes(
-            Mat3::IDENTITY,
-            &m,
-            &mut MapTransformTable::default(),
-        ));
-        assert_eq!(
-            o.wrap >> SECOND_SET_BITS,
-            1 << MaterialMap::Occlusion as u32
-        );
-    }
-
-    #[test]
     fn maps_with_different_transforms_name_a_set_and_agreeing_ones_do_not() {
         let map = Some(LayerTexture {
             layer: 0,
@@ -1233,9 +1072,6 @@ mod tests {
             assert!(got.iter().all(|g| g.dot(axis) > 0.99999), "{axis}: {got:?}");
         }
         assert!(worst > 0.25f32.to_radians().cos(), "worst cosine {worst}");
-        let bare = attribute_record(None, None, 3);
-        assert_eq!(decode_tangents(bare.tangents), None);
-        assert_eq!(decode_tangents(bare.with_tangents(None).tangents), None);
     }
 
     #[test]
@@ -1303,7 +1139,6 @@ mod tests {
 
     #[test]
     fn records_have_the_shader_sizes() {
-        assert_eq!(attribute_bytes(None, None, 3).len() as u64, ATTRIBUTE_BYTES);
         assert_eq!(
             object_bytes(
                 Mat3::IDENTITY,

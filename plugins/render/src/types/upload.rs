@@ -24,8 +24,10 @@ pub enum BufferKind {
     Triangles,
     /// Instance records.
     Instances,
-    /// Per-triangle shading records (normals, UVs, group).
+    /// Per-triangle shading records (the corners in the shading vertices' pool, the group).
     Attributes,
+    /// The pool of shading vertices (normals, tangents, UVs), a run per mesh.
+    ShadingVertices,
     /// Per-group records (normal matrix, material).
     Objects,
     /// Light records.
@@ -34,11 +36,12 @@ pub enum BufferKind {
 
 impl BufferKind {
     /// Every buffer, in binding order.
-    pub const ALL: [BufferKind; 6] = [
+    pub const ALL: [BufferKind; 7] = [
         BufferKind::Nodes,
         BufferKind::Triangles,
         BufferKind::Instances,
         BufferKind::Attributes,
+        BufferKind::ShadingVertices,
         BufferKind::Objects,
         BufferKind::Lights,
     ];
@@ -55,6 +58,7 @@ impl BufferKind {
             BufferKind::Triangles => "triangles",
             BufferKind::Instances => "instances",
             BufferKind::Attributes => "shading records",
+            BufferKind::ShadingVertices => "shading vertices",
             BufferKind::Objects => "object records",
             BufferKind::Lights => "lights",
         }
@@ -66,7 +70,8 @@ impl BufferKind {
             BufferKind::Nodes => NODE_BYTES,
             BufferKind::Triangles => TRIANGLE_BYTES,
             BufferKind::Instances => INSTANCE_BYTES,
-            BufferKind::Attributes => crate::types::records::ATTRIBUTE_BYTES,
+            BufferKind::Attributes => crate::types::shading::ATTRIBUTE_BYTES,
+            BufferKind::ShadingVertices => crate::types::shading::SHADING_VERTEX_BYTES,
             BufferKind::Objects => crate::types::records::OBJECT_BYTES,
             BufferKind::Lights => crate::types::records::LIGHT_BYTES,
         }

@@ -11,8 +11,8 @@ use treelight_bvh::glam::Vec3;
 use treelight_bvh::{Bvh, Ray};
 use treelight_render::{
     BufferKind, GpuPrimaryCamera, MAX_PART_SHIFT, PRIMARY_HITS_SPLIT_WGSL, PRIMARY_HITS_WGSL,
-    TEXTURE_LAYER_WGSL, ViewParams, instance_bytes, node_bytes, part_bindings, part_count,
-    triangle_bytes,
+    PartLayout, ShadingBuffers, TEXTURE_LAYER_WGSL, ViewParams, instance_bytes, node_bytes,
+    part_bindings, part_count, triangle_bytes,
 };
 use wgpu::util::DeviceExt;
 
@@ -486,26 +486,28 @@ impl Gpu {
 }
 
 impl Gpu {
-    /// The scene buffers `path_trace` binds: the tree's records, then the given shading, object
-    /// and light records at bindings 0 to 5, and the object records' table of per-map UV
-    /// transforms (`MapTransformTable::bytes`) at `MAP_TRANSFORMS_BINDING`.
+    /// The scene buffers `path_trace` binds: the tree's records, then the given shading records,
+    /// object and light records at bindings 0 to 5, the object records' table of per-map UV
+    /// transforms (`MapTransformTable::bytes`) at `MAP_TRANSFORMS_BINDING`, and the shading
+    /// vertices (at the first of their part bindings).
     pub fn scene_buffers(
         &self,
         bvh: &Bvh,
-        attributes: &[u8],
+        shading: &ShadingBuffers,
         objects: &[u8],
         lights: &[u8],
         map_transforms: &[u8],
-    ) -> [wgpu::Buffer; 7] {
+    ) -> [wgpu::Buffer; 8] {
         let [n, t, i] = tree_bytes(bvh);
         [
             self.storage("nodes", &n),
             self.storage("triangles", &t),
             self.storage("instances", &i),
-            self.storage("attributes", attributes),
+            self.storage("attributes", &shading.attributes),
             self.storage("objects", objects),
             self.storage("lights", lights),
             self.storage("map transforms", map_transforms),
+            self.storage("shading vertices", &shading.vertices),
         ]
     }
 
@@ -594,7 +596,7 @@ impl Gpu {
     pub fn path_trace(
         &self,
         pipeline: &wgpu::ComputePipeline,
-        scene: &[wgpu::Buffer; 7],
+        scene: &[wgpu::Buffer; 8],
         view: &ViewParams,
         target: &TraceTarget,
         layers: &Layers,
@@ -620,6 +622,10 @@ impl Gpu {
                     treelight_render::MAP_TRANSFORMS_BINDING,
                     scene[6].as_entire_binding(),
                 ),
+                (
+                    part_bindings(BufferKind::ShadingVertices)[0],
+                    scene[7].as_entire_binding(),
+                ),
             ])
             .chain(layers.environment_entries())
             .collect();
@@ -639,7 +645,7 @@ impl Gpu {
     pub fn split_scene_buffers(
         &self,
         bvh: &Bvh,
-        attributes: &[u8],
+        shading: &ShadingBuffers,
         objects: &[u8],
         lights: &[u8],
         map_transforms: &[u8],
@@ -647,18 +653,23 @@ impl Gpu {
     ) -> Vec<(u32, wgpu::Buffer)> {
         let [n, t, i] = tree_bytes(bvh);
         let mut out = Vec::new();
+        let layout = PartLayout {
+            shift,
+            max_binding_bytes: u64::MAX,
+        };
         for (kind, bytes) in [
             (BufferKind::Nodes, &n[..]),
             (BufferKind::Triangles, &t[..]),
             (BufferKind::Instances, &i[..]),
-            (BufferKind::Attributes, attributes),
+            (BufferKind::Attributes, &shading.attributes[..]),
+            (BufferKind::ShadingVertices, &shading.vertices[..]),
             (BufferKind::Objects, objects),
             (BufferKind::Lights, lights),
         ] {
             let part_bytes = if part_count(kind) == 1 {
                 bytes.len().max(1)
             } else {
-                (kind.record_bytes() << shift) as usize
+                (kind.record_bytes() << layout.shift_of(kind)) as usize
             };
             let chunks: Vec<&[u8]> = if bytes.is_empty() {
                 vec![bytes]

@@ -6,8 +6,8 @@ use std::f32::consts::PI;
 use treelight_bvh::glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use treelight_bvh::{Bvh, GroupId, Triangle};
 use treelight_render::{
-    ATTRIBUTE_BYTES, DebugView, EmitterList, GpuAttribute, MapTransformTable, OBJECT_BYTES,
-    PATHTRACE_WGSL, SceneLight, SurfaceMaterial, TraceWork, ViewParams, attribute_record,
+    CornerShading, DebugView, EmitterList, MapTransformTable, OBJECT_BYTES, PATHTRACE_WGSL,
+    SceneLight, ShadingBuffers, SurfaceMaterial, TraceWork, ViewParams, attribute_record,
     light_bytes, object_bytes,
 };
 
@@ -17,7 +17,7 @@ pub type ShadedTriangle = (Triangle, Option<[Vec3; 3]>, [Vec2; 3]);
 /// A scene as the kernel reads it: the tree, each group's material and corners' shading.
 pub struct Scene {
     pub bvh: Bvh,
-    pub attrs: Vec<u8>,
+    pub shading: ShadingBuffers,
     pub objects: Vec<u8>,
     /// The sets of per-map UV transforms the object records name.
     pub map_transforms: MapTransformTable,
@@ -29,7 +29,7 @@ impl Scene {
     pub fn new() -> Self {
         Self {
             bvh: Bvh::default(),
-            attrs: Vec::new(),
+            shading: ShadingBuffers::default(),
             objects: Vec::new(),
             map_transforms: MapTransformTable::default(),
             emission: Vec::new(),
@@ -91,17 +91,16 @@ impl Scene {
         transform: Affine3A,
         keep_whole: bool,
         material: &SurfaceMaterial,
-        finish: impl Fn(usize, GpuAttribute) -> GpuAttribute,
+        finish: impl Fn(usize, CornerShading) -> CornerShading,
     ) -> GroupId {
         let t: Vec<Triangle> = tris.iter().map(|x| x.0).collect();
         let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
         self.emission.push((g, Vec3::from(material.emissive)));
-        let need = self.bvh.triangle_capacity() as usize * ATTRIBUTE_BYTES as usize;
-        self.attrs.resize(need.max(self.attrs.len()), 0);
+        self.shading.reserve_triangles(self.bvh.triangle_capacity());
         for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
             let (_, n, uv) = tris[k];
             let record = finish(k, attribute_record(n, Some(uv), g.index()));
-            put_record(&mut self.attrs, id, bytemuck::bytes_of(&record));
+            self.shading.put(id, &record);
         }
         let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
         self.objects.resize(need.max(self.objects.len()), 0);
@@ -237,7 +236,7 @@ pub struct Frames<'a> {
     gpu: &'a Gpu,
     scene: &'a Scene,
     layers: &'a Layers,
-    buffers: [wgpu::Buffer; 7],
+    buffers: [wgpu::Buffer; 8],
     pipeline: wgpu::ComputePipeline,
     /// The groups in the emitters' table after the lights, and their triangles' total weight.
     emitters: (u32, f32),
@@ -271,7 +270,7 @@ impl<'a> Frames<'a> {
             layers,
             buffers: gpu.scene_buffers(
                 &scene.bvh,
-                &scene.attrs,
+                &scene.shading,
                 &scene.objects,
                 &lights,
                 &scene.map_transforms.bytes(),

@@ -1,0 +1,283 @@
+//! The triangles' shading on the GPU: a 16-byte record per triangle naming its three corners in a
+//! pool of shading vertices (normal, tangent, UV; a second record holds the second UV set where a
+//! material reads it), so that a mesh's vertices are uploaded once however many triangles share
+//! them. Each mesh's vertices take one run of the pool (`vertex_pool.rs`).
+
+use bevy::math::{Vec2, Vec3, Vec4};
+use bytemuck::{Pod, Zeroable};
+use treelight_scene::ShadingVertices;
+use treelight_scene::packed::{encode_normal, encode_tangent};
+
+/// Bytes of one triangle's shading record.
+pub const ATTRIBUTE_BYTES: u64 = size_of::<GpuAttribute>() as u64;
+/// Bytes of one record of the shading vertices' pool.
+pub const SHADING_VERTEX_BYTES: u64 = size_of::<GpuShadingVertex>() as u64;
+
+/// Bit 31 of a shading record's group word: the corners have normals.
+const HAS_NORMALS: u32 = 0x8000_0000;
+/// Bit 30: each corner takes two records of the pool, the second holding the second UV set.
+const TWO_UV_SETS: u32 = 0x4000_0000;
+/// Bit 29: the corners name vertices (without, the triangle has no shading data: flat, no UVs).
+const HAS_VERTICES: u32 = 0x2000_0000;
+/// The group slot's bits.
+const SLOT_MASK: u32 = HAS_VERTICES - 1;
+
+/// `ShadingRecord` of `pathtrace.wgsl`: one triangle's shading.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuAttribute {
+    /// The pool records of the triangle's three corners (each its first record).
+    pub corners: [u32; 3],
+    /// The slot of the group whose object record holds its material, and the flags above.
+    pub group: u32,
+}
+
+/// `ShadingVertex` of `pathtrace.wgsl`: one vertex's shading, or (the second record of a vertex
+/// with two UV sets) its second set in `uv`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShadingVertex {
+    /// Object-space normal, octahedral ([`encode_normal`]); zero without.
+    pub normal: u32,
+    /// Object-space tangent and the bitangent's sign ([`encode_tangent`]); zero without (the
+    /// kernel then makes one per triangle from its UVs).
+    pub tangent: u32,
+    /// `UV_0`, or `UV_1` in a second record.
+    pub uv: [f32; 2],
+}
+
+/// How a mesh's vertices are laid out in the pool.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct VertexLayout {
+    /// Whether they have normals.
+    pub normals: bool,
+    /// Whether each takes a second record for its second UV set.
+    pub two_uv_sets: bool,
+}
+
+impl VertexLayout {
+    /// The layout of `vertices`, with their second UV set where a material reads it.
+    pub fn of(vertices: &ShadingVertices, second_set_read: bool) -> Self {
+        Self {
+            normals: !vertices.normals.is_empty(),
+            two_uv_sets: second_set_read && !vertices.uvs1.is_empty(),
+        }
+    }
+
+    /// Pool records a vertex takes.
+    pub fn stride(self) -> u32 {
+        if self.two_uv_sets { 2 } else { 1 }
+    }
+}
+
+/// Vertices `vertices` hold (the longest of their arrays: each holds all of them or none).
+pub fn vertex_count(vertices: &ShadingVertices) -> usize {
+    vertices
+        .normals
+        .len()
+        .max(vertices.uvs.len())
+        .max(vertices.uvs1.len())
+        .max(vertices.tangents.len())
+}
+
+/// The pool records of vertex `i` of `vertices`: the first, and the second that holds its second
+/// UV set (written only under a layout with two sets).
+pub fn vertex_records(vertices: &ShadingVertices, i: usize) -> [GpuShadingVertex; 2] {
+    let first = GpuShadingVertex {
+        normal: vertices.normals.get(i).copied().unwrap_or(0),
+        tangent: vertices.tangents.get(i).copied().unwrap_or(0),
+        uv: vertices
+            .uvs
+            .get(i)
+            .copied()
+            .unwrap_or(Vec2::ZERO)
+            .to_array(),
+    };
+    let second = GpuShadingVertex {
+        uv: vertices
+            .uvs1
+            .get(i)
+            .copied()
+            .unwrap_or(Vec2::ZERO)
+            .to_array(),
+        ..Default::default()
+    };
+    [first, second]
+}
+
+/// A triangle's shading record: its corners `corners` (vertex numbers of a mesh whose vertices
+/// begin at pool record `first`, laid out as `layout` says), or none, and its group's slot.
+pub fn shading_record(
+    first: u32,
+    corners: Option<[u32; 3]>,
+    layout: VertexLayout,
+    group: u32,
+) -> GpuAttribute {
+    let Some(corners) = corners else {
+        return GpuAttribute {
+            corners: [0; 3],
+            group: group & SLOT_MASK,
+        };
+    };
+    let mut flags = HAS_VERTICES;
+    if layout.normals {
+        flags |= HAS_NORMALS;
+    }
+    if layout.two_uv_sets {
+        flags |= TWO_UV_SETS;
+    }
+    GpuAttribute {
+        corners: corners.map(|c| first + c * layout.stride()),
+        group: (group & SLOT_MASK) | flags,
+    }
+}
+
+/// One triangle's shading given corner by corner, as the GPU tests and tools make it: its corner
+/// normals (none: flat), UVs, tangents and second UV set, and its group's slot.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CornerShading {
+    /// Corner normals, packed ([`encode_normal`]).
+    pub normals: Option<[u32; 3]>,
+    /// Corner `UV_0`s.
+    pub uvs: [Vec2; 3],
+    /// Corner tangents, packed by vertex ([`encode_tangent`]).
+    pub tangents: Option<[u32; 3]>,
+    /// Corner `UV_1`s.
+    pub uvs1: Option<[Vec2; 3]>,
+    /// The group's slot.
+    pub group: u32,
+}
+
+/// A triangle's shading from its corner normals (none: flat shading) and UVs (none: zero).
+pub fn attribute_record(
+    normals: Option<[Vec3; 3]>,
+    uvs: Option<[Vec2; 3]>,
+    group: u32,
+) -> CornerShading {
+    CornerShading {
+        normals: normals.map(|n| n.map(encode_normal)),
+        uvs: uvs.unwrap_or([Vec2::ZERO; 3]),
+        tangents: None,
+        uvs1: None,
+        group,
+    }
+}
+
+impl CornerShading {
+    /// With its corners' tangents (xyz and the bitangent's sign in w, glTF's convention), or
+    /// without any.
+    pub fn with_tangents(mut self, tangents: Option<[Vec4; 3]>) -> Self {
+        self.tangents = tangents.map(|t| t.map(encode_tangent));
+        self
+    }
+
+    /// With a second UV set, for a material whose maps read both.
+    pub fn with_second_uv_set(mut self, uvs1: [Vec2; 3]) -> Self {
+        self.uvs1 = Some(uvs1);
+        self
+    }
+}
+
+/// The two buffers of the triangles' shading, for triangles given corner by corner
+/// ([`ShadingBuffers::put`]): each triangle's corners get vertices of their own.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadingBuffers {
+    /// The triangles' records, by triangle id (zero where none was put).
+    pub attributes: Vec<u8>,
+    /// The pool of shading vertices.
+    pub vertices: Vec<u8>,
+}
+
+impl ShadingBuffers {
+    /// Sets triangle `id`'s shading to `s`.
+    pub fn put(&mut self, id: u32, s: &CornerShading) {
+        let vertices = ShadingVertices {
+            normals: s.normals.map_or_else(Vec::new, |n| n.to_vec()),
+            uvs: s.uvs.to_vec(),
+            uvs1: s.uvs1.map_or_else(Vec::new, |u| u.to_vec()),
+            tangents: s.tangents.map_or_else(Vec::new, |t| t.to_vec()),
+        };
+        let layout = VertexLayout::of(&vertices, s.uvs1.is_some());
+        let first = (self.vertices.len() as u64 / SHADING_VERTEX_BYTES) as u32;
+        // Flat and without UVs: a record naming no vertices reads the same.
+        let bare = CornerShading {
+            group: s.group,
+            ..Default::default()
+        };
+        let corners = (*s != bare).then_some([0, 1, 2]);
+        if corners.is_some() {
+            for i in 0..3 {
+                let records = vertex_records(&vertices, i);
+                for r in &records[..layout.stride() as usize] {
+                    self.vertices.extend_from_slice(bytemuck::bytes_of(r));
+                }
+            }
+        }
+        let record = shading_record(first, corners, layout, s.group);
+        let at = id as usize * ATTRIBUTE_BYTES as usize;
+        let end = at + ATTRIBUTE_BYTES as usize;
+        if self.attributes.len() < end {
+            self.attributes.resize(end, 0);
+        }
+        self.attributes[at..end].copy_from_slice(bytemuck::bytes_of(&record));
+    }
+
+    /// Room for the records of triangle ids below `capacity` (zero until put).
+    pub fn reserve_triangles(&mut self, capacity: u32) {
+        let need = capacity as usize * ATTRIBUTE_BYTES as usize;
+        if self.attributes.len() < need {
+            self.attributes.resize(need, 0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_names_its_corners_by_the_layout() {
+        let v = ShadingVertices {
+            normals: vec![1, 2, 3, 4],
+            uvs: vec![Vec2::ONE; 4],
+            uvs1: vec![Vec2::new(0.5, 0.25); 4],
+            tangents: Vec::new(),
+        };
+        let one = VertexLayout::of(&v, false);
+        let two = VertexLayout::of(&v, true);
+        assert_eq!((one.stride(), two.stride()), (1, 2));
+        let r = shading_record(100, Some([0, 3, 2]), two, 7);
+        assert_eq!(r.corners, [100, 106, 104]);
+        assert_eq!(r.group, 7 | HAS_VERTICES | HAS_NORMALS | TWO_UV_SETS);
+        let r = shading_record(100, Some([0, 3, 2]), one, 7);
+        assert_eq!(r.corners, [100, 103, 102]);
+        assert_eq!(r.group, 7 | HAS_VERTICES | HAS_NORMALS);
+        let flat = shading_record(100, None, one, 7 | HAS_NORMALS);
+        assert_eq!(flat.group, 7, "no flag without vertices");
+        let [a, b] = vertex_records(&v, 3);
+        assert_eq!((a.normal, a.uv, b.uv), (4, [1.0, 1.0], [0.5, 0.25]));
+        assert_eq!(vertex_count(&v), 4);
+        assert_eq!(vertex_count(&ShadingVertices::default()), 0);
+    }
+
+    #[test]
+    fn corners_given_one_by_one_get_vertices_of_their_own() {
+        let mut b = ShadingBuffers::default();
+        let n = [Vec3::X, Vec3::Y, Vec3::Z];
+        b.put(2, &attribute_record(Some(n), None, 5));
+        b.put(1, &attribute_record(None, None, 4));
+        b.put(
+            0,
+            &attribute_record(None, Some([Vec2::ONE; 3]), 6).with_second_uv_set([Vec2::ZERO; 3]),
+        );
+        assert_eq!(b.attributes.len() as u64, 3 * ATTRIBUTE_BYTES);
+        assert_eq!(b.vertices.len() as u64, 9 * SHADING_VERTEX_BYTES);
+        let records: Vec<GpuAttribute> = bytemuck::pod_collect_to_vec(&b.attributes);
+        assert_eq!(records[2].corners, [0, 1, 2]);
+        assert_eq!(records[0].corners, [3, 5, 7]);
+        assert_eq!(records[0].group, 6 | HAS_VERTICES | TWO_UV_SETS);
+        assert_eq!(records[1].group, 4, "flat, no UVs: no vertices");
+        let vertices: Vec<GpuShadingVertex> = bytemuck::pod_collect_to_vec(&b.vertices);
+        assert_eq!(vertices[1].normal, encode_normal(Vec3::Y));
+    }
+}
