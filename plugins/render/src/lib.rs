@@ -66,7 +66,7 @@ pub use types::records::{
 };
 pub use types::shading::{
     ATTRIBUTE_BYTES, CornerShading, GpuAttribute, GpuShadingVertex, SHADING_VERTEX_BYTES,
-    ShadingBuffers, VertexLayout, attribute_record, shading_record, vertex_count, vertex_records,
+    ShadingBuffers, VertexLayout, attribute_record, shading_record, vertex_records,
 };
 pub use types::upload::{
     BufferKind, BufferWrite, UploadPlan, Writes, grown_capacity, instance_bytes, node_bytes,

@@ -404,7 +404,6 @@ impl GeometryCopy {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::packed::encode_tangents;
     use bevy::asset::RenderAssetUsages;
     use bevy::math::primitives::Cuboid;
     use bevy::mesh::{MeshBuilder, Meshable};
@@ -499,8 +498,8 @@ mod tests {
                 assert_eq!(uvs1[c], uv1_of(f[c]));
             }
             assert_eq!(
-                whole.shading.tangents(k).unwrap(),
-                encode_tangents([tangent_of(f[0]), tangent_of(f[1]), tangent_of(f[2])])
+                whole.shading.vertex_tangents(k).unwrap(),
+                [tangent_of(f[0]), tangent_of(f[1]), tangent_of(f[2])].map(encode_tangent)
             );
         }
         // A mesh swapped for another between chunks is read again from the start.
@@ -545,7 +544,7 @@ mod tests {
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; 2])
         .with_inserted_attribute(Mesh::ATTRIBUTE_TANGENT, vec![[1.0f32, 0.0, 0.0, 1.0]; 4]);
         let g = mesh_geometry(&bare).unwrap();
-        assert_eq!(g.shading.tangents(0), None);
+        assert_eq!(g.shading.vertex_tangents(0), None);
         assert_eq!(g.shading.normals(0), None, "mismatched counts are left out");
         assert_eq!(g.shading.uvs(0), None);
         assert!(g.shading.vertices().is_empty());

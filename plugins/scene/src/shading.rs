@@ -3,7 +3,6 @@
 //! triangles (half a vertex a triangle on a smooth grid), so keeping the corners' data by triangle
 //! would hold each vertex six times; the corners take 16 bits each where the vertices fit.
 
-use crate::packed::triangle_tangents;
 use std::sync::Arc;
 use treelight_bvh::glam::Vec2;
 
@@ -32,6 +31,15 @@ impl ShadingVertices {
             && self.uvs.is_empty()
             && self.uvs1.is_empty()
             && self.tangents.is_empty()
+    }
+
+    /// Vertices they hold (the longest array: each holds all of them or none).
+    pub fn len(&self) -> usize {
+        self.normals
+            .len()
+            .max(self.uvs.len())
+            .max(self.uvs1.len())
+            .max(self.tangents.len())
     }
 
     /// Heap bytes of the arrays, at their capacities.
@@ -159,12 +167,6 @@ impl MeshShading {
     /// ([`encode_tangent`](crate::packed::encode_tangent)).
     pub fn vertex_tangents(&self, k: usize) -> Option<[u32; 3]> {
         self.of(k, &self.vertices.tangents)
-    }
-
-    /// Triangle `k`'s tangent words as a renderer's record holds them
-    /// ([`encode_tangents`](crate::packed::encode_tangents)).
-    pub fn tangents(&self, k: usize) -> Option<[u32; 2]> {
-        self.vertex_tangents(k).map(triangle_tangents)
     }
 
     /// Whether it holds a second UV set.

@@ -70,16 +70,6 @@ impl VertexLayout {
     }
 }
 
-/// Vertices `vertices` hold (the longest of their arrays: each holds all of them or none).
-pub fn vertex_count(vertices: &ShadingVertices) -> usize {
-    vertices
-        .normals
-        .len()
-        .max(vertices.uvs.len())
-        .max(vertices.uvs1.len())
-        .max(vertices.tangents.len())
-}
-
 /// The pool records of vertex `i` of `vertices`: the first, and the second that holds its second
 /// UV set (written only under a layout with two sets).
 pub fn vertex_records(vertices: &ShadingVertices, i: usize) -> [GpuShadingVertex; 2] {
@@ -256,8 +246,8 @@ mod tests {
         assert_eq!(flat.group, 7, "no flag without vertices");
         let [a, b] = vertex_records(&v, 3);
         assert_eq!((a.normal, a.uv, b.uv), (4, [1.0, 1.0], [0.5, 0.25]));
-        assert_eq!(vertex_count(&v), 4);
-        assert_eq!(vertex_count(&ShadingVertices::default()), 0);
+        assert_eq!(v.len(), 4);
+        assert_eq!(ShadingVertices::default().len(), 0);
     }
 
     #[test]

@@ -3,9 +3,7 @@
 //! that holds the request, the lowest of those), freed neighbours merge, and a free run at the end
 //! shortens the pool, so the records in use stay near what the live meshes hold after edits.
 
-use crate::types::shading::{
-    GpuAttribute, VertexLayout, shading_record, vertex_count, vertex_records,
-};
+use crate::types::shading::{GpuAttribute, VertexLayout, shading_record, vertex_records};
 use crate::types::upload::{BufferKind, Writes};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
@@ -75,7 +73,7 @@ impl ShadingPool {
             run.seen = self.pass;
             return Some(run.first);
         }
-        let len = u32::try_from(vertex_count(vertices) as u64 * u64::from(layout.stride())).ok()?;
+        let len = u32::try_from(vertices.len() as u64 * u64::from(layout.stride())).ok()?;
         let first = self.runs.allocate(len)?;
         self.meshes.insert(
             key,
@@ -111,7 +109,7 @@ impl ShadingPool {
     ) {
         for (first, layout, vertices) in self.fresh.drain(..) {
             let stride = layout.stride() as usize;
-            let count = (vertex_count(&vertices) * stride) as u32;
+            let count = (vertices.len() * stride) as u32;
             writes.push_records_in_rounds(
                 BufferKind::ShadingVertices,
                 std::iter::once(first..first + count),
@@ -130,7 +128,7 @@ impl ShadingPool {
         else {
             return shading_record(0, None, VertexLayout::default(), slot);
         };
-        let vertices = vertex_count(shading.vertices()) as u32;
+        let vertices = shading.vertices().len() as u32;
         let corners = shading
             .corners(k)
             .filter(|c| c.iter().all(|&i| i < vertices));
@@ -234,16 +232,20 @@ mod tests {
     const TWO_SETS_BIT: u32 = 1 << 30;
     const SLOT_BITS: u32 = HAS_VERTICES_BIT - 1;
 
-    #[test]
-    fn runs_never_overlap_and_the_pool_shrinks_back() {
-        // Random allocations and frees, checked against a map of every record's owner.
-        let mut seed = 3u64;
-        let mut next = |n: u64| {
+    /// Pseudo-random numbers below the bound each call gives, from `seed` (a 64-bit LCG).
+    fn numbers(mut seed: u64) -> impl FnMut(u64) -> u64 {
+        move |n| {
             seed = seed
                 .wrapping_mul(6_364_136_223_846_793_005)
                 .wrapping_add(1_442_695_040_888_963_407);
             (seed >> 33) % n
-        };
+        }
+    }
+
+    #[test]
+    fn runs_never_overlap_and_the_pool_shrinks_back() {
+        // Random allocations and frees, checked against a map of every record's owner.
+        let mut next = numbers(3);
         let mut pool = RunAllocator::default();
         let mut live: Vec<(u32, u32)> = Vec::new();
         for step in 0..4000 {
@@ -328,13 +330,8 @@ mod tests {
 
     #[test]
     fn every_live_triangle_reads_its_own_mesh_s_shading_through_random_edits() {
-        let mut seed = 0x9e37_79b9_u64;
-        let mut next = |n: u32| {
-            seed = seed
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((seed >> 33) % u64::from(n.max(1))) as u32
-        };
+        let mut random = numbers(0x9e37_79b9);
+        let mut next = |n: u32| random(u64::from(n.max(1))) as u32;
         // Meshes, some shown by several groups and some cut into chunks sharing their vertices.
         let mut meshes: Vec<Arc<MeshShading>> = Vec::new();
         for id in 0..12 {
