@@ -29,6 +29,12 @@ const LOOK_EVERY: Duration = Duration::from_secs(1);
 /// minutes), the time between trims.
 const TRIM_EVERY_WHILE_BUSY: Duration = Duration::from_secs(10);
 
+/// While new geometry is on its way into the tree (an import's fill), the time between trims:
+/// what the fill has freed (the parse's buffers, the meshes' copies once the worker has built
+/// them, a headless render's mesh data) would otherwise stay resident until it ends, at the
+/// process's peak.
+const TRIM_EVERY_WHILE_FILLING: Duration = Duration::from_secs(2);
+
 /// Returns freed memory to the system after large changes to the scene (Linux with glibc; elsewhere
 /// the system's allocator is left to its own policy and the plugin adds nothing).
 pub struct HeapTrimPlugin;
@@ -75,14 +81,20 @@ struct SceneMemory {
 impl HeapTrim {
     /// Whether to trim now, the scene being `now` with `pending` changes on its worker, the last
     /// trim `since` ago: when its bytes have moved by [`TRIM_AFTER`], or as much was uploaded, or
-    /// meshes were rebuilt since the last trim, with nothing pending (so the change's temporaries,
-    /// the uploads' staging among them, are gone), and nothing changed since the last look or
-    /// the last trim was [`TRIM_EVERY_WHILE_BUSY`] ago. Remembers a trim it answers yes to.
+    /// meshes were rebuilt since the last trim, and then: with nothing pending and nothing
+    /// changed since the last look (the change's temporaries, the uploads' staging among them,
+    /// are gone), or the last trim [`TRIM_EVERY_WHILE_BUSY`] ago with nothing pending, or
+    /// [`TRIM_EVERY_WHILE_FILLING`] ago with changes pending. Remembers a trim it answers yes to.
     fn due(&mut self, now: SceneMemory, pending: usize, since: Option<Duration>) -> bool {
         let moving = std::mem::replace(&mut self.seen, now) != now;
-        let worth = self.worth(now);
-        let busy_long = since.is_none_or(|t| t >= TRIM_EVERY_WHILE_BUSY);
-        if pending > 0 || !worth || (moving && !busy_long) {
+        let wait = if pending > 0 {
+            TRIM_EVERY_WHILE_FILLING
+        } else if moving {
+            TRIM_EVERY_WHILE_BUSY
+        } else {
+            Duration::ZERO
+        };
+        if !self.worth(now) || since.is_some_and(|t| t < wait) {
             return false;
         }
         self.trimmed_at = now;
@@ -261,9 +273,26 @@ mod tests {
         assert!(!t.due(at(400, 2), 0, SOON));
         assert!(t.due(at(400, 3), 0, long));
         assert!(!t.due(at(400, 4), 0, SOON));
-        // Nor with the worker's queue full.
-        assert!(!t.due(at(400, 5), 2, long));
         // The first trim has no last one to wait for.
         assert!(HeapTrim::default().due(at(400, 1), 0, None));
+    }
+
+    #[test]
+    fn a_fill_is_trimmed_every_few_seconds() {
+        let mut t = HeapTrim::default();
+        let filling = Some(TRIM_EVERY_WHILE_FILLING);
+        assert!(t.due(at(100, 0), 0, None));
+        // Meshes on their way into the tree: not while the last trim is recent.
+        assert!(!t.due(at(200, 0), 40, SOON));
+        assert!(!t.due(at(300, 0), 30, SOON));
+        // Then every while, however much is still pending.
+        assert!(t.due(at(400, 0), 20, filling));
+        assert!(!t.due(at(500, 0), 10, SOON));
+        assert!(t.due(at(600, 0), 5, filling));
+        // Not for a fill too small to be worth one.
+        assert!(!t.due(at(610, 0), 5, filling));
+        // Once it is over and holds still: the rest of what it freed.
+        assert!(!t.due(at(650, 0), 0, SOON));
+        assert!(t.due(at(650, 0), 0, SOON));
     }
 }

@@ -254,13 +254,21 @@ pub fn render_app(args: &RenderArgs) -> App {
     )
     .add_plugins((
         ScheduleRunnerPlugin::run_loop(Duration::ZERO),
-        treelight_scene::SceneBvhPlugin::default(),
+        treelight_scene::SceneBvhPlugin {
+            config: treelight_scene::SceneBvhConfig {
+                // A render never edits nor rasterises: each mesh is held once, in the tree.
+                release_traced_meshes: true,
+                ..default()
+            },
+        },
         treelight_render::PathTracerPlugin,
         DocumentPlugin,
     ));
     run_schedules_on_one_thread(&mut app);
     crate::insert_kernel_record(&mut app);
-    app.add_plugins(PipelineWatchPlugin);
+    // What the parse and the fill free (the meshes' vertex data among it) goes back to the
+    // system before the upload's buffers come, as in the editor.
+    app.add_plugins((PipelineWatchPlugin, crate::heap_trim::HeapTrimPlugin));
     // An EXR holds the exposed radiance itself: a float target, and no tone curve or dither.
     let linear = is_exr(&args.out);
     let format = if linear {
@@ -471,11 +479,13 @@ fn follow_samples(
         job.settled = true;
         info!(
             "the scene is on the GPU: {:.1} MiB of records in {} frames, the largest {:.1} MiB, \
-             {} rounds handed over before their frame's end",
+             {} rounds handed over before their frame's end; {} meshes' vertex data freed once \
+             in the tree",
             figures.total_upload_bytes as f64 / 1048576.0,
             figures.uploads,
             figures.largest_upload_bytes as f64 / 1048576.0,
             figures.upload_rounds,
+            loading.scene().meshes_released(),
         );
     }
     let samples = stats.samples(*view.camera);

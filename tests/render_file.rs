@@ -548,23 +548,35 @@ fn a_gltf_assembly_renders_the_same_twice_denoised() {
                 "on",
             ]);
             assert!(ok, "{log}");
+            // A render holds each mesh once, in the tree: every mesh the file opened with had
+            // its vertex data freed once traced (and the image is still the viewport's, below).
+            assert_eq!(
+                log_figure(&log, "meshes' vertex data freed"),
+                log_figure(&log, "meshes, "),
+                "{log}"
+            );
             load_rgb(&out).into_raw()
         })
         .collect();
     assert!(images[0] == images[1], "two denoised renders differ");
 }
 
-/// The rounds `treelight render`'s log says were handed to the GPU before their frame's end.
-fn upload_rounds(log: &str) -> u64 {
+/// The number just before `words` in the first line of `log` that holds them.
+fn log_figure(log: &str, words: &str) -> u64 {
     let line = log
         .lines()
-        .find(|l| l.contains("rounds handed over"))
-        .unwrap_or_else(|| panic!("no upload figures in the log:\n{log}"));
-    let before = line.split(" rounds handed over").next().unwrap_or("");
-    let number = before.rsplit(' ').next().unwrap_or("");
+        .find(|l| l.contains(words))
+        .unwrap_or_else(|| panic!("no {words:?} in the log:\n{log}"));
+    let before = line.split(words).next().unwrap_or("").trim_end();
+    let number = before.rsplit([' ', '(']).next().unwrap_or("");
     number
         .parse()
-        .unwrap_or_else(|_| panic!("no round count in {line:?}"))
+        .unwrap_or_else(|_| panic!("no number before {words:?} in {line:?}"))
+}
+
+/// The rounds `treelight render`'s log says were handed to the GPU before their frame's end.
+fn upload_rounds(log: &str) -> u64 {
+    log_figure(log, " rounds handed over")
 }
 
 /// A scene whose records are handed to the GPU in rounds of 16 KiB while they are made (the

@@ -41,6 +41,11 @@ impl SceneLoading<'_> {
     pub fn scene_version(&self) -> u64 {
         self.scene.version()
     }
+
+    /// The scene plugin's state.
+    pub fn scene(&self) -> &treelight_scene::SceneBvh {
+        &self.scene
+    }
 }
 
 use crate::files::job::BACKGROUND_NICE;

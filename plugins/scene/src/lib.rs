@@ -80,6 +80,14 @@ pub struct SceneBvhConfig {
     /// machine's cores, at least one. The core left over keeps the frame's thread from waiting for a
     /// core while big imports build (on a busy core it can wait until the scheduler's next tick).
     pub worker_threads: usize,
+    /// Whether a mesh asset's vertex data is freed in the main world once the worker holds its
+    /// triangles (Bevy's [`Mesh::take_gpu_data`]: the asset keeps its bounds, as a mesh whose
+    /// data went to the render world does). For apps that neither rasterise their meshes nor read
+    /// their vertices again, such as a headless render: a scene is then held once, in the tree,
+    /// not twice. A further entity of a freed mesh shares the triangles already traced; one that
+    /// would need them copied again (its mesh's traced entities all gone) is not traced, with a
+    /// warning. Default `false`.
+    pub release_traced_meshes: bool,
 }
 
 impl Default for SceneBvhConfig {
@@ -94,6 +102,7 @@ impl Default for SceneBvhConfig {
             worker_nice: 10,
             fill_nice: 5,
             worker_threads: 0,
+            release_traced_meshes: false,
         }
     }
 }
@@ -195,10 +204,17 @@ impl Plugin for SceneBvhPlugin {
             last_frame: Duration::ZERO,
             prepared: HashMap::new(),
             handed_over: 0,
+            release: self.config.release_traced_meshes,
+            to_release: Vec::new(),
+            released: 0,
         })
         .add_systems(
             PostUpdate,
-            (track_world, publish)
+            (
+                track_world,
+                release_traced_meshes.run_if(|scene: Res<SceneBvh>| !scene.to_release.is_empty()),
+                publish,
+            )
                 .chain()
                 .in_set(SceneBvhSystems)
                 .after(TransformSystems::Propagate)
@@ -546,6 +562,12 @@ pub struct SceneBvh {
     prepared: HashMap<AssetId<Mesh>, GeometryCopy>,
     /// Meshes sent to the worker as handed over, with no copy.
     handed_over: u64,
+    /// [`SceneBvhConfig::release_traced_meshes`].
+    release: bool,
+    /// Meshes sent to the worker this frame whose vertex data is to be freed.
+    to_release: Vec<AssetId<Mesh>>,
+    /// Meshes whose vertex data was freed.
+    released: u64,
 }
 
 /// An entity whose mesh is being copied for another: it is sent as an instance once that copy is.
@@ -589,6 +611,12 @@ impl SceneBvh {
     /// no copy out of the world.
     pub fn meshes_handed_over(&self) -> u64 {
         self.handed_over
+    }
+
+    /// How many mesh assets had their vertex data freed once traced
+    /// ([`SceneBvhConfig::release_traced_meshes`]).
+    pub fn meshes_released(&self) -> u64 {
+        self.released
     }
 
     /// Version of the tree, raised by every change the worker applies.
@@ -1082,6 +1110,9 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
         match result {
             Ok(()) => {
                 scene.remember_mesh(e, job.mesh);
+                if scene.release {
+                    scene.to_release.push(job.mesh);
+                }
                 scene.send(Command::Copied {
                     entity: e,
                     mesh: job.mesh,
@@ -1107,6 +1138,20 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
                     }
                 }
             }
+        }
+    }
+}
+
+/// Frees the vertex data of the meshes sent to the worker this frame
+/// ([`SceneBvhConfig::release_traced_meshes`]). Untracked: a freed mesh is not a changed one, so
+/// nothing (this plugin included) takes it for new geometry.
+fn release_traced_meshes(mut scene: ResMut<SceneBvh>, mut meshes: ResMut<Assets<Mesh>>) {
+    let scene = &mut *scene;
+    for id in scene.to_release.drain(..) {
+        if let Some(mesh) = meshes.get_mut_untracked(id)
+            && mesh.take_gpu_data().is_ok()
+        {
+            scene.released += 1;
         }
     }
 }

@@ -3,7 +3,7 @@
 
 mod support;
 
-use bevy::math::Ray3d;
+use bevy::math::{Affine3A, Ray3d};
 use bevy::mesh::{Mesh, MeshBuilder, Meshable};
 use bevy::prelude::*;
 use std::time::{Duration, Instant};
@@ -59,13 +59,21 @@ fn settle(app: &mut App) {
 fn brute_force(world: &mut World, ray: Ray3d) -> Option<(Entity, f32)> {
     let mut q = world.query::<(Entity, &Mesh3d, &GlobalTransform)>();
     let meshes = world.resource::<Assets<Mesh>>();
+    closest_hit(
+        q.iter(world)
+            .filter_map(|(e, m, gt)| Some((e, meshes.get(&m.0)?, gt.affine()))),
+        ray,
+    )
+}
+
+/// Closest hit by brute force over meshes placed by entities.
+fn closest_hit<'a>(
+    placed: impl Iterator<Item = (Entity, &'a Mesh, Affine3A)>,
+    ray: Ray3d,
+) -> Option<(Entity, f32)> {
     let rd = RayData::new(&treelight_bvh::Ray::new(ray.origin, ray.direction.into()));
     let mut best: Option<(Entity, f32)> = None;
-    for (e, m, gt) in q.iter(world) {
-        let Some(mesh) = meshes.get(&m.0) else {
-            continue;
-        };
-        let xf = gt.affine();
+    for (e, mesh, xf) in placed {
         for t in mesh_triangles(mesh).unwrap() {
             let w = t.transformed(&xf);
             if let Some((t, _, _)) = rd.hit_triangle(&w, 0.0, best.map_or(f32::INFINITY, |b| b.1)) {
@@ -105,8 +113,17 @@ fn rays(n: usize, seed: u64) -> Vec<Ray3d> {
 }
 
 fn check(app: &mut App, rays: &[Ray3d]) {
+    check_against(app, rays, brute_force);
+}
+
+/// The tree's closest hit for each ray against `expected`'s.
+fn check_against(
+    app: &mut App,
+    rays: &[Ray3d],
+    mut expected: impl FnMut(&mut World, Ray3d) -> Option<(Entity, f32)>,
+) {
     for ray in rays {
-        let expected = brute_force(app.world_mut(), *ray);
+        let expected = expected(app.world_mut(), *ray);
         let scene = app.world().resource::<SceneBvh>();
         let got =
             treelight_scene::cast_on(&scene.read_blocking(), *ray).map(|h| (h.entity, h.distance));
@@ -481,6 +498,78 @@ fn geometry_handed_over_goes_to_the_worker_at_once_and_only_for_its_own_asset() 
     assert_eq!(tree_triangles(&app), triangles + 12 + ring_triangles);
     assert_eq!(app.world().resource::<SceneBvh>().meshes_handed_over(), 1);
     check(&mut app, &rays(300, 12));
+}
+
+#[test]
+fn released_meshes_are_traced_from_the_tree_alone() {
+    let mut app = headless_app(SceneBvhConfig {
+        release_traced_meshes: true,
+        ..default()
+    });
+    let sphere = Sphere::new(1.0).mesh().uv(40, 20);
+    let ring = Torus::new(0.5, 1.0).mesh().build();
+    let add = |app: &mut App, mesh: &Mesh| {
+        app.world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(mesh.clone())
+    };
+    let (ball, torus) = (add(&mut app, &sphere), add(&mut app, &ring));
+    // What each entity shows, kept here: the world's assets lose their vertices.
+    fn place(app: &mut App, handle: &Handle<Mesh>, at: Vec3) -> (Entity, Affine3A) {
+        let e = app
+            .world_mut()
+            .spawn((Mesh3d(handle.clone()), Transform::from_translation(at)))
+            .id();
+        (e, Affine3A::from_translation(at))
+    }
+    let mut placed: Vec<(Entity, &Mesh, Affine3A)> = Vec::new();
+    for (handle, mesh, at) in [
+        (&ball, &sphere, Vec3::ZERO),
+        (&ball, &sphere, Vec3::new(3.0, 0.0, 0.0)),
+        (&torus, &ring, Vec3::new(-3.0, 1.0, 0.0)),
+    ] {
+        let (e, xf) = place(&mut app, handle, at);
+        placed.push((e, mesh, xf));
+    }
+    settle(&mut app);
+    assert_eq!(
+        app.world().resource::<SceneBvh>().meshes_released(),
+        2,
+        "each mesh freed once, after its one copy"
+    );
+    for handle in [&ball, &torus] {
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let mesh = meshes.get(handle).unwrap();
+        assert!(
+            mesh.try_indices().is_err() && mesh.try_attribute(Mesh::ATTRIBUTE_POSITION).is_err(),
+            "the asset's vertex data is freed"
+        );
+        assert!(mesh.final_aabb.is_some(), "the asset keeps its bounds");
+    }
+    let sphere_triangles = mesh_triangles(&sphere).unwrap().len() as u32;
+    let ring_triangles = mesh_triangles(&ring).unwrap().len() as u32;
+    assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
+    let expected = |placed: &[(Entity, &Mesh, Affine3A)], ray| {
+        closest_hit(placed.iter().map(|&(e, m, xf)| (e, m, xf)), ray)
+    };
+    check_against(&mut app, &rays(300, 21), |_, ray| expected(&placed, ray));
+    // A later entity of a freed mesh shares the triangles already in the tree.
+    let (e, xf) = place(&mut app, &ball, Vec3::new(0.0, -3.0, 2.0));
+    placed.push((e, &sphere, xf));
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
+    check_against(&mut app, &rays(300, 22), |_, ray| expected(&placed, ray));
+
+    // Without the setting, the assets keep their data.
+    let mut kept = headless_app(SceneBvhConfig::default());
+    let handle = add(&mut kept, &sphere);
+    kept.world_mut()
+        .spawn((Mesh3d(handle.clone()), Transform::default()));
+    settle(&mut kept);
+    assert_eq!(tree_triangles(&kept), sphere_triangles);
+    let meshes = kept.world().resource::<Assets<Mesh>>();
+    assert!(meshes.get(&handle).unwrap().try_indices().is_ok());
+    assert_eq!(kept.world().resource::<SceneBvh>().meshes_released(), 0);
 }
 
 #[test]

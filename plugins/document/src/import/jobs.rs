@@ -66,6 +66,19 @@ impl TracingImports {
 #[derive(Resource, Default)]
 pub struct CancelImports(pub Vec<PathBuf>);
 
+/// A mesh's triangles; 0 for one whose vertex data is not in the main world (an app that frees
+/// it once traced, `SceneBvhConfig::release_traced_meshes`).
+fn triangles_of(mesh: &Mesh) -> u64 {
+    let corners = match mesh.try_indices_option() {
+        Ok(Some(indices)) => indices.len(),
+        Ok(None) => mesh
+            .try_attribute(Mesh::ATTRIBUTE_POSITION)
+            .map_or(0, |p| p.len()),
+        Err(_) => 0,
+    };
+    (corners / 3) as u64
+}
+
 /// Mesh objects under `root` (itself included) with their triangle counts.
 fn meshes_under(world: &World, root: Entity) -> Vec<(Entity, u64)> {
     let meshes = world.resource::<Assets<Mesh>>();
@@ -73,11 +86,7 @@ fn meshes_under(world: &World, root: Entity) -> Vec<(Entity, u64)> {
     let mut stack = vec![root];
     while let Some(e) = stack.pop() {
         if let Some(m) = world.get::<Mesh3d>(e) {
-            let tris = meshes.get(&m.0).map_or(0, |mesh| {
-                mesh.indices()
-                    .map_or(mesh.count_vertices(), |i| i.len())
-                    .div_euclid(3) as u64
-            });
+            let tris = meshes.get(&m.0).map_or(0, triangles_of);
             out.push((e, tris));
         }
         if let Some(children) = world.get::<Children>(e) {
