@@ -352,3 +352,60 @@ fn everything(bvh: &Bvh) -> ChangeSet {
         ..ChangeSet::default()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Triangle;
+    use glam::{Affine3A, Vec3};
+
+    /// `n` small triangles along x.
+    fn strip(n: usize) -> Vec<Triangle> {
+        (0..n)
+            .map(|k| {
+                let x = k as f32;
+                Triangle::new(
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 0.5, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn an_instance_whose_root_gains_a_record_is_listed_for_rewriting() {
+        let mut bvh = Bvh::default();
+        bvh.insert_group(&strip(2), Affine3A::IDENTITY, false)
+            .unwrap();
+        bvh.insert_group(&strip(16), Affine3A::from_translation(Vec3::Z), true)
+            .unwrap();
+        let mut records = WideRecords::of(&bvh);
+        records.check(&bvh).unwrap();
+        let i = (0..bvh.instances.len() as u32)
+            .find(|&i| bvh.instance(i).is_some())
+            .unwrap();
+        let root = bvh.instances[i as usize].root.index();
+        // An inner child of the instance's root: expanded into the root's record, so without one.
+        let child = bvh.inner[root as usize]
+            .children
+            .into_iter()
+            .find(|c| c.is_inner())
+            .unwrap()
+            .index();
+        assert_eq!(records.slot[child as usize], NONE);
+        // The child becomes the instance's root (as an edit inside the group may leave it), the
+        // change set naming the nodes but not the instance: its reference moves all the same.
+        bvh.inner[child as usize].parent = NONE;
+        bvh.instances[i as usize].root = NodeRef::inner(child);
+        let changes = ChangeSet {
+            inner_ranges: std::iter::once(child..child + 1).collect(),
+            inner_capacity: bvh.inner.len() as u32,
+            ..ChangeSet::default()
+        };
+        let rewrite = records.update(&bvh, &changes);
+        assert_eq!(rewrite.instances, vec![i]);
+        let slot = records.instance(&bvh, i).root;
+        assert_eq!(records.node_of(NodeRef(slot).index()), Some(child));
+    }
+}
