@@ -79,16 +79,26 @@ struct SceneMemory {
 }
 
 impl HeapTrim {
-    /// Whether to trim now, the scene being `now` with `pending` changes on its worker, the last
-    /// trim `since` ago: when its bytes have moved by [`TRIM_AFTER`], or as much was uploaded, or
-    /// meshes were rebuilt since the last trim, and then: with nothing pending and nothing
-    /// changed since the last look (the change's temporaries, the uploads' staging among them,
-    /// are gone), or the last trim [`TRIM_EVERY_WHILE_BUSY`] ago with nothing pending, or
-    /// [`TRIM_EVERY_WHILE_FILLING`] ago with changes pending. Remembers a trim it answers yes to.
-    fn due(&mut self, now: SceneMemory, pending: usize, since: Option<Duration>) -> bool {
+    /// Whether to trim now, the scene being `now` with `pending` changes on its worker (new
+    /// geometry among them when `filling`), the last trim `since` ago: when its bytes have moved
+    /// by [`TRIM_AFTER`], or as much was uploaded, or meshes were rebuilt since the last trim,
+    /// and then: while a fill goes on, the last trim [`TRIM_EVERY_WHILE_FILLING`] ago; else with
+    /// nothing pending, and nothing changed since the last look (the change's temporaries, the
+    /// uploads' staging among them, are gone) or the last trim [`TRIM_EVERY_WHILE_BUSY`] ago.
+    /// Edits (a part dragged for seconds) so trim no more often than before: a trim takes the
+    /// allocator's locks for up to tens of milliseconds. Remembers a trim it answers yes to.
+    fn due(
+        &mut self,
+        now: SceneMemory,
+        pending: usize,
+        filling: bool,
+        since: Option<Duration>,
+    ) -> bool {
         let moving = std::mem::replace(&mut self.seen, now) != now;
-        let wait = if pending > 0 {
+        let wait = if filling {
             TRIM_EVERY_WHILE_FILLING
+        } else if pending > 0 {
+            return false;
         } else if moving {
             TRIM_EVERY_WHILE_BUSY
         } else {
@@ -134,7 +144,9 @@ fn trim_after_large_changes(
         kernels: figures.kernels_prepared,
     };
     let since = trim.trimmed.map(|t| t.elapsed());
-    if trim.running.load(Ordering::Acquire) || !trim.due(now, stats.pending, since) {
+    if trim.running.load(Ordering::Acquire)
+        || !trim.due(now, stats.pending, scene.is_filling(), since)
+    {
         // A trim worth making waits for the scene to hold still: a resting editor looks again.
         if trim.worth(now)
             && let Some(activity) = activity.as_mut()
@@ -216,52 +228,52 @@ mod tests {
     fn a_trim_waits_for_a_large_change_to_hold_still_with_nothing_pending() {
         let mut t = HeapTrim::default();
         // An import's memory growing: no trim while it moves.
-        assert!(!t.due(at(100, 0), 0, SOON));
-        assert!(!t.due(at(400, 0), 3, SOON));
+        assert!(!t.due(at(100, 0), 0, false, SOON));
+        assert!(!t.due(at(400, 0), 3, false, SOON));
         // Still, but the worker has work pending.
-        assert!(!t.due(at(400, 0), 3, SOON));
+        assert!(!t.due(at(400, 0), 3, false, SOON));
         // Still and done: trimmed once.
-        assert!(t.due(at(400, 0), 0, SOON));
-        assert!(!t.due(at(400, 0), 0, SOON));
+        assert!(t.due(at(400, 0), 0, false, SOON));
+        assert!(!t.due(at(400, 0), 0, false, SOON));
         // A small edit does not trim again.
-        assert!(!t.due(at(410, 0), 0, SOON));
-        assert!(!t.due(at(410, 0), 0, SOON));
+        assert!(!t.due(at(410, 0), 0, false, SOON));
+        assert!(!t.due(at(410, 0), 0, false, SOON));
         // Idle-time rebuilds do, once they stop.
-        assert!(!t.due(at(410, 5), 0, SOON));
-        assert!(!t.due(at(410, 9), 0, SOON));
-        assert!(t.due(at(410, 9), 0, SOON));
+        assert!(!t.due(at(410, 5), 0, false, SOON));
+        assert!(!t.due(at(410, 9), 0, false, SOON));
+        assert!(t.due(at(410, 9), 0, false, SOON));
         // A large deletion does, once it holds still.
-        assert!(!t.due(at(100, 9), 0, SOON));
-        assert!(t.due(at(100, 9), 0, SOON));
-        assert!(!t.due(at(100, 9), 0, SOON));
+        assert!(!t.due(at(100, 9), 0, false, SOON));
+        assert!(t.due(at(100, 9), 0, false, SOON));
+        assert!(!t.due(at(100, 9), 0, false, SOON));
         // Uploads of re-laid records, the scene's size unchanged: once they stop, and only when
         // they came to much.
         let uploaded = |mib: u64| SceneMemory {
             uploaded: mib * MIB,
             ..at(100, 9)
         };
-        assert!(!t.due(uploaded(10), 0, SOON));
-        assert!(!t.due(uploaded(10), 0, SOON));
-        assert!(!t.due(uploaded(60), 0, SOON));
-        assert!(t.due(uploaded(60), 0, SOON));
+        assert!(!t.due(uploaded(10), 0, false, SOON));
+        assert!(!t.due(uploaded(10), 0, false, SOON));
+        assert!(!t.due(uploaded(60), 0, false, SOON));
+        assert!(t.due(uploaded(60), 0, false, SOON));
     }
 
     #[test]
     fn a_compiled_kernel_is_trimmed_after_once_the_scene_holds_still() {
         let mut t = HeapTrim::default();
-        assert!(t.due(at(100, 0), 0, None));
+        assert!(t.due(at(100, 0), 0, false, None));
         let compiled = |n: u64| SceneMemory {
             kernels: n,
             ..at(100, 0)
         };
         // The scene unchanged, a kernel's compile ended: trimmed once it holds still.
-        assert!(!t.due(compiled(1), 0, SOON));
-        assert!(t.due(compiled(1), 0, SOON));
-        assert!(!t.due(compiled(1), 0, SOON));
+        assert!(!t.due(compiled(1), 0, false, SOON));
+        assert!(t.due(compiled(1), 0, false, SOON));
+        assert!(!t.due(compiled(1), 0, false, SOON));
         // Not while the worker has work pending.
-        assert!(!t.due(compiled(2), 0, SOON));
-        assert!(!t.due(compiled(2), 1, SOON));
-        assert!(t.due(compiled(2), 0, SOON));
+        assert!(!t.due(compiled(2), 0, false, SOON));
+        assert!(!t.due(compiled(2), 1, false, SOON));
+        assert!(t.due(compiled(2), 0, false, SOON));
     }
 
     #[test]
@@ -269,30 +281,39 @@ mod tests {
         let mut t = HeapTrim::default();
         let long = Some(TRIM_EVERY_WHILE_BUSY);
         // Rebuilds going on: not while the last trim is recent, then once it is not.
-        assert!(!t.due(at(400, 1), 0, SOON));
-        assert!(!t.due(at(400, 2), 0, SOON));
-        assert!(t.due(at(400, 3), 0, long));
-        assert!(!t.due(at(400, 4), 0, SOON));
+        assert!(!t.due(at(400, 1), 0, false, SOON));
+        assert!(!t.due(at(400, 2), 0, false, SOON));
+        assert!(t.due(at(400, 3), 0, false, long));
+        assert!(!t.due(at(400, 4), 0, false, SOON));
         // The first trim has no last one to wait for.
-        assert!(HeapTrim::default().due(at(400, 1), 0, None));
+        assert!(HeapTrim::default().due(at(400, 1), 0, false, None));
     }
 
     #[test]
-    fn a_fill_is_trimmed_every_few_seconds() {
+    fn a_fill_is_trimmed_every_few_seconds_and_edits_no_more_than_before() {
         let mut t = HeapTrim::default();
-        let filling = Some(TRIM_EVERY_WHILE_FILLING);
-        assert!(t.due(at(100, 0), 0, None));
+        let every = Some(TRIM_EVERY_WHILE_FILLING);
+        assert!(t.due(at(100, 0), 0, false, None));
         // Meshes on their way into the tree: not while the last trim is recent.
-        assert!(!t.due(at(200, 0), 40, SOON));
-        assert!(!t.due(at(300, 0), 30, SOON));
+        assert!(!t.due(at(200, 0), 40, true, SOON));
+        assert!(!t.due(at(300, 0), 30, true, SOON));
         // Then every while, however much is still pending.
-        assert!(t.due(at(400, 0), 20, filling));
-        assert!(!t.due(at(500, 0), 10, SOON));
-        assert!(t.due(at(600, 0), 5, filling));
+        assert!(t.due(at(400, 0), 20, true, every));
+        assert!(!t.due(at(500, 0), 10, true, SOON));
+        assert!(t.due(at(600, 0), 5, true, every));
         // Not for a fill too small to be worth one.
-        assert!(!t.due(at(610, 0), 5, filling));
+        assert!(!t.due(at(610, 0), 5, true, every));
         // Once it is over and holds still: the rest of what it freed.
-        assert!(!t.due(at(650, 0), 0, SOON));
-        assert!(t.due(at(650, 0), 0, SOON));
+        assert!(!t.due(at(650, 0), 0, false, SOON));
+        assert!(t.due(at(650, 0), 0, false, SOON));
+        // Edits with moves pending (a part dragged), no new geometry: not while they go on,
+        // however long since the last trim.
+        let uploaded = |mib: u64| SceneMemory {
+            uploaded: mib * MIB,
+            ..at(650, 0)
+        };
+        assert!(!t.due(uploaded(100), 2, false, every));
+        assert!(!t.due(uploaded(200), 1, false, Some(TRIM_EVERY_WHILE_BUSY)));
+        assert!(!t.due(uploaded(300), 1, false, every));
     }
 }
