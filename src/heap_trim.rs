@@ -224,6 +224,14 @@ mod tests {
         }
     }
 
+    /// `scene` with `mib` uploaded since the start.
+    fn with_uploads(scene: SceneMemory, mib: u64) -> SceneMemory {
+        SceneMemory {
+            uploaded: mib * MIB,
+            ..scene
+        }
+    }
+
     #[test]
     fn a_trim_waits_for_a_large_change_to_hold_still_with_nothing_pending() {
         let mut t = HeapTrim::default();
@@ -248,10 +256,7 @@ mod tests {
         assert!(!t.due(at(100, 9), 0, false, SOON));
         // Uploads of re-laid records, the scene's size unchanged: once they stop, and only when
         // they came to much.
-        let uploaded = |mib: u64| SceneMemory {
-            uploaded: mib * MIB,
-            ..at(100, 9)
-        };
+        let uploaded = |mib| with_uploads(at(100, 9), mib);
         assert!(!t.due(uploaded(10), 0, false, SOON));
         assert!(!t.due(uploaded(10), 0, false, SOON));
         assert!(!t.due(uploaded(60), 0, false, SOON));
@@ -285,6 +290,8 @@ mod tests {
         assert!(!t.due(at(400, 2), 0, false, SOON));
         assert!(t.due(at(400, 3), 0, false, long));
         assert!(!t.due(at(400, 4), 0, false, SOON));
+        // Nor with the worker's queue full.
+        assert!(!t.due(at(400, 5), 2, false, long));
         // The first trim has no last one to wait for.
         assert!(HeapTrim::default().due(at(400, 1), 0, false, None));
     }
@@ -308,10 +315,7 @@ mod tests {
         assert!(t.due(at(650, 0), 0, false, SOON));
         // Edits with moves pending (a part dragged), no new geometry: not while they go on,
         // however long since the last trim.
-        let uploaded = |mib: u64| SceneMemory {
-            uploaded: mib * MIB,
-            ..at(650, 0)
-        };
+        let uploaded = |mib| with_uploads(at(650, 0), mib);
         assert!(!t.due(uploaded(100), 2, false, every));
         assert!(!t.due(uploaded(200), 1, false, Some(TRIM_EVERY_WHILE_BUSY)));
         assert!(!t.due(uploaded(300), 1, false, every));

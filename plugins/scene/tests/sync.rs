@@ -549,16 +549,17 @@ fn released_meshes_are_traced_from_the_tree_alone() {
     let sphere_triangles = mesh_triangles(&sphere).unwrap().len() as u32;
     let ring_triangles = mesh_triangles(&ring).unwrap().len() as u32;
     assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
-    let expected = |placed: &[(Entity, &Mesh, Affine3A)], ray| {
-        closest_hit(placed.iter().map(|&(e, m, xf)| (e, m, xf)), ray)
-    };
-    check_against(&mut app, &rays(300, 21), |_, ray| expected(&placed, ray));
+    check_against(&mut app, &rays(300, 21), |_, ray| {
+        closest_hit(placed.iter().copied(), ray)
+    });
     // A later entity of a freed mesh shares the triangles already in the tree.
     let (e, xf) = place(&mut app, &ball, Vec3::new(0.0, -3.0, 2.0));
     placed.push((e, &sphere, xf));
     settle(&mut app);
     assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
-    check_against(&mut app, &rays(300, 22), |_, ray| expected(&placed, ray));
+    check_against(&mut app, &rays(300, 22), |_, ray| {
+        closest_hit(placed.iter().copied(), ray)
+    });
 
     // Without the setting, the assets keep their data.
     let mut kept = headless_app(SceneBvhConfig::default());
