@@ -19,6 +19,14 @@ pub enum BvhError {
         /// The largest magnitude accepted.
         limit: f32,
     },
+    /// A triangle's corner indexed past the vertices given.
+    #[error("triangle {index} has a corner past the {vertices} vertices given")]
+    CornerOutOfRange {
+        /// Position of the triangle in the batch given.
+        index: usize,
+        /// Vertices given.
+        vertices: usize,
+    },
     /// A transform had a NaN, infinite or singular matrix.
     #[error("the transform is not finite and invertible")]
     BadTransform,

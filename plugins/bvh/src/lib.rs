@@ -1,7 +1,7 @@
 //! # treelight_bvh
 //!
 //! Incremental BVH construction for ray tracing (Bittner, Hapala, Havran 2015), with the editing,
-//! traversal and export an interactive editor needs. No Bevy: glam and rayon only.
+//! traversal and export an interactive editor needs. No Bevy: glam, rayon and a hasher only.
 //!
 //! * Build by insertion: [`Bvh::insert_triangles`] (Incr / IncrU, chosen by [`BvhConfig`]),
 //!   [`Bvh::insert_triangles_parallel_search`] (IncrUP), [`Bvh::insert_triangles_block_parallel`] and

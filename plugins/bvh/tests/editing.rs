@@ -460,10 +460,9 @@ fn group_op(bvh: &mut Bvh, op: Op, groups: &mut Vec<(GroupId, usize)>) {
             let k = pick % groups.len();
             let g = groups[k].0;
             if bvh.is_group_whole(g) == Ok(false) {
-                let world = bvh.group_world(g).unwrap();
-                let built =
-                    treelight_bvh::Refinement::build(world, bvh.group_transform(g).unwrap())
-                        .unwrap();
+                let (vertices, corners) = bvh.group_world_indexed(g).unwrap();
+                let transform = bvh.group_transform(g).unwrap();
+                let built = treelight_bvh::Refinement::build(vertices, corners, transform).unwrap();
                 groups[k].0 = bvh.swap_group(g, built).unwrap();
             }
         }
@@ -727,7 +726,7 @@ fn bake_then_move_round_trips_without_drift() {
     for (t, o) in ids.iter().zip(&object) {
         assert_eq!(
             bvh.triangle(*t).unwrap(),
-            o,
+            *o,
             "baking must start from the object-space copy"
         );
     }
@@ -769,7 +768,7 @@ fn a_group_inserted_baked_keeps_no_object_copy_and_drifts_by_one_rounding_at_mos
     bvh.bake_group(g).unwrap();
     for (t, o) in ids.iter().zip(&object) {
         let back = bvh.triangle(*t).unwrap();
-        assert!(close(back, &o.transformed(&placed)), "{back:?} vs {o:?}");
+        assert!(close(&back, &o.transformed(&placed)), "{back:?} vs {o:?}");
     }
     bvh.validate().unwrap();
 }
@@ -870,10 +869,10 @@ fn a_baked_group_rebuilt_by_full_sweep_from_its_world_triangles_traces_the_same(
         .map(|r| bvh.closest_hit(r).map(|h| h.t))
         .collect();
     let binned_cost = bvh.sah_cost_with(1.0, 1.0);
-    let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_world(g).unwrap(),
-        bvh.group_transform(g).unwrap(),
-    )
+    let rebuilt = {
+        let (vertices, corners) = bvh.group_world_indexed(g).unwrap();
+        treelight_bvh::Refinement::build(vertices, corners, bvh.group_transform(g).unwrap())
+    }
     .unwrap();
     let g2 = bvh.swap_group(g, rebuilt).unwrap();
     assert!(bvh.group_triangles(g).is_err(), "the old group is gone");
@@ -920,10 +919,10 @@ fn a_bake_or_a_rebuild_kept_as_the_same_geometry_is_no_geometry_change() {
     let c = bvh.take_changes();
     assert!(!c.written_triangles.is_empty(), "the baked triangles move");
     assert!(!c.geometry_changed());
-    let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_world(g).unwrap(),
-        bvh.group_transform(g).unwrap(),
-    )
+    let rebuilt = {
+        let (vertices, corners) = bvh.group_world_indexed(g).unwrap();
+        treelight_bvh::Refinement::build(vertices, corners, bvh.group_transform(g).unwrap())
+    }
     .unwrap();
     bvh.keeping_geometry(|bvh| bvh.swap_group(g, rebuilt))
         .unwrap();

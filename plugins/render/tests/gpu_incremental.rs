@@ -203,10 +203,10 @@ fn incremental_upload_traces_like_a_full_one() {
 
     // The baked mesh swapped for a full-sweep rebuild of itself (the scene worker's idle
     // refinement): the patched copy still traces like a fresh one.
-    let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_world(baked).unwrap(),
-        bvh.group_transform(baked).unwrap(),
-    )
+    let rebuilt = {
+        let (vertices, corners) = bvh.group_world_indexed(baked).unwrap();
+        treelight_bvh::Refinement::build(vertices, corners, bvh.group_transform(baked).unwrap())
+    }
     .unwrap();
     bvh.swap_group(baked, rebuilt).unwrap();
     let (_, patched) = mirror.follow(&gpu, &mut bvh, &view);

@@ -155,10 +155,10 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     // Baked, then swapped for a full-sweep rebuild of the same triangles (the scene worker's
     // idle refinement): the patched buffers still equal a full export.
     bvh.bake_group(g).unwrap();
-    let rebuilt = treelight_bvh::Refinement::build(
-        bvh.group_world(g).unwrap(),
-        bvh.group_transform(g).unwrap(),
-    )
+    let rebuilt = {
+        let (vertices, corners) = bvh.group_world_indexed(g).unwrap();
+        treelight_bvh::Refinement::build(vertices, corners, bvh.group_transform(g).unwrap())
+    }
     .unwrap();
     let g = bvh.swap_group(g, rebuilt).unwrap();
     let plan = gpu.plan(&mut bvh);

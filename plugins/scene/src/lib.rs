@@ -21,7 +21,9 @@ mod refine;
 mod shading;
 mod worker;
 
-pub use mesh::{GeometryCopy, MeshGeometry, MeshSkip, mesh_geometry, mesh_triangles};
+pub use mesh::{
+    GeometryCopy, MeshGeometry, MeshPositions, MeshSkip, mesh_geometry, mesh_triangles,
+};
 pub use picking::SceneBvhPickingPlugin;
 pub use shading::{MeshShading, ShadingVertices};
 /// The engine's named policies, which [`SceneBvhConfig::preset`] takes.

@@ -41,6 +41,39 @@ impl fmt::Display for MeshSkip {
     }
 }
 
+/// A mesh's positions and its triangles as indices into them, object space: what the tree keeps
+/// of it ([`treelight_bvh::PreparedGroup::build_indexed`]), without a soup of triangles between.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshPositions {
+    /// The positions, as the mesh has them.
+    pub vertices: Vec<Vec3>,
+    /// Each triangle's corners, indices into `vertices`, in index order.
+    pub corners: Vec<[u32; 3]>,
+}
+
+impl MeshPositions {
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.corners.len()
+    }
+
+    /// Whether there are no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.corners.is_empty()
+    }
+
+    /// The triangles, in index order.
+    pub fn triangles(&self) -> Vec<Triangle> {
+        self.corners
+            .iter()
+            .map(|c| {
+                let [a, b, c] = c.map(|i| self.vertices[i as usize]);
+                Triangle::new(a, b, c)
+            })
+            .collect()
+    }
+}
+
 /// A mesh as the scene BVH and a renderer see it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshGeometry {
@@ -354,8 +387,17 @@ impl GeometryCopy {
     /// [`GeometryCopy::copy`] has returned `true`). Of a partial copy it gives the triangles whose
     /// corners were copied, with normals and UVs only where those arrays were copied in full.
     pub fn finish(self) -> MeshGeometry {
+        let (positions, shading) = self.finish_positions();
+        MeshGeometry {
+            triangles: positions.triangles(),
+            shading,
+        }
+    }
+
+    /// [`GeometryCopy::finish`] with the triangles as the mesh's positions and corners.
+    pub fn finish_positions(self) -> (MeshPositions, MeshShading) {
         let Destination::Ready(a) = self.arrays else {
-            return MeshGeometry::default();
+            return Default::default();
         };
         // The arrays hold what was copied.
         let v = a.positions.len();
@@ -381,23 +423,18 @@ impl GeometryCopy {
             }
             all.iter().map(|&x| to(x)).collect()
         }
-        let triangles = corners
-            .iter()
-            .map(|c| {
-                let [a, b, c] = c.map(|i| Vec3::from_array(a.positions[i as usize]));
-                Triangle::new(a, b, c)
-            })
-            .collect();
         let vertices = ShadingVertices {
             normals: whole(&a.normals, v, |n| encode_normal(Vec3::from_array(n))),
             uvs: whole(&a.uvs, v, Vec2::from_array),
             uvs1: whole(&a.uvs1, v, Vec2::from_array),
             tangents: whole(&a.tangents, v, |t| encode_tangent(Vec4::from_array(t))),
         };
-        MeshGeometry {
-            triangles,
-            shading: MeshShading::new(vertices, &corners),
-        }
+        let shading = MeshShading::new(vertices, &corners);
+        let positions = MeshPositions {
+            vertices: a.positions.iter().map(|&p| Vec3::from_array(p)).collect(),
+            corners,
+        };
+        (positions, shading)
     }
 }
 

@@ -8,11 +8,11 @@ use bevy::prelude::Entity;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::time::Instant;
-use treelight_bvh::glam::Affine3A;
-use treelight_bvh::{BvhError, GroupId, PreparedGroup, Refinement, Triangle};
+use treelight_bvh::glam::{Affine3A, Vec3};
+use treelight_bvh::{BvhError, GroupId, PreparedGroup, Refinement};
 
 /// A build to make: the group it improves on, its object triangles and transform.
-type Job = (GroupId, Vec<Triangle>, Affine3A);
+type Job = (GroupId, (Vec<Vec3>, Vec<[u32; 3]>), Affine3A);
 /// A build made.
 type Built = (GroupId, Result<PreparedGroup, BvhError>);
 
@@ -53,7 +53,7 @@ impl Refiner {
                 crate::priority::lower_current_thread(nice);
                 for (g, world, transform) in job_rx {
                     let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        Refinement::build(world, transform)
+                        Refinement::build(world.0, world.1, transform)
                     }));
                     let p = match built {
                         Ok(p) => p,
@@ -134,7 +134,8 @@ impl Refiner {
             let Some(e) = Self::candidate(tree, last_move, g) else {
                 continue;
             };
-            let (Ok(world), Ok(transform)) = (tree.bvh.group_world(g), tree.bvh.group_transform(g))
+            let (Ok(world), Ok(transform)) =
+                (tree.bvh.group_world_indexed(g), tree.bvh.group_transform(g))
             else {
                 continue;
             };

@@ -3,7 +3,7 @@
 
 use crate::chunks::MeshChunks;
 use crate::refine::Refiner;
-use crate::{GeometryCopy, MeshShading, SceneStats, SceneTree};
+use crate::{GeometryCopy, MeshPositions, MeshShading, SceneStats, SceneTree};
 use bevy::asset::AssetId;
 use bevy::log::warn;
 use bevy::mesh::Mesh;
@@ -15,7 +15,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{GroupId, IdleUpdates, IdleWork, PreparedGroup, Triangle};
+use treelight_bvh::{GroupId, IdleUpdates, IdleWork, PreparedGroup};
 
 /// What the main thread asks of the worker.
 pub(crate) enum Command {
@@ -54,7 +54,8 @@ pub(crate) struct NewMesh {
     entity: Entity,
     mesh: AssetId<Mesh>,
     name: String,
-    triangles: Arc<Vec<Triangle>>,
+    /// Its positions and triangles, taken when its group is built.
+    positions: MeshPositions,
     shading: Arc<MeshShading>,
     transform: Affine3A,
     /// The camera's position when it was sent: a mesh inserted in chunks starts nearest it.
@@ -75,13 +76,13 @@ impl Command {
                 eye,
                 sent,
             } => {
-                let geometry = copy.finish();
+                let (positions, shading) = copy.finish_positions();
                 Command::Upsert(NewMesh {
                     entity,
                     mesh,
                     name,
-                    triangles: Arc::new(geometry.triangles),
-                    shading: Arc::new(geometry.shading),
+                    positions,
+                    shading: Arc::new(shading),
                     transform,
                     eye,
                     sent,
@@ -104,7 +105,7 @@ impl Command {
     pub(crate) fn new_triangles(&self) -> usize {
         match self {
             Command::Copied { copy, .. } => copy.triangles(),
-            Command::Upsert(m) => m.triangles.len(),
+            Command::Upsert(m) => m.positions.len(),
             _ => 0,
         }
     }
@@ -333,9 +334,9 @@ pub(crate) fn run(
         for c in &batch {
             refiner.touched(c.entity());
         }
-        let (chunked, commands): (Vec<Command>, Vec<Command>) =
+        let (chunked, mut commands): (Vec<Command>, Vec<Command>) =
             coalesce(batch).into_iter().partition(
-                |c| matches!(c, Command::Upsert(m) if config.chunks.cuts(m.triangles.len())),
+                |c| matches!(c, Command::Upsert(m) if config.chunks.cuts(m.positions.len())),
             );
         let started = Instant::now();
         // Huge meshes first, a chunk at a time, each published as soon as it is in (they are new
@@ -351,7 +352,7 @@ pub(crate) fn run(
             }
         }
         // The expensive part, in parallel and without the lock: world transforms and bBVH builds.
-        let prepared = prepare_groups(&commands);
+        let prepared = prepare_groups(&mut commands);
         {
             let mut guard = shared.tree.write().unwrap_or_else(|p| p.into_inner());
             let tree = &mut *guard;
@@ -387,25 +388,26 @@ pub(crate) fn run(
 }
 
 /// Each upsert's group built, in parallel and without the lock (world transforms and bBVH
-/// builds); `None` for other commands and for a mesh that cannot be traced (said why).
-fn prepare_groups(commands: &[Command]) -> Vec<Option<PreparedGroup>> {
+/// builds), its positions taken into it; `None` for other commands and for a mesh that cannot be
+/// traced (said why).
+fn prepare_groups(commands: &mut [Command]) -> Vec<Option<PreparedGroup>> {
     commands
-        .par_iter()
-        .map(|c| match c {
-            Command::Upsert(NewMesh {
+        .par_iter_mut()
+        .map(|c| {
+            let Command::Upsert(NewMesh {
                 name,
-                triangles,
+                positions,
                 transform,
                 entity,
                 ..
-            }) => match PreparedGroup::build(triangles.to_vec(), *transform, false) {
-                Ok(p) => Some(p),
-                Err(e) => {
-                    warn!("entity {entity} ('{name}') is not traced: {e}");
-                    None
-                }
-            },
-            _ => None,
+            }) = c
+            else {
+                return None;
+            };
+            let MeshPositions { vertices, corners } = std::mem::take(positions);
+            PreparedGroup::build_indexed(vertices, corners, *transform, false)
+                .inspect_err(|e| warn!("entity {entity} ('{name}') is not traced: {e}"))
+                .ok()
         })
         .collect()
 }
@@ -505,12 +507,14 @@ fn insert_in_chunks(
         entity,
         mesh,
         name,
-        triangles,
+        positions,
         shading,
         transform,
         eye,
         ..
     } = huge;
+    let triangles = Arc::new(positions.triangles());
+    drop(positions);
     let chunks = MeshChunks::cut(triangles, shading, config.chunks, &transform, eye);
     let old: Vec<GroupId> = shared
         .tree
@@ -735,12 +739,14 @@ mod tests {
     use super::*;
 
     fn mesh(index: u32, triangles: usize) -> Command {
-        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
         Command::Upsert(NewMesh {
             entity: Entity::from_raw_u32(index).unwrap(),
             mesh: AssetId::default(),
             name: format!("mesh {index}"),
-            triangles: Arc::new(vec![t; triangles]),
+            positions: MeshPositions {
+                vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+                corners: vec![[0, 1, 2]; triangles],
+            },
             shading: Arc::new(MeshShading::default()),
             transform: Affine3A::IDENTITY,
             eye: None,

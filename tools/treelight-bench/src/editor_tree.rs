@@ -121,11 +121,12 @@ impl EditorTree {
                 self.work.step(&self.policy.idle, &mut self.bvh);
             } else if let Some(g) = self.to_refine.pop() {
                 let bvh = &mut self.bvh;
-                let (world, transform) = (
-                    bvh.group_world(g).map_err(|e| e.to_string())?,
+                let ((vertices, corners), transform) = (
+                    bvh.group_world_indexed(g).map_err(|e| e.to_string())?,
                     bvh.group_transform(g).map_err(|e| e.to_string())?,
                 );
-                let rebuilt = Refinement::build(world, transform).map_err(|e| e.to_string())?;
+                let rebuilt =
+                    Refinement::build(vertices, corners, transform).map_err(|e| e.to_string())?;
                 bvh.swap_group(g, rebuilt).map_err(|e| e.to_string())?;
                 // As the worker: the updates follow the last rebuild of the series.
                 if self.to_refine.is_empty() {

@@ -5,8 +5,9 @@ use crate::top_down::{BuiltTree, TopDown, build_binned_parallel};
 use crate::tree::bvh::{AreaSum, Group};
 use crate::tree::node::{NONE, NodeKind, NodeRef};
 use crate::tree::triangle::validate_triangles;
-use crate::{Aabb, Bvh, BvhError, Instance, Triangle};
-use glam::Affine3A;
+use crate::tree::vertices::{Indexed, compact, gather};
+use crate::{Aabb, Bvh, BvhError, Instance, MAX_COORDINATE, Triangle};
+use glam::{Affine3A, Vec3};
 
 /// Handle to a group; stale handles (of removed groups) are rejected, never confused with new ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -33,15 +34,17 @@ pub struct PreparedGroup {
     transform: Affine3A,
     whole: bool,
     /// Triangles as they will be stored: object space if whole, world space if baked.
-    stored: Vec<Triangle>,
+    stored: Indexed,
     tree: BuiltTree,
 }
 
 impl PreparedGroup {
     /// Validates and builds (binned SAH, parallel for large meshes). `keep_whole` keeps the triangles in
-    /// object space under `transform`; otherwise they are moved to world space and baked.
+    /// object space under `transform`; otherwise they are moved to world space and baked. The
+    /// triangles are kept as shared vertices (each position that is the same to the bit once) and
+    /// corners; each reads back exactly as given.
     pub fn build(
-        object: Vec<Triangle>,
+        object: &[Triangle],
         transform: Affine3A,
         keep_whole: bool,
     ) -> Result<Self, BvhError> {
@@ -51,41 +54,83 @@ impl PreparedGroup {
     /// [`PreparedGroup::build`] with another top-down builder (binned SAH runs in parallel for
     /// large meshes): full-sweep SAH, for one, costs about twice the time for a better tree.
     pub fn build_with(
-        object: Vec<Triangle>,
+        object: &[Triangle],
         transform: Affine3A,
         keep_whole: bool,
         builder: TopDown,
     ) -> Result<Self, BvhError> {
-        validate_triangles(&object)?;
+        validate_triangles(object)?;
+        let indexed = Indexed::from_soup(object);
+        Self::build_placed(indexed, transform, keep_whole, builder)
+    }
+
+    /// [`PreparedGroup::build`] from a mesh's own vertices and triangles (three indices into
+    /// `vertices` each): no soup of triangles is made, and vertices at the same position (split
+    /// where a mesh's normals or UVs part) are kept once.
+    pub fn build_indexed(
+        vertices: Vec<Vec3>,
+        corners: Vec<[u32; 3]>,
+        transform: Affine3A,
+        keep_whole: bool,
+    ) -> Result<Self, BvhError> {
+        let indexed = Indexed::merged(vertices, corners);
+        indexed.validate()?;
+        Self::build_placed(indexed, transform, keep_whole, TopDown::BinnedSah)
+    }
+
+    fn build_placed(
+        mut indexed: Indexed,
+        transform: Affine3A,
+        keep_whole: bool,
+        builder: TopDown,
+    ) -> Result<Self, BvhError> {
         check_transform(&transform)?;
-        let stored: Vec<Triangle> = if keep_whole {
-            object
-        } else {
-            object.iter().map(|t| t.transformed(&transform)).collect()
-        };
-        Self::build_stored(stored, transform, keep_whole, builder)
+        if !keep_whole {
+            for p in &mut indexed.vertices {
+                *p = transform.transform_point3(*p);
+            }
+        }
+        Self::build_stored(indexed, transform, keep_whole, builder)
     }
 
     /// A baked group built from its triangles already in world space, placed by `transform` (what
     /// [`Bvh::group_world`] and [`Bvh::group_transform`] return): its triangles are stored exactly as
     /// given, so a rebuild of a baked group meets every ray the old one did.
     pub fn build_world(
-        world: Vec<Triangle>,
+        world: &[Triangle],
         transform: Affine3A,
         builder: TopDown,
     ) -> Result<Self, BvhError> {
         check_transform(&transform)?;
-        Self::build_stored(world, transform, false, builder)
+        validate_triangles(world)?;
+        let indexed = Indexed::from_soup(world);
+        Self::build_stored(indexed, transform, false, builder)
+    }
+
+    /// [`PreparedGroup::build_world`] from what [`Bvh::group_world_indexed`] returns: the vertices
+    /// and corners kept as they are, so a baked group rebuilt from its own keeps its object-space
+    /// copy (see [`Bvh::swap_group`]).
+    pub fn build_world_indexed(
+        vertices: Vec<Vec3>,
+        corners: Vec<[u32; 3]>,
+        transform: Affine3A,
+        builder: TopDown,
+    ) -> Result<Self, BvhError> {
+        check_transform(&transform)?;
+        let indexed = Indexed { vertices, corners };
+        Self::build_stored(indexed, transform, false, builder)
     }
 
     fn build_stored(
-        stored: Vec<Triangle>,
+        stored: Indexed,
         transform: Affine3A,
         whole: bool,
         builder: TopDown,
     ) -> Result<Self, BvhError> {
-        validate_triangles(&stored)?;
-        let boxes: Vec<Aabb> = stored.iter().map(|t| t.aabb()).collect();
+        stored.validate()?;
+        let boxes: Vec<Aabb> = (0..stored.len())
+            .map(|k| stored.triangle(k).aabb())
+            .collect();
         let tree = match builder {
             TopDown::BinnedSah => build_binned_parallel(&boxes),
             other => other.build(&boxes),
@@ -105,7 +150,7 @@ impl PreparedGroup {
 
     /// Whether the group has no triangles.
     pub fn is_empty(&self) -> bool {
-        self.stored.is_empty()
+        self.stored.len() == 0
     }
 }
 
@@ -138,7 +183,7 @@ impl Bvh {
         transform: Affine3A,
         keep_whole: bool,
     ) -> Result<GroupId, BvhError> {
-        let prepared = PreparedGroup::build(object.to_vec(), transform, keep_whole)?;
+        let prepared = PreparedGroup::build(object, transform, keep_whole)?;
         self.insert_prepared(prepared)
     }
 
@@ -146,11 +191,14 @@ impl Bvh {
     pub fn insert_prepared(&mut self, g: PreparedGroup) -> Result<GroupId, BvhError> {
         self.check_room(g.stored.len())?;
         let index = self.take_group_slot();
-        let ids: Vec<u32> = g
-            .stored
+        let Indexed { vertices, corners } = g.stored;
+        // The vertices first: the graft reads the triangles' boxes through them.
+        self.groups[index as usize].vertices = vertices;
+        let ids: Vec<u32> = corners
             .iter()
-            .map(|t| self.alloc_triangle(*t, index))
+            .map(|&c| self.alloc_grouped(c, index))
             .collect();
+        drop(corners);
         let root = self.graft(&g.tree, &ids);
         let mut instance = NONE;
         if !root.is_none() {
@@ -204,18 +252,31 @@ impl Bvh {
     /// Puts `new` in `old`'s place: inserts it, then removes `old` (the triangles never lapse). The
     /// new group's triangles are `new`'s in its order, so data kept per triangle in group order (a
     /// mesh's shading) still fits when `new` was built from `old`'s [`Bvh::group_world`] (or
-    /// [`Bvh::group_object`]); a baked `new` of as many triangles takes over `old`'s exact
-    /// object-space copy, if it kept one.
+    /// [`Bvh::group_object`]); a baked `new` of as many triangles and vertices (built from
+    /// [`Bvh::group_world_indexed`]) takes over `old`'s exact object-space copy, if it kept one.
     pub fn swap_group(&mut self, old: GroupId, new: PreparedGroup) -> Result<GroupId, BvhError> {
         let same_count = self.group(old)?.triangles.len() == new.len();
         let baked = !new.whole;
         let id = self.insert_prepared(new)?;
         let copy = std::mem::take(&mut self.groups[old.index as usize].object);
-        if baked && same_count {
+        if baked && same_count && self.same_vertices(old.index, id.index, copy.len()) {
             self.groups[id.index as usize].object = copy;
         }
         self.remove_group(old)?;
         Ok(id)
+    }
+
+    /// Whether group `b` indexes `vertices` vertices as group `a` does, corner for corner, triangle
+    /// for triangle: what makes `a`'s object-space copy (of that many) fit `b`.
+    fn same_vertices(&self, a: u32, b: u32, vertices: usize) -> bool {
+        let (a, b) = (&self.groups[a as usize], &self.groups[b as usize]);
+        let corners = &self.tri.corners;
+        b.vertices.len() == vertices
+            && a.triangles.len() == b.triangles.len()
+            && a.triangles
+                .iter()
+                .zip(&b.triangles)
+                .all(|(&s, &t)| corners[s as usize] == corners[t as usize])
     }
 
     /// Removes a group and all its triangles. A group whose triangles others share
@@ -257,6 +318,7 @@ impl Bvh {
         slot.retired = false;
         slot.generation = slot.generation.wrapping_add(1);
         slot.triangles = Vec::new();
+        slot.vertices = Vec::new();
         slot.object = Vec::new();
         slot.instance = NONE;
         slot.source = NONE;
@@ -321,36 +383,39 @@ impl Bvh {
         Ok(())
     }
 
-    /// The object-space triangles a baked group goes back to when it is opened: its exact copy if it
-    /// kept one, else its world triangles carried back through its transform's inverse (rounded
+    /// The object-space vertices a baked group goes back to when it is opened: its exact copy if
+    /// it kept one, else its world vertices carried back through its transform's inverse (rounded
     /// once; the copy then kept rules out any further drift). `None` if that inverse leaves the
-    /// finite numbers.
-    fn baked_object(&self, index: u32) -> Option<Vec<Triangle>> {
+    /// numbers the tree accepts.
+    fn baked_object(&self, index: u32) -> Option<Vec<Vec3>> {
         let g = &self.groups[index as usize];
         if !g.object.is_empty() {
             return Some(g.object.clone());
         }
         let inverse = g.transform.inverse();
-        let object: Vec<Triangle> = g
-            .triangles
+        let object: Vec<Vec3> = g
+            .vertices
             .iter()
-            .map(|&t| self.tri.items[t as usize].transformed(&inverse))
+            .map(|&p| inverse.transform_point3(p))
             .collect();
-        validate_triangles(&object).is_ok().then_some(object)
+        object
+            .iter()
+            .all(|p| p.abs().cmple(Vec3::splat(MAX_COORDINATE)).all())
+            .then_some(object)
     }
 
     /// Turns a baked group (its copy, if it kept one, already taken as `object`) into an instance
     /// over an object-space subtree of the same triangle ids.
-    fn unbake(&mut self, index: u32, object: Vec<Triangle>) {
+    fn unbake(&mut self, index: u32, object: Vec<Vec3>) {
         let g = &self.groups[index as usize];
         let (triangles, transform) = (g.triangles.clone(), g.transform);
         // The triangles keep the shape they have in the tree (a rigid transform away from the one
         // they get in object space): far quicker than a build, and as good for a mesh's own parts.
         let tree = self.induced_tree(&triangles);
         self.remove_leaves_keep_triangles(&triangles);
-        for (&t, tri) in triangles.iter().zip(&object) {
-            self.tri.items[t as usize] = *tri;
-            self.changes.mark_triangle(t, self.tri.items.len());
+        self.groups[index as usize].vertices = object;
+        for &t in &triangles {
+            self.changes.mark_triangle(t, self.tri.parent.len());
         }
         let root = self.graft(&tree, &triangles);
         self.refit_subtree(root);
@@ -370,16 +435,15 @@ impl Bvh {
             return Ok(());
         }
         let (triangles, transform) = (g.triangles.clone(), g.transform);
-        // The object-space triangles are about to be overwritten: kept, so that the group's next
-        // move starts from them exactly.
-        let object: Vec<Triangle> = triangles
+        // The object-space vertices are replaced: kept, so that the group's next move starts from
+        // them exactly.
+        let object = std::mem::take(&mut self.groups[id.index as usize].vertices);
+        self.groups[id.index as usize].vertices = object
             .iter()
-            .map(|&t| self.tri.items[t as usize])
+            .map(|&p| transform.transform_point3(p))
             .collect();
-        for (&t, tri) in triangles.iter().zip(&object) {
-            let w = tri.transformed(&transform);
-            self.tri.items[t as usize] = w;
-            self.changes.mark_triangle(t, self.tri.items.len());
+        for &t in &triangles {
+            self.changes.mark_triangle(t, self.tri.parent.len());
         }
         let inst = self.instances[instance as usize];
         self.refit_subtree(inst.root);
@@ -419,25 +483,40 @@ impl Bvh {
         validate_triangles(object)?;
         let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
         let had_copy = !g.object.is_empty();
-        if instance == NONE {
-            let world: Vec<Triangle> = object.iter().map(|t| t.transformed(&transform)).collect();
-            validate_triangles(&world)?;
-            let updates: Vec<(u32, Triangle)> = triangles.iter().copied().zip(world).collect();
-            self.set_triangles(&updates)?;
+        let new = Indexed::from_soup(object);
+        let stored = if instance == NONE {
+            let world = Indexed {
+                vertices: new
+                    .vertices
+                    .iter()
+                    .map(|&p| transform.transform_point3(p))
+                    .collect(),
+                corners: new.corners.clone(),
+            };
+            world.validate()?;
+            world.vertices
         } else {
-            for (&t, tri) in triangles.iter().zip(object) {
-                self.tri.items[t as usize] = *tri;
-                self.changes.mark_triangle(t, self.tri.items.len());
-            }
+            new.vertices.clone()
+        };
+        for (&t, &c) in triangles.iter().zip(&new.corners) {
+            self.tri.corners[t as usize] = c;
+            self.changes.mark_triangle(t, self.tri.parent.len());
+        }
+        self.groups[id.index as usize].vertices = stored;
+        if instance != NONE {
             self.refit_subtree(self.instances[instance as usize].root);
             self.set_group_transform(id, transform)?;
             self.refresh_users(id.index);
             return Ok(());
         }
-        // A baked group's copy, if it kept one, follows: its next move starts from these.
-        if had_copy {
-            self.groups[id.index as usize].object = object.to_vec();
+        for &t in &triangles {
+            let p = self.tri.parent[t as usize];
+            if p != NONE {
+                self.refit_from(p);
+            }
         }
+        // A baked group's copy, if it kept one, follows: its next move starts from these.
+        self.groups[id.index as usize].object = if had_copy { new.vertices } else { Vec::new() };
         Ok(())
     }
 
@@ -471,25 +550,47 @@ impl Bvh {
     pub fn group_object(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
         let g = self.group(id)?;
         if g.instance != NONE {
-            return Ok(g
-                .triangles
-                .iter()
-                .map(|&t| self.tri.items[t as usize])
-                .collect());
+            return Ok(g.triangles.iter().map(|&t| self.tri(t)).collect());
         }
-        self.baked_object(id.index).ok_or(BvhError::BadTransform)
+        let object = self.baked_object(id.index).ok_or(BvhError::BadTransform)?;
+        Ok(g.triangles
+            .iter()
+            .map(|&t| gather(&object, self.tri.corners[t as usize]))
+            .collect())
     }
 
     /// The group's triangles in world space, in the order of [`Bvh::group_triangles`] (none for a
     /// group that shares another's): a baked group's exactly as stored.
     pub fn group_world(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
         let g = self.group(id)?;
-        let stored = g.triangles.iter().map(|&t| self.tri.items[t as usize]);
+        let stored = g.triangles.iter().map(|&t| self.tri(t));
         Ok(if g.instance != NONE {
             stored.map(|t| t.transformed(&g.transform)).collect()
         } else {
             stored.collect()
         })
+    }
+
+    /// [`Bvh::group_world`] as the group keeps it: its vertices in world space and each triangle's
+    /// corners, in the order of [`Bvh::group_triangles`] (for
+    /// [`PreparedGroup::build_world_indexed`]). A baked group's vertices exactly as stored.
+    #[allow(clippy::type_complexity)]
+    pub fn group_world_indexed(&self, id: GroupId) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), BvhError> {
+        let g = self.group(id)?;
+        let vertices = if g.instance != NONE {
+            g.vertices
+                .iter()
+                .map(|&p| g.transform.transform_point3(p))
+                .collect()
+        } else {
+            g.vertices.clone()
+        };
+        let corners = g
+            .triangles
+            .iter()
+            .map(|&t| self.tri.corners[t as usize])
+            .collect();
+        Ok((vertices, corners))
     }
 
     /// The group's current transform.
@@ -517,7 +618,7 @@ impl Bvh {
     /// Triangle `t` in world space, whatever its group's state, placed by the group that owns it
     /// (see [`Bvh::hit_world_triangle`] for triangles shared by several groups).
     pub fn world_triangle(&self, t: u32) -> Option<Triangle> {
-        let tri = *self.triangle(t)?;
+        let tri = self.triangle(t)?;
         let g = self.tri.group[t as usize];
         if g != NONE && self.groups[g as usize].instance != NONE {
             return Some(tri.transformed(&self.groups[g as usize].transform));
@@ -560,19 +661,12 @@ impl Bvh {
         }
         for &g in &touched_groups {
             let group = &mut self.groups[g as usize];
-            let (mut tris, mut object) = (Vec::new(), Vec::new());
-            for (k, &t) in group.triangles.iter().enumerate() {
-                if ids.binary_search(&t).is_err() {
-                    tris.push(t);
-                    if let Some(o) = group.object.get(k) {
-                        object.push(*o);
-                    }
-                }
-            }
-            group.triangles = tris;
-            group.object = object;
+            group.triangles.retain(|t| ids.binary_search(t).is_err());
         }
         self.remove_leaves(&ids);
+        for &g in &touched_groups {
+            self.drop_unused_vertices(g);
+        }
         Ok(())
     }
 
@@ -592,8 +686,17 @@ impl Bvh {
             }
         }
         for &(t, tri) in updates {
-            self.tri.items[t as usize] = tri;
-            self.changes.mark_triangle(t, self.tri.items.len());
+            let g = self.tri.group[t as usize];
+            if g == NONE {
+                self.write_loose(t, tri);
+            } else {
+                // Its corners may be its neighbours' too: the triangle gets three of its own.
+                let vertices = &mut self.groups[g as usize].vertices;
+                let first = vertices.len() as u32;
+                vertices.extend_from_slice(&tri.v);
+                self.tri.corners[t as usize] = [first, first + 1, first + 2];
+            }
+            self.changes.mark_triangle(t, self.tri.parent.len());
             let p = self.tri.parent[t as usize];
             if p != NONE {
                 self.refit_from(p);
@@ -601,13 +704,35 @@ impl Bvh {
         }
         // A baked group's object-space copy no longer holds triangles edited in the world: it
         // goes, and the group's object space is carried back from the world when it moves.
-        for &(t, _) in updates {
-            let g = self.tri.group[t as usize];
-            if g != NONE {
-                self.groups[g as usize].object = Vec::new();
-            }
+        let mut touched: Vec<u32> = updates
+            .iter()
+            .map(|&(t, _)| self.tri.group[t as usize])
+            .filter(|&g| g != NONE)
+            .collect();
+        touched.sort_unstable();
+        touched.dedup();
+        for g in touched {
+            self.groups[g as usize].object = Vec::new();
+            self.drop_unused_vertices(g);
         }
         Ok(())
+    }
+
+    /// Compacts group `g`'s vertices once more than three a triangle are kept (the triangles
+    /// edited one by one got their own, those removed left theirs): the store stays within what
+    /// corners of their own would take, at a cost spread over as many edits.
+    fn drop_unused_vertices(&mut self, g: u32) {
+        let group = &mut self.groups[g as usize];
+        if group.vertices.len() <= 3 * group.triangles.len() {
+            return;
+        }
+        let object = (!group.object.is_empty()).then_some(&mut group.object);
+        compact(
+            &mut group.vertices,
+            &mut self.tri.corners,
+            &group.triangles,
+            object,
+        );
     }
 
     /// Removes leaves from the global tree and frees their triangles.
@@ -637,7 +762,7 @@ impl Bvh {
     /// (their ancestors, marked first; the rest of the tree is not visited): an inner node with one
     /// surviving child is replaced by that child, one with none disappears.
     fn prune_leaves(&mut self, ids: &[u32]) {
-        let mut doomed = vec![false; self.tri.items.len()];
+        let mut doomed = vec![false; self.tri.parent.len()];
         let mut touched = vec![false; self.inner.len()];
         for &t in ids {
             doomed[t as usize] = true;

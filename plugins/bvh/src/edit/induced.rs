@@ -13,7 +13,7 @@ impl Bvh {
     pub(crate) fn induced_tree(&mut self, triangles: &[u32]) -> BuiltTree {
         let mut local = std::mem::take(&mut self.scratch.induced_local);
         let mut marked = std::mem::take(&mut self.scratch.induced_marked);
-        local.resize(self.tri.items.len(), NONE);
+        local.resize(self.tri.parent.len(), NONE);
         marked.resize(self.inner.len(), false);
         for (k, &t) in triangles.iter().enumerate() {
             local[t as usize] = k as u32;

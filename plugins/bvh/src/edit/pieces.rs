@@ -146,7 +146,7 @@ impl MeshPieces {
             .iter()
             .map(|&t| triangles[t as usize])
             .collect();
-        PreparedGroup::build(piece, transform, self.keep_whole())
+        PreparedGroup::build(&piece, transform, self.keep_whole())
     }
 }
 
@@ -165,11 +165,16 @@ impl Refinement {
         triangles >= Self::MIN_TRIANGLES
     }
 
-    /// The full-sweep build of a baked group from its world triangles and transform
-    /// ([`Bvh::group_world`](crate::Bvh::group_world), [`Bvh::group_transform`](crate::Bvh::group_transform)):
-    /// the same triangles, so the same hits.
-    pub fn build(world: Vec<Triangle>, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
-        PreparedGroup::build_world(world, transform, TopDown::SweepSah)
+    /// The full-sweep build of a baked group from its world vertices, corners and transform
+    /// ([`Bvh::group_world_indexed`](crate::Bvh::group_world_indexed),
+    /// [`Bvh::group_transform`](crate::Bvh::group_transform)): the same triangles, so the same
+    /// hits, and the same vertices, so the group keeps its object-space copy through the swap.
+    pub fn build(
+        vertices: Vec<Vec3>,
+        corners: Vec<[u32; 3]>,
+        transform: Affine3A,
+    ) -> Result<PreparedGroup, BvhError> {
+        PreparedGroup::build_world_indexed(vertices, corners, transform, TopDown::SweepSah)
     }
 }
 

@@ -37,6 +37,7 @@ impl Bvh {
         slot.alive = true;
         slot.retired = false;
         slot.triangles = Vec::new();
+        slot.vertices = Vec::new();
         slot.object = Vec::new();
         slot.transform = transform;
         slot.instance = instance;
@@ -92,6 +93,7 @@ impl Bvh {
                     generation: 0,
                     alive: false,
                     triangles: Vec::new(),
+                    vertices: Vec::new(),
                     object: Vec::new(),
                     transform: Affine3A::IDENTITY,
                     instance: NONE,

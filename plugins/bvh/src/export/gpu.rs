@@ -171,7 +171,7 @@ impl Bvh {
     pub fn take_changes(&mut self) -> ChangeSet {
         let sizes = (
             self.inner.len() as u32,
-            self.tri.items.len() as u32,
+            self.tri.parent.len() as u32,
             self.instances.len() as u32,
         );
         let parents = &self.tri.parent;
@@ -182,7 +182,7 @@ impl Bvh {
     pub fn mark_all_changed(&mut self) {
         self.changes.mark_all(
             self.inner.len() as u32,
-            self.tri.items.len() as u32,
+            self.tri.parent.len() as u32,
             self.instances.len() as u32,
         );
     }

@@ -65,7 +65,7 @@ impl Bvh {
                 out[me].aabb = out[l].aabb.union(&out[r].aabb);
             }
             NodeKind::Leaf => {
-                let t = self.tri.items[n.index() as usize];
+                let t = self.tri(n.index());
                 let t = xf.map_or(t, |x| t.transformed(x));
                 out.push(FileNode {
                     aabb: t.aabb(),

@@ -89,10 +89,8 @@ impl Bvh {
         while i < ids.len() {
             let a = ids[i];
             if let Some(&b) = ids.get(i + 1) {
-                let c = crate::incremental::insert::coherence(
-                    &self.tri.items[a as usize].aabb(),
-                    &self.tri.items[b as usize].aabb(),
-                );
+                let c =
+                    crate::incremental::insert::coherence(&self.tri(a).aabb(), &self.tri(b).aabb());
                 if c < self.config.coherence_max {
                     items.push(self.make_pair(NodeRef::leaf(a), NodeRef::leaf(b)));
                     fresh.push(true);

@@ -79,7 +79,7 @@ impl Bvh {
     pub(crate) fn stored_area(&self, r: NodeRef) -> f32 {
         match r.kind() {
             NodeKind::Inner => self.inner[r.index() as usize].aabb.stored_area(),
-            NodeKind::Leaf => self.tri.items[r.index() as usize].aabb().area(),
+            NodeKind::Leaf => self.tri(r.index()).aabb().area(),
             _ => self.aabb(r).area(),
         }
     }

@@ -152,8 +152,7 @@ impl Bvh {
                 NodeKind::Leaf => {
                     stats.triangles_tested += 1;
                     let id = n.index();
-                    if let Some((t, u, v)) =
-                        rd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max(best))
+                    if let Some((t, u, v)) = rd.hit_triangle(&self.tri(id), ray.t_min, t_max(best))
                     {
                         let hit = Hit {
                             triangle: id,
@@ -210,9 +209,7 @@ impl Bvh {
         while let Some(n) = stack.pop() {
             let b = self.aabb(n);
             let world = match (xf, n.kind()) {
-                (Some(t), NodeKind::Leaf) => {
-                    self.tri.items[n.index() as usize].transformed(t).aabb()
-                }
+                (Some(t), NodeKind::Leaf) => self.tri(n.index()).transformed(t).aabb(),
                 (Some(t), _) => b.transformed(t),
                 (None, _) => b,
             };
@@ -246,7 +243,7 @@ impl Bvh {
         let rd = RayData::new(ray);
         for id in self.world_triangles() {
             let t_max = best.map_or(ray.t_max, |h| h.t);
-            if let Some((t, u, v)) = rd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max)
+            if let Some((t, u, v)) = rd.hit_triangle(&self.tri(id), ray.t_min, t_max)
                 && best.is_none_or(|b| t < b.t)
             {
                 best = Some(Hit {
@@ -265,8 +262,7 @@ impl Bvh {
             let lrd = RayData::new(&local);
             for &id in tris {
                 let t_max = best.map_or(ray.t_max, |h| h.t);
-                if let Some((t, u, v)) =
-                    lrd.hit_triangle(&self.tri.items[id as usize], ray.t_min, t_max)
+                if let Some((t, u, v)) = lrd.hit_triangle(&self.tri(id), ray.t_min, t_max)
                     && best.is_none_or(|b| t < b.t)
                 {
                     best = Some(Hit {
@@ -286,7 +282,7 @@ impl Bvh {
     /// world space), tested as the traversal tests it; `None` if it misses or is not placed so.
     /// Two hits at one distance are a tie: either is the nearest.
     pub fn hit_at(&self, ray: &Ray, triangle: u32, instance: u32) -> Option<f32> {
-        let tri = self.tri.items.get(triangle as usize)?;
+        let tri = self.triangle(triangle)?;
         let local = if instance == NONE {
             self.world_triangles()
                 .any(|id| id == triangle)
@@ -296,13 +292,13 @@ impl Bvh {
             tris.contains(&triangle).then_some(local)?
         };
         RayData::new(&local)
-            .hit_triangle(tri, ray.t_min, ray.t_max)
+            .hit_triangle(&tri, ray.t_min, ray.t_max)
             .map(|(t, _, _)| t)
     }
 
     /// Live triangles stored in world space (not those a kept-whole group's instances place).
     fn world_triangles(&self) -> impl Iterator<Item = u32> + '_ {
-        (0..self.tri.items.len() as u32).filter(|&id| {
+        (0..self.tri.parent.len() as u32).filter(|&id| {
             let Some(&g) = self.tri.group.get(id as usize) else {
                 return false;
             };
@@ -341,12 +337,12 @@ impl Bvh {
     /// Every triangle as placed in world space, with its id and the instance placing it: triangles
     /// stored in world space once, and the triangles under each instance once per instance.
     fn placed_triangles(&self) -> impl Iterator<Item = (Triangle, u32, u32)> + '_ {
-        let world = (0..self.tri.items.len() as u32).filter_map(|id| {
+        let world = (0..self.tri.parent.len() as u32).filter_map(|id| {
             let g = *self.tri.group.get(id as usize)?;
             // Triangles kept whole are placed by the instances below (a retired owner's by its users').
             let whole = g != NONE
                 && (self.groups[g as usize].instance != NONE || self.groups[g as usize].retired);
-            (!whole).then(|| self.triangle(id).map(|t| (*t, id, NONE)))?
+            (!whole).then(|| self.triangle(id).map(|t| (t, id, NONE)))?
         });
         let placed = (0..self.instances.len() as u32).flat_map(move |i| {
             let inst = self.instance(i);
@@ -361,11 +357,7 @@ impl Bvh {
             });
             tris.iter().map(move |&id| {
                 let inst = &self.instances[i as usize];
-                (
-                    self.tri.items[id as usize].transformed(&inst.transform),
-                    id,
-                    i,
-                )
+                (self.tri(id).transformed(&inst.transform), id, i)
             })
         });
         world.chain(placed)

@@ -164,7 +164,7 @@ impl Bvh {
     ) -> Result<Bvh, BvhError> {
         let mut bvh = Bvh::new(config);
         bvh.check_room(tris.len())?;
-        let ids: Vec<u32> = tris.iter().map(|t| bvh.alloc_triangle(*t, NONE)).collect();
+        let ids: Vec<u32> = tris.iter().map(|t| bvh.alloc_triangle(*t)).collect();
         let root = bvh.graft(built, &ids);
         if refit && !root.is_none() {
             bvh.refit_subtree(root);

@@ -5,7 +5,7 @@ use crate::export::change::ChangeLog;
 use crate::tree::node::{FREE, InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
 use crate::tree::scratch::Scratch;
 use crate::{Aabb, BvhConfig, BvhError, Triangle};
-use glam::Affine3A;
+use glam::{Affine3A, Vec3};
 
 /// A transformed group's root in the global tree: a leaf-like node whose box is the world box of
 /// its object-space subtree; traversal carries the ray into object space here.
@@ -70,12 +70,16 @@ pub(crate) struct Group {
     pub(crate) alive: bool,
     /// Triangle ids, in the group's order (a mesh's own, for data kept per triangle).
     pub(crate) triangles: Vec<u32>,
-    /// A baked group's object-space triangles, kept once it has been whole (moved): each later move
-    /// starts from them, so moves never accumulate rounding drift. Empty while whole (the stored
-    /// triangles are in object space) and for a group inserted baked and never moved, whose object
-    /// space comes back through its transform's inverse, rounded once: an unedited scene keeps no
-    /// second copy of its triangles.
-    pub(crate) object: Vec<Triangle>,
+    /// The vertices its triangles' corners index ([`Triangles::corners`]), as stored: world space
+    /// while baked, object space while whole. Each distinct position once, shared by the
+    /// triangles that meet there.
+    pub(crate) vertices: Vec<Vec3>,
+    /// A baked group's object-space vertices, in the order of `vertices`, kept once it has been
+    /// whole (moved): each later move starts from them, so moves never accumulate rounding drift.
+    /// Empty while whole (the stored vertices are in object space) and for a group inserted baked
+    /// and never moved, whose object space comes back through its transform's inverse, rounded
+    /// once: an unedited scene keeps no second copy of its vertices.
+    pub(crate) object: Vec<Vec3>,
     pub(crate) transform: Affine3A,
     /// The instance while kept whole, [`NONE`] while baked.
     pub(crate) instance: u32,
@@ -91,10 +95,17 @@ pub(crate) struct Group {
 }
 
 /// The triangles: leaves, where a leaf *is* its triangle id, in parallel arrays with a free list.
+/// A grouped triangle is three indices into its group's vertices (a mesh's positions are shared by
+/// the triangles that meet there: about half the bytes of three corners apiece); a triangle outside
+/// any group keeps its own three corners.
 #[derive(Clone, Default)]
 pub(crate) struct Triangles {
-    /// Each triangle as stored: world space, or object space inside an instanced group.
-    pub(crate) items: Vec<Triangle>,
+    /// Each grouped triangle's corners, indices into [`Group::vertices`]. Grown only as far as the
+    /// highest grouped id: a tree of loose triangles keeps none.
+    pub(crate) corners: Vec<[u32; 3]>,
+    /// The corners of triangles outside any group, `3 * id ..`, as stored (world space). Grown only
+    /// as far as the highest loose id: a tree of groups keeps none.
+    pub(crate) loose: Vec<Vec3>,
     /// Parent inner node of each triangle's leaf; [`FREE`] for a freed slot.
     pub(crate) parent: Vec<u32>,
     /// Group of each triangle, or [`NONE`].
@@ -171,7 +182,7 @@ impl Bvh {
 
     /// Length of the triangle array, free slots included: the bound of triangle ids.
     pub fn triangle_capacity(&self) -> u32 {
-        self.tri.items.len() as u32
+        self.tri.parent.len() as u32
     }
 
     /// Number of live inner nodes.
@@ -195,14 +206,28 @@ impl Bvh {
     }
 
     /// Triangle `id` as stored: world space, or object space for an instanced group.
-    pub fn triangle(&self, id: u32) -> Option<&Triangle> {
-        self.is_live_triangle(id)
-            .then(|| &self.tri.items[id as usize])
+    pub fn triangle(&self, id: u32) -> Option<Triangle> {
+        self.is_live_triangle(id).then(|| self.tri(id))
+    }
+
+    /// Triangle `id` as stored, gathered from its corners. `id` must be a live triangle's (or one
+    /// whose corners were just written): the traversal's and the builders' reads.
+    #[inline]
+    pub(crate) fn tri(&self, id: u32) -> Triangle {
+        let i = id as usize;
+        let g = self.tri.group[i];
+        if g == NONE {
+            let v = &self.tri.loose[3 * i..3 * i + 3];
+            return Triangle::new(v[0], v[1], v[2]);
+        }
+        let vs = &self.groups[g as usize].vertices;
+        let [a, b, c] = self.tri.corners[i];
+        Triangle::new(vs[a as usize], vs[b as usize], vs[c as usize])
     }
 
     /// Whether `id` names a live triangle.
     pub fn is_live_triangle(&self, id: u32) -> bool {
-        (id as usize) < self.tri.items.len() && self.tri.parent[id as usize] != FREE
+        (id as usize) < self.tri.parent.len() && self.tri.parent[id as usize] != FREE
     }
 
     /// The inner node `i`, if it is live.
@@ -231,7 +256,7 @@ impl Bvh {
     pub fn aabb(&self, r: NodeRef) -> Aabb {
         match r.kind() {
             NodeKind::Inner => self.inner[r.index() as usize].aabb,
-            NodeKind::Leaf => self.tri.items[r.index() as usize].aabb(),
+            NodeKind::Leaf => self.tri(r.index()).aabb(),
             NodeKind::Instance => self.instances[r.index() as usize].aabb,
             NodeKind::None => Aabb::EMPTY,
         }
@@ -326,7 +351,7 @@ impl Bvh {
 
     /// Checks that `extra` more triangles fit in 30-bit ids.
     pub(crate) fn check_room(&self, extra: usize) -> Result<(), BvhError> {
-        let tris = self.tri.items.len() - self.tri.free.len() + extra;
+        let tris = self.tri.parent.len() - self.tri.free.len() + extra;
         if tris > MAX_INDEX as usize / 2 {
             return Err(BvhError::TooLarge {
                 limit: MAX_INDEX / 2,
@@ -335,23 +360,49 @@ impl Bvh {
         Ok(())
     }
 
-    /// Stores a triangle (not yet in the tree) and returns its id.
-    pub(crate) fn alloc_triangle(&mut self, t: Triangle, group: u32) -> u32 {
+    /// Takes a triangle slot (not yet in the tree) for `group`: a free one first.
+    fn alloc_slot(&mut self, group: u32) -> u32 {
         let id = if let Some(id) = self.tri.free.pop() {
-            self.tri.items[id as usize] = t;
             self.tri.parent[id as usize] = NONE;
             self.tri.group[id as usize] = group;
             id
         } else {
-            let id = self.tri.items.len() as u32;
-            self.tri.items.push(t);
+            let id = self.tri.parent.len() as u32;
             self.tri.parent.push(NONE);
             self.tri.group.push(group);
             id
         };
         self.tri.live += 1;
-        self.changes.mark_triangle(id, self.tri.items.len());
+        self.changes.mark_triangle(id, self.tri.parent.len());
         id
+    }
+
+    /// Stores a triangle outside any group (not yet in the tree) and returns its id.
+    pub(crate) fn alloc_triangle(&mut self, t: Triangle) -> u32 {
+        let id = self.alloc_slot(NONE);
+        self.write_loose(id, t);
+        id
+    }
+
+    /// Stores a triangle of `group` by its corners, indices into the group's vertices (not yet in
+    /// the tree), and returns its id.
+    pub(crate) fn alloc_grouped(&mut self, corners: [u32; 3], group: u32) -> u32 {
+        let id = self.alloc_slot(group);
+        let i = id as usize;
+        if self.tri.corners.len() <= i {
+            self.tri.corners.resize(i + 1, [0; 3]);
+        }
+        self.tri.corners[i] = corners;
+        id
+    }
+
+    /// Writes the corners of triangle `id`, outside any group.
+    pub(crate) fn write_loose(&mut self, id: u32, t: Triangle) {
+        let i = 3 * id as usize;
+        if self.tri.loose.len() < i + 3 {
+            self.tri.loose.resize(i + 3, Vec3::ZERO);
+        }
+        self.tri.loose[i..i + 3].copy_from_slice(&t.v);
     }
 
     /// Allocates ids for `tris`, in input order, growing the arrays by slices rather than
@@ -362,23 +413,24 @@ impl Bvh {
         ids
     }
 
-    /// Allocates ids for `tris`, appending them to `ids`. Reuses free slots first like
-    /// [`Bvh::alloc_triangle`]; the rest are appended to the arrays as slices, which for a fresh
-    /// tree is every triangle.
+    /// Allocates ids for `tris` (outside any group), appending them to `ids`. Reuses free slots
+    /// first like [`Bvh::alloc_triangle`]; the rest are appended to the arrays as slices, which
+    /// for a fresh tree is every triangle.
     pub(crate) fn alloc_triangles_into(&mut self, tris: &[Triangle], ids: &mut Vec<u32>) {
         let reused = self.tri.free.len().min(tris.len());
         for &t in &tris[..reused] {
-            ids.push(self.alloc_triangle(t, NONE));
+            ids.push(self.alloc_triangle(t));
         }
         let tris = &tris[reused..];
-        let first = self.tri.items.len() as u32;
-        let end = self.tri.items.len() + tris.len();
-        self.tri.items.extend_from_slice(tris);
+        let first = self.tri.parent.len();
+        let end = first + tris.len();
+        self.tri.loose.resize(3 * first, Vec3::ZERO);
+        self.tri.loose.extend(tris.iter().flat_map(|t| t.v));
         self.tri.parent.resize(end, NONE);
         self.tri.group.resize(end, NONE);
         self.tri.live += tris.len() as u32;
-        ids.extend(first..end as u32);
-        self.changes.mark_new_triangles(first..end as u32);
+        ids.extend(first as u32..end as u32);
+        self.changes.mark_new_triangles(first as u32..end as u32);
     }
 
     /// Makes room for `triangles` more triangles, and the inner nodes they bring, without inserting
@@ -394,14 +446,24 @@ impl Bvh {
     }
 
     /// Makes room for `n` more triangles at once, so a large batch does not grow the arrays step
-    /// by step.
+    /// by step: the store of grouped triangles' corners, of loose ones', or both, as the tree
+    /// holds (both while it is empty).
     pub(crate) fn reserve_triangles(&mut self, n: usize) {
         let fresh = n.saturating_sub(self.tri.free.len());
-        self.tri.items.reserve(fresh);
         self.tri.parent.reserve(fresh);
         self.tri.group.reserve(fresh);
+        let end = self.tri.parent.len() + fresh;
+        let empty = self.tri.corners.is_empty() && self.tri.loose.is_empty();
+        if empty || !self.tri.corners.is_empty() {
+            let more = end.saturating_sub(self.tri.corners.len());
+            self.tri.corners.reserve(more);
+        }
+        if empty || !self.tri.loose.is_empty() {
+            let more = (3 * end).saturating_sub(self.tri.loose.len());
+            self.tri.loose.reserve(more);
+        }
         self.changes
-            .reserve_triangles(self.tri.items.len() + fresh, n);
+            .reserve_triangles(self.tri.parent.len() + fresh, n);
     }
 
     pub(crate) fn free_triangle(&mut self, id: u32) {
@@ -409,7 +471,7 @@ impl Bvh {
         self.tri.group[id as usize] = NONE;
         self.tri.free.push(id);
         self.tri.live -= 1;
-        self.changes.mark_triangle(id, self.tri.items.len());
+        self.changes.mark_triangle(id, self.tri.parent.len());
     }
 
     pub(crate) fn alloc_instance(&mut self, inst: Instance) -> u32 {

@@ -55,20 +55,15 @@ impl Bvh {
                 .sum::<f64>();
         }
         let mut leaves = 0.0f64;
-        for (tris, parents) in self
-            .tri
-            .items
-            .chunks(SLICE)
-            .zip(self.tri.parent.chunks(SLICE))
-        {
+        for (k, parents) in self.tri.parent.chunks(SLICE).enumerate() {
             if stop() {
                 return None;
             }
-            leaves += tris
-                .iter()
+            let first = (k * SLICE) as u32;
+            leaves += (first..)
                 .zip(parents)
                 .filter(|(_, p)| **p != FREE)
-                .map(|(t, _)| t.aabb().area() as f64)
+                .map(|(t, _)| self.tri(t).aabb().area() as f64)
                 .sum::<f64>();
         }
         Some(self.cost_over_root(|| {
@@ -127,9 +122,7 @@ impl Bvh {
                     sum += c_t * node.aabb.area() as f64;
                     stack.extend_from_slice(&node.children);
                 }
-                NodeKind::Leaf => {
-                    sum += c_i * self.tri.items[n.index() as usize].aabb().area() as f64
-                }
+                NodeKind::Leaf => sum += c_i * self.tri(n.index()).aabb().area() as f64,
                 NodeKind::Instance => {
                     let inst = &self.instances[n.index() as usize];
                     let world = inst.aabb.area() as f64;

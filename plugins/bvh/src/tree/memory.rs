@@ -17,10 +17,11 @@ pub(crate) fn spare<T>(v: &Vec<T>) -> usize {
 pub struct MemoryBytes {
     /// Inner nodes and their free list.
     pub nodes: usize,
-    /// Triangles as stored (world space, or object space in a group kept whole), with their
-    /// parents, groups and free list.
+    /// Triangles as stored (world space, or object space in a group kept whole): a grouped
+    /// triangle's corners and its group's vertices, a loose one's own corners; with their parents,
+    /// groups and free list.
     pub triangles: usize,
-    /// Groups: their object-space copies of the triangles and their triangle-id lists.
+    /// Groups: their object-space copies of the vertices and their triangle-id lists.
     pub groups: usize,
     /// Instances.
     pub instances: usize,
@@ -96,7 +97,8 @@ macro_rules! flat_arrays {
 flat_arrays! {
     Nodes: inner,
     Nodes: inner_free,
-    Triangles: tri.items,
+    Triangles: tri.corners,
+    Triangles: tri.loose,
     Triangles: tri.parent,
     Triangles: tri.group,
     Triangles: tri.free,
@@ -120,6 +122,11 @@ impl Bvh {
             .iter()
             .map(|g| vec_bytes(&g.triangles) + vec_bytes(&g.object))
             .sum::<usize>();
+        bytes.triangles += self
+            .groups
+            .iter()
+            .map(|g| vec_bytes(&g.vertices))
+            .sum::<usize>();
         bytes.bookkeeping += self.changes.heap_bytes() + self.scratch.heap_bytes();
         bytes
     }
@@ -133,6 +140,11 @@ impl Bvh {
             .iter()
             .map(|(_, a)| a.spare_bytes())
             .sum::<usize>()
+            + self
+                .groups
+                .iter()
+                .map(|g| spare(&g.vertices))
+                .sum::<usize>()
             + self.changes.spare_bytes()
             + self.scratch.heap_bytes()
     }
@@ -143,6 +155,9 @@ impl Bvh {
     pub fn trim(&mut self) {
         for array in self.flat_arrays_mut() {
             array.shrink();
+        }
+        for g in &mut self.groups {
+            g.vertices.shrink_to_fit();
         }
         self.changes.trim();
         self.scratch.trim();
@@ -176,13 +191,42 @@ mod tests {
         let grouped = bvh.memory_bytes();
         // An unedited baked group holds its triangle ids, not a second copy of its triangles.
         assert!(grouped.groups >= 1000 * 4 && grouped.groups < 1000 * 36);
-        // Once moved and baked again, it keeps its object-space triangles, so that later moves
-        // start from them exactly.
+        // Once moved and baked again, it keeps its object-space vertices (the strip's 2,001), so
+        // that later moves start from them exactly.
         bvh.set_group_transform(g, Affine3A::from_translation(Vec3::Z))
             .unwrap();
         bvh.bake_group(g).unwrap();
-        assert!(bvh.memory_bytes().groups >= 1000 * (36 + 4));
+        assert!(bvh.memory_bytes().groups >= 1000 * 4 + 2001 * 12);
         assert!(grouped.total() > loose.total());
+    }
+
+    #[test]
+    fn a_grouped_mesh_keeps_each_vertex_once() {
+        // A 100 x 100 grid of quads: 20,000 triangles over 10,201 vertices.
+        let n = 100;
+        let p = |i: usize, j: usize| Vec3::new(i as f32, j as f32, 0.0);
+        let tris: Vec<Triangle> = (0..n * n)
+            .flat_map(|k| {
+                let (i, j) = (k % n, k / n);
+                [
+                    Triangle::new(p(i, j), p(i + 1, j), p(i + 1, j + 1)),
+                    Triangle::new(p(i, j), p(i + 1, j + 1), p(i, j + 1)),
+                ]
+            })
+            .collect();
+        let mut soup = Bvh::new(BvhConfig::default());
+        soup.insert_triangles(&tris).unwrap();
+        let mut grouped = Bvh::new(BvhConfig::default());
+        grouped
+            .insert_group(&tris, Affine3A::IDENTITY, false)
+            .unwrap();
+        soup.trim();
+        grouped.trim();
+        // Corners 12 B a triangle and 12 B a vertex, against 36 B of corners apiece; parents and
+        // groups (8 B) alike.
+        let (soup, grouped) = (soup.memory_bytes(), grouped.memory_bytes());
+        assert_eq!(soup.triangles, 20_000 * (36 + 8));
+        assert_eq!(grouped.triangles, 20_000 * (12 + 8) + 10_201 * 12);
     }
 
     #[test]

@@ -9,3 +9,4 @@ pub(crate) mod node;
 pub(crate) mod scratch;
 pub(crate) mod triangle;
 pub(crate) mod validate;
+pub(crate) mod vertices;

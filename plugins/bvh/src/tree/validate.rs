@@ -8,7 +8,7 @@ impl Bvh {
     /// child links agree; every box contains its children (and a leaf's box is its triangle's); no
     /// NaN; no live node unreachable; groups and instances consistent. Returns the first violation.
     pub fn validate(&self) -> Result<(), String> {
-        let mut seen_tri = vec![0u8; self.tri.items.len()];
+        let mut seen_tri = vec![0u8; self.tri.parent.len()];
         let mut seen_inner = vec![false; self.inner.len()];
         let mut seen_inst = vec![false; self.instances.len()];
         if !self.root.is_none() {
@@ -127,11 +127,11 @@ impl Bvh {
                     }
                 }
                 NodeKind::Leaf => {
-                    if i >= self.tri.items.len() || self.tri.parent[i] == FREE {
+                    if i >= self.tri.parent.len() || self.tri.parent[i] == FREE {
                         return Err(format!("leaf of dead triangle {i}"));
                     }
                     seen_tri[i] = seen_tri[i].saturating_add(1);
-                    check_box(&self.tri.items[i].aabb(), &format!("triangle {i}"))?;
+                    check_box(&self.tri(i as u32).aabb(), &format!("triangle {i}"))?;
                 }
                 NodeKind::Instance => {
                     if in_instance {
