@@ -8,7 +8,7 @@ use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
     Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId, NodeKind,
-    NodeRef, Triangle, WideRecords,
+    NodeRef, PreparedGroup, Triangle, WideRecords,
 };
 
 #[derive(Clone, Debug)]
@@ -409,9 +409,18 @@ fn group_op(bvh: &mut Bvh, op: Op, groups: &mut Vec<(GroupId, usize)>) {
             angle,
             offset,
         } => {
-            let g = bvh
-                .insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole)
-                .unwrap();
+            // Half the groups come as a mesh keeps them: corners shared by neighbours, some
+            // vertices split.
+            let g = if seed % 2 == 0 {
+                let (vertices, corners) = indexed_mesh(n, seed);
+                let prepared =
+                    PreparedGroup::build_indexed(vertices, corners, xf(angle, offset, 1.0), whole)
+                        .unwrap();
+                bvh.insert_prepared(prepared).unwrap()
+            } else {
+                bvh.insert_group(&soup(n, seed), xf(angle, offset, 1.0), whole)
+                    .unwrap()
+            };
             assert_eq!(bvh.is_group_whole(g).unwrap(), whole && n > 0);
             groups.push((g, n));
         }

@@ -36,6 +36,31 @@ pub fn soup(n: usize, seed: u64) -> Vec<Triangle> {
         .collect()
 }
 
+/// A random mesh of `n` triangles as a mesh keeps them: a strip over a random walk of vertices
+/// (each triangle shares two corners with the next), with some vertices split in two at the same
+/// position, as a mesh splits them where its normals or UVs part.
+pub fn indexed_mesh(n: usize, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut r = Rng(seed | 1);
+    let mut p = r.vec3(-10.0, 10.0);
+    let mut vertices: Vec<Vec3> = Vec::with_capacity(n + 2);
+    for _ in 0..n + 2 {
+        vertices.push(p);
+        p += r.vec3(-0.8, 0.8);
+    }
+    let corners = (0..n as u32)
+        .map(|k| {
+            let mut c = [k, k + 1, k + 2];
+            if r.f32() < 0.2 {
+                let split = vertices.len() as u32;
+                vertices.push(vertices[c[0] as usize]);
+                c[0] = split;
+            }
+            c
+        })
+        .collect();
+    (vertices, corners)
+}
+
 /// Rays from points around the scene towards points inside it.
 pub fn rays(n: usize, seed: u64, extent: f32) -> Vec<Ray> {
     let mut r = Rng(seed | 1);
