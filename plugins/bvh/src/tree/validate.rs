@@ -4,10 +4,39 @@ use crate::tree::node::{FREE, NONE, NodeKind, NodeRef};
 use crate::{Aabb, Bvh};
 
 impl Bvh {
+    /// Every live group's triangles name corners within its vertices, and a baked group's
+    /// object-space copy, if kept, holds one vertex for each of them: checked before anything
+    /// reads a triangle through its corners.
+    fn validate_corners(&self) -> Result<(), String> {
+        for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
+            let n = g.vertices.len() as u32;
+            for &t in g.triangle_ids() {
+                match self.tri.corners.get(t as usize) {
+                    Some(c) if c.iter().all(|&i| i < n) => {}
+                    c => {
+                        return Err(format!(
+                            "triangle {t} of group {gi} has corners {c:?} past its {n} vertices"
+                        ));
+                    }
+                }
+            }
+            if !g.object.is_empty() && g.object.len() != g.vertices.len() {
+                return Err(format!(
+                    "group {gi} keeps {} object-space vertices for {n}",
+                    g.object.len()
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks every invariant: each live triangle in exactly one leaf and no dead one in any; parent and
     /// child links agree; every box contains its children (and a leaf's box is its triangle's); no
-    /// NaN; no live node unreachable; groups and instances consistent. Returns the first violation.
+    /// NaN; no live node unreachable; groups and instances consistent (each triangle's corners
+    /// within its group's vertices, an object-space copy as long as them). Returns the first
+    /// violation.
     pub fn validate(&self) -> Result<(), String> {
+        self.validate_corners()?;
         let mut seen_tri = vec![0u8; self.tri.parent.len()];
         let mut seen_inner = vec![false; self.inner.len()];
         let mut seen_inst = vec![false; self.instances.len()];
