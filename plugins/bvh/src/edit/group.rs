@@ -4,9 +4,9 @@
 use crate::top_down::{BuiltTree, TopDown, build_binned_parallel};
 use crate::tree::bvh::{AreaSum, Group};
 use crate::tree::node::{NONE, NodeKind, NodeRef};
-use crate::tree::triangle::validate_triangles;
+use crate::tree::triangle::{point_within_limits, validate_triangles};
 use crate::tree::vertices::{Indexed, compact, gather};
-use crate::{Aabb, Bvh, BvhError, Instance, MAX_COORDINATE, Triangle};
+use crate::{Aabb, Bvh, BvhError, Instance, Triangle};
 use glam::{Affine3A, Vec3};
 
 /// Handle to a group; stale handles (of removed groups) are rejected, never confused with new ones.
@@ -400,7 +400,7 @@ impl Bvh {
             .collect();
         object
             .iter()
-            .all(|p| p.abs().cmple(Vec3::splat(MAX_COORDINATE)).all())
+            .all(|&p| point_within_limits(p))
             .then_some(object)
     }
 
@@ -483,7 +483,7 @@ impl Bvh {
         validate_triangles(object)?;
         let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
         let had_copy = !g.object.is_empty();
-        let new = Indexed::from_soup(object);
+        let mut new = Indexed::from_soup(object);
         let stored = if instance == NONE {
             let world = Indexed {
                 vertices: new
@@ -496,7 +496,8 @@ impl Bvh {
             world.validate()?;
             world.vertices
         } else {
-            new.vertices.clone()
+            // A whole group keeps no object-space copy: its stored vertices are that.
+            std::mem::take(&mut new.vertices)
         };
         for (&t, &c) in triangles.iter().zip(&new.corners) {
             self.tri.corners[t as usize] = c;

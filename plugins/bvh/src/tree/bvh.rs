@@ -4,6 +4,7 @@
 use crate::export::change::ChangeLog;
 use crate::tree::node::{FREE, InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
 use crate::tree::scratch::Scratch;
+use crate::tree::vertices::gather;
 use crate::{Aabb, BvhConfig, BvhError, Triangle};
 use glam::{Affine3A, Vec3};
 
@@ -220,9 +221,7 @@ impl Bvh {
             let v = &self.tri.loose[3 * i..3 * i + 3];
             return Triangle::new(v[0], v[1], v[2]);
         }
-        let vs = &self.groups[g as usize].vertices;
-        let [a, b, c] = self.tri.corners[i];
-        Triangle::new(vs[a as usize], vs[b as usize], vs[c as usize])
+        gather(&self.groups[g as usize].vertices, self.tri.corners[i])
     }
 
     /// Whether `id` names a live triangle.

@@ -60,11 +60,13 @@ pub const MAX_COORDINATE: f32 = 1.0e15;
 /// `|x| <= limit` is false for NaN and infinities too.
 #[inline]
 pub(crate) fn within_limits(t: &Triangle) -> bool {
-    t.v.iter().fold(true, |ok, p| {
-        ok & (p.x.abs() <= MAX_COORDINATE)
-            & (p.y.abs() <= MAX_COORDINATE)
-            & (p.z.abs() <= MAX_COORDINATE)
-    })
+    t.v.iter().fold(true, |ok, &p| ok & point_within_limits(p))
+}
+
+/// [`within_limits`] for one point.
+#[inline]
+pub(crate) fn point_within_limits(p: Vec3) -> bool {
+    (p.x.abs() <= MAX_COORDINATE) & (p.y.abs() <= MAX_COORDINATE) & (p.z.abs() <= MAX_COORDINATE)
 }
 
 /// Rejects a whole batch if any triangle has a NaN, infinite or absurdly large coordinate,

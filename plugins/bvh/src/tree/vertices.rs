@@ -2,7 +2,7 @@
 //! each position is kept once and each triangle is three indices (12 bytes against 36 for three
 //! corners of its own; a mesh of tiles has half a vertex a triangle).
 
-use crate::tree::triangle::within_limits;
+use crate::tree::triangle::{point_within_limits, within_limits};
 use crate::{BvhError, MAX_COORDINATE, Triangle};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -16,62 +16,78 @@ pub(crate) struct Indexed {
     pub(crate) corners: Vec<[u32; 3]>,
 }
 
+/// Positions kept once each (the same to the bit: `-0.0` and `0.0` stay apart), in the order
+/// first met: the one map both ways into an [`Indexed`] go through.
+struct DistinctPositions {
+    seen: HashMap<[u32; 3], u32, foldhash::fast::FixedState>,
+    vertices: Vec<Vec3>,
+}
+
+impl DistinctPositions {
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            seen: HashMap::with_capacity_and_hasher(n, Default::default()),
+            vertices: Vec::with_capacity(n),
+        }
+    }
+
+    /// The index of `p` among the positions kept, kept now if it is new.
+    #[inline]
+    fn index(&mut self, p: Vec3) -> u32 {
+        let vertices = &mut self.vertices;
+        *self
+            .seen
+            .entry(p.to_array().map(f32::to_bits))
+            .or_insert_with(|| {
+                vertices.push(p);
+                vertices.len() as u32 - 1
+            })
+    }
+
+    fn into_vertices(self) -> Vec<Vec3> {
+        let mut vertices = self.vertices;
+        vertices.shrink_to_fit();
+        vertices
+    }
+}
+
 impl Indexed {
     /// A soup of triangles indexed: each position that is the same to the bit (so `-0.0` and `0.0`
     /// stay apart) becomes one vertex, in the order first met, and every triangle reads back exactly
     /// as given.
     pub(crate) fn from_soup(tris: &[Triangle]) -> Self {
         // A mesh has about half a vertex a triangle; the map is sized for that and grows if not.
-        let mut seen: HashMap<[u32; 3], u32, foldhash::fast::FixedState> =
-            HashMap::with_capacity_and_hasher(tris.len() / 2 + 4, Default::default());
-        let mut vertices = Vec::with_capacity(tris.len() / 2 + 4);
+        let mut positions = DistinctPositions::with_capacity(tris.len() / 2 + 4);
         let corners = tris
             .iter()
-            .map(|t| {
-                t.v.map(|p| {
-                    *seen
-                        .entry(p.to_array().map(f32::to_bits))
-                        .or_insert_with(|| {
-                            vertices.push(p);
-                            vertices.len() as u32 - 1
-                        })
-                })
-            })
+            .map(|t| t.v.map(|p| positions.index(p)))
             .collect();
-        vertices.shrink_to_fit();
-        Self { vertices, corners }
+        Self {
+            vertices: positions.into_vertices(),
+            corners,
+        }
     }
 
     /// A mesh's own vertices and corners, with the vertices at the same position to the bit
     /// merged into one (a mesh splits a vertex where its normals or texture coordinates part;
     /// the tree needs only positions) and the corners renumbered to match: one lookup a vertex
     /// rather than a corner. Every triangle reads back exactly as given.
-    pub(crate) fn merged(mut vertices: Vec<Vec3>, mut corners: Vec<[u32; 3]>) -> Self {
-        let mut seen: HashMap<[u32; 3], u32, foldhash::fast::FixedState> =
-            HashMap::with_capacity_and_hasher(vertices.len(), Default::default());
-        let mut renumber = Vec::with_capacity(vertices.len());
-        let mut kept = 0u32;
-        for i in 0..vertices.len() {
-            let p = vertices[i];
-            let to = *seen
-                .entry(p.to_array().map(f32::to_bits))
-                .or_insert_with(|| {
-                    vertices[kept as usize] = p;
-                    kept += 1;
-                    kept - 1
-                });
-            renumber.push(to);
+    pub(crate) fn merged(vertices: Vec<Vec3>, mut corners: Vec<[u32; 3]>) -> Self {
+        let mut positions = DistinctPositions::with_capacity(vertices.len());
+        let renumber: Vec<u32> = vertices.iter().map(|&p| positions.index(p)).collect();
+        if positions.vertices.len() == vertices.len() {
+            // Nothing merged: the mesh's vertices and corners as they are.
+            return Self { vertices, corners };
         }
-        drop(seen);
-        if kept as usize != vertices.len() {
-            vertices.truncate(kept as usize);
-            vertices.shrink_to_fit();
-            // A corner past the vertices is left as it is, for the validation to name.
-            for c in &mut corners {
-                *c = c.map(|i| renumber.get(i as usize).copied().unwrap_or(u32::MAX));
-            }
+        drop(vertices);
+        // A corner past the vertices is left past them, for the validation to name.
+        for c in &mut corners {
+            *c = c.map(|i| renumber.get(i as usize).copied().unwrap_or(u32::MAX));
         }
-        Self { vertices, corners }
+        Self {
+            vertices: positions.into_vertices(),
+            corners,
+        }
     }
 
     /// Number of triangles.
@@ -96,11 +112,10 @@ impl Indexed {
                 vertices: self.vertices.len(),
             });
         }
-        let ok = self.vertices.iter().fold(true, |ok, p| {
-            ok & (p.x.abs() <= MAX_COORDINATE)
-                & (p.y.abs() <= MAX_COORDINATE)
-                & (p.z.abs() <= MAX_COORDINATE)
-        });
+        let ok = self
+            .vertices
+            .iter()
+            .fold(true, |ok, &p| ok & point_within_limits(p));
         if ok {
             return Ok(());
         }
