@@ -719,6 +719,93 @@ fn moving_a_whole_group_touches_no_triangles() {
 }
 
 #[test]
+fn a_group_of_more_than_65536_vertices_keeps_its_corners_whole() {
+    // The tree keeps each grouped triangle's corners in 16-bit halves, the high ones only where a
+    // group has more vertices than 16 bits count: a soup of 25,000 triangles has 75,000.
+    let narrow = soup(1000, 40);
+    let wide = soup(25_000, 41);
+    let mut bvh = Bvh::default();
+    let n = bvh
+        .insert_group(&narrow, Affine3A::IDENTITY, false)
+        .unwrap();
+    let w = bvh.insert_group(&wide, Affine3A::IDENTITY, false).unwrap();
+    let narrow_ids = bvh.group_triangles(n).unwrap().to_vec();
+    let ids = bvh.group_triangles(w).unwrap().to_vec();
+    for (t, o) in ids.iter().zip(&wide) {
+        assert_eq!(bvh.triangle(*t).unwrap(), *o);
+    }
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(300, 42, 12.0));
+    // Moved whole and baked again, it reads back through its object-space copy.
+    bvh.set_group_transform(w, xf(0.3, 2.0, 1.0)).unwrap();
+    assert_hits_match(&bvh, &rays(200, 43, 12.0));
+    bvh.bake_group(w).unwrap();
+    bvh.set_group_transform(w, Affine3A::IDENTITY).unwrap();
+    bvh.bake_group(w).unwrap();
+    for (t, o) in ids.iter().zip(&wide) {
+        assert_eq!(bvh.triangle(*t).unwrap(), *o);
+    }
+    bvh.validate().unwrap();
+    // Gone and trimmed, it leaves no high halves: the narrow group's corners are 6 B apiece.
+    bvh.remove_group(w).unwrap();
+    bvh.trim();
+    let slots = 26_000;
+    let free = 25_000;
+    assert_eq!(
+        bvh.memory_bytes().triangles,
+        slots * (6 + 8) + free * 4 + 3 * narrow.len() * 12
+    );
+    for (t, o) in narrow_ids.iter().zip(&narrow) {
+        assert_eq!(bvh.triangle(*t).unwrap(), *o);
+    }
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(200, 44, 12.0));
+}
+
+#[test]
+fn triangles_edited_one_by_one_past_65536_vertices_read_back_as_written() {
+    // Each triangle edited alone gets three vertices of its own: 19,000 of a 20,000-triangle grid
+    // take its group past 65,536 vertices until the compaction after the edit brings it back.
+    let n = 100;
+    let p = |i: usize, j: usize| Vec3::new(i as f32 * 0.2, j as f32 * 0.2, 0.0);
+    let grid: Vec<Triangle> = (0..n * n)
+        .flat_map(|k| {
+            let (i, j) = (k % n, k / n);
+            [
+                Triangle::new(p(i, j), p(i + 1, j), p(i + 1, j + 1)),
+                Triangle::new(p(i, j), p(i + 1, j + 1), p(i, j + 1)),
+            ]
+        })
+        .collect();
+    let mut bvh = Bvh::default();
+    let g = bvh.insert_group(&grid, Affine3A::IDENTITY, false).unwrap();
+    let ids = bvh.group_triangles(g).unwrap().to_vec();
+    let lift = |t: &Triangle, k: usize| {
+        Triangle::new(
+            t.v[0] + Vec3::Z * (k % 7) as f32,
+            t.v[1],
+            t.v[2] - Vec3::Z * (k % 5) as f32,
+        )
+    };
+    let updates: Vec<(u32, Triangle)> = ids[..19_000]
+        .iter()
+        .enumerate()
+        .map(|(k, &t)| (t, lift(&grid[k], k)))
+        .collect();
+    bvh.set_triangles(&updates).unwrap();
+    for (k, &t) in ids.iter().enumerate() {
+        let want = if k < 19_000 {
+            lift(&grid[k], k)
+        } else {
+            grid[k]
+        };
+        assert_eq!(bvh.triangle(t).unwrap(), want, "triangle {k}");
+    }
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(300, 45, 12.0));
+}
+
+#[test]
 fn bake_then_move_round_trips_without_drift() {
     let object = soup(300, 8);
     let mut bvh = Bvh::default();

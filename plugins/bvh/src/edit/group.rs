@@ -276,7 +276,7 @@ impl Bvh {
             && a.triangles
                 .iter()
                 .zip(&b.triangles)
-                .all(|(&s, &t)| corners[s as usize] == corners[t as usize])
+                .all(|(&s, &t)| corners.get(s as usize) == corners.get(t as usize))
     }
 
     /// Removes a group and all its triangles. A group whose triangles others share
@@ -500,7 +500,7 @@ impl Bvh {
             std::mem::take(&mut new.vertices)
         };
         for (&t, &c) in triangles.iter().zip(&new.corners) {
-            self.tri.corners[t as usize] = c;
+            self.tri.corners.set(t as usize, c);
             self.changes.mark_triangle(t, self.tri.parent.len());
         }
         self.groups[id.index as usize].vertices = stored;
@@ -556,7 +556,7 @@ impl Bvh {
         let object = self.baked_object(id.index).ok_or(BvhError::BadTransform)?;
         Ok(g.triangles
             .iter()
-            .map(|&t| gather(&object, self.tri.corners[t as usize]))
+            .map(|&t| gather(&object, self.tri.corners.get(t as usize)))
             .collect())
     }
 
@@ -589,7 +589,7 @@ impl Bvh {
         let corners = g
             .triangles
             .iter()
-            .map(|&t| self.tri.corners[t as usize])
+            .map(|&t| self.tri.corners.get(t as usize))
             .collect();
         Ok((vertices, corners))
     }
@@ -695,7 +695,9 @@ impl Bvh {
                 let vertices = &mut self.groups[g as usize].vertices;
                 let first = vertices.len() as u32;
                 vertices.extend_from_slice(&tri.v);
-                self.tri.corners[t as usize] = [first, first + 1, first + 2];
+                self.tri
+                    .corners
+                    .set(t as usize, [first, first + 1, first + 2]);
             }
             self.changes.mark_triangle(t, self.tri.parent.len());
             let p = self.tri.parent[t as usize];

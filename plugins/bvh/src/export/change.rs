@@ -1,15 +1,16 @@
 //! What changed since the last export, so a renderer uploads only that.
 
+use crate::tree::flags::Flags;
 use std::ops::Range;
 
 /// Dirty flags and lists, cleared by [`crate::Bvh::take_changes`].
 #[derive(Clone, Default)]
 pub(crate) struct ChangeLog {
-    inner_dirty: Vec<bool>,
+    inner_dirty: Flags,
     inner_list: Vec<u32>,
-    tri_dirty: Vec<bool>,
+    tri_dirty: Flags,
     tri_list: Vec<u32>,
-    inst_dirty: Vec<bool>,
+    inst_dirty: Flags,
     inst_list: Vec<u32>,
     pub(crate) root_changed: bool,
     /// Inside [`crate::Bvh::keeping_geometry`] (nested scopes count): triangle and instance marks
@@ -23,22 +24,22 @@ impl ChangeLog {
     /// Heap bytes its flags and lists hold.
     pub(crate) fn heap_bytes(&self) -> usize {
         use crate::tree::memory::vec_bytes;
-        vec_bytes(&self.inner_dirty)
+        self.inner_dirty.heap_bytes()
             + vec_bytes(&self.inner_list)
-            + vec_bytes(&self.tri_dirty)
+            + self.tri_dirty.heap_bytes()
             + vec_bytes(&self.tri_list)
-            + vec_bytes(&self.inst_dirty)
+            + self.inst_dirty.heap_bytes()
             + vec_bytes(&self.inst_list)
     }
 
     /// Bytes its flags and lists hold beyond their lengths (the lists are empty between takes).
     pub(crate) fn spare_bytes(&self) -> usize {
         use crate::tree::memory::spare;
-        spare(&self.inner_dirty)
+        self.inner_dirty.spare_bytes()
             + spare(&self.inner_list)
-            + spare(&self.tri_dirty)
+            + self.tri_dirty.spare_bytes()
             + spare(&self.tri_list)
-            + spare(&self.inst_dirty)
+            + self.inst_dirty.spare_bytes()
             + spare(&self.inst_list)
     }
 
@@ -54,8 +55,7 @@ impl ChangeLog {
 
     /// Makes room for inner nodes up to `len` slots, so that growing to it copies nothing.
     pub(crate) fn reserve_inner(&mut self, len: usize) {
-        self.inner_dirty
-            .reserve(len.saturating_sub(self.inner_dirty.len()));
+        self.inner_dirty.reserve_to(len);
     }
 
     pub(crate) fn grow_inner(&mut self, len: usize) {
@@ -119,18 +119,18 @@ impl ChangeLog {
     ) -> ChangeSet {
         let mut inner = std::mem::take(&mut self.inner_list);
         for &i in &inner {
-            self.inner_dirty[i as usize] = false;
+            self.inner_dirty.set(i as usize, false);
         }
         inner.sort_unstable();
         let mut tris = std::mem::take(&mut self.tri_list);
         for &t in &tris {
-            self.tri_dirty[t as usize] = false;
+            self.tri_dirty.set(t as usize, false);
         }
         tris.sort_unstable();
         let (written, removed): (Vec<u32>, Vec<u32>) = tris.into_iter().partition(|&t| live_tri(t));
         let mut instances = std::mem::take(&mut self.inst_list);
         for &i in &instances {
-            self.inst_dirty[i as usize] = false;
+            self.inst_dirty.set(i as usize, false);
         }
         instances.sort_unstable();
         let root_changed = std::mem::replace(&mut self.root_changed, false);
@@ -152,24 +152,23 @@ impl ChangeLog {
 /// Marks one id, listing it the first time. The flags grow to at least `len` at once (the
 /// triangle count, so that a run of marks resizes once) and always past `id`.
 #[inline]
-fn mark_one(dirty: &mut Vec<bool>, list: &mut Vec<u32>, id: u32, len: usize) {
+fn mark_one(dirty: &mut Flags, list: &mut Vec<u32>, id: u32, len: usize) {
     let len = len.max(id as usize + 1);
     if dirty.len() < len {
         dirty.resize(len, false);
     }
-    if !dirty[id as usize] {
-        dirty[id as usize] = true;
+    if !dirty.replace(id as usize, true) {
         list.push(id);
     }
 }
 
 /// Marks a range of ids just appended to an array dirty at once. They were never marked before
 /// (they are new), so none is in `list` yet.
-fn mark_appended(dirty: &mut Vec<bool>, list: &mut Vec<u32>, ids: Range<u32>) {
+fn mark_appended(dirty: &mut Flags, list: &mut Vec<u32>, ids: Range<u32>) {
     if dirty.len() < ids.end as usize {
         dirty.resize(ids.end as usize, false);
     }
-    dirty[ids.start as usize..ids.end as usize].fill(true);
+    dirty.set_range(ids.start as usize..ids.end as usize);
     list.extend(ids);
 }
 

@@ -17,6 +17,7 @@
 //! not carry it.
 
 use crate::export::change::coalesce;
+use crate::tree::flags::Flags;
 use crate::tree::node::{FREE, NONE};
 use crate::{Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuWideNode, NodeRef};
 use std::ops::Range;
@@ -34,7 +35,7 @@ pub struct WideRecords {
     /// whether the change set being applied names it, the tops of its changed subtrees, a walk's
     /// stack, the nodes decided or given a record (whose records and holders are rewritten), the
     /// roots given a record (whose instances are rewritten) and the slots to rewrite.
-    marked: Vec<bool>,
+    marked: Flags,
     tops: Vec<u32>,
     stack: Vec<u32>,
     touched: Vec<u32>,
@@ -80,7 +81,7 @@ impl WideRecords {
         vec_bytes(&self.slot)
             + vec_bytes(&self.node)
             + vec_bytes(&self.free)
-            + vec_bytes(&self.marked)
+            + self.marked.heap_bytes()
             + vec_bytes(&self.tops)
             + vec_bytes(&self.stack)
             + vec_bytes(&self.touched)
@@ -95,7 +96,7 @@ impl WideRecords {
         if self.slot.len() < len {
             self.slot.resize(len, NONE);
         }
-        self.marked.clear();
+        self.marked.resize(0, false);
         self.marked.resize(len, false);
         self.tops.clear();
         self.touched.clear();
@@ -108,7 +109,7 @@ impl WideRecords {
                     continue;
                 }
                 if live(i) {
-                    self.marked[i as usize] = true;
+                    self.marked.set(i as usize, true);
                 } else if self.slot[i as usize] != NONE {
                     let s = std::mem::replace(&mut self.slot[i as usize], NONE);
                     self.release(s);
@@ -117,12 +118,9 @@ impl WideRecords {
         }
         // The tops of the changed subtrees, each decided from its parent down.
         for r in &changes.inner_ranges {
-            for i in r
-                .clone()
-                .filter(|&i| (i as usize) < len && self.marked[i as usize])
-            {
+            for i in r.clone().filter(|&i| self.marked.get(i as usize)) {
                 let p = bvh.inner[i as usize].parent;
-                if p == NONE || !self.marked[p as usize] {
+                if p == NONE || !self.marked.get(p as usize) {
                     self.tops.push(i);
                 }
             }
@@ -272,7 +270,7 @@ impl WideRecords {
                     continue;
                 }
                 let c = c.index();
-                if self.marked[c as usize] {
+                if self.marked.get(c as usize) {
                     self.stack.push(c);
                 } else if !own && self.slot[c as usize] == NONE {
                     self.give_record(bvh, c);

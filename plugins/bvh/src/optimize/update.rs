@@ -106,7 +106,7 @@ impl Bvh {
         let r = edits(self);
         self.cache.deferred = outer;
         for i in self.cache.nodes.drain(kept..) {
-            self.cache.queued[i as usize] = false;
+            self.cache.queued.set(i as usize, false);
         }
         r
     }
@@ -143,7 +143,7 @@ impl Bvh {
         // Freed nodes left the cache (their flag is down); a slot freed and recorded again has
         // two entries: the first is kept. All flags are down after.
         let queued = &mut self.cache.queued;
-        cache.retain(|&i| std::mem::replace(&mut queued[i as usize], false));
+        cache.retain(|&i| queued.replace(i as usize, false));
         self.rank_cached(&cache, &mut candidates);
         let k = share(self.config.update_fraction, candidates.len());
         worst_first(&mut candidates, k);

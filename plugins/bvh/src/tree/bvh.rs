@@ -2,6 +2,8 @@
 //! editing operation is made of (link a node next to a sibling, unlink a node, refit upwards).
 
 use crate::export::change::ChangeLog;
+use crate::tree::corners::Corners;
+use crate::tree::flags::Flags;
 use crate::tree::node::{FREE, InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
 use crate::tree::scratch::Scratch;
 use crate::tree::vertices::gather;
@@ -103,7 +105,7 @@ pub(crate) struct Group {
 pub(crate) struct Triangles {
     /// Each grouped triangle's corners, indices into [`Group::vertices`]. Grown only as far as the
     /// highest grouped id: a tree of loose triangles keeps none.
-    pub(crate) corners: Vec<[u32; 3]>,
+    pub(crate) corners: Corners,
     /// The corners of triangles outside any group, `3 * id ..`, as stored (world space). Grown only
     /// as far as the highest loose id: a tree of groups keeps none.
     pub(crate) loose: Vec<Vec3>,
@@ -124,7 +126,7 @@ pub(crate) struct UpdateCache {
     /// The cached nodes, in the order they were recorded.
     pub(crate) nodes: Vec<u32>,
     /// Per inner-node slot: whether it is in `nodes`.
-    pub(crate) queued: Vec<bool>,
+    pub(crate) queued: Flags,
     /// Whether edits record their nodes (off while update moves run, so that moves queue none).
     pub(crate) recording: bool,
     /// Inside [`Bvh::batch`]: update batches wait for its end.
@@ -221,7 +223,7 @@ impl Bvh {
             let v = &self.tri.loose[3 * i..3 * i + 3];
             return Triangle::new(v[0], v[1], v[2]);
         }
-        gather(&self.groups[g as usize].vertices, self.tri.corners[i])
+        gather(&self.groups[g as usize].vertices, self.tri.corners.get(i))
     }
 
     /// Whether `id` names a live triangle.
@@ -342,8 +344,8 @@ impl Bvh {
         });
         // Out of the update cache (its entry is dropped at the next batch): the slot may be reused
         // where updates do not reach, inside a group kept whole.
-        if let Some(q) = self.cache.queued.get_mut(i as usize) {
-            *q = false;
+        if (i as usize) < self.cache.queued.len() {
+            self.cache.queued.set(i as usize, false);
         }
         self.inner_free.push(i);
     }
@@ -387,11 +389,7 @@ impl Bvh {
     /// the tree), and returns its id.
     pub(crate) fn alloc_grouped(&mut self, corners: [u32; 3], group: u32) -> u32 {
         let id = self.alloc_slot(group);
-        let i = id as usize;
-        if self.tri.corners.len() <= i {
-            self.tri.corners.resize(i + 1, [0; 3]);
-        }
-        self.tri.corners[i] = corners;
+        self.tri.corners.set(id as usize, corners);
         id
     }
 
@@ -440,7 +438,7 @@ impl Bvh {
         self.reserve_triangles(triangles);
         let fresh = triangles.saturating_sub(self.inner_free.len());
         self.inner.reserve(fresh);
-        self.cache.queued.reserve(fresh);
+        self.cache.queued.reserve_to(self.inner.len() + fresh);
         self.changes.reserve_inner(self.inner.len() + fresh);
     }
 
@@ -454,8 +452,7 @@ impl Bvh {
         let end = self.tri.parent.len() + fresh;
         let empty = self.tri.corners.is_empty() && self.tri.loose.is_empty();
         if empty || !self.tri.corners.is_empty() {
-            let more = end.saturating_sub(self.tri.corners.len());
-            self.tri.corners.reserve(more);
+            self.tri.corners.reserve_to(end);
         }
         if empty || !self.tri.loose.is_empty() {
             let more = (3 * end).saturating_sub(self.tri.loose.len());
@@ -466,6 +463,10 @@ impl Bvh {
     }
 
     pub(crate) fn free_triangle(&mut self, id: u32) {
+        if (id as usize) < self.tri.corners.len() {
+            // A freed slot's corners say nothing: cleared, they hold no high halves.
+            self.tri.corners.set(id as usize, [0; 3]);
+        }
         self.tri.parent[id as usize] = FREE;
         self.tri.group[id as usize] = NONE;
         self.tri.free.push(id);
@@ -647,8 +648,10 @@ impl Bvh {
     /// Adds an inner node to the node update cache while insertions are recorded.
     #[inline]
     pub(crate) fn record(&mut self, i: u32) {
-        if self.cache.recording && self.config.global_updates && !self.cache.queued[i as usize] {
-            self.cache.queued[i as usize] = true;
+        if self.cache.recording
+            && self.config.global_updates
+            && !self.cache.queued.replace(i as usize, true)
+        {
             self.cache.nodes.push(i);
         }
     }

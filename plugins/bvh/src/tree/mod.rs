@@ -3,7 +3,9 @@
 
 pub(crate) mod aabb;
 pub(crate) mod bvh;
+pub(crate) mod corners;
 pub(crate) mod cost;
+pub(crate) mod flags;
 pub(crate) mod memory;
 pub(crate) mod node;
 pub(crate) mod scratch;

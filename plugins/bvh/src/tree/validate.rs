@@ -11,7 +11,7 @@ impl Bvh {
         for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
             let n = g.vertices.len() as u32;
             for &t in g.triangle_ids() {
-                match self.tri.corners.get(t as usize) {
+                match self.tri.corners.checked(t as usize) {
                     Some(c) if c.iter().all(|&i| i < n) => {}
                     c => {
                         return Err(format!(

@@ -2,6 +2,7 @@
 //! each position is kept once and each triangle is three indices (12 bytes against 36 for three
 //! corners of its own; a mesh of tiles has half a vertex a triangle).
 
+use crate::tree::corners::Corners;
 use crate::tree::triangle::{point_within_limits, within_limits};
 use crate::{BvhError, MAX_COORDINATE, Triangle};
 use glam::Vec3;
@@ -153,13 +154,13 @@ pub(crate) fn gather(vertices: &[Vec3], [a, b, c]: [u32; 3]) -> Triangle {
 /// alike.
 pub(crate) fn compact(
     vertices: &mut Vec<Vec3>,
-    corners: &mut [[u32; 3]],
+    corners: &mut Corners,
     ids: &[u32],
     also: Option<&mut Vec<Vec3>>,
 ) {
     let mut renumber = vec![u32::MAX; vertices.len()];
     for &t in ids {
-        for &i in &corners[t as usize] {
+        for i in corners.get(t as usize) {
             renumber[i as usize] = 0;
         }
     }
@@ -182,8 +183,8 @@ pub(crate) fn compact(
         a.shrink_to_fit();
     }
     for &t in ids {
-        let c = &mut corners[t as usize];
-        *c = c.map(|i| renumber[i as usize]);
+        let c = corners.get(t as usize);
+        corners.set(t as usize, c.map(|i| renumber[i as usize]));
     }
 }
 
@@ -286,15 +287,21 @@ mod tests {
         indexed.corners[0] = [4, 5, 6];
         let mut copy: Vec<Vec3> = indexed.vertices.iter().map(|p| *p * 2.0).collect();
         let before: Vec<Triangle> = (0..2).map(|k| indexed.triangle(k)).collect();
+        let mut corners = Corners::default();
+        for (k, &c) in indexed.corners.iter().enumerate() {
+            corners.set(k, c);
+        }
         compact(
             &mut indexed.vertices,
-            &mut indexed.corners,
+            &mut corners,
             &[0, 1],
             Some(&mut copy),
         );
         // Vertex 1 (used by the old triangle 0 alone) is gone, from the copy too.
         assert_eq!(indexed.vertices.len(), 6);
-        let after: Vec<Triangle> = (0..2).map(|k| indexed.triangle(k)).collect();
+        let after: Vec<Triangle> = (0..2)
+            .map(|k| gather(&indexed.vertices, corners.get(k)))
+            .collect();
         assert_eq!(before, after);
         let doubled: Vec<Vec3> = indexed.vertices.iter().map(|p| *p * 2.0).collect();
         assert_eq!(copy, doubled);
