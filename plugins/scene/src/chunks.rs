@@ -2,32 +2,41 @@
 //! camera first, each a group of the same entity: the preview fills in from the front instead of
 //! waiting for the whole mesh's build.
 
-use crate::MeshShading;
+use crate::{MeshPositions, MeshShading};
 use std::sync::Arc;
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup, Triangle};
+use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup};
 
-/// A mesh cut by the engine's rule ([`MeshPieces::cut`]: pieces nearest `eye` first under the
-/// transform). Each chunk is gathered when it is built, so the mesh is not held twice.
+/// A mesh cut by the engine's rule ([`MeshPieces::cut_indexed`]: pieces nearest `eye` first under
+/// the transform), kept as its positions and corners. Each chunk's triangles are gathered when it
+/// is built, so no soup of the whole mesh (three corners a triangle) is made.
 pub(crate) struct MeshChunks {
     pieces: MeshPieces,
-    triangles: Arc<Vec<Triangle>>,
+    positions: MeshPositions,
     shading: Arc<MeshShading>,
 }
 
 impl MeshChunks {
+    /// The cut; corners past the positions are refused, naming the first triangle with one.
     pub fn cut(
-        triangles: Arc<Vec<Triangle>>,
+        positions: MeshPositions,
         shading: Arc<MeshShading>,
         rule: PieceRule,
         transform: &Affine3A,
         eye: Option<Vec3>,
-    ) -> Self {
-        Self {
-            pieces: MeshPieces::cut(&triangles, rule, transform, eye),
-            triangles,
+    ) -> Result<Self, BvhError> {
+        let pieces = MeshPieces::cut_indexed(
+            &positions.vertices,
+            &positions.corners,
+            rule,
+            transform,
+            eye,
+        )?;
+        Ok(Self {
+            pieces,
+            positions,
             shading,
-        }
+        })
     }
 
     pub fn len(&self) -> usize {
@@ -38,14 +47,15 @@ impl MeshChunks {
     /// mesh in pieces is kept whole, an instance over its own subtree, so a first move or copy of it
     /// is one node per chunk).
     pub fn build(&self, k: usize, transform: Affine3A) -> Result<PreparedGroup, BvhError> {
-        self.pieces.build(k, &self.triangles, transform)
+        let MeshPositions { vertices, corners } = &self.positions;
+        self.pieces.build_indexed(k, vertices, corners, transform)
     }
 
     /// Chunk `k`'s triangles' shading, in the order of its triangles, sharing the mesh's vertex
     /// arrays. Shading that does not cover the mesh's triangles is left out, not misread.
     pub fn shading(&self, k: usize) -> MeshShading {
         let ids = self.pieces.ids().nth(k).unwrap_or_default();
-        if self.shading.len() != self.triangles.len() {
+        if self.shading.len() != self.positions.len() {
             return MeshShading::default();
         }
         self.shading.subset(ids)
@@ -66,12 +76,14 @@ mod tests {
     #[test]
     fn chunks_hold_every_triangle_once_with_its_shading() {
         // A 30 × 30 grid of triangles, each with vertices (three of its own) that name it.
-        let mut triangles = Vec::new();
+        let mut positions = MeshPositions::default();
         let mut vertices = ShadingVertices::default();
         let mut corners = Vec::new();
         for k in 0..900u32 {
             let p = Vec3::new((k % 30) as f32, 0.0, (k / 30) as f32);
-            triangles.push(Triangle::new(p, p + Vec3::X, p + Vec3::Z));
+            let at = positions.vertices.len() as u32;
+            positions.vertices.extend([p, p + Vec3::X, p + Vec3::Z]);
+            positions.corners.push([at, at + 1, at + 2]);
             // Corners in reverse, so that the chunks' must be gathered, not counted.
             let first = 3 * (899 - k);
             corners.push([first, first + 1, first + 2]);
@@ -85,13 +97,8 @@ mod tests {
         let shading = MeshShading::new(vertices, &corners);
         let transform = Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0));
         let eye = Vec3::new(100.0, 5.0, -10.0);
-        let chunks = MeshChunks::cut(
-            Arc::new(triangles),
-            Arc::new(shading),
-            RULE,
-            &transform,
-            Some(eye),
-        );
+        let chunks =
+            MeshChunks::cut(positions, Arc::new(shading), RULE, &transform, Some(eye)).unwrap();
         assert!(chunks.len() >= 900 / 64);
         let mut seen = vec![false; 900];
         for k in 0..chunks.len() {
@@ -123,11 +130,22 @@ mod tests {
             },
             &[[0, 1, 2]; 10],
         );
-        let triangles = chunks.triangles.clone();
-        let chunks = MeshChunks::cut(triangles, Arc::new(short), RULE, &transform, None);
+        let mut positions = chunks.positions.clone();
+        let chunks =
+            MeshChunks::cut(positions.clone(), Arc::new(short), RULE, &transform, None).unwrap();
         for k in 0..chunks.len() {
             let shading = chunks.shading(k);
             assert!(shading.is_empty() && shading.normals(0).is_none());
         }
+        // A corner past the positions: the mesh is refused whole, its triangle named.
+        positions.corners[700][1] = 2700;
+        let refused = MeshChunks::cut(positions, chunks.shading, RULE, &transform, None);
+        assert!(matches!(
+            refused.err(),
+            Some(BvhError::CornerOutOfRange {
+                index: 700,
+                vertices: 2700
+            })
+        ));
     }
 }

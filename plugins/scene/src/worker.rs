@@ -513,9 +513,14 @@ fn insert_in_chunks(
         eye,
         ..
     } = huge;
-    let triangles = Arc::new(positions.triangles());
-    drop(positions);
-    let chunks = MeshChunks::cut(triangles, shading, config.chunks, &transform, eye);
+    let chunks = match MeshChunks::cut(positions, shading, config.chunks, &transform, eye) {
+        Ok(chunks) => chunks,
+        Err(e) => {
+            // Nothing of it went in: the previous version, if any, stays.
+            warn!("entity {entity} ('{name}') is not traced: {e}");
+            return 0;
+        }
+    };
     let old: Vec<GroupId> = shared
         .tree
         .read()

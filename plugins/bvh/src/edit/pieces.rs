@@ -5,6 +5,7 @@
 //! instance over its own subtree, never baked), so the first piece is traced long before the whole
 //! would be built, and a first move or copy is one node per piece.
 
+use crate::tree::vertices::gather;
 use crate::{Aabb, BvhError, PreparedGroup, TopDown, Triangle};
 use glam::{Affine3A, Vec3};
 
@@ -51,16 +52,50 @@ impl MeshPieces {
         transform: &Affine3A,
         eye: Option<Vec3>,
     ) -> Self {
+        Self::cut_by(triangles.len(), |t| triangles[t], rule, transform, eye)
+    }
+
+    /// [`MeshPieces::cut`] for a mesh as its vertices and each triangle's corners, indices into
+    /// them (no soup of the whole mesh is made: a cut mesh is the largest there is). Corners past
+    /// the vertices are refused, naming the first triangle that has one.
+    pub fn cut_indexed(
+        vertices: &[Vec3],
+        corners: &[[u32; 3]],
+        rule: PieceRule,
+        transform: &Affine3A,
+        eye: Option<Vec3>,
+    ) -> Result<Self, BvhError> {
+        let n = vertices.len();
+        if let Some(index) = corners
+            .iter()
+            .position(|c| c.iter().any(|&i| i as usize >= n))
+        {
+            return Err(BvhError::CornerOutOfRange { index, vertices: n });
+        }
+        let triangle = |t: usize| gather(vertices, corners[t]);
+        Ok(Self::cut_by(corners.len(), triangle, rule, transform, eye))
+    }
+
+    /// The cut of [`MeshPieces::cut`] over `len` triangles read by `triangle`.
+    fn cut_by(
+        len: usize,
+        triangle: impl Fn(usize) -> Triangle,
+        rule: PieceRule,
+        transform: &Affine3A,
+        eye: Option<Vec3>,
+    ) -> Self {
         let max = rule.piece.max(1);
-        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        if !rule.cuts(triangles.len()) {
+        let mut order: Vec<u32> = (0..len as u32).collect();
+        if !rule.cuts(len) {
             return Self {
                 pieces: vec![order],
             };
         }
-        let centroids: Vec<Vec3> = triangles
-            .iter()
-            .map(|t| (t.v[0] + t.v[1] + t.v[2]) / 3.0)
+        let centroids: Vec<Vec3> = (0..len)
+            .map(|t| {
+                let t = triangle(t);
+                (t.v[0] + t.v[1] + t.v[2]) / 3.0
+            })
             .collect();
         let mut ranges: Vec<(usize, usize)> = Vec::new();
         // An explicit stack rather than recursion: the depth is log2(n / max), but no stack is cheaper.
@@ -99,7 +134,7 @@ impl MeshPieces {
                 let ids = order[start..end].to_vec();
                 let bounds = ids
                     .iter()
-                    .fold(Aabb::EMPTY, |b, &t| b.union(&triangles[t as usize].aabb()))
+                    .fold(Aabb::EMPTY, |b, &t| b.union(&triangle(t as usize).aabb()))
                     .transformed(transform);
                 let distance = eye.map_or(0.0, |eye| {
                     eye.distance_squared(eye.clamp(bounds.min, bounds.max))
@@ -146,6 +181,33 @@ impl MeshPieces {
             .iter()
             .map(|&t| triangles[t as usize])
             .collect();
+        PreparedGroup::build(&piece, transform, self.keep_whole())
+    }
+
+    /// [`MeshPieces::build`] for a mesh cut by [`MeshPieces::cut_indexed`], from the same
+    /// vertices and corners: only the piece's triangles are gathered, and they read back exactly
+    /// as those of the soup would.
+    pub fn build_indexed(
+        &self,
+        k: usize,
+        vertices: &[Vec3],
+        corners: &[[u32; 3]],
+        transform: Affine3A,
+    ) -> Result<PreparedGroup, BvhError> {
+        let n = vertices.len();
+        let piece: Vec<Triangle> = self.pieces[k]
+            .iter()
+            .map(|&t| {
+                let c = corners.get(t as usize).copied().unwrap_or([u32::MAX; 3]);
+                match c.iter().all(|&i| (i as usize) < n) {
+                    true => Ok(gather(vertices, c)),
+                    false => Err(BvhError::CornerOutOfRange {
+                        index: t as usize,
+                        vertices: n,
+                    }),
+                }
+            })
+            .collect::<Result<_, _>>()?;
         PreparedGroup::build(&piece, transform, self.keep_whole())
     }
 }
@@ -228,5 +290,74 @@ mod tests {
         assert_eq!(one.len(), 1);
         assert!(!one.keep_whole());
         assert_eq!(one.ids().next().unwrap().len(), 900);
+    }
+
+    #[test]
+    fn an_indexed_mesh_is_cut_and_built_as_its_soup() {
+        // A 40 × 40 grid of quads over shared vertices, with the soup it stands for.
+        let n = 40u32;
+        let vertices: Vec<Vec3> = (0..(n + 1) * (n + 1))
+            .map(|i| {
+                Vec3::new(
+                    (i % (n + 1)) as f32,
+                    ((i * 7) % 5) as f32 * 0.1,
+                    (i / (n + 1)) as f32,
+                )
+            })
+            .collect();
+        let at = |i: u32, j: u32| j * (n + 1) + i;
+        let corners: Vec<[u32; 3]> = (0..n * n)
+            .flat_map(|k| {
+                let (i, j) = (k % n, k / n);
+                [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ]
+            })
+            .collect();
+        let soup: Vec<Triangle> = corners.iter().map(|&c| gather(&vertices, c)).collect();
+        let transform = Affine3A::from_translation(Vec3::new(3.0, 0.0, -2.0));
+        let eye = Some(Vec3::new(0.0, 4.0, -9.0));
+        let rule = PieceRule {
+            cut_above: 500,
+            piece: 256,
+        };
+        let from_soup = MeshPieces::cut(&soup, rule, &transform, eye);
+        let indexed = MeshPieces::cut_indexed(&vertices, &corners, rule, &transform, eye).unwrap();
+        assert_eq!(indexed, from_soup);
+        assert!(indexed.len() > 1);
+        for k in 0..indexed.len() {
+            let mut a = crate::Bvh::default();
+            let mut b = crate::Bvh::default();
+            let ga = a
+                .insert_prepared(from_soup.build(k, &soup, transform).unwrap())
+                .unwrap();
+            let gb = b
+                .insert_prepared(
+                    indexed
+                        .build_indexed(k, &vertices, &corners, transform)
+                        .unwrap(),
+                )
+                .unwrap();
+            assert_eq!(a.group_object(ga).unwrap(), b.group_object(gb).unwrap());
+            assert_eq!(a.bounds(), b.bounds());
+        }
+        // A corner past the vertices is refused, naming its triangle, by the cut and the build.
+        let mut bad = corners.clone();
+        bad[1234][2] = vertices.len() as u32;
+        assert_eq!(
+            MeshPieces::cut_indexed(&vertices, &bad, rule, &transform, eye),
+            Err(BvhError::CornerOutOfRange {
+                index: 1234,
+                vertices: vertices.len()
+            })
+        );
+        let k = (0..indexed.len())
+            .find(|&k| indexed.ids().nth(k).unwrap().contains(&1234))
+            .unwrap();
+        assert!(matches!(
+            indexed.build_indexed(k, &vertices, &bad, transform),
+            Err(BvhError::CornerOutOfRange { index: 1234, .. })
+        ));
     }
 }
