@@ -5,7 +5,7 @@
 //! instance over its own subtree, never baked), so the first piece is traced long before the whole
 //! would be built, and a first move or copy is one node per piece.
 
-use crate::tree::vertices::gather;
+use crate::tree::vertices::{check_corners, gather};
 use crate::{Aabb, BvhError, PreparedGroup, TopDown, Triangle};
 use glam::{Affine3A, Vec3};
 
@@ -65,13 +65,7 @@ impl MeshPieces {
         transform: &Affine3A,
         eye: Option<Vec3>,
     ) -> Result<Self, BvhError> {
-        let n = vertices.len();
-        if let Some(index) = corners
-            .iter()
-            .position(|c| c.iter().any(|&i| i as usize >= n))
-        {
-            return Err(BvhError::CornerOutOfRange { index, vertices: n });
-        }
+        check_corners(corners, vertices.len())?;
         let triangle = |t: usize| gather(vertices, corners[t]);
         Ok(Self::cut_by(corners.len(), triangle, rule, transform, eye))
     }
@@ -199,12 +193,13 @@ impl MeshPieces {
             .iter()
             .map(|&t| {
                 let c = corners.get(t as usize).copied().unwrap_or([u32::MAX; 3]);
-                match c.iter().all(|&i| (i as usize) < n) {
-                    true => Ok(gather(vertices, c)),
-                    false => Err(BvhError::CornerOutOfRange {
+                if c.iter().all(|&i| (i as usize) < n) {
+                    Ok(gather(vertices, c))
+                } else {
+                    Err(BvhError::CornerOutOfRange {
                         index: t as usize,
                         vertices: n,
-                    }),
+                    })
                 }
             })
             .collect::<Result<_, _>>()?;

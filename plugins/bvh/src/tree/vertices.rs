@@ -106,13 +106,7 @@ impl Indexed {
     /// coordinate (as [`crate::validate_triangles`] does for a soup), naming the first triangle at
     /// fault. A vertex no triangle uses is never at fault.
     pub(crate) fn validate(&self) -> Result<(), BvhError> {
-        let n = self.vertices.len() as u32;
-        if let Some(index) = self.corners.iter().position(|c| c.iter().any(|&i| i >= n)) {
-            return Err(BvhError::CornerOutOfRange {
-                index,
-                vertices: self.vertices.len(),
-            });
-        }
+        check_corners(&self.corners, self.vertices.len())?;
         let ok = self
             .vertices
             .iter()
@@ -135,6 +129,17 @@ impl Indexed {
             });
         }
         Ok(())
+    }
+}
+
+/// Refuses corners at or past `vertices`, naming the first triangle with one.
+pub(crate) fn check_corners(corners: &[[u32; 3]], vertices: usize) -> Result<(), BvhError> {
+    match corners
+        .iter()
+        .position(|c| c.iter().any(|&i| i as usize >= vertices))
+    {
+        Some(index) => Err(BvhError::CornerOutOfRange { index, vertices }),
+        None => Ok(()),
     }
 }
 
