@@ -65,6 +65,7 @@ pub use top_down::{BuiltTree, TopDown};
 pub use tree::aabb::Aabb;
 pub use tree::bvh::{Bvh, Instance};
 pub use tree::cost::TreeStats;
+pub use tree::ids::{TriangleIds, TriangleIdsIter};
 pub use tree::memory::MemoryBytes;
 pub use tree::node::{InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
 pub use tree::scratch::SearchScratch;

@@ -763,6 +763,60 @@ fn a_group_of_more_than_65536_vertices_keeps_its_corners_whole() {
 }
 
 #[test]
+fn a_group_in_the_slots_a_removed_group_left_keeps_its_ids_as_runs() {
+    // A group's triangle ids are kept as runs of consecutive ids: a group filled into a fresh tree
+    // holds one run, and one given the slots a removed group left holds them ascending, in runs,
+    // not as a list that descends (the free list's order).
+    let (a, b, c) = (soup(1000, 50), soup(700, 51), soup(600, 52));
+    let mut bvh = Bvh::default();
+    let ga = bvh.insert_group(&a, Affine3A::IDENTITY, false).unwrap();
+    let gb = bvh.insert_group(&b, xf(0.4, 3.0, 1.0), true).unwrap();
+    let b_ids = bvh.group_triangles(gb).unwrap().to_vec();
+    assert_eq!(b_ids, (1000..1700).collect::<Vec<u32>>());
+    bvh.remove_group(ga).unwrap();
+    let gc = bvh.insert_group(&c, xf(0.2, 1.0, 1.0), false).unwrap();
+    let c_ids = bvh.group_triangles(gc).unwrap().to_vec();
+    assert_eq!(
+        c_ids,
+        (400..1000).collect::<Vec<u32>>(),
+        "the reused slots, ascending"
+    );
+    // Once more into the same slots: the groups' bytes stay those of two runs of ids (8 B each),
+    // where a list of these 600 ids would add 2,400.
+    let held = bvh.memory_bytes().groups;
+    bvh.remove_group(gc).unwrap();
+    let gc = bvh.insert_group(&c, xf(0.2, 1.0, 1.0), false).unwrap();
+    assert_eq!(bvh.group_triangles(gc).unwrap().to_vec(), c_ids);
+    assert_eq!(bvh.memory_bytes().groups, held);
+    // Each triangle reads back at its place in its mesh's order, and traces as brute force does.
+    let placed = xf(0.2, 1.0, 1.0);
+    for (k, t) in bvh.group_triangles(gc).unwrap().iter().enumerate() {
+        assert_eq!(bvh.group_triangles(gc).unwrap().get(k), Some(t));
+        assert_eq!(
+            bvh.triangle(t).unwrap(),
+            c[k].transformed(&placed),
+            "triangle {k}"
+        );
+    }
+    for (k, (t, o)) in bvh.group_object(gb).unwrap().iter().zip(&b).enumerate() {
+        assert_eq!(t, o, "triangle {k} of the group kept whole");
+    }
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(300, 53, 12.0));
+    // A few of its triangles removed: the rest keep their order, read back through the runs.
+    let gone: Vec<u32> = c_ids.iter().copied().step_by(7).collect();
+    bvh.remove_triangles(&gone).unwrap();
+    let kept: Vec<u32> = c_ids
+        .iter()
+        .copied()
+        .filter(|t| !gone.contains(t))
+        .collect();
+    assert_eq!(bvh.group_triangles(gc).unwrap().to_vec(), kept);
+    bvh.validate().unwrap();
+    assert_hits_match(&bvh, &rays(300, 54, 12.0));
+}
+
+#[test]
 fn triangles_edited_one_by_one_past_65536_vertices_read_back_as_written() {
     // Each triangle edited alone gets three vertices of its own: 19,000 of a 20,000-triangle grid
     // take its group past 65,536 vertices until the compaction after the edit brings it back.

@@ -130,7 +130,7 @@ impl Tracer {
         let mut objects = vec![0u8; bvh.group_slots() as usize * OBJECT_BYTES as usize];
         let mut map_transforms = MapTransformTable::default();
         for (&g, m) in &scene.materials {
-            for &id in bvh.group_triangles(g).unwrap() {
+            for id in bvh.group_triangles(g).unwrap() {
                 shading.put(id, &attribute_record(None, None, g.index()));
             }
             put_record(

@@ -191,7 +191,6 @@ fn incremental_upload_traces_like_a_full_one() {
         .unwrap()
         .iter()
         .chain(bvh.group_triangles(whole).unwrap())
-        .copied()
         .collect();
     let on_new = patched.iter().filter(|id| new_ids.contains(id)).count();
     assert!(on_new > 200, "the new meshes cover only {on_new} pixels");

@@ -93,7 +93,9 @@ impl EditorTree {
         let mut to_refine = Vec::new();
         for group in prepared {
             let g = bvh.insert_prepared(group).map_err(|e| e.to_string())?;
-            let n = bvh.group_triangles(g).map_or(0, <[u32]>::len);
+            let n = bvh
+                .group_triangles(g)
+                .map_or(0, treelight_bvh::TriangleIds::len);
             if !bvh.is_group_whole(g).unwrap_or(true) && Refinement::is_worth(n) {
                 to_refine.push(g);
             }

@@ -6,7 +6,7 @@ use crate::tree::bvh::{AreaSum, Group};
 use crate::tree::node::{NONE, NodeKind, NodeRef};
 use crate::tree::triangle::{point_within_limits, validate_triangles};
 use crate::tree::vertices::{Indexed, compact, gather};
-use crate::{Aabb, Bvh, BvhError, Instance, Triangle};
+use crate::{Aabb, Bvh, BvhError, Instance, Triangle, TriangleIds};
 use glam::{Affine3A, Vec3};
 
 /// Handle to a group; stale handles (of removed groups) are rejected, never confused with new ones.
@@ -194,6 +194,7 @@ impl Bvh {
         let Indexed { vertices, corners } = g.stored;
         // The vertices first: the graft reads the triangles' boxes through them.
         self.groups[index as usize].vertices = vertices;
+        self.ascending_free_slots(corners.len());
         let ids: Vec<u32> = corners
             .iter()
             .map(|&c| self.alloc_grouped(c, index))
@@ -212,7 +213,7 @@ impl Bvh {
         }
         let slot = &mut self.groups[index as usize];
         slot.alive = true;
-        slot.triangles = ids;
+        slot.triangles = TriangleIds::new(ids);
         slot.object = Vec::new();
         slot.transform = g.transform;
         slot.instance = instance;
@@ -276,7 +277,7 @@ impl Bvh {
             && a.triangles
                 .iter()
                 .zip(&b.triangles)
-                .all(|(&s, &t)| corners.get(s as usize) == corners.get(t as usize))
+                .all(|(s, t)| corners.get(s as usize) == corners.get(t as usize))
     }
 
     /// Removes a group and all its triangles. A group whose triangles others share
@@ -291,7 +292,7 @@ impl Bvh {
             self.retire(id.index);
             return Ok(());
         }
-        let (instance, triangles) = (g.instance, g.triangles.clone());
+        let (instance, triangles) = (g.instance, g.triangles.to_vec());
         if instance != NONE {
             let root = self.instances[instance as usize].root;
             self.detach_instance(instance);
@@ -317,7 +318,7 @@ impl Bvh {
         slot.alive = false;
         slot.retired = false;
         slot.generation = slot.generation.wrapping_add(1);
-        slot.triangles = Vec::new();
+        slot.triangles = TriangleIds::default();
         slot.vertices = Vec::new();
         slot.object = Vec::new();
         slot.instance = NONE;
@@ -408,7 +409,7 @@ impl Bvh {
     /// over an object-space subtree of the same triangle ids.
     fn unbake(&mut self, index: u32, object: Vec<Vec3>) {
         let g = &self.groups[index as usize];
-        let (triangles, transform) = (g.triangles.clone(), g.transform);
+        let (triangles, transform) = (g.triangles.to_vec(), g.transform);
         // The triangles keep the shape they have in the tree (a rigid transform away from the one
         // they get in object space): far quicker than a build, and as good for a mesh's own parts.
         let tree = self.induced_tree(&triangles);
@@ -434,7 +435,7 @@ impl Bvh {
         if instance == NONE || g.source != NONE || g.users > 0 {
             return Ok(());
         }
-        let (triangles, transform) = (g.triangles.clone(), g.transform);
+        let (triangles, transform) = (g.triangles.to_vec(), g.transform);
         // The object-space vertices are replaced: kept, so that the group's next move starts from
         // them exactly.
         let object = std::mem::take(&mut self.groups[id.index as usize].vertices);
@@ -481,7 +482,7 @@ impl Bvh {
             });
         }
         validate_triangles(object)?;
-        let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.clone());
+        let (instance, transform, triangles) = (g.instance, g.transform, g.triangles.to_vec());
         let had_copy = !g.object.is_empty();
         let mut new = Indexed::from_soup(object);
         let stored = if instance == NONE {
@@ -540,7 +541,7 @@ impl Bvh {
 
     /// The group's own triangle ids (none for a group that shares another's: see
     /// [`Bvh::shared_triangles`]).
-    pub fn group_triangles(&self, id: GroupId) -> Result<&[u32], BvhError> {
+    pub fn group_triangles(&self, id: GroupId) -> Result<&TriangleIds, BvhError> {
         Ok(&self.group(id)?.triangles)
     }
 
@@ -551,12 +552,12 @@ impl Bvh {
     pub fn group_object(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
         let g = self.group(id)?;
         if g.instance != NONE {
-            return Ok(g.triangles.iter().map(|&t| self.tri(t)).collect());
+            return Ok(g.triangles.iter().map(|t| self.tri(t)).collect());
         }
         let object = self.baked_object(id.index).ok_or(BvhError::BadTransform)?;
         Ok(g.triangles
             .iter()
-            .map(|&t| gather(&object, self.tri.corners.get(t as usize)))
+            .map(|t| gather(&object, self.tri.corners.get(t as usize)))
             .collect())
     }
 
@@ -564,7 +565,7 @@ impl Bvh {
     /// group that shares another's): a baked group's exactly as stored.
     pub fn group_world(&self, id: GroupId) -> Result<Vec<Triangle>, BvhError> {
         let g = self.group(id)?;
-        let stored = g.triangles.iter().map(|&t| self.tri(t));
+        let stored = g.triangles.iter().map(|t| self.tri(t));
         Ok(if g.instance != NONE {
             stored.map(|t| t.transformed(&g.transform)).collect()
         } else {
@@ -589,7 +590,7 @@ impl Bvh {
         let corners = g
             .triangles
             .iter()
-            .map(|&t| self.tri.corners.get(t as usize))
+            .map(|t| self.tri.corners.get(t as usize))
             .collect();
         Ok((vertices, corners))
     }
@@ -648,7 +649,7 @@ impl Bvh {
             .find(|&&g| self.groups[g as usize].users > 0)
         {
             return Err(BvhError::SharedTriangles(
-                self.groups[g as usize].triangles[0],
+                self.groups[g as usize].triangles.first().unwrap_or(NONE),
             ));
         }
         for &g in &touched_groups {
@@ -842,7 +843,7 @@ impl Group {
     pub(crate) fn is_alive(&self) -> bool {
         self.alive
     }
-    pub(crate) fn triangle_ids(&self) -> &[u32] {
+    pub(crate) fn triangle_ids(&self) -> &TriangleIds {
         &self.triangles
     }
 }

@@ -4,7 +4,7 @@
 use crate::edit::group::GroupId;
 use crate::tree::bvh::Group;
 use crate::tree::node::{NONE, NodeRef};
-use crate::{Bvh, BvhError, Hit, Triangle};
+use crate::{Bvh, BvhError, Hit, Triangle, TriangleIds};
 use glam::Affine3A;
 
 impl Bvh {
@@ -36,7 +36,7 @@ impl Bvh {
         let slot = &mut self.groups[index as usize];
         slot.alive = true;
         slot.retired = false;
-        slot.triangles = Vec::new();
+        slot.triangles = TriangleIds::default();
         slot.vertices = Vec::new();
         slot.object = Vec::new();
         slot.transform = transform;
@@ -49,7 +49,7 @@ impl Bvh {
     }
 
     /// The triangle ids a group is made of: its own, or those of the group it shares them with.
-    pub fn shared_triangles(&self, id: GroupId) -> Result<&[u32], BvhError> {
+    pub fn shared_triangles(&self, id: GroupId) -> Result<&TriangleIds, BvhError> {
         let g = self.group(id)?;
         let owner = if g.source != NONE {
             g.source
@@ -92,7 +92,7 @@ impl Bvh {
                 self.groups.push(Group {
                     generation: 0,
                     alive: false,
-                    triangles: Vec::new(),
+                    triangles: TriangleIds::default(),
                     vertices: Vec::new(),
                     object: Vec::new(),
                     transform: Affine3A::IDENTITY,
@@ -118,7 +118,7 @@ impl Bvh {
         let o = &mut self.groups[owner as usize];
         o.users -= 1;
         if o.users == 0 && o.retired {
-            let triangles = std::mem::take(&mut o.triangles);
+            let triangles = std::mem::take(&mut o.triangles).to_vec();
             let mut inner = Vec::new();
             self.collect_inner(root, &mut inner);
             for i in inner {
@@ -207,7 +207,7 @@ mod tests {
         );
 
         // Shared triangles cannot be removed one by one, and never bake.
-        let t = bvh.shared_triangles(copy).unwrap()[0];
+        let t = bvh.shared_triangles(copy).unwrap().get(0).unwrap();
         assert_eq!(
             bvh.remove_triangles(&[t]),
             Err(BvhError::SharedTriangles(t))

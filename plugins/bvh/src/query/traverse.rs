@@ -3,7 +3,7 @@
 
 use crate::query::ray::RayData;
 use crate::tree::node::{NONE, NodeKind, NodeRef};
-use crate::{Aabb, Bvh, Hit, Ray, Triangle};
+use crate::{Aabb, Bvh, Hit, Ray, Triangle, TriangleIds};
 
 /// Counters filled by [`Bvh::closest_hit_counted`], the CPU twin of the GPU heatmap view.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -260,7 +260,7 @@ impl Bvh {
                 continue;
             };
             let lrd = RayData::new(&local);
-            for &id in tris {
+            for id in tris {
                 let t_max = best.map_or(ray.t_max, |h| h.t);
                 if let Some((t, u, v)) = lrd.hit_triangle(&self.tri(id), ray.t_min, t_max)
                     && best.is_none_or(|b| t < b.t)
@@ -289,7 +289,7 @@ impl Bvh {
                 .then_some(*ray)?
         } else {
             let (local, tris) = self.instance_ray(instance, ray)?;
-            tris.contains(&triangle).then_some(local)?
+            tris.iter().any(|t| t == triangle).then_some(local)?
         };
         RayData::new(&local)
             .hit_triangle(&tri, ray.t_min, ray.t_max)
@@ -311,7 +311,7 @@ impl Bvh {
 
     /// Live instance `i`: `ray` carried into its object space as the traversal carries it, and
     /// the triangles it places.
-    fn instance_ray(&self, i: u32, ray: &Ray) -> Option<(Ray, &[u32])> {
+    fn instance_ray(&self, i: u32, ray: &Ray) -> Option<(Ray, &TriangleIds)> {
         let inst = self.instance(i)?;
         let g = &self.groups[inst.group as usize];
         let owner = if g.source != NONE {
@@ -346,7 +346,7 @@ impl Bvh {
         });
         let placed = (0..self.instances.len() as u32).flat_map(move |i| {
             let inst = self.instance(i);
-            let tris: &[u32] = inst.map_or(&[], |inst| {
+            let tris = inst.map(|inst| {
                 let g = &self.groups[inst.group as usize];
                 let owner = if g.source != NONE {
                     g.source
@@ -355,7 +355,7 @@ impl Bvh {
                 };
                 &self.groups[owner as usize].triangles
             });
-            tris.iter().map(move |&id| {
+            tris.into_iter().flatten().map(move |id| {
                 let inst = &self.instances[i as usize];
                 (self.tri(id).transformed(&inst.transform), id, i)
             })

@@ -4,6 +4,7 @@
 use crate::export::change::ChangeLog;
 use crate::tree::corners::Corners;
 use crate::tree::flags::Flags;
+use crate::tree::ids::TriangleIds;
 use crate::tree::node::{FREE, InnerNode, MAX_INDEX, NONE, NodeKind, NodeRef};
 use crate::tree::scratch::Scratch;
 use crate::tree::vertices::gather;
@@ -71,8 +72,9 @@ pub struct Bvh {
 pub(crate) struct Group {
     pub(crate) generation: u32,
     pub(crate) alive: bool,
-    /// Triangle ids, in the group's order (a mesh's own, for data kept per triangle).
-    pub(crate) triangles: Vec<u32>,
+    /// Triangle ids, in the group's order (a mesh's own, for data kept per triangle), as runs of
+    /// consecutive ids where those are smaller.
+    pub(crate) triangles: TriangleIds,
     /// The vertices its triangles' corners index ([`Triangles::corners`]), as stored: world space
     /// while baked, object space while whole. Each distinct position once, shared by the
     /// triangles that meet there.
@@ -376,6 +378,16 @@ impl Bvh {
         self.tri.live += 1;
         self.changes.mark_triangle(id, self.tri.parent.len());
         id
+    }
+
+    /// Orders the free slots the next `n` allocations take so that they come in ascending order:
+    /// a group given slots a removed group left then holds its ids as runs
+    /// ([`crate::TriangleIds`]), not as a list that descends.
+    pub(crate) fn ascending_free_slots(&mut self, n: usize) {
+        let free = &mut self.tri.free;
+        let from = free.len() - n.min(free.len());
+        // Taken from the end: the largest first in the list, the smallest last.
+        free[from..].sort_unstable_by(|a, b| b.cmp(a));
     }
 
     /// Stores a triangle outside any group (not yet in the tree) and returns its id.

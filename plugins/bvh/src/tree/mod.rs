@@ -6,6 +6,7 @@ pub(crate) mod bvh;
 pub(crate) mod corners;
 pub(crate) mod cost;
 pub(crate) mod flags;
+pub(crate) mod ids;
 pub(crate) mod memory;
 pub(crate) mod node;
 pub(crate) mod scratch;

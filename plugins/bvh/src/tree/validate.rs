@@ -10,7 +10,7 @@ impl Bvh {
     fn validate_corners(&self) -> Result<(), String> {
         for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
             let n = g.vertices.len() as u32;
-            for &t in g.triangle_ids() {
+            for t in g.triangle_ids() {
                 match self.tri.corners.checked(t as usize) {
                     Some(c) if c.iter().all(|&i| i < n) => {}
                     c => {
@@ -83,7 +83,7 @@ impl Bvh {
         }
         let mut users = vec![0u32; self.groups.len()];
         for (gi, g) in self.groups.iter().enumerate().filter(|(_, g)| g.is_alive()) {
-            for &t in g.triangle_ids() {
+            for t in g.triangle_ids() {
                 if self.tri.group[t as usize] != gi as u32 {
                     return Err(format!("triangle {t} of group {gi} names another group"));
                 }

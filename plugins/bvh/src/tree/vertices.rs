@@ -4,7 +4,7 @@
 
 use crate::tree::corners::Corners;
 use crate::tree::triangle::{point_within_limits, within_limits};
-use crate::{BvhError, MAX_COORDINATE, Triangle};
+use crate::{BvhError, MAX_COORDINATE, Triangle, TriangleIds};
 use glam::Vec3;
 use std::collections::HashMap;
 
@@ -160,11 +160,11 @@ pub(crate) fn gather(vertices: &[Vec3], [a, b, c]: [u32; 3]) -> Triangle {
 pub(crate) fn compact(
     vertices: &mut Vec<Vec3>,
     corners: &mut Corners,
-    ids: &[u32],
+    ids: &TriangleIds,
     also: Option<&mut Vec<Vec3>>,
 ) {
     let mut renumber = vec![u32::MAX; vertices.len()];
-    for &t in ids {
+    for t in ids {
         for i in corners.get(t as usize) {
             renumber[i as usize] = 0;
         }
@@ -187,7 +187,7 @@ pub(crate) fn compact(
         a.truncate(kept as usize);
         a.shrink_to_fit();
     }
-    for &t in ids {
+    for t in ids {
         let c = corners.get(t as usize);
         corners.set(t as usize, c.map(|i| renumber[i as usize]));
     }
@@ -299,7 +299,7 @@ mod tests {
         compact(
             &mut indexed.vertices,
             &mut corners,
-            &[0, 1],
+            &TriangleIds::new(vec![0, 1]),
             Some(&mut copy),
         );
         // Vertex 1 (used by the old triangle 0 alone) is gone, from the copy too.

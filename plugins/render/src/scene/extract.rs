@@ -456,7 +456,7 @@ fn scene_writes(
         let (Ok(ids), true) = (bvh.group_triangles(g), tree.shading.contains_key(&g)) else {
             continue;
         };
-        records.extend(ids.iter().enumerate().map(|(k, &t)| (t, g, k as u32)));
+        records.extend(ids.iter().enumerate().map(|(k, t)| (t, g, k as u32)));
     }
     records.sort_unstable_by_key(|r| r.0);
     records.dedup_by_key(|r| r.0);

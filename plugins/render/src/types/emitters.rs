@@ -46,7 +46,7 @@ pub fn placed_triangles(bvh: &Bvh, g: GroupId) -> Vec<(u32, [Vec3; 3])> {
         return Vec::new();
     };
     ids.iter()
-        .filter_map(|&id| {
+        .filter_map(|id| {
             // A group kept whole stores its triangles in object space; a baked one in world space.
             let t = bvh.triangle(id)?;
             Some((id, if whole { t.transformed(&transform) } else { t }.v))

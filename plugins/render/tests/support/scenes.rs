@@ -97,7 +97,7 @@ impl Scene {
         let g = self.bvh.insert_group(&t, transform, keep_whole).unwrap();
         self.emission.push((g, Vec3::from(material.emissive)));
         self.shading.reserve_triangles(self.bvh.triangle_capacity());
-        for (k, &id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
+        for (k, id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
             let (_, n, uv) = tris[k];
             let record = finish(k, attribute_record(n, Some(uv), g.index()));
             self.shading.put(id, &record);
