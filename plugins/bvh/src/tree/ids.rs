@@ -26,24 +26,22 @@ impl Default for Store {
 
 impl TriangleIds {
     /// The ids in `ids`, in their order (which is kept, runs or not).
-    pub(crate) fn new(ids: Vec<u32>) -> Self {
-        let breaks = |w: &[u32]| w[0].checked_add(1) != Some(w[1]);
-        let runs = 1 + ids.windows(2).filter(|w| breaks(w)).count();
-        if ids.is_empty() || 2 * runs > ids.len() {
-            let mut ids = ids;
+    pub(crate) fn new(mut ids: Vec<u32>) -> Self {
+        if ids.is_empty() {
+            return Self::default();
+        }
+        let follows = |a: u32, b: u32| a.checked_add(1) == Some(b);
+        let runs = 1 + ids.windows(2).filter(|w| !follows(w[0], w[1])).count();
+        if 2 * runs > ids.len() {
             ids.shrink_to_fit();
             return Self {
-                store: if ids.is_empty() {
-                    Store::default()
-                } else {
-                    Store::List(ids)
-                },
+                store: Store::List(ids),
             };
         }
         let mut out: Vec<[u32; 2]> = Vec::with_capacity(runs);
         for (k, &id) in ids.iter().enumerate() {
             match out.last_mut() {
-                Some(run) if !breaks(&[ids[k - 1], id]) => run[1] += 1,
+                Some(run) if follows(ids[k - 1], id) => run[1] += 1,
                 _ => out.push([id, k as u32 + 1]),
             }
         }
