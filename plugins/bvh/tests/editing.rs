@@ -7,8 +7,8 @@ use proptest::prelude::*;
 use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GroupId, NodeKind,
-    NodeRef, PreparedGroup, Triangle, WideRecords,
+    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuNode, GpuTriangle,
+    GroupId, NodeKind, NodeRef, PositionPool, PositionSource, PreparedGroup, Triangle, WideRecords,
 };
 
 #[derive(Clone, Debug)]
@@ -140,6 +140,11 @@ struct Mirror {
     wide_instances: Vec<GpuInstance>,
     wide_root: u32,
     tris: Vec<GpuTriangle>,
+    /// The path tracer's indexed triangles and their position pool, patched through
+    /// `PositionPool::update`.
+    pool: PositionPool,
+    indexed: Vec<GpuIndexedTriangle>,
+    positions: Vec<Vec3>,
     instances: Vec<GpuInstance>,
     root: u32,
 }
@@ -177,6 +182,18 @@ impl Mirror {
         for &t in c.written_triangles.iter().chain(&c.removed_triangles) {
             self.tris[t as usize] = bvh.gpu_triangle(t);
         }
+        let pc = self.pool.update(bvh, &c);
+        self.positions.resize(self.pool.end() as usize, Vec3::NAN);
+        for &(first, source) in &pc.runs {
+            let p = self.pool.positions(bvh, source);
+            self.positions[first as usize..first as usize + p.len()].copy_from_slice(p);
+        }
+        self.indexed
+            .resize(c.triangle_capacity as usize, GpuIndexedTriangle::default());
+        let ids = c.written_triangles.iter().chain(&c.removed_triangles);
+        for &t in ids.chain(&pc.triangles) {
+            self.indexed[t as usize] = self.pool.record(bvh, t);
+        }
         for &i in &c.instances {
             self.instances[i as usize] = bvh.gpu_instance(i);
         }
@@ -194,12 +211,20 @@ impl Mirror {
             );
         }
         self.check_wide(bvh);
+        self.check_pool(bvh);
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
                 assert_eq!(
                     self.tris[t as usize],
                     bvh.gpu_triangle(t),
                     "triangle {t} drifted"
+                );
+                let corners = self.indexed[t as usize].corners;
+                let gathered = corners.map(|c| self.positions[c as usize]);
+                assert_eq!(
+                    gathered,
+                    bvh.triangle(t).unwrap().v,
+                    "indexed triangle {t} drifted ({corners:?})"
                 );
             }
         }
@@ -216,6 +241,33 @@ impl Mirror {
 }
 
 impl Mirror {
+    /// The position pool holds the live groups' vertices and three a loose triangle, no more:
+    /// runs of removed groups and triangles are given back.
+    fn check_pool(&self, bvh: &Bvh) {
+        let mut groups: Vec<u32> = Vec::new();
+        let mut loose = 0u64;
+        for t in 0..bvh.triangle_capacity() {
+            if !bvh.is_live_triangle(t) {
+                continue;
+            }
+            match bvh.triangle_group(t) {
+                Some(g) => groups.push(g.index()),
+                None => loose += 3,
+            }
+        }
+        groups.sort_unstable();
+        groups.dedup();
+        let grouped: u64 = groups
+            .iter()
+            .map(|&g| self.pool.positions(bvh, PositionSource::Group(g)).len() as u64)
+            .sum();
+        assert_eq!(
+            self.pool.live_records(),
+            grouped + loose,
+            "the pool leaks runs"
+        );
+    }
+
     /// The path tracer's records: a valid layout, each live slot as a fresh encoding, every live
     /// triangle reached from the root through the patched records alone; and a layout made afresh
     /// has its records at alternate levels.

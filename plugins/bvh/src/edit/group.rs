@@ -737,6 +737,11 @@ impl Bvh {
             &group.triangles,
             object,
         );
+        // Their corners are numbered anew: a copy that indexes the vertices must hear of it.
+        let len = self.tri.parent.len();
+        for t in self.groups[g as usize].triangles.iter() {
+            self.changes.mark_triangle(t, len);
+        }
     }
 
     /// Removes leaves from the global tree and frees their triangles.

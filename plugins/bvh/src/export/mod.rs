@@ -5,6 +5,8 @@ pub(crate) mod change;
 pub(crate) mod compressed;
 pub(crate) mod depth_first;
 pub(crate) mod gpu;
+pub(crate) mod positions;
 pub(crate) mod records;
+pub(crate) mod runs;
 pub(crate) mod tlbvh;
 pub(crate) mod wide;

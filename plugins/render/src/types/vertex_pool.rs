@@ -1,12 +1,11 @@
-//! Runs of the shading vertices' pool: each mesh's vertices take one run of records, given back
-//! when no group shows the mesh any more. The best-fitting free run is taken first (the smallest
-//! that holds the request, the lowest of those), freed neighbours merge, and a free run at the end
-//! shortens the pool, so the records in use stay near what the live meshes hold after edits.
+//! Runs of the shading vertices' pool: each mesh's vertices take one run of records
+//! ([`RunAllocator`]), given back when no group shows the mesh any more.
 
 use crate::types::shading::{GpuAttribute, VertexLayout, shading_record, vertex_records};
 use crate::types::upload::{BufferKind, Writes};
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::HashMap;
 use std::sync::Arc;
+use treelight_bvh::RunAllocator;
 use treelight_scene::{MeshShading, ShadingVertices};
 
 /// The pool's runs by mesh: each set of vertex arrays (shared by a mesh's chunks and by the groups
@@ -146,82 +145,6 @@ impl ShadingPool {
     }
 }
 
-/// Free runs and the end of the pool, in records.
-#[derive(Clone, Debug, Default)]
-pub struct RunAllocator {
-    /// Free runs by start, with their lengths.
-    by_start: BTreeMap<u32, u32>,
-    /// The same runs by (length, start).
-    by_len: BTreeSet<(u32, u32)>,
-    /// One past the last record any run in use or free covers.
-    end: u32,
-}
-
-impl RunAllocator {
-    /// The start of a run of `len` records (a free one that holds it, or new ones at the end);
-    /// `None` when the pool's record numbers would pass `u32`.
-    pub fn allocate(&mut self, len: u32) -> Option<u32> {
-        if len == 0 {
-            return Some(0);
-        }
-        if let Some(&(free, start)) = self.by_len.range((len, 0)..).next() {
-            self.by_len.remove(&(free, start));
-            self.by_start.remove(&start);
-            if free > len {
-                self.insert_free(start + len, free - len);
-            }
-            return Some(start);
-        }
-        let start = self.end;
-        self.end = self.end.checked_add(len)?;
-        Some(start)
-    }
-
-    /// Gives back the run of `len` records at `start` (one [`RunAllocator::allocate`] gave).
-    pub fn free(&mut self, start: u32, len: u32) {
-        if len == 0 {
-            return;
-        }
-        let (mut start, mut len) = (start, len);
-        if let Some((&before, &l)) = self.by_start.range(..start).next_back()
-            && before + l == start
-        {
-            self.remove_free(before, l);
-            start = before;
-            len += l;
-        }
-        if let Some(&l) = self.by_start.get(&(start + len)) {
-            self.remove_free(start + len, l);
-            len += l;
-        }
-        if start + len == self.end {
-            self.end = start;
-        } else {
-            self.insert_free(start, len);
-        }
-    }
-
-    /// Records the runs reach: the pool's length.
-    pub fn end(&self) -> u32 {
-        self.end
-    }
-
-    /// Free records below the end.
-    pub fn free_records(&self) -> u64 {
-        self.by_start.values().map(|&l| u64::from(l)).sum()
-    }
-
-    fn insert_free(&mut self, start: u32, len: u32) {
-        self.by_start.insert(start, len);
-        self.by_len.insert((len, start));
-    }
-
-    fn remove_free(&mut self, start: u32, len: u32) {
-        self.by_start.remove(&start);
-        self.by_len.remove(&(len, start));
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,41 +163,6 @@ mod tests {
                 .wrapping_add(1_442_695_040_888_963_407);
             (seed >> 33) % n
         }
-    }
-
-    #[test]
-    fn runs_never_overlap_and_the_pool_shrinks_back() {
-        // Random allocations and frees, checked against a map of every record's owner.
-        let mut next = numbers(3);
-        let mut pool = RunAllocator::default();
-        let mut live: Vec<(u32, u32)> = Vec::new();
-        for step in 0..4000 {
-            if live.is_empty() || next(3) > 0 {
-                let len = 1 + next(if step % 7 == 0 { 500 } else { 40 }) as u32;
-                let start = pool.allocate(len).unwrap();
-                live.push((start, len));
-            } else {
-                let k = next(live.len() as u64) as usize;
-                let (start, len) = live.swap_remove(k);
-                pool.free(start, len);
-            }
-            let mut owner = vec![usize::MAX; pool.end() as usize];
-            for (k, &(start, len)) in live.iter().enumerate() {
-                for r in start..start + len {
-                    assert_eq!(owner[r as usize], usize::MAX, "record {r} given twice");
-                    owner[r as usize] = k;
-                }
-            }
-            let used: u64 = live.iter().map(|&(_, l)| u64::from(l)).sum();
-            assert_eq!(used + pool.free_records(), u64::from(pool.end()));
-            if let Some(last) = live.iter().map(|&(s, l)| s + l).max() {
-                assert_eq!(pool.end(), last, "a free run at the end is given back");
-            }
-        }
-        for (start, len) in live.drain(..) {
-            pool.free(start, len);
-        }
-        assert_eq!((pool.end(), pool.free_records()), (0, 0));
     }
 
     /// A mesh of `n` vertices with the attributes `kinds` says (bits: normals, UVs, a second
@@ -456,20 +344,5 @@ mod tests {
         pool.begin_pass(0);
         pool.end_pass();
         assert_eq!((pool.end(), pool.live_records()), (0, 0));
-    }
-
-    #[test]
-    fn the_smallest_free_run_that_fits_is_taken() {
-        let mut pool = RunAllocator::default();
-        let runs: Vec<u32> = [10, 1, 4, 1, 6, 1]
-            .iter()
-            .map(|&l| pool.allocate(l).unwrap())
-            .collect();
-        pool.free(runs[0], 10);
-        pool.free(runs[2], 4);
-        pool.free(runs[4], 6);
-        assert_eq!(pool.allocate(5), Some(runs[4]), "the six, not the ten");
-        assert_eq!(pool.allocate(4), Some(runs[2]));
-        assert_eq!(pool.allocate(u32::MAX), None, "past u32");
     }
 }
