@@ -31,7 +31,8 @@ pub struct GpuNode {
     pub pad1: u32,
 }
 
-/// One triangle for the GPU: three vertices, 36 bytes, no padding.
+/// One triangle for the GPU: three vertices, 36 bytes, no padding. A renderer that keeps each
+/// group's vertices once reads [`crate::GpuIndexedTriangle`] and a [`crate::PositionPool`] instead.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {

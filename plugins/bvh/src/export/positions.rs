@@ -1,8 +1,8 @@
 //! The triangles for a GPU as the tree keeps them: each grouped triangle three indices into one
 //! pool of positions, where each group's vertices take one run (a mesh's positions are shared by
 //! the triangles that meet there, half a vertex a triangle on a typical mesh), so a triangle's
-//! record is 12 bytes and its share of the pool about 6, against 36 bytes for three corners of its
-//! own ([`crate::GpuTriangle`]). A triangle outside any group takes a run of three.
+//! record is 12 bytes and its share of the pool half a position, against 36 bytes for three
+//! corners of its own ([`crate::GpuTriangle`]). A triangle outside any group takes a run of three.
 //!
 //! The pool is kept in step with the tree's change sets ([`PositionPool::update`]), as
 //! [`crate::WideRecords`] keeps the node records: a group whose vertices are written gets them
@@ -129,8 +129,12 @@ impl PositionPool {
     /// Group slot `slot`'s run after an edit: given back if the group is gone, taken anew (and
     /// all its triangles queued) if its vertex count changed, written again if it was touched.
     fn update_group(&mut self, bvh: &Bvh, slot: usize, touched: bool, out: &mut PositionChanges) {
-        // A retired owner is not alive to `Bvh::group`, but its triangles live on.
-        let group = bvh.groups.get(slot).filter(|g| g.alive || g.retired);
+        // A retired owner is not alive to `Bvh::group`, but its triangles live on. A group
+        // without triangles (made empty, or whose triangles were all removed) needs no run.
+        let group = bvh
+            .groups
+            .get(slot)
+            .filter(|g| (g.alive || g.retired) && !g.triangles.is_empty());
         let len = group.map_or(0, |g| g.vertices.len() as u32);
         let run = &mut self.groups[slot];
         if let Some(r) = *run {
@@ -161,14 +165,17 @@ impl PositionPool {
 
     /// Triangle `t`'s record: its corners in the pool (a freed slot's: record 0 three times).
     pub fn record(&self, bvh: &Bvh, t: u32) -> GpuIndexedTriangle {
+        let group = bvh.tri.group.get(t as usize).copied().unwrap_or(NONE);
         let corners = if !bvh.is_live_triangle(t) {
             None
-        } else if let Some(&first) = self.loose.get(&t) {
-            Some([first, first + 1, first + 2])
+        } else if group == NONE {
+            // Looked up only for loose triangles: a fill's frame asks millions of grouped ones.
+            self.loose
+                .get(&t)
+                .map(|&first| [first, first + 1, first + 2])
         } else {
-            let g = bvh.tri.group[t as usize];
             self.groups
-                .get(g as usize)
+                .get(group as usize)
                 .copied()
                 .flatten()
                 .map(|r| bvh.tri.corners.get(t as usize).map(|c| r.first + c))
