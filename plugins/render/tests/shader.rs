@@ -4,8 +4,7 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
 use treelight_bvh::{
-    GpuCompressedBinaryNode, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuNode,
-    GpuWideNode,
+    GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GpuWideNode,
 };
 use treelight_render::{
     GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuShadingVertex,
@@ -102,7 +101,7 @@ fn traversal_records_have_the_engine_s_layout() {
         );
         assert_eq!(
             wgsl_layout(&m, "TriRecord"),
-            rust_layout!(GpuIndexedTriangle, [corners])
+            rust_layout!(GpuTriangle, [v0, v1, v2])
         );
         assert_eq!(
             wgsl_layout(&m, "Instance"),
