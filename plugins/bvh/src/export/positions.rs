@@ -67,13 +67,7 @@ impl PositionPool {
     /// A pool holding every triangle of `bvh`, and its runs to write (everything).
     pub fn of(bvh: &Bvh) -> (Self, PositionChanges) {
         let mut pool = Self::default();
-        let all = ChangeSet {
-            written_triangles: (0..bvh.triangle_capacity())
-                .filter(|&t| bvh.is_live_triangle(t))
-                .collect(),
-            ..Default::default()
-        };
-        let changes = pool.update(bvh, &all);
+        let changes = pool.update(bvh, &all_written(bvh));
         (pool, changes)
     }
 
@@ -218,6 +212,16 @@ impl PositionPool {
     }
 }
 
+/// A change set with every live triangle of `bvh` written: what a pool laid out afresh reads.
+fn all_written(bvh: &Bvh) -> ChangeSet {
+    ChangeSet {
+        written_triangles: (0..bvh.triangle_capacity())
+            .filter(|&t| bvh.is_live_triangle(t))
+            .collect(),
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -247,16 +251,6 @@ mod tests {
         let ids = c.written_triangles.iter().chain(&c.removed_triangles);
         for &t in ids.chain(&out.triangles) {
             records[t as usize] = pool.record(bvh, t);
-        }
-    }
-
-    /// Every live triangle, written.
-    fn all_written(bvh: &Bvh) -> ChangeSet {
-        ChangeSet {
-            written_triangles: (0..bvh.triangle_capacity())
-                .filter(|&t| bvh.is_live_triangle(t))
-                .collect(),
-            ..Default::default()
         }
     }
 
