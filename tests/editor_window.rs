@@ -555,11 +555,17 @@ fn save_runs_without_a_display() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The traced view's scale where FlightHelmet is split at 3 MiB a binding: the view's largest
+/// buffer (the denoiser's guides and taps, 28 B a traced pixel) must fit one binding as the scene's parts
+/// do, and at the software adapter's default of 0.5 the test window's view (378×359 traced pixels) needs 3.6 MiB.
+const SPLIT_TRACE_SCALE: &str = "0.35";
+
 #[test]
 fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
-    // FlightHelmet's 94,722 triangles need 4.3 MiB of shading records (their triangle records
-    // 3.3 MiB), and the tree's nodes 5.8 MiB: with at most 4 MiB per binding, the shading and the
-    // nodes lie in two each.
+    // FlightHelmet's 94,722 triangles have about 47,000 node records of 64 B (2.9 MiB): with at
+    // most 3 MiB per binding a part of nodes holds 32,768 (a power of two), so they lie in two.
+    // (Its 12-byte triangle records, 1.1 MiB, fit one part of theirs.) Both runs trace the view
+    // at SPLIT_TRACE_SCALE.
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     // Each run in a session of its own (its own settings: the first run's recovery copy would be
@@ -567,7 +573,13 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     // shader cache llvmpipe compiles the split kernel for minutes (on its warm-up device, while
     // the view waits and the editor's frames take their share of the cores: up to ten).
     let run = |limit: Option<&str>| {
-        let mut args = vec![helmet.to_str().unwrap(), "--view", "albedo"];
+        let mut args = vec![
+            helmet.to_str().unwrap(),
+            "--view",
+            "albedo",
+            "--trace-scale",
+            SPLIT_TRACE_SCALE,
+        ];
         if let Some(kib) = limit {
             args.extend(["--gpu-binding-limit", kib]);
         }
@@ -590,7 +602,7 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
         let shot = session.screenshot();
         (s, shot)
     };
-    let (s, a) = run(Some("4096"));
+    let (s, a) = run(Some("3072"));
     // The report says where the memory is: the whole helmet in the tree, and each owner's share
     // at least what its records need.
     let m = &s.memory;
@@ -599,13 +611,17 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     // fewer than 65,536 vertices each; their vertices come on top), its parent, group and place
     // in the group's list (4 B each), and an inner node a triangle (36 B).
     assert!(m.tree >= m.triangles * (6 + 12 + 36), "{m:?}");
-    // A triangle record and a shading record a triangle (36 and 16 B), shading vertices at half
+    // A triangle record and a shading record a triangle (12 and 16 B), shading vertices at half
     // a triangle's at the least (16 B each: the helmet's meshes share their vertices, 0.58 a
-    // triangle), node records at a third of the inner nodes at the least (a record holds at
-    // most two expanded children), 64 B each.
+    // triangle), positions at a third of a triangle's at the least (16 B each, a mesh's distinct
+    // corners), node records at a third of the inner nodes at the least (a record holds at most
+    // two expanded children), 64 B each.
     assert!(
         m.scene_buffers
-            >= m.triangles * (36 + 16) + m.triangles / 2 * 16 + (m.triangles - 1) / 3 * 64,
+            >= m.triangles * (12 + 16)
+                + m.triangles / 2 * 16
+                + m.triangles / 3 * 16
+                + (m.triangles - 1) / 3 * 64,
         "{m:?}"
     );
     assert!(m.record_layout >= m.triangles * 4, "{m:?}");
@@ -672,7 +688,13 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
     waits_with_a_cold_shader_cache(
         "split-kernel-warmup",
-        &[helmet.to_str().unwrap(), "--gpu-binding-limit", "4096"],
+        &[
+            helmet.to_str().unwrap(),
+            "--gpu-binding-limit",
+            "3072",
+            "--trace-scale",
+            SPLIT_TRACE_SCALE,
+        ],
         "150 frames with the helmet in the tree",
         |s| s.frame >= 150 && s.memory.triangles == 94_722,
         "split",
@@ -696,10 +718,10 @@ fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_qu
 #[test]
 fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_editor() {
     use treelight::report::EditorState;
-    // 100 tiles of 5,408 triangles: 540,800 triangles. At most 4 MiB per binding holds 65,536
-    // triangle records (a power of two a part), so the eight bindings the path tracer has for
-    // them hold 524,288: the triangles outgrow them while the assembly streams in (the node
-    // records, at half the inner nodes, fit). (A smaller limit would stop Bevy's own passes, and
+    // 100 tiles of 5,408 triangles: 540,800 triangles. At most 4 MiB per binding holds 262,144
+    // triangle records of 12 B (a power of two a part, four times the node part's), so the two
+    // bindings the path tracer has for them hold 524,288: the triangles outgrow them while the
+    // assembly streams in (the node records, at half the inner nodes, fit). (A smaller limit would stop Bevy's own passes, and
     // the view's accumulation needs 2.1 MiB.)
     let dir = temp_dir("binding-limit");
     let state = dir.join("state.ron");
@@ -723,7 +745,7 @@ fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_ed
     assert!(
         s.notices.iter().any(|n| n.contains("Path tracing is off")
             && n.contains("triangles need")
-            && n.contains("binds at most 4 MiB in each of the 8 buffers")),
+            && n.contains("binds at most 4 MiB in each of the 2 buffers")),
         "{:?}",
         s.notices
     );

@@ -29,8 +29,8 @@ use support::{
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, Preset, TopDown, Triangle};
 use treelight_render::{
-    GpuAoParams, PRIMARY_HITS_BINARY_COMPRESSED_WGSL, PRIMARY_HITS_BINARY_WGSL, PRIMARY_HITS_WGSL,
-    PRIMARY_HITS_WIDE_WGSL, UploadPlan,
+    BufferKind, GpuAoParams, PRIMARY_HITS_BINARY_COMPRESSED_WGSL, PRIMARY_HITS_BINARY_WGSL,
+    PRIMARY_HITS_WGSL, PRIMARY_HITS_WIDE_WGSL, UploadPlan, part_bindings,
 };
 
 fn main() {
@@ -97,7 +97,7 @@ fn main() {
             for &(_, layout, bytes, source) in
                 LAYOUTS.iter().filter(|l| wanted.iter().any(|w| w == l.0))
             {
-                let ([n, t, i], root) = bytes(&bvh);
+                let ([n, t, i, p], root) = bytes(&bvh);
                 let mut run = LayoutRun {
                     tree: tree.clone(),
                     cost: bvh.sah_cost_with(1.0, 1.0),
@@ -108,6 +108,7 @@ fn main() {
                         gpu.storage("instances", &i),
                         gpu.uniform(&view.uniform(root)),
                         gpu.zeroed((resolution * resolution * 4) as u64),
+                        gpu.storage("positions", &p),
                     ],
                     kernels: KERNELS.map(|k| gpu.pipeline(source, k)),
                     hits: 0,
@@ -155,6 +156,7 @@ fn print_incremental_upload(mut bvh: Bvh) {
     bvh.take_changes();
     let full: u64 = tree_bytes(&bvh).iter().map(|b| b.len() as u64).sum();
     let mut records = treelight_bvh::WideRecords::of(&bvh);
+    let (mut positions, _) = treelight_bvh::PositionPool::of(&bvh);
     let b = bvh.bounds();
     let mesh: Vec<Triangle> = treelight_bench::scenes::hairball(10_000, 7)
         .into_iter()
@@ -168,11 +170,15 @@ fn print_incremental_upload(mut bvh: Bvh) {
         .expect("the mesh is valid");
     let changes = bvh.take_changes();
     let moved = records.update(&bvh, &changes);
+    let pooled = positions.update(&bvh, &changes);
     let plan = UploadPlan::streamed(
         &bvh,
-        (&records, &moved),
+        treelight_render::Layouts {
+            records: (&records, &moved),
+            positions: (&positions, &pooled),
+        },
         &changes,
-        [u64::MAX; 3],
+        [u64::MAX; 4],
         Default::default(),
         u64::MAX,
         &mut |_| {},
@@ -218,12 +224,12 @@ fn print_rates(
     }
 }
 
-/// A layout: its `--layouts` key, its name in the table, its buffers (nodes, triangles, instances)
-/// and root for a tree, and the kernels' WGSL.
+/// A layout: its `--layouts` key, its name in the table, its buffers (nodes, triangles, instances,
+/// positions) and root for a tree, and the kernels' WGSL.
 type Layout = (
     &'static str,
     &'static str,
-    fn(&Bvh) -> ([Vec<u8>; 3], u32),
+    fn(&Bvh) -> ([Vec<u8>; 4], u32),
     &'static str,
 );
 
@@ -268,13 +274,14 @@ const KERNELS: [&str; 4] = [
     "ambient_occlusion",
 ];
 
-/// One tree in one layout: its buffers (nodes, triangles, instances, camera, output), its kernels'
+/// One tree in one layout: its buffers (nodes, triangles, instances, camera, output, positions),
+/// its kernels'
 /// pipelines, its primary hits and each kernel's dispatch times.
 struct LayoutRun {
     tree: String,
     cost: f32,
     layout: &'static str,
-    buffers: [wgpu::Buffer; 5],
+    buffers: [wgpu::Buffer; 6],
     kernels: [wgpu::ComputePipeline; 4],
     hits: usize,
     times: [Vec<f64>; 4],
@@ -283,13 +290,22 @@ struct LayoutRun {
 impl LayoutRun {
     /// Dispatches kernel `k` and waits for it.
     fn dispatch(&self, gpu: &Gpu, k: usize, ao: &wgpu::Buffer, groups: (u32, u32)) {
-        let [n, t, i, camera, out] = &self.buffers;
+        let [n, t, i, camera, out, positions] = &self.buffers;
         let mut bind = vec![n, t, i, camera, out];
         if k > 0 {
             // The secondary kernels also read the AO parameters (rays per hit, AO length).
             bind.push(ao);
         }
-        gpu.dispatch(&self.kernels[k], &bind, groups);
+        let entries = bind
+            .into_iter()
+            .enumerate()
+            .map(|(k, b)| (k as u32, b.as_entire_binding()))
+            .chain([(
+                part_bindings(BufferKind::Positions)[0],
+                positions.as_entire_binding(),
+            )])
+            .collect();
+        gpu.dispatch_indexed(&self.kernels[k], vec![entries], groups);
     }
 }
 

@@ -196,8 +196,9 @@ struct View {
 }
 
 // Group 0, the scene: the records and the texture array, shared by every view and bound again only
-// when a buffer grows. The nodes, triangles and shading records are declared by scene_whole.wgsl
-// and attrs_whole.wgsl, or, for a scene split across bindings, scene_parts.wgsl and attrs_parts.wgsl.
+// when a buffer grows. The nodes, triangles, positions and shading records are declared by
+// scene_whole.wgsl and attrs_whole.wgsl, or, for a scene split across bindings, scene_parts.wgsl
+// and attrs_parts.wgsl.
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(4) var<storage, read> objects: array<Object>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;

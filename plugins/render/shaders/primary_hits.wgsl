@@ -12,7 +12,7 @@ struct PrimaryCamera {
     root: u32,
     vertical: vec3<f32>,
     // Records per part of a split buffer: 1 << part_shift (scene_parts.wgsl, which declares the
-    // nodes and triangles).
+    // nodes, triangles and positions).
     part_shift: u32,
 }
 

@@ -1,10 +1,12 @@
 // The tree's records split across bindings: one binding holds at most the adapter's
-// max_storage_buffer_binding_size, so a large scene's nodes and triangles lie in several buffers,
-// each part 1 << part_shift() records (the kernel defines part_shift from its uniform). Record i is
-// record i & mask of part i >> shift. Parts not in use are bound to a small stand-in buffer. A
+// max_storage_buffer_binding_size, so a large scene's nodes, triangles and positions lie in
+// several buffers, the nodes' parts 1 << part_shift() records each (the kernel defines part_shift
+// from its uniform), the 12-byte triangles' and 16-byte positions' four times as many
+// (small_part_shift). Record i is record i & mask of part i >> shift. Parts not in use are bound to a small stand-in buffer. A
 // scene that fits one binding gets the kernels of scene_whole.wgsl instead: on llvmpipe the part
 // switch costs about half the trace rate even when every record is in part 0.
-// Bindings: nodes at 0 and 8 to 14, triangles at 1 and 15 to 21 (treelight_render::part_bindings).
+// Bindings: nodes at 0 and 8 to 14, triangles at 1 and 15, positions at 16 to 21
+// (treelight_render::part_bindings).
 
 @group(0) @binding(0) var<storage, read> nodes: array<Node>;
 @group(0) @binding(8) var<storage, read> nodes1: array<Node>;
@@ -16,12 +18,12 @@
 @group(0) @binding(14) var<storage, read> nodes7: array<Node>;
 @group(0) @binding(1) var<storage, read> tris: array<TriRecord>;
 @group(0) @binding(15) var<storage, read> tris1: array<TriRecord>;
-@group(0) @binding(16) var<storage, read> tris2: array<TriRecord>;
-@group(0) @binding(17) var<storage, read> tris3: array<TriRecord>;
-@group(0) @binding(18) var<storage, read> tris4: array<TriRecord>;
-@group(0) @binding(19) var<storage, read> tris5: array<TriRecord>;
-@group(0) @binding(20) var<storage, read> tris6: array<TriRecord>;
-@group(0) @binding(21) var<storage, read> tris7: array<TriRecord>;
+@group(0) @binding(16) var<storage, read> positions: array<vec4<f32>>;
+@group(0) @binding(17) var<storage, read> positions1: array<vec4<f32>>;
+@group(0) @binding(18) var<storage, read> positions2: array<vec4<f32>>;
+@group(0) @binding(19) var<storage, read> positions3: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> positions4: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> positions5: array<vec4<f32>>;
 
 fn part_mask() -> u32 {
     return (1u << part_shift()) - 1u;
@@ -46,21 +48,38 @@ fn node_at(i: u32) -> Node {
     return n;
 }
 
-fn tri_at(i: u32) -> Tri {
-    let part = i >> part_shift();
+// Records per part of the 12-byte triangles and the 16-byte positions, as a power of two
+// (PartLayout::shift_of).
+fn small_part_shift() -> u32 {
+    return min(part_shift() + 2u, 30u);
+}
+
+fn tri_record_at(i: u32) -> TriRecord {
+    let part = i >> small_part_shift();
     if part == 0u {
-        return unpack_tri(tris[i]);
+        return tris[i];
     }
-    let o = i & part_mask();
-    var t: TriRecord;
+    return tris1[i & ((1u << small_part_shift()) - 1u)];
+}
+
+fn position_at(i: u32) -> vec3<f32> {
+    let part = i >> small_part_shift();
+    if part == 0u {
+        return positions[i].xyz;
+    }
+    let o = i & ((1u << small_part_shift()) - 1u);
+    var p: vec4<f32>;
     switch part {
-        case 1u: { t = tris1[o]; }
-        case 2u: { t = tris2[o]; }
-        case 3u: { t = tris3[o]; }
-        case 4u: { t = tris4[o]; }
-        case 5u: { t = tris5[o]; }
-        case 6u: { t = tris6[o]; }
-        default: { t = tris7[o]; }
+        case 1u: { p = positions1[o]; }
+        case 2u: { p = positions2[o]; }
+        case 3u: { p = positions3[o]; }
+        case 4u: { p = positions4[o]; }
+        default: { p = positions5[o]; }
     }
-    return unpack_tri(t);
+    return p.xyz;
+}
+
+fn tri_at(i: u32) -> Tri {
+    let r = tri_record_at(i);
+    return Tri(position_at(r.corners[0]), position_at(r.corners[1]), position_at(r.corners[2]));
 }

@@ -3,11 +3,17 @@
 
 @group(0) @binding(0) var<storage, read> nodes: array<Node>;
 @group(0) @binding(1) var<storage, read> tris: array<TriRecord>;
+@group(0) @binding(16) var<storage, read> positions: array<vec4<f32>>;
 
 fn node_at(i: u32) -> Node {
     return nodes[i];
 }
 
 fn tri_at(i: u32) -> Tri {
-    return unpack_tri(tris[i]);
+    let r = tris[i];
+    return Tri(
+        positions[r.corners[0]].xyz,
+        positions[r.corners[1]].xyz,
+        positions[r.corners[2]].xyz,
+    );
 }

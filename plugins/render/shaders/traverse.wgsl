@@ -1,6 +1,6 @@
 // BVH traversal over treelight_bvh's binary GPU layout. Shared by the kernels: scene_parts.wgsl
-// declares the nodes and triangles (read through `node_at` and `tri_at`), each kernel file the
-// `instances` binding this code reads (WGSL resolves module-scope
+// declares the nodes, triangles and positions (read through `node_at` and `tri_at`), each kernel
+// file the `instances` binding this code reads (WGSL resolves module-scope
 // names in any order), and the crate appends this file and traverse_common.wgsl to it.
 //
 // A node record holds both children's boxes and references. The crate appends one record file:

@@ -69,8 +69,8 @@ pub use types::shading::{
     ShadingBuffers, VertexLayout, attribute_record, shading_record, vertex_records,
 };
 pub use types::upload::{
-    BufferKind, BufferWrite, UploadPlan, Writes, grown_capacity, instance_bytes, node_bytes,
-    triangle_bytes,
+    BufferKind, BufferWrite, Layouts, POSITION_BYTES, TRIANGLE_BYTES, UploadPlan, Writes,
+    grown_capacity, instance_bytes, node_bytes, triangle_bytes,
 };
 pub use types::view::{
     DEFAULT_INDIRECT_CLAMP, DEFAULT_MAX_BOUNCES, DebugView, OutlineStyle, Outlined, PathTraced,

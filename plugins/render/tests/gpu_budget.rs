@@ -114,7 +114,7 @@ fn world_from_clip() -> Mat4 {
 
 struct Tracer {
     gpu: Gpu,
-    buffers: [wgpu::Buffer; 8],
+    buffers: [wgpu::Buffer; 9],
     pipeline: wgpu::ComputePipeline,
     layers: support::Layers,
     root: u32,

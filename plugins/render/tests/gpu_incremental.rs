@@ -5,9 +5,9 @@
 mod support;
 
 use std::path::Path;
-use support::{Gpu, PinholeView, gpu_hits, hits_on, layout_bytes};
+use support::{Gpu, PinholeView, gpu_hits, hits_on, layout_bytes, pool_bytes};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
-use treelight_bvh::{Bvh, BvhConfig, RayData, Triangle, WideRecords};
+use treelight_bvh::{Bvh, BvhConfig, PositionPool, RayData, Triangle, WideRecords};
 use treelight_render::{BufferKind, UploadPlan};
 
 fn sibenik() -> Vec<Triangle> {
@@ -50,28 +50,36 @@ fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Vec<Triangle>
 
 /// GPU buffers patched the way the render plugin patches them.
 struct Mirror {
-    buffers: [wgpu::Buffer; 3],
-    capacities: [u64; 3],
+    /// Nodes, triangles, instances, positions.
+    buffers: [wgpu::Buffer; 4],
+    capacities: [u64; 4],
     /// The node records' layout, made afresh for the first upload, then kept by the plans.
     records: WideRecords,
+    /// The position pool, the same way.
+    positions: PositionPool,
 }
 
 impl Mirror {
     fn upload_all(gpu: &Gpu, bvh: &Bvh) -> Self {
         let records = WideRecords::of(bvh);
-        let [n, t, i] = layout_bytes(bvh, &records);
+        let [n, _, i, _] = layout_bytes(bvh, &records);
+        let (positions, runs) = PositionPool::of(bvh);
+        let [t, p] = pool_bytes(bvh, &positions, &runs);
         Self {
             capacities: [
                 records.capacity() as u64,
                 bvh.triangle_capacity() as u64,
                 bvh.instance_capacity() as u64,
+                u64::from(positions.end()),
             ],
             buffers: [
                 gpu.storage("nodes", &n),
                 gpu.storage("triangles", &t),
                 gpu.storage("instances", &i),
+                gpu.storage("positions", &p),
             ],
             records,
+            positions,
         }
     }
 
@@ -81,6 +89,7 @@ impl Mirror {
             BufferKind::Nodes => 0,
             BufferKind::Triangles => 1,
             BufferKind::Instances => 2,
+            BufferKind::Positions => 3,
             other => panic!("a tree plan never writes {other:?}"),
         };
         for &(kind, records) in &plan.grow {
@@ -109,10 +118,16 @@ impl Mirror {
     /// patched copy: the bytes written and the triangle hit at each pixel.
     fn follow(&mut self, gpu: &Gpu, bvh: &mut Bvh, view: &PinholeView) -> (u64, Vec<u32>) {
         let changes = bvh.take_changes();
-        let plan = UploadPlan::new(bvh, &mut self.records, &changes, self.capacities);
+        let plan = UploadPlan::new(
+            bvh,
+            &mut self.records,
+            &mut self.positions,
+            &changes,
+            self.capacities,
+        );
         let written = self.apply(gpu, &plan);
-        let [n, t, i] = &self.buffers;
-        (written, hits_on(gpu, [n, t, i], plan.root, view))
+        let [n, t, i, p] = &self.buffers;
+        (written, hits_on(gpu, [n, t, i, p], plan.root, view))
     }
 
     /// `patched`, the hits through the patched buffers, equals the hits through a complete upload
@@ -120,14 +135,15 @@ impl Mirror {
     /// records group the nodes otherwise, so equally near triangles may be met in another order)
     /// each pixel meets the same triangle or one at the same distance along its ray.
     fn assert_traces_like_fresh(&self, gpu: &Gpu, bvh: &Bvh, view: &PinholeView, patched: &[u32]) {
-        let [nodes, triangles, instances] = layout_bytes(bvh, &self.records);
+        let [nodes, triangles, instances, positions] = layout_bytes(bvh, &self.records);
         let complete = [
             gpu.storage("nodes", &nodes),
             gpu.storage("triangles", &triangles),
             gpu.storage("instances", &instances),
+            gpu.storage("positions", &positions),
         ];
-        let [n, t, i] = &complete;
-        let same = hits_on(gpu, [n, t, i], self.records.root(bvh), view);
+        let [n, t, i, p] = &complete;
+        let same = hits_on(gpu, [n, t, i, p], self.records.root(bvh), view);
         let differ = patched.iter().zip(&same).filter(|(a, b)| a != b).count();
         assert_eq!(
             differ, 0,

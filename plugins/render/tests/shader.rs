@@ -4,7 +4,8 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
 use treelight_bvh::{
-    GpuCompressedBinaryNode, GpuCompressedNode, GpuInstance, GpuNode, GpuTriangle, GpuWideNode,
+    GpuCompressedBinaryNode, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuNode,
+    GpuWideNode,
 };
 use treelight_render::{
     GpuAoParams, GpuAttribute, GpuLight, GpuObject, GpuPrimaryCamera, GpuResolve, GpuShadingVertex,
@@ -101,7 +102,7 @@ fn traversal_records_have_the_engine_s_layout() {
         );
         assert_eq!(
             wgsl_layout(&m, "TriRecord"),
-            rust_layout!(GpuTriangle, [v0, v1, v2])
+            rust_layout!(GpuIndexedTriangle, [corners])
         );
         assert_eq!(
             wgsl_layout(&m, "Instance"),

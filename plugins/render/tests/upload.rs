@@ -1,7 +1,7 @@
 //! Buffers patched only through upload plans equal a full export, and a small edit uploads little.
 
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{Bvh, Triangle, WideRecords};
+use treelight_bvh::{Bvh, PositionPool, Triangle, WideRecords};
 use treelight_render::{
     BufferKind, PartLayout, UploadPlan, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -20,31 +20,47 @@ fn grid(n: usize, offset: f32) -> Vec<Triangle> {
         .collect()
 }
 
+/// The buffers a tree's plan writes, in the order of a plan's capacities.
+const TREE_KINDS: [BufferKind; 4] = [
+    BufferKind::Nodes,
+    BufferKind::Triangles,
+    BufferKind::Instances,
+    BufferKind::Positions,
+];
+
+fn tree_kind(kind: BufferKind) -> usize {
+    TREE_KINDS
+        .iter()
+        .position(|&k| k == kind)
+        .expect("a tree's buffer")
+}
+
 #[derive(Default)]
 struct FakeGpu {
-    buffers: [Vec<u8>; 3],
-    caps: [u64; 3],
+    buffers: [Vec<u8>; 4],
+    caps: [u64; 4],
     uploaded: u64,
     /// The node records' layout, kept by the plans as a renderer keeps it.
     records: WideRecords,
+    /// The position pool, the same way.
+    positions: PositionPool,
     root: u32,
 }
 
 impl FakeGpu {
     fn plan(&mut self, bvh: &mut Bvh) -> UploadPlan {
         let c = bvh.take_changes();
-        UploadPlan::new(bvh, &mut self.records, &c, self.caps)
+        UploadPlan::new(bvh, &mut self.records, &mut self.positions, &c, self.caps)
     }
 
     fn apply(&mut self, plan: &UploadPlan) {
         for &(kind, cap) in &plan.grow {
-            let k = kind as usize;
-            let size = [64, 36, 112][k];
+            let k = tree_kind(kind);
             self.caps[k] = cap;
-            self.buffers[k].resize((cap * size) as usize, 0);
+            self.buffers[k].resize((cap * kind.record_bytes()) as usize, 0);
         }
         for w in plan.writes.iter() {
-            let buf = &mut self.buffers[w.buffer as usize];
+            let buf = &mut self.buffers[tree_kind(w.buffer)];
             let end = w.offset as usize + w.bytes.len();
             assert!(end <= buf.len(), "write past the buffer: grow first");
             buf[w.offset as usize..end].copy_from_slice(w.bytes);
@@ -74,13 +90,21 @@ impl FakeGpu {
             "{} records kept, {fresh} laid out afresh",
             self.records.live()
         );
+        // Each live triangle's record names, in the pool, the corners the tree stores.
+        let positions: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.buffers[3]);
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
-                let at = t as usize * 36;
+                let at = t as usize * 12;
+                let record = &self.buffers[1][at..at + 12];
                 assert_eq!(
-                    &self.buffers[1][at..at + 36],
-                    triangle_bytes(&bvh.gpu_triangle(t)).as_slice()
+                    record,
+                    triangle_bytes(&self.positions.record(bvh, t)).as_slice()
                 );
+                let corners: Vec<u32> = bytemuck::pod_collect_to_vec(record);
+                let gathered: Vec<[f32; 4]> =
+                    corners.iter().map(|&c| positions[c as usize]).collect();
+                let stored = bvh.triangle(t).unwrap().v.map(|v| v.extend(1.0).to_array());
+                assert_eq!(gathered, stored, "triangle {t}");
             }
         }
         for i in 0..bvh.instance_capacity() {
@@ -102,6 +126,14 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     bvh.insert_triangles_block_parallel(&grid(20_000, 0.0))
         .unwrap();
     let plan = gpu.plan(&mut bvh);
+    // 20,000 runs of three positions, laid end to end: one write.
+    let position_writes = |plan: &UploadPlan| {
+        plan.writes
+            .iter()
+            .filter(|w| w.buffer == BufferKind::Positions)
+            .count()
+    };
+    assert_eq!(position_writes(&plan), 1);
     gpu.apply(&plan);
     gpu.check(&bvh);
     let full = gpu.uploaded;
@@ -140,7 +172,7 @@ fn patched_buffers_equal_a_full_export_and_small_edits_upload_little() {
     assert!(
         plan.writes
             .iter()
-            .all(|w| w.buffer != BufferKind::Triangles),
+            .all(|w| w.buffer != BufferKind::Triangles && w.buffer != BufferKind::Positions),
         "a move re-uploaded triangles"
     );
     gpu.apply(&plan);
@@ -226,7 +258,7 @@ fn an_update_pass_over_the_whole_tree_is_a_few_writes_joined_over_unchanged_reco
     );
     let c = bvh.take_changes();
     let changed = gpu.records.clone().update(&bvh, &c).ranges;
-    let plan = UploadPlan::new(&bvh, &mut gpu.records, &c, gpu.caps);
+    let plan = UploadPlan::new(&bvh, &mut gpu.records, &mut gpu.positions, &c, gpu.caps);
     let node_writes = plan
         .writes
         .iter()

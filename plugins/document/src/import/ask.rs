@@ -15,10 +15,11 @@ pub const AVAILABLE_VARIABLE: &str = "TREELIGHT_AVAILABLE_MEMORY_MIB";
 /// What the editor holds per triangle once a scene is traced, by its records' sizes at half a
 /// vertex a triangle (a mesh of tiles): the tree's inner node, corners, vertices, parent and group
 /// (36 + 6 + 6 + 4 + 4 bytes), the shading source (8), the path tracer's node records with their
-/// map, triangles, and shading records with their vertices (38 + 36 + 24), and Bevy's mesh (18).
-/// A lower bound: the memory bench counts 193 to 196 bytes a triangle in these owners at 8M and
-/// 12M triangles, and the whole process holds more (the editor itself, the peaks while it fills).
-pub const TRACED_BYTES_PER_TRIANGLE: u64 = 180;
+/// map, triangles with their positions, and shading records with their vertices (38 + 12 + 8 +
+/// 24), and Bevy's mesh (18). A lower bound: the memory bench counts more in these owners at 8M
+/// and 12M triangles (their room to grow), and the whole process holds more (the editor itself,
+/// the peaks while it fills).
+pub const TRACED_BYTES_PER_TRIANGLE: u64 = 164;
 
 /// An import held for an answer.
 pub struct HeldImport {

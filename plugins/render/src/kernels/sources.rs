@@ -46,8 +46,9 @@ pub const PRIMARY_HITS_WGSL: &str = concat!(
     include_str!("../../shaders/sampling.wgsl")
 );
 
-/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over nodes and triangles split across bindings
-/// ([`PartLayout`](crate::types::parts::PartLayout)), as the path tracer reads a large scene.
+/// WGSL: the kernels of [`PRIMARY_HITS_WGSL`] over nodes, triangles and positions split across
+/// bindings ([`PartLayout`](crate::types::parts::PartLayout)), as the path tracer reads a large
+/// scene.
 pub const PRIMARY_HITS_SPLIT_WGSL: &str = concat!(
     include_str!("../../shaders/primary_hits.wgsl"),
     include_str!("../../shaders/traverse_wide.wgsl"),

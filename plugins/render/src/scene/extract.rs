@@ -12,7 +12,7 @@ use crate::types::records::{
     LayerTexture, SceneLight, SurfaceAlpha, SurfaceMaterial, light_bytes, object_bytes,
     outline_words, same_drawing, set_outline, with_identity,
 };
-use crate::types::upload::{BufferKind, UploadPlan, Writes, runs};
+use crate::types::upload::{BufferKind, Layouts, UploadPlan, Writes, runs};
 use crate::types::vertex_pool::ShadingPool;
 use crate::types::view::Outlined;
 use bevy::camera::primitives::Aabb;
@@ -23,7 +23,7 @@ use bevy::mesh::UvChannel;
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 use bevy::render::{Extract, ExtractSchedule};
-use treelight_bvh::{GroupId, WideRecords};
+use treelight_bvh::{GroupId, PositionPool, WideRecords};
 use treelight_scene::{SceneBvh, SceneChanges, SceneTree};
 
 pub(crate) fn build(render_app: &mut SubApp) {
@@ -55,6 +55,8 @@ pub(crate) struct SceneSync {
     emitters_changed: bool,
     /// Which inner nodes own a node record, and where: kept in step with the tree's change sets.
     records: WideRecords,
+    /// Where each group's positions lie in the position pool: kept in step the same way.
+    positions: PositionPool,
 }
 
 /// The meshes to outline, with what their world-space boxes are made from.
@@ -164,6 +166,7 @@ fn extract_scene(
     let everything = !sync.synced;
     if everything {
         sync.records = WideRecords::default();
+        sync.positions = PositionPool::default();
         sync.pool = ShadingPool::default();
     }
     pending.filling = scene.is_filling();
@@ -178,6 +181,16 @@ fn extract_scene(
         let triangles = u64::from(tree.bvh.triangle_count()) + incoming;
         pending.expect(BufferKind::Triangles, triangles);
         pending.expect(BufferKind::Attributes, triangles);
+        // Positions: as many a new triangle as the pool holds a triangle now (one before there
+        // is a pool to go by).
+        let positions = match tree.bvh.triangle_count() {
+            0..1024 => 1.0,
+            n => sync.positions.live_records() as f64 / f64::from(n),
+        };
+        pending.expect(
+            BufferKind::Positions,
+            u64::from(sync.positions.end()) + (incoming as f64 * positions.min(3.0)) as u64,
+        );
         // Shading vertices: as many a new triangle as the pool holds a triangle now (one before
         // there is a pool to go by).
         let per_triangle = match tree.bvh.triangle_count() {
@@ -347,9 +360,12 @@ fn scene_writes(
     let bvh = &tree.bvh;
     let c = &changes.bvh;
     let moved = sync.records.update(bvh, c);
-    target.set_record_layout_bytes(sync.records.heap_bytes() as u64);
+    let pooled = sync.positions.update(bvh, c);
+    target
+        .set_record_layout_bytes((sync.records.heap_bytes() + sync.positions.heap_bytes()) as u64);
     p.need(BufferKind::Nodes, u64::from(sync.records.capacity()));
     p.need(BufferKind::Triangles, c.triangle_capacity as u64);
+    p.need(BufferKind::Positions, u64::from(sync.positions.end()));
     p.need(BufferKind::Instances, c.instance_capacity as u64);
     p.need(BufferKind::Attributes, c.triangle_capacity as u64);
     p.need(BufferKind::Objects, bvh.group_slots() as u64);
@@ -358,9 +374,12 @@ fn scene_writes(
     // Capacities are settled by the render world when it applies the writes.
     let plan = UploadPlan::streamed(
         bvh,
-        (&sync.records, &moved),
+        Layouts {
+            records: (&sync.records, &moved),
+            positions: (&sync.positions, &pooled),
+        },
         c,
-        [u64::MAX; 3],
+        [u64::MAX; 4],
         std::mem::take(&mut p.writes),
         round,
         &mut flush,

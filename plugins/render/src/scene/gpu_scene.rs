@@ -38,7 +38,7 @@ pub(crate) struct GpuScene {
     /// In [`BufferKind::ALL`] order, each kind's parts (one until a part is full).
     pub(crate) buffers: Vec<Vec<Buffer>>,
     /// Records each kind holds, all its parts together.
-    pub(crate) capacities: [u64; 7],
+    pub(crate) capacities: [u64; BufferKind::COUNT],
     /// How the large kinds are split across bindings on this adapter.
     pub layout: PartLayout,
     /// Bound where a kind has fewer parts than the kernel declares.
@@ -61,9 +61,9 @@ pub(crate) struct GpuScene {
     pub bind_group: Option<BindGroup>,
     /// Records of each kind the kernels may read (the most any frame needed): the bind group
     /// covers these, not the buffers' room to grow ([`PartLayout::bound_sizes`]).
-    pub(crate) in_use: [u64; 7],
+    pub(crate) in_use: [u64; BufferKind::COUNT],
     /// What `in_use` was when the bind group was made.
-    pub(crate) bound: [u64; 7],
+    pub(crate) bound: [u64; BufferKind::COUNT],
     /// The texture array's and the panorama's versions the bind group was made with.
     pub(crate) bound_array: u64,
     pub(crate) bound_environment: u64,
@@ -158,6 +158,7 @@ fn create(device: &RenderDevice, kind: BufferKind, records: u64) -> Buffer {
         label: Some(match kind {
             BufferKind::Nodes => "treelight nodes",
             BufferKind::Triangles => "treelight triangles",
+            BufferKind::Positions => "treelight positions",
             BufferKind::Instances => "treelight instances",
             BufferKind::Attributes => "treelight triangle shading",
             BufferKind::ShadingVertices => "treelight shading vertices",
@@ -203,8 +204,8 @@ fn init_gpu_scene(mut commands: Commands, device: Res<RenderDevice>, stats: Res<
         generation: 0,
         tree_generation: 0,
         bind_group: None,
-        in_use: [0; 7],
-        bound: [0; 7],
+        in_use: [0; BufferKind::COUNT],
+        bound: [0; BufferKind::COUNT],
         bound_array: 0,
         bound_environment: 0,
         outlines: outline_buffer(&device, 64),
@@ -400,7 +401,12 @@ impl StreamTarget<'_> {
     /// [`PendingUpload::expected`] says), then stages `writes` and empties them; the copies go to
     /// the GPU with the frame's uploads, or sooner, a round at a time. Before the scene's buffers
     /// exist the writes are left as they are.
-    pub(crate) fn flush(&mut self, writes: &mut Writes, needed: &[u64; 7], expected: &[u64; 7]) {
+    pub(crate) fn flush(
+        &mut self,
+        writes: &mut Writes,
+        needed: &[u64; BufferKind::COUNT],
+        expected: &[u64; BufferKind::COUNT],
+    ) {
         let Some(scene) = self.scene.as_deref_mut() else {
             return;
         };
@@ -424,8 +430,8 @@ impl StreamTarget<'_> {
 /// nothing is written, and the copies recorded this frame are dropped.
 fn grow_recorded(
     scene: &mut GpuScene,
-    needed: &[u64; 7],
-    expected: &[u64; 7],
+    needed: &[u64; BufferKind::COUNT],
+    expected: &[u64; BufferKind::COUNT],
     device: &RenderDevice,
     stats: &PathTracerStats,
 ) -> Option<()> {
@@ -453,8 +459,8 @@ fn grow_recorded(
 /// declares: tracing stops, with the reason in the figures.
 fn grow_buffers(
     scene: &mut GpuScene,
-    needed: &[u64; 7],
-    expected: &[u64; 7],
+    needed: &[u64; BufferKind::COUNT],
+    expected: &[u64; BufferKind::COUNT],
     device: &RenderDevice,
     stats: &PathTracerStats,
 ) -> Option<Vec<(Buffer, u64, usize, usize)>> {

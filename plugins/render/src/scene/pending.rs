@@ -10,10 +10,10 @@ pub(crate) struct PendingUpload {
     /// Kept from frame to frame: the render world clears it once written.
     pub writes: Writes,
     /// Records each buffer must hold, in [`BufferKind::ALL`] order.
-    pub needed: [u64; 7],
+    pub needed: [u64; BufferKind::COUNT],
     /// Records each buffer is about to need, with the triangles on their way into the tree: a
     /// buffer that grows takes them at once.
-    pub expected: [u64; 7],
+    pub expected: [u64; BufferKind::COUNT],
     pub root: Option<u32>,
     pub light_count: Option<u32>,
     /// The groups in the emitters' table after the lights and the triangles' total weight, when

@@ -9,12 +9,13 @@ use crate::types::upload::BufferKind;
 /// Parts the kernels declare for a kind (1 for the kinds that are never split).
 pub fn part_count(kind: BufferKind) -> usize {
     match kind {
-        // Node records at under half the inner nodes, triangle records one a triangle.
-        BufferKind::Nodes | BufferKind::Triangles => 8,
-        // Parts of four times the records (a quarter of a node's bytes each): the triangles'
-        // shading records in two, the shading vertices (up to three a triangle) in six.
-        BufferKind::Attributes => 2,
-        BufferKind::ShadingVertices => 6,
+        // Node records at under half the inner nodes.
+        BufferKind::Nodes => 8,
+        // Parts of four times the records (at most three quarters of a node's bytes each): the
+        // triangles' records and their shading records in two, the positions and the shading
+        // vertices (up to three a triangle) in six.
+        BufferKind::Triangles | BufferKind::Attributes => 2,
+        BufferKind::Positions | BufferKind::ShadingVertices => 6,
         BufferKind::Instances | BufferKind::Objects | BufferKind::Lights => 1,
     }
 }
@@ -23,7 +24,8 @@ pub fn part_count(kind: BufferKind) -> usize {
 pub fn part_bindings(kind: BufferKind) -> &'static [u32] {
     match kind {
         BufferKind::Nodes => &[0, 8, 9, 10, 11, 12, 13, 14],
-        BufferKind::Triangles => &[1, 15, 16, 17, 18, 19, 20, 21],
+        BufferKind::Triangles => &[1, 15],
+        BufferKind::Positions => &[16, 17, 18, 19, 20, 21],
         BufferKind::Instances => &[2],
         BufferKind::Attributes => &[3, 22],
         BufferKind::ShadingVertices => &[23, 24, 25, 26, 27, 28],
@@ -46,7 +48,7 @@ pub fn trace_storage_buffers() -> u32 {
 /// The largest part shift any adapter gets: record references carry 30 bits of index.
 pub const MAX_PART_SHIFT: u32 = 30;
 
-/// How the split kinds are cut: parts of `1 << shift` records (four times as many for the 16-byte
+/// How the split kinds are cut: parts of `1 << shift` records (four times as many for the smaller
 /// shading kinds: [`PartLayout::shift_of`]); the other kinds are one binding of at most
 /// `max_binding_bytes`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,11 +63,7 @@ impl PartLayout {
     /// The layout for an adapter binding at most `max_binding_bytes`: the largest power of two of
     /// records of every split kind that one binding holds.
     pub fn for_binding_limit(max_binding_bytes: u64) -> Self {
-        let widest = [BufferKind::Nodes, BufferKind::Triangles]
-            .map(BufferKind::record_bytes)
-            .into_iter()
-            .max()
-            .unwrap_or(64);
+        let widest = BufferKind::Nodes.record_bytes();
         let records = (max_binding_bytes / widest).max(1);
         Self {
             shift: records.ilog2().min(MAX_PART_SHIFT),
@@ -81,19 +79,21 @@ impl PartLayout {
         }
     }
 
-    /// Records one part of the nodes and triangles holds.
+    /// Records one part of the nodes holds.
     pub fn part_records(self) -> u64 {
         1 << self.shift
     }
 
-    /// Records one part of a split kind holds, as a power of two: `shift` for nodes and
-    /// triangles, two more for the 16-byte shading records and vertices (a part of theirs is no
-    /// more bytes than a part of nodes). The kernels' `attr_part_shift` says the same.
+    /// Records one part of a split kind holds, as a power of two: `shift` for nodes, two more for
+    /// the 12-byte triangles and the 16-byte positions, shading records and shading vertices (a
+    /// part of theirs is no more bytes than a part of nodes). The kernels' `small_part_shift` and
+    /// `attr_part_shift` say the same.
     pub fn shift_of(self, kind: BufferKind) -> u32 {
         match kind {
-            BufferKind::Attributes | BufferKind::ShadingVertices => {
-                (self.shift + 2).min(MAX_PART_SHIFT)
-            }
+            BufferKind::Triangles
+            | BufferKind::Positions
+            | BufferKind::Attributes
+            | BufferKind::ShadingVertices => (self.shift + 2).min(MAX_PART_SHIFT),
             _ => self.shift,
         }
     }
@@ -247,7 +247,7 @@ mod tests {
             shift: 12,
             max_binding_bytes: 4096 * 64,
         };
-        let t = BufferKind::Triangles;
+        let t = BufferKind::Nodes;
         assert_eq!(l.grown(t, 1024, 1500, 0), Some(2048));
         assert_eq!(l.grown(t, 2048, 2049, 0), Some(3072));
         assert_eq!(l.grown(t, 3072, 3100, 0), Some(4096), "at most a part");
@@ -280,7 +280,7 @@ mod tests {
             shift: 12,
             max_binding_bytes: 4096 * 64,
         };
-        let t = BufferKind::Triangles;
+        let t = BufferKind::Nodes;
         assert_eq!(l.bound_sizes(t, 3072, 2000), vec![2000]);
         assert_eq!(l.bound_sizes(t, 3072, 0), vec![1]);
         assert_eq!(
@@ -300,7 +300,7 @@ mod tests {
             shift: 4,
             max_binding_bytes: 16 * 64,
         };
-        let t = BufferKind::Triangles;
+        let t = BufferKind::Nodes;
         let rb = t.record_bytes();
         // Records 14 to 33: 2 in part 0, 16 in part 1, 2 in part 2.
         let pieces: Vec<_> = l.pieces(t, 14 * rb, 20 * rb).collect();
@@ -318,13 +318,22 @@ mod tests {
         assert_eq!(l.shift_of(BufferKind::ShadingVertices), 6);
         let pieces: Vec<_> = l.pieces(a, 60 * 16, 8 * 16).collect();
         assert_eq!(pieces, vec![(0, 60 * 16, 0..64), (1, 0, 64..128)]);
-        // Shading records for as many triangles as the triangle records hold, and three vertices
-        // a triangle.
-        assert_eq!(l.max_records(a), l.max_records(t));
-        assert_eq!(
-            l.max_records(BufferKind::ShadingVertices),
-            3 * l.max_records(t)
-        );
+        // As many triangles as node records, shading records for as many as the triangles, and
+        // three positions and shading vertices a triangle.
+        let tr = BufferKind::Triangles;
+        assert_eq!(l.max_records(tr), l.max_records(t));
+        assert_eq!(l.max_records(a), l.max_records(tr));
+        for k in [BufferKind::Positions, BufferKind::ShadingVertices] {
+            assert_eq!(l.shift_of(k), 6);
+            assert_eq!(l.max_records(k), 3 * l.max_records(tr));
+        }
+        // A part of every split kind is no more bytes than a part of nodes.
+        for k in BufferKind::ALL.into_iter().filter(|&k| part_count(k) > 1) {
+            assert!(
+                (1u64 << l.shift_of(k)) * k.record_bytes() <= l.part_records() * rb,
+                "{k:?}"
+            );
+        }
         assert_eq!(PartLayout::whole().shift_of(a), MAX_PART_SHIFT);
         // A kind never split is one piece wherever it writes.
         let o = BufferKind::Objects;

@@ -4,14 +4,18 @@
 
 use std::ops::Range;
 use treelight_bvh::{
-    Bvh, ChangeSet, GpuCompressedNode, GpuInstance, GpuTriangle, RecordChanges, WideRecords,
+    Bvh, ChangeSet, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, PositionChanges,
+    PositionPool, RecordChanges, WideRecords,
 };
 
 /// Bytes of one node record (the compressed 4-wide record of `WideRecords::record`, one per inner
 /// node the traversal reads).
 pub const NODE_BYTES: u64 = size_of::<GpuCompressedNode>() as u64;
-/// Bytes of one triangle record.
-pub const TRIANGLE_BYTES: u64 = size_of::<GpuTriangle>() as u64;
+/// Bytes of one triangle record (its corners in the position pool).
+pub const TRIANGLE_BYTES: u64 = size_of::<GpuIndexedTriangle>() as u64;
+/// Bytes of one record of the position pool: a float position and a 1, a `vec4` the kernels read
+/// in one load (three floats, three loads, traced rays 9–13% slower on llvmpipe).
+pub const POSITION_BYTES: u64 = size_of::<[f32; 4]>() as u64;
 /// Bytes of one instance record.
 pub const INSTANCE_BYTES: u64 = size_of::<GpuInstance>() as u64;
 
@@ -20,8 +24,10 @@ pub const INSTANCE_BYTES: u64 = size_of::<GpuInstance>() as u64;
 pub enum BufferKind {
     /// Inner node records.
     Nodes,
-    /// Triangle records.
+    /// Triangle records: three corners in the position pool.
     Triangles,
+    /// The position pool: each group's vertices as the tree stores them, a run per group.
+    Positions,
     /// Instance records.
     Instances,
     /// Per-triangle shading records (the corners in the shading vertices' pool, the group).
@@ -35,10 +41,14 @@ pub enum BufferKind {
 }
 
 impl BufferKind {
+    /// How many buffers there are.
+    pub const COUNT: usize = 8;
+
     /// Every buffer, in binding order.
-    pub const ALL: [BufferKind; 7] = [
+    pub const ALL: [BufferKind; BufferKind::COUNT] = [
         BufferKind::Nodes,
         BufferKind::Triangles,
+        BufferKind::Positions,
         BufferKind::Instances,
         BufferKind::Attributes,
         BufferKind::ShadingVertices,
@@ -56,6 +66,7 @@ impl BufferKind {
         match self {
             BufferKind::Nodes => "tree nodes",
             BufferKind::Triangles => "triangles",
+            BufferKind::Positions => "positions",
             BufferKind::Instances => "instances",
             BufferKind::Attributes => "shading records",
             BufferKind::ShadingVertices => "shading vertices",
@@ -69,6 +80,7 @@ impl BufferKind {
         match self {
             BufferKind::Nodes => NODE_BYTES,
             BufferKind::Triangles => TRIANGLE_BYTES,
+            BufferKind::Positions => POSITION_BYTES,
             BufferKind::Instances => INSTANCE_BYTES,
             BufferKind::Attributes => crate::types::shading::ATTRIBUTE_BYTES,
             BufferKind::ShadingVertices => crate::types::shading::SHADING_VERTEX_BYTES,
@@ -235,6 +247,16 @@ pub struct UploadPlan {
     pub root: u32,
 }
 
+/// The layouts a plan writes from, each with what its update said to rewrite: the node records'
+/// ([`WideRecords::update`]) and the position pool's ([`PositionPool::update`]).
+#[derive(Clone, Copy)]
+pub struct Layouts<'a> {
+    /// The node records' layout and its changes.
+    pub records: (&'a WideRecords, &'a RecordChanges),
+    /// The position pool and its changes.
+    pub positions: (&'a PositionPool, &'a PositionChanges),
+}
+
 /// The longest stretch of unchanged records, in bytes, that a plan rewrites (with their current
 /// contents) to join the changed records on either side into one write. Each write is a staging
 /// buffer and a copy command: an update pass that touched every other node record would otherwise
@@ -262,8 +284,8 @@ pub fn node_bytes(n: &GpuCompressedNode) -> Vec<u8> {
     bytemuck::bytes_of(n).to_vec()
 }
 
-/// The 36 bytes of a triangle record.
-pub fn triangle_bytes(t: &GpuTriangle) -> Vec<u8> {
+/// The 12 bytes of a triangle record.
+pub fn triangle_bytes(t: &GpuIndexedTriangle) -> Vec<u8> {
     bytemuck::bytes_of(t).to_vec()
 }
 
@@ -273,33 +295,46 @@ pub fn instance_bytes(i: &GpuInstance) -> Vec<u8> {
 }
 
 impl UploadPlan {
-    /// The plan for `changes`, given the capacities (in records) the GPU buffers have now.
-    /// Consecutive changed records become one write each, and so do changed records no more than
-    /// `join_gap` records apart (the records between rewritten as they are). `records`, the node
-    /// records' layout, is brought up to date with `changes` first ([`WideRecords::update`]): it
-    /// says which records hold what changed.
+    /// The plan for `changes`, given the capacities (in records) the GPU buffers have now: nodes,
+    /// triangles, instances and positions. Consecutive changed records become one write each, and
+    /// so do changed records no more than `join_gap` records apart (the records between rewritten
+    /// as they are). `records`, the node records' layout, and `positions`, the position pool, are
+    /// brought up to date with `changes` first ([`WideRecords::update`],
+    /// [`PositionPool::update`]): they say which records hold what changed.
     pub fn new(
         bvh: &Bvh,
         records: &mut WideRecords,
+        positions: &mut PositionPool,
         changes: &ChangeSet,
-        capacities: [u64; 3],
+        capacities: [u64; 4],
     ) -> Self {
-        Self::new_in(bvh, records, changes, capacities, Writes::default())
+        Self::new_in(
+            bvh,
+            (records, positions),
+            changes,
+            capacities,
+            Writes::default(),
+        )
     }
 
     /// [`UploadPlan::new`], its writes added after those already in `writes` (a renderer's
     /// buffer, kept from frame to frame).
     pub fn new_in(
         bvh: &Bvh,
-        records: &mut WideRecords,
+        layouts: (&mut WideRecords, &mut PositionPool),
         changes: &ChangeSet,
-        capacities: [u64; 3],
+        capacities: [u64; 4],
         writes: Writes,
     ) -> Self {
+        let (records, positions) = layouts;
         let moved = records.update(bvh, changes);
+        let pooled = positions.update(bvh, changes);
         Self::streamed(
             bvh,
-            (records, &moved),
+            Layouts {
+                records: (records, &moved),
+                positions: (positions, &pooled),
+            },
             changes,
             capacities,
             writes,
@@ -308,21 +343,22 @@ impl UploadPlan {
         )
     }
 
-    /// [`UploadPlan::new_in`] with the layout already updated (`records`: the layout and what its
-    /// update said to rewrite), the writes handed to `flush` each time they reach `round` bytes
+    /// [`UploadPlan::new_in`] with the layouts already updated (each with what its update said to
+    /// rewrite), the writes handed to `flush` each time they reach `round` bytes
     /// ([`Writes::push_records_in_rounds`]); what is left when the plan is made is in its writes.
-    /// The renderer must have grown its buffers to `changes`' capacities and the layout's before
+    /// The renderer must have grown its buffers to `changes`' capacities and the layouts' before
     /// the first flush.
     pub fn streamed(
         bvh: &Bvh,
-        records: (&WideRecords, &RecordChanges),
+        layouts: Layouts,
         changes: &ChangeSet,
-        capacities: [u64; 3],
+        capacities: [u64; 4],
         writes: Writes,
         round: u64,
         flush: &mut dyn FnMut(&mut Writes),
     ) -> Self {
-        let (layout, moved) = records;
+        let (layout, moved) = layouts.records;
+        let (pool, pooled) = layouts.positions;
         let mut plan = UploadPlan {
             root: layout.root(bvh),
             writes,
@@ -332,6 +368,7 @@ impl UploadPlan {
             (BufferKind::Nodes, layout.capacity() as u64),
             (BufferKind::Triangles, changes.triangle_capacity as u64),
             (BufferKind::Instances, changes.instance_capacity as u64),
+            (BufferKind::Positions, u64::from(pool.end())),
         ];
         for ((kind, need), cap) in needed.into_iter().zip(capacities) {
             if need > cap {
@@ -345,10 +382,12 @@ impl UploadPlan {
             round,
             flush,
         );
+        position_writes(&mut plan.writes, bvh, layouts.positions, round, flush);
         let mut tris: Vec<u32> = changes
             .written_triangles
             .iter()
             .chain(&changes.removed_triangles)
+            .chain(&pooled.triangles)
             .copied()
             .collect();
         tris.sort_unstable();
@@ -356,7 +395,7 @@ impl UploadPlan {
         plan.writes.push_records_in_rounds(
             BufferKind::Triangles,
             runs(tris, join_gap(BufferKind::Triangles)),
-            |_, t| bvh.gpu_triangle(t),
+            |_, t| pool.record(bvh, t),
             round,
             flush,
         );
@@ -377,6 +416,46 @@ impl UploadPlan {
     /// Bytes this plan uploads (growth copies stay on the GPU and are not counted).
     pub fn upload_bytes(&self) -> u64 {
         self.writes.byte_len() + 4
+    }
+}
+
+/// The position pool's writes for what its update said: runs that follow one another (a fill's
+/// groups, laid end to end) as one write each, however many groups they hold.
+fn position_writes(
+    writes: &mut Writes,
+    bvh: &Bvh,
+    (pool, pooled): (&PositionPool, &PositionChanges),
+    round: u64,
+    flush: &mut dyn FnMut(&mut Writes),
+) {
+    let mut runs: Vec<(u32, &[treelight_bvh::glam::Vec3])> = pooled
+        .runs
+        .iter()
+        .map(|&(first, source)| (first, pool.positions(bvh, source)))
+        .collect();
+    runs.sort_unstable_by_key(|r| r.0);
+    let mut k = 0;
+    while k < runs.len() {
+        let start = runs[k].0;
+        let mut end = start;
+        let mut last = k;
+        while last < runs.len() && runs[last].0 == end {
+            end += runs[last].1.len() as u32;
+            last += 1;
+        }
+        let chain = &runs[k..last];
+        writes.push_records_in_rounds(
+            BufferKind::Positions,
+            std::iter::once(start..end),
+            |j, _| {
+                let at = start + j as u32;
+                let (first, positions) = chain[chain.partition_point(|r| r.0 <= at) - 1];
+                positions[(at - first) as usize].extend(1.0).to_array()
+            },
+            round,
+            flush,
+        );
+        k = last;
     }
 }
 
@@ -416,7 +495,7 @@ mod tests {
         // numbers.
         let ranges = [5..8, 20..3000, 4000..9000];
         writes.push_records(BufferKind::Triangles, ranges.clone(), |j, i| {
-            let mut record = [0u32; 9];
+            let mut record = [0u32; 3];
             record[..2].copy_from_slice(&[j as u32, i]);
             record
         });
@@ -431,7 +510,7 @@ mod tests {
             assert_eq!(w.buffer, BufferKind::Triangles);
             assert_eq!(w.offset, r.start as u64 * TRIANGLE_BYTES);
             let words: &[u32] = bytemuck::cast_slice(w.bytes);
-            for (record, i) in words.chunks(9).zip(r) {
+            for (record, i) in words.chunks(3).zip(r) {
                 assert_eq!(record[..2], [j, i]);
                 j += 1;
             }
@@ -475,7 +554,7 @@ mod tests {
                     r
                 })
                 .collect();
-            let record = |j: usize, i: u32| [j as u32, i, 7, 7, 7, 7, 7, 7, 7];
+            let record = |j: usize, i: u32| [j as u32, i, 7];
             let mut whole = Writes::default();
             let mut cut = Writes::default();
             for k in 0..before {

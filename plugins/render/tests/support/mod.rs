@@ -59,8 +59,8 @@ impl Gpu {
     }
 
     /// Group 0 of a split kernel reading the scene (`scene_parts.wgsl`): `sequential` at bindings
-    /// 0, 1, 2 and on, then the further parts of `kinds` (part 0 is among `sequential`) at their
-    /// bindings: `parts` where it names one, else the stand-in.
+    /// 0, 1, 2 and on, then the parts of `kinds` at their bindings past those: `parts` where it
+    /// names one, else the stand-in.
     pub fn scene_entries<'a>(
         &'a self,
         sequential: Vec<wgpu::BindingResource<'a>>,
@@ -72,8 +72,9 @@ impl Gpu {
             .enumerate()
             .map(|(i, r)| (i as u32, r))
             .collect();
+        let bound = entries.len() as u32;
         for &kind in kinds {
-            for &binding in &part_bindings(kind)[1..] {
+            for &binding in part_bindings(kind).iter().filter(|&&b| b >= bound) {
                 let buffer = parts
                     .iter()
                     .find(|(b, _)| *b == binding)
@@ -85,7 +86,8 @@ impl Gpu {
     }
 
     /// Dispatches a split kernel reading the tree ([`PRIMARY_HITS_SPLIT_WGSL`]'s): `buffers` bound
-    /// in order to group 0, the nodes' and triangles' further parts from `parts` or the stand-in.
+    /// in order to group 0, the other parts of the nodes, triangles and positions from `parts` or
+    /// the stand-in.
     pub fn dispatch_split(
         &self,
         pipeline: &wgpu::ComputePipeline,
@@ -95,7 +97,11 @@ impl Gpu {
     ) {
         let entries = self.scene_entries(
             buffers.iter().map(|b| b.as_entire_binding()).collect(),
-            &[BufferKind::Nodes, BufferKind::Triangles],
+            &[
+                BufferKind::Nodes,
+                BufferKind::Triangles,
+                BufferKind::Positions,
+            ],
             parts,
         );
         self.dispatch_indexed(pipeline, vec![entries], groups);
@@ -489,7 +495,7 @@ impl Gpu {
     /// The scene buffers `path_trace` binds: the tree's records, then the given shading records,
     /// object and light records at bindings 0 to 5, the object records' table of per-map UV
     /// transforms (`MapTransformTable::bytes`) at `MAP_TRANSFORMS_BINDING`, and the shading
-    /// vertices (at the first of their part bindings).
+    /// vertices and the positions (each at the first of their part bindings).
     pub fn scene_buffers(
         &self,
         bvh: &Bvh,
@@ -497,8 +503,8 @@ impl Gpu {
         objects: &[u8],
         lights: &[u8],
         map_transforms: &[u8],
-    ) -> [wgpu::Buffer; 8] {
-        let [n, t, i] = tree_bytes(bvh);
+    ) -> [wgpu::Buffer; 9] {
+        let [n, t, i, p] = tree_bytes(bvh);
         [
             self.storage("nodes", &n),
             self.storage("triangles", &t),
@@ -508,6 +514,7 @@ impl Gpu {
             self.storage("lights", lights),
             self.storage("map transforms", map_transforms),
             self.storage("shading vertices", &shading.vertices),
+            self.storage("positions", &p),
         ]
     }
 
@@ -596,7 +603,7 @@ impl Gpu {
     pub fn path_trace(
         &self,
         pipeline: &wgpu::ComputePipeline,
-        scene: &[wgpu::Buffer; 8],
+        scene: &[wgpu::Buffer; 9],
         view: &ViewParams,
         target: &TraceTarget,
         layers: &Layers,
@@ -626,6 +633,10 @@ impl Gpu {
                     part_bindings(BufferKind::ShadingVertices)[0],
                     scene[7].as_entire_binding(),
                 ),
+                (
+                    part_bindings(BufferKind::Positions)[0],
+                    scene[8].as_entire_binding(),
+                ),
             ])
             .chain(layers.environment_entries())
             .collect();
@@ -651,7 +662,7 @@ impl Gpu {
         map_transforms: &[u8],
         shift: u32,
     ) -> Vec<(u32, wgpu::Buffer)> {
-        let [n, t, i] = tree_bytes(bvh);
+        let [n, t, i, p] = tree_bytes(bvh);
         let mut out = Vec::new();
         let layout = PartLayout {
             shift,
@@ -660,6 +671,7 @@ impl Gpu {
         for (kind, bytes) in [
             (BufferKind::Nodes, &n[..]),
             (BufferKind::Triangles, &t[..]),
+            (BufferKind::Positions, &p[..]),
             (BufferKind::Instances, &i[..]),
             (BufferKind::Attributes, &shading.attributes[..]),
             (BufferKind::ShadingVertices, &shading.vertices[..]),
@@ -844,21 +856,23 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// The path tracer's node, triangle and instance records, complete: the nodes as
-/// `WideRecords` lays the tree out afresh (its root is [`traced_root`]).
-pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 3] {
+/// The path tracer's node, triangle and instance records and its position pool, complete: the
+/// nodes as `WideRecords` lays the tree out afresh (its root is [`traced_root`]).
+pub fn tree_bytes(bvh: &Bvh) -> [Vec<u8>; 4] {
     layout_bytes(bvh, &treelight_bvh::WideRecords::of(bvh))
 }
 
-/// The path tracer's node, triangle and instance records, complete, the nodes as `layout` lays
-/// them out (its root is `layout.root(bvh)`).
-pub fn layout_bytes(bvh: &Bvh, layout: &treelight_bvh::WideRecords) -> [Vec<u8>; 3] {
+/// The path tracer's node, triangle and instance records and its position pool, complete, the
+/// nodes as `layout` lays them out (its root is `layout.root(bvh)`).
+pub fn layout_bytes(bvh: &Bvh, layout: &treelight_bvh::WideRecords) -> [Vec<u8>; 4] {
+    let [triangles, positions] = all_triangle_bytes(bvh);
     [
         layout.records(bvh).iter().flat_map(node_bytes).collect(),
-        all_triangle_bytes(bvh),
+        triangles,
         (0..bvh.instance_capacity())
             .flat_map(|i| instance_bytes(&layout.instance(bvh, i)))
             .collect(),
+        positions,
     ]
 }
 
@@ -867,11 +881,30 @@ pub fn traced_root(bvh: &Bvh) -> u32 {
     treelight_bvh::WideRecords::of(bvh).root(bvh)
 }
 
-/// Every triangle's record.
-pub fn all_triangle_bytes(bvh: &Bvh) -> Vec<u8> {
-    (0..bvh.triangle_capacity())
-        .flat_map(|t| triangle_bytes(&bvh.gpu_triangle(t)))
-        .collect()
+/// Every triangle's record and the position pool they index, laid out afresh
+/// (`PositionPool::of`).
+pub fn all_triangle_bytes(bvh: &Bvh) -> [Vec<u8>; 2] {
+    let (pool, runs) = treelight_bvh::PositionPool::of(bvh);
+    pool_bytes(bvh, &pool, &runs)
+}
+
+/// Every triangle's record and the position pool, as `pool` lays them out after the update that
+/// said `runs` (every run of a pool laid out afresh).
+pub fn pool_bytes(
+    bvh: &Bvh,
+    pool: &treelight_bvh::PositionPool,
+    runs: &treelight_bvh::PositionChanges,
+) -> [Vec<u8>; 2] {
+    let mut positions = vec![[0f32; 4]; pool.end() as usize];
+    for &(first, source) in &runs.runs {
+        for (k, p) in pool.positions(bvh, source).iter().enumerate() {
+            positions[first as usize + k] = p.extend(1.0).to_array();
+        }
+    }
+    let triangles = (0..bvh.triangle_capacity())
+        .flat_map(|t| triangle_bytes(&pool.record(bvh, t)))
+        .collect();
+    [triangles, bytemuck::cast_slice(&positions).to_vec()]
 }
 
 /// Every instance's record with its root named as the binary layouts name it (by inner node).
@@ -882,45 +915,45 @@ pub fn binary_instance_bytes(bvh: &Bvh) -> Vec<u8> {
 }
 
 /// The binary records (`Bvh::gpu_node`): nodes, triangles, instances, and the root reference.
-pub fn binary_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
-    let (triangles, instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
+pub fn binary_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 4], u32) {
+    let ([triangles, positions], instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&bvh.gpu_nodes()).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
         nodes = vec![0; size_of::<treelight_bvh::GpuNode>()];
     }
-    ([nodes, triangles, instances], bvh.gpu_root())
+    ([nodes, triangles, instances, positions], bvh.gpu_root())
 }
 
 /// The binary records renumbered depth first: nodes, triangles, instances, and the root reference.
-pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+pub fn depth_first_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 4], u32) {
     let d = bvh.gpu_depth_first_layout();
-    let triangles = all_triangle_bytes(bvh);
+    let [triangles, positions] = all_triangle_bytes(bvh);
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&d.nodes).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
         nodes = vec![0; size_of::<treelight_bvh::GpuNode>()];
     }
     let instances = d.instances.iter().flat_map(instance_bytes).collect();
-    ([nodes, triangles, instances], d.root)
+    ([nodes, triangles, instances, positions], d.root)
 }
 
 /// The tree as 4-wide records: nodes, triangles, instances, and the root reference.
-pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
+pub fn wide_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 4], u32) {
     let wide = bvh.gpu_wide_layout();
-    let triangles = all_triangle_bytes(bvh);
+    let [triangles, positions] = all_triangle_bytes(bvh);
     let mut nodes: Vec<u8> = bytemuck::cast_slice(&wide.nodes).to_vec();
     if nodes.is_empty() {
         // A storage buffer may not be empty.
         nodes = bytemuck::bytes_of(&treelight_bvh::GpuWideNode::default()).to_vec();
     }
     let instances = wide.instances.iter().flat_map(instance_bytes).collect();
-    ([nodes, triangles, instances], wide.root)
+    ([nodes, triangles, instances, positions], wide.root)
 }
 
 /// The binary records with boxes in bytes: nodes, triangles, instances, and the root reference.
-pub fn binary_compressed_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
-    let (triangles, instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
+pub fn binary_compressed_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 4], u32) {
+    let ([triangles, positions], instances) = (all_triangle_bytes(bvh), binary_instance_bytes(bvh));
     let nodes = bvh
         .gpu_nodes()
         .iter()
@@ -931,7 +964,7 @@ pub fn binary_compressed_tree_bytes(bvh: &Bvh) -> ([Vec<u8>; 3], u32) {
         // A storage buffer may not be empty.
         nodes = vec![0; size_of::<treelight_bvh::GpuCompressedBinaryNode>()];
     }
-    ([nodes, triangles, instances], bvh.gpu_root())
+    ([nodes, triangles, instances, positions], bvh.gpu_root())
 }
 
 pub fn words(bytes: &[u8]) -> Vec<u32> {
@@ -1010,8 +1043,9 @@ impl PinholeView {
     }
 }
 
-/// Runs `primary_hits` on buffers holding a tree: one triangle id (or u32::MAX) per pixel.
-pub fn hits_on(gpu: &Gpu, buffers: [&wgpu::Buffer; 3], root: u32, view: &PinholeView) -> Vec<u32> {
+/// Runs `primary_hits` on buffers holding a tree (nodes, triangles, instances, positions): one
+/// triangle id (or u32::MAX) per pixel.
+pub fn hits_on(gpu: &Gpu, buffers: [&wgpu::Buffer; 4], root: u32, view: &PinholeView) -> Vec<u32> {
     kernel_hits_on(gpu, PRIMARY_HITS_WGSL, buffers, root, view)
 }
 
@@ -1019,28 +1053,42 @@ pub fn hits_on(gpu: &Gpu, buffers: [&wgpu::Buffer; 3], root: u32, view: &Pinhole
 fn kernel_hits_on(
     gpu: &Gpu,
     source: &str,
-    [nodes, tris, insts]: [&wgpu::Buffer; 3],
+    [nodes, tris, insts, positions]: [&wgpu::Buffer; 4],
     root: u32,
     view: &PinholeView,
 ) -> Vec<u32> {
     let camera = gpu.uniform(&view.uniform(root));
     let out = gpu.zeroed((view.width * view.height * 4) as u64);
     let pipeline = gpu.pipeline(source, "primary_hits");
-    gpu.dispatch(
+    let entries = [nodes, tris, insts, &camera, &out]
+        .into_iter()
+        .enumerate()
+        .map(|(k, b)| (k as u32, b.as_entire_binding()))
+        .chain([(
+            part_bindings(BufferKind::Positions)[0],
+            positions.as_entire_binding(),
+        )])
+        .collect();
+    gpu.dispatch_indexed(
         &pipeline,
-        &[nodes, tris, insts, &camera, &out],
+        vec![entries],
         (view.width.div_ceil(8), view.height.div_ceil(8)),
     );
     words(&gpu.read(&out))
 }
 
-/// `primary_hits` with the nodes and triangles cut into parts of `1 << shift` records, each
-/// bound at its part's binding, as the plugin binds a scene larger than one binding holds.
+/// `primary_hits` with the nodes, triangles and positions cut into parts (of `1 << shift`
+/// records for the nodes, as `PartLayout::shift_of` says for the others), each bound at its
+/// part's binding, as the plugin binds a scene larger than one binding holds.
 pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
     let gpu = Gpu::new();
-    let [n, t, i] = tree_bytes(bvh);
+    let [n, t, i, p] = tree_bytes(bvh);
+    let layout = PartLayout {
+        shift,
+        max_binding_bytes: u64::MAX,
+    };
     let cut = |kind: BufferKind, bytes: &[u8]| -> Vec<wgpu::Buffer> {
-        let part_bytes = (kind.record_bytes() << shift) as usize;
+        let part_bytes = (kind.record_bytes() << layout.shift_of(kind)) as usize;
         let parts: Vec<wgpu::Buffer> = bytes
             .chunks(part_bytes)
             .map(|c| gpu.storage(kind.label(), c))
@@ -1053,6 +1101,7 @@ pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
         parts
     };
     let (nodes, tris) = (cut(BufferKind::Nodes, &n), cut(BufferKind::Triangles, &t));
+    let positions = cut(BufferKind::Positions, &p);
     let insts = gpu.storage("instances", &i);
     let mut camera_bytes = view.uniform(traced_root(bvh));
     // The camera's last word is the part shift.
@@ -1062,9 +1111,14 @@ pub fn gpu_split_hits(bvh: &Bvh, view: &PinholeView, shift: u32) -> Vec<u32> {
     let out = gpu.zeroed((view.width * view.height * 4) as u64);
     let pipeline = gpu.pipeline(PRIMARY_HITS_SPLIT_WGSL, "primary_hits");
     let mut parts: Vec<(u32, &wgpu::Buffer)> = Vec::new();
-    for (kind, buffers) in [(BufferKind::Nodes, &nodes), (BufferKind::Triangles, &tris)] {
+    for (kind, buffers) in [
+        (BufferKind::Nodes, &nodes),
+        (BufferKind::Triangles, &tris),
+        (BufferKind::Positions, &positions),
+    ] {
         parts.extend(part_bindings(kind).iter().copied().zip(buffers).skip(1));
     }
+    parts.push((part_bindings(BufferKind::Positions)[0], &positions[0]));
     gpu.dispatch_split(
         &pipeline,
         &[&nodes[0], &tris[0], &insts, &camera, &out],
@@ -1118,7 +1172,7 @@ pub fn gpu_binary_compressed_hits(bvh: &Bvh, view: &PinholeView) -> Vec<u32> {
 /// `primary_hits` of kernel `source` over a layout's buffers and root.
 fn hits_through(
     source: &str,
-    ([n, t, i], root): ([Vec<u8>; 3], u32),
+    ([n, t, i, p], root): ([Vec<u8>; 4], u32),
     view: &PinholeView,
 ) -> Vec<u32> {
     let gpu = Gpu::new();
@@ -1126,11 +1180,12 @@ fn hits_through(
         gpu.storage("nodes", &n),
         gpu.storage("triangles", &t),
         gpu.storage("instances", &i),
+        gpu.storage("positions", &p),
     ];
     kernel_hits_on(
         &gpu,
         source,
-        [&buffers[0], &buffers[1], &buffers[2]],
+        [&buffers[0], &buffers[1], &buffers[2], &buffers[3]],
         root,
         view,
     )

@@ -236,7 +236,7 @@ pub struct Frames<'a> {
     gpu: &'a Gpu,
     scene: &'a Scene,
     layers: &'a Layers,
-    buffers: [wgpu::Buffer; 8],
+    buffers: [wgpu::Buffer; 9],
     pipeline: wgpu::ComputePipeline,
     /// The groups in the emitters' table after the lights, and their triangles' total weight.
     emitters: (u32, f32),
