@@ -702,6 +702,60 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
 }
 
 #[test]
+fn a_textured_scene_s_first_start_keeps_its_frames_going_until_its_first_sample() {
+    // llvmpipe compiles a kernel for each texture state it samples, whether an array's layer
+    // count is a power of two among it. The warm-up compiled the trace kernel for a stand-in of
+    // one layer, and FlightHelmet's base colours in five made the views' own device compile it
+    // again at their first dispatch, on their queue: the window stood still for half a minute
+    // after the status said the kernel was ready. The warm-up now compiles it for the textures
+    // bound, the view waits for that, and the frames go on.
+    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let dir = temp_dir("textured-cold-start");
+    let cache = dir.join("shader cache");
+    std::fs::create_dir_all(&cache).unwrap();
+    let s = xdrive::Session::start_until(
+        "textured-cold-start",
+        &[helmet.to_str().unwrap()],
+        &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
+        "the first frames",
+        |st| st.frame > 3,
+    );
+    let start = std::time::Instant::now();
+    let mut last = (start, 0u64);
+    loop {
+        let Some(st) = s.try_state() else {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            continue;
+        };
+        if st.frame != last.1 {
+            last = (std::time::Instant::now(), st.frame);
+        }
+        // A frame takes a fraction of a second here, a few seconds under the other tests' load;
+        // the compile on the views' queue held one for 30 s alone.
+        assert!(
+            last.0.elapsed() < std::time::Duration::from_secs(20),
+            "the frames stood still at frame {} for 20 s (waiting for {:?}, {} samples)\n{}",
+            st.frame,
+            st.preparing_kernel,
+            st.samples,
+            s.log()
+        );
+        if st.samples > 0 && st.preparing_kernel.is_none() {
+            break;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(900),
+            "no sample after 15 minutes (waiting for {:?})",
+            st.preparing_kernel
+        );
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    drop(s);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn a_first_start_runs_its_frames_while_the_path_tracer_compiles_off_the_views_queue() {
     // With an empty shader cache llvmpipe compiles the whole-scene trace kernel for most of a
     // minute. Compiled at its first dispatch on the views' queue, the window stood still that

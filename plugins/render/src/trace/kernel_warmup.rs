@@ -170,15 +170,17 @@ fn init_warmup(
 }
 
 /// What of a bound texture a software adapter compiles into a kernel that samples it (llvmpipe's
-/// static texture state): its format and kind, whether each side is a power of two, its mip
-/// levels. Array layers are not part of it.
+/// static texture state): its format and kind, whether each side and the count of its array's
+/// layers is a power of two, its mip levels. (A stand-in of one layer for an array of five left
+/// the views' device to compile a kernel of its own, on their queue, when a scene's textures came
+/// in.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TextureVariant {
     binding: u32,
     format: wgpu::TextureFormat,
     dimension: wgpu::TextureDimension,
     view: Option<wgpu::TextureViewDimension>,
-    /// Width, height, depth (a 3D texture's; 1 otherwise).
+    /// Width, height, and a 3D texture's depth or an array's layers.
     power_of_two: [bool; 3],
     mip_levels: u32,
 }
@@ -192,10 +194,7 @@ impl TextureVariant {
         view: Option<wgpu::TextureViewDimension>,
     ) -> Self {
         let size = texture.size;
-        let depth = match texture.dimension {
-            wgpu::TextureDimension::D3 => size.depth_or_array_layers,
-            _ => 1,
-        };
+        let depth = size.depth_or_array_layers;
         Self {
             binding,
             format: texture.format,
@@ -207,13 +206,14 @@ impl TextureVariant {
     }
 
     /// The smallest texture of this state: sides of 2^(levels-1) texels where a power of two,
-    /// one more (at least 3) where not, one layer.
+    /// one more (at least 3) where not; one layer, or three where the count is no power of two.
     fn stand_in(&self) -> (TextureDescriptor<'static>, TextureViewDescriptor<'static>) {
         let base = 1u32 << self.mip_levels.clamp(1, 16).saturating_sub(1);
         let side = |pot: bool| if pot { base } else { (base + 1).max(3) };
         let depth = match self.dimension {
             wgpu::TextureDimension::D3 => side(self.power_of_two[2]),
-            _ => 1,
+            _ if self.power_of_two[2] => 1,
+            _ => 3,
         };
         (
             TextureDescriptor {
@@ -646,8 +646,8 @@ mod tests {
         ]
     }
 
-    /// A texture's state keeps what the driver compiles in (sides a power of two or not, mip
-    /// levels, format) and drops its size and layers, and its stand-in is a texture of the same
+    /// A texture's state keeps what the driver compiles in (sides and layer counts a power of two
+    /// or not, mip levels, format) and drops its size, and its stand-in is a texture of the same
     /// state.
     #[test]
     fn textures_of_one_state_share_a_stand_in_of_that_state() {
@@ -664,6 +664,8 @@ mod tests {
             (texture([1000, 2048, 1], 11, D2, Rgba16Float), None),
             (texture([9, 8, 6], 4, D3, Rgba8Unorm), None),
             (texture([2, 2, 1], 2, D2, Rgba8Unorm), None),
+            (texture([1024, 1024, 64], 1, D2, Rgba8Unorm), array),
+            (texture([1024, 1024, 1], 1, D2, Rgba8Unorm), array),
         ];
         for (t, view) in &cases {
             let state = TextureVariant::of(6, t, *view);
@@ -684,9 +686,15 @@ mod tests {
         }
         let of = |i: usize| TextureVariant::of(6, &cases[i].0, cases[i].1);
         assert_eq!(
+            of(1),
+            of(9),
+            "sizes, and layer counts that are powers of two alike, are not part of it"
+        );
+        assert_eq!(of(9), of(10), "one layer is a power of two");
+        assert_ne!(
             of(0),
             of(1),
-            "layers and power-of-two sides are not part of it"
+            "a layer count no power of two is: the driver compiles it in"
         );
         assert_ne!(of(2), of(3), "a side no power of two is");
         assert_ne!(of(5), of(6), "which side is");
