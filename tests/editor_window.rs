@@ -555,9 +555,14 @@ fn save_runs_without_a_display() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The traced view's scale where FlightHelmet is split at 3 MiB a binding: the view's largest
-/// buffer (the denoiser's guides and taps, 28 B a traced pixel) must fit one binding as the scene's parts
-/// do, and at the software adapter's default of 0.5 the test window's view (378×359 traced pixels) needs 3.6 MiB.
+/// The binding limit (KiB) at which FlightHelmet's records are split: its node records take two
+/// parts (its 12-byte triangle records fit one part at 4 MiB).
+const SPLIT_BINDING_KIB: &str = "3072";
+
+/// The traced view's scale where FlightHelmet is split at [`SPLIT_BINDING_KIB`]: the view's
+/// largest buffer (the denoiser's guides and taps, 28 B a traced pixel) must fit one binding as
+/// the scene's parts do, and at the software adapter's default of 0.5 the test window's view
+/// (378×359 traced pixels) needs 3.6 MiB.
 const SPLIT_TRACE_SCALE: &str = "0.35";
 
 #[test]
@@ -602,7 +607,7 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
         let shot = session.screenshot();
         (s, shot)
     };
-    let (s, a) = run(Some("3072"));
+    let (s, a) = run(Some(SPLIT_BINDING_KIB));
     // The report says where the memory is: the whole helmet in the tree, and each owner's share
     // at least what its records need.
     let m = &s.memory;
@@ -650,16 +655,14 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     );
 }
 
-/// Runs the editor with `args` on an empty shader cache until `until` accepts its report (frames
-/// going on), and checks the path-traced view then still waits for `kernel`, with no sample
-/// traced: the run ends long before the compile does.
-fn waits_with_a_cold_shader_cache(
+/// Starts the editor with `args` on an empty shader cache of its own (in the returned folder,
+/// which the caller removes once the session is dropped), once `until` accepts its report.
+fn start_with_a_cold_shader_cache(
     name: &str,
     args: &[&str],
     what: &str,
     until: impl Fn(&treelight::report::EditorState) -> bool,
-    kernel: &str,
-) {
+) -> (xdrive::Session, std::path::PathBuf) {
     let dir = temp_dir(name);
     let cache = dir.join("shader cache");
     std::fs::create_dir_all(&cache).unwrap();
@@ -670,6 +673,20 @@ fn waits_with_a_cold_shader_cache(
         what,
         until,
     );
+    (s, dir)
+}
+
+/// Runs the editor with `args` on an empty shader cache until `until` accepts its report (frames
+/// going on), and checks the path-traced view then still waits for `kernel`, with no sample
+/// traced: the run ends long before the compile does.
+fn waits_with_a_cold_shader_cache(
+    name: &str,
+    args: &[&str],
+    what: &str,
+    until: impl Fn(&treelight::report::EditorState) -> bool,
+    kernel: &str,
+) {
+    let (s, dir) = start_with_a_cold_shader_cache(name, args, what, until);
     let st = s.try_state().unwrap();
     assert_eq!(st.preparing_kernel.as_deref(), Some(kernel), "{}", s.log());
     assert_eq!(st.samples, 0, "{}", s.log());
@@ -691,7 +708,7 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
         &[
             helmet.to_str().unwrap(),
             "--gpu-binding-limit",
-            "3072",
+            SPLIT_BINDING_KIB,
             "--trace-scale",
             SPLIT_TRACE_SCALE,
         ],
@@ -711,13 +728,9 @@ fn a_textured_scene_s_first_start_keeps_its_frames_going_until_its_first_sample(
     // bound, the view waits for that, and the frames go on.
     let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
-    let dir = temp_dir("textured-cold-start");
-    let cache = dir.join("shader cache");
-    std::fs::create_dir_all(&cache).unwrap();
-    let s = xdrive::Session::start_until(
+    let (s, dir) = start_with_a_cold_shader_cache(
         "textured-cold-start",
         &[helmet.to_str().unwrap()],
-        &[("MESA_SHADER_CACHE_DIR", cache.to_str().unwrap())],
         "the first frames",
         |st| st.frame > 3,
     );
