@@ -6,7 +6,8 @@
 //! leaves 300 to 600 MiB freed in the heap), and then the scene has held still with nothing
 //! pending, a background thread asks glibc to return its free pages (`malloc_trim`), which keeps
 //! allocation as fast as before; a different global allocator returns memory too, but copies where
-//! glibc's `realloc` remaps, and a growing BVH reallocates its arrays many times.
+//! glibc's `realloc` remaps, and a growing BVH reallocates its arrays many times. Blocks of
+//! 128 KiB and more never wait for a trim: [`tune_malloc`] keeps them in mappings of their own.
 
 use bevy::prelude::*;
 use std::sync::Arc;
@@ -25,6 +26,10 @@ pub const TRIM_AFTER: u64 = 32 << 20;
 /// The shortest time between two looks at the scene's figures.
 const LOOK_EVERY: Duration = Duration::from_secs(1);
 
+/// The same while new geometry is on its way into the tree, so that trims can keep up with
+/// [`TRIM_EVERY_WHILE_FILLING`] (a look costs a few atomic reads).
+const LOOK_EVERY_WHILE_FILLING: Duration = Duration::from_millis(250);
+
 /// While the scene keeps changing (the worker's idle-time rebuilds of a large import take
 /// minutes), the time between trims.
 const TRIM_EVERY_WHILE_BUSY: Duration = Duration::from_secs(10);
@@ -32,8 +37,9 @@ const TRIM_EVERY_WHILE_BUSY: Duration = Duration::from_secs(10);
 /// While new geometry is on its way into the tree (an import's fill), the time between trims:
 /// what the fill has freed (the parse's buffers, the meshes' copies once the worker has built
 /// them, a headless render's mesh data) would otherwise stay resident until it ends, at the
-/// process's peak.
-const TRIM_EVERY_WHILE_FILLING: Duration = Duration::from_secs(2);
+/// process's peak. An 8M-triangle fill frees about 60 MiB a second that a trim gives back (10 to
+/// 30 ms of the allocator's locks a trim), so every 2 s held 120 to 170 MiB at the fill's end.
+const TRIM_EVERY_WHILE_FILLING: Duration = Duration::from_millis(500);
 
 /// Returns freed memory to the system after large changes to the scene (Linux with glibc; elsewhere
 /// the system's allocator is left to its own policy and the plugin adds nothing).
@@ -131,7 +137,12 @@ fn trim_after_large_changes(
     tracer: Res<PathTracerStats>,
     mut activity: Option<ResMut<Activity>>,
 ) {
-    if trim.looked.is_some_and(|t| t.elapsed() < LOOK_EVERY) {
+    let look_every = if scene.is_filling() {
+        LOOK_EVERY_WHILE_FILLING
+    } else {
+        LOOK_EVERY
+    };
+    if trim.looked.is_some_and(|t| t.elapsed() < look_every) {
         return;
     }
     trim.looked = Some(Instant::now());
@@ -151,7 +162,7 @@ fn trim_after_large_changes(
         if trim.worth(now)
             && let Some(activity) = activity.as_mut()
         {
-            activity.due_in(LOOK_EVERY);
+            activity.due_in(look_every);
         }
         return;
     }
@@ -185,15 +196,43 @@ fn trim_after_large_changes(
 /// own, a large import's rebuilds left hundreds of MiB resident in arenas no thread reused.
 pub const MALLOC_ARENAS: i32 = 2;
 
-/// Limits glibc's malloc arenas to [`MALLOC_ARENAS`] (Linux with glibc; elsewhere nothing). Call
-/// first thing in `main`, before any thread starts; `MALLOC_ARENA_MAX` in the environment, when
-/// set, still decides.
-pub fn limit_malloc_arenas() {
+/// The smallest block glibc's allocator serves from a mapping of its own (`M_MMAP_THRESHOLD`),
+/// which goes back to the system the moment it is freed: glibc's own starting value, held there.
+/// Left to itself glibc raises the threshold to the size of each mapped block freed, up to 32
+/// MiB, so after the first large free the blocks of an import's fill and of the worker's
+/// idle-time rebuilds (the meshes' copies, the builds' temporaries, the uploads' staging: tens of
+/// KiB to tens of MiB each) come from the arenas and stay resident once freed until the next trim.
+/// Held, the 8M fill's peak came down by 140 to 210 MiB (with [`TRIM_EVERY_WHILE_FILLING`]).
+pub const MALLOC_MMAP_THRESHOLD: i32 = 128 << 10;
+
+/// The most blocks glibc keeps in mappings of their own at once (`M_MMAP_MAX`); past it, blocks
+/// come from the arenas as before. Its default (65,536) is above the kernel's limit of mappings a
+/// process may hold (65,530 by default), which Mesa's, the threads' and the files' mappings share:
+/// a scene of many large meshes must not take them all.
+pub const MALLOC_MMAP_MAX: i32 = 16_384;
+
+/// Sets glibc's allocator up for the editor's work (Linux with glibc; elsewhere nothing): at most
+/// [`MALLOC_ARENAS`] arenas, and blocks of [`MALLOC_MMAP_THRESHOLD`] bytes or more in mappings of
+/// their own, up to [`MALLOC_MMAP_MAX`] of them. Call first thing in `main`, before any thread
+/// starts; `MALLOC_ARENA_MAX`, `MALLOC_MMAP_THRESHOLD_` or `MALLOC_MMAP_MAX_` in the environment,
+/// when set, still decides its own.
+pub fn tune_malloc() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    if std::env::var_os("MALLOC_ARENA_MAX").is_none() {
-        // SAFETY: mallopt only sets the allocator's parameters; called before other threads exist.
-        unsafe {
-            libc::mallopt(libc::M_ARENA_MAX, MALLOC_ARENAS);
+    for (variable, parameter, value) in [
+        ("MALLOC_ARENA_MAX", libc::M_ARENA_MAX, MALLOC_ARENAS),
+        (
+            "MALLOC_MMAP_THRESHOLD_",
+            libc::M_MMAP_THRESHOLD,
+            MALLOC_MMAP_THRESHOLD,
+        ),
+        ("MALLOC_MMAP_MAX_", libc::M_MMAP_MAX, MALLOC_MMAP_MAX),
+    ] {
+        if std::env::var_os(variable).is_none() {
+            // SAFETY: mallopt only sets the allocator's parameters; called before other threads
+            // exist.
+            unsafe {
+                libc::mallopt(parameter, value);
+            }
         }
     }
 }
@@ -297,16 +336,18 @@ mod tests {
     }
 
     #[test]
-    fn a_fill_is_trimmed_every_few_seconds_and_edits_no_more_than_before() {
+    fn a_fill_is_trimmed_twice_a_second_and_edits_no_more_than_before() {
         let mut t = HeapTrim::default();
         let every = Some(TRIM_EVERY_WHILE_FILLING);
+        // A trim during the fill a moment ago.
+        let soon = Some(TRIM_EVERY_WHILE_FILLING / 2);
         assert!(t.due(at(100, 0), 0, false, None));
         // Meshes on their way into the tree: not while the last trim is recent.
-        assert!(!t.due(at(200, 0), 40, true, SOON));
-        assert!(!t.due(at(300, 0), 30, true, SOON));
+        assert!(!t.due(at(200, 0), 40, true, soon));
+        assert!(!t.due(at(300, 0), 30, true, soon));
         // Then every while, however much is still pending.
         assert!(t.due(at(400, 0), 20, true, every));
-        assert!(!t.due(at(500, 0), 10, true, SOON));
+        assert!(!t.due(at(500, 0), 10, true, soon));
         assert!(t.due(at(600, 0), 5, true, every));
         // Not for a fill too small to be worth one.
         assert!(!t.due(at(610, 0), 5, true, every));

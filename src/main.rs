@@ -5,7 +5,7 @@
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
-    treelight::heap_trim::limit_malloc_arenas();
+    treelight::heap_trim::tune_malloc();
     let cli = treelight::cli::Cli::parse();
     if let Some(treelight::cli::Command::Info { file }) = &cli.command {
         return match treelight_document::project::info::describe(file) {
