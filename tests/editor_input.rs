@@ -851,8 +851,7 @@ fn quick_chords_count_once_each_at_three_frames_a_second() {
 
 #[test]
 fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let helmet = helmet.to_str().unwrap();
     // The machine says 1 MiB is free: the helmet's 94,722 triangles need tens of MiB traced.
     let free = [("TREELIGHT_AVAILABLE_MEMORY_MIB", "1")];
@@ -1169,8 +1168,7 @@ fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
 
 #[test]
 fn a_selected_mesh_stays_outlined_after_the_worker_rebuilds_it() {
-    let bunny = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/obj/stanford-bunny.obj");
+    let bunny = support::shared_scene("obj/stanford-bunny.obj");
     // A coarse trace, so that a sweep over the view takes a frame.
     let mut s = Session::start(
         "outline-rebuild",

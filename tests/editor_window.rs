@@ -53,8 +53,7 @@ fn frames_without_screenshot_exits_cleanly() {
 
 #[test]
 fn opening_a_file_spawns_its_meshes() {
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let file = shared_scene("gltf/BoxTextured-glTF/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
     assert!(
         out.contains("opened") && out.contains("1 meshes, 12 triangles"),
@@ -66,8 +65,7 @@ fn opening_a_file_spawns_its_meshes() {
 fn imported_textures_reach_the_traced_viewport() {
     // The textured box, and the same file with its image gone: that one must load with a warning and
     // show the box flat, which is what the textured run is compared with.
-    let source = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/BoxTextured-glTF");
+    let source = shared_scene("gltf/BoxTextured-glTF");
     let dir = temp_dir("textures");
     for f in ["BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"] {
         std::fs::copy(source.join(f), dir.join(f)).unwrap();
@@ -125,8 +123,7 @@ fn imported_textures_reach_the_traced_viewport() {
 
 #[test]
 fn a_broken_file_is_reported_not_fatal() {
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/broken_gltf/MissingBin/BoxTextured.gltf");
+    let file = shared_scene("broken_gltf/MissingBin/BoxTextured.gltf");
     let out = run_editor(&[file.to_str().unwrap(), "--frames", "5"]);
     assert!(
         out.contains("MissingBin/BoxTextured.gltf") && out.contains("cannot read buffer"),
@@ -459,8 +456,7 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
 #[test]
 fn info_describes_scene_files_and_projects_without_a_display() {
     let run = |args: &[&str]| run_without_display(&[&["info"], args].concat());
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let (ok, text) = run(&[helmet.to_str().unwrap()]);
     assert!(ok, "{text}");
     assert!(
@@ -516,8 +512,7 @@ fn save_runs_without_a_display() {
     let run = run_without_display;
     let dir = temp_dir("save-headless");
     // A scene file imported and saved as a project.
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let file = shared_scene("gltf/BoxTextured-glTF/BoxTextured.gltf");
     let out = dir.join("box.treelight");
     let (ok, text) = run(&[file.to_str().unwrap(), "--save", out.to_str().unwrap()]);
     assert!(ok, "{text}");
@@ -571,8 +566,7 @@ fn a_scene_larger_than_one_binding_is_split_across_several_and_traced_alike() {
     // most 3 MiB per binding a part of nodes holds 32,768 (a power of two), so they lie in two.
     // (Its 12-byte triangle records, 1.1 MiB, fit one part of theirs.) Both runs trace the view
     // at SPLIT_TRACE_SCALE.
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     // Each run in a session of its own (its own settings: the first run's recovery copy would be
     // offered to the second), its picture taken once every pixel has 16 samples: with a cold
     // shader cache llvmpipe compiles the split kernel for minutes (on its warm-up device, while
@@ -701,8 +695,7 @@ fn a_split_scene_waits_for_its_kernel_compiled_off_the_views_queue_while_frames_
     // first dispatch on the views' queue, every frame after waited that long; compiled on the
     // warm-up's device of its own, the editor runs its frames meanwhile and says what the view
     // waits for.
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     waits_with_a_cold_shader_cache(
         "split-kernel-warmup",
         &[
@@ -726,8 +719,7 @@ fn a_textured_scene_s_first_start_keeps_its_frames_going_until_its_first_sample(
     // again at their first dispatch, on their queue: the window stood still for half a minute
     // after the status said the kernel was ready. The warm-up now compiles it for the textures
     // bound, the view waits for that, and the frames go on.
-    let helmet = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let (s, dir) = start_with_a_cold_shader_cache(
         "textured-cold-start",
         &[helmet.to_str().unwrap()],

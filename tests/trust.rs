@@ -11,7 +11,7 @@ mod xdrive;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use support::{run_without_display, temp_dir};
+use support::{run_without_display, shared_scene, temp_dir};
 use xdrive::{Session, keysym, object};
 
 fn mkfifo(path: &Path) {
@@ -290,8 +290,7 @@ fn render_out_through_a_dangling_link_is_refused_unless_overwrite() {
 #[test]
 fn save_from_a_scene_file_keeps_its_framing_and_info_counts_its_triangles() {
     let dir = fresh("trust-save");
-    let helmet = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let out = dir.join("helmet.treelight");
     let (ok, log) =
         run_without_display(&[helmet.to_str().unwrap(), "--save", out.to_str().unwrap()]);
