@@ -202,7 +202,7 @@ pub const MALLOC_ARENAS: i32 = 2;
 /// MiB, so after the first large free the blocks of an import's fill and of the worker's
 /// idle-time rebuilds (the meshes' copies, the builds' temporaries, the uploads' staging: tens of
 /// KiB to tens of MiB each) come from the arenas and stay resident once freed until the next trim.
-/// Held, with trims twice a second during a fill, the 8M fill's peak came down by 100 to 200 MiB.
+/// Held, with trims twice a second during a fill, the 8M fill's peak came down by 40 to 200 MiB.
 pub const MALLOC_MMAP_THRESHOLD: i32 = 128 << 10;
 
 /// The most blocks glibc keeps in mappings of their own at once (`M_MMAP_MAX`); past it, blocks
