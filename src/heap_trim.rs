@@ -137,7 +137,8 @@ fn trim_after_large_changes(
     tracer: Res<PathTracerStats>,
     mut activity: Option<ResMut<Activity>>,
 ) {
-    let look_every = if scene.is_filling() {
+    let filling = scene.is_filling();
+    let look_every = if filling {
         LOOK_EVERY_WHILE_FILLING
     } else {
         LOOK_EVERY
@@ -155,9 +156,7 @@ fn trim_after_large_changes(
         kernels: figures.kernels_prepared,
     };
     let since = trim.trimmed.map(|t| t.elapsed());
-    if trim.running.load(Ordering::Acquire)
-        || !trim.due(now, stats.pending, scene.is_filling(), since)
-    {
+    if trim.running.load(Ordering::Acquire) || !trim.due(now, stats.pending, filling, since) {
         // A trim worth making waits for the scene to hold still: a resting editor looks again.
         if trim.worth(now)
             && let Some(activity) = activity.as_mut()

@@ -7,7 +7,9 @@ mod support;
 #[path = "support/xdrive.rs"]
 mod xdrive;
 
-use support::{load_rgb, mean_rgb, run_without_display, temp_dir, write_two_sided_sky};
+use support::{
+    load_rgb, mean_rgb, run_without_display, shared_scene, temp_dir, write_two_sided_sky,
+};
 
 fn render(args: &[&str]) -> (bool, String) {
     run_without_display(&[&["render"], args].concat())
@@ -517,19 +519,14 @@ fn maps_with_their_own_texture_transforms_are_path_traced_through_each() {
     );
 }
 
-/// FlightHelmet, a textured glTF assembly from the shared scenes.
-const HELMET: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
-);
-
 /// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes
 /// while the samples accumulate (without restarting them), and the denoiser, guided by the object
 /// each pixel's first sample hit, sees each mesh as the same object before and after.
 #[test]
 fn a_gltf_assembly_renders_the_same_twice_denoised() {
     let dir = temp_dir("render-helmet");
-    let helmet = HELMET;
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = helmet.to_str().unwrap();
     let images: Vec<Vec<u8>> = ["a.png", "b.png"]
         .iter()
         .map(|name| {
@@ -585,7 +582,8 @@ fn upload_rounds(log: &str) -> u64 {
 #[test]
 fn a_scene_uploaded_in_small_rounds_renders_as_one_uploaded_whole() {
     let dir = temp_dir("render-rounds");
-    let helmet = HELMET;
+    let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = helmet.to_str().unwrap();
     let mut runs = Vec::new();
     for (name, round) in [("whole.png", None), ("rounds.png", Some("16"))] {
         let out = dir.join(name);
