@@ -50,7 +50,9 @@ pub use export::change::ChangeSet;
 pub use export::compressed::{GpuCompressedBinaryNode, GpuCompressedNode};
 pub use export::depth_first::DepthFirstLayout;
 pub use export::gpu::{GpuInstance, GpuLayout, GpuNode, GpuTriangle};
-pub use export::positions::{GpuIndexedTriangle, PositionChanges, PositionPool, PositionSource};
+pub use export::positions::{
+    GpuIndexedTriangle, GpuPosition, PositionChanges, PositionPool, PositionSource,
+};
 pub use export::records::{RecordChanges, WideRecords};
 pub use export::runs::RunAllocator;
 pub use export::tlbvh::{FileBvh, FileNode, MAGIC, read_tlbvh};

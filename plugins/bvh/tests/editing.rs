@@ -7,8 +7,9 @@ use proptest::prelude::*;
 use support::*;
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{
-    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuNode, GpuTriangle,
-    GroupId, NodeKind, NodeRef, PositionPool, PositionSource, PreparedGroup, Triangle, WideRecords,
+    Aabb, Bvh, BvhConfig, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuNode, GpuPosition,
+    GpuTriangle, GroupId, NONE, NodeKind, NodeRef, PositionPool, PositionSource, PreparedGroup,
+    Triangle, WideRecords,
 };
 
 #[derive(Clone, Debug)]
@@ -144,7 +145,7 @@ struct Mirror {
     /// `PositionPool::update`.
     pool: PositionPool,
     indexed: Vec<GpuIndexedTriangle>,
-    positions: Vec<Vec3>,
+    positions: Vec<GpuPosition>,
     instances: Vec<GpuInstance>,
     root: u32,
 }
@@ -183,10 +184,12 @@ impl Mirror {
             self.tris[t as usize] = bvh.gpu_triangle(t);
         }
         let pc = self.pool.update(bvh, &c);
-        self.positions.resize(self.pool.end() as usize, Vec3::NAN);
+        let unwritten = GpuPosition::new(Vec3::NAN, PositionSource::Loose(0));
+        self.positions.resize(self.pool.end() as usize, unwritten);
         for &(first, source) in &pc.runs {
-            let p = self.pool.positions(bvh, source);
-            self.positions[first as usize..first as usize + p.len()].copy_from_slice(p);
+            for (k, &p) in self.pool.positions(bvh, source).iter().enumerate() {
+                self.positions[first as usize + k] = GpuPosition::new(p, source);
+            }
         }
         self.indexed
             .resize(c.triangle_capacity as usize, GpuIndexedTriangle::default());
@@ -220,11 +223,18 @@ impl Mirror {
                     "triangle {t} drifted"
                 );
                 let corners = self.indexed[t as usize].corners;
-                let gathered = corners.map(|c| self.positions[c as usize]);
+                let gathered = corners.map(|c| Vec3::from(self.positions[c as usize].position));
                 assert_eq!(
                     gathered,
                     bvh.triangle(t).unwrap().v,
                     "indexed triangle {t} drifted ({corners:?})"
+                );
+                // The first corner names the group that owns the triangle, where a renderer
+                // finds its material.
+                let group = bvh.triangle_group(t).map_or(NONE, |g| g.index());
+                assert_eq!(
+                    self.positions[corners[0] as usize].group, group,
+                    "triangle {t}'s group"
                 );
             }
         }

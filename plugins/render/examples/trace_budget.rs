@@ -10,7 +10,7 @@ mod support;
 
 use std::time::Instant;
 use support::{Gpu, arg, scene_args, traced_root};
-use treelight_bvh::glam::{Mat4, Vec3};
+use treelight_bvh::glam::{Affine3A, Mat4, Vec3};
 use treelight_bvh::{Bvh, BvhConfig};
 use treelight_render::{
     DebugView, MapTransformTable, PATHTRACE_WGSL, SceneLight, ShadingBuffers, SurfaceMaterial,
@@ -37,14 +37,15 @@ fn main() {
             std::process::exit(1);
         });
         let mut bvh = Bvh::new(BvhConfig::incr_u());
-        bvh.insert_triangles(&scene.triangles)
+        // One group, slot 0: the object record below is its material.
+        bvh.insert_group(&scene.triangles, Affine3A::IDENTITY, false)
             .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
         let b = bvh.bounds();
         let diag = (b.max - b.min).length();
         // Grey Lambert everywhere (group 0), a point light above the centre, a blue sky.
         let mut shading = ShadingBuffers::default();
         for id in 0..bvh.triangle_capacity() {
-            shading.put(id, &attribute_record(None, None, 0));
+            shading.put(id, &attribute_record(None, None));
         }
         let material = SurfaceMaterial {
             base_color: [0.7, 0.7, 0.7, 1.0],

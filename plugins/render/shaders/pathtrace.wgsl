@@ -8,11 +8,12 @@
 // the BSDF samples, the two weighed by multiple importance sampling. The crate appends a traversal
 // (traverse_wide.wgsl with wide_compressed.wgsl) and sampling.wgsl.
 
-// A triangle's shading record as the buffer holds it: the pool records of its three corners and
-// its group's slot with flags (HAS_NORMALS, TWO_UV_SETS, HAS_VERTICES).
+// A triangle's shading record as the buffer holds it: the pool records of its three corners, each
+// with a flag in bit 31 (CORNER_FLAG): on the first, the corners name vertices; on the second, the
+// vertices have normals; on the third, each takes two records, the second holding the second UV
+// set. Its group is not here: the first corner of its triangle record names it (triangle_group).
 struct ShadingRecord {
-    corners: vec3<u32>,
-    group: u32,
+    corners: array<u32, 3>,
 }
 
 // One record of the shading vertices' pool: a vertex's packed normal and tangent and its UV, or,
@@ -27,9 +28,9 @@ struct ShadingVertex {
 struct Attr {
     // Object-space corner normals, octahedral, snorm16x2 each.
     normals: vec3<u32>,
-    // The group's slot; bit 31 set when the normals are present, bit 30 (TWO_UV_SETS) when the
-    // corners have a second UV set.
-    group: u32,
+    // HAS_NORMALS when the normals are present, TWO_UV_SETS when the corners have a second UV
+    // set.
+    flags: u32,
     // The corners' UVs, set 0 then set 1 (set 1 as set 0 without a second set).
     uvs: array<vec2<f32>, 3>,
     uvs1: array<vec2<f32>, 3>,
@@ -38,24 +39,31 @@ struct Attr {
     tangents: vec2<u32>,
 }
 
-// Bit 29 of a shading record's group word: its corners name vertices.
-const HAS_VERTICES: u32 = 0x20000000u;
+// Bit 31 of each corner of a shading record: a flag (ShadingRecord); the bits below, its record.
+const CORNER_FLAG: u32 = 0x80000000u;
+
+// The first pool record of each of a shading record's corners.
+fn corner_records(r: ShadingRecord) -> vec3<u32> {
+    return vec3<u32>(r.corners[0], r.corners[1], r.corners[2]) & vec3<u32>(~CORNER_FLAG);
+}
 
 // Triangle i's shading: its record's corners read from the pool.
 fn attr_at(i: u32) -> Attr {
     let r = shading_record_at(i);
     var a: Attr;
-    a.group = r.group & ~HAS_VERTICES;
-    if (r.group & HAS_VERTICES) == 0u {
+    if (r.corners[0] & CORNER_FLAG) == 0u {
         return a;
     }
-    let v0 = shading_vertex_at(r.corners.x);
-    let v1 = shading_vertex_at(r.corners.y);
-    let v2 = shading_vertex_at(r.corners.z);
+    a.flags = select(0u, HAS_NORMALS, (r.corners[1] & CORNER_FLAG) != 0u)
+        | select(0u, TWO_UV_SETS, (r.corners[2] & CORNER_FLAG) != 0u);
+    let c = corner_records(r);
+    let v0 = shading_vertex_at(c.x);
+    let v1 = shading_vertex_at(c.y);
+    let v2 = shading_vertex_at(c.z);
     a.normals = vec3<u32>(v0.normal, v1.normal, v2.normal);
     a.uvs = array<vec2<f32>, 3>(v0.uv, v1.uv, v2.uv);
     a.uvs1 = a.uvs;
-    if (r.group & TWO_UV_SETS) != 0u {
+    if (a.flags & TWO_UV_SETS) != 0u {
         a.uvs1 = corner_uvs_at(i, 1u);
     }
     a.tangents = triangle_tangents(v0.tangent, v1.tangent, v2.tangent);
@@ -66,14 +74,15 @@ fn attr_at(i: u32) -> Attr {
 // alone: what a mask or an emission map needs of a candidate hit.
 fn corner_uvs_at(i: u32, uv_set: u32) -> array<vec2<f32>, 3> {
     let r = shading_record_at(i);
-    if (r.group & HAS_VERTICES) == 0u {
+    if (r.corners[0] & CORNER_FLAG) == 0u {
         return array<vec2<f32>, 3>(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
-    let second = select(0u, 1u, uv_set == 1u && (r.group & TWO_UV_SETS) != 0u);
+    let second = select(0u, 1u, uv_set == 1u && (r.corners[2] & CORNER_FLAG) != 0u);
+    let c = corner_records(r);
     return array<vec2<f32>, 3>(
-        shading_vertex_at(r.corners.x + second).uv,
-        shading_vertex_at(r.corners.y + second).uv,
-        shading_vertex_at(r.corners.z + second).uv,
+        shading_vertex_at(c.x + second).uv,
+        shading_vertex_at(c.y + second).uv,
+        shading_vertex_at(c.z + second).uv,
     );
 }
 
@@ -238,6 +247,7 @@ const MODE_ALBEDO: u32 = 1u;
 const MODE_NORMALS: u32 = 2u;
 const MODE_TRIANGLE_ID: u32 = 3u;
 const MODE_HEATMAP: u32 = 4u;
+// An Attr's flag: its corners have normals.
 const HAS_NORMALS: u32 = 0x80000000u;
 const MAP_BASE: u32 = 0u;
 const MAP_METALLIC_ROUGHNESS: u32 = 1u;
@@ -345,7 +355,7 @@ fn slot_of(triangle: u32, instance: u32) -> u32 {
     if instance != NONE {
         return instances[instance].group;
     }
-    return shading_record_at(triangle).group & ~(HAS_NORMALS | TWO_UV_SETS | HAS_VERTICES);
+    return triangle_group(triangle);
 }
 
 fn object_slot(hit: Hit) -> u32 {
@@ -363,7 +373,7 @@ fn alpha_mode(o: Object) -> u32 {
     return (o.wrap >> 20u) & 3u;
 }
 
-// Bit 30 of a shading record's group word: it holds two UV sets.
+// An Attr's flag: its corners have two UV sets.
 const TWO_UV_SETS: u32 = 0x40000000u;
 
 // The corners' UVs of set `uv_set` (0 or 1) of a triangle's shading; set 0 for either where the
@@ -511,7 +521,7 @@ fn surface_at(hit: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         ng = -ng;
     }
     var ns = ng;
-    if (attr.group & HAS_NORMALS) != 0u {
+    if (attr.flags & HAS_NORMALS) != 0u {
         let w = 1.0 - hit.u - hit.v;
         let n = decode_normal(attr.normals.x) * w + decode_normal(attr.normals.y) * hit.u
             + decode_normal(attr.normals.z) * hit.v;

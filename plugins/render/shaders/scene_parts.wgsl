@@ -79,6 +79,25 @@ fn position_at(i: u32) -> vec3<f32> {
     return p.xyz;
 }
 
+// The slot of the group that owns triangle i, which its first corner's position record names
+// (NONE for a triangle outside any group). Apart from position_at, whose loads the traversal's
+// innermost loop makes.
+fn triangle_group(i: u32) -> u32 {
+    let c = tri_record_at(i).corners[0];
+    let part = c >> small_part_shift();
+    let o = c & ((1u << small_part_shift()) - 1u);
+    var p: vec4<f32>;
+    switch part {
+        case 0u: { p = positions[o]; }
+        case 1u: { p = positions1[o]; }
+        case 2u: { p = positions2[o]; }
+        case 3u: { p = positions3[o]; }
+        case 4u: { p = positions4[o]; }
+        default: { p = positions5[o]; }
+    }
+    return bitcast<u32>(p.w);
+}
+
 fn tri_at(i: u32) -> Tri {
     let r = tri_record_at(i);
     return Tri(position_at(r.corners[0]), position_at(r.corners[1]), position_at(r.corners[2]));

@@ -17,3 +17,9 @@ fn tri_at(i: u32) -> Tri {
         positions[r.corners[2]].xyz,
     );
 }
+
+// The slot of the group that owns triangle i, which its first corner's position record names
+// (NONE for a triangle outside any group).
+fn triangle_group(i: u32) -> u32 {
+    return bitcast<u32>(positions[tris[i].corners[0]].w);
+}

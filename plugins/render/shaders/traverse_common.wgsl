@@ -10,8 +10,9 @@
 
 // A triangle's record: its corners, records of the position pool (treelight_bvh's
 // GpuIndexedTriangle; each group's vertices are one run of the pool, shared by its triangles). The
-// pool's records are vec4<f32> (the position, then 1): one load each, where three floats took
-// three and slowed the traversal by a tenth on llvmpipe.
+// pool's records are vec4<f32> (the position, then the bits of the slot of the group whose run it
+// is: treelight_bvh's GpuPosition): one load each, where three floats took three and slowed the
+// traversal by a tenth on llvmpipe.
 struct TriRecord {
     corners: array<u32, 3>,
 }

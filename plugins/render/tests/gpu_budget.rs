@@ -131,7 +131,7 @@ impl Tracer {
         let mut map_transforms = MapTransformTable::default();
         for (&g, m) in &scene.materials {
             for id in bvh.group_triangles(g).unwrap() {
-                shading.put(id, &attribute_record(None, None, g.index()));
+                shading.put(id, &attribute_record(None, None));
             }
             put_record(
                 &mut objects,

@@ -243,7 +243,7 @@ fn gpu_image_through(scene: &Scene, split_shift: Option<u32>) -> Vec<Vec3> {
     let mut map_transforms = MapTransformTable::default();
     for (&g, m) in &scene.materials {
         for id in bvh.group_triangles(g).unwrap() {
-            shading.put(id, &attribute_record(None, None, g.index()));
+            shading.put(id, &attribute_record(None, None));
         }
         let rec = object_bytes(
             Mat3::from(bvh.group_transform(g).unwrap().matrix3),

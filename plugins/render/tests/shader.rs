@@ -166,7 +166,7 @@ fn path_tracer_records_have_the_crate_s_layout() {
     assert!(has_entry(&m, "path_trace"));
     assert_eq!(
         wgsl_layout(&m, "ShadingRecord"),
-        rust_layout!(GpuAttribute, [corners, group])
+        rust_layout!(GpuAttribute, [corners])
     );
     assert_eq!(
         wgsl_layout(&m, "ShadingVertex"),

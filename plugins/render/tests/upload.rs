@@ -1,7 +1,7 @@
 //! Buffers patched only through upload plans equal a full export, and a small edit uploads little.
 
 use treelight_bvh::glam::{Affine3A, Vec3};
-use treelight_bvh::{Bvh, PositionPool, Triangle, WideRecords};
+use treelight_bvh::{Bvh, GpuPosition, NONE, PositionPool, Triangle, WideRecords};
 use treelight_render::{
     BufferKind, PartLayout, UploadPlan, instance_bytes, node_bytes, triangle_bytes,
 };
@@ -90,8 +90,9 @@ impl FakeGpu {
             "{} records kept, {fresh} laid out afresh",
             self.records.live()
         );
-        // Each live triangle's record names, in the pool, the corners the tree stores.
-        let positions: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.buffers[3]);
+        // Each live triangle's record names, in the pool, the corners the tree stores, the first
+        // with the slot of the group that owns the triangle.
+        let positions: Vec<GpuPosition> = bytemuck::pod_collect_to_vec(&self.buffers[3]);
         for t in 0..bvh.triangle_capacity() {
             if bvh.is_live_triangle(t) {
                 let at = t as usize * 12;
@@ -101,10 +102,14 @@ impl FakeGpu {
                     triangle_bytes(&self.positions.record(bvh, t)).as_slice()
                 );
                 let corners: Vec<u32> = bytemuck::pod_collect_to_vec(record);
-                let gathered: Vec<[f32; 4]> =
-                    corners.iter().map(|&c| positions[c as usize]).collect();
-                let stored = bvh.triangle(t).unwrap().v.map(|v| v.extend(1.0).to_array());
+                let gathered: Vec<[f32; 3]> = corners
+                    .iter()
+                    .map(|&c| positions[c as usize].position)
+                    .collect();
+                let stored = bvh.triangle(t).unwrap().v.map(|v| v.to_array());
                 assert_eq!(gathered, stored, "triangle {t}");
+                let group = bvh.triangle_group(t).map_or(NONE, |g| g.index());
+                assert_eq!(positions[corners[0] as usize].group, group, "triangle {t}");
             }
         }
         for i in 0..bvh.instance_capacity() {

@@ -4,6 +4,9 @@
 //! record is 12 bytes and its share of the pool half a position, against 36 bytes for three
 //! corners of its own ([`crate::GpuTriangle`]). A triangle outside any group takes a run of three.
 //!
+//! Each position record also names the group whose run holds it, so a renderer finds a hit's group
+//! from its triangle's first corner instead of keeping a word for it beside every triangle.
+//!
 //! The pool is kept in step with the tree's change sets ([`PositionPool::update`]), as
 //! [`crate::WideRecords`] keeps the node records: a group whose vertices are written gets them
 //! written again in its run; a group whose vertex count changed (triangles edited one by one,
@@ -22,6 +25,32 @@ use std::collections::HashMap;
 pub struct GpuIndexedTriangle {
     /// The pool records of corners 0, 1 and 2.
     pub corners: [u32; 3],
+}
+
+/// One record of the position pool, 16 bytes: a vertex's position and the slot of the group whose
+/// run holds it ([`NONE`](crate::NONE) in a loose triangle's run). A GPU reads it as a
+/// `vec4<f32>` (one load where three floats would be three) and takes the slot from the fourth
+/// float's bits, which no arithmetic touches.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPosition {
+    /// The position, as the tree stores it.
+    pub position: [f32; 3],
+    /// The slot of the group whose run this is, or [`NONE`](crate::NONE).
+    pub group: u32,
+}
+
+impl GpuPosition {
+    /// The record of `position` in a run holding `source`'s positions.
+    pub fn new(position: glam::Vec3, source: PositionSource) -> Self {
+        Self {
+            position: position.to_array(),
+            group: match source {
+                PositionSource::Group(slot) => slot,
+                PositionSource::Loose(_) => NONE,
+            },
+        }
+    }
 }
 
 /// Whose positions a run of the pool holds.
@@ -228,9 +257,20 @@ mod tests {
     use crate::{BvhConfig, Triangle};
     use glam::{Affine3A, Vec3};
 
-    /// The positions of triangle `t` as a GPU reads them from CPU copies of the two buffers.
-    fn gathered(records: &[GpuIndexedTriangle], pool: &[Vec3], t: u32) -> [Vec3; 3] {
-        records[t as usize].corners.map(|c| pool[c as usize])
+    /// The positions of triangle `t` as a GPU reads them from CPU copies of the two buffers, and
+    /// the group its first corner names.
+    fn gathered(records: &[GpuIndexedTriangle], pool: &[GpuPosition], t: u32) -> ([Vec3; 3], u32) {
+        let corners = records[t as usize].corners;
+        (
+            corners.map(|c| Vec3::from_array(pool[c as usize].position)),
+            pool[corners[0] as usize].group,
+        )
+    }
+
+    /// Triangle `t` as the tree has it, and its group's slot (`NONE` when loose).
+    fn stored(bvh: &Bvh, t: u32) -> ([Vec3; 3], u32) {
+        let group = bvh.triangle_group(t).map_or(NONE, |g| g.index());
+        (bvh.triangle(t).unwrap().v, group)
     }
 
     /// Applies an update to CPU copies of the buffers.
@@ -240,12 +280,14 @@ mod tests {
         c: &ChangeSet,
         out: &PositionChanges,
         records: &mut Vec<GpuIndexedTriangle>,
-        positions: &mut Vec<Vec3>,
+        positions: &mut Vec<GpuPosition>,
     ) {
-        positions.resize(pool.end() as usize, Vec3::NAN);
+        let unwritten = GpuPosition::new(Vec3::NAN, PositionSource::Loose(0));
+        positions.resize(pool.end() as usize, unwritten);
         for &(first, source) in &out.runs {
-            let p = pool.positions(bvh, source);
-            positions[first as usize..first as usize + p.len()].copy_from_slice(p);
+            for (k, &p) in pool.positions(bvh, source).iter().enumerate() {
+                positions[first as usize + k] = GpuPosition::new(p, source);
+            }
         }
         records.resize(c.triangle_capacity as usize, GpuIndexedTriangle::default());
         let ids = c.written_triangles.iter().chain(&c.removed_triangles);
@@ -288,10 +330,7 @@ mod tests {
             .iter()
             .chain(loose.iter().copied())
         {
-            assert_eq!(
-                gathered(&records, &positions, t),
-                bvh.triangle(t).unwrap().v
-            );
+            assert_eq!(gathered(&records, &positions, t), stored(&bvh, t));
         }
         // A pool laid out afresh reads the same triangles.
         let (fresh, all) = PositionPool::of(&bvh);
@@ -314,7 +353,7 @@ mod tests {
             .iter()
             .chain(loose.iter().copied())
         {
-            let expected = bvh.triangle(t).unwrap().v;
+            let expected = stored(&bvh, t);
             assert_eq!(gathered(&fresh_records, &fresh_positions, t), expected);
         }
         bvh.remove_group(g).unwrap();

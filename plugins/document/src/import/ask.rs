@@ -16,10 +16,10 @@ pub const AVAILABLE_VARIABLE: &str = "TREELIGHT_AVAILABLE_MEMORY_MIB";
 /// vertex a triangle (a mesh of tiles): the tree's inner node, corners, vertices, parent and group
 /// (36 + 6 + 6 + 4 + 4 bytes), the shading source (8), the path tracer's node records with their
 /// map, triangles with their positions, and shading records with their vertices (38 + 12 + 8 +
-/// 24), and Bevy's mesh (18). A lower bound: the memory bench counts more in these owners at 8M
-/// and 12M triangles (their room to grow), and the whole process holds more (the editor itself,
+/// 12 + 8), and Bevy's mesh (18). A lower bound: the memory bench counts more in these owners at
+/// 8M and 12M triangles (their room to grow), and the whole process holds more (the editor itself,
 /// the peaks while it fills).
-pub const TRACED_BYTES_PER_TRIANGLE: u64 = 164;
+pub const TRACED_BYTES_PER_TRIANGLE: u64 = 160;
 
 /// An import held for an answer.
 pub struct HeldImport {

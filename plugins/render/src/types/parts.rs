@@ -85,8 +85,8 @@ impl PartLayout {
     }
 
     /// Records one part of a split kind holds, as a power of two: `shift` for nodes, two more for
-    /// the 12-byte triangles and the 16-byte positions, shading records and shading vertices (a
-    /// part of theirs is no more bytes than a part of nodes). The kernels' `small_part_shift` and
+    /// the 12-byte triangles and shading records and the 16-byte positions and shading vertices
+    /// (a part of theirs is no more bytes than a part of nodes). The kernels' `small_part_shift` and
     /// `attr_part_shift` say the same.
     pub fn shift_of(self, kind: BufferKind) -> u32 {
         match kind {
@@ -316,8 +316,10 @@ mod tests {
         let a = BufferKind::Attributes;
         assert_eq!(l.shift_of(a), 6);
         assert_eq!(l.shift_of(BufferKind::ShadingVertices), 6);
-        let pieces: Vec<_> = l.pieces(a, 60 * 16, 8 * 16).collect();
-        assert_eq!(pieces, vec![(0, 60 * 16, 0..64), (1, 0, 64..128)]);
+        let ab = a.record_bytes();
+        let pieces: Vec<_> = l.pieces(a, 60 * ab, 8 * ab).collect();
+        let cut = (4 * ab) as usize;
+        assert_eq!(pieces, vec![(0, 60 * ab, 0..cut), (1, 0, cut..2 * cut)]);
         // As many triangles as node records, shading records for as many as the triangles, and
         // three positions and shading vertices a triangle.
         let tr = BufferKind::Triangles;

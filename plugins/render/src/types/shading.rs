@@ -1,7 +1,9 @@
-//! The triangles' shading on the GPU: a 16-byte record per triangle naming its three corners in a
+//! The triangles' shading on the GPU: a 12-byte record per triangle naming its three corners in a
 //! pool of shading vertices (normal, tangent, UV; a second record holds the second UV set where a
 //! material reads it), so that a mesh's vertices are uploaded once however many triangles share
-//! them. Each mesh's vertices take one run of the pool (`vertex_pool.rs`).
+//! them. Each mesh's vertices take one run of the pool (`vertex_pool.rs`). A triangle's group is not
+//! in its record: the first corner of its position record names it
+//! ([`GpuPosition`](treelight_bvh::GpuPosition)).
 
 use bevy::math::{Vec2, Vec3, Vec4};
 use bytemuck::{Pod, Zeroable};
@@ -13,23 +15,44 @@ pub const ATTRIBUTE_BYTES: u64 = size_of::<GpuAttribute>() as u64;
 /// Bytes of one record of the shading vertices' pool.
 pub const SHADING_VERTEX_BYTES: u64 = size_of::<GpuShadingVertex>() as u64;
 
-/// Bit 31 of a shading record's group word: the corners have normals.
-const HAS_NORMALS: u32 = 0x8000_0000;
-/// Bit 30: each corner takes two records of the pool, the second holding the second UV set.
-const TWO_UV_SETS: u32 = 0x4000_0000;
-/// Bit 29: the corners name vertices (without, the triangle has no shading data: flat, no UVs).
-const HAS_VERTICES: u32 = 0x2000_0000;
-/// The group slot's bits.
-const SLOT_MASK: u32 = HAS_VERTICES - 1;
+/// Bit 31 of each of a shading record's corners, a flag apiece: on the first, the corners name
+/// vertices (without, the triangle has no shading data: flat, no UVs); on the second, the vertices
+/// have normals; on the third, each takes two records of the pool, the second holding the second
+/// UV set.
+const FLAG: u32 = 0x8000_0000;
+/// The records of the shading vertices' pool a corner can name: those below its flag's bit.
+pub const MAX_SHADING_VERTEX_RECORDS: u32 = FLAG;
 
 /// `ShadingRecord` of `pathtrace.wgsl`: one triangle's shading.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuAttribute {
-    /// The pool records of the triangle's three corners (each its first record).
+    /// The pool records of the triangle's three corners (each its first record), each with a flag
+    /// in bit 31 ([`GpuAttribute::names_vertices`], [`GpuAttribute::has_normals`],
+    /// [`GpuAttribute::has_two_uv_sets`]).
     pub corners: [u32; 3],
-    /// The slot of the group whose object record holds its material, and the flags above.
-    pub group: u32,
+}
+
+impl GpuAttribute {
+    /// Whether the corners name vertices of the pool (without, the triangle is flat, without UVs).
+    pub fn names_vertices(&self) -> bool {
+        self.corners[0] & FLAG != 0
+    }
+
+    /// Whether the vertices have normals.
+    pub fn has_normals(&self) -> bool {
+        self.corners[1] & FLAG != 0
+    }
+
+    /// Whether each corner takes two records, the second holding the second UV set.
+    pub fn has_two_uv_sets(&self) -> bool {
+        self.corners[2] & FLAG != 0
+    }
+
+    /// The first pool record of each corner, without the flags.
+    pub fn vertex_records(&self) -> [u32; 3] {
+        self.corners.map(|c| c & !FLAG)
+    }
 }
 
 /// `ShadingVertex` of `pathtrace.wgsl`: one vertex's shading, or (the second record of a vertex
@@ -96,34 +119,25 @@ pub fn vertex_records(vertices: &ShadingVertices, i: usize) -> [GpuShadingVertex
 }
 
 /// A triangle's shading record: its corners `corners` (vertex numbers of a mesh whose vertices
-/// begin at pool record `first`, laid out as `layout` says), or none, and its group's slot.
-pub fn shading_record(
-    first: u32,
-    corners: Option<[u32; 3]>,
-    layout: VertexLayout,
-    group: u32,
-) -> GpuAttribute {
+/// begin at pool record `first`, laid out as `layout` says), or none. The corners' records must lie
+/// below [`MAX_SHADING_VERTEX_RECORDS`] (the pool keeps its runs there).
+pub fn shading_record(first: u32, corners: Option<[u32; 3]>, layout: VertexLayout) -> GpuAttribute {
     let Some(corners) = corners else {
-        return GpuAttribute {
-            corners: [0; 3],
-            group: group & SLOT_MASK,
-        };
+        return GpuAttribute::default();
     };
-    let mut flags = HAS_VERTICES;
-    if layout.normals {
-        flags |= HAS_NORMALS;
-    }
-    if layout.two_uv_sets {
-        flags |= TWO_UV_SETS;
-    }
+    let [a, b, c] = corners.map(|c| first + c * layout.stride());
+    let flag = |on: bool| if on { FLAG } else { 0 };
     GpuAttribute {
-        corners: corners.map(|c| first + c * layout.stride()),
-        group: (group & SLOT_MASK) | flags,
+        corners: [
+            a | FLAG,
+            b | flag(layout.normals),
+            c | flag(layout.two_uv_sets),
+        ],
     }
 }
 
 /// One triangle's shading given corner by corner, as the GPU tests and tools make it: its corner
-/// normals (none: flat), UVs, tangents and second UV set, and its group's slot.
+/// normals (none: flat), UVs, tangents and second UV set.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CornerShading {
     /// Corner normals, packed ([`encode_normal`]).
@@ -134,22 +148,15 @@ pub struct CornerShading {
     pub tangents: Option<[u32; 3]>,
     /// Corner `UV_1`s.
     pub uvs1: Option<[Vec2; 3]>,
-    /// The group's slot.
-    pub group: u32,
 }
 
 /// A triangle's shading from its corner normals (none: flat shading) and UVs (none: zero).
-pub fn attribute_record(
-    normals: Option<[Vec3; 3]>,
-    uvs: Option<[Vec2; 3]>,
-    group: u32,
-) -> CornerShading {
+pub fn attribute_record(normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>) -> CornerShading {
     CornerShading {
         normals: normals.map(|n| n.map(encode_normal)),
         uvs: uvs.unwrap_or([Vec2::ZERO; 3]),
         tangents: None,
         uvs1: None,
-        group,
     }
 }
 
@@ -190,11 +197,7 @@ impl ShadingBuffers {
         let layout = VertexLayout::of(&vertices, s.uvs1.is_some());
         let first = (self.vertices.len() as u64 / SHADING_VERTEX_BYTES) as u32;
         // Flat and without UVs: a record naming no vertices reads the same.
-        let bare = CornerShading {
-            group: s.group,
-            ..Default::default()
-        };
-        let corners = (*s != bare).then_some([0, 1, 2]);
+        let corners = (*s != CornerShading::default()).then_some([0, 1, 2]);
         if corners.is_some() {
             for i in 0..3 {
                 let records = vertex_records(&vertices, i);
@@ -203,7 +206,7 @@ impl ShadingBuffers {
                 }
             }
         }
-        let record = shading_record(first, corners, layout, s.group);
+        let record = shading_record(first, corners, layout);
         let at = id as usize * ATTRIBUTE_BYTES as usize;
         let end = at + ATTRIBUTE_BYTES as usize;
         if self.attributes.len() < end {
@@ -236,14 +239,18 @@ mod tests {
         let one = VertexLayout::of(&v, false);
         let two = VertexLayout::of(&v, true);
         assert_eq!((one.stride(), two.stride()), (1, 2));
-        let r = shading_record(100, Some([0, 3, 2]), two, 7);
-        assert_eq!(r.corners, [100, 106, 104]);
-        assert_eq!(r.group, 7 | HAS_VERTICES | HAS_NORMALS | TWO_UV_SETS);
-        let r = shading_record(100, Some([0, 3, 2]), one, 7);
-        assert_eq!(r.corners, [100, 103, 102]);
-        assert_eq!(r.group, 7 | HAS_VERTICES | HAS_NORMALS);
-        let flat = shading_record(100, None, one, 7 | HAS_NORMALS);
-        assert_eq!(flat.group, 7, "no flag without vertices");
+        let r = shading_record(100, Some([0, 3, 2]), two);
+        assert_eq!(r.vertex_records(), [100, 106, 104]);
+        assert!(r.names_vertices() && r.has_normals() && r.has_two_uv_sets());
+        let r = shading_record(100, Some([0, 3, 2]), one);
+        assert_eq!(r.vertex_records(), [100, 103, 102]);
+        assert!(r.names_vertices() && r.has_normals() && !r.has_two_uv_sets());
+        let bare = VertexLayout::default();
+        let r = shading_record(100, Some([0, 3, 2]), bare);
+        assert!(r.names_vertices() && !r.has_normals() && !r.has_two_uv_sets());
+        let flat = shading_record(100, None, one);
+        assert_eq!(flat, GpuAttribute::default(), "no flag without vertices");
+        assert!(!flat.names_vertices() && !flat.has_normals());
         let [a, b] = vertex_records(&v, 3);
         assert_eq!((a.normal, a.uv, b.uv), (4, [1.0, 1.0], [0.5, 0.25]));
         assert_eq!(v.len(), 4);
@@ -254,19 +261,21 @@ mod tests {
     fn corners_given_one_by_one_get_vertices_of_their_own() {
         let mut b = ShadingBuffers::default();
         let n = [Vec3::X, Vec3::Y, Vec3::Z];
-        b.put(2, &attribute_record(Some(n), None, 5));
-        b.put(1, &attribute_record(None, None, 4));
+        b.put(2, &attribute_record(Some(n), None));
+        b.put(1, &attribute_record(None, None));
         b.put(
             0,
-            &attribute_record(None, Some([Vec2::ONE; 3]), 6).with_second_uv_set([Vec2::ZERO; 3]),
+            &attribute_record(None, Some([Vec2::ONE; 3])).with_second_uv_set([Vec2::ZERO; 3]),
         );
         assert_eq!(b.attributes.len() as u64, 3 * ATTRIBUTE_BYTES);
         assert_eq!(b.vertices.len() as u64, 9 * SHADING_VERTEX_BYTES);
         let records: Vec<GpuAttribute> = bytemuck::pod_collect_to_vec(&b.attributes);
-        assert_eq!(records[2].corners, [0, 1, 2]);
-        assert_eq!(records[0].corners, [3, 5, 7]);
-        assert_eq!(records[0].group, 6 | HAS_VERTICES | TWO_UV_SETS);
-        assert_eq!(records[1].group, 4, "flat, no UVs: no vertices");
+        assert_eq!(records[2].vertex_records(), [0, 1, 2]);
+        assert!(records[2].has_normals() && !records[2].has_two_uv_sets());
+        assert_eq!(records[0].vertex_records(), [3, 5, 7]);
+        assert!(records[0].names_vertices() && records[0].has_two_uv_sets());
+        assert!(!records[0].has_normals());
+        assert!(!records[1].names_vertices(), "flat, no UVs: no vertices");
         let vertices: Vec<GpuShadingVertex> = bytemuck::pod_collect_to_vec(&b.vertices);
         assert_eq!(vertices[1].normal, encode_normal(Vec3::Y));
     }

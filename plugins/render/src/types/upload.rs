@@ -4,8 +4,8 @@
 
 use std::ops::Range;
 use treelight_bvh::{
-    Bvh, ChangeSet, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, PositionChanges,
-    PositionPool, RecordChanges, WideRecords,
+    Bvh, ChangeSet, GpuCompressedNode, GpuIndexedTriangle, GpuInstance, GpuPosition,
+    PositionChanges, PositionPool, PositionSource, RecordChanges, WideRecords,
 };
 
 /// Bytes of one node record (the compressed 4-wide record of `WideRecords::record`, one per inner
@@ -30,7 +30,7 @@ pub enum BufferKind {
     Positions,
     /// Instance records.
     Instances,
-    /// Per-triangle shading records (the corners in the shading vertices' pool, the group).
+    /// Per-triangle shading records (the corners in the shading vertices' pool).
     Attributes,
     /// The pool of shading vertices (normals, tangents, UVs), a run per mesh.
     ShadingVertices,
@@ -428,10 +428,10 @@ fn position_writes(
     round: u64,
     flush: &mut dyn FnMut(&mut Writes),
 ) {
-    let mut runs: Vec<(u32, &[treelight_bvh::glam::Vec3])> = pooled
+    let mut runs: Vec<(u32, &[treelight_bvh::glam::Vec3], PositionSource)> = pooled
         .runs
         .iter()
-        .map(|&(first, source)| (first, pool.positions(bvh, source)))
+        .map(|&(first, source)| (first, pool.positions(bvh, source), source))
         .collect();
     runs.sort_unstable_by_key(|r| r.0);
     let mut k = 0;
@@ -449,8 +449,8 @@ fn position_writes(
             std::iter::once(start..end),
             |j, _| {
                 let at = start + j as u32;
-                let (first, positions) = chain[chain.partition_point(|r| r.0 <= at) - 1];
-                positions[(at - first) as usize].extend(1.0).to_array()
+                let (first, positions, source) = chain[chain.partition_point(|r| r.0 <= at) - 1];
+                GpuPosition::new(positions[(at - first) as usize], source)
             },
             round,
             flush,

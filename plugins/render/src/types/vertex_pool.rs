@@ -1,7 +1,9 @@
 //! Runs of the shading vertices' pool: each mesh's vertices take one run of records
 //! ([`RunAllocator`]), given back when no group shows the mesh any more.
 
-use crate::types::shading::{GpuAttribute, VertexLayout, shading_record, vertex_records};
+use crate::types::shading::{
+    GpuAttribute, MAX_SHADING_VERTEX_RECORDS, VertexLayout, shading_record, vertex_records,
+};
 use crate::types::upload::{BufferKind, Writes};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -65,7 +67,9 @@ impl ShadingPool {
     }
 
     /// The first record of `vertices`' run under `layout`, made (and queued to be written) when
-    /// there is none; `None` when the pool's record numbers would pass `u32`.
+    /// there is none; `None` when the run would reach past the records a shading record's corner
+    /// can name ([`MAX_SHADING_VERTEX_RECORDS`]: 2^31, 32 GiB of vertices): the group then shades
+    /// flat.
     fn run_of(&mut self, vertices: &Arc<ShadingVertices>, layout: VertexLayout) -> Option<u32> {
         let key = (Arc::as_ptr(vertices) as usize, layout);
         if let Some(run) = self.meshes.get_mut(&key) {
@@ -74,6 +78,10 @@ impl ShadingPool {
         }
         let len = u32::try_from(vertices.len() as u64 * u64::from(layout.stride())).ok()?;
         let first = self.runs.allocate(len)?;
+        if u64::from(first) + u64::from(len) > u64::from(MAX_SHADING_VERTEX_RECORDS) {
+            self.runs.free(first, len);
+            return None;
+        }
         self.meshes.insert(
             key,
             MeshRun {
@@ -120,18 +128,18 @@ impl ShadingPool {
     }
 
     /// The shading record of triangle `k` of the group in `slot` with `shading`, naming the
-    /// group's run. Corners past its vertices name none (never another mesh's).
+    /// group's run (the record does not name the group: its first corner's position does). Corners past its vertices name none (never another mesh's).
     pub fn record(&self, slot: u32, shading: Option<&MeshShading>, k: usize) -> GpuAttribute {
         let (Some(shading), Some(Some((first, layout)))) =
             (shading, self.by_slot.get(slot as usize).copied())
         else {
-            return shading_record(0, None, VertexLayout::default(), slot);
+            return shading_record(0, None, VertexLayout::default());
         };
         let vertices = shading.vertices().len() as u32;
         let corners = shading
             .corners(k)
             .filter(|c| c.iter().all(|&i| i < vertices));
-        shading_record(first, corners, layout, slot)
+        shading_record(first, corners, layout)
     }
 
     /// Records the runs reach: what the pool's buffer must hold.
@@ -149,11 +157,6 @@ impl ShadingPool {
 mod tests {
     use super::*;
     use crate::types::shading::{ATTRIBUTE_BYTES, GpuShadingVertex, SHADING_VERTEX_BYTES};
-
-    /// The flags of a shading record's group word (`shading.rs`).
-    const HAS_VERTICES_BIT: u32 = 1 << 29;
-    const TWO_SETS_BIT: u32 = 1 << 30;
-    const SLOT_BITS: u32 = HAS_VERTICES_BIT - 1;
 
     /// Pseudo-random numbers below the bound each call gives, from `seed` (a 64-bit LCG).
     fn numbers(mut seed: u64) -> impl FnMut(u64) -> u64 {
@@ -311,17 +314,18 @@ mod tests {
                 let s = &meshes[*m];
                 for (k, &id) in ids.iter().enumerate() {
                     let r = records[id as usize];
-                    assert_eq!(r.group & SLOT_BITS, slot as u32, "frame {frame}");
-                    if r.group & HAS_VERTICES_BIT == 0 {
+                    if !r.names_vertices() {
                         assert!(
                             s.vertices().is_empty(),
                             "frame {frame}: {slot} lost its vertices"
                         );
                         continue;
                     }
-                    let two = r.group & TWO_SETS_BIT != 0;
+                    let two = r.has_two_uv_sets();
                     assert_eq!(two, *second && s.has_second_uv_set(), "frame {frame}");
-                    let at = |c: usize, second: u32| pooled[(r.corners[c] + second) as usize];
+                    assert_eq!(r.has_normals(), !s.vertices().normals.is_empty());
+                    let corners = r.vertex_records();
+                    let at = |c: usize, second: u32| pooled[(corners[c] + second) as usize];
                     for c in 0..3 {
                         let v = at(c, 0);
                         assert_eq!(Some(v.normal), s.normals(k).map(|n| n[c]).or(Some(0)));

@@ -895,10 +895,10 @@ pub fn pool_bytes(
     pool: &treelight_bvh::PositionPool,
     runs: &treelight_bvh::PositionChanges,
 ) -> [Vec<u8>; 2] {
-    let mut positions = vec![[0f32; 4]; pool.end() as usize];
+    let mut positions = vec![treelight_bvh::GpuPosition::default(); pool.end() as usize];
     for &(first, source) in &runs.runs {
-        for (k, p) in pool.positions(bvh, source).iter().enumerate() {
-            positions[first as usize + k] = p.extend(1.0).to_array();
+        for (k, &p) in pool.positions(bvh, source).iter().enumerate() {
+            positions[first as usize + k] = treelight_bvh::GpuPosition::new(p, source);
         }
     }
     let triangles = (0..bvh.triangle_capacity())

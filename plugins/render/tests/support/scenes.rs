@@ -99,7 +99,7 @@ impl Scene {
         self.shading.reserve_triangles(self.bvh.triangle_capacity());
         for (k, id) in self.bvh.group_triangles(g).unwrap().iter().enumerate() {
             let (_, n, uv) = tris[k];
-            let record = finish(k, attribute_record(n, Some(uv), g.index()));
+            let record = finish(k, attribute_record(n, Some(uv)));
             self.shading.put(id, &record);
         }
         let need = self.bvh.group_slots() as usize * OBJECT_BYTES as usize;
