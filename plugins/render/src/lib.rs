@@ -65,8 +65,9 @@ pub use types::records::{
     object_bytes, outline_words, set_outline, temporal_bytes,
 };
 pub use types::shading::{
-    ATTRIBUTE_BYTES, CornerShading, GpuAttribute, GpuShadingVertex, SHADING_VERTEX_BYTES,
-    ShadingBuffers, VertexLayout, attribute_record, shading_record, vertex_records,
+    ATTRIBUTE_BYTES, CornerShading, GpuAttribute, GpuShadingVertex, MAX_SHADING_VERTEX_RECORDS,
+    SHADING_VERTEX_BYTES, ShadingBuffers, VertexLayout, attribute_record, shading_record,
+    vertex_records,
 };
 pub use types::upload::{
     BufferKind, BufferWrite, Layouts, POSITION_BYTES, TRIANGLE_BYTES, UploadPlan, Writes,

@@ -349,4 +349,32 @@ mod tests {
         pool.end_pass();
         assert_eq!((pool.end(), pool.live_records()), (0, 0));
     }
+
+    #[test]
+    fn a_run_past_what_a_corner_can_name_is_refused_and_its_group_shades_flat() {
+        let mut next = {
+            let mut random = numbers(7);
+            move |n: u32| random(u64::from(n.max(1))) as u32
+        };
+        let mut pool = ShadingPool::default();
+        // Records up to two short of the corners' reach are taken (the allocator keeps ranges,
+        // not memory).
+        pool.runs.allocate(MAX_SHADING_VERTEX_RECORDS - 2).unwrap();
+        let four = mesh(1, 4, 0b11, 3, &mut next);
+        let two = mesh(2, 2, 0b11, 3, &mut next);
+        pool.begin_pass(2);
+        pool.group(0, Some(&four), false);
+        pool.group(1, Some(&two), false);
+        pool.end_pass();
+        // Four vertices would reach past 2^31: refused, the group's records name no vertices.
+        for k in 0..3 {
+            assert!(!pool.record(0, Some(&four), k).names_vertices());
+        }
+        // Two end exactly at the reach: taken, named without touching the flag bits.
+        let r = pool.record(1, Some(&two), 0);
+        assert!(r.names_vertices() && r.has_normals());
+        for c in r.vertex_records() {
+            assert!((MAX_SHADING_VERTEX_RECORDS - 2..MAX_SHADING_VERTEX_RECORDS).contains(&c));
+        }
+    }
 }
