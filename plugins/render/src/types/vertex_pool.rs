@@ -128,7 +128,8 @@ impl ShadingPool {
     }
 
     /// The shading record of triangle `k` of the group in `slot` with `shading`, naming the
-    /// group's run (the record does not name the group: its first corner's position does). Corners past its vertices name none (never another mesh's).
+    /// group's run (the record does not name the group: its first corner's position does).
+    /// Corners past its vertices name none (never another mesh's).
     pub fn record(&self, slot: u32, shading: Option<&MeshShading>, k: usize) -> GpuAttribute {
         let (Some(shading), Some(Some((first, layout)))) =
             (shading, self.by_slot.get(slot as usize).copied())
