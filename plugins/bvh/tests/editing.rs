@@ -184,13 +184,7 @@ impl Mirror {
             self.tris[t as usize] = bvh.gpu_triangle(t);
         }
         let pc = self.pool.update(bvh, &c);
-        let unwritten = GpuPosition::new(Vec3::NAN, PositionSource::Loose(0));
-        self.positions.resize(self.pool.end() as usize, unwritten);
-        for &(first, source) in &pc.runs {
-            for (k, &p) in self.pool.positions(bvh, source).iter().enumerate() {
-                self.positions[first as usize + k] = GpuPosition::new(p, source);
-            }
-        }
+        self.pool.write_runs(bvh, &pc, &mut self.positions);
         self.indexed
             .resize(c.triangle_capacity as usize, GpuIndexedTriangle::default());
         let ids = c.written_triangles.iter().chain(&c.removed_triangles);

@@ -222,6 +222,21 @@ impl PositionPool {
         }
     }
 
+    /// Writes the runs `changes` names into `pool`, a CPU copy of the whole pool (a renderer's
+    /// mirror, a test's), first growing it to [`Self::end`] records; records it grows by hold NaN
+    /// until a run is written there.
+    pub fn write_runs(&self, bvh: &Bvh, changes: &PositionChanges, pool: &mut Vec<GpuPosition>) {
+        let unwritten = GpuPosition::new(glam::Vec3::NAN, PositionSource::Loose(0));
+        pool.resize(self.end() as usize, unwritten);
+        for &(first, source) in &changes.runs {
+            let run = self.positions(bvh, source);
+            let at = first as usize;
+            for (record, &p) in pool[at..at + run.len()].iter_mut().zip(run) {
+                *record = GpuPosition::new(p, source);
+            }
+        }
+    }
+
     /// Records the runs reach: what the pool's buffer must hold.
     pub fn end(&self) -> u32 {
         self.runs.end()
@@ -282,13 +297,7 @@ mod tests {
         records: &mut Vec<GpuIndexedTriangle>,
         positions: &mut Vec<GpuPosition>,
     ) {
-        let unwritten = GpuPosition::new(Vec3::NAN, PositionSource::Loose(0));
-        positions.resize(pool.end() as usize, unwritten);
-        for &(first, source) in &out.runs {
-            for (k, &p) in pool.positions(bvh, source).iter().enumerate() {
-                positions[first as usize + k] = GpuPosition::new(p, source);
-            }
-        }
+        pool.write_runs(bvh, out, positions);
         records.resize(c.triangle_capacity as usize, GpuIndexedTriangle::default());
         let ids = c.written_triangles.iter().chain(&c.removed_triangles);
         for &t in ids.chain(&out.triangles) {

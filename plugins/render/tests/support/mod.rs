@@ -895,12 +895,8 @@ pub fn pool_bytes(
     pool: &treelight_bvh::PositionPool,
     runs: &treelight_bvh::PositionChanges,
 ) -> [Vec<u8>; 2] {
-    let mut positions = vec![treelight_bvh::GpuPosition::default(); pool.end() as usize];
-    for &(first, source) in &runs.runs {
-        for (k, &p) in pool.positions(bvh, source).iter().enumerate() {
-            positions[first as usize + k] = treelight_bvh::GpuPosition::new(p, source);
-        }
-    }
+    let mut positions = Vec::new();
+    pool.write_runs(bvh, runs, &mut positions);
     let triangles = (0..bvh.triangle_capacity())
         .flat_map(|t| triangle_bytes(&pool.record(bvh, t)))
         .collect();
