@@ -62,10 +62,11 @@ fn tri_record_at(i: u32) -> TriRecord {
     return tris1[i & ((1u << small_part_shift()) - 1u)];
 }
 
-fn position_at(i: u32) -> vec3<f32> {
+// Position record i: the position, then the bits of its run's group slot in w.
+fn position_record_at(i: u32) -> vec4<f32> {
     let part = i >> small_part_shift();
     if part == 0u {
-        return positions[i].xyz;
+        return positions[i];
     }
     let o = i & ((1u << small_part_shift()) - 1u);
     var p: vec4<f32>;
@@ -76,26 +77,17 @@ fn position_at(i: u32) -> vec3<f32> {
         case 4u: { p = positions4[o]; }
         default: { p = positions5[o]; }
     }
-    return p.xyz;
+    return p;
+}
+
+fn position_at(i: u32) -> vec3<f32> {
+    return position_record_at(i).xyz;
 }
 
 // The slot of the group that owns triangle i, which its first corner's position record names
-// (NONE for a triangle outside any group). Apart from position_at, whose loads the traversal's
-// innermost loop makes.
+// (NONE for a triangle outside any group).
 fn triangle_group(i: u32) -> u32 {
-    let c = tri_record_at(i).corners[0];
-    let part = c >> small_part_shift();
-    let o = c & ((1u << small_part_shift()) - 1u);
-    var p: vec4<f32>;
-    switch part {
-        case 0u: { p = positions[o]; }
-        case 1u: { p = positions1[o]; }
-        case 2u: { p = positions2[o]; }
-        case 3u: { p = positions3[o]; }
-        case 4u: { p = positions4[o]; }
-        default: { p = positions5[o]; }
-    }
-    return bitcast<u32>(p.w);
+    return bitcast<u32>(position_record_at(tri_record_at(i).corners[0]).w);
 }
 
 fn tri_at(i: u32) -> Tri {
