@@ -10,7 +10,7 @@ use treelight_bvh::glam::Vec2;
 /// mesh has no such attribute (or one the copy could not read).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShadingVertices {
-    /// Object-space vertex normals, packed ([`encode_normal`](crate::packed::encode_normal));
+    /// Object-space vertex normals, packed ([`encode_normal`](crate::types::packed::encode_normal));
     /// empty when the mesh has none (the renderer then shades flat).
     pub normals: Vec<u32>,
     /// `UV_0`.
@@ -19,7 +19,7 @@ pub struct ShadingVertices {
     pub uvs1: Vec<Vec2>,
     /// Object-space tangents (xyz, and the bitangent's sign in w, as glTF and Bevy's
     /// `ATTRIBUTE_TANGENT` have them), packed
-    /// ([`encode_tangent`](crate::packed::encode_tangent)), so a renderer bends normal maps along
+    /// ([`encode_tangent`](crate::types::packed::encode_tangent)), so a renderer bends normal maps along
     /// the same frame as Bevy's.
     pub tangents: Vec<u32>,
 }
@@ -67,9 +67,9 @@ impl Default for Corners {
     }
 }
 
-/// Per-triangle shading data, in the order of a mesh's triangles ([`MeshGeometry::triangles`](
-/// crate::MeshGeometry::triangles)): what a renderer interpolates at a hit, kept apart from the
-/// triangles because the BVH never needs it. Its vertices are shared: the chunks of a mesh cut
+/// Per-triangle shading data, in the order of a mesh's triangles (`MeshGeometry::triangles`):
+/// what a renderer interpolates at a hit, kept apart from the triangles because the BVH never
+/// needs it. Its vertices are shared: the chunks of a mesh cut
 /// into several groups ([`MeshShading::subset`]) hold the mesh's vertex arrays once.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshShading {
@@ -164,7 +164,7 @@ impl MeshShading {
     }
 
     /// Triangle `k`'s corner tangents, packed by vertex
-    /// ([`encode_tangent`](crate::packed::encode_tangent)).
+    /// ([`encode_tangent`](crate::types::packed::encode_tangent)).
     pub fn vertex_tangents(&self, k: usize) -> Option<[u32; 3]> {
         self.of(k, &self.vertices.tangents)
     }

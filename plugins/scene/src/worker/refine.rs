@@ -3,7 +3,7 @@
 //! Edits stay fast (they insert binned trees at once); the tree improves once the user pauses, and
 //! the worker keeps answering commands meanwhile.
 
-use crate::SceneTree;
+use crate::types::tree::SceneTree;
 use bevy::prelude::Entity;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
@@ -50,7 +50,7 @@ impl Refiner {
         let spawned = std::thread::Builder::new()
             .name("treelight-bvh-refine".into())
             .spawn(move || {
-                crate::priority::lower_current_thread(nice);
+                crate::types::priority::lower_current_thread(nice);
                 for (g, world, transform) in job_rx {
                     let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                         Refinement::build(world.0, world.1, transform)
@@ -58,7 +58,7 @@ impl Refiner {
                     let p = match built {
                         Ok(p) => p,
                         Err(payload) => {
-                            let why = crate::panic_message(&*payload);
+                            let why = crate::types::panics::panic_message(&*payload);
                             bevy::log::error!("background refinement stopped: {why}");
                             *failure.lock().unwrap_or_else(|p| p.into_inner()) = Some(why);
                             return;

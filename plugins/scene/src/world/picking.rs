@@ -1,7 +1,7 @@
 //! A `bevy_picking` backend over the scene BVH: pointer rays hit what the tree holds, so picking
 //! costs a BVH traversal per pointer instead of a test against every mesh.
 
-use crate::SceneBvh;
+use crate::world::scene_bvh::SceneBvh;
 use bevy::camera::visibility::RenderLayers;
 use bevy::picking::Pickable;
 use bevy::picking::PickingSystems;

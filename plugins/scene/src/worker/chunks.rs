@@ -2,7 +2,8 @@
 //! camera first, each a group of the same entity: the preview fills in from the front instead of
 //! waiting for the whole mesh's build.
 
-use crate::{MeshPositions, MeshShading};
+use crate::types::mesh::MeshPositions;
+use crate::types::shading::MeshShading;
 use std::sync::Arc;
 use treelight_bvh::glam::{Affine3A, Vec3};
 use treelight_bvh::{BvhError, MeshPieces, PieceRule, PreparedGroup};
@@ -65,7 +66,7 @@ impl MeshChunks {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ShadingVertices;
+    use crate::types::shading::ShadingVertices;
     use treelight_bvh::glam::Vec2;
 
     const RULE: PieceRule = PieceRule {

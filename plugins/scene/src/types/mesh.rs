@@ -1,7 +1,7 @@
 //! Bevy meshes to engine triangles (object space).
 
-use crate::packed::{encode_normal, encode_tangent};
-use crate::shading::{MeshShading, ShadingVertices};
+use crate::types::packed::{encode_normal, encode_tangent};
+use crate::types::shading::{MeshShading, ShadingVertices};
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use std::fmt;
 use treelight_bvh::Triangle;
@@ -219,7 +219,7 @@ impl GeometryCopy {
     }
 
     /// The whole copy at once, for a thread other than the frame's (an importer's, as it makes the
-    /// asset): what [`SceneBvh::prepare`](crate::SceneBvh::prepare) takes.
+    /// asset): what `SceneBvh::prepare` takes.
     pub fn whole(mesh: &Mesh) -> Result<Self, MeshSkip> {
         let mut copy = Self::sized(mesh, false)?;
         copy.copy(mesh, usize::MAX)?;
@@ -569,7 +569,7 @@ mod tests {
             // A cuboid's vertex normals are its face normals.
             let face = t.normal().normalize();
             for c in g.shading.normals(k).unwrap() {
-                let c = crate::packed::decode_normal(c);
+                let c = crate::types::packed::decode_normal(c);
                 assert!(c.dot(face) > 0.999, "{c} vs {face}");
             }
         }

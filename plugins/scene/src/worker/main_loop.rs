@@ -1,9 +1,11 @@
 //! The background worker that owns the write side of the global tree. Commands arrive over a
 //! channel; bBVHs are built in parallel outside the lock, and the lock is held only to graft them.
 
-use crate::chunks::MeshChunks;
-use crate::refine::Refiner;
-use crate::{GeometryCopy, MeshPositions, MeshShading, SceneStats, SceneTree};
+use crate::types::mesh::{GeometryCopy, MeshPositions};
+use crate::types::shading::MeshShading;
+use crate::types::tree::{SceneStats, SceneTree};
+use crate::worker::chunks::MeshChunks;
+use crate::worker::refine::Refiner;
 use bevy::asset::AssetId;
 use bevy::log::warn;
 use bevy::mesh::Mesh;
@@ -155,7 +157,7 @@ pub(crate) struct WorkerConfig {
     pub idle_updates: IdleUpdates,
     /// Meshes larger than this enter the tree in spatial chunks.
     pub chunks: treelight_bvh::PieceRule,
-    /// Nice steps below the app's threads ([`crate::priority::lower_current_thread`]).
+    /// Nice steps below the app's threads ([`crate::types::priority::lower_current_thread`]).
     pub nice: i32,
 }
 
