@@ -1456,8 +1456,34 @@ fn seed(pixel: u32, n: u32) -> u32 {
     return pcg(pixel ^ pcg(n * 0x9e3779b9u + 0x632be5abu + view.sample_seed * 0x85ebca6bu));
 }
 
+// A preview frame's sample for block q of preview_scale² pixels, overwriting the preview.
+fn trace_preview_block(q: vec2<u32>) {
+    let k = view.preview_scale;
+    let pw = (view.width + k - 1u) / k;
+    let ph = (view.height + k - 1u) / k;
+    if q.x >= pw || q.y >= ph {
+        return;
+    }
+    let block = q.y * pw + q.x;
+    rng_state = pcg(block ^ pcg(view.preview_seed * 0x85ebca6bu + 0x27d4eb2fu));
+    var sub = vec2<f32>(0.5);
+    if jittered() {
+        sub = vec2<f32>(rand(), rand());
+    }
+    let lo = vec2<f32>(q * k);
+    let hi = min(vec2<f32>((q + 1u) * k), vec2<f32>(f32(view.width), f32(view.height)));
+    let value = trace_sample(lo + (hi - lo) * sub);
+    let pixels = view.width * view.height;
+    let at = 2u * pixels + 4u * block;
+    aux[at] = bitcast<u32>(value.r);
+    aux[at + 1u] = bitcast<u32>(value.g);
+    aux[at + 2u] = bitcast<u32>(value.b);
+    aux[at + 3u] = bitcast<u32>(primary_depth);
+    aux[block_objects_start(view.width, view.height) + block] = primary_object;
+}
+
 // One workgroup per tile of the sequence; or, in a preview frame, one invocation per block of
-// preview_scale² pixels, its single sample overwriting the preview.
+// preview_scale² pixels (trace_preview_block).
 @compute @workgroup_size(8, 8, 1)
 fn path_trace(
     @builtin(workgroup_id) group: vec3<u32>,
@@ -1465,29 +1491,7 @@ fn path_trace(
     @builtin(local_invocation_id) local: vec3<u32>,
 ) {
     if view.preview_scale > 0u {
-        let k = view.preview_scale;
-        let pw = (view.width + k - 1u) / k;
-        let ph = (view.height + k - 1u) / k;
-        let q = group.xy * 8u + local.xy;
-        if q.x >= pw || q.y >= ph {
-            return;
-        }
-        let block = q.y * pw + q.x;
-        rng_state = pcg(block ^ pcg(view.preview_seed * 0x85ebca6bu + 0x27d4eb2fu));
-        var sub = vec2<f32>(0.5);
-        if jittered() {
-            sub = vec2<f32>(rand(), rand());
-        }
-        let lo = vec2<f32>(q * k);
-        let hi = min(vec2<f32>((q + 1u) * k), vec2<f32>(f32(view.width), f32(view.height)));
-        let value = trace_sample(lo + (hi - lo) * sub);
-        let pixels = view.width * view.height;
-        let at = 2u * pixels + 4u * block;
-        aux[at] = bitcast<u32>(value.r);
-        aux[at + 1u] = bitcast<u32>(value.g);
-        aux[at + 2u] = bitcast<u32>(value.b);
-        aux[at + 3u] = bitcast<u32>(primary_depth);
-        aux[block_objects_start(view.width, view.height) + block] = primary_object;
+        trace_preview_block(group.xy * 8u + local.xy);
         return;
     }
     let linear = group.y * groups.x + group.x;
