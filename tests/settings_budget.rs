@@ -3,27 +3,12 @@
 //! within seconds and stay within a small memory bound; a file it cannot use is refused with
 //! the reason, and a layout it reads is one egui_dock can draw.
 
-#[path = "../plugins/import/tests/support/counting.rs"]
-mod counting;
-
 use std::time::{Duration, Instant};
 use treelight::editor::workspace::settings::read_settings;
+use treelight_test_support::{Xorshift, counting};
 
 #[global_allocator]
 static ALLOCATOR: counting::Counting = counting::Counting;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 #[test]
 fn mutated_settings_never_panic_hang_or_take_much_memory() {
@@ -32,7 +17,7 @@ fn mutated_settings_never_panic_hang_or_take_much_memory() {
     let path = dir.join("settings.ron");
     treelight::editor::workspace::settings::write_default_settings(&path).unwrap();
     let base = std::fs::read_to_string(&path).unwrap();
-    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    let mut rng = Xorshift(0x2545_F491_4F6C_DD1D);
     let mut read = 0;
     for k in 0..600 {
         let mut bytes = base.clone().into_bytes();
@@ -40,7 +25,7 @@ fn mutated_settings_never_panic_hang_or_take_much_memory() {
             0 => {
                 for _ in 0..1 + rng.below(6) {
                     let at = rng.below(bytes.len());
-                    bytes[at] = rng.next() as u8;
+                    bytes[at] = rng.next_u64() as u8;
                 }
             }
             1 => {

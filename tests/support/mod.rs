@@ -11,12 +11,8 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// A file of the shared test scenes (`../shared/scenes`, beside the repository), by its path there.
-pub fn shared_scene(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes")
-        .join(path)
-}
+#[allow(unused_imports)] // Not every binary that includes this module reads a scene.
+pub use treelight_test_support::shared_scene;
 
 /// A settings folder for editors the tests start, apart from the user's.
 pub fn test_config_dir() -> PathBuf {

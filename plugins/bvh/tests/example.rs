@@ -3,10 +3,8 @@
 
 #[test]
 fn build_and_trace_checks_every_hit_before_and_after_a_move() {
-    let scene = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes/gltf/CesiumMan.glb"
-    );
+    let scene = treelight_test_support::shared_scene("gltf/CesiumMan.glb");
+    let scene = scene.to_str().unwrap();
     let (ok, text) =
         treelight_fence::examples::run_example("treelight_bvh", "build_and_trace", &[scene, "512"]);
     assert!(ok, "{text}");

@@ -39,9 +39,7 @@ const AFTER_FRAMES: usize = 120;
 const REPEATS: usize = 5;
 
 fn shared(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes")
-        .join(rel)
+    treelight_test_support::shared_scene(rel)
 }
 
 fn app() -> App {

@@ -9,7 +9,6 @@ use bevy::math::Ray3d;
 use bevy::prelude::*;
 use proptest::prelude::*;
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::time::{Duration, Instant};
 use treelight_bvh::RayData;
 use treelight_document::edit::command::EditCommand;
@@ -58,8 +57,7 @@ fn app_with_flight_helmet() -> App {
 }
 
 fn flight_helmet_in(mut app: App) -> App {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let path = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let scene = treelight_import::load_scene(&path).expect("FlightHelmet loads");
     let world = app.world_mut();
     let material = world
@@ -687,8 +685,7 @@ fn an_import_keeps_the_file_s_hierarchy_and_undo_keeps_its_source_keys() {
     // A light already there: the import adds none of its own.
     app.world_mut()
         .spawn((PointLight::default(), Transform::default()));
-    let sample =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/CesiumMan.glb");
+    let sample = treelight_test_support::shared_scene("gltf/CesiumMan.glb");
     // A copy of its own, removed once imported: a redo must not need the file again.
     let dir = std::env::temp_dir().join(format!("treelight-test-redo-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -803,8 +800,7 @@ fn a_cancelled_import_leaves_nothing_and_no_step() {
     use treelight_document::import::jobs::CancelImports;
     use treelight_document::import::jobs::TracingImports;
     use treelight_document::import::parse::PendingImports;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let path = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let mut app = importing_app();
     app.update();
     let before = world_state(app.world_mut());

@@ -4,10 +4,8 @@
 #[test]
 fn headless_edit_saves_a_project_with_the_move() {
     use treelight_fence::examples::run_example;
-    let scene = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes/gltf/BoxTextured-glTF/BoxTextured.gltf"
-    );
+    let scene = treelight_test_support::shared_scene("gltf/BoxTextured-glTF/BoxTextured.gltf");
+    let scene = scene.to_str().unwrap();
     let dir = std::env::temp_dir().join(format!("treelight-headless-edit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("box.treelight");

@@ -10,7 +10,7 @@ use treelight_document::scene::notice::Notices;
 
 #[test]
 fn imports_opened_in_one_frame_are_all_made_and_traced() {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf");
+    let scenes = treelight_test_support::shared_scene("gltf");
     let file = scenes.join("BoxTextured-glTF/BoxTextured.gltf");
     let other = scenes.join("Box_Draco.glb");
     let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
@@ -111,8 +111,7 @@ fn imports_opened_in_one_frame_are_all_made_and_traced() {
 #[test]
 fn an_import_past_the_free_memory_waits_for_an_answer_where_the_app_asks() {
     use treelight_document::import::ask::ImportQuestions;
-    let helmet = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let mut app = treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
     // 94,722 triangles need tens of MiB once traced; the app says 1 MiB is free.
     app.insert_resource(ImportQuestions {
@@ -203,7 +202,7 @@ fn an_import_past_the_free_memory_waits_for_an_answer_where_the_app_asks() {
 #[test]
 fn normal_mapped_meshes_get_tangents_and_others_do_not() {
     use bevy::mesh::VertexAttributeValues;
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf");
+    let scenes = treelight_test_support::shared_scene("gltf");
     let import = |file: &Path| {
         let mut app =
             treelight_document::app::headless_app(treelight_scene::SceneBvhConfig::default());
@@ -400,8 +399,7 @@ fn spawned_box_textured(
     name: &str,
     edit: impl Fn(&str) -> String,
 ) -> (std::path::PathBuf, treelight_import::ImportedScene, App) {
-    let from =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/gltf/BoxTextured-glTF");
+    let from = treelight_test_support::shared_scene("gltf/BoxTextured-glTF");
     let dir = std::env::temp_dir().join(format!("treelight-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for f in std::fs::read_dir(&from).unwrap() {

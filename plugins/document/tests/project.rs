@@ -32,8 +32,7 @@ use treelight_document::values::primitive::Primitive;
 use world::{editor_world, fresh_dir};
 
 fn helmet() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf")
+    treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf")
 }
 
 fn temp(name: &str) -> PathBuf {

@@ -4,13 +4,12 @@
 //! and never allocate past the memory budget; a file too large for the budget is refused
 //! before it is parsed.
 
-#[path = "../../import/tests/support/counting.rs"]
-mod counting;
-
 use std::path::Path;
 use std::time::{Duration, Instant};
 use treelight_document::project::format::read_project;
 use treelight_document::project::script::read_commands;
+use treelight_test_support::Xorshift;
+use treelight_test_support::counting;
 
 #[global_allocator]
 static ALLOCATOR: counting::Counting = counting::Counting;
@@ -20,27 +19,14 @@ static ALLOCATOR: counting::Counting = counting::Counting;
 const BUDGET_MIB: u64 = 64;
 const SLACK: u64 = 8 << 20;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 /// One mutation of `text`.
-fn mutate(text: &str, rng: &mut Rng) -> Vec<u8> {
+fn mutate(text: &str, rng: &mut Xorshift) -> Vec<u8> {
     let mut bytes = text.as_bytes().to_vec();
     match rng.below(6) {
         0 => {
             for _ in 0..1 + rng.below(8) {
                 let at = rng.below(bytes.len());
-                bytes[at] = rng.next() as u8;
+                bytes[at] = rng.next_u64() as u8;
             }
         }
         1 => {
@@ -124,7 +110,7 @@ fn mutated_projects_and_scripts_never_panic_hang_or_pass_the_budget() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(400);
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Xorshift(0x9E37_79B9_7F4A_7C15);
     for k in 0..cases {
         let path = dir.join("case.treelight");
         std::fs::write(&path, mutate(project, &mut rng)).unwrap();

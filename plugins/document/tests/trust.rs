@@ -21,8 +21,7 @@ use treelight_document::values::object::{SceneId, SceneIndex, SceneObject};
 use world::{editor_world, fresh_dir, settle_tree};
 
 fn helmet() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf")
+    treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf")
 }
 
 fn apply(app: &mut App, command: EditCommand) -> Result<(), String> {

@@ -4,12 +4,10 @@
 //! images): each is refused with its file named, or read within its memory budget, as the
 //! counting allocator measures it, and within seconds.
 
-#[path = "support/counting.rs"]
-mod counting;
-
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use treelight_import::{ImportOptions, load_scene_with, read_environment_with};
+use treelight_test_support::counting;
 
 #[global_allocator]
 static ALLOCATOR: counting::Counting = counting::Counting;

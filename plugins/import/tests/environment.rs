@@ -5,6 +5,7 @@
 use image::{DynamicImage, Rgb32FImage};
 use std::path::{Path, PathBuf};
 use treelight_import::{MAX_ENVIRONMENT_WIDTH, coordinates_of, direction_of, read_environment};
+use treelight_test_support::Xorshift;
 
 fn folder(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("treelight-sky-{tag}-{}", std::process::id()));
@@ -160,35 +161,24 @@ fn hostile_panoramas_are_refused_naming_the_file() {
     assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
 }
 
-/// A small generator of mutations (xorshift), seeded so a failure names its case.
-struct Mutator(u64);
+/// A small generator of mutations, seeded so a failure names its case.
+struct Mutator(Xorshift);
 
 impl Mutator {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-
     /// Flips, overwrites, inserts or cuts bytes; header numbers get large values.
     fn damage(&mut self, bytes: &mut Vec<u8>) {
-        for _ in 0..1 + self.below(4) {
-            let at = self.below(bytes.len());
-            match self.below(6) {
-                0 => bytes[at] ^= 1 << self.below(8),
-                1 => bytes[at] = self.next() as u8,
+        for _ in 0..1 + self.0.below(4) {
+            let at = self.0.below(bytes.len());
+            match self.0.below(6) {
+                0 => bytes[at] ^= 1 << self.0.below(8),
+                1 => bytes[at] = self.0.next_u64() as u8,
                 2 => bytes.truncate(at),
                 3 => bytes
                     .splice(at..at, b"99999".iter().copied())
                     .for_each(drop),
                 4 => bytes[at..].iter_mut().take(4).for_each(|b| *b = 0xff),
                 _ => bytes
-                    .splice(at..at, (0..16).map(|_| self.next() as u8))
+                    .splice(at..at, (0..16).map(|_| self.0.next_u64() as u8))
                     .for_each(drop),
             }
             if bytes.is_empty() {
@@ -215,7 +205,9 @@ fn mutated_panoramas_never_panic_and_stay_within_bounds() {
     let mut failures = Vec::new();
     let mut read = 0;
     for k in 0..cases {
-        let mut m = Mutator(0x9e37_79b9_7f4a_7c15 ^ (k as u64 + 1).wrapping_mul(0xff51_afd7));
+        let mut m = Mutator(Xorshift(
+            0x9e37_79b9_7f4a_7c15 ^ (k as u64 + 1).wrapping_mul(0xff51_afd7),
+        ));
         let (name, seed) = &seeds[k % seeds.len()];
         let mut bytes = seed.clone();
         m.damage(&mut bytes);

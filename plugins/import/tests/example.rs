@@ -3,10 +3,8 @@
 #[test]
 fn describe_lists_a_scene_and_names_a_missing_file() {
     use treelight_fence::examples::run_example;
-    let helmet = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
-    );
+    let helmet = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = helmet.to_str().unwrap();
     let (ok, text) = run_example("treelight_import", "describe", &[helmet]);
     assert!(ok, "{text}");
     assert!(text.contains("94722 triangles"), "{text}");

@@ -4,9 +4,7 @@ use std::path::{Path, PathBuf};
 use treelight_import::{ImportedLight, ImportedLightKind, WrapMode, load_scene};
 
 fn scene(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes")
-        .join(rel)
+    treelight_test_support::shared_scene(rel)
 }
 
 #[test]

@@ -9,8 +9,6 @@
 //! `tests/fuzz-regressions.txt` (commit it; the case is made again from the shared scenes, which
 //! are never copied here) and replayed by every later run.
 
-#[path = "support/counting.rs"]
-mod counting;
 mod support;
 
 use serde_json::{Value, json};
@@ -18,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 use treelight_import::{ImportOptions, load_scene_with};
+use treelight_test_support::counting;
 
 /// The last panic's message and place, kept by the test's hook.
 static LAST_PANIC: std::sync::Mutex<String> = std::sync::Mutex::new(String::new());
@@ -36,9 +35,7 @@ const SLACK: u64 = 8 << 20;
 const HANG: Duration = Duration::from_secs(30);
 
 fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes")
-        .join(rel)
+    treelight_test_support::shared_scene(rel)
 }
 
 fn regressions() -> PathBuf {

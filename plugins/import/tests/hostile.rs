@@ -319,8 +319,7 @@ fn a_buffer_is_read_up_to_its_declared_length_and_no_further() {
 
 #[test]
 fn a_file_over_the_memory_budget_is_refused_with_its_name_and_the_figure() {
-    let helmet = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let tight = ImportOptions {
         memory_budget: 4 << 20,
     };

@@ -4,14 +4,13 @@
 
 mod support;
 
-use std::path::Path;
 use support::{Gpu, PinholeView, gpu_hits, hits_on, layout_bytes, pool_bytes};
 use treelight_bvh::glam::{Affine3A, Quat, Vec3};
 use treelight_bvh::{Bvh, BvhConfig, PositionPool, RayData, Triangle, WideRecords};
 use treelight_render::{BufferKind, UploadPlan};
 
 fn sibenik() -> Vec<Triangle> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
+    let path = treelight_test_support::shared_scene("obj/sibenik.obj");
     treelight_import::load_scene(&path)
         .unwrap()
         .world_triangles()

@@ -7,7 +7,6 @@
 
 mod support;
 
-use std::path::Path;
 use support::{
     PinholeView as View, gpu_binary_compressed_hits, gpu_binary_hits, gpu_depth_first_hits,
     gpu_hits, gpu_split_hits, gpu_wide_hits,
@@ -54,7 +53,7 @@ fn every_layout(bvh: &Bvh, view: &View) -> [(&'static str, Vec<u32>); 5] {
 }
 
 fn sibenik() -> Vec<Triangle> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/obj/sibenik.obj");
+    let path = treelight_test_support::shared_scene("obj/sibenik.obj");
     let scene = treelight_import::load_scene(&path).unwrap();
     scene
         .world_triangles()

@@ -10,22 +10,7 @@ use std::time::{Duration, Instant};
 use support::headless_app;
 use treelight_bvh::RayData;
 use treelight_scene::{NotTraced, SceneBvh, SceneBvhConfig, mesh_triangles};
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn f(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, a: f32, b: f32) -> f32 {
-        a + (b - a) * self.f()
-    }
-}
+use treelight_test_support::Xorshift;
 
 fn app(bake_after: Duration) -> App {
     headless_app(SceneBvhConfig {
@@ -98,7 +83,7 @@ fn cast(app: &App, ray: Ray3d) -> Option<treelight_scene::SceneHit> {
 }
 
 fn rays(n: usize, seed: u64) -> Vec<Ray3d> {
-    let mut r = Rng(seed);
+    let mut r = Xorshift(seed);
     (0..n)
         .map(|_| {
             let o = Vec3::new(r.range(-30.0, 30.0), r.range(-30.0, 30.0), 40.0);
@@ -174,7 +159,7 @@ fn random_edits_of_meshes_inserted_in_chunks_match_brute_force() {
 /// Random spawns (some sharing a mesh), despawns and drags, each round checked against brute force
 /// over the ECS; ends with everything despawned. Returns the most groups one entity had.
 fn random_edits(mut app: App, seed: u64) -> usize {
-    let mut r = Rng(seed);
+    let mut r = Xorshift(seed);
     let mut most_groups = 0;
     let shapes: Vec<Handle<Mesh>> = {
         let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
@@ -188,7 +173,7 @@ fn random_edits(mut app: App, seed: u64) -> usize {
     let test_rays = rays(150, 7);
     for round in 0..25 {
         // Spawns, including some that despawn in the same frame.
-        for _ in 0..(r.next() % 6) {
+        for _ in 0..(r.next_u64() % 6) {
             let t = Transform::from_xyz(
                 r.range(-12.0, 12.0),
                 r.range(-12.0, 12.0),
@@ -196,16 +181,16 @@ fn random_edits(mut app: App, seed: u64) -> usize {
             )
             .with_rotation(Quat::from_rotation_y(r.range(0.0, 6.0)))
             .with_scale(Vec3::splat(r.range(0.5, 2.0)));
-            let shape = shapes[(r.next() % 3) as usize].clone();
+            let shape = shapes[(r.next_u64() % 3) as usize].clone();
             let e = app.world_mut().spawn((Mesh3d(shape), t)).id();
-            if r.next().is_multiple_of(7) {
+            if r.next_u64().is_multiple_of(7) {
                 app.world_mut().despawn(e);
             } else {
                 live.push(e);
             }
         }
-        if !live.is_empty() && r.next().is_multiple_of(2) {
-            let e = live.swap_remove((r.next() % live.len() as u64) as usize);
+        if !live.is_empty() && r.next_u64().is_multiple_of(2) {
+            let e = live.swap_remove((r.next_u64() % live.len() as u64) as usize);
             app.world_mut().despawn(e);
         }
         // Moves over a few frames, as a drag would.
@@ -742,10 +727,10 @@ fn traced_in_distance_order() -> bool {
     // Sixteen parts of an assembly (each its own mesh, so nothing is shared), spawned in a
     // scrambled order at distances 7 to 37 from the camera.
     let mut parts: Vec<(Entity, f32)> = Vec::new();
-    let mut r = Rng(0x51ed);
+    let mut r = Xorshift(0x51ed);
     let mut slots: Vec<u32> = (0..16).collect();
     for i in (1..slots.len()).rev() {
-        slots.swap(i, (r.next() % (i as u64 + 1)) as usize);
+        slots.swap(i, (r.next_u64() % (i as u64 + 1)) as usize);
     }
     for k in slots {
         let mesh = app

@@ -31,10 +31,8 @@ fn editor_rows(table: &str) -> Vec<(String, usize, f64, u64, f32, u32)> {
 
 #[test]
 fn the_editor_s_tree_is_measured_over_idle_time_mesh_by_mesh() {
-    let helmet = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes/gltf/FlightHelmet/FlightHelmet.gltf"
-    );
+    let helmet = treelight_test_support::shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
+    let helmet = helmet.to_str().unwrap();
     let table = bench_ok(&[
         "--scene",
         helmet,

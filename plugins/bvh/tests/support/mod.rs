@@ -109,9 +109,7 @@ pub fn assert_hits_match(bvh: &Bvh, rays: &[Ray]) {
 
 /// Loads an OBJ from ../shared/scenes/obj, fan-triangulated in file order.
 pub fn load_obj(name: &str) -> Vec<Triangle> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/obj")
-        .join(name);
+    let path = treelight_test_support::shared_scene(&format!("obj/{name}"));
     let scene = treelight_import::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
     scene
         .world_triangles()
