@@ -6,7 +6,9 @@
 //! that reads set 0 alone draws the material whole. A mesh no map reads the second set of drops it:
 //! neither view would read it, and every copy of it costs memory.
 
-use crate::{ImportedMaterial, ImportedScene, TextureRef};
+use crate::scene::imported::{ImportedMaterial, ImportedScene};
+
+use crate::scene::texture::TextureRef;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -66,7 +68,10 @@ fn exchange_sets(scene: &mut ImportedScene, exchanged: &[bool]) {
         return;
     }
     // One exchanged copy of each vertex data, made once however many meshes place it.
-    let mut copies: HashMap<*const crate::MeshGeometry, Arc<crate::MeshGeometry>> = HashMap::new();
+    let mut copies: HashMap<
+        *const crate::scene::imported::MeshGeometry,
+        Arc<crate::scene::imported::MeshGeometry>,
+    > = HashMap::new();
     let swapped: Vec<bool> = scene
         .meshes
         .iter()
@@ -98,7 +103,7 @@ fn exchange_sets(scene: &mut ImportedScene, exchanged: &[bool]) {
 
 /// Drops the second UV set of each vertex data that no mesh placing it reads through a map.
 fn drop_unread_second_sets(scene: &mut ImportedScene) {
-    let mut read: HashMap<*const crate::MeshGeometry, bool> = HashMap::new();
+    let mut read: HashMap<*const crate::scene::imported::MeshGeometry, bool> = HashMap::new();
     for mesh in &scene.meshes {
         let reads = mesh
             .material
@@ -107,8 +112,10 @@ fn drop_unread_second_sets(scene: &mut ImportedScene) {
         *read.entry(Arc::as_ptr(&mesh.geometry)).or_default() |= reads;
     }
     // Each vertex data taken out of its meshes first, so that it is changed in place, not copied.
-    let mut taken: HashMap<*const crate::MeshGeometry, (Arc<crate::MeshGeometry>, Vec<usize>)> =
-        HashMap::new();
+    let mut taken: HashMap<
+        *const crate::scene::imported::MeshGeometry,
+        (Arc<crate::scene::imported::MeshGeometry>, Vec<usize>),
+    > = HashMap::new();
     for (i, mesh) in scene.meshes.iter_mut().enumerate() {
         let key = Arc::as_ptr(&mesh.geometry);
         if mesh.geometry.uvs1.is_none() || read.get(&key) == Some(&true) {
@@ -132,7 +139,8 @@ fn drop_unread_second_sets(scene: &mut ImportedScene) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{ImportedMesh, MeshGeometry, UV_IDENTITY, WrapMode};
+    use crate::scene::imported::{ImportedMesh, MeshGeometry};
+    use crate::scene::texture::{UV_IDENTITY, WrapMode};
     use glam::Mat4;
 
     /// `geometry` placed at the origin with material `material`.

@@ -1,11 +1,9 @@
 //! OBJ through tobj, polygons fan-triangulated in file order.
 
-use crate::budget::{Budget, ImportOptions};
-use crate::sandbox::open_regular;
-use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MeshGeometry, check_indices,
-    check_positions,
-};
+use crate::files::sandbox::open_regular;
+use crate::scene::imported::{ImportedMaterial, ImportedMesh, ImportedScene, MeshGeometry};
+use crate::types::budget::{Budget, ImportOptions};
+use crate::types::error::{ImportError, check_indices, check_positions};
 use glam::Mat4;
 use std::io::Read;
 use std::path::Path;

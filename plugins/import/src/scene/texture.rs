@@ -2,9 +2,9 @@
 //! images decoded once each to RGBA8, with the sampler's wrap modes. A texture that cannot be used becomes a warning and its material is drawn without it,
 //! so one bad PNG does not cost the user the whole assembly.
 
-use crate::ImportError;
-use crate::budget::Budget;
-use crate::sandbox::read_uri;
+use crate::files::sandbox::read_uri;
+use crate::types::budget::Budget;
+use crate::types::error::ImportError;
 use gltf::texture::WrappingMode;
 use std::collections::HashMap;
 use std::io::Cursor;
@@ -56,15 +56,15 @@ impl std::fmt::Debug for ImportedTexture {
 /// A material's use of a texture.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TextureRef {
-    /// Index into [`crate::ImportedScene::textures`].
+    /// Index into `ImportedScene::textures`.
     pub texture: usize,
     /// Wrap modes along u and v.
     pub wrap: [WrapMode; 2],
     /// The map from the mesh's UVs to the texture's (`KHR_texture_transform`), as the columns of a
     /// 2×3 affine matrix: x axis, y axis, translation. The identity without the extension.
     pub uv_transform: [[f32; 2]; 3],
-    /// The set of texture coordinates it reads: 0 ([`crate::MeshGeometry::uvs`]) or 1
-    /// ([`crate::MeshGeometry::uvs1`]).
+    /// The set of texture coordinates it reads: 0 (`MeshGeometry::uvs`) or 1
+    /// (`MeshGeometry::uvs1`).
     pub tex_coord: u32,
 }
 

@@ -4,7 +4,7 @@
 //! which decoded whole would take gigabytes). The header and both run-length encodings of the
 //! format are read as Greg Ward's `color.c` writes them.
 
-use crate::ImportError;
+use crate::types::error::ImportError;
 use std::io::{BufRead, Read};
 use std::path::Path;
 

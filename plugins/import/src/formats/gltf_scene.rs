@@ -1,14 +1,15 @@
 //! glTF 2.0 (.gltf with external or embedded buffers, and .glb).
 
-use crate::budget::{Budget, ImportOptions};
-use crate::gltf_compressed::{self, read_floats};
-use crate::material::MaterialReader;
-use crate::sandbox::{read_scene_file, read_uri};
-use crate::texture::ImageCache;
-use crate::{
-    ImportError, ImportedCamera, ImportedLight, ImportedLightKind, ImportedMaterial, ImportedMesh,
-    ImportedNode, ImportedScene, MAX_ELEMENTS, MeshGeometry, check_indices, check_positions,
+use crate::files::sandbox::{read_scene_file, read_uri};
+use crate::formats::gltf_compressed::{self, read_floats};
+use crate::formats::material::MaterialReader;
+use crate::scene::imported::{
+    ImportedCamera, ImportedLight, ImportedLightKind, ImportedMaterial, ImportedMesh, ImportedNode,
+    ImportedScene, MeshGeometry,
 };
+use crate::scene::texture::ImageCache;
+use crate::types::budget::{Budget, ImportOptions};
+use crate::types::error::{ImportError, MAX_ELEMENTS, check_indices, check_positions};
 use glam::Mat4;
 use gltf::Semantic;
 use gltf::accessor::{DataType, Dimensions};
@@ -133,7 +134,7 @@ pub(crate) fn read_gltf(path: &Path, budget: &mut Budget) -> Result<ImportedScen
     if meshes.used_default {
         scene.materials.push(ImportedMaterial::default());
     }
-    crate::uv_sets::first_set_for_tracing(&mut scene);
+    crate::scene::uv_sets::first_set_for_tracing(&mut scene);
     Ok(scene)
 }
 

@@ -2,8 +2,8 @@
 //! files beside it), and how much of a file is read, so that opening a file never reads anything
 //! outside what the user opened, never blocks on a pipe and never reads a device without end.
 
-use crate::ImportError;
-use crate::budget::Budget;
+use crate::types::budget::Budget;
+use crate::types::error::ImportError;
 use base64::Engine;
 use std::fs::File;
 use std::io::Read;

@@ -1,12 +1,10 @@
 //! PLY, the format scanners write (ASCII or binary): vertex positions, and normals and texture
 //! coordinates when every vertex has them; polygons fan-triangulated in file order.
 
-use crate::budget::{Budget, ImportOptions};
-use crate::sandbox::open_regular;
-use crate::{
-    ImportError, ImportedMaterial, ImportedMesh, ImportedScene, MAX_ELEMENTS, MeshGeometry,
-    check_indices, check_positions,
-};
+use crate::files::sandbox::open_regular;
+use crate::scene::imported::{ImportedMaterial, ImportedMesh, ImportedScene, MeshGeometry};
+use crate::types::budget::{Budget, ImportOptions};
+use crate::types::error::{ImportError, MAX_ELEMENTS, check_indices, check_positions};
 use glam::Mat4;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, Property, PropertyAccess, PropertyAccessResult};

@@ -3,9 +3,11 @@
 //! nearest valid one (or the default) with a warning naming the material, so a hostile file cannot
 //! put a NaN into the renderer.
 
-use crate::budget::Budget;
-use crate::texture::{ImageCache, UV_IDENTITY, uv_transform};
-use crate::{ImportError, ImportedAlphaMode, ImportedMaterial, ImportedTexture, TextureRef};
+use crate::scene::imported::{ImportedAlphaMode, ImportedMaterial};
+use crate::scene::texture::{ImageCache, UV_IDENTITY, uv_transform};
+use crate::scene::texture::{ImportedTexture, TextureRef};
+use crate::types::budget::Budget;
+use crate::types::error::ImportError;
 use gltf::json::Value;
 use std::path::Path;
 

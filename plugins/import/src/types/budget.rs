@@ -1,7 +1,7 @@
 //! One import's memory budget: every large allocation a reader makes is charged here first, so a
 //! small file that claims gigabytes is refused with the figure before the memory is asked for.
 
-use crate::ImportError;
+use crate::types::error::ImportError;
 use std::path::Path;
 
 /// The variable that overrides the default budget, in MiB.

@@ -3,10 +3,10 @@
 //! file, a bounded size, the header's dimensions before any pixel is decoded), and what is kept is
 //! at most [`MAX_ENVIRONMENT_WIDTH`] wide: larger panoramas are box-filtered down.
 
-use crate::ImportError;
-use crate::budget::{Budget, ImportOptions};
-use crate::sandbox::{open_regular, read_at_most};
-use crate::texture::decode_limits;
+use crate::files::sandbox::{open_regular, read_at_most};
+use crate::scene::texture::decode_limits;
+use crate::types::budget::{Budget, ImportOptions};
+use crate::types::error::ImportError;
 use std::io::Cursor;
 use std::path::Path;
 
@@ -104,7 +104,7 @@ pub fn read_environment_with(
 }
 
 /// A Radiance panorama, read a scanline at a time and shrunk to the width the sky keeps as it is
-/// read ([`crate::radiance`]): only the kept image is charged and held, whatever size the file
+/// read ([`super::radiance`]): only the kept image is charged and held, whatever size the file
 /// declares.
 fn read_radiance(
     path: &Path,
@@ -114,7 +114,7 @@ fn read_radiance(
 ) -> Result<EnvironmentImage, ImportError> {
     use std::io::Read;
     let mut r = std::io::BufReader::new(handle.take(len));
-    let (width, height) = crate::radiance::read_header(&mut r, path)?;
+    let (width, height) = crate::environment::radiance::read_header(&mut r, path)?;
     if width > MAX_ENVIRONMENT_SIDE || height > MAX_ENVIRONMENT_SIDE {
         return Err(ImportError::new(
             path,
@@ -133,7 +133,12 @@ fn read_radiance(
     budget.charge(texels * (24 + 4 + 12) + u64::from(width) * 4, || {
         format!("its {width}×{height} pixels, kept as {}×{}", kept.0, kept.1)
     })?;
-    let image = crate::radiance::read_shrunk(&mut r, path, (width, height), MAX_ENVIRONMENT_WIDTH)?;
+    let image = crate::environment::radiance::read_shrunk(
+        &mut r,
+        path,
+        (width, height),
+        MAX_ENVIRONMENT_WIDTH,
+    )?;
     let mut warnings = Vec::new();
     if width != 2 * height {
         warnings.push(format!(

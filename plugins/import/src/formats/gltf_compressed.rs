@@ -3,8 +3,8 @@
 //! decoder), `KHR_mesh_quantization` (vertex attributes stored as normalized or plain integers) and
 //! `KHR_draco_mesh_compression` (a primitive's geometry as one Draco stream).
 
-use crate::budget::Budget;
-use crate::{ImportError, MAX_ELEMENTS};
+use crate::types::budget::Budget;
+use crate::types::error::{ImportError, MAX_ELEMENTS};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::json::Value;
 use std::path::Path;

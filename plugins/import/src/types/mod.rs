@@ -1,0 +1,4 @@
+//! Errors and the memory budget every reader charges.
+
+pub(crate) mod budget;
+pub(crate) mod error;
