@@ -4,3 +4,4 @@
 pub(crate) mod chunks;
 pub(crate) mod main_loop;
 pub(crate) mod refine;
+pub(crate) mod start;

@@ -1,6 +1,7 @@
 //! The resource apps read: the tree as the worker last published it, its figures, picking, and
 //! what the main thread has sent the worker and is still copying.
 
+use crate::types::config::SceneBvhConfig;
 use crate::types::hit::{SceneHit, cast_on_filtered};
 use crate::types::mesh::GeometryCopy;
 use crate::types::tree::{SceneChanges, SceneStats, SceneTree};
@@ -87,6 +88,38 @@ pub(crate) struct MeshCopy {
 pub(crate) const COPY_CHUNK: usize = 16 * 1024;
 
 impl SceneBvh {
+    /// The resource for a worker just started (`start_worker`), nothing sent to it yet.
+    pub(crate) fn new(
+        shared: Arc<Shared>,
+        commands: Sender<Command>,
+        config: &SceneBvhConfig,
+    ) -> Self {
+        Self {
+            shared,
+            sender: Mutex::new(commands),
+            version: 0,
+            stats: SceneStats::default(),
+            waiting: HashMap::new(),
+            traced: HashSet::new(),
+            degenerate: HashSet::new(),
+            copying: HashMap::new(),
+            sent_mesh: HashMap::new(),
+            mesh_senders: HashMap::new(),
+            followers: HashMap::new(),
+            orphans: Vec::new(),
+            copy_order: Vec::new(),
+            eye: None,
+            budget: config.main_thread_budget,
+            share: config.main_thread_share,
+            last_frame: Duration::ZERO,
+            prepared: HashMap::new(),
+            handed_over: 0,
+            release: config.release_traced_meshes,
+            to_release: Vec::new(),
+            released: 0,
+        }
+    }
+
     /// Hands over a whole copy of `mesh`'s arrays ([`GeometryCopy::whole`]), made elsewhere from
     /// the same asset (an importer can make it on its own thread as it makes the asset): the first
     /// entity showing `mesh` that is traced sends it to the worker in the frame it is seen,
