@@ -19,7 +19,7 @@ use treelight_bvh::GroupId;
 #[derive(Resource)]
 pub struct SceneBvh {
     pub(crate) shared: Arc<Shared>,
-    pub(crate) sender: Mutex<Sender<Command>>,
+    sender: Mutex<Sender<Command>>,
     pub(crate) version: u64,
     pub(crate) stats: SceneStats,
     /// Entities whose mesh asset has not loaded yet, by asset.
