@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Free runs and the end of the pool, in records.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct RunAllocator {
     /// Free runs by start, with their lengths.
     by_start: BTreeMap<u32, u32>,
@@ -14,11 +14,31 @@ pub struct RunAllocator {
     by_len: BTreeSet<(u32, u32)>,
     /// One past the last record any run in use or free covers.
     end: u32,
+    /// The records no run may reach past (what the pool's readers can name).
+    limit: u32,
+}
+
+impl Default for RunAllocator {
+    /// A pool whose runs may reach `u32::MAX` records.
+    fn default() -> Self {
+        Self::with_limit(u32::MAX)
+    }
 }
 
 impl RunAllocator {
+    /// An empty pool whose runs never reach past `limit` records (a record number its readers
+    /// cannot name is never handed out).
+    pub fn with_limit(limit: u32) -> Self {
+        Self {
+            by_start: BTreeMap::new(),
+            by_len: BTreeSet::new(),
+            end: 0,
+            limit,
+        }
+    }
+
     /// The start of a run of `len` records (a free one that holds it, or new ones at the end);
-    /// `None` when the pool's record numbers would pass `u32`.
+    /// `None` when the run would reach past the pool's limit.
     pub fn allocate(&mut self, len: u32) -> Option<u32> {
         if len == 0 {
             return Some(0);
@@ -32,7 +52,7 @@ impl RunAllocator {
             return Some(start);
         }
         let start = self.end;
-        self.end = self.end.checked_add(len)?;
+        self.end = self.end.checked_add(len).filter(|&end| end <= self.limit)?;
         Some(start)
     }
 
@@ -148,5 +168,21 @@ mod tests {
         assert_eq!(pool.allocate(5), Some(runs[4]), "the six, not the ten");
         assert_eq!(pool.allocate(4), Some(runs[2]));
         assert_eq!(pool.allocate(u32::MAX), None, "past u32");
+    }
+
+    #[test]
+    fn no_run_reaches_past_the_limit() {
+        let mut pool = RunAllocator::with_limit(10);
+        let a = pool.allocate(6).unwrap();
+        assert_eq!(pool.allocate(5), None, "6 + 5 records pass 10");
+        assert_eq!(pool.end(), 6, "a refused run leaves the pool as it was");
+        assert_eq!(pool.allocate(4), Some(6), "up to the limit exactly");
+        pool.free(a, 6);
+        assert_eq!(
+            pool.allocate(6),
+            Some(0),
+            "a free run below the limit is taken"
+        );
+        assert_eq!(pool.allocate(1), None);
     }
 }

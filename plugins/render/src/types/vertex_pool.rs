@@ -16,8 +16,8 @@ use treelight_scene::{MeshShading, ShadingVertices};
 /// [`ShadingPool::end_pass`]); the runs made in a pass are written by
 /// [`ShadingPool::write_new_vertices`], and each triangle's record names its group's run
 /// ([`ShadingPool::record`]).
-#[derive(Default)]
 pub struct ShadingPool {
+    /// Never past the records a shading record's corner can name.
     runs: RunAllocator,
     /// By the arrays' address and the layout. The run holds the arrays, so the address is not
     /// reused while it lives.
@@ -28,6 +28,18 @@ pub struct ShadingPool {
     by_slot: Vec<Option<(u32, VertexLayout)>>,
     /// Runs made this pass, whose vertices are still to be written.
     fresh: Vec<(u32, VertexLayout, Arc<ShadingVertices>)>,
+}
+
+impl Default for ShadingPool {
+    fn default() -> Self {
+        Self {
+            runs: RunAllocator::with_limit(MAX_SHADING_VERTEX_RECORDS),
+            meshes: HashMap::new(),
+            pass: 0,
+            by_slot: Vec::new(),
+            fresh: Vec::new(),
+        }
+    }
 }
 
 /// One mesh's run.
@@ -78,10 +90,6 @@ impl ShadingPool {
         }
         let len = u32::try_from(vertices.len() as u64 * u64::from(layout.stride())).ok()?;
         let first = self.runs.allocate(len)?;
-        if u64::from(first) + u64::from(len) > u64::from(MAX_SHADING_VERTEX_RECORDS) {
-            self.runs.free(first, len);
-            return None;
-        }
         self.meshes.insert(
             key,
             MeshRun {
