@@ -42,6 +42,17 @@ struct Attr {
 // Bit 31 of each corner of a shading record: a flag (ShadingRecord); the bits below, its record.
 const CORNER_FLAG: u32 = 0x80000000u;
 
+// Whether a shading record's corners name vertices (its first corner's flag).
+fn record_names_vertices(r: ShadingRecord) -> bool {
+    return (r.corners[0] & CORNER_FLAG) != 0u;
+}
+
+// Whether each of a shading record's corners takes two pool records, the second holding the second
+// UV set (its third corner's flag).
+fn record_has_two_uv_sets(r: ShadingRecord) -> bool {
+    return (r.corners[2] & CORNER_FLAG) != 0u;
+}
+
 // The first pool record of each of a shading record's corners.
 fn corner_records(r: ShadingRecord) -> vec3<u32> {
     return vec3<u32>(r.corners[0], r.corners[1], r.corners[2]) & vec3<u32>(~CORNER_FLAG);
@@ -51,11 +62,11 @@ fn corner_records(r: ShadingRecord) -> vec3<u32> {
 fn attr_at(i: u32) -> Attr {
     let r = shading_record_at(i);
     var a: Attr;
-    if (r.corners[0] & CORNER_FLAG) == 0u {
+    if !record_names_vertices(r) {
         return a;
     }
     a.flags = select(0u, HAS_NORMALS, (r.corners[1] & CORNER_FLAG) != 0u)
-        | select(0u, TWO_UV_SETS, (r.corners[2] & CORNER_FLAG) != 0u);
+        | select(0u, TWO_UV_SETS, record_has_two_uv_sets(r));
     let c = corner_records(r);
     let v0 = shading_vertex_at(c.x);
     let v1 = shading_vertex_at(c.y);
@@ -74,10 +85,10 @@ fn attr_at(i: u32) -> Attr {
 // alone: what a mask or an emission map needs of a candidate hit.
 fn corner_uvs_at(i: u32, uv_set: u32) -> array<vec2<f32>, 3> {
     let r = shading_record_at(i);
-    if (r.corners[0] & CORNER_FLAG) == 0u {
+    if !record_names_vertices(r) {
         return array<vec2<f32>, 3>(vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0));
     }
-    let second = select(0u, 1u, uv_set == 1u && (r.corners[2] & CORNER_FLAG) != 0u);
+    let second = select(0u, 1u, uv_set == 1u && record_has_two_uv_sets(r));
     let c = corner_records(r);
     return array<vec2<f32>, 3>(
         shading_vertex_at(c.x + second).uv,
