@@ -18,7 +18,7 @@ use bevy::render::render_resource::{
     TextureAspect, TextureDescriptor, TextureDimension, TextureFormat, TextureId,
     TextureSampleType, TextureUsages, TextureView, TextureViewDescriptor, TextureViewDimension,
 };
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
 use bevy::render::texture::GpuImage;
 use bevy::render::{Render, RenderStartup, RenderSystems};
 use std::collections::HashMap;
@@ -57,6 +57,25 @@ pub fn layer_side_for(count: u32, device_layers: u32) -> Option<u32> {
     None
 }
 
+/// Layers to make the array with when `wanted` are in use and it held `held`: at least twice what it
+/// held (layers added one at a time then copy the array seldom), never more than `max`. With
+/// `arrays_in_powers_of_two`, at least two and a power of two (where `max` allows).
+///
+/// A software adapter compiles the trace kernel anew for each state of the textures it samples,
+/// and llvmpipe's takes in whether an array has one layer or more and whether their count is a
+/// power of two (a kernel compiled for one layer was compiled again for eight, one for three served
+/// five). Counted so, the array keeps the state the kernel was warmed up for at the start, empty,
+/// when a scene's textures come in: one compile of the kernel, where a second took half a minute.
+pub fn layer_capacity(wanted: u32, held: u32, max: u32, arrays_in_powers_of_two: bool) -> u32 {
+    let n = wanted.max(held.saturating_mul(2)).max(1);
+    let n = if arrays_in_powers_of_two {
+        n.max(2).checked_next_power_of_two().unwrap_or(n)
+    } else {
+        n
+    };
+    n.min(max)
+}
+
 const LAYER_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 
 pub(crate) fn build(render_app: &mut SubApp) {
@@ -85,11 +104,16 @@ pub(crate) struct TextureLayers {
     pub view: TextureView,
     /// Bilinear, clamped: the kernel wraps coordinates itself, per material.
     pub sampler: Sampler,
+    /// Layers of `side` texels the array holds (0 until the first image: the array is then a
+    /// stand-in of one texel a side, as few layers as [`layer_capacity`] allows).
     capacity: u32,
     /// The side of the layers, in texels ([`layer_side_for`] the images in use).
     side: u32,
     /// Layers the device allows in one array.
     device_layers: u32,
+    /// Whether the array has two layers or more, counted in powers of two ([`layer_capacity`]):
+    /// on a software adapter.
+    power_of_two: bool,
     /// The layers are to be made again at `side` (every image copied anew).
     resize: bool,
     slots: HashMap<AssetId<Image>, Slot>,
@@ -145,11 +169,18 @@ pub(crate) fn sampler_descriptor() -> SamplerDescriptor<'static> {
 fn init_texture_layers(
     mut commands: Commands,
     device: Res<RenderDevice>,
+    adapter: Res<RenderAdapterInfo>,
     shaders: Res<PathTracerShaders>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let (texture, view) = array_texture(&device, TEXTURE_LAYER_SIZE, 1);
     let device_layers = device.limits().max_texture_array_layers;
+    let power_of_two = adapter.device_type == wgpu::DeviceType::Cpu;
+    // Nothing to hold yet: a texel a side, in the state the array keeps once it holds images.
+    let (texture, view) = array_texture(
+        &device,
+        1,
+        layer_capacity(0, 0, device_layers, power_of_two),
+    );
     let sampler = device.create_sampler(&sampler_descriptor());
     let copy_layout = BindGroupLayoutDescriptor::new(
         "treelight texture layer copy",
@@ -172,9 +203,10 @@ fn init_texture_layers(
         texture,
         view,
         sampler,
-        capacity: 1,
+        capacity: 0,
         side: TEXTURE_LAYER_SIZE,
         device_layers,
+        power_of_two,
         resize: false,
         slots: HashMap::new(),
         free: Vec::new(),
@@ -312,7 +344,7 @@ pub(crate) fn fill_texture_layers(
     let layers = &mut *layers;
     if layers.resize {
         // Made again at the new side; every image is copied into it anew below.
-        let capacity = layers.next.max(1);
+        let capacity = layer_capacity(layers.next, 0, layers.max_layers(), layers.power_of_two);
         let (texture, view) = array_texture(&device, layers.side, capacity);
         layers.texture = texture;
         layers.view = view;
@@ -344,20 +376,25 @@ pub(crate) fn fill_texture_layers(
         label: Some("treelight texture layers"),
     });
     if grow {
-        let capacity = (layers.capacity * 2)
-            .max(layers.next)
-            .min(layers.max_layers());
-        let (texture, view) = array_texture(&device, layers.side, capacity);
-        // Keep the layers already filled.
-        encoder.copy_texture_to_texture(
-            texel_copy(&layers.texture),
-            texel_copy(&texture),
-            Extent3d {
-                width: layers.side,
-                height: layers.side,
-                depth_or_array_layers: layers.capacity,
-            },
+        let capacity = layer_capacity(
+            layers.next,
+            layers.capacity,
+            layers.max_layers(),
+            layers.power_of_two,
         );
+        let (texture, view) = array_texture(&device, layers.side, capacity);
+        // Keep the layers already filled (none in the first array's stand-in).
+        if layers.capacity > 0 {
+            encoder.copy_texture_to_texture(
+                texel_copy(&layers.texture),
+                texel_copy(&texture),
+                Extent3d {
+                    width: layers.side,
+                    height: layers.side,
+                    depth_or_array_layers: layers.capacity,
+                },
+            );
+        }
         layers.texture = texture;
         layers.view = view;
         layers.capacity = capacity;
@@ -438,5 +475,25 @@ mod tests {
         assert_eq!(layer_side_for(4096, 65536), Some(256));
         assert_eq!(layer_side_for(1 << 14, 1 << 20), Some(128));
         assert_eq!(layer_side_for((1 << 14) + 1, 1 << 20), None);
+    }
+
+    #[test]
+    fn layers_grow_by_doubling_and_in_powers_of_two_on_a_software_adapter() {
+        // Five images into an array of one: five layers, or eight counted in powers of two.
+        assert_eq!(layer_capacity(5, 1, 256, false), 5);
+        assert_eq!(layer_capacity(5, 1, 256, true), 8);
+        // One more image than four layers hold: twice the four either way.
+        assert_eq!(layer_capacity(5, 4, 256, false), 8);
+        assert_eq!(layer_capacity(5, 4, 256, true), 8);
+        // Made again at a smaller side (nothing held): what is used, at least one, or two.
+        assert_eq!(layer_capacity(300, 0, 1024, false), 300);
+        assert_eq!(layer_capacity(300, 0, 1024, true), 512);
+        assert_eq!(layer_capacity(0, 0, 1024, false), 1);
+        assert_eq!(layer_capacity(0, 0, 1024, true), 2);
+        assert_eq!(layer_capacity(1, 0, 1024, true), 2, "never one layer");
+        // Never past what the budget and the device hold, even where that is no power of two.
+        assert_eq!(layer_capacity(200, 150, 256, true), 256);
+        assert_eq!(layer_capacity(200, 0, 250, true), 250);
+        assert_eq!(layer_capacity(u32::MAX, u32::MAX, u32::MAX, true), u32::MAX);
     }
 }

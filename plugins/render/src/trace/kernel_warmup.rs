@@ -170,19 +170,44 @@ fn init_warmup(
 }
 
 /// What of a bound texture a software adapter compiles into a kernel that samples it (llvmpipe's
-/// static texture state): its format and kind, whether each side and the count of its array's
-/// layers is a power of two, its mip levels. (A stand-in of one layer for an array of five left
-/// the views' device to compile a kernel of its own, on their queue, when a scene's textures came
-/// in.)
+/// static texture state): its format and kind, whether each side is a power of two, its mip
+/// levels, and an array's layers: one, or more and whether their count is a power of two. (A
+/// stand-in of one layer for an array of five left the views' device to compile a kernel of its
+/// own, on their queue, when a scene's textures came in; one of three served five; one of one did
+/// not serve eight. On such an adapter the texture layers are at least two and counted in powers
+/// of two, so a scene's textures keep the state the kernel was warmed up for at the start.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TextureVariant {
     binding: u32,
     format: wgpu::TextureFormat,
     dimension: wgpu::TextureDimension,
     view: Option<wgpu::TextureViewDimension>,
-    /// Width, height, and a 3D texture's depth or an array's layers.
-    power_of_two: [bool; 3],
+    /// Width and height.
+    power_of_two: [bool; 2],
+    /// A 3D texture's depth, or an array's layers.
+    depth: DepthState,
     mip_levels: u32,
+}
+
+/// What of a texture's depth or layer count is in its state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum DepthState {
+    /// One (a 2D texture's, or an array of one layer).
+    One,
+    /// A power of two above one.
+    PowerOfTwo,
+    /// A count no power of two.
+    Other,
+}
+
+impl DepthState {
+    fn of(n: u32) -> Self {
+        match n {
+            1 => Self::One,
+            n if n.is_power_of_two() => Self::PowerOfTwo,
+            _ => Self::Other,
+        }
+    }
 }
 
 impl TextureVariant {
@@ -194,26 +219,29 @@ impl TextureVariant {
         view: Option<wgpu::TextureViewDimension>,
     ) -> Self {
         let size = texture.size;
-        let depth = size.depth_or_array_layers;
         Self {
             binding,
             format: texture.format,
             dimension: texture.dimension,
             view,
-            power_of_two: [size.width, size.height, depth].map(u32::is_power_of_two),
+            power_of_two: [size.width, size.height].map(u32::is_power_of_two),
+            depth: DepthState::of(size.depth_or_array_layers),
             mip_levels: texture.mip_level_count,
         }
     }
 
     /// The smallest texture of this state: sides of 2^(levels-1) texels where a power of two,
-    /// one more (at least 3) where not; one layer, or three where the count is no power of two.
+    /// one more (at least 3) where not; a 3D texture's depth the same way; one layer, two, or three
+    /// where the count is no power of two.
     fn stand_in(&self) -> (TextureDescriptor<'static>, TextureViewDescriptor<'static>) {
         let base = 1u32 << self.mip_levels.clamp(1, 16).saturating_sub(1);
         let side = |pot: bool| if pot { base } else { (base + 1).max(3) };
-        let depth = match self.dimension {
-            wgpu::TextureDimension::D3 => side(self.power_of_two[2]),
-            _ if self.power_of_two[2] => 1,
-            _ => 3,
+        let depth = match (self.dimension, self.depth) {
+            (wgpu::TextureDimension::D3, DepthState::One) => 1,
+            (wgpu::TextureDimension::D3, d) => side(d == DepthState::PowerOfTwo).max(2),
+            (_, DepthState::One) => 1,
+            (_, DepthState::PowerOfTwo) => 2,
+            (_, DepthState::Other) => 3,
         };
         (
             TextureDescriptor {
@@ -646,9 +674,9 @@ mod tests {
         ]
     }
 
-    /// A texture's state keeps what the driver compiles in (sides and layer counts a power of two
-    /// or not, mip levels, format) and drops its size, and its stand-in is a texture of the same
-    /// state.
+    /// A texture's state keeps what the driver compiles in (sides a power of two or not, layers one
+    /// or a power of two or neither, mip levels, format) and drops its size, and its stand-in is a
+    /// texture of the same state.
     #[test]
     fn textures_of_one_state_share_a_stand_in_of_that_state() {
         use wgpu::TextureDimension::{D2, D3};
@@ -666,6 +694,8 @@ mod tests {
             (texture([2, 2, 1], 2, D2, Rgba8Unorm), None),
             (texture([1024, 1024, 64], 1, D2, Rgba8Unorm), array),
             (texture([1024, 1024, 1], 1, D2, Rgba8Unorm), array),
+            (texture([8, 8, 4], 4, D3, Rgba8Unorm), None),
+            (texture([4, 4, 1], 3, D3, Rgba8Unorm), None),
         ];
         for (t, view) in &cases {
             let state = TextureVariant::of(6, t, *view);
@@ -690,7 +720,11 @@ mod tests {
             of(9),
             "sizes, and layer counts that are powers of two alike, are not part of it"
         );
-        assert_eq!(of(9), of(10), "one layer is a power of two");
+        assert_ne!(
+            of(9),
+            of(10),
+            "one layer is not an array of a power of two of them"
+        );
         assert_ne!(
             of(0),
             of(1),
