@@ -718,9 +718,10 @@ fn a_textured_scene_s_first_start_keeps_its_frames_going_until_its_first_sample(
     // one layer, and FlightHelmet's base colours in five made the views' own device compile it
     // again at their first dispatch, on their queue: the window stood still for half a minute
     // after the status said the kernel was ready. The warm-up now compiles it for the textures
-    // bound, the view waits for that, and the frames go on. And with the layers counted in
-    // powers of two on such an adapter, the five keep the state the warm-up at the start compiled
-    // for (an array of one): one compile, where a second one took another half minute.
+    // bound, the view waits for that, and the frames go on. And with the layers at least two and
+    // counted in powers of two on such an adapter, the five (in eight) keep the state the warm-up
+    // at the start compiled for (the empty array's two): one compile, where a second one took
+    // another half minute.
     let helmet = shared_scene("gltf/FlightHelmet/FlightHelmet.gltf");
     let (s, dir) = start_with_a_cold_shader_cache(
         "textured-cold-start",

@@ -113,7 +113,7 @@ pub(crate) struct TextureLayers {
     device_layers: u32,
     /// Whether the array has two layers or more, counted in powers of two ([`layer_capacity`]):
     /// on a software adapter.
-    power_of_two: bool,
+    arrays_in_powers_of_two: bool,
     /// The layers are to be made again at `side` (every image copied anew).
     resize: bool,
     slots: HashMap<AssetId<Image>, Slot>,
@@ -174,12 +174,12 @@ fn init_texture_layers(
     pipeline_cache: Res<PipelineCache>,
 ) {
     let device_layers = device.limits().max_texture_array_layers;
-    let power_of_two = adapter.device_type == wgpu::DeviceType::Cpu;
+    let arrays_in_powers_of_two = adapter.device_type == wgpu::DeviceType::Cpu;
     // Nothing to hold yet: a texel a side, in the state the array keeps once it holds images.
     let (texture, view) = array_texture(
         &device,
         1,
-        layer_capacity(0, 0, device_layers, power_of_two),
+        layer_capacity(0, 0, device_layers, arrays_in_powers_of_two),
     );
     let sampler = device.create_sampler(&sampler_descriptor());
     let copy_layout = BindGroupLayoutDescriptor::new(
@@ -206,7 +206,7 @@ fn init_texture_layers(
         capacity: 0,
         side: TEXTURE_LAYER_SIZE,
         device_layers,
-        power_of_two,
+        arrays_in_powers_of_two,
         resize: false,
         slots: HashMap::new(),
         free: Vec::new(),
@@ -344,7 +344,12 @@ pub(crate) fn fill_texture_layers(
     let layers = &mut *layers;
     if layers.resize {
         // Made again at the new side; every image is copied into it anew below.
-        let capacity = layer_capacity(layers.next, 0, layers.max_layers(), layers.power_of_two);
+        let capacity = layer_capacity(
+            layers.next,
+            0,
+            layers.max_layers(),
+            layers.arrays_in_powers_of_two,
+        );
         let (texture, view) = array_texture(&device, layers.side, capacity);
         layers.texture = texture;
         layers.view = view;
@@ -380,7 +385,7 @@ pub(crate) fn fill_texture_layers(
             layers.next,
             layers.capacity,
             layers.max_layers(),
-            layers.power_of_two,
+            layers.arrays_in_powers_of_two,
         );
         let (texture, view) = array_texture(&device, layers.side, capacity);
         // Keep the layers already filled (none in the first array's stand-in).

@@ -173,8 +173,8 @@ fn init_warmup(
 /// static texture state): its format and kind, whether each side is a power of two, its mip
 /// levels, and an array's layers: one, or more and whether their count is a power of two. (A
 /// stand-in of one layer for an array of five left the views' device to compile a kernel of its
-/// own, on their queue, when a scene's textures came in; one of three served five; one of one did
-/// not serve eight. On such an adapter the texture layers are at least two and counted in powers
+/// own, on their queue, when a scene's textures came in; a stand-in of three layers served five;
+/// one of a single layer did not serve eight. On such an adapter the texture layers are at least two and counted in powers
 /// of two, so a scene's textures keep the state the kernel was warmed up for at the start.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TextureVariant {
@@ -201,6 +201,7 @@ enum DepthState {
 }
 
 impl DepthState {
+    /// The state of a depth or layer count `n`.
     fn of(n: u32) -> Self {
         match n {
             1 => Self::One,
