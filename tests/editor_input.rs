@@ -42,6 +42,12 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
 /// 16 bounces with the lamp's glow sampled directly, on llvmpipe, beside the other tests.
 const CONVERGING: std::time::Duration = std::time::Duration::from_secs(180);
 
+/// The view traced at a quarter of the viewport's resolution, for tests that judge the picture by
+/// its mean brightness, a region's colour or an outline: on llvmpipe it gathers its samples about
+/// three times as fast as at the software adapter's default half (8 samples of the default scene in
+/// 10 s against 36 s), and what these tests look at does not depend on the resolution.
+const QUARTER_TRACE: [&str; 2] = ["--trace-scale", "0.25"];
+
 /// A display whose server died without cleaning up (killed outright, the machine's `/tmp` kept
 /// between runs) is taken over; one whose server lives, or whose lock does not read as a pid, is
 /// not. CI once ran out of display numbers to such leftovers.
@@ -74,7 +80,7 @@ fn a_stale_x_lock_frees_its_display_number_and_a_live_one_does_not() {
 
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
-    let mut s = Session::start("input", &[]);
+    let mut s = Session::start("input", &QUARTER_TRACE);
     let start = s.frames(1);
     let tall = object(&start, "Tall box").clone();
     let short = object(&start, "Short box").clone();
@@ -884,7 +890,7 @@ fn viewport_brightness(img: &image::RgbImage, viewport: [f32; 4]) -> f32 {
 
 #[test]
 fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
-    let mut s = Session::start("exposure", &[]);
+    let mut s = Session::start("exposure", &QUARTER_TRACE);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
     });
@@ -954,7 +960,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
 
 #[test]
 fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
-    let mut s = Session::start("light-kind", &[]);
+    let mut s = Session::start("light-kind", &QUARTER_TRACE);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 8 && !st.denoising
     });
@@ -1074,7 +1080,7 @@ fn sky_beside_the_room(img: &image::RgbImage, viewport: [f32; 4]) -> [f32; 3] {
 
 #[test]
 fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back() {
-    let mut s = Session::start("panorama", &[]);
+    let mut s = Session::start("panorama", &QUARTER_TRACE);
     support::write_two_sided_sky(&s.dir().join("sky.hdr"));
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
