@@ -69,6 +69,28 @@ impl Drop for Session {
     }
 }
 
+/// Has `command`'s process killed when the test's thread ends without ending it: a test binary
+/// killed outright (a CI timeout, Ctrl+C) runs no `Drop`, and an editor left behind traces to its
+/// sample limit on every core, slowing every later run on the machine.
+fn ends_with_the_test(command: &mut Command) -> &mut Command {
+    use std::os::unix::process::CommandExt as _;
+    let test = std::process::id();
+    // SAFETY: between fork and exec the closure calls only `prctl`, `getppid` and `_exit`, all
+    // async-signal-safe, and touches no memory the parent's other threads own.
+    unsafe {
+        command.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // The test may have gone before the call took effect.
+            if u32::try_from(libc::getppid()).ok() != Some(test) {
+                libc::_exit(1);
+            }
+            Ok(())
+        })
+    }
+}
+
 /// Ends an Xvfb politely (SIGTERM, so it removes its lock file and socket) and then firmly, and
 /// removes what a server killed outright left behind: stale locks from thousands of earlier runs
 /// on a machine whose `/tmp` persists would otherwise leave no display number free.
@@ -175,7 +197,7 @@ impl Session {
         let mut last_error = String::new();
         for _ in 0..3 {
             let display = free_display();
-            let mut xvfb = Command::new("Xvfb")
+            let mut xvfb = ends_with_the_test(&mut Command::new("Xvfb"))
                 .arg(format!(":{display}"))
                 .args(["-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
                 .stdout(Stdio::null())
@@ -218,7 +240,7 @@ impl Session {
             let state_path = dir.join("state.ron");
             let log_path = dir.join("editor.log");
             let log = std::fs::File::create(&log_path).unwrap();
-            let editor = Command::new(env!("CARGO_BIN_EXE_treelight"))
+            let editor = ends_with_the_test(&mut Command::new(env!("CARGO_BIN_EXE_treelight")))
                 .args(args)
                 .arg("--state")
                 .arg(&state_path)
