@@ -71,7 +71,8 @@ impl Drop for Session {
 
 /// Has `command`'s process killed when the test's thread ends without ending it: a test binary
 /// killed outright (a CI timeout, Ctrl+C) runs no `Drop`, and an editor left behind traces to its
-/// sample limit on every core, slowing every later run on the machine.
+/// sample limit on every core, slowing every later run on the machine. The kernel ties the child
+/// to the thread that spawned it, so a session is started on the thread that holds it.
 fn ends_with_the_test(command: &mut Command) -> &mut Command {
     use std::os::unix::process::CommandExt as _;
     let test = std::process::id();
