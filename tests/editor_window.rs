@@ -813,8 +813,8 @@ fn a_scene_larger_than_the_adapter_binds_turns_path_tracing_off_and_keeps_the_ed
     // 100 tiles of 5,408 triangles: 540,800 triangles. At most 4 MiB per binding holds 262,144
     // triangle records of 12 B (a power of two a part, four times the node part's), so the two
     // bindings the path tracer has for them hold 524,288: the triangles outgrow them while the
-    // assembly streams in (the node records, at half the inner nodes, fit). (A smaller limit would stop Bevy's own passes, and
-    // the view's accumulation needs 2.1 MiB.)
+    // assembly streams in (the node records, at half the inner nodes, fit). (A smaller limit would
+    // stop Bevy's own passes, and the view's accumulation needs 2.1 MiB.)
     let dir = temp_dir("binding-limit");
     let (assembly, triangles) = assembly::generated_assembly(&dir, 100, 52);
     assert!(triangles > 8 << 16);

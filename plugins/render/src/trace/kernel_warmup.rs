@@ -174,8 +174,9 @@ fn init_warmup(
 /// levels, and an array's layers: one, or more and whether their count is a power of two. (A
 /// stand-in of one layer for an array of five left the views' device to compile a kernel of its
 /// own, on their queue, when a scene's textures came in; a stand-in of three layers served five;
-/// one of a single layer did not serve eight. On such an adapter the texture layers are at least two and counted in powers
-/// of two, so a scene's textures keep the state the kernel was warmed up for at the start.)
+/// one of a single layer did not serve eight. On such an adapter the texture layers are at least
+/// two and counted in powers of two, so a scene's textures keep the state the kernel was warmed
+/// up for at the start.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TextureVariant {
     binding: u32,
