@@ -6,9 +6,14 @@ use std::process::Command;
 
 /// A fresh temporary folder for one test.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("treelight-test-{name}-{}", std::process::id()));
+    let dir = temp_dir_path(name);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// Where [`temp_dir`] puts the folder `name`, without making it.
+pub fn temp_dir_path(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("treelight-test-{name}-{}", std::process::id()))
 }
 
 #[allow(unused_imports)] // Not every binary that includes this module reads a scene.

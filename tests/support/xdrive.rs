@@ -52,6 +52,8 @@ pub struct Session {
     state_path: PathBuf,
     log_path: PathBuf,
     dir: PathBuf,
+    /// Whether the session made `dir` (a test's own folder, made before, is the test's to remove).
+    owns_dir: bool,
     keycodes: Vec<(u32, u8)>,
     display: u32,
     /// Button and key events sent: [`Session::frames`] first waits for the editor to have read
@@ -66,6 +68,10 @@ impl Drop for Session {
         let _ = self.editor.kill();
         let _ = self.editor.wait();
         end_server(&mut self.xvfb, self.display);
+        // A passing test leaves nothing behind; a failing one keeps its log, report and shots.
+        if self.owns_dir && !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
@@ -194,6 +200,7 @@ impl Session {
         // make each one's frames late enough that input lands frames after it was sent.
         static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
         let turn = TURN.lock().unwrap_or_else(|p| p.into_inner());
+        let owns_dir = !crate::support::temp_dir_path(name).exists();
         let dir = crate::support::temp_dir(name);
         let mut last_error = String::new();
         for _ in 0..3 {
@@ -269,6 +276,7 @@ impl Session {
                 state_path,
                 log_path,
                 dir,
+                owns_dir,
                 keycodes,
                 display,
                 sent: std::cell::Cell::new(0),
