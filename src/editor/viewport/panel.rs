@@ -376,8 +376,10 @@ impl ViewportPanel<'_> {
                 .max_rect(rect.shrink(6.0))
                 .layout(egui::Layout::left_to_right(egui::Align::Min)),
         );
-        // One row: a separator in the overlay itself would run down the whole viewport.
-        let bar = overlay.horizontal(|ui| {
+        // Rows of their own height (a separator in the overlay itself would run down the whole
+        // viewport), wrapped where the viewport is too narrow for one: every control stays in
+        // reach in a small window.
+        let bar = overlay.horizontal_wrapped(|ui| {
             toolbar(
                 ui,
                 self.render,
