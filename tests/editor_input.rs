@@ -7,7 +7,7 @@ mod support;
 mod xdrive;
 
 use treelight::report::{EditorState, ObjectReport};
-use xdrive::{Session, handle, keysym, object, widget, widget_at};
+use xdrive::{Session, handle, keysym, object, widget, widget_at, widget_rect};
 
 fn pos(p: [f32; 2]) -> (f32, f32) {
     (p[0], p[1])
@@ -42,11 +42,12 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
 /// 16 bounces with the lamp's glow sampled directly, on llvmpipe, beside the other tests.
 const CONVERGING: std::time::Duration = std::time::Duration::from_secs(180);
 
-/// The view traced at a quarter of the viewport's resolution, for tests that judge the picture by
-/// its mean brightness, a region's colour or an outline: on llvmpipe it gathers its samples about
-/// three times as fast as at the software adapter's default half (8 samples of the default scene in
-/// 10 s against 36 s), and what these tests look at does not depend on the resolution.
-const QUARTER_TRACE: [&str; 2] = ["--trace-scale", "0.25"];
+/// A 960 × 600 window whose view is traced at a quarter of its resolution, for tests that judge the
+/// picture by its mean brightness, a region's colour or an outline, which depend on neither. On
+/// llvmpipe a frame costs about what its pixels do: these tests take a half to two thirds of their
+/// time at the default 1280 × 800. The viewport's toolbar wraps onto a second row at this width,
+/// where the exposure and sky tests reach the tone curve and the sky.
+const SMALL_WINDOW: [&str; 6] = ["--trace-scale", "0.25", "--width", "960", "--height", "600"];
 
 /// A display whose server died without cleaning up (killed outright, the machine's `/tmp` kept
 /// between runs) is taken over; one whose server lives, or whose lock does not read as a pid, is
@@ -80,7 +81,7 @@ fn a_stale_x_lock_frees_its_display_number_and_a_live_one_does_not() {
 
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
-    let mut s = Session::start("input", &QUARTER_TRACE);
+    let mut s = Session::start("input", &SMALL_WINDOW);
     let start = s.frames(1);
     let tall = object(&start, "Tall box").clone();
     let short = object(&start, "Short box").clone();
@@ -880,24 +881,41 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
     s.wait_until("the import", std::time::Duration::from_secs(60), has_helmet);
 }
 
+/// Where the view shows below its toolbar (one row or more): the first screen row.
+fn below_the_toolbar(st: &EditorState) -> u32 {
+    let bar = widget_rect(st, "Viewport toolbar");
+    (bar[1] + bar[3]).ceil() as u32 + 2
+}
+
 /// Mean of the three channels over the viewport below its toolbar.
-fn viewport_brightness(img: &image::RgbImage, viewport: [f32; 4]) -> f32 {
-    let [x, y, w, h] = viewport.map(|v| v as u32);
+fn viewport_brightness(img: &image::RgbImage, st: &EditorState) -> f32 {
+    let [x, y, w, h] = st.viewport.map(|v| v as u32);
     let (x1, y1) = ((x + w).min(img.width()), (y + h).min(img.height()));
-    let rgb = support::mean_rgb(img, x, y + 40, x1, y1);
+    let rgb = support::mean_rgb(img, x, below_the_toolbar(st), x1, y1);
     (rgb[0] + rgb[1] + rgb[2]) / 3.0
 }
 
 #[test]
 fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
-    let mut s = Session::start("exposure", &QUARTER_TRACE);
+    let mut s = Session::start("exposure", &SMALL_WINDOW);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
     });
     let (head, _) = st.history;
+    // The toolbar wraps where the window is too narrow for one row: every control in the view.
+    let [vx, vy, vw, vh] = st.viewport;
+    for name in ["Render mode", "Quality", "Exposure", "Tone curve", "Sky"] {
+        let [x, y, w, h] = widget_rect(&st, name);
+        assert!(
+            x >= vx && y >= vy && x + w <= vx + vw && y + h <= vy + vh,
+            "{name} at {:?} is outside the viewport {:?}",
+            [x, y, w, h],
+            st.viewport
+        );
+    }
     assert_eq!(st.look.exposure, 0.0);
     let default_ev100 = st.camera_look.as_ref().expect("the camera's exposure").0;
-    let dark = viewport_brightness(&s.screenshot(), st.viewport);
+    let dark = viewport_brightness(&s.screenshot(), &st);
 
     // Dragging the exposure field to the right brightens, in one step.
     let field = widget(&st, "Exposure");
@@ -919,7 +937,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
         st.samples >= 4 && !st.denoising
     });
-    let bright = viewport_brightness(&s.screenshot(), st.viewport);
+    let bright = viewport_brightness(&s.screenshot(), &st);
     assert!(
         bright > dark * 1.2 + 2.0,
         "{} EV more: mean {dark} -> {bright}",
@@ -951,7 +969,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
         st.samples >= 4 && !st.denoising
     });
-    let back = viewport_brightness(&s.screenshot(), st.viewport);
+    let back = viewport_brightness(&s.screenshot(), &st);
     assert!(
         (back - dark).abs() < 0.1 * dark + 2.0,
         "undone: mean {dark} -> {back}"
@@ -960,7 +978,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
 
 #[test]
 fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
-    let mut s = Session::start("light-kind", &QUARTER_TRACE);
+    let mut s = Session::start("light-kind", &SMALL_WINDOW);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 8 && !st.denoising
     });
@@ -971,7 +989,7 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
         treelight_document::values::light::LightKind::Point
     );
     let (head, _) = st.history;
-    let before = viewport_brightness(&s.screenshot(), st.viewport);
+    let before = viewport_brightness(&s.screenshot(), &st);
 
     let row = row_centre(&st, lamp.id);
     s.click(row.0, row.1);
@@ -988,7 +1006,7 @@ fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_
     let st = s.wait_until("the picture converges again", CONVERGING, |st| {
         st.samples >= 8 && !st.denoising
     });
-    let lit = viewport_brightness(&s.screenshot(), st.viewport);
+    let lit = viewport_brightness(&s.screenshot(), &st);
     eprintln!("mean brightness: point {before}, spot {lit}");
     assert!(
         (lit - before).abs() > 0.03 * before,
@@ -1008,7 +1026,9 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
     let project = dir.join("room.treelight");
     let (ok, log) = support::run_without_display(&["--save", project.to_str().unwrap()]);
     assert!(ok, "{log}");
-    let mut s = Session::start("render-window", &[project.to_str().unwrap()]);
+    let mut args = vec![project.to_str().unwrap()];
+    args.extend(SMALL_WINDOW);
+    let mut s = Session::start("render-window", &args);
     let st = s.wait_until(
         "the project opens",
         std::time::Duration::from_secs(60),
@@ -1073,20 +1093,21 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
 }
 
 /// The viewport's left edge, below the toolbar: sky beside the room in the default view.
-fn sky_beside_the_room(img: &image::RgbImage, viewport: [f32; 4]) -> [f32; 3] {
-    let [x, y, _, _] = viewport.map(|v| v as u32);
-    support::mean_rgb(img, x + 4, y + 60, x + 40, y + 140)
+fn sky_beside_the_room(img: &image::RgbImage, st: &EditorState) -> [f32; 3] {
+    let [x, y] = [st.viewport[0] as u32, st.viewport[1] as u32];
+    let top = below_the_toolbar(st).max(y + 60);
+    support::mean_rgb(img, x + 4, top, x + 40, top + 80)
 }
 
 #[test]
 fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back() {
-    let mut s = Session::start("panorama", &QUARTER_TRACE);
+    let mut s = Session::start("panorama", &SMALL_WINDOW);
     support::write_two_sided_sky(&s.dir().join("sky.hdr"));
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
     });
     let (head, _) = st.history;
-    let before = sky_beside_the_room(&s.screenshot(), st.viewport);
+    let before = sky_beside_the_room(&s.screenshot(), &st);
     // Sky → Choose… → the dialog, in the folder the editor runs in; the file's name, Return.
     click_widget(&mut s, &st, "Sky");
     let st = s.frames(2);
@@ -1122,7 +1143,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
     assert_eq!(st.history.0, head + 1, "one step");
     assert!(st.dirty);
     // The view looks along −Z, at the panorama's green half.
-    let green = sky_beside_the_room(&s.screenshot(), st.viewport);
+    let green = sky_beside_the_room(&s.screenshot(), &st);
     assert!(
         green[1] > green[0] + 30.0 && green[1] > green[2] + 30.0,
         "{before:?} -> {green:?}"
@@ -1133,7 +1154,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
         st.environment.0.image.is_none() && !st.traced_panorama && st.samples >= 4
     });
     assert_eq!(st.history.0, head);
-    let after = sky_beside_the_room(&s.screenshot(), st.viewport);
+    let after = sky_beside_the_room(&s.screenshot(), &st);
     assert!(
         after.iter().zip(before).all(|(a, b)| (a - b).abs() < 8.0),
         "{before:?} -> {after:?}"
@@ -1144,7 +1165,10 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
 /// its samples at the new resolution (a quarter of the pixels traced).
 #[test]
 fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
-    let mut s = Session::start("quality", &["--trace-scale", "1"]);
+    let mut s = Session::start(
+        "quality",
+        &["--trace-scale", "1", "--width", "960", "--height", "600"],
+    );
     let st = s.wait_until("the view has samples", CONVERGING, |st| {
         st.settled && st.samples >= 1
     });

@@ -609,6 +609,15 @@ pub fn widget_at(st: &EditorState, name: &str) -> Option<(f32, f32)> {
         .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
 }
 
+/// The named widget's rectangle the report lists: its left, top, width and height.
+pub fn widget_rect(st: &EditorState, name: &str) -> [f32; 4] {
+    st.widgets
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, r)| *r)
+        .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+}
+
 /// The centre of the named widget the report lists.
 pub fn widget(st: &EditorState, name: &str) -> (f32, f32) {
     widget_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
