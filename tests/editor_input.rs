@@ -617,6 +617,7 @@ fn the_desktop_file_dialog_opens_and_saves_projects_and_a_cancel_opens_nothing()
         "someone's work"
     );
     assert_eq!(std::fs::read(&saved).unwrap(), before);
+    std::fs::remove_dir_all(&bin).ok();
 }
 
 #[test]

@@ -1027,6 +1027,9 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
         mean < 2.0 && far * 200 < n,
         "raster against traced sky: mean difference {mean:.2}, {far} of {n} pixels over 8 levels"
     );
+    for view in ["raster", "path"] {
+        std::fs::remove_dir_all(temp_dir_path(&format!("sky-box-{view}"))).ok();
+    }
 }
 
 #[test]
@@ -1107,6 +1110,9 @@ fn the_raster_view_is_lit_by_the_sky_panorama_as_the_path_tracer_is() {
         (raster - traced).abs() < 0.15 * traced,
         "the raster sphere's middle is {raster:.1} levels, the traced one's {traced:.1}"
     );
+    for view in ["raster", "path"] {
+        std::fs::remove_dir_all(temp_dir_path(&format!("sky-light-{view}"))).ok();
+    }
 }
 
 /// While the viewport is path traced, meshes stay out of the render world (nothing rasterises
@@ -1173,6 +1179,8 @@ fn meshes_held_back_while_path_traced_are_drawn_when_the_view_turns_raster() {
             st = s.frames(5);
         }
     }
+    drop(s);
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -1205,4 +1213,6 @@ fn the_raster_view_reads_a_map_through_the_second_uv_set() {
         green > 2000 && red < 20,
         "the quad is not the second set's green: {green} green pixels, {red} red"
     );
+    drop(s);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -310,6 +310,7 @@ fn a_render_through_a_file_s_camera_sees_what_that_camera_sees() {
         "{log}"
     );
     assert!(!dir.join("nope.png").exists());
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -502,6 +503,7 @@ fn a_map_on_the_second_uv_set_is_path_traced_through_it() {
             out.display()
         );
     }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Maps with their own `KHR_texture_transform`s are path traced each through its own: the quad's
@@ -519,6 +521,7 @@ fn maps_with_their_own_texture_transforms_are_path_traced_through_each() {
          see {}",
         out.display()
     );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A textured assembly renders the same twice, denoised: the scene worker rebuilds its meshes
@@ -558,6 +561,7 @@ fn a_gltf_assembly_renders_the_same_twice_denoised() {
         })
         .collect();
     assert!(images[0] == images[1], "two denoised renders differ");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The number just before `words` in the first line of `log` that holds them.
