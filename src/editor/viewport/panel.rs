@@ -376,9 +376,9 @@ impl ViewportPanel<'_> {
                 .max_rect(rect.shrink(6.0))
                 .layout(egui::Layout::left_to_right(egui::Align::Min)),
         );
-        // Rows of their own height (a separator in the overlay itself would run down the whole
-        // viewport), wrapped where the viewport is too narrow for one: every control stays in
-        // reach in a small window.
+        // A layout whose rows are as tall as their controls (a separator placed in the overlay
+        // itself would run down the whole viewport), wrapping onto more rows where the viewport
+        // is too narrow for one, so every control stays in reach in a small window.
         let bar = overlay.horizontal_wrapped(|ui| {
             toolbar(
                 ui,
