@@ -7,7 +7,7 @@ mod support;
 mod xdrive;
 
 use treelight::report::{EditorState, ObjectReport};
-use xdrive::{Session, handle, keysym, object, widget, widget_at, widget_rect};
+use xdrive::{Session, below_the_toolbar, handle, keysym, object, widget, widget_at, widget_rect};
 
 fn pos(p: [f32; 2]) -> (f32, f32) {
     (p[0], p[1])
@@ -880,12 +880,6 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
     assert!(!has_helmet(&st), "imported before the answer");
     click_widget(&mut s, &st, "Import anyway");
     s.wait_until("the import", std::time::Duration::from_secs(60), has_helmet);
-}
-
-/// Where the view shows below its toolbar (one row or more): the first screen row.
-fn below_the_toolbar(st: &EditorState) -> u32 {
-    let bar = widget_rect(st, "Viewport toolbar");
-    (bar[1] + bar[3]).ceil() as u32 + 2
 }
 
 /// Mean of the three channels over the viewport below its toolbar.

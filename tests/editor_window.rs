@@ -969,13 +969,7 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
                 );
                 let shot = s.screenshot();
                 let [x, y, w, h] = state.viewport.map(|v| v as u32);
-                let toolbar = state
-                    .widgets
-                    .iter()
-                    .find(|(n, _)| n == "Viewport toolbar")
-                    .map(|(_, r)| r[1] + r[3] + 2.0)
-                    .unwrap();
-                let top = toolbar as u32;
+                let top = xdrive::below_the_toolbar(&state);
                 let view_img = image::imageops::crop_imm(&shot, x, top, w, y + h - top).to_image();
                 let shown =
                     distinct_colours(&view_img, 0, 0, view_img.width(), view_img.height()) > 300;

@@ -421,12 +421,8 @@ fn a_render_equals_the_viewport_s_accumulation_at_the_same_samples() {
     assert!(ok, "{log}");
     let rendered = load_rgb(&out);
     // What the editor draws over the view: the toolbar along its top and the lights' icons.
-    let toolbar = state
-        .widgets
-        .iter()
-        .find(|(name, _)| name == "Viewport toolbar")
-        .map(|(_, r)| r[1] + r[3] + 2.0 - y as f32)
-        .expect("the viewport's toolbar");
+    let bar = xdrive::widget_rect(&state, "Viewport toolbar");
+    let toolbar = bar[1] + bar[3] + 2.0 - y as f32;
     let icons: Vec<[f32; 2]> = state
         .objects
         .iter()

@@ -601,21 +601,25 @@ fn keycodes(conn: &RustConnection) -> Vec<(u32, u8)> {
     out
 }
 
+/// The named widget's rectangle the report lists (left, top, width, height), if it is laid out.
+fn widget_rect_at(st: &EditorState, name: &str) -> Option<[f32; 4]> {
+    st.widgets.iter().find(|(n, _)| n == name).map(|(_, r)| *r)
+}
+
 /// The centre of the named widget the report lists, if it is laid out.
 pub fn widget_at(st: &EditorState, name: &str) -> Option<(f32, f32)> {
-    st.widgets
-        .iter()
-        .find(|(n, _)| n == name)
-        .map(|(_, r)| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
+    widget_rect_at(st, name).map(|r| (r[0] + r[2] / 2.0, r[1] + r[3] / 2.0))
 }
 
 /// The named widget's rectangle the report lists: its left, top, width and height.
 pub fn widget_rect(st: &EditorState, name: &str) -> [f32; 4] {
-    st.widgets
-        .iter()
-        .find(|(n, _)| n == name)
-        .map(|(_, r)| *r)
-        .unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+    widget_rect_at(st, name).unwrap_or_else(|| panic!("no widget {name}: {:?}", st.widgets))
+}
+
+/// The first screen row the view shows below its toolbar (one row or more, as wide as it is).
+pub fn below_the_toolbar(st: &EditorState) -> u32 {
+    let bar = widget_rect(st, "Viewport toolbar");
+    (bar[1] + bar[3] + 2.0) as u32
 }
 
 /// The centre of the named widget the report lists.
