@@ -328,9 +328,18 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
         "SetMaterial(id: (8), material: (base_color: (0.05, 0.1, 0.9, 1.0), metallic: 0.0, \
          perceptual_roughness: 1.0))",
     );
+    // A 960 × 600 window: the editor's start and frames cost about what its pixels do, and the
+    // sphere still covers thousands of them.
     let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
         let out = dir.join(format!("{name}.png"));
+        let state = dir.join(format!("{name}-state.ron"));
         let mut args = vec![
+            "--width",
+            "960",
+            "--height",
+            "600",
+            "--state",
+            state.to_str().unwrap(),
             "--view",
             view,
             "--frame-budget",
@@ -351,15 +360,18 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
             args.extend(["--commands", c.to_str().unwrap()]);
         }
         run_editor(&args);
-        load_rgb(&out)
-    };
-    // Inside the viewport, below its toolbar (the panels show the history, the status bar the
-    // frame rate).
-    let crop = |img: image::RgbImage| image::imageops::crop_imm(&img, 300, 90, 700, 670).to_image();
-    let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
-        crop(shot(view, commands, name))
+        // Inside the viewport, below its toolbar (the panels show the history, the status bar
+        // the frame rate), as the run's report places them.
+        let st: treelight::report::EditorState =
+            ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+        let [x, _, w, h] = st.viewport.map(|v| v as u32);
+        let top = xdrive::below_the_toolbar(&st);
+        let bottom = st.viewport[1] as u32 + h;
+        assert!(w > 400 && bottom > top + 400, "viewport {:?}", st.viewport);
+        image::imageops::crop_imm(&load_rgb(&out), x, top, w, bottom - top).to_image()
     };
     let differs_by = |a: &image::RgbImage, b: &image::RgbImage, by: u8| -> Vec<bool> {
+        assert_eq!(a.dimensions(), b.dimensions(), "the runs' viewports differ");
         a.pixels()
             .zip(b.pixels())
             .map(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > by))
