@@ -19,8 +19,23 @@ pub fn temp_dir_path(name: &str) -> PathBuf {
 #[allow(unused_imports)] // Not every binary that includes this module reads a scene.
 pub use treelight_test_support::shared_scene;
 
-/// A settings folder for editors the tests start, apart from the user's.
+/// A settings folder for editors the tests start, apart from the user's: one a test process,
+/// removed as the process exits (its editors' settings, recent files and recovery copies).
 pub fn test_config_dir() -> PathBuf {
+    static REMOVED_AT_EXIT: std::sync::Once = std::sync::Once::new();
+    extern "C" fn remove() {
+        std::fs::remove_dir_all(config_dir_path()).ok();
+    }
+    REMOVED_AT_EXIT.call_once(|| {
+        // SAFETY: `remove` is a plain function of this program, alive until it exits. A process
+        // that cannot register it only leaves the folder behind.
+        unsafe { libc::atexit(remove) };
+    });
+    config_dir_path()
+}
+
+/// Where [`test_config_dir`] is.
+fn config_dir_path() -> PathBuf {
     std::env::temp_dir().join(format!("treelight-test-config-{}", std::process::id()))
 }
 
