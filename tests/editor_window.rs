@@ -80,8 +80,16 @@ fn imported_textures_reach_the_traced_viewport() {
     for name in ["BoxTextured", "Untextured"] {
         let file = dir.join(format!("{name}.gltf"));
         let shot = dir.join(format!("{name}.png"));
+        let state = dir.join(format!("{name}-state.ron"));
+        // A 960 × 600 window: the editor's start and frames cost about what its pixels do.
         let out = run_editor(&[
             file.to_str().unwrap(),
+            "--width",
+            "960",
+            "--height",
+            "600",
+            "--state",
+            state.to_str().unwrap(),
             "--view",
             "albedo",
             "--frames",
@@ -96,11 +104,14 @@ fn imported_textures_reach_the_traced_viewport() {
             );
         }
         let img = load_rgb(&shot);
-        // The logo is a blue sky over green hills on grey; the box's material alone is grey. (Below
-        // the viewport's toolbar, whose chosen button is blue.)
+        // The logo is a blue sky over green hills on grey; the box's material alone is grey. (In
+        // the viewport below its toolbar, whose chosen button is blue, as the report places them.)
+        let st: treelight::report::EditorState =
+            ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+        let [x0, y0, w, h] = st.viewport.map(|v| v as u32);
         let (mut blue, mut green) = (0, 0);
-        for y in 90..740 {
-            for x in 300..1000 {
+        for y in xdrive::below_the_toolbar(&st)..y0 + h {
+            for x in x0..x0 + w {
                 let [r, g, b] = img.get_pixel(x, y).0.map(i32::from);
                 blue += (b > r + 30 && b > g + 10) as u32;
                 green += (g > r + 20 && g > b + 20) as u32;
@@ -206,29 +217,43 @@ fn a_commands_file_edits_the_scene_once_it_has_loaded() {
     let dir = temp_dir("commands");
     let edited = dir.join("edited.png");
     let plain = dir.join("plain.png");
-    let out = run_editor(&[
-        "--commands",
-        example.to_str().unwrap(),
-        "--view",
-        "albedo",
-        "--frames",
-        "30",
-        "--screenshot",
-        edited.to_str().unwrap(),
-    ]);
+    // A 960 × 600 window: the editor's start and frames cost about what its pixels do.
+    let small = ["--width", "960", "--height", "600"];
+    let out = run_editor(
+        &[
+            &small[..],
+            &[
+                "--commands",
+                example.to_str().unwrap(),
+                "--view",
+                "albedo",
+                "--frames",
+                "30",
+                "--screenshot",
+                edited.to_str().unwrap(),
+            ],
+        ]
+        .concat(),
+    );
     // 11 objects, one added, one copied, one deleted.
     assert!(
         out.contains("edits-example.ron: applied 5 of 5 commands; the scene has 12 objects"),
         "{out}"
     );
-    run_editor(&[
-        "--view",
-        "albedo",
-        "--frames",
-        "30",
-        "--screenshot",
-        plain.to_str().unwrap(),
-    ]);
+    run_editor(
+        &[
+            &small[..],
+            &[
+                "--view",
+                "albedo",
+                "--frames",
+                "30",
+                "--screenshot",
+                plain.to_str().unwrap(),
+            ],
+        ]
+        .concat(),
+    );
     // The traced albedo differs where the cube, the moved sphere and the removed box are.
     let (a, b) = (load_rgb(&edited), load_rgb(&plain));
     let changed = a
@@ -438,28 +463,42 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
     let state = dir.join("state.ron");
     let read_state =
         || -> EditorState { ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap() };
-    run_editor(&[
-        "--commands",
-        example.to_str().unwrap(),
-        "--save",
-        project.to_str().unwrap(),
-        "--state",
-        state.to_str().unwrap(),
-        "--frames",
-        "20",
-    ]);
+    // No picture is read: a small window's frames cost little.
+    let small = ["--width", "640", "--height", "400"];
+    run_editor(
+        &[
+            &small[..],
+            &[
+                "--commands",
+                example.to_str().unwrap(),
+                "--save",
+                project.to_str().unwrap(),
+                "--state",
+                state.to_str().unwrap(),
+                "--frames",
+                "20",
+            ],
+        ]
+        .concat(),
+    );
     let edited = read_state();
     let saved = treelight_document::project::format::read_project(&project)
         .expect("--save wrote a project");
     assert_eq!(saved.objects.len(), 12);
     // Opened again, the project is the same scene: the same objects by id and name.
-    run_editor(&[
-        project.to_str().unwrap(),
-        "--state",
-        state.to_str().unwrap(),
-        "--frames",
-        "10",
-    ]);
+    run_editor(
+        &[
+            &small[..],
+            &[
+                project.to_str().unwrap(),
+                "--state",
+                state.to_str().unwrap(),
+                "--frames",
+                "10",
+            ],
+        ]
+        .concat(),
+    );
     let opened = read_state();
     let names = |s: &EditorState| -> Vec<(u64, String)> {
         s.objects.iter().map(|o| (o.id.0, o.name.clone())).collect()
@@ -877,9 +916,14 @@ fn camera_looks_through_a_file_s_camera_and_a_missing_one_is_a_notice() {
     let state = dir.join("state.ron");
     let read_state =
         || -> EditorState { ron::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap() };
+    // No picture is read: a small window's frames cost little.
     let run = |camera: &str| {
         run_editor(&[
             scene.to_str().unwrap(),
+            "--width",
+            "640",
+            "--height",
+            "400",
             "--camera",
             camera,
             "--state",
