@@ -248,7 +248,15 @@ impl Session {
             let state_path = dir.join("state.ron");
             let log_path = dir.join("editor.log");
             let log = std::fs::File::create(&log_path).unwrap();
+            // A 960 × 600 window unless the test asks for another size: on a software adapter
+            // the editor's frames cost about what their pixels do.
+            let size: &[&str] = if args.contains(&"--width") {
+                &[]
+            } else {
+                &["--width", "960", "--height", "600"]
+            };
             let editor = ends_with_the_test(&mut Command::new(env!("CARGO_BIN_EXE_treelight")))
+                .args(size)
                 .args(args)
                 .arg("--state")
                 .arg(&state_path)
@@ -620,6 +628,13 @@ pub fn widget_rect(st: &EditorState, name: &str) -> [f32; 4] {
 pub fn below_the_toolbar(st: &EditorState) -> u32 {
     let bar = widget_rect(st, "Viewport toolbar");
     (bar[1] + bar[3] + 2.0) as u32
+}
+
+/// The viewport's rectangle below its toolbar, `[x, y, width, height]` in whole screen pixels.
+pub fn view_below_the_toolbar(st: &EditorState) -> [u32; 4] {
+    let [x, y, w, h] = st.viewport.map(|v| v.max(0.0) as u32);
+    let top = below_the_toolbar(st);
+    [x, top, w, (y + h).saturating_sub(top)]
 }
 
 /// The centre of the named widget the report lists.
