@@ -330,6 +330,8 @@ pub fn render_app(args: &RenderArgs) -> App {
         Name::new("Render camera"),
         RenderCamera,
         Camera3d::default(),
+        // Traced: multisampling would add a target of four samples a pixel and smooth nothing.
+        Msaa::Off,
         RenderTarget::Image(target.into()),
         tracer,
         orbit.transform(),

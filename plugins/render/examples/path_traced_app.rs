@@ -133,7 +133,8 @@ fn setup(
         Transform::from_xyz(0.0, 3.0, 7.5).looking_at(Vec3::new(0.0, 0.8, 0.0), Vec3::Y),
     ));
     if let Some(view) = options.view {
-        camera.insert(PathTraced { view, ..default() });
+        // A traced camera draws no meshes: multisampling would only hold a larger target.
+        camera.insert((PathTraced { view, ..default() }, Msaa::Off));
     }
 }
 

@@ -312,6 +312,8 @@ fn start(
             Name::new("Render image camera"),
             OffscreenRender,
             Camera3d::default(),
+            // Traced: multisampling would add a target of four samples a pixel and smooth nothing.
+            Msaa::Off,
             // Before the viewport's and the UI's cameras.
             Camera {
                 order: -1,
