@@ -73,6 +73,9 @@ fn imported_textures_reach_the_traced_viewport() {
     // show the box flat, which is what the textured run is compared with.
     let source = shared_scene("gltf/BoxTextured-glTF");
     let dir = temp_dir("textures");
+    // Settings of its own: an editor remembers its panels' layout, and one remembered in a window
+    // of another size would move the viewport between runs (this test's, or another's).
+    let config = dir.join("config");
     for f in ["BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"] {
         std::fs::copy(source.join(f), dir.join(f)).unwrap();
     }
@@ -87,13 +90,9 @@ fn imported_textures_reach_the_traced_viewport() {
         let file = dir.join(format!("{name}.gltf"));
         let shot = dir.join(format!("{name}.png"));
         let state = dir.join(format!("{name}-state.ron"));
-        // A 960 × 600 window: the editor's start and frames cost about what its pixels do.
-        let out = run_editor(&[
-            file.to_str().unwrap(),
-            "--width",
-            "960",
-            "--height",
-            "600",
+        let mut args = vec![file.to_str().unwrap()];
+        args.extend(TEST_WINDOW);
+        args.extend([
             "--state",
             state.to_str().unwrap(),
             "--view",
@@ -103,6 +102,7 @@ fn imported_textures_reach_the_traced_viewport() {
             "--screenshot",
             shot.to_str().unwrap(),
         ]);
+        let out = run_editor_with_config(&args, &config);
         if name == "Untextured" {
             assert!(
                 out.contains("Missing.png") && out.contains("drawn without it"),
@@ -219,13 +219,14 @@ fn path_traced_example_draws_the_traced_scene() {
 fn a_commands_file_edits_the_scene_once_it_has_loaded() {
     let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
     let dir = temp_dir("commands");
+    // Settings of its own: an editor remembers its panels' layout, and one remembered in a window
+    // of another size would move the viewport between runs (this test's, or another's).
+    let config = dir.join("config");
     let edited = dir.join("edited.png");
     let plain = dir.join("plain.png");
-    // A 960 × 600 window: the editor's start and frames cost about what its pixels do.
-    let small = ["--width", "960", "--height", "600"];
-    let out = run_editor(
+    let out = run_editor_with_config(
         &[
-            &small[..],
+            &TEST_WINDOW[..],
             &[
                 "--commands",
                 example.to_str().unwrap(),
@@ -238,15 +239,16 @@ fn a_commands_file_edits_the_scene_once_it_has_loaded() {
             ],
         ]
         .concat(),
+        &config,
     );
     // 11 objects, one added, one copied, one deleted.
     assert!(
         out.contains("edits-example.ron: applied 5 of 5 commands; the scene has 12 objects"),
         "{out}"
     );
-    run_editor(
+    run_editor_with_config(
         &[
-            &small[..],
+            &TEST_WINDOW[..],
             &[
                 "--view",
                 "albedo",
@@ -257,6 +259,7 @@ fn a_commands_file_edits_the_scene_once_it_has_loaded() {
             ],
         ]
         .concat(),
+        &config,
     );
     // The traced albedo differs where the cube, the moved sphere and the removed box are.
     let (a, b) = (load_rgb(&edited), load_rgb(&plain));
@@ -344,6 +347,9 @@ fn the_panel_layout_is_remembered_and_a_broken_settings_file_is_ignored() {
 #[test]
 fn a_material_edit_changes_exactly_that_materials_pixels() {
     let dir = temp_dir("material");
+    // Settings of its own: an editor remembers its panels' layout, and one remembered in a window
+    // of another size would move the viewport between runs (this test's, or another's).
+    let config = dir.join("config");
     // The sphere (#8) has a material of its own. Hiding it shows which pixels are its; giving
     // it a blue, rough material must change those pixels and no others.
     let script = |name: &str, command: &str| {
@@ -357,16 +363,12 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
         "SetMaterial(id: (8), material: (base_color: (0.05, 0.1, 0.9, 1.0), metallic: 0.0, \
          perceptual_roughness: 1.0))",
     );
-    // A 960 × 600 window: the editor's start and frames cost about what its pixels do, and the
-    // sphere still covers thousands of them.
+    // In the tests' window the sphere still covers thousands of pixels.
     let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
         let out = dir.join(format!("{name}.png"));
         let state = dir.join(format!("{name}-state.ron"));
-        let mut args = vec![
-            "--width",
-            "960",
-            "--height",
-            "600",
+        let mut args = TEST_WINDOW.to_vec();
+        args.extend([
             "--state",
             state.to_str().unwrap(),
             "--view",
@@ -379,7 +381,7 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
             "12",
             "--screenshot",
             out.to_str().unwrap(),
-        ];
+        ]);
         if view == "path" {
             // Judged by means over the sphere and the rest, which need no resolution: a quarter
             // of the viewport's traces its 12 samples in a quarter of the time.
@@ -388,7 +390,7 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
         if let Some(c) = commands {
             args.extend(["--commands", c.to_str().unwrap()]);
         }
-        run_editor(&args);
+        run_editor_with_config(&args, &config);
         // Inside the viewport, below its toolbar (the panels show the history, the status bar
         // the frame rate), as the run's report places them.
         let [x, y, w, h] = xdrive::view_below_the_toolbar(&read_report(&state));
@@ -462,14 +464,15 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
     use treelight::report::EditorState;
     let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/edits-example.ron");
     let dir = temp_dir("save-cli");
+    // Settings of its own: an editor remembers its panels' layout, and one remembered in a window
+    // of another size would move the viewport between runs (this test's, or another's).
+    let config = dir.join("config");
     let project = dir.join("edited.treelight");
     let state = dir.join("state.ron");
     let read_state = || read_report(&state);
-    // No picture is read: a small window's frames cost little.
-    let small = ["--width", "640", "--height", "400"];
-    run_editor(
+    run_editor_with_config(
         &[
-            &small[..],
+            &NO_PICTURE_WINDOW[..],
             &[
                 "--commands",
                 example.to_str().unwrap(),
@@ -482,15 +485,16 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
             ],
         ]
         .concat(),
+        &config,
     );
     let edited = read_state();
     let saved = treelight_document::project::format::read_project(&project)
         .expect("--save wrote a project");
     assert_eq!(saved.objects.len(), 12);
     // Opened again, the project is the same scene: the same objects by id and name.
-    run_editor(
+    run_editor_with_config(
         &[
-            &small[..],
+            &NO_PICTURE_WINDOW[..],
             &[
                 project.to_str().unwrap(),
                 "--state",
@@ -500,6 +504,7 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
             ],
         ]
         .concat(),
+        &config,
     );
     let opened = read_state();
     let names = |s: &EditorState| -> Vec<(u64, String)> {
@@ -915,23 +920,23 @@ fn camera_looks_through_a_file_s_camera_and_a_missing_one_is_a_notice() {
     let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("plugins/import/tests/data/cameras.gltf");
     let dir = temp_dir("look-through");
+    // Settings of its own: an editor remembers its panels' layout, and one remembered in a window
+    // of another size would move the viewport between runs (this test's, or another's).
+    let config = dir.join("config");
     let state = dir.join("state.ron");
     let read_state = || read_report(&state);
-    // No picture is read: a small window's frames cost little.
     let run = |camera: &str| {
-        run_editor(&[
-            scene.to_str().unwrap(),
-            "--width",
-            "640",
-            "--height",
-            "400",
+        let mut args = vec![scene.to_str().unwrap()];
+        args.extend(NO_PICTURE_WINDOW);
+        args.extend([
             "--camera",
             camera,
             "--state",
             state.to_str().unwrap(),
             "--frames",
             "30",
-        ])
+        ]);
+        run_editor_with_config(&args, &config)
     };
     // "Side" stands at (4, 0, 0) looking along -x.
     run("Side");

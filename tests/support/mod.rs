@@ -19,6 +19,13 @@ pub fn temp_dir_path(name: &str) -> PathBuf {
 #[allow(unused_imports)] // Not every binary that includes this module reads a scene.
 pub use treelight_test_support::shared_scene;
 
+/// The window the tests' editors open where a test needs no other size (the window sessions'
+/// too): on a software adapter the editor's start and frames cost about what its pixels do.
+pub const TEST_WINDOW: [&str; 4] = ["--width", "960", "--height", "600"];
+
+/// The window of an editor run that reads no picture, only its report or its files.
+pub const NO_PICTURE_WINDOW: [&str; 4] = ["--width", "640", "--height", "400"];
+
 /// A settings folder for editors the tests start, apart from the user's: one a test process,
 /// removed as the process exits (its editors' settings, recent files and recovery copies).
 pub fn test_config_dir() -> PathBuf {

@@ -248,12 +248,11 @@ impl Session {
             let state_path = dir.join("state.ron");
             let log_path = dir.join("editor.log");
             let log = std::fs::File::create(&log_path).unwrap();
-            // A 960 × 600 window unless the test asks for another size: on a software adapter
-            // the editor's frames cost about what their pixels do.
+            // The tests' window unless the test asks for another size.
             let size: &[&str] = if args.contains(&"--width") {
                 &[]
             } else {
-                &["--width", "960", "--height", "600"]
+                &crate::support::TEST_WINDOW
             };
             let editor = ends_with_the_test(&mut Command::new(env!("CARGO_BIN_EXE_treelight")))
                 .args(size)
