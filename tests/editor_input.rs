@@ -42,12 +42,13 @@ fn outline_pixels(img: &image::RgbImage, viewport: [f32; 4]) -> usize {
 /// 16 bounces with the lamp's glow sampled directly, on llvmpipe, beside the other tests.
 const CONVERGING: std::time::Duration = std::time::Duration::from_secs(180);
 
-/// A 960 × 600 window whose view is traced at a quarter of its resolution, for tests that judge the
-/// picture by its mean brightness, a region's colour or an outline, which depend on neither. On
-/// llvmpipe a frame costs about what its pixels do: these tests take a half to two thirds of their
-/// time at the default 1280 × 800. The viewport's toolbar wraps onto a second row at this width,
-/// where the exposure and sky tests reach the tone curve and the sky.
-const SMALL_WINDOW: [&str; 6] = ["--trace-scale", "0.25", "--width", "960", "--height", "600"];
+/// The view traced at a quarter of its resolution (in the sessions' 960 × 600 window), for tests
+/// that judge the picture by its mean brightness, a region's colour or an outline, which depend on
+/// neither. On llvmpipe a frame costs about what its pixels do: these tests take a half to two
+/// thirds of their time at the editor's default 1280 × 800 and half the resolution. The viewport's
+/// toolbar wraps onto a second row at this width, where the exposure and sky tests reach the tone
+/// curve and the sky.
+const QUARTER_TRACE: [&str; 2] = ["--trace-scale", "0.25"];
 
 /// A display whose server died without cleaning up (killed outright, the machine's `/tmp` kept
 /// between runs) is taken over; one whose server lives, or whose lock does not read as a pid, is
@@ -81,7 +82,7 @@ fn a_stale_x_lock_frees_its_display_number_and_a_live_one_does_not() {
 
 #[test]
 fn clicks_keys_and_the_gizmo_edit_the_default_scene() {
-    let mut s = Session::start("input", &SMALL_WINDOW);
+    let mut s = Session::start("input", &QUARTER_TRACE);
     let start = s.frames(1);
     let tall = object(&start, "Tall box").clone();
     let short = object(&start, "Short box").clone();
@@ -884,15 +885,15 @@ fn an_import_past_the_free_memory_asks_first_and_goes_ahead_only_when_told() {
 
 /// Mean of the three channels over the viewport below its toolbar.
 fn viewport_brightness(img: &image::RgbImage, st: &EditorState) -> f32 {
-    let [x, y, w, h] = st.viewport.map(|v| v as u32);
+    let [x, y, w, h] = xdrive::view_below_the_toolbar(st);
     let (x1, y1) = ((x + w).min(img.width()), (y + h).min(img.height()));
-    let rgb = support::mean_rgb(img, x, below_the_toolbar(st), x1, y1);
+    let rgb = support::mean_rgb(img, x, y, x1, y1);
     (rgb[0] + rgb[1] + rgb[2]) / 3.0
 }
 
 #[test]
 fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
-    let mut s = Session::start("exposure", &SMALL_WINDOW);
+    let mut s = Session::start("exposure", &QUARTER_TRACE);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
     });
@@ -973,7 +974,7 @@ fn the_toolbar_s_exposure_and_tone_curve_change_the_picture_as_one_step_each() {
 
 #[test]
 fn the_inspector_turns_the_lamp_into_a_spot_light_as_one_step_and_undo_takes_it_back() {
-    let mut s = Session::start("light-kind", &SMALL_WINDOW);
+    let mut s = Session::start("light-kind", &QUARTER_TRACE);
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 8 && !st.denoising
     });
@@ -1022,7 +1023,7 @@ fn f12_renders_the_view_to_a_png_beside_the_project_and_asks_before_replacing_it
     let (ok, log) = support::run_without_display(&["--save", project.to_str().unwrap()]);
     assert!(ok, "{log}");
     let mut args = vec![project.to_str().unwrap()];
-    args.extend(SMALL_WINDOW);
+    args.extend(QUARTER_TRACE);
     let mut s = Session::start("render-window", &args);
     let st = s.wait_until(
         "the project opens",
@@ -1096,7 +1097,7 @@ fn sky_beside_the_room(img: &image::RgbImage, st: &EditorState) -> [f32; 3] {
 
 #[test]
 fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back() {
-    let mut s = Session::start("panorama", &SMALL_WINDOW);
+    let mut s = Session::start("panorama", &QUARTER_TRACE);
     support::write_two_sided_sky(&s.dir().join("sky.hdr"));
     let st = s.wait_until("the scene settles", CONVERGING, |st| {
         st.settled && st.samples >= 4 && !st.denoising
@@ -1160,10 +1161,7 @@ fn the_sky_menu_chooses_a_panorama_that_lights_the_view_and_undo_takes_it_back()
 /// its samples at the new resolution (a quarter of the pixels traced).
 #[test]
 fn the_quality_menu_switches_the_denoiser_and_the_traced_resolution() {
-    let mut s = Session::start(
-        "quality",
-        &["--trace-scale", "1", "--width", "960", "--height", "600"],
-    );
+    let mut s = Session::start("quality", &["--trace-scale", "1"]);
     let st = s.wait_until("the view has samples", CONVERGING, |st| {
         st.settled && st.samples >= 1
     });

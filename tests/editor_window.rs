@@ -7,6 +7,11 @@ mod support;
 mod xdrive;
 use support::*;
 
+/// Runs the editor in `window` (its size's flags) with `args`, its settings in `config`.
+fn run_editor_in(window: [&str; 4], args: &[&str], config: &std::path::Path) -> String {
+    run_editor_with_config(&[&window[..], args].concat(), config)
+}
+
 /// The report an editor run wrote with `--state PATH`.
 fn read_report(path: &std::path::Path) -> treelight::report::EditorState {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -90,19 +95,21 @@ fn imported_textures_reach_the_traced_viewport() {
         let file = dir.join(format!("{name}.gltf"));
         let shot = dir.join(format!("{name}.png"));
         let state = dir.join(format!("{name}-state.ron"));
-        let mut args = vec![file.to_str().unwrap()];
-        args.extend(TEST_WINDOW);
-        args.extend([
-            "--state",
-            state.to_str().unwrap(),
-            "--view",
-            "albedo",
-            "--frames",
-            "40",
-            "--screenshot",
-            shot.to_str().unwrap(),
-        ]);
-        let out = run_editor_with_config(&args, &config);
+        let out = run_editor_in(
+            TEST_WINDOW,
+            &[
+                file.to_str().unwrap(),
+                "--state",
+                state.to_str().unwrap(),
+                "--view",
+                "albedo",
+                "--frames",
+                "40",
+                "--screenshot",
+                shot.to_str().unwrap(),
+            ],
+            &config,
+        );
         if name == "Untextured" {
             assert!(
                 out.contains("Missing.png") && out.contains("drawn without it"),
@@ -224,21 +231,18 @@ fn a_commands_file_edits_the_scene_once_it_has_loaded() {
     let config = dir.join("config");
     let edited = dir.join("edited.png");
     let plain = dir.join("plain.png");
-    let out = run_editor_with_config(
+    let out = run_editor_in(
+        TEST_WINDOW,
         &[
-            &TEST_WINDOW[..],
-            &[
-                "--commands",
-                example.to_str().unwrap(),
-                "--view",
-                "albedo",
-                "--frames",
-                "30",
-                "--screenshot",
-                edited.to_str().unwrap(),
-            ],
-        ]
-        .concat(),
+            "--commands",
+            example.to_str().unwrap(),
+            "--view",
+            "albedo",
+            "--frames",
+            "30",
+            "--screenshot",
+            edited.to_str().unwrap(),
+        ],
         &config,
     );
     // 11 objects, one added, one copied, one deleted.
@@ -246,19 +250,16 @@ fn a_commands_file_edits_the_scene_once_it_has_loaded() {
         out.contains("edits-example.ron: applied 5 of 5 commands; the scene has 12 objects"),
         "{out}"
     );
-    run_editor_with_config(
+    run_editor_in(
+        TEST_WINDOW,
         &[
-            &TEST_WINDOW[..],
-            &[
-                "--view",
-                "albedo",
-                "--frames",
-                "30",
-                "--screenshot",
-                plain.to_str().unwrap(),
-            ],
-        ]
-        .concat(),
+            "--view",
+            "albedo",
+            "--frames",
+            "30",
+            "--screenshot",
+            plain.to_str().unwrap(),
+        ],
         &config,
     );
     // The traced albedo differs where the cube, the moved sphere and the removed box are.
@@ -367,8 +368,7 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
     let shot = |view: &str, commands: Option<&std::path::Path>, name: &str| {
         let out = dir.join(format!("{name}.png"));
         let state = dir.join(format!("{name}-state.ron"));
-        let mut args = TEST_WINDOW.to_vec();
-        args.extend([
+        let mut args = vec![
             "--state",
             state.to_str().unwrap(),
             "--view",
@@ -381,7 +381,7 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
             "12",
             "--screenshot",
             out.to_str().unwrap(),
-        ]);
+        ];
         if view == "path" {
             // Judged by means over the sphere and the rest, which need no resolution: a quarter
             // of the viewport's traces its 12 samples in a quarter of the time.
@@ -390,7 +390,7 @@ fn a_material_edit_changes_exactly_that_materials_pixels() {
         if let Some(c) = commands {
             args.extend(["--commands", c.to_str().unwrap()]);
         }
-        run_editor_with_config(&args, &config);
+        run_editor_in(TEST_WINDOW, &args, &config);
         // Inside the viewport, below its toolbar (the panels show the history, the status bar
         // the frame rate), as the run's report places them.
         let [x, y, w, h] = xdrive::view_below_the_toolbar(&read_report(&state));
@@ -470,21 +470,18 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
     let project = dir.join("edited.treelight");
     let state = dir.join("state.ron");
     let read_state = || read_report(&state);
-    run_editor_with_config(
+    run_editor_in(
+        NO_PICTURE_WINDOW,
         &[
-            &NO_PICTURE_WINDOW[..],
-            &[
-                "--commands",
-                example.to_str().unwrap(),
-                "--save",
-                project.to_str().unwrap(),
-                "--state",
-                state.to_str().unwrap(),
-                "--frames",
-                "20",
-            ],
-        ]
-        .concat(),
+            "--commands",
+            example.to_str().unwrap(),
+            "--save",
+            project.to_str().unwrap(),
+            "--state",
+            state.to_str().unwrap(),
+            "--frames",
+            "20",
+        ],
         &config,
     );
     let edited = read_state();
@@ -492,18 +489,15 @@ fn a_scripted_scene_saves_as_a_project_that_opens_again() {
         .expect("--save wrote a project");
     assert_eq!(saved.objects.len(), 12);
     // Opened again, the project is the same scene: the same objects by id and name.
-    run_editor_with_config(
+    run_editor_in(
+        NO_PICTURE_WINDOW,
         &[
-            &NO_PICTURE_WINDOW[..],
-            &[
-                project.to_str().unwrap(),
-                "--state",
-                state.to_str().unwrap(),
-                "--frames",
-                "10",
-            ],
-        ]
-        .concat(),
+            project.to_str().unwrap(),
+            "--state",
+            state.to_str().unwrap(),
+            "--frames",
+            "10",
+        ],
         &config,
     );
     let opened = read_state();
@@ -926,17 +920,19 @@ fn camera_looks_through_a_file_s_camera_and_a_missing_one_is_a_notice() {
     let state = dir.join("state.ron");
     let read_state = || read_report(&state);
     let run = |camera: &str| {
-        let mut args = vec![scene.to_str().unwrap()];
-        args.extend(NO_PICTURE_WINDOW);
-        args.extend([
-            "--camera",
-            camera,
-            "--state",
-            state.to_str().unwrap(),
-            "--frames",
-            "30",
-        ]);
-        run_editor_with_config(&args, &config)
+        run_editor_in(
+            NO_PICTURE_WINDOW,
+            &[
+                scene.to_str().unwrap(),
+                "--camera",
+                camera,
+                "--state",
+                state.to_str().unwrap(),
+                "--frames",
+                "30",
+            ],
+            &config,
+        )
     };
     // "Side" stands at (4, 0, 0) looking along -x.
     run("Side");
@@ -1030,9 +1026,8 @@ fn the_raster_view_shows_the_sky_panorama_as_the_path_tracer_does() {
                     state.notices
                 );
                 let shot = s.screenshot();
-                let [x, y, w, h] = state.viewport.map(|v| v as u32);
-                let top = xdrive::below_the_toolbar(&state);
-                let view_img = image::imageops::crop_imm(&shot, x, top, w, y + h - top).to_image();
+                let [x, top, w, h] = xdrive::view_below_the_toolbar(&state);
+                let view_img = image::imageops::crop_imm(&shot, x, top, w, h).to_image();
                 let shown =
                     distinct_colours(&view_img, 0, 0, view_img.width(), view_img.height()) > 300;
                 if shown || start.elapsed() > std::time::Duration::from_secs(120) {
