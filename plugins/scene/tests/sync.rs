@@ -559,6 +559,46 @@ fn released_meshes_are_traced_from_the_tree_alone() {
 }
 
 #[test]
+fn a_mesh_component_marked_changed_with_nothing_new_is_not_sent_again() {
+    // Bevy marks `Mesh3d` changed when the entity's material changes (or its material asset
+    // loads): the geometry is what the worker holds. Sent again, a released mesh could not be
+    // traced (its vertices are gone); a move in the same frame still goes as a move.
+    let mut app = headless_app(SceneBvhConfig {
+        release_traced_meshes: true,
+        ..default()
+    });
+    let sphere = Sphere::new(1.0).mesh().uv(16, 8);
+    let handle = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(sphere.clone());
+    let e = app
+        .world_mut()
+        .spawn((Mesh3d(handle), Transform::default()))
+        .id();
+    settle(&mut app);
+    let triangles = mesh_triangles(&sphere).unwrap().len() as u32;
+    assert_eq!(tree_triangles(&app), triangles);
+    for round in 0..3 {
+        let mut entity = app.world_mut().entity_mut(e);
+        entity.get_mut::<Mesh3d>().unwrap().set_changed();
+        if round == 1 {
+            entity.get_mut::<Transform>().unwrap().translation = Vec3::new(4.0, 0.0, 0.0);
+        }
+        settle(&mut app);
+        assert_eq!(tree_triangles(&app), triangles, "round {round}");
+    }
+    let placed = [(
+        e,
+        &sphere,
+        Affine3A::from_translation(Vec3::new(4.0, 0.0, 0.0)),
+    )];
+    check_against(&mut app, &rays(200, 41), |_, ray| {
+        closest_hit(placed.iter().copied(), ray)
+    });
+}
+
+#[test]
 fn meshes_that_are_not_triangle_lists_are_skipped() {
     let mut app = app(Duration::from_millis(20));
     let lines = app

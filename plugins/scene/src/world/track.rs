@@ -280,6 +280,18 @@ fn upsert(
     sent_now: &mut HashSet<Entity>,
     (e, m, gt, vis, name): MeshEntity,
 ) {
+    // The worker already holds `e`'s triangles of this very asset (a modified asset is no longer
+    // in `sent_mesh`) and it stays shown: nothing to send. Bevy marks `Mesh3d` changed whenever
+    // the entity's material or its asset changes, which leaves the geometry as it was; sent again,
+    // a mesh whose vertices were released could not be traced any more, and any other would be
+    // copied and rebuilt for nothing. A move in the same frame goes as a move.
+    if scene.sent_mesh.get(&e) == Some(&m.0.id())
+        && scene.traced.contains(&e)
+        && vis.is_none_or(|v| v.get())
+        && treelight_bvh::is_traceable_transform(&gt.affine())
+    {
+        return;
+    }
     sent_now.insert(e);
     scene.drop_copy(e);
     scene.followers.remove(&e);
