@@ -2,8 +2,9 @@
 //! machine's adapter (llvmpipe here, whose GPU buffers live in the process's memory): the editor
 //! binary under Xvfb opens a generated assembly of bumpy tiles (the sizes below), and its `--state`
 //! report is read until the whole assembly is in the tree and the scene has settled. Prints, per
-//! assembly, each owner's bytes by its own count (Bevy's mesh assets, the BVH's arrays, the BVH
-//! groups' shading, the path tracer's scene buffers) and per triangle, the device allocator's
+//! assembly, each owner's bytes by its own count (Bevy's mesh assets, the parked meshes' compressed
+//! vertices, the BVH's arrays, the BVH groups' shading, the path tracer's scene buffers) and per
+//! triangle, the device allocator's
 //! memory blocks (every buffer and texture and the uploads' staging: it overlaps the scene
 //! buffers, so it is not in the sum), the whole process's resident set once idle and its peak
 //! (the default scene's varies by hundreds of megabytes with the kernel cache and the heap's
@@ -467,9 +468,9 @@ fn main() {
         kib(base.growth_per_frame),
     );
     println!(
-        "| assembly | triangles | mesh assets | BVH arrays | BVH shading | scene buffers and their record map | counted | device allocator's blocks | resident once idle (the whole process) | peak, VmHWM (the whole process) | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
+        "| assembly | triangles | mesh assets | parked meshes | BVH arrays | BVH shading | scene buffers and their record map | counted | device allocator's blocks | resident once idle (the whole process) | peak, VmHWM (the whole process) | parsed (s) | then first in tree / first traced frame of them / first whole traced picture, s (frames) | all in tree (s) | view keeps its samples (s) | rebuilds over (s) | frames/s then | growth once idle, KiB a frame |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut peaks = Vec::new();
     let mut traces = vec![format!("default scene: {}", trace_line(base.trace))];
     let mut renders = Vec::new();
@@ -484,11 +485,13 @@ fn main() {
         let m = &r.memory;
         let n = triangles as f64;
         let cell = |b: u64| format!("{:.0} MiB, {:.0} B", b as f64 / 1048576.0, b as f64 / n);
-        let counted = m.mesh_assets + m.tree + m.shading + m.scene_buffers + m.record_layout;
+        let counted =
+            m.mesh_assets + m.parked_bytes + m.tree + m.shading + m.scene_buffers + m.record_layout;
         println!(
-            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
+            "| {parts} × {}k | {triangles} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} ({}) / {:.2} ({}) / {:.2} ({}) | {:.1} | {:.1} | {:.0} | {:.1} | {} |",
             rows * rows * 2 / 1000,
             cell(m.mesh_assets),
+            cell(m.parked_bytes),
             cell(m.tree),
             cell(m.shading),
             cell(m.scene_buffers + m.record_layout),
@@ -514,12 +517,13 @@ fn main() {
             peaks.push(format!(
                 "{parts} × {rows}: the process's peak (VmHWM) {}; the largest resident set polled \
                  {}, during the {phase}; mesh \
-                 assets {}, BVH arrays {}, BVH shading {}, scene buffers and their record map {}, device allocator's \
+                 assets {}, parked meshes {}, BVH arrays {}, BVH shading {}, scene buffers and their record map {}, device allocator's \
                  blocks {}; {} triangles in the tree then; the largest frame's writes so far {}, \
                  by the run's end {}",
                 cell(r.hwm),
                 cell(*rss),
                 cell(m.mesh_assets),
+                cell(m.parked_bytes),
                 cell(m.tree),
                 cell(m.shading),
                 cell(m.scene_buffers + m.record_layout),

@@ -92,10 +92,13 @@ pub fn build_app_with(cli: &cli::Cli, script: Option<ScriptedEdits>) -> App {
     .add_plugins((
         EguiPlugin::default(),
         FrameTimeDiagnosticsPlugin::default(),
-        // The editor's policy: edits traced at once, the tree improved in idle time.
+        // The editor's policy: edits traced at once, the tree improved in idle time; a mesh's
+        // vertices compressed while only the tree is read (the raster view, showing a hidden
+        // object and undoing a delete put them back first).
         treelight_scene::SceneBvhPlugin {
             config: treelight_scene::SceneBvhConfig {
                 preset: treelight_scene::Preset::Balanced,
+                park_meshes: true,
                 ..default()
             },
         },

@@ -194,6 +194,15 @@ pub struct MemoryReport {
     pub resident: u64,
     /// Bevy's mesh assets in the main world: vertex attributes and indices.
     pub mesh_assets: u64,
+    /// How many mesh assets there are.
+    #[serde(default)]
+    pub mesh_count: u64,
+    /// Mesh assets parked: their vertices compressed while only the tree reads them.
+    #[serde(default)]
+    pub meshes_parked: u64,
+    /// The parked meshes' compressed bytes.
+    #[serde(default)]
+    pub parked_bytes: u64,
     /// The scene BVH's arrays on its worker.
     pub tree: u64,
     /// The BVH groups' normals and texture coordinates (the path tracer's shading source).
@@ -243,9 +252,13 @@ fn memory_report(
     tracer: &treelight_render::PathTracerStats,
 ) -> MemoryReport {
     let stats = scene.stats();
+    let (parked, parked_bytes) = scene.parked_figures();
     MemoryReport {
         resident: crate::editor::core::resident::resident_bytes().unwrap_or(0),
         mesh_assets: meshes.iter().map(|(_, m)| mesh_bytes(m)).sum(),
+        mesh_count: meshes.len() as u64,
+        meshes_parked: parked as u64,
+        parked_bytes: parked_bytes as u64,
         tree: stats.tree_bytes as u64,
         shading: stats.shading_bytes as u64,
         scene_buffers: tracer.figures().scene_buffer_bytes,

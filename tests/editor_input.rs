@@ -718,7 +718,7 @@ fn a_sample_file_dragged_from_the_assets_panel_lands_on_the_floor() {
         |st| st.settled && st.history.0 == head + 2,
     );
     assert_eq!(ids_named(&again, "stairs.obj").len(), 2);
-    assert_eq!(again.memory.mesh_assets, st.memory.mesh_assets);
+    assert_eq!(again.memory.mesh_count, st.memory.mesh_count);
 }
 
 /// Waits until Save As asks whether to replace a file.

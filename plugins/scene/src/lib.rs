@@ -36,7 +36,7 @@ pub use world::track::NotTraced;
 
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
-use world::track::{publish, release_traced_meshes, track_world};
+use world::track::{park_meshes, publish, release_traced_meshes, track_world};
 
 /// Keeps a global BVH of all mesh entities, built on a background worker.
 #[derive(Default)]
@@ -56,6 +56,7 @@ impl Plugin for SceneBvhPlugin {
                     track_world,
                     release_traced_meshes
                         .run_if(|scene: Res<SceneBvh>| !scene.to_release.is_empty()),
+                    park_meshes.run_if(|scene: Res<SceneBvh>| scene.parking.has_candidates()),
                     publish,
                 )
                     .chain()

@@ -598,6 +598,130 @@ fn a_mesh_component_marked_changed_with_nothing_new_is_not_sent_again() {
     });
 }
 
+/// Every attribute's bytes and the indices of `mesh`, to compare meshes exactly.
+fn mesh_bytes(mesh: &Mesh) -> (Vec<Vec<u8>>, Option<Vec<usize>>) {
+    let attributes = mesh
+        .try_attributes()
+        .map(|a| a.map(|(_, v)| v.get_bytes().to_vec()).collect())
+        .unwrap_or_default();
+    let indices = mesh.try_indices().ok().map(|i| i.iter().collect());
+    (attributes, indices)
+}
+
+#[test]
+fn parked_meshes_come_back_whole_whenever_they_are_read_again() {
+    let mut app = headless_app(SceneBvhConfig {
+        park_meshes: true,
+        ..default()
+    });
+    // Only the main world keeps the sphere (as the path tracer leaves a mesh while every camera
+    // traces); the torus is the render world's too, so it is never parked.
+    let mut sphere = Sphere::new(1.0).mesh().uv(40, 20);
+    sphere.asset_usage = bevy::asset::RenderAssetUsages::MAIN_WORLD;
+    let ring = Torus::new(0.5, 1.0).mesh().build();
+    let ball = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(sphere.clone());
+    let torus = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(ring.clone());
+    let mut placed: Vec<(Entity, &Mesh, Affine3A)> = Vec::new();
+    for (handle, mesh, at) in [
+        (&ball, &sphere, Vec3::ZERO),
+        (&ball, &sphere, Vec3::new(3.0, 0.0, 0.0)),
+        (&torus, &ring, Vec3::new(-3.0, 1.0, 0.0)),
+    ] {
+        let e = app
+            .world_mut()
+            .spawn((Mesh3d(handle.clone()), Transform::from_translation(at)))
+            .id();
+        placed.push((e, mesh, Affine3A::from_translation(at)));
+    }
+    settle(&mut app);
+    let parked = |app: &App, h: &Handle<Mesh>| app.world().resource::<SceneBvh>().is_parked(h.id());
+    assert!(parked(&app, &ball) && !parked(&app, &torus));
+    let (count, bytes) = app.world().resource::<SceneBvh>().parked_figures();
+    let full = mesh_bytes(&sphere).0.iter().map(Vec::len).sum::<usize>();
+    assert!(count == 1 && bytes > 0 && bytes < full, "{bytes} of {full}");
+    {
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let asset = meshes.get(&ball).unwrap();
+        assert!(
+            asset.try_indices().is_err(),
+            "the vertices are out of the asset"
+        );
+        assert!(asset.final_aabb.is_some(), "the asset keeps its bounds");
+        assert_eq!(mesh_bytes(meshes.get(&torus).unwrap()), mesh_bytes(&ring));
+    }
+    let sphere_triangles = mesh_triangles(&sphere).unwrap().len() as u32;
+    let ring_triangles = mesh_triangles(&ring).unwrap().len() as u32;
+    assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
+    check_against(&mut app, &rays(300, 31), |_, ray| {
+        closest_hit(placed.iter().copied(), ray)
+    });
+
+    // Both balls out of the tree, then one back: its vertices are read again, and parked again.
+    let balls = [placed[0].0, placed[1].0];
+    for e in balls {
+        app.world_mut().entity_mut(e).insert(NotTraced);
+    }
+    settle(&mut app);
+    assert_eq!(tree_triangles(&app), ring_triangles);
+    app.world_mut().entity_mut(balls[1]).remove::<NotTraced>();
+    settle(&mut app);
+    assert!(parked(&app, &ball));
+    assert_eq!(tree_triangles(&app), sphere_triangles + ring_triangles);
+    let shown: Vec<_> = placed.iter().copied().filter(|p| p.0 != balls[0]).collect();
+    check_against(&mut app, &rays(300, 32), |_, ray| {
+        closest_hit(shown.iter().copied(), ray)
+    });
+
+    // Put back for a reader: exactly the mesh that was added.
+    app.world_mut()
+        .resource_scope(|world, mut meshes: Mut<Assets<Mesh>>| {
+            world
+                .resource_mut::<SceneBvh>()
+                .restore_parked_mesh(ball.id(), &mut meshes);
+        });
+    assert!(!parked(&app, &ball));
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    assert_eq!(mesh_bytes(meshes.get(&ball).unwrap()), mesh_bytes(&sphere));
+    assert_eq!(meshes.get(&ball).unwrap().final_aabb, sphere.final_aabb);
+
+    // Parked again once looked at; then replaced by new geometry, which wins.
+    app.world_mut()
+        .resource_mut::<SceneBvh>()
+        .park_mesh_later(ball.id());
+    app.update();
+    assert!(parked(&app, &ball));
+    let mut cube = Cuboid::new(1.0, 2.0, 3.0).mesh().build();
+    cube.asset_usage = bevy::asset::RenderAssetUsages::MAIN_WORLD;
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .insert(ball.id(), cube.clone())
+        .unwrap();
+    settle(&mut app);
+    for p in &mut placed[..2] {
+        p.1 = &cube;
+    }
+    let shown: Vec<_> = placed.iter().copied().filter(|p| p.0 != balls[0]).collect();
+    check_against(&mut app, &rays(300, 33), |_, ray| {
+        closest_hit(shown.iter().copied(), ray)
+    });
+    let cube_triangles = mesh_triangles(&cube).unwrap().len() as u32;
+    assert_eq!(tree_triangles(&app), cube_triangles + ring_triangles);
+    app.world_mut()
+        .resource_scope(|world, mut meshes: Mut<Assets<Mesh>>| {
+            world
+                .resource_mut::<SceneBvh>()
+                .restore_parked_mesh(ball.id(), &mut meshes);
+        });
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    assert_eq!(mesh_bytes(meshes.get(&ball).unwrap()), mesh_bytes(&cube));
+}
+
 #[test]
 fn meshes_that_are_not_triangle_lists_are_skipped() {
     let mut app = app(Duration::from_millis(20));

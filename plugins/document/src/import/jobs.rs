@@ -82,11 +82,15 @@ fn triangles_of(mesh: &Mesh) -> u64 {
 /// Mesh objects under `root` (itself included) with their triangle counts.
 fn meshes_under(world: &World, root: Entity) -> Vec<(Entity, u64)> {
     let meshes = world.resource::<Assets<Mesh>>();
+    let scene = world.get_resource::<SceneBvh>();
     let mut out = Vec::new();
     let mut stack = vec![root];
     while let Some(e) = stack.pop() {
         if let Some(m) = world.get::<Mesh3d>(e) {
-            let tris = meshes.get(&m.0).map_or(0, triangles_of);
+            // A parked mesh (shared with an earlier import) counts as its parked data says.
+            let parked = scene.and_then(|s| s.parked_triangles(m.0.id()));
+            let tris =
+                parked.map_or_else(|| meshes.get(&m.0).map_or(0, triangles_of), |t| t as u64);
             out.push((e, tris));
         }
         if let Some(children) = world.get::<Children>(e) {

@@ -3,7 +3,9 @@
 //! in the main world: its `RenderAssetUsages` lose `RENDER_WORLD`, changed untracked so nothing
 //! takes its vertices for changed. No copy of it goes to the render world and no raster vertex
 //! buffer holds it. When a rasterising camera becomes active, the meshes held back are sent; when
-//! the last one goes, the render world's copies are dropped and held back again.
+//! the last one goes, the render world's copies are dropped and held back again. A mesh held back
+//! may be parked by the scene plugin (`SceneBvhConfig::park_meshes`: its vertices compressed); the
+//! parked ones are put back before any is sent.
 
 use bevy::asset::{AssetEventSystems, RenderAssetUsages};
 use bevy::pbr::{MeshExtractionSystems, MeshesToReextractNextFrame};
@@ -16,6 +18,7 @@ use std::collections::HashSet;
 
 use crate::types::figures::PathTracerStats;
 use crate::types::view::PathTraced;
+use treelight_scene::{SceneBvh, SceneBvhSystems};
 
 /// Whether the path tracer keeps mesh assets out of the render world while every active 3D camera
 /// is path traced (the default, `true`). Insert `HoldBackRasterMeshes(false)` in an app whose own
@@ -46,7 +49,13 @@ pub(crate) struct HeldMeshes {
 pub(crate) fn build(app: &mut App) {
     app.init_resource::<HoldBackRasterMeshes>()
         .init_resource::<HeldMeshes>()
-        .add_systems(PostUpdate, hold_back_meshes.after(AssetEventSystems));
+        .add_systems(
+            PostUpdate,
+            hold_back_meshes
+                .after(AssetEventSystems)
+                // The scene plugin parks meshes held back this frame, and never one sent.
+                .before(SceneBvhSystems),
+        );
     if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
         render_app.add_systems(
             ExtractSchedule,
@@ -64,6 +73,7 @@ fn hold_back_meshes(
     mut meshes: ResMut<Assets<Mesh>>,
     cameras: Query<&Camera, (With<Camera3d>, Without<PathTraced>)>,
     stats: Res<PathTracerStats>,
+    mut scene: Option<ResMut<SceneBvh>>,
 ) {
     let state = &mut *state;
     let before = state.held.len();
@@ -73,6 +83,12 @@ fn hold_back_meshes(
     let was_rasterised = std::mem::replace(&mut state.rasterised, rasterised);
     if rasterised {
         events.clear();
+        if !state.held.is_empty()
+            && let Some(scene) = scene.as_deref_mut()
+        {
+            // Their vertices are read again: parked ones are put back first.
+            scene.restore_parked_meshes(&mut meshes);
+        }
         for id in state.held.drain() {
             if let Some(m) = meshes.get_mut_untracked(id) {
                 m.asset_usage.insert(RenderAssetUsages::RENDER_WORLD);
@@ -104,6 +120,9 @@ fn hold_back_meshes(
         {
             m.asset_usage.remove(RenderAssetUsages::RENDER_WORLD);
             state.held.insert(id);
+            if let Some(scene) = scene.as_deref_mut() {
+                scene.park_mesh_later(id);
+            }
             if was_rasterised {
                 state.drop.push(id);
             }

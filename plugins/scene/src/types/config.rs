@@ -49,6 +49,14 @@ pub struct SceneBvhConfig {
     /// would need them copied again (its mesh's traced entities all gone) is not traced, with a
     /// warning. Default `false`.
     pub release_traced_meshes: bool,
+    /// Whether a mesh asset's vertex data is kept compressed (losslessly: meshoptimizer's codecs)
+    /// while the worker holds its triangles and no camera rasterises it (its
+    /// `RenderAssetUsages` without `RENDER_WORLD`, as `treelight_render` holds meshes back while
+    /// every camera is path traced), and put back before this plugin or a rasterising camera reads
+    /// it: an editor keeps every mesh, at a fraction of the bytes. An app's own systems that read
+    /// a mesh's vertices call [`SceneBvh::restore_parked_mesh`](crate::SceneBvh::restore_parked_mesh)
+    /// first. Default `false`.
+    pub park_meshes: bool,
 }
 
 impl Default for SceneBvhConfig {
@@ -64,6 +72,7 @@ impl Default for SceneBvhConfig {
             fill_nice: 5,
             worker_threads: 0,
             release_traced_meshes: false,
+            park_meshes: false,
         }
     }
 }

@@ -6,6 +6,7 @@ pub(crate) mod hit;
 pub(crate) mod mesh;
 pub mod packed;
 pub(crate) mod panics;
+pub(crate) mod parked;
 pub mod priority;
 pub(crate) mod shading;
 pub(crate) mod tree;

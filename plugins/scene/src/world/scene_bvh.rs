@@ -6,6 +6,7 @@ use crate::types::hit::{SceneHit, cast_on_filtered};
 use crate::types::mesh::GeometryCopy;
 use crate::types::tree::{SceneChanges, SceneStats, SceneTree};
 use crate::worker::main_loop::{Command, Shared};
+use crate::world::parking::Parking;
 use bevy::math::Ray3d;
 use bevy::prelude::*;
 use std::collections::{HashMap, HashSet};
@@ -61,6 +62,9 @@ pub struct SceneBvh {
     pub(crate) to_release: Vec<AssetId<Mesh>>,
     /// Meshes whose vertex data was freed.
     pub(crate) released: u64,
+    /// Meshes kept compressed while nothing reads them
+    /// ([`SceneBvhConfig::park_meshes`](crate::types::config::SceneBvhConfig::park_meshes)).
+    pub(crate) parking: Parking,
 }
 
 /// An entity whose mesh is being copied for another: it is sent as an instance once that copy is.
@@ -117,6 +121,7 @@ impl SceneBvh {
             release: config.release_traced_meshes,
             to_release: Vec::new(),
             released: 0,
+            parking: Parking::new(config.park_meshes),
         }
     }
 
@@ -143,6 +148,42 @@ impl SceneBvh {
     /// crate::types::config::SceneBvhConfig::release_traced_meshes)).
     pub fn meshes_released(&self) -> u64 {
         self.released
+    }
+
+    /// Puts `mesh`'s vertex data back into its asset if it is parked
+    /// ([`SceneBvhConfig::park_meshes`](crate::types::config::SceneBvhConfig::park_meshes)), for
+    /// a reader of its vertices. Untracked: nothing takes the asset for changed. It is parked again
+    /// once [`SceneBvh::park_mesh_later`] names it and nothing uses it.
+    pub fn restore_parked_mesh(&mut self, mesh: AssetId<Mesh>, meshes: &mut Assets<Mesh>) {
+        self.parking.restore(mesh, meshes);
+    }
+
+    /// Puts every parked mesh's vertex data back (a camera rasterises them again).
+    pub fn restore_parked_meshes(&mut self, meshes: &mut Assets<Mesh>) {
+        self.parking.restore_all(meshes);
+    }
+
+    /// Looks at `mesh` for parking at the end of this frame's systems: parked if parking is on,
+    /// only the main world keeps it, the worker is not waiting for its vertices and it is not
+    /// parked yet. Meshes the worker takes in are looked at without this; a renderer calls it when
+    /// it stops drawing a mesh.
+    pub fn park_mesh_later(&mut self, mesh: AssetId<Mesh>) {
+        self.parking.consider(mesh);
+    }
+
+    /// Whether `mesh`'s vertex data is parked.
+    pub fn is_parked(&self, mesh: AssetId<Mesh>) -> bool {
+        self.parking.is_parked(mesh)
+    }
+
+    /// Triangles of a parked mesh (its asset has no vertex data to count them in while parked).
+    pub fn parked_triangles(&self, mesh: AssetId<Mesh>) -> Option<usize> {
+        self.parking.triangles(mesh)
+    }
+
+    /// How many meshes are parked, and the bytes their compressed data takes.
+    pub fn parked_figures(&self) -> (usize, usize) {
+        self.parking.figures()
     }
 
     /// Version of the tree, raised by every change the worker applies.
@@ -215,10 +256,13 @@ impl SceneBvh {
 
     /// Whether the worker has nothing left to do until the next change: every change applied
     /// ([`SceneBvh::is_idle`]) and no work of its own ahead (moved meshes to bake, update steps,
-    /// rebuilds). An app that draws only when something changes (Bevy's reactive `WinitSettings`)
-    /// keeps drawing while this is false: the tree still changes, and [`SceneBvh::version`] with it.
+    /// rebuilds), and no mesh waiting to be parked on the main thread. An app that draws only
+    /// when something changes (Bevy's reactive `WinitSettings`) keeps drawing while this is false:
+    /// the tree still changes, and [`SceneBvh::version`] with it.
     pub fn is_resting(&self) -> bool {
-        self.is_idle() && !self.shared.active.load(Ordering::Acquire)
+        self.is_idle()
+            && !self.shared.active.load(Ordering::Acquire)
+            && !self.parking.has_candidates()
     }
 
     /// Read access to the tree, unless the worker is writing to it right now (the main thread never

@@ -31,7 +31,7 @@ pub struct NotTraced;
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub(crate) fn track_world(
     mut scene: ResMut<SceneBvh>,
-    meshes: Res<Assets<Mesh>>,
+    mut meshes: ResMut<Assets<Mesh>>,
     mut asset_events: MessageReader<AssetEvent<Mesh>>,
     changed_mesh: Query<
         MeshEntity,
@@ -77,6 +77,10 @@ pub(crate) fn track_world(
             // may share the old triangles.
             scene.sent_mesh.retain(|_, m| m != id);
             scene.mesh_senders.remove(id);
+            scene.parking.modified(*id, &mut meshes);
+        }
+        if let AssetEvent::Removed { id } = ev {
+            scene.parking.removed(*id);
         }
         if let AssetEvent::Modified { id }
         | AssetEvent::Removed { id }
@@ -87,7 +91,7 @@ pub(crate) fn track_world(
         }
     }
     for item in &changed_mesh {
-        upsert(scene, &meshes, &mut sent_now, item);
+        upsert(scene, &mut meshes, &mut sent_now, item);
     }
     // Entities that dropped the marker this frame are traced again (if they still have a mesh).
     ready.extend(opted_in.read());
@@ -95,13 +99,13 @@ pub(crate) fn track_world(
         if let Ok(item) = all.get(e)
             && !sent_now.contains(&e)
         {
-            upsert(scene, &meshes, &mut sent_now, item);
+            upsert(scene, &mut meshes, &mut sent_now, item);
         }
     }
     // Entities whose leader's copy stopped: each becomes a leader or follows another.
     for e in std::mem::take(&mut scene.orphans) {
         if let Ok(item) = all.get(e) {
-            upsert(scene, &meshes, &mut sent_now, item);
+            upsert(scene, &mut meshes, &mut sent_now, item);
         }
     }
     for (e, gt) in &moved {
@@ -110,7 +114,7 @@ pub(crate) fn track_world(
             if !sent_now.contains(&e)
                 && let Ok(item) = all.get(e)
             {
-                upsert(scene, &meshes, &mut sent_now, item);
+                upsert(scene, &mut meshes, &mut sent_now, item);
             }
             continue;
         }
@@ -228,6 +232,8 @@ fn copy_meshes(scene: &mut SceneBvh, meshes: &Assets<Mesh>) {
                 scene.remember_mesh(e, job.mesh);
                 if scene.release {
                     scene.to_release.push(job.mesh);
+                } else {
+                    scene.parking.consider(job.mesh);
                 }
                 scene.send(Command::Copied {
                     entity: e,
@@ -272,11 +278,25 @@ pub(crate) fn release_traced_meshes(mut scene: ResMut<SceneBvh>, mut meshes: Res
     }
 }
 
+/// Parks the meshes looked at this frame ([`SceneBvhConfig::park_meshes`](
+/// crate::types::config::SceneBvhConfig::park_meshes)) that nothing reads, within the frame's
+/// budget for main-thread work (at least one).
+pub(crate) fn park_meshes(mut scene: ResMut<SceneBvh>, mut meshes: ResMut<Assets<Mesh>>) {
+    let scene = &mut *scene;
+    let share = scene.last_frame.mul_f32(scene.share.clamp(0.0, 1.0));
+    let deadline = Instant::now() + scene.budget.max(share);
+    let copying: HashSet<AssetId<Mesh>> = scene.copying.values().map(|job| job.mesh).collect();
+    let (prepared, waiting) = (&scene.prepared, &scene.waiting);
+    let in_use =
+        |id| copying.contains(&id) || prepared.contains_key(&id) || waiting.contains_key(&id);
+    scene.parking.park(&mut meshes, in_use, deadline);
+}
+
 /// Sends a mesh entity's current triangles, or a removal if it is hidden or untraceable, or parks it
 /// until its asset loads.
 fn upsert(
     scene: &mut SceneBvh,
-    meshes: &Assets<Mesh>,
+    meshes: &mut Assets<Mesh>,
     sent_now: &mut HashSet<Entity>,
     (e, m, gt, vis, name): MeshEntity,
 ) {
@@ -309,10 +329,10 @@ fn upsert(
     }
     scene.degenerate.remove(&e);
     let label = name.map_or_else(|| format!("{e}"), |n| n.as_str().to_owned());
-    let Some(mesh) = meshes.get(&m.0) else {
+    if !meshes.contains(&m.0) {
         scene.waiting.entry(m.0.id()).or_default().push(e);
         return;
-    };
+    }
     let follower = Follower {
         mesh: m.0.id(),
         name: label.clone(),
@@ -332,6 +352,11 @@ fn upsert(
     }
     let prepared = scene.prepared.remove(&follower.mesh);
     let handed_over = prepared.is_some();
+    // Its vertices are read from here on (a prepared copy's mesh was never parked).
+    scene.parking.restore(follower.mesh, meshes);
+    let Some(mesh) = meshes.get(&m.0) else {
+        return;
+    };
     match prepared.map_or_else(|| GeometryCopy::new(mesh), Ok) {
         Ok(copy) => {
             // Traced from now on: a removal must reach the worker even if the copy never finishes.
