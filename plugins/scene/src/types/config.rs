@@ -54,8 +54,7 @@ pub struct SceneBvhConfig {
     /// `RenderAssetUsages` without `RENDER_WORLD`, as `treelight_render` holds meshes back while
     /// every camera is path traced), and put back before this plugin or a rasterising camera reads
     /// it: an editor keeps every mesh, at a fraction of the bytes. An app's own systems that read
-    /// a mesh's vertices call [`SceneBvh::restore_parked_mesh`](crate::SceneBvh::restore_parked_mesh)
-    /// first. Default `false`.
+    /// a mesh's vertices call `SceneBvh::restore_parked_mesh` first. Default `false`.
     pub park_meshes: bool,
 }
 
